@@ -1,0 +1,127 @@
+# mocapd: the one build entry.  See README.md.
+#
+#   make            build everything into $(BUILD)/
+#   make check      unit and integration tests, then again under ASan+UBSan
+#   make bench      benchmarks (print their figures)
+#   make install    PREFIX=/usr/local DESTDIR=
+#   make deps       install the Debian packages the build and tests need (root)
+#
+# BUILD selects the output folder, so that several builds (e.g. SAN=1) can
+# live side by side.  Component folders add their own rules in module.mk
+# files, included below; they append to BINS, LIBS, PLUGINS, CHECKS, BENCHES.
+
+PREFIX ?= /usr/local
+DESTDIR ?=
+BUILD ?= build
+SAN ?= 0
+
+CC ?= cc
+CXX ?= c++
+PKG_CONFIG ?= pkg-config
+
+# Packages the core and the tools link against.
+CORE_PKGS := jansson libpng OpenCL libturbojpeg
+
+OPT := -O2
+ifeq ($(SAN),1)
+  OPT := -O1
+  SANFLAGS := -fsanitize=address,undefined -fno-omit-frame-pointer -fno-sanitize-recover=undefined
+endif
+
+CPPFLAGS := -D_GNU_SOURCE -Icore -Idrivers -Iipc -I$(BUILD)/gen
+CFLAGS := -std=c11 -Wall -Wextra -Werror -g $(OPT) -fPIC -pthread $(SANFLAGS) \
+	$(shell $(PKG_CONFIG) --cflags $(CORE_PKGS) 2>/dev/null)
+CXXFLAGS := -std=c++17 -Wall -Wextra -Werror -g $(OPT) -fPIC -pthread $(SANFLAGS)
+LDFLAGS := -pthread $(SANFLAGS)
+CORE_LIBS := $(shell $(PKG_CONFIG) --libs $(CORE_PKGS) 2>/dev/null) -lm
+
+CORE_SRC := $(wildcard core/*.c)
+CORE_OBJ := $(CORE_SRC:%.c=$(BUILD)/%.o) $(BUILD)/gen/mc_cl_embed.o
+CORE_LIB := $(BUILD)/libmocapcore.a
+CL_SRC := $(wildcard core/cl/*.cl)
+
+TEST_SRC := $(wildcard tests/test_*.c)
+TESTS := $(TEST_SRC:tests/%.c=$(BUILD)/tests/%)
+TOOL_SRC := $(wildcard tools/*.c)
+TOOLS := $(TOOL_SRC:tools/%.c=$(BUILD)/bin/%)
+
+BINS :=
+LIBS :=
+PLUGINS :=
+CHECKS :=
+BENCHES :=
+
+.PHONY: all check check-unit check-san bench install deps clean
+all:
+
+-include $(sort $(wildcard */module.mk) $(wildcard drivers/*/module.mk))
+
+all: $(CORE_LIB) $(TESTS) $(TOOLS) $(BINS) $(LIBS) $(PLUGINS)
+
+$(BUILD)/%.o: %.c
+	@mkdir -p $(@D)
+	$(CC) $(CPPFLAGS) $(CFLAGS) -MMD -MP -c $< -o $@
+
+$(BUILD)/%.o: %.cpp
+	@mkdir -p $(@D)
+	$(CXX) $(CPPFLAGS) $(CXXFLAGS) -MMD -MP -c $< -o $@
+
+# OpenCL kernels are embedded in the binary: each core/cl/NAME.cl becomes
+# `const unsigned char mc_cl_NAME[]` plus `mc_cl_NAME_len`.
+$(BUILD)/gen/mc_cl_embed.c: $(CL_SRC) Makefile
+	@mkdir -p $(@D)
+	@echo "/* generated from the kernels in core/cl by the Makefile */" > $@.tmp
+	@for f in $(CL_SRC); do n=$$(basename $$f .cl); \
+		xxd -i -n mc_cl_$$n $$f | sed 's/^unsigned/const unsigned/' >> $@.tmp; done
+	@mv $@.tmp $@
+
+$(BUILD)/gen/mc_cl_embed.o: $(BUILD)/gen/mc_cl_embed.c
+	$(CC) $(CFLAGS) -c $< -o $@
+
+$(CORE_LIB): $(CORE_OBJ)
+	@rm -f $@
+	ar rcs $@ $^
+
+$(BUILD)/tests/%: tests/%.c $(CORE_LIB)
+	@mkdir -p $(@D)
+	$(CC) $(CPPFLAGS) $(CFLAGS) -MMD -MP $< -o $@ $(LDFLAGS) $(CORE_LIB) $(CORE_LIBS)
+
+$(BUILD)/bin/%: tools/%.c $(CORE_LIB)
+	@mkdir -p $(@D)
+	$(CC) $(CPPFLAGS) $(CFLAGS) -MMD -MP $< -o $@ $(LDFLAGS) $(CORE_LIB) $(CORE_LIBS)
+
+# Unit tests: every $(BUILD)/tests/test_* program (exit 0 pass, 77 skip).
+check-unit: all
+	tests/run-tests.sh $(BUILD) $(TESTS)
+
+check-san:
+	$(MAKE) SAN=1 BUILD=$(BUILD)-san check-unit
+
+check: check-unit $(CHECKS)
+	$(MAKE) check-san
+
+bench: all $(BENCHES)
+
+install: all
+	install -d $(DESTDIR)$(PREFIX)/bin $(DESTDIR)$(PREFIX)/lib/mocapd/drivers \
+		$(DESTDIR)$(PREFIX)/share/mocapd/models $(DESTDIR)$(PREFIX)/share/mocapd/rigs
+	install -m 755 $(TOOLS) $(BINS) $(DESTDIR)$(PREFIX)/bin/
+	$(if $(PLUGINS),install -m 755 $(PLUGINS) $(DESTDIR)$(PREFIX)/lib/mocapd/drivers/)
+	install -m 644 config/models/*.json $(DESTDIR)$(PREFIX)/share/mocapd/models/
+	install -m 644 config/rigs/*.json $(DESTDIR)$(PREFIX)/share/mocapd/rigs/
+
+# Every Debian package the build, the tests and the benchmarks need.
+DEB_PACKAGES := build-essential pkg-config xxd clang llvm libclang-rt-14-dev \
+	libjansson-dev libinih-dev libpng-dev libjpeg62-turbo-dev libturbojpeg0-dev \
+	libsystemd-dev systemd ocl-icd-opencl-dev opencl-headers pocl-opencl-icd clinfo \
+	libaravis-dev aravis-tools libusb-1.0-0-dev libcamera-dev libopenni2-dev \
+	qemu-system-x86 linux-image-amd64 busybox-static kmod cpio python3
+
+deps:
+	apt-get update
+	DEBIAN_FRONTEND=noninteractive apt-get install -y --no-install-recommends $(DEB_PACKAGES)
+
+clean:
+	rm -rf build build-*
+
+-include $(shell find $(BUILD) -name '*.d' 2>/dev/null)

@@ -1,0 +1,79 @@
+/* mc_camera: intrinsic camera models (projection and unprojection).
+ *
+ * All models use OpenCV camera axes: x right, y down, z forward.  Pixel
+ * coordinates are continuous with the centre of the top-left pixel at
+ * (0, 0), as in OpenCV.
+ *
+ * Models:
+ *   pinhole     - OpenCV radial-tangential distortion (k1 k2 p1 p2 k3).
+ *   equidistant - Kannala-Brandt as in OpenCV cv::fisheye:
+ *                 r = f * theta_d, theta_d = theta (1 + k1 t^2 + k2 t^4 + k3 t^6 + k4 t^8).
+ *   ocam        - Scaramuzza / OCamCalib: (u, v) -> inverse affine [c d; e 1]
+ *                 about (xc, yc) -> (u', v'), rho = |(u', v')|, ray (u', v', w(rho)).
+ *                 Stored here already converted to OpenCV axes (see mc_rig's
+ *                 OCamCalib importer for the conversion from the toolbox's own).
+ */
+#ifndef MC_CAMERA_H
+#define MC_CAMERA_H
+
+#include "mc_error.h"
+#include "mc_math.h"
+
+#include <stdbool.h>
+
+#define MC_CAMERA_NAME_MAX 64
+#define MC_OCAM_POLY_MAX 16
+
+typedef enum {
+	MC_CAM_PINHOLE = 0,
+	MC_CAM_EQUIDISTANT = 1,
+	MC_CAM_OCAM = 2,
+} mc_camera_model;
+
+typedef struct {
+	char name[MC_CAMERA_NAME_MAX];
+	mc_camera_model model;
+	int width, height; /* native (calibration) resolution, pixels */
+
+	/* pinhole and equidistant */
+	double fx, fy, cx, cy;
+	double k[5]; /* pinhole: k1 k2 p1 p2 k3; equidistant: k1 k2 k3 k4 (k[4] unused) */
+
+	/* ocam: w(rho) = sum_i pol[i] rho^i, positive along +z (forward). */
+	double ocam_pol[MC_OCAM_POLY_MAX];
+	int ocam_pol_len;
+	/* Optional inverse polynomial rho(theta) for fast projection, as written
+	 * by OCamCalib (theta measured as in the toolbox's world2cam, converted).
+	 * When invpol_len == 0 projection solves w(rho) numerically. */
+	double ocam_invpol[MC_OCAM_POLY_MAX * 2];
+	int ocam_invpol_len;
+	double ocam_xc, ocam_yc;  /* distortion centre, pixels (u, v) */
+	double ocam_c, ocam_d, ocam_e; /* affine [c d; e 1] */
+
+	/* Largest angle between a valid ray and the optical axis, radians.
+	 * pi/2 for a 180-degree fisheye. Pixels beyond it are invalid. */
+	double max_theta;
+
+	/* Pose of the camera in the rig frame. */
+	mc_xform rig_from_cam;
+} mc_camera;
+
+/* Projects a point in camera coordinates to a pixel. Returns false (and
+ * leaves u, v undefined) if the point is behind the valid field of view or
+ * lands outside the image. */
+bool mc_camera_project(const mc_camera *cam, mc_vec3 p_cam, double *u, double *v);
+
+/* Unit ray in camera coordinates through pixel (u, v). Returns false if the
+ * pixel is outside the valid image (e.g. outside a fisheye's image circle). */
+bool mc_camera_unproject(const mc_camera *cam, double u, double v, mc_vec3 *ray);
+
+/* Checks parameters for sanity (finite, positive sizes, max_theta in (0, pi),
+ * pinhole max_theta < pi/2, polynomial lengths in range). The message names
+ * the offending field. Returns 0 or -1. */
+int mc_camera_validate(const mc_camera *cam, mc_err *err);
+
+const char *mc_camera_model_name(mc_camera_model m);
+/* Returns 0 and sets *m, or -1 for an unknown name. */
+int mc_camera_model_parse(const char *name, mc_camera_model *m);
+
+#endif

@@ -1,0 +1,83 @@
+/* Minimal test harness shared by the test programs.
+ *
+ * A test program exits 0 when every check passed, 1 when one failed and 77
+ * when it cannot run here (after printing "SKIP: reason").  Data from
+ * ../shared/data is found through mc_test_data_dir(). */
+#ifndef MC_TEST_UTIL_H
+#define MC_TEST_UTIL_H
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <sys/stat.h>
+
+static int mc_test_failures;
+
+#define CHECK(cond)                                                                   \
+	do {                                                                          \
+		if (!(cond)) {                                                        \
+			fprintf(stderr, "%s:%d: CHECK failed: %s\n", __FILE__, __LINE__, #cond); \
+			mc_test_failures++;                                           \
+		}                                                                     \
+	} while (0)
+
+#define CHECK_MSG(cond, ...)                                                          \
+	do {                                                                          \
+		if (!(cond)) {                                                        \
+			fprintf(stderr, "%s:%d: CHECK failed: %s: ", __FILE__, __LINE__, #cond); \
+			fprintf(stderr, __VA_ARGS__);                                 \
+			fputc('\n', stderr);                                          \
+			mc_test_failures++;                                           \
+		}                                                                     \
+	} while (0)
+
+#define CHECK_NEAR(a, b, tol)                                                         \
+	do {                                                                          \
+		double a_ = (a), b_ = (b);                                            \
+		if (!(fabs(a_ - b_) <= (tol))) {                                      \
+			fprintf(stderr, "%s:%d: CHECK_NEAR failed: %s = %.10g, %s = %.10g, tol %g\n", \
+				__FILE__, __LINE__, #a, a_, #b, b_, (double)(tol));   \
+			mc_test_failures++;                                           \
+		}                                                                     \
+	} while (0)
+
+#define TEST_SKIP(...)                                                                \
+	do {                                                                          \
+		printf("SKIP: ");                                                     \
+		printf(__VA_ARGS__);                                                  \
+		printf("\n");                                                         \
+		exit(77);                                                             \
+	} while (0)
+
+static inline int mc_test_finish(const char *name)
+{
+	if (mc_test_failures) {
+		fprintf(stderr, "%s: %d check(s) failed\n", name, mc_test_failures);
+		return 1;
+	}
+	printf("%s: ok\n", name);
+	return 0;
+}
+
+/* ../shared/data, or $MOCAP_DATA_DIR. NULL (with a message) if missing. */
+static inline const char *mc_test_data_dir(void)
+{
+	const char *d = getenv("MOCAP_DATA_DIR");
+	if (!d)
+		d = "../shared/data";
+	struct stat st;
+	if (stat(d, &st) != 0 || !S_ISDIR(st.st_mode)) {
+		printf("evaluation data not found at %s (set MOCAP_DATA_DIR)\n", d);
+		return NULL;
+	}
+	return d;
+}
+
+/* Deterministic uniform random numbers in [0, 1) for tests. */
+static inline double mc_test_rand(unsigned long long *state)
+{
+	*state = *state * 6364136223846793005ULL + 1442695040888963407ULL;
+	return (double)(*state >> 11) * (1.0 / 9007199254740992.0);
+}
+
+#endif
