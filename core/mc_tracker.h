@@ -84,6 +84,14 @@ void mc_tracker_set_pose(mc_tracker *t, const double *pose);
 const double *mc_tracker_pose(const mc_tracker *t);
 const mc_model *mc_tracker_model(const mc_tracker *t);
 
+/* Initialises from 3D joint positions (rig frame, metres), e.g. the ground
+ * truth of frame 0 or a detector's output: a small inverse-kinematics solve
+ * for the bone-length scales, the root placement (rig_from_root for fixed
+ * roots) and the pose.  names[i] is a model joint name; unknown names are
+ * ignored.  Resets the pose history. */
+int mc_tracker_init_from_joints(mc_tracker *t, const char *const *names, const mc_vec3 *positions, int n,
+				mc_err *err);
+
 /* Estimates each Gaussian's colour from one frame set at the current pose:
  * visibility-weighted mean of its pixels, the worst 50% dropped (thesis 5.3.2). */
 int mc_tracker_calibrate_colors(mc_tracker *t, const mc_frame_view *views, int nviews, mc_err *err);
