@@ -1,0 +1,51 @@
+# mocapd: the daemon, its fault-injection test driver, its tests and the demo.
+#
+# daemon/*.c except main.c form $(BUILD)/daemon/libmocapd.a, so that the
+# tests/test_daemon_*.c programs can test the modules one by one; mocapd is
+# main.c linked against it.
+
+DAEMON_PKGS := inih libsystemd
+DAEMON_CFLAGS := $(shell $(PKG_CONFIG) --cflags $(DAEMON_PKGS) 2>/dev/null)
+DAEMON_LIBS := $(shell $(PKG_CONFIG) --libs $(DAEMON_PKGS) 2>/dev/null) -ldl
+DAEMON_SRC := $(filter-out daemon/main.c,$(wildcard daemon/*.c))
+DAEMON_OBJ := $(DAEMON_SRC:%.c=$(BUILD)/%.o)
+DAEMON_LIB := $(BUILD)/daemon/libmocapd.a
+MOCAPD := $(BUILD)/bin/mocapd
+MOCAPD_PLUGIN_DIR ?= $(PREFIX)/lib/mocapd/drivers
+
+# The fault-injection driver (tests only; never installed) and variants of
+# it that the plugin loader must refuse.
+FAULTY_DIR := $(BUILD)/tests/drivers
+FAULTY_SO := $(FAULTY_DIR)/mocap-driver-faulty.so
+FAULTY_BAD := $(FAULTY_DIR)/bad/mocap-driver-badabi.so $(FAULTY_DIR)/bad/mocap-driver-noentry.so
+FAULTY_LIBS := $(shell $(PKG_CONFIG) --libs libturbojpeg 2>/dev/null)
+
+BINS += $(MOCAPD)
+
+$(BUILD)/daemon/%.o: CPPFLAGS += -Idaemon $(DAEMON_CFLAGS) -DMOCAPD_PLUGIN_DIR='"$(MOCAPD_PLUGIN_DIR)"'
+
+$(DAEMON_LIB): $(DAEMON_OBJ)
+	@rm -f $@
+	ar rcs $@ $^
+
+$(MOCAPD): $(BUILD)/daemon/main.o $(DAEMON_LIB) $(CORE_LIB)
+	@mkdir -p $(@D)
+	$(CC) $< -o $@ $(LDFLAGS) $(DAEMON_LIB) $(CORE_LIB) $(CORE_LIBS) $(DAEMON_LIBS)
+
+$(FAULTY_SO): tests/drivers/faulty/faulty.c drivers/mocap_driver.h
+	@mkdir -p $(@D)
+	$(CC) $(CPPFLAGS) $(CFLAGS) -shared $< -o $@ $(LDFLAGS) $(FAULTY_LIBS)
+
+$(FAULTY_DIR)/bad/mocap-driver-badabi.so: tests/drivers/faulty/faulty.c drivers/mocap_driver.h
+	@mkdir -p $(@D)
+	$(CC) $(CPPFLAGS) $(CFLAGS) -DFAULTY_ABI_VERSION=999 -DFAULTY_NAME='"badabi"' -shared $< -o $@ $(LDFLAGS) $(FAULTY_LIBS)
+
+$(FAULTY_DIR)/bad/mocap-driver-noentry.so: tests/drivers/faulty/faulty.c drivers/mocap_driver.h
+	@mkdir -p $(@D)
+	$(CC) $(CPPFLAGS) $(CFLAGS) -DFAULTY_NO_ENTRY -shared $< -o $@ $(LDFLAGS) $(FAULTY_LIBS)
+
+# Daemon tests link the daemon library; the integration tests run mocapd
+# and the fault driver, so those are built first.
+$(BUILD)/tests/test_daemon_%: tests/test_daemon_%.c $(DAEMON_LIB) $(CORE_LIB) | $(MOCAPD) $(FAULTY_SO) $(FAULTY_BAD)
+	@mkdir -p $(@D)
+	$(CC) $(CPPFLAGS) -Idaemon $(DAEMON_CFLAGS) $(CFLAGS) -MMD -MP $< -o $@ $(LDFLAGS) $(DAEMON_LIB) $(CORE_LIB) $(CORE_LIBS) $(DAEMON_LIBS)
