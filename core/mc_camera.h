@@ -23,6 +23,8 @@
 
 #define MC_CAMERA_NAME_MAX 64
 #define MC_OCAM_POLY_MAX 16
+/* Largest image width or height accepted, pixels. */
+#define MC_CAMERA_SIZE_MAX 32768
 
 typedef enum {
 	MC_CAM_PINHOLE = 0,
@@ -42,9 +44,12 @@ typedef struct {
 	/* ocam: w(rho) = sum_i pol[i] rho^i, positive along +z (forward). */
 	double ocam_pol[MC_OCAM_POLY_MAX];
 	int ocam_pol_len;
-	/* Optional inverse polynomial rho(theta) for fast projection, as written
-	 * by OCamCalib (theta measured as in the toolbox's world2cam, converted).
-	 * When invpol_len == 0 projection solves w(rho) numerically. */
+	/* Optional inverse polynomial: rho = sum_i invpol[i] t^i with
+	 * t = theta - pi/2 and theta the ray's angle from the optical axis (t is
+	 * the toolbox's world2cam angle atan(z/|(x, y)|) in its own axes), rho in
+	 * the same units as ocam_pol's argument. Projection uses it only as the
+	 * starting point of a root find on w(rho), so that project() is the exact
+	 * inverse of unproject(); it may be absent (invpol_len == 0). */
 	double ocam_invpol[MC_OCAM_POLY_MAX * 2];
 	int ocam_invpol_len;
 	double ocam_xc, ocam_yc;  /* distortion centre, pixels (u, v) */
