@@ -56,6 +56,15 @@ all:
 
 -include $(sort $(wildcard */module.mk) $(wildcard drivers/*/module.mk))
 
+# The tracker on every evaluation clip (../shared/data/ego/*): accuracy and speed.
+DATA_DIR ?= ../shared/data
+BENCHES += bench-tracker
+.PHONY: bench-tracker
+bench-tracker: $(BUILD)/bin/mocap-bench
+	@if [ -d $(DATA_DIR)/ego ]; then \
+		for c in $(DATA_DIR)/ego/*/; do $(BUILD)/bin/mocap-bench --clip $$c --quiet || exit 1; done; \
+	else echo "bench-tracker: $(DATA_DIR)/ego not found, skipped"; fi
+
 all: $(CORE_LIB) $(TESTS) $(TOOLS) $(BINS) $(LIBS) $(PLUGINS)
 
 $(BUILD)/%.o: %.c
