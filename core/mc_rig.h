@@ -1,7 +1,7 @@
 /* mc_rig: a set of calibrated cameras in one rig frame, their file format,
  * importers, and per-camera ray tables at a working resolution.
  *
- * The rig file format is JSON, documented in docs/FORMATS.md. */
+ * The rig file format is JSON, documented in docs/RIG_FORMAT.md. */
 #ifndef MC_RIG_H
 #define MC_RIG_H
 
