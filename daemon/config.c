@@ -653,7 +653,7 @@ int mcd_config_parse(const char *text, const char *origin, const char *base_dir,
 		return mc_err_set(err, "%s:%d: syntax error (expected [section] or key = value)", origin, rc);
 	if (rc < 0)
 		return mc_err_set(err, "%s: cannot parse (out of memory)", origin);
-	if (check_cameras(cfg, err) || check_tracker(cfg, err) || check_daemon(cfg, err))
+	if (check_tracker(cfg, err) || check_cameras(cfg, err) || check_daemon(cfg, err))
 		return -1;
 	return 0;
 }

@@ -1,0 +1,271 @@
+/* mocapd's config parser: every value type, every refusal, and the exact
+ * "file:line: [section] key: why" form of the messages. */
+#include "config.h"
+#include "log.h"
+#include "test_util.h"
+
+#include <string.h>
+#include <unistd.h>
+
+static mcd_config cfg;
+
+static int parse(const char *text, mc_err *err)
+{
+	memset(err, 0, sizeof(*err));
+	return mcd_config_parse(text, "mocapd.conf", "/etc/mocapd", &cfg, err);
+}
+
+/* Parses text, expects failure with exactly `want` as the message. */
+static void expect_error(const char *text, const char *want)
+{
+	mc_err err;
+	int rc = parse(text, &err);
+	CHECK_MSG(rc == -1, "accepted: %s", text);
+	CHECK_MSG(strcmp(err.msg, want) == 0, "\n  got  '%s'\n  want '%s'", err.msg, want);
+}
+
+#define CAM "[camera left]\ndriver = faulty\n"
+#define NOTRACK "[tracker]\nenabled = false\n"
+
+static void test_full_config(void)
+{
+	const char *text = "; mocapd test config\n"
+			   "# comments both ways\n"
+			   "[daemon]\n"
+			   "plugin_dir = drivers\n"
+			   "log_level = debug\n"
+			   "print = yes\n"
+			   "group_tolerance_ms = 4.5\n"
+			   "group_deadline_ms = 80\n"
+			   "reopen_initial_ms = 100\n"
+			   "reopen_max_ms = 5000\n"
+			   "\n"
+			   "[camera left]\n"
+			   "driver = files\n"
+			   "rig_camera = left\n"
+			   "path = /data/left/%05d.jpg   ; inline comment\n"
+			   "fps = 30\n"
+			   "\n"
+			   "[camera right]\n"
+			   "driver = files\n"
+			   "rig_camera = right\n"
+			   "ring_slots = 16\n"
+			   "path = /data/right/%05d.jpg\n"
+			   "[tracker]\n"
+			   "rig = rigs/ego.json\n"
+			   "rig_format = ego-calib\n"
+			   "model = /usr/share/mocapd/models/human.json\n"
+			   "init_joints = gt.json\n"
+			   "width = 64\n"
+			   "height = 48\n"
+			   "iterations = 20\n"
+			   "pixel_fraction = 0.25\n"
+			   "dropout = 0.5\n"
+			   "backend = reference\n"
+			   "opencl_platform = 0\n"
+			   "opencl_device = auto\n"
+			   "seed = 42\n"
+			   "[socket]\n"
+			   "path = /run/mocapd/test.sock\n"
+			   "group = video\n"
+			   "mode = 0666\n"
+			   "max_clients = 4\n";
+	mc_err err;
+	int rc = parse(text, &err);
+	CHECK_MSG(rc == 0, "%s", err.msg);
+	CHECK(strcmp(cfg.plugin_dir, "/etc/mocapd/drivers") == 0);
+	CHECK(cfg.log_level == MCD_LOG_DEBUG);
+	CHECK(cfg.print);
+	CHECK_NEAR(cfg.group_tolerance_ms, 4.5, 0);
+	CHECK_NEAR(cfg.group_deadline_ms, 80, 0);
+	CHECK_NEAR(cfg.reopen_initial_ms, 100, 0);
+	CHECK_NEAR(cfg.reopen_max_ms, 5000, 0);
+	CHECK(cfg.ncams == 2);
+	CHECK(strcmp(cfg.cams[0].name, "left") == 0);
+	CHECK(strcmp(cfg.cams[0].driver, "files") == 0);
+	CHECK(cfg.cams[0].driver_line == 13);
+	CHECK(cfg.cams[0].nkeys == 2);
+	const mcd_kv *kv = mcd_camera_config_find(&cfg.cams[0], "path");
+	CHECK(kv && strcmp(kv->value, "/data/left/%05d.jpg") == 0 && kv->line == 15);
+	CHECK(cfg.cams[0].ring_slots == 8);
+	CHECK(cfg.cams[1].ring_slots == 16);
+	CHECK(strcmp(cfg.cams[1].rig_camera, "right") == 0);
+	CHECK(!mcd_camera_config_find(&cfg.cams[1], "fps"));
+	CHECK(cfg.tracker.enabled);
+	CHECK(strcmp(cfg.tracker.rig, "/etc/mocapd/rigs/ego.json") == 0);
+	CHECK(cfg.tracker.rig_format == MCD_RIG_EGO_CALIB);
+	CHECK(strcmp(cfg.tracker.model, "/usr/share/mocapd/models/human.json") == 0);
+	CHECK(strcmp(cfg.tracker.init_joints, "/etc/mocapd/gt.json") == 0);
+	CHECK(cfg.tracker.width == 64 && cfg.tracker.height == 48 && cfg.tracker.iterations == 20);
+	CHECK_NEAR(cfg.tracker.pixel_fraction, 0.25, 0);
+	CHECK_NEAR(cfg.tracker.dropout, 0.5, 0);
+	CHECK(isnan(cfg.tracker.step));
+	CHECK(cfg.tracker.backend == 1);
+	CHECK(cfg.tracker.cl_platform == 0 && cfg.tracker.cl_device == -1);
+	CHECK(cfg.tracker.seed == 42);
+	CHECK(strcmp(cfg.socket.path, "/run/mocapd/test.sock") == 0);
+	CHECK(strcmp(cfg.socket.group, "video") == 0);
+	CHECK(cfg.socket.mode == 0666 && cfg.socket.max_clients == 4);
+
+	char where[256];
+	CHECK(strcmp(mcd_config_where(&cfg, "tracker", "rig", where, sizeof(where)), "mocapd.conf:24: [tracker] rig") ==
+	      0);
+	CHECK(strcmp(mcd_config_where(&cfg, "tracker", "step", where, sizeof(where)), "mocapd.conf: [tracker] step") ==
+	      0);
+	CHECK(strcmp(mcd_config_where(&cfg, "camera right", "path", where, sizeof(where)),
+		     "mocapd.conf:22: [camera right] path") == 0);
+}
+
+static void test_defaults(void)
+{
+	mc_err err;
+	CHECK_MSG(parse(CAM NOTRACK, &err) == 0, "%s", err.msg);
+	CHECK(strcmp(cfg.socket.path, "/run/mocapd/mocapd.sock") == 0);
+	CHECK(cfg.log_level == MCD_LOG_INFO);
+	CHECK(!cfg.print);
+	CHECK(cfg.reopen_initial_ms > 0 && cfg.reopen_max_ms >= cfg.reopen_initial_ms);
+	CHECK(cfg.group_deadline_ms > 0);
+	CHECK(!cfg.tracker.enabled);
+	CHECK(cfg.tracker.iterations == -1);
+	/* CRLF line ends are fine. */
+	CHECK_MSG(parse("[camera a]\r\ndriver = x\r\n[tracker]\r\nenabled = off\r\n", &err) == 0, "%s", err.msg);
+	CHECK(strcmp(cfg.cams[0].driver, "x") == 0);
+}
+
+static void test_value_errors(void)
+{
+	expect_error(CAM "[tracker]\nrig = r.json\nmodel = m.json\niterations = abc\n",
+		     "mocapd.conf:6: [tracker] iterations: expected a positive integer, got 'abc'");
+	expect_error(CAM NOTRACK "iterations = 0\n",
+		     "mocapd.conf:5: [tracker] iterations: expected a positive integer, got '0'");
+	expect_error(CAM NOTRACK "iterations = 12x\n",
+		     "mocapd.conf:5: [tracker] iterations: expected a positive integer, got '12x'");
+	expect_error(CAM NOTRACK "iterations = 99999999999999999999\n",
+		     "mocapd.conf:5: [tracker] iterations: expected a positive integer, got '99999999999999999999'");
+	expect_error(CAM NOTRACK "width = 9000\n",
+		     "mocapd.conf:5: [tracker] width: expected an integer from 1 to 8192, got '9000'");
+	expect_error(CAM NOTRACK "pixel_fraction = 1.5\n",
+		     "mocapd.conf:5: [tracker] pixel_fraction: expected a positive number, got '1.5'");
+	expect_error(CAM NOTRACK "pixel_fraction = nan\n",
+		     "mocapd.conf:5: [tracker] pixel_fraction: expected a positive number, got 'nan'");
+	expect_error(CAM NOTRACK "dropout = -0.1\n",
+		     "mocapd.conf:5: [tracker] dropout: expected a number from 0 to 0.99, got '-0.1'");
+	expect_error(CAM NOTRACK "backend = cuda\n",
+		     "mocapd.conf:5: [tracker] backend: expected opencl or reference, got 'cuda'");
+	expect_error(CAM NOTRACK "opencl_device = gpu\n",
+		     "mocapd.conf:5: [tracker] opencl_device: expected auto or an index from 0 to 63, got 'gpu'");
+	expect_error(CAM "[tracker]\nenabled = maybe\n",
+		     "mocapd.conf:4: [tracker] enabled: expected true or false, got 'maybe'");
+	expect_error("[daemon]\nlog_level = loud\n" CAM NOTRACK,
+		     "mocapd.conf:2: [daemon] log_level: expected error, warn, info or debug, got 'loud'");
+	expect_error("[daemon]\ngroup_deadline_ms = 0\n" CAM NOTRACK,
+		     "mocapd.conf:2: [daemon] group_deadline_ms: expected a positive number, got '0'");
+	expect_error("[daemon]\nreopen_initial_ms = 500\nreopen_max_ms = 100\n" CAM NOTRACK,
+		     "mocapd.conf:3: [daemon] reopen_max_ms: must be at least reopen_initial_ms (500)");
+	expect_error(CAM NOTRACK "[socket]\nmode = 660\n",
+		     "mocapd.conf:6: [socket] mode: expected an octal mode such as 0660, got '660'");
+	expect_error(CAM NOTRACK "[socket]\ngroup = a b\n",
+		     "mocapd.conf:6: [socket] group: expected a name of letters, digits, '_' and '-', got 'a b'");
+	expect_error(CAM NOTRACK "[socket]\nmax_clients = 0\n",
+		     "mocapd.conf:6: [socket] max_clients: expected an integer from 1 to 1024, got '0'");
+	expect_error(CAM NOTRACK "[socket]\npath = /run/mocapd/"
+				 "aaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaa\n",
+		     "mocapd.conf:6: [socket] path: path too long (at most 107 bytes)");
+	expect_error("[camera left]\ndriver = ../evil\n" NOTRACK,
+		     "mocapd.conf:2: [camera left] driver: expected a name of letters, digits, '_' and '-', got '../evil'");
+	expect_error(CAM "ring_slots = 1\n" NOTRACK,
+		     "mocapd.conf:3: [camera left] ring_slots: expected an integer from 2 to 1024, got '1'");
+	expect_error(CAM NOTRACK "rig =\n", "mocapd.conf:5: [tracker] rig: expected a path, got nothing");
+}
+
+static void test_structure_errors(void)
+{
+	expect_error(CAM NOTRACK "iteratons = 5\n", "mocapd.conf:5: [tracker] iteratons: unknown key");
+	expect_error("[daemon]\nplugins = /x\n" CAM NOTRACK, "mocapd.conf:2: [daemon] plugins: unknown key");
+	expect_error("[deamon]\n" CAM NOTRACK,
+		     "mocapd.conf:1: unknown section [deamon] (expected [daemon], [camera NAME], [tracker] or [socket])");
+	expect_error("log_level = info\n" CAM NOTRACK,
+		     "mocapd.conf:1: log_level: key outside any section (start with [daemon])");
+	expect_error(CAM NOTRACK "enabled = true\n",
+		     "mocapd.conf:5: [tracker] enabled: given twice (first at line 4)");
+	expect_error(CAM "path = a\npath = b\n" NOTRACK,
+		     "mocapd.conf:4: [camera left] path: given twice (first at line 3)");
+	expect_error(CAM NOTRACK "[tracker]\n", "mocapd.conf:5: section [tracker] given twice (first at line 3)");
+	expect_error(CAM CAM NOTRACK, "mocapd.conf:3: section [camera left] given twice (first at line 1)");
+	expect_error("[camera]\ndriver = x\n" NOTRACK, "mocapd.conf:1: [camera] needs a name: [camera NAME]");
+	expect_error("[camera a/b]\ndriver = x\n" NOTRACK,
+		     "mocapd.conf:1: [camera a/b]: a camera name is letters, digits, '_' and '-', at most 63 bytes");
+	expect_error(CAM NOTRACK "  iterations = 5\n",
+		     "mocapd.conf:5: indented line (inih reads it as the continuation of the previous value); "
+		     "remove the indentation");
+	expect_error(CAM NOTRACK "iterations 5\n",
+		     "mocapd.conf:5: syntax error (expected [section] or key = value)");
+	char longline[400];
+	snprintf(longline, sizeof(longline), CAM NOTRACK "rig = %0300d\n", 0);
+	expect_error(longline, "mocapd.conf:5: line too long (at most 198 characters)");
+}
+
+static void test_cross_checks(void)
+{
+	expect_error(NOTRACK, "mocapd.conf: no [camera NAME] section; at least one camera is needed");
+	expect_error("[camera left]\nfps = 30\n" NOTRACK, "mocapd.conf:1: [camera left]: missing key 'driver'");
+	expect_error(CAM, "mocapd.conf: no [tracker] section (give rig and model, or enabled = false)");
+	expect_error(CAM "rig_camera = l\n[tracker]\nmodel = m.json\n", "mocapd.conf:4: [tracker]: missing key 'rig'");
+	expect_error(CAM "rig_camera = l\n[tracker]\nrig = r.json\n", "mocapd.conf:4: [tracker]: missing key 'model'");
+	expect_error(CAM "[tracker]\nrig = r.json\nmodel = m.json\n",
+		     "mocapd.conf:1: [camera left]: missing key 'rig_camera' (which rig camera this is; needed while "
+		     "the tracker is enabled)");
+	expect_error("[camera a]\ndriver = x\nrig_camera = left\n[camera b]\ndriver = x\nrig_camera = left\n"
+		     "[tracker]\nrig = r.json\nmodel = m.json\n",
+		     "mocapd.conf:6: [camera b] rig_camera: 'left' is already taken by [camera a] (line 3)");
+}
+
+static void test_load_file(void)
+{
+	mc_err err;
+	CHECK(mcd_config_load("/nonexistent/mocapd.conf", &cfg, &err) == -1);
+	CHECK(strcmp(err.msg, "/nonexistent/mocapd.conf: cannot open: No such file or directory") == 0);
+
+	char dir[] = "/tmp/mocapd-config-XXXXXX";
+	CHECK(mkdtemp(dir) != NULL);
+	char path[256];
+	snprintf(path, sizeof(path), "%s/test.conf", dir);
+	FILE *f = fopen(path, "w");
+	CHECK(f != NULL);
+	if (!f)
+		return;
+	fputs("[daemon]\nplugin_dir = plugins\n[camera c]\ndriver = d\n[tracker]\nenabled = false\n", f);
+	fclose(f);
+	CHECK_MSG(mcd_config_load(path, &cfg, &err) == 0, "%s", err.msg);
+	char want[600];
+	snprintf(want, sizeof(want), "%s/plugins", dir);
+	CHECK(strcmp(cfg.plugin_dir, want) == 0);
+	CHECK(strcmp(cfg.file, path) == 0);
+
+	f = fopen(path, "w");
+	fputs("[daemon]\nlog_level = shouting\n", f);
+	fclose(f);
+	CHECK(mcd_config_load(path, &cfg, &err) == -1);
+	snprintf(want, sizeof(want), "%s:2: [daemon] log_level: expected error, warn, info or debug, got 'shouting'",
+		 path);
+	CHECK_MSG(strcmp(err.msg, want) == 0, "%s", err.msg);
+
+	f = fopen(path, "w");
+	fwrite("[daemon]\n\0\n", 1, 11, f);
+	fclose(f);
+	CHECK(mcd_config_load(path, &cfg, &err) == -1);
+	CHECK(strstr(err.msg, "NUL byte") != NULL);
+	unlink(path);
+	rmdir(dir);
+}
+
+int main(void)
+{
+	test_full_config();
+	test_defaults();
+	test_value_errors();
+	test_structure_errors();
+	test_cross_checks();
+	test_load_file();
+	return mc_test_finish("test_daemon_config");
+}
