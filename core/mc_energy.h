@@ -70,7 +70,13 @@ typedef struct {
 	double conf;
 } mc_detection_ray;
 
-/* E_detection = -weight * sum_k conf_k V_{gauss_k}(o_k, n_k). */
+/* Checks detections against a scene (Gaussian index in range, finite
+ * confidence >= 0, finite origin, unit direction); the message names the
+ * detection and the field.  mc_energy_detection skips what this rejects. */
+int mc_detections_check(const mc_scene *scene, const mc_detection_ray *det, int ndet, mc_err *err);
+
+/* E_detection = -weight * sum_k conf_k V_{gauss_k}(o_k, n_k), each V computed
+ * with the whole scene as occluders. */
 double mc_energy_detection(const mc_scene *scene, const mc_detection_ray *det, int ndet, double weight,
 			   mc_vec3 *dmu, double *dsigma);
 
