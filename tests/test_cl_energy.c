@@ -1,0 +1,433 @@
+/* Tests of core/mc_cl: the OpenCL colour energy and its gradient against a
+ * plain double-precision evaluation of the same formulas (itself checked
+ * against central finite differences), pixel subsets, dropout, missing
+ * cameras, device selection and argument errors.
+ * Skips (77) when no OpenCL platform is present. */
+#include "cl_scene.h"
+#include "mc_cl.h"
+#include "test_util.h"
+
+#include <string.h>
+
+/* ---- reference: thesis eq. 4.4, 4.6, 4.10, 4.13 and 6.2.1 in double ---- */
+
+static double ref_dissimilarity(const double m[3], const float i[3])
+{
+	double ws = sqrt(m[1]), wd = fmax(0, 0.5 - m[2]), wg = fmax(0, 0.5 - m[1]), z = ws + wd + wg;
+	double dh = fabs(m[0] - i[0]), hue = 2 * fmin(dh, 1 - dh), dv = m[2] - i[2], ds = m[1] - i[1];
+	double x = (ws * hue * hue + wd * 2 * dv * dv + wg * (fabs(dv) + fabs(ds))) / z;
+	x = fmin(fmax(x, 0), 1);
+	return 1 - pow(1 - x, 4) * (8 * x + 2);
+}
+
+/* E of one ray, adding its gradient into dmu/dsigma; *abs_energy adds
+ * sum |d_q| V_q (the scale of the tolerances).  Gaussians are left out
+ * where c' < cull or keep[q] == 0. */
+static double ref_ray(const mc_scene *sc, mc_vec3 o, mc_vec3 n, const float ihsv[3], const unsigned char *keep,
+		      double cull, mc_vec3 *dmu, double *dsigma, double *abs_energy)
+{
+	int N = sc->n;
+	double m[MC_MAX_GAUSSIANS], cp[MC_MAX_GAUSSIANS], d[MC_MAX_GAUSSIANS], r2[MC_MAX_GAUSSIANS];
+	double gm[MC_MAX_GAUSSIANS] = {0}, gs[MC_MAX_GAUSSIANS] = {0}, gc[MC_MAX_GAUSSIANS] = {0};
+	mc_vec3 perp[MC_MAX_GAUSSIANS];
+	bool act[MC_MAX_GAUSSIANS];
+	for (int q = 0; q < N; q++) {
+		mc_vec3 dv = mc_v3_sub(sc->mu[q], o);
+		m[q] = mc_v3_dot(dv, n);
+		perp[q] = mc_v3_sub(dv, mc_v3_scale(n, m[q]));
+		r2[q] = mc_v3_norm2(perp[q]);
+		cp[q] = sc->c[q] * exp(-r2[q] / (2 * sc->sigma[q] * sc->sigma[q]));
+		act[q] = cp[q] >= cull && (!keep || keep[q]);
+		d[q] = ref_dissimilarity(sc->hsv[q], ihsv);
+	}
+	double E = 0;
+	for (int q = 0; q < N; q++) {
+		if (!act[q])
+			continue;
+		double sq = sc->sigma[q];
+		for (int k = -4; k <= 0; k++) {
+			double s = m[q] + k * sq, tau = 0, dens = 0;
+			for (int p = 0; p < N; p++) {
+				if (!act[p])
+					continue;
+				double sp = sc->sigma[p], z = (s - m[p]) / (M_SQRT2 * sp), z0 = -m[p] / (M_SQRT2 * sp);
+				tau += sp * cp[p] * sqrt(M_PI / 2) * (erf(z) - erf(z0));
+				dens += cp[p] * exp(-z * z);
+			}
+			double wk = exp(-0.5 * k * k), T = exp(-tau), W = d[q] * sq * cp[q] * wk * T;
+			E += W;
+			*abs_energy += fabs(W);
+			gc[q] += d[q] * sq * wk * T;
+			gs[q] += d[q] * cp[q] * wk * T - W * dens * k;
+			gm[q] -= W * dens;
+			/* T = exp(-tau): every Gaussian's share of tau */
+			for (int p = 0; p < N; p++) {
+				if (!act[p])
+					continue;
+				double sp = sc->sigma[p], z = (s - m[p]) / (M_SQRT2 * sp), z0 = -m[p] / (M_SQRT2 * sp);
+				double e = exp(-z * z), e0 = exp(-z0 * z0), de = erf(z) - erf(z0);
+				gm[p] -= W * cp[p] * (e0 - e);
+				gc[p] -= W * sp * sqrt(M_PI / 2) * de;
+				gs[p] -= W * (cp[p] * sqrt(M_PI / 2) * de - M_SQRT2 * cp[p] * (z * e - z0 * e0));
+			}
+		}
+	}
+	for (int q = 0; q < N; q++) {
+		if (!act[q])
+			continue;
+		double s2 = sc->sigma[q] * sc->sigma[q];
+		if (dmu)
+			dmu[q] = mc_v3_add(dmu[q], mc_v3_sub(mc_v3_scale(n, gm[q]), mc_v3_scale(perp[q], gc[q] * cp[q] / s2)));
+		if (dsigma)
+			dsigma[q] += gs[q] + gc[q] * cp[q] * r2[q] / (s2 * sc->sigma[q]);
+	}
+	return E;
+}
+
+/* A camera: ray table and image. */
+typedef struct {
+	mc_raytable rays;
+	float *hsv;
+} view;
+
+/* E over pixel lists of several views (pixels[c] NULL: every valid pixel),
+ * with the backend's dropout decisions. */
+static double ref_energy(const mc_scene *sc, const view *v, int nv, int *const *pixels, const int *npixels,
+			 double dropout, uint32_t seed, double cull, mc_vec3 *dmu, double *dsigma, double *abs_energy)
+{
+	double E = 0;
+	*abs_energy = 0;
+	for (int c = 0; c < nv; c++) {
+		const mc_raytable *t = &v[c].rays;
+		int n = pixels && pixels[c] ? npixels[c] : t->width * t->height;
+		for (int i = 0; i < n; i++) {
+			int px = pixels && pixels[c] ? pixels[c][i] : i;
+			if (!t->valid[px])
+				continue;
+			unsigned char keep[MC_MAX_GAUSSIANS];
+			for (int q = 0; q < sc->n; q++)
+				keep[q] = !mc_cl_dropped(seed, c, px, q, dropout);
+			E += ref_ray(sc, t->origin, t->dir[px], &v[c].hsv[3 * px], keep, cull, dmu, dsigma, abs_energy);
+		}
+	}
+	return E;
+}
+
+/* ---- comparison helpers ---- */
+
+typedef struct {
+	double E, absE;
+	mc_vec3 dmu[MC_MAX_GAUSSIANS];
+	double dsigma[MC_MAX_GAUSSIANS];
+} result;
+
+static double max_abs_mu(const result *r, int n)
+{
+	double m = 0;
+	for (int q = 0; q < n; q++)
+		m = fmax(m, fmax(fabs(r->dmu[q].x), fmax(fabs(r->dmu[q].y), fabs(r->dmu[q].z))));
+	return m;
+}
+
+static double max_abs_sigma(const result *r, int n)
+{
+	double m = 0;
+	for (int q = 0; q < n; q++)
+		m = fmax(m, fabs(r->dsigma[q]));
+	return m;
+}
+
+/* Agreement within `rel`: the energy relative to sum |d_q V_q| (the energy
+ * is a sum of terms of both signs), each gradient component relative to the
+ * largest component of its kind. */
+static void check_agree(const char *what, const result *cl, const result *ref, int n, double rel)
+{
+	double emax = rel * fmax(ref->absE, 1e-12);
+	CHECK_MSG(fabs(cl->E - ref->E) <= emax, "%s: energy %.9g vs reference %.9g (sum |dV| %.6g)", what, cl->E,
+		  ref->E, ref->absE);
+	double gmu = rel * max_abs_mu(ref, n), gsg = rel * max_abs_sigma(ref, n);
+	double worst_mu = 0, worst_sg = 0;
+	for (int q = 0; q < n; q++) {
+		mc_vec3 dd = mc_v3_sub(cl->dmu[q], ref->dmu[q]);
+		worst_mu = fmax(worst_mu, fmax(fabs(dd.x), fmax(fabs(dd.y), fabs(dd.z))));
+		worst_sg = fmax(worst_sg, fabs(cl->dsigma[q] - ref->dsigma[q]));
+	}
+	CHECK_MSG(worst_mu <= gmu, "%s: dE/dmu differs by %.3g, tolerance %.3g", what, worst_mu, gmu);
+	CHECK_MSG(worst_sg <= gsg, "%s: dE/dsigma differs by %.3g, tolerance %.3g", what, worst_sg, gsg);
+	printf("  %-34s E %12.6g (ref %12.6g)  max rel. error: E %.1e, dmu %.1e, dsigma %.1e\n", what, cl->E,
+	       ref->E, fabs(cl->E - ref->E) / fmax(ref->absE, 1e-12), worst_mu / fmax(max_abs_mu(ref, n), 1e-30),
+	       worst_sg / fmax(max_abs_sigma(ref, n), 1e-30));
+}
+
+static void eval_cl(mc_cl_energy *e, const mc_scene *sc, const int *const *pixels, const int *npixels,
+		    double dropout, uint32_t seed, result *r)
+{
+	memset(r, 0, sizeof(*r));
+	mc_err err = {{0}};
+	int rc = mc_cl_energy_eval(e, sc, pixels, npixels, dropout, seed, &r->E, r->dmu, r->dsigma, &err);
+	CHECK_MSG(rc == 0, "mc_cl_energy_eval: %s", err.msg);
+}
+
+static void eval_ref(const mc_scene *sc, const view *v, int nv, int *const *pixels, const int *npixels,
+		     double dropout, uint32_t seed, result *r)
+{
+	memset(r, 0, sizeof(*r));
+	r->E = ref_energy(sc, v, nv, pixels, npixels, dropout, seed, MC_CULL_MAGNITUDE, r->dmu, r->dsigma, &r->absE);
+}
+
+static mc_cl_energy *open_backend(const view *v, int nv)
+{
+	mc_raytable t[MC_MAX_CAMERAS];
+	for (int c = 0; c < nv; c++)
+		t[c] = v[c].rays;
+	mc_err err = {{0}};
+	mc_cl_energy *e = mc_cl_energy_create(-1, -1, t, nv, &err);
+	if (!e) {
+		if (strstr(err.msg, "no platform"))
+			TEST_SKIP("%s", err.msg);
+		fprintf(stderr, "mc_cl_energy_create: %s\n", err.msg);
+		exit(1);
+	}
+	for (int c = 0; c < nv; c++) {
+		int rc = mc_cl_energy_set_image(e, c, v[c].hsv, &err);
+		CHECK_MSG(rc == 0, "set_image: %s", err.msg);
+	}
+	return e;
+}
+
+/* ---- the tests ---- */
+
+/* The reference's analytic gradient against central differences of its
+ * energy (no culling, so the energy is smooth). */
+static void test_reference_gradient(void)
+{
+	unsigned long long rng = 7;
+	view v;
+	table_pinhole(&v.rays, 12, 9, 10, mc_v3(0, 0, 0));
+	v.hsv = image_random(&v.rays, &rng);
+	mc_scene sc;
+	scene_random(&sc, 6, &rng);
+	result r;
+	memset(&r, 0, sizeof(r));
+	ref_energy(&sc, &v, 1, NULL, NULL, 0, 0, 0, r.dmu, r.dsigma, &r.absE);
+	double worst = 0, scale = fmax(max_abs_mu(&r, sc.n), max_abs_sigma(&r, sc.n));
+	for (int q = 0; q < sc.n; q++)
+		for (int k = 0; k < 4; k++) {
+			double h = 1e-6, *x = k == 0 ? &sc.mu[q].x : k == 1 ? &sc.mu[q].y : k == 2 ? &sc.mu[q].z : &sc.sigma[q];
+			double x0 = *x, a;
+			*x = x0 + h;
+			double ep = ref_energy(&sc, &v, 1, NULL, NULL, 0, 0, 0, NULL, NULL, &a);
+			*x = x0 - h;
+			double em = ref_energy(&sc, &v, 1, NULL, NULL, 0, 0, 0, NULL, NULL, &a);
+			*x = x0;
+			double fd = (ep - em) / (2 * h);
+			double an = k == 0 ? r.dmu[q].x : k == 1 ? r.dmu[q].y : k == 2 ? r.dmu[q].z : r.dsigma[q];
+			worst = fmax(worst, fabs(fd - an));
+		}
+	CHECK_MSG(worst <= 1e-6 * scale, "reference gradient vs finite differences: %.3g (scale %.3g)", worst, scale);
+	printf("  reference gradient vs central differences: max error %.1e of %.3g\n", worst, scale);
+	table_free(&v.rays);
+	free(v.hsv);
+}
+
+static void test_random_scenes(void)
+{
+	unsigned long long rng = 1234;
+	view v;
+	table_pinhole(&v.rays, 40, 30, 32, mc_v3(0, 0, 0));
+	v.hsv = image_random(&v.rays, &rng);
+	mc_cl_energy *e = open_backend(&v, 1);
+	printf("device: %s\n", mc_cl_energy_device(e));
+	static result cl, ref;
+	for (int it = 0; it < 6; it++) {
+		mc_scene sc;
+		scene_random(&sc, 4 + it * 7, &rng);
+		eval_cl(e, &sc, NULL, NULL, 0, 0, &cl);
+		eval_ref(&sc, &v, 1, NULL, NULL, 0, 0, &ref);
+		char what[64];
+		snprintf(what, sizeof(what), "random scene, %d Gaussians", sc.n);
+		check_agree(what, &cl, &ref, sc.n, 1e-3);
+		CHECK(ref.absE > 0);
+	}
+	mc_cl_energy_destroy(e);
+	table_free(&v.rays);
+	free(v.hsv);
+}
+
+/* A head-mounted stereo rig and a person in random poses: every pixel, then
+ * random pixel subsets, then with dropout (the same decisions on both
+ * sides), then with one camera missing. */
+static void test_human(void)
+{
+	unsigned long long rng = 99;
+	view v[2];
+	mc_raytable t[2];
+	tables_ego(t, 48);
+	for (int c = 0; c < 2; c++) {
+		v[c].rays = t[c];
+		v[c].hsv = image_random(&t[c], &rng);
+	}
+	mc_cl_energy *e = open_backend(v, 2);
+	static result cl, ref;
+	for (int pose = 0; pose < 3; pose++) {
+		mc_scene sc;
+		scene_human(&sc, 0.4 * pose, &rng);
+		char what[64];
+		snprintf(what, sizeof(what), "person, pose %d, all pixels", pose);
+		eval_cl(e, &sc, NULL, NULL, 0, 0, &cl);
+		eval_ref(&sc, v, 2, NULL, NULL, 0, 0, &ref);
+		check_agree(what, &cl, &ref, sc.n, 1e-3);
+
+		/* A random subset (with repeats) of each camera's pixels. */
+		int npix[2] = {700, 500}, *pix[2];
+		for (int c = 0; c < 2; c++) {
+			pix[c] = malloc(sizeof(int) * (size_t)npix[c]);
+			for (int i = 0; i < npix[c]; i++)
+				pix[c][i] = (int)(mc_test_rand(&rng) * t[c].width * t[c].height);
+		}
+		snprintf(what, sizeof(what), "person, pose %d, pixel subset", pose);
+		eval_cl(e, &sc, (const int *const *)pix, npix, 0, 0, &cl);
+		eval_ref(&sc, v, 2, pix, npix, 0, 0, &ref);
+		check_agree(what, &cl, &ref, sc.n, 1e-3);
+
+		snprintf(what, sizeof(what), "person, pose %d, dropout 0.3", pose);
+		eval_cl(e, &sc, (const int *const *)pix, npix, 0.3, 1000 + pose, &cl);
+		eval_ref(&sc, v, 2, pix, npix, 0.3, 1000 + pose, &ref);
+		check_agree(what, &cl, &ref, sc.n, 1e-3);
+		for (int c = 0; c < 2; c++)
+			free(pix[c]);
+	}
+
+	/* Camera 1 missing: only camera 0 counts. */
+	mc_scene sc;
+	scene_human(&sc, 0.3, &rng);
+	mc_err err;
+	CHECK(mc_cl_energy_set_image(e, 1, NULL, &err) == 0);
+	eval_cl(e, &sc, NULL, NULL, 0, 0, &cl);
+	eval_ref(&sc, v, 1, NULL, NULL, 0, 0, &ref);
+	check_agree("person, camera 1 missing", &cl, &ref, sc.n, 1e-3);
+	CHECK(mc_cl_energy_set_image(e, 1, v[1].hsv, &err) == 0);
+
+	mc_cl_energy_destroy(e);
+	for (int c = 0; c < 2; c++) {
+		table_free(&t[c]);
+		free(v[c].hsv);
+	}
+}
+
+static void test_dropout(void)
+{
+	unsigned long long rng = 5;
+	view v[2];
+	mc_raytable t[2];
+	tables_ego(t, 32);
+	for (int c = 0; c < 2; c++) {
+		v[c].rays = t[c];
+		v[c].hsv = image_random(&t[c], &rng);
+	}
+	mc_cl_energy *e = open_backend(v, 2);
+	mc_scene sc;
+	scene_human(&sc, 0.2, &rng);
+	static result full, r;
+	eval_cl(e, &sc, NULL, NULL, 0, 0, &full);
+	CHECK(full.E != 0);
+
+	/* Everything dropped: nothing is seen. */
+	eval_cl(e, &sc, NULL, NULL, 1.0, 77, &r);
+	CHECK(r.E == 0);
+	CHECK(max_abs_mu(&r, sc.n) == 0 && max_abs_sigma(&r, sc.n) == 0);
+
+	/* The hash drops about the requested fraction. */
+	long dropped = 0, total = 0;
+	for (int px = 0; px < 2000; px++)
+		for (int q = 0; q < sc.n; q++, total++)
+			dropped += mc_cl_dropped(42, px & 1, px, q, 0.25);
+	double frac = (double)dropped / total;
+	CHECK_MSG(fabs(frac - 0.25) < 0.01, "dropped fraction %.4f for p = 0.25", frac);
+
+	/* Over many seeds the energy at p = 0.5 is finite, varies with the seed,
+	 * and its mean differs from the full energy (fewer occluders, fewer
+	 * contributors). */
+	double sum = 0, sum2 = 0;
+	int nseeds = 40;
+	for (int s = 0; s < nseeds; s++) {
+		eval_cl(e, &sc, NULL, NULL, 0.5, (uint32_t)s, &r);
+		CHECK(isfinite(r.E));
+		sum += r.E;
+		sum2 += r.E * r.E;
+	}
+	double mean = sum / nseeds, sd = sqrt(fmax(0, sum2 / nseeds - mean * mean));
+	printf("  dropout 0.5 over %d seeds: mean E %.6g (sd %.3g), full E %.6g\n", nseeds, mean, sd, full.E);
+	CHECK(isfinite(mean) && sd > 0);
+	CHECK(fabs(mean - full.E) > 3 * sd / sqrt(nseeds));
+	mc_cl_energy_destroy(e);
+	for (int c = 0; c < 2; c++) {
+		table_free(&t[c]);
+		free(v[c].hsv);
+	}
+}
+
+static void test_errors(void)
+{
+	unsigned long long rng = 3;
+	view v;
+	table_pinhole(&v.rays, 8, 6, 8, mc_v3(0, 0, 0));
+	v.hsv = image_random(&v.rays, &rng);
+	mc_err err = {{0}};
+
+	CHECK(mc_cl_energy_create(99, -1, &v.rays, 1, &err) == NULL);
+	CHECK_MSG(strstr(err.msg, "platform 99 does not exist"), "%s", err.msg);
+	CHECK(mc_cl_energy_create(0, 99, &v.rays, 1, &err) == NULL);
+	CHECK_MSG(strstr(err.msg, "device 99 does not exist on platform 0"), "%s", err.msg);
+	CHECK(mc_cl_energy_create(-1, 0, &v.rays, 1, &err) == NULL);
+	CHECK_MSG(strstr(err.msg, "without a platform"), "%s", err.msg);
+	CHECK(mc_cl_energy_create(-2, -1, &v.rays, 1, &err) == NULL);
+	CHECK(mc_cl_energy_create(-1, -1, &v.rays, 0, &err) == NULL);
+	CHECK_MSG(strstr(err.msg, "ncams 0"), "%s", err.msg);
+
+	/* Explicit indices that exist work, and name the device. */
+	mc_cl_energy *e = mc_cl_energy_create(0, 0, &v.rays, 1, &err);
+	CHECK_MSG(e != NULL, "%s", err.msg);
+	if (!e)
+		return;
+	CHECK(strchr(mc_cl_energy_device(e), ':') != NULL);
+
+	CHECK(mc_cl_energy_set_image(e, 1, v.hsv, &err) == -1);
+	CHECK_MSG(strstr(err.msg, "camera 1 out of range"), "%s", err.msg);
+	v.hsv[3 * 5 + 1] = 1.5f;
+	CHECK(mc_cl_energy_set_image(e, 0, v.hsv, &err) == -1);
+	CHECK_MSG(strstr(err.msg, "pixel 5: saturation"), "%s", err.msg);
+	v.hsv[3 * 5 + 1] = 0.5f;
+	CHECK(mc_cl_energy_set_image(e, 0, v.hsv, &err) == 0);
+
+	mc_scene sc;
+	scene_random(&sc, 5, &rng);
+	double E;
+	int bad[2] = {3, 48}, nbad = 2;
+	const int *pl[1] = {bad};
+	CHECK(mc_cl_energy_eval(e, &sc, pl, &nbad, 0, 0, &E, NULL, NULL, &err) == -1);
+	CHECK_MSG(strstr(err.msg, "pixels[1] = 48 out of range"), "%s", err.msg);
+	sc.sigma[2] = 0;
+	CHECK(mc_cl_energy_eval(e, &sc, NULL, NULL, 0, 0, &E, NULL, NULL, &err) == -1);
+	CHECK_MSG(strstr(err.msg, "gaussian 2: sigma"), "%s", err.msg);
+	sc.sigma[2] = 0.1;
+	CHECK(mc_cl_energy_eval(e, &sc, NULL, NULL, 1.5, 0, &E, NULL, NULL, &err) == -1);
+	CHECK_MSG(strstr(err.msg, "dropout"), "%s", err.msg);
+	CHECK(mc_cl_energy_eval(e, &sc, NULL, NULL, 0, 0, &E, NULL, NULL, &err) == 0);
+	/* An empty scene and an empty pixel list give 0. */
+	sc.n = 0;
+	CHECK(mc_cl_energy_eval(e, &sc, NULL, NULL, 0, 0, &E, NULL, NULL, &err) == 0 && E == 0);
+	mc_cl_energy_destroy(e);
+	table_free(&v.rays);
+	free(v.hsv);
+}
+
+int main(void)
+{
+	test_reference_gradient();
+	test_random_scenes();
+	test_human();
+	test_dropout();
+	test_errors();
+	return mc_test_finish("test_cl_energy");
+}
