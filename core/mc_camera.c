@@ -452,6 +452,8 @@ static int validate_pose(const mc_xform *x, mc_err *err)
 
 int mc_camera_validate(const mc_camera *cam, mc_err *err)
 {
+	if ((int)cam->model < 0 || (int)cam->model > MC_CAM_OCAM)
+		return mc_err_set(err, "model: unknown camera model %d", (int)cam->model);
 	if (cam->width < 1 || cam->width > MC_CAMERA_SIZE_MAX)
 		return mc_err_set(err, "width: must be 1..%d, got %d", MC_CAMERA_SIZE_MAX, cam->width);
 	if (cam->height < 1 || cam->height > MC_CAMERA_SIZE_MAX)
