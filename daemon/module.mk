@@ -15,7 +15,7 @@ MOCAPD_PLUGIN_DIR ?= $(PREFIX)/lib/mocapd/drivers
 
 # The fault-injection driver (tests only; never installed) and variants of
 # it that the plugin loader must refuse.
-FAULTY_DIR := $(BUILD)/tests/drivers
+FAULTY_DIR := $(BUILD)/tests/faulty
 FAULTY_SO := $(FAULTY_DIR)/mocap-driver-faulty.so
 FAULTY_BAD := $(FAULTY_DIR)/bad/mocap-driver-badabi.so $(FAULTY_DIR)/bad/mocap-driver-noentry.so
 FAULTY_LIBS := $(shell $(PKG_CONFIG) --libs libturbojpeg 2>/dev/null)

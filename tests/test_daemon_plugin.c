@@ -16,7 +16,7 @@ static char drivers_dir[PATH_MAX]; /* the build's tests/drivers */
 static uid_t uid;
 static gid_t gid;
 
-/* The fault driver is built next to this test: <build>/tests/drivers. */
+/* The fault driver is built next to this test: <build>/tests/faulty. */
 static int find_drivers(void)
 {
 	char exe[PATH_MAX];
@@ -25,7 +25,7 @@ static int find_drivers(void)
 		return -1;
 	exe[n] = 0;
 	*strrchr(exe, '/') = 0;
-	snprintf(drivers_dir, sizeof(drivers_dir), "%.4000s/drivers", exe);
+	snprintf(drivers_dir, sizeof(drivers_dir), "%.4000s/faulty", exe);
 	return access(drivers_dir, R_OK) == 0 ? 0 : -1;
 }
 
