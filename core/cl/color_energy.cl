@@ -76,6 +76,40 @@ float mc_dissimilarity(float4 m, float2 wdg, float3 i)
 	return 1.0f - u2 * u2 * (8.0f * x + 2.0f);
 }
 
+/* Where a visibility sample lies relative to the camera (docs/ENERGY.md,
+ * "Samples near the camera", as mc_energy.c's near_camera()): within a
+ * band of width lambda around the camera, x = s / lambda + 1/2 in (0, 1),
+ * the sample is faded by h(x) = x^3 (6x^2 - 15x + 10) and T is read at the
+ * soft-clamped depth t = lambda (x^3 - x^4 / 2); behind the band the sample
+ * is dropped (returns false), beyond it h = 1 and t = s. */
+typedef struct {
+	float h, dh_ds, dh_dl; /* weight and its derivatives (s, lambda) */
+	float t, dt_ds, dt_dl; /* depth at which T is read */
+} mc_sample;
+
+bool mc_near_camera(float s, float lambda, mc_sample *sp)
+{
+	float x = s / lambda + 0.5f;
+	if (x >= 1.0f) {
+		sp->h = 1.0f;
+		sp->t = s;
+		sp->dt_ds = 1.0f;
+		sp->dh_ds = sp->dh_dl = sp->dt_dl = 0.0f;
+		return true;
+	}
+	if (x <= 0.0f)
+		return false;
+	float x2 = x * x, y = 1.0f - x;
+	float dh_dx = 30.0f * x2 * y * y;
+	sp->h = x2 * x * (x * (6.0f * x - 15.0f) + 10.0f);
+	sp->dh_ds = dh_dx / lambda;
+	sp->dh_dl = -dh_dx * s / (lambda * lambda);
+	sp->t = lambda * x2 * x * (1.0f - 0.5f * x);
+	sp->dt_ds = x2 * (3.0f - 2.0f * x);
+	sp->dt_dl = 1.5f * x2 * y * y;
+	return true;
+}
+
 /* The ray Gaussians of one pixel that survived culling and dropout. */
 typedef struct {
 	int n;
@@ -140,13 +174,20 @@ float mc_pixel(global const float4 *gauss, int ngauss, float3 o, float3 n, float
 		sE[p] = se[p] = sze[p] = 0.0f;
 
 	for (int q = 0; q < rs.n; q++) {
+		gm[q] = gs[q] = gc[q] = 0.0f;
+		if (rs.d[q] == 0.0f)
+			continue; /* contributes nothing; still occludes */
 		float vis = 0.0f, gpos_m = 0.0f, gpos_s = 0.0f;
-		float pre = rs.d[q] * rs.sg[q] * rs.c[q];
+		float sg = rs.sg[q];
+		float pre = rs.d[q] * sg * rs.c[q];
 		for (int k = -4; k <= 0; k++) {
-			float s = rs.m[q] + k * rs.sg[q];
+			float s = rs.m[q] + k * sg;
+			mc_sample sp;
+			if (!mc_near_camera(s, sg, &sp))
+				continue;
 			float tau = -base, dens = 0.0f;
 			for (int p = 0; p < rs.n; p++) {
-				float u = s - rs.m[p];
+				float u = sp.t - rs.m[p];
 				if (u > rs.hw[p]) {
 					erfp[p] = 1.0f;
 					ep[p] = zp[p] = 0.0f;
@@ -166,13 +207,16 @@ float mc_pixel(global const float4 *gauss, int ngauss, float3 o, float3 n, float
 					dens += rs.c[p] * e;
 				}
 			}
-			float wk = exp(-0.5f * k * k);
-			float T = exp(-tau);
-			float wT = wk * T;
-			float W = pre * wT;
-			vis += wT;
-			gpos_m -= W * dens;
-			gpos_s -= W * dens * k;
+			float wkT = exp(-0.5f * k * k - tau); /* exp(-k^2/2) T(t) */
+			float W = pre * sp.h * wkT;           /* this sample's energy */
+			vis += sp.h * wkT;
+			/* The sample depth s moves with mu' (ds/dmu' = 1) and sigma
+			 * (ds/dsigma = k); near the camera h and t depend on s and
+			 * lambda = sigma too. */
+			float dE_dt = -W * dens, dE_dh = pre * wkT;
+			float dE_ds = dE_dt * sp.dt_ds + dE_dh * sp.dh_ds;
+			gpos_m += dE_ds;
+			gpos_s += dE_dt * sp.dt_dl + dE_dh * sp.dh_dl + k * dE_ds;
 			wtot += W;
 			for (int p = 0; p < rs.n; p++) {
 				sE[p] += W * erfp[p];
@@ -183,7 +227,7 @@ float mc_pixel(global const float4 *gauss, int ngauss, float3 o, float3 n, float
 		energy += pre * vis;
 		gm[q] = gpos_m;
 		gs[q] = gpos_s + rs.d[q] * rs.c[q] * vis;
-		gc[q] = rs.d[q] * rs.sg[q] * vis;
+		gc[q] = rs.d[q] * sg * vis;
 	}
 
 	/* Occlusion terms (through tau), then the chain rule from the ray
