@@ -404,8 +404,9 @@ static int validate_ocam(const mc_camera *cam, mc_err *err)
 	double affine[5] = {cam->ocam_xc, cam->ocam_yc, cam->ocam_c, cam->ocam_d, cam->ocam_e};
 	static const char *const names[5] = {"ocam_xc", "ocam_yc", "ocam_c", "ocam_d", "ocam_e"};
 	for (int i = 0; i < 5; i++)
-		if (!isfinite(affine[i]))
-			return mc_err_set(err, "%s: not a finite number", names[i]);
+		if (!isfinite(affine[i]) || fabs(affine[i]) > MC_CAMERA_COORD_MAX)
+			return mc_err_set(err, "%s: must be a finite number within +-%g, got %g", names[i],
+					  MC_CAMERA_COORD_MAX, affine[i]);
 	if (!(cam->ocam_pol[0] > 0))
 		return mc_err_set(err, "ocam_pol[0]: must be positive (the centre pixel looks along +z), got %g",
 				  cam->ocam_pol[0]);
@@ -466,10 +467,14 @@ int mc_camera_validate(const mc_camera *cam, mc_err *err)
 		for (int i = 0; i < 4; i++)
 			if (!isfinite(f[i]))
 				return mc_err_set(err, "%s: not a finite number", names[i]);
-		if (!(cam->fx > 0))
-			return mc_err_set(err, "fx: must be positive, got %g", cam->fx);
-		if (!(cam->fy > 0))
-			return mc_err_set(err, "fy: must be positive, got %g", cam->fy);
+		for (int i = 0; i < 2; i++)
+			if (!(f[i] > 0 && f[i] <= MC_CAMERA_COORD_MAX))
+				return mc_err_set(err, "%s: must be in (0, %g] pixels, got %g", names[i], MC_CAMERA_COORD_MAX,
+						  f[i]);
+		for (int i = 2; i < 4; i++)
+			if (fabs(f[i]) > MC_CAMERA_COORD_MAX)
+				return mc_err_set(err, "%s: must be within +-%g pixels, got %g", names[i], MC_CAMERA_COORD_MAX,
+						  f[i]);
 		if (check_finite(cam->k, 5, "k", err))
 			return -1;
 	}

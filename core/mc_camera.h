@@ -25,6 +25,8 @@
 #define MC_OCAM_POLY_MAX 16
 /* Largest image width or height accepted, pixels. */
 #define MC_CAMERA_SIZE_MAX 32768
+/* Largest focal length or principal point coordinate accepted, pixels. */
+#define MC_CAMERA_COORD_MAX 1e7
 
 typedef enum {
 	MC_CAM_PINHOLE = 0,
