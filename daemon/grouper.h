@@ -27,6 +27,7 @@
 #define MCD_GROUP_QUEUE 32 /* pending frames per camera; older ones are dropped */
 
 typedef struct {
+	uint64_t generation;   /* of the camera's ring */
 	uint64_t sequence;     /* in the camera's ring */
 	uint64_t timestamp_ns; /* capture time */
 	uint64_t arrival_ns;   /* when the capture thread committed it */

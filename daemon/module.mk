@@ -20,7 +20,12 @@ FAULTY_SO := $(FAULTY_DIR)/mocap-driver-faulty.so
 FAULTY_BAD := $(FAULTY_DIR)/bad/mocap-driver-badabi.so $(FAULTY_DIR)/bad/mocap-driver-noentry.so
 FAULTY_LIBS := $(shell $(PKG_CONFIG) --libs libturbojpeg 2>/dev/null)
 
+# mocapd itself is built once its main.c exists (the daemon is assembled in
+# steps; the library and its tests come first).
+ifneq ($(wildcard daemon/main.c),)
 BINS += $(MOCAPD)
+DAEMON_TEST_NEEDS := $(MOCAPD)
+endif
 
 $(BUILD)/daemon/%.o: CPPFLAGS += -Idaemon $(DAEMON_CFLAGS) -DMOCAPD_PLUGIN_DIR='"$(MOCAPD_PLUGIN_DIR)"'
 
@@ -46,6 +51,6 @@ $(FAULTY_DIR)/bad/mocap-driver-noentry.so: tests/drivers/faulty/faulty.c drivers
 
 # Daemon tests link the daemon library; the integration tests run mocapd
 # and the fault driver, so those are built first.
-$(BUILD)/tests/test_daemon_%: tests/test_daemon_%.c $(DAEMON_LIB) $(CORE_LIB) | $(MOCAPD) $(FAULTY_SO) $(FAULTY_BAD)
+$(BUILD)/tests/test_daemon_%: tests/test_daemon_%.c $(DAEMON_LIB) $(CORE_LIB) | $(DAEMON_TEST_NEEDS) $(FAULTY_SO) $(FAULTY_BAD)
 	@mkdir -p $(@D)
 	$(CC) $(CPPFLAGS) -Idaemon $(DAEMON_CFLAGS) $(CFLAGS) -MMD -MP $< -o $@ $(LDFLAGS) $(DAEMON_LIB) $(CORE_LIB) $(CORE_LIBS) $(DAEMON_LIBS)

@@ -1,0 +1,651 @@
+#include "camera.h"
+
+#include "backoff.h"
+#include "log.h"
+#include "mc_image.h"
+
+#include <errno.h>
+#include <fcntl.h>
+#include <pthread.h>
+#include <stdatomic.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <time.h>
+#include <unistd.h>
+
+#define FRAME_TIMEOUT_MS 200 /* how often the capture loop looks up */
+#define IO_ERRORS_BEFORE_REOPEN 3
+#define MAX_SLOT_BYTES (256u << 20)
+
+struct mcd_camera {
+	int index;
+	mcd_camera_config cfg;
+	char config_file[PATH_MAX];
+	const mocap_driver *drv;
+	mcd_camera_sink sink;
+	mocap_host host;
+	bool key_read[MCD_MAX_DRIVER_KEYS];
+
+	pthread_t thread;
+	bool thread_started;
+	atomic_bool stop;
+	atomic_bool attempted;
+	atomic_uint_fast64_t heartbeat;
+	atomic_bool finished;
+
+	/* Guards state, counters, format, last_error, limits and the wake-up. */
+	pthread_mutex_t lock;
+	pthread_cond_t wake;
+	mcd_cam_state state;
+	mcd_cam_counters counters;
+	mocap_format format;
+	char last_error[512];
+	double reopen_initial_ms, reopen_max_ms, stall_timeout_ms;
+	bool limits_changed;
+
+	/* Guards ring replacement against readers. */
+	pthread_mutex_t ring_lock;
+	mc_ring *ring;
+	uint64_t ring_generation; /* bumped when the ring is replaced */
+};
+
+const char *mcd_cam_state_name(mcd_cam_state s)
+{
+	static const char *const names[] = {"off", "opening", "streaming", "stalled", "retrying", "failed", "ended"};
+	return (unsigned)s < sizeof(names) / sizeof(names[0]) ? names[s] : "?";
+}
+
+static uint64_t now_ns(void)
+{
+	struct timespec ts;
+	clock_gettime(CLOCK_MONOTONIC, &ts);
+	return (uint64_t)ts.tv_sec * 1000000000ull + (uint64_t)ts.tv_nsec;
+}
+
+/* ---- the host side of the driver ABI ------------------------------------ */
+
+static const char *host_config_get(void *ctx, const char *key)
+{
+	mcd_camera *c = ctx;
+	if (!key)
+		return NULL;
+	for (int i = 0; i < c->cfg.nkeys; i++)
+		if (strcmp(c->cfg.keys[i].key, key) == 0) {
+			c->key_read[i] = true;
+			return c->cfg.keys[i].value;
+		}
+	/* The daemon's own keys are visible too (read-only, never "unknown"). */
+	if (strcmp(key, "driver") == 0)
+		return c->cfg.driver;
+	if (strcmp(key, "rig_camera") == 0)
+		return c->cfg.rig_camera[0] ? c->cfg.rig_camera : NULL;
+	return NULL;
+}
+
+static void host_log(void *ctx, int level, const char *msg)
+{
+	mcd_camera *c = ctx;
+	mcd_log(level, "camera %s (%s): %s", c->cfg.name, c->drv->name, msg ? msg : "");
+}
+
+/* ---- state ---------------------------------------------------------------- */
+
+static void set_state(mcd_camera *c, mcd_cam_state s)
+{
+	pthread_mutex_lock(&c->lock);
+	bool changed = c->state != s;
+	c->state = s;
+	pthread_mutex_unlock(&c->lock);
+	if (changed && c->sink.on_change)
+		c->sink.on_change(c->sink.ctx, c->index);
+}
+
+static void set_error(mcd_camera *c, const char *what, const char *msg)
+{
+	pthread_mutex_lock(&c->lock);
+	snprintf(c->last_error, sizeof(c->last_error), "%.40s: %.440s", what, msg);
+	c->counters.errors++;
+	pthread_mutex_unlock(&c->lock);
+}
+
+static void count(mcd_camera *c, uint64_t *field)
+{
+	pthread_mutex_lock(&c->lock);
+	(*field)++;
+	pthread_mutex_unlock(&c->lock);
+}
+
+/* Sleeps up to ms, waking early on stop.  Returns false when stopping. */
+static bool nap(mcd_camera *c, double ms)
+{
+	uint64_t until = now_ns() + (uint64_t)(ms * 1e6);
+	pthread_mutex_lock(&c->lock);
+	while (!atomic_load(&c->stop)) {
+		uint64_t now = now_ns();
+		if (now >= until)
+			break;
+		/* Wake at least every 100 ms so that the heartbeat keeps going. */
+		uint64_t step = until - now < 100000000ull ? until - now : 100000000ull;
+		struct timespec ts;
+		clock_gettime(CLOCK_MONOTONIC, &ts);
+		uint64_t t = (uint64_t)ts.tv_sec * 1000000000ull + (uint64_t)ts.tv_nsec + step;
+		ts.tv_sec = (time_t)(t / 1000000000ull);
+		ts.tv_nsec = (long)(t % 1000000000ull);
+		pthread_cond_timedwait(&c->wake, &c->lock, &ts);
+		atomic_fetch_add(&c->heartbeat, 1);
+	}
+	pthread_mutex_unlock(&c->lock);
+	return !atomic_load(&c->stop);
+}
+
+/* ---- frames ---------------------------------------------------------------- */
+
+const char *mcd_frame_problem(const mocap_frame *f, size_t capacity, char *kind)
+{
+	const mocap_format *fmt = &f->format;
+	*kind = 'b';
+	if (f->bytesused > capacity)
+		return "the driver reports more bytes than the slot holds";
+	if (fmt->pixfmt == MOCAP_FMT_NONE || fmt->pixfmt > MOCAP_FMT_DEPTH16)
+		return "unknown pixel format";
+	if (fmt->width == 0 || fmt->height == 0 || fmt->width > 16384 || fmt->height > 16384)
+		return "width or height out of range";
+	*kind = 'c';
+	if (f->flags & MOCAP_FRAME_CORRUPT)
+		return "flagged corrupt by the driver";
+	*kind = 's';
+	if (f->flags & MOCAP_FRAME_SHORT)
+		return "flagged short by the driver";
+	if (fmt->pixfmt == MOCAP_FMT_MJPEG) {
+		*kind = 'c';
+		if (f->bytesused < 4 || f->data[0] != 0xFF || f->data[1] != 0xD8)
+			return "not a JPEG (no start-of-image marker)";
+		return NULL;
+	}
+	size_t bpp = (size_t)mc_image_bytes_per_pixel(fmt->pixfmt);
+	size_t row = (size_t)fmt->width * bpp;
+	size_t stride = fmt->stride ? fmt->stride : row;
+	*kind = 'b';
+	if (bpp == 0 || stride < row)
+		return "stride smaller than a row";
+	*kind = 's';
+	if (f->bytesused < stride * (fmt->height - 1) + row)
+		return "fewer bytes than the format needs";
+	return NULL;
+}
+
+/* The slot size for a format: what the driver promises, or what the format
+ * needs when it does not say. */
+static size_t slot_bytes_for(const mocap_format *f)
+{
+	size_t need = (size_t)f->width * f->height * 3 + 65536; /* MJPEG worst case is below raw RGB */
+	int bpp = mc_image_bytes_per_pixel(f->pixfmt);
+	if (bpp > 0)
+		need = (size_t)(f->stride ? f->stride : f->width * (uint32_t)bpp) * f->height;
+	return f->max_bytes > need ? f->max_bytes : need;
+}
+
+/* Makes sure the ring's slots hold `bytes`; replaces the ring if not. */
+static int ensure_ring(mcd_camera *c, size_t bytes, mc_err *err)
+{
+	if (c->ring && mc_ring_slot_bytes(c->ring) >= bytes)
+		return 0;
+	if (bytes > MAX_SLOT_BYTES)
+		return mc_err_set(err, "frames of %zu bytes are larger than the %u MiB limit", bytes,
+				  MAX_SLOT_BYTES >> 20);
+	mc_ring *ring = mc_ring_create(c->cfg.name, (unsigned)c->cfg.ring_slots, bytes, err);
+	if (!ring)
+		return -1;
+	pthread_mutex_lock(&c->ring_lock);
+	mc_ring *old = c->ring;
+	c->ring = ring;
+	c->ring_generation++;
+	pthread_mutex_unlock(&c->ring_lock);
+	mc_ring_close(old);
+	mcd_debug("camera %s: frame ring of %d slots x %zu bytes", c->cfg.name, c->cfg.ring_slots, bytes);
+	if (c->sink.on_change)
+		c->sink.on_change(c->sink.ctx, c->index);
+	return 0;
+}
+
+static void commit_frame(mcd_camera *c, mocap_frame *slot)
+{
+	uint64_t now = now_ns();
+	mc_ring_meta meta = {
+		.timestamp_ns = slot->timestamp_ns ? slot->timestamp_ns : now,
+		.driver_sequence = slot->sequence,
+		.bytesused = slot->bytesused,
+		.pixfmt = slot->format.pixfmt,
+		.width = slot->format.width,
+		.height = slot->format.height,
+		.stride = slot->format.stride,
+		.flags = slot->flags,
+	};
+	mc_err err;
+	if (mc_ring_slot_commit(c->ring, &meta, &err) != 0) {
+		mcd_warn("camera %s: %s", c->cfg.name, err.msg);
+		count(c, &c->counters.bad_frames);
+		return;
+	}
+	pthread_mutex_lock(&c->lock);
+	c->counters.frames++;
+	c->counters.last_frame_ns = meta.commit_ns ? meta.commit_ns : now;
+	pthread_mutex_unlock(&c->lock);
+	if (c->sink.on_frame)
+		c->sink.on_frame(c->sink.ctx, c->index, c->ring_generation, &meta);
+}
+
+/* Logs a dropped frame, at warn level for the first few and then only at
+ * debug level, so that a flaky cable does not flood the journal. */
+static void note_bad_frame(mcd_camera *c, const char *why, uint64_t *field)
+{
+	pthread_mutex_lock(&c->lock);
+	uint64_t n = ++(*field);
+	snprintf(c->last_error, sizeof(c->last_error), "frame dropped: %s", why);
+	pthread_mutex_unlock(&c->lock);
+	int level = n <= 3 || (n & (n - 1)) == 0 ? MCD_LOG_WARN : MCD_LOG_DEBUG;
+	mcd_log(level, "camera %s: frame dropped (%s); %llu so far", c->cfg.name, why, (unsigned long long)n);
+}
+
+/* ---- the capture thread ------------------------------------------------------ */
+
+typedef enum { RUN_REOPEN, RUN_FAILED, RUN_ENDED, RUN_STOP } run_result;
+
+static int unknown_keys(mcd_camera *c)
+{
+	for (int i = 0; i < c->cfg.nkeys; i++)
+		if (!c->key_read[i]) {
+			char msg[500];
+			snprintf(msg, sizeof(msg), "%.200s:%d: [camera %s] %s: unknown key (the %s driver does not read it)",
+				 c->config_file, c->cfg.keys[i].line, c->cfg.name, c->cfg.keys[i].key, c->drv->name);
+			mcd_error("%s", msg);
+			pthread_mutex_lock(&c->lock);
+			snprintf(c->last_error, sizeof(c->last_error), "%s", msg);
+			pthread_mutex_unlock(&c->lock);
+			return -1;
+		}
+	return 0;
+}
+
+/* Opens and starts the device. Returns the device, or NULL with *result
+ * telling whether to retry. */
+static void *open_device(mcd_camera *c, run_result *result)
+{
+	char err[512] = "";
+	set_state(c, MCD_CAM_OPENING);
+	memset(c->key_read, 0, sizeof(c->key_read));
+	void *dev = c->drv->open(&c->host, err, sizeof(err));
+	if (!dev) {
+		set_error(c, "open", err[0] ? err : "failed");
+		*result = RUN_REOPEN;
+		return NULL;
+	}
+	mocap_format fmt;
+	int rc = c->drv->get_format(dev, &fmt, err, sizeof(err));
+	if (rc == MOCAP_OK)
+		rc = c->drv->start(dev, err, sizeof(err));
+	else
+		snprintf(err + strlen(err), sizeof(err) - strlen(err), " (get_format)");
+	if (rc != MOCAP_OK) {
+		set_error(c, "start", err[0] ? err : "failed");
+		c->drv->close(dev);
+		*result = rc == MOCAP_ERR_CONFIG ? RUN_FAILED : RUN_REOPEN;
+		return NULL;
+	}
+	if (unknown_keys(c)) {
+		c->drv->stop(dev);
+		c->drv->close(dev);
+		*result = RUN_FAILED;
+		return NULL;
+	}
+	mc_err merr;
+	if (ensure_ring(c, slot_bytes_for(&fmt), &merr)) {
+		set_error(c, "frame ring", merr.msg);
+		c->drv->stop(dev);
+		c->drv->close(dev);
+		*result = RUN_REOPEN;
+		return NULL;
+	}
+	pthread_mutex_lock(&c->lock);
+	c->format = fmt;
+	pthread_mutex_unlock(&c->lock);
+	mcd_info("camera %s: opened (%s driver, %s %ux%u, %.4g fps)", c->cfg.name, c->drv->name,
+		 mocap_pixfmt_name(fmt.pixfmt), fmt.width, fmt.height, fmt.fps);
+	return dev;
+}
+
+/* Reads frames until the device fails, ends or we are asked to stop. */
+static run_result stream(mcd_camera *c, void *dev, mcd_backoff *backoff)
+{
+	char err[512];
+	int io_errors = 0;
+	bool first = true, streaming = false;
+	uint64_t last_good = now_ns();
+	while (!atomic_load(&c->stop)) {
+		atomic_fetch_add(&c->heartbeat, 1);
+		size_t cap;
+		uint8_t *data = mc_ring_slot_begin(c->ring, &cap);
+		if (!data) {
+			set_error(c, "frame ring", "no slot available");
+			return RUN_REOPEN;
+		}
+		mocap_frame slot = {.data = data, .capacity = cap};
+		err[0] = 0;
+		int rc = c->drv->next_frame(dev, &slot, FRAME_TIMEOUT_MS, err, sizeof(err));
+		if (rc == MOCAP_OK) {
+			char kind;
+			const char *why = mcd_frame_problem(&slot, cap, &kind);
+			if (why) {
+				mc_ring_slot_abort(c->ring);
+				note_bad_frame(c, why,
+					       kind == 's'   ? &c->counters.short_frames
+					       : kind == 'c' ? &c->counters.corrupt_frames
+							     : &c->counters.bad_frames);
+				continue;
+			}
+			commit_frame(c, &slot);
+			io_errors = 0;
+			last_good = now_ns();
+			if (first) {
+				/* Only a good frame proves the device works again. */
+				first = false;
+				mcd_backoff_reset(backoff);
+			}
+			if (!streaming) {
+				streaming = true;
+				set_state(c, MCD_CAM_STREAMING);
+			}
+			continue;
+		}
+		mc_ring_slot_abort(c->ring);
+		switch (rc) {
+		case MOCAP_ERR_TIMEOUT: {
+			count(c, &c->counters.timeouts);
+			pthread_mutex_lock(&c->lock);
+			double stall_ms = c->stall_timeout_ms;
+			pthread_mutex_unlock(&c->lock);
+			double quiet_ms = (double)(now_ns() - last_good) / 1e6;
+			if (quiet_ms >= stall_ms) {
+				char msg[128];
+				snprintf(msg, sizeof(msg), "no frame for %.0f ms", quiet_ms);
+				set_error(c, "stalled", msg);
+				mcd_warn("camera %s: stalled: %s; reopening", c->cfg.name, msg);
+				set_state(c, MCD_CAM_STALLED);
+				return RUN_REOPEN;
+			}
+			if (streaming && quiet_ms >= stall_ms / 2) {
+				/* Not expected in groups any more until frames return. */
+				streaming = false;
+				set_state(c, MCD_CAM_STALLED);
+			}
+			continue;
+		}
+		case MOCAP_ERR_END:
+			return RUN_ENDED;
+		case MOCAP_ERR_NOSPACE: {
+			count(c, &c->counters.nospace);
+			size_t bigger = mc_ring_slot_bytes(c->ring) * 2;
+			mc_err merr;
+			mcd_warn("camera %s: frame larger than the slot (%s); growing the ring to %zu-byte slots",
+				 c->cfg.name, err, bigger);
+			if (ensure_ring(c, bigger, &merr)) {
+				set_error(c, "frame ring", merr.msg);
+				return RUN_REOPEN;
+			}
+			continue;
+		}
+		case MOCAP_ERR_IO:
+			set_error(c, "next_frame", err[0] ? err : "I/O error");
+			if (++io_errors < IO_ERRORS_BEFORE_REOPEN) {
+				mcd_warn("camera %s: %s (retrying)", c->cfg.name, err);
+				continue;
+			}
+			return RUN_REOPEN;
+		case MOCAP_ERR_CONFIG:
+			set_error(c, "next_frame", err[0] ? err : "config error");
+			return RUN_FAILED;
+		default: /* NODEV, FORMAT, unknown codes */
+			set_error(c, "next_frame", err[0] ? err : "driver error");
+			return RUN_REOPEN;
+		}
+	}
+	return RUN_STOP;
+}
+
+static void *capture_main(void *arg)
+{
+	mcd_camera *c = arg;
+	mcd_backoff backoff;
+	pthread_mutex_lock(&c->lock);
+	mcd_backoff_init(&backoff, c->reopen_initial_ms, c->reopen_max_ms);
+	pthread_mutex_unlock(&c->lock);
+	bool opened_before = false;
+	while (!atomic_load(&c->stop)) {
+		atomic_fetch_add(&c->heartbeat, 1);
+		run_result result = RUN_REOPEN;
+		void *dev = open_device(c, &result);
+		atomic_store(&c->attempted, true);
+		if (dev) {
+			if (opened_before)
+				count(c, &c->counters.reopens);
+			opened_before = true;
+			result = stream(c, dev, &backoff);
+			c->drv->stop(dev);
+			c->drv->close(dev);
+		}
+		char last[512];
+		mcd_camera_last_error(c, last, sizeof(last));
+		if (result == RUN_STOP)
+			break;
+		if (result == RUN_ENDED) {
+			mcd_info("camera %s: end of stream", c->cfg.name);
+			set_state(c, MCD_CAM_ENDED);
+			break;
+		}
+		if (result == RUN_FAILED) {
+			mcd_error("camera %s: %s; giving up on this camera (fix the config and restart)", c->cfg.name,
+				  last);
+			set_state(c, MCD_CAM_FAILED);
+			break;
+		}
+		pthread_mutex_lock(&c->lock);
+		if (c->limits_changed) {
+			mcd_backoff_set_limits(&backoff, c->reopen_initial_ms, c->reopen_max_ms);
+			c->limits_changed = false;
+		}
+		pthread_mutex_unlock(&c->lock);
+		double wait_ms = mcd_backoff_next(&backoff);
+		mcd_warn("camera %s: %s; reopening in %.0f ms (attempt %u)", c->cfg.name, last, wait_ms,
+			 backoff.failures);
+		set_state(c, MCD_CAM_RETRYING);
+		if (!nap(c, wait_ms))
+			break;
+	}
+	atomic_store(&c->attempted, true);
+	atomic_store(&c->finished, true);
+	if (c->sink.on_change)
+		c->sink.on_change(c->sink.ctx, c->index);
+	return NULL;
+}
+
+/* ---- lifetime and queries ------------------------------------------------------ */
+
+mcd_camera *mcd_camera_create(int index, const mcd_camera_config *cfg, const char *config_file,
+			      const mcd_plugin *plugin, const mcd_camera_sink *sink, mc_err *err)
+{
+	mcd_camera *c = calloc(1, sizeof(*c));
+	if (!c) {
+		mc_err_set(err, "camera %s: out of memory", cfg->name);
+		return NULL;
+	}
+	c->index = index;
+	c->cfg = *cfg;
+	snprintf(c->config_file, sizeof(c->config_file), "%s", config_file);
+	c->drv = plugin->driver;
+	if (sink)
+		c->sink = *sink;
+	c->host = (mocap_host){.ctx = c, .config_get = host_config_get, .log = host_log};
+	pthread_mutex_init(&c->lock, NULL);
+	pthread_mutex_init(&c->ring_lock, NULL);
+	pthread_condattr_t ca;
+	pthread_condattr_init(&ca);
+	pthread_condattr_setclock(&ca, CLOCK_MONOTONIC);
+	pthread_cond_init(&c->wake, &ca);
+	pthread_condattr_destroy(&ca);
+	c->reopen_initial_ms = 250;
+	c->reopen_max_ms = 10000;
+	c->stall_timeout_ms = 3000;
+	return c;
+}
+
+int mcd_camera_start(mcd_camera *c, mc_err *err)
+{
+	int rc = pthread_create(&c->thread, NULL, capture_main, c);
+	if (rc != 0)
+		return mc_err_set(err, "camera %s: cannot start its thread: %s", c->cfg.name, strerror(rc));
+	c->thread_started = true;
+	return 0;
+}
+
+void mcd_camera_request_stop(mcd_camera *c)
+{
+	pthread_mutex_lock(&c->lock);
+	atomic_store(&c->stop, true);
+	pthread_cond_broadcast(&c->wake);
+	pthread_mutex_unlock(&c->lock);
+}
+
+int mcd_camera_join(mcd_camera *c, int timeout_ms)
+{
+	if (!c->thread_started)
+		return 0;
+	struct timespec ts;
+	clock_gettime(CLOCK_REALTIME, &ts); /* pthread_timedjoin_np uses CLOCK_REALTIME */
+	ts.tv_sec += timeout_ms / 1000;
+	ts.tv_nsec += (long)(timeout_ms % 1000) * 1000000L;
+	if (ts.tv_nsec >= 1000000000L) {
+		ts.tv_sec++;
+		ts.tv_nsec -= 1000000000L;
+	}
+	if (pthread_timedjoin_np(c->thread, NULL, &ts) != 0)
+		return -1;
+	c->thread_started = false;
+	return 0;
+}
+
+void mcd_camera_destroy(mcd_camera *c)
+{
+	if (!c)
+		return;
+	if (c->thread_started) {
+		/* A thread stuck in its driver: leave everything to it. */
+		pthread_detach(c->thread);
+		return;
+	}
+	mc_ring_close(c->ring);
+	pthread_mutex_destroy(&c->lock);
+	pthread_mutex_destroy(&c->ring_lock);
+	pthread_cond_destroy(&c->wake);
+	free(c);
+}
+
+void mcd_camera_set_limits(mcd_camera *c, double reopen_initial_ms, double reopen_max_ms, double stall_timeout_ms)
+{
+	pthread_mutex_lock(&c->lock);
+	c->reopen_initial_ms = reopen_initial_ms;
+	c->reopen_max_ms = reopen_max_ms;
+	c->stall_timeout_ms = stall_timeout_ms;
+	c->limits_changed = true;
+	pthread_mutex_unlock(&c->lock);
+}
+
+const char *mcd_camera_name(const mcd_camera *c)
+{
+	return c->cfg.name;
+}
+
+mcd_cam_state mcd_camera_state(const mcd_camera *c)
+{
+	pthread_mutex_lock((pthread_mutex_t *)&c->lock);
+	mcd_cam_state s = c->state;
+	pthread_mutex_unlock((pthread_mutex_t *)&c->lock);
+	return s;
+}
+
+bool mcd_camera_attempted(const mcd_camera *c)
+{
+	return atomic_load(&c->attempted);
+}
+
+uint64_t mcd_camera_heartbeat(const mcd_camera *c)
+{
+	/* A thread that has finished is not stuck. */
+	if (atomic_load(&c->finished))
+		return UINT64_MAX;
+	return atomic_load(&c->heartbeat);
+}
+
+void mcd_camera_counters(const mcd_camera *c, mcd_cam_counters *out)
+{
+	pthread_mutex_lock((pthread_mutex_t *)&c->lock);
+	*out = c->counters;
+	pthread_mutex_unlock((pthread_mutex_t *)&c->lock);
+}
+
+mocap_format mcd_camera_format(const mcd_camera *c)
+{
+	pthread_mutex_lock((pthread_mutex_t *)&c->lock);
+	mocap_format f = c->format;
+	pthread_mutex_unlock((pthread_mutex_t *)&c->lock);
+	return f;
+}
+
+void mcd_camera_last_error(const mcd_camera *c, char *buf, size_t cap)
+{
+	pthread_mutex_lock((pthread_mutex_t *)&c->lock);
+	snprintf(buf, cap, "%s", c->last_error);
+	pthread_mutex_unlock((pthread_mutex_t *)&c->lock);
+}
+
+int mcd_camera_read(mcd_camera *c, uint64_t generation, uint64_t sequence, uint8_t **buf, size_t *cap,
+		    mc_ring_meta *meta, mc_err *err)
+{
+	pthread_mutex_lock(&c->ring_lock);
+	int rc = MC_RING_NONE;
+	if (c->ring && generation != c->ring_generation)
+		rc = MC_RING_GAP; /* the ring it was in is gone */
+	else if (c->ring) {
+		size_t need = mc_ring_slot_bytes(c->ring);
+		if (*cap < need) {
+			uint8_t *grown = realloc(*buf, need);
+			if (!grown) {
+				pthread_mutex_unlock(&c->ring_lock);
+				return mc_err_set(err, "camera %s: out of memory", c->cfg.name);
+			}
+			*buf = grown;
+			*cap = need;
+		}
+		mc_ring_cursor cur = {.next = sequence};
+		rc = mc_ring_read_next(c->ring, &cur, *buf, *cap, meta, err);
+		if (rc == MC_RING_NONE || (rc == MC_RING_FRAME && meta->sequence != sequence))
+			rc = MC_RING_GAP;
+	}
+	pthread_mutex_unlock(&c->ring_lock);
+	return rc;
+}
+
+int mcd_camera_ring_dup(mcd_camera *c, uint64_t *size)
+{
+	pthread_mutex_lock(&c->ring_lock);
+	int fd = -1;
+	if (c->ring) {
+		fd = fcntl(mc_ring_fd(c->ring), F_DUPFD_CLOEXEC, 3);
+		struct stat st;
+		if (fd >= 0 && fstat(fd, &st) == 0)
+			*size = (uint64_t)st.st_size;
+	}
+	pthread_mutex_unlock(&c->ring_lock);
+	return fd;
+}
