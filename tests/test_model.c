@@ -1,0 +1,782 @@
+/* Tests of core/mc_model: forward kinematics, Jacobians and the chain rule
+ * against central finite differences (fixed and free roots), joint limits,
+ * bone scaling, the sphere-to-Gaussian conversion of thesis 4.3, the JSON
+ * format (round trip and every bad-input fixture in tests/data/models), and
+ * the default human model's proportions (against the evaluation data's
+ * frame 0 when ../shared/data is present). */
+#include "mc_json.h"
+#include "mc_model.h"
+#include "test_util.h"
+
+#include <stdio.h>
+#include <string.h>
+#include <unistd.h>
+
+#define DEFAULT_MODEL "config/models/default.json"
+#define DEG (M_PI / 180.0)
+
+static const char *const OUTPUT_JOINTS[] = {
+	"head_top", "neck", "spine", "pelvis", "left_shoulder", "left_elbow", "left_wrist", "left_hip",
+	"left_knee", "left_ankle", "left_toe", "right_shoulder", "right_elbow", "right_wrist", "right_hip",
+	"right_knee", "right_ankle", "right_toe"};
+#define NOUTPUT ((int)(sizeof(OUTPUT_JOINTS) / sizeof(OUTPUT_JOINTS[0])))
+
+static double vdist(mc_vec3 a, mc_vec3 b)
+{
+	return mc_v3_norm(mc_v3_sub(a, b));
+}
+
+static bool load_default(mc_model *m)
+{
+	mc_err err;
+	if (mc_model_load(DEFAULT_MODEL, m, &err)) {
+		fprintf(stderr, "cannot load %s: %s\n", DEFAULT_MODEL, err.msg);
+		mc_test_failures++;
+		return false;
+	}
+	return true;
+}
+
+/* A random pose: joint dofs anywhere within their limits, a free root
+ * anywhere within a metre with any rotation up to 3 rad. */
+static void random_pose(const mc_model *m, unsigned long long *rng, double *pose)
+{
+	if (m->root_free) {
+		for (int k = 0; k < 3; k++)
+			pose[k] = 2 * mc_test_rand(rng) - 1;
+		mc_vec3 w = mc_v3(2 * mc_test_rand(rng) - 1, 2 * mc_test_rand(rng) - 1, 2 * mc_test_rand(rng) - 1);
+		w = mc_v3_scale(mc_v3_normalize(w), 3.0 * mc_test_rand(rng));
+		pose[3] = w.x;
+		pose[4] = w.y;
+		pose[5] = w.z;
+	}
+	for (int j = 0; j < m->njoints; j++) {
+		const mc_joint *jt = &m->joints[j];
+		for (int a = 0; a < jt->ndof; a++)
+			pose[jt->dof0 + a] = jt->lower[a] + (jt->upper[a] - jt->lower[a]) * mc_test_rand(rng);
+	}
+}
+
+static void random_bone_scales(mc_model *m, unsigned long long *rng)
+{
+	for (int j = 0; j < m->njoints; j++)
+		m->bone_scale[j] = 0.8 + 0.45 * mc_test_rand(rng);
+}
+
+/* ---- forward kinematics ---- */
+
+/* A planar two-link arm on a free root, checked against hand-computed values. */
+static void test_fk_hand_computed(void)
+{
+	const char *text =
+		"{\"name\": \"arm\", \"root\": \"free\", \"joints\": ["
+		"{\"name\": \"base\"},"
+		"{\"name\": \"a\", \"parent\": \"base\", \"offset\": [1, 0, 0], \"dofs\": [{\"axis\": \"z\", \"min_deg\": -180, \"max_deg\": 180}]},"
+		"{\"name\": \"b\", \"parent\": \"a\", \"offset\": [1, 0, 0], \"dofs\": [{\"axis\": \"z\", \"min_deg\": -180, \"max_deg\": 180},"
+		"                                                                  {\"axis\": \"x\", \"min_deg\": -180, \"max_deg\": 180}]}],"
+		"\"gaussians\": [{\"joint\": \"b\", \"offset\": [1, 0, 0], \"radius\": 0.1, \"color\": \"#ffffff\"},"
+		"               {\"joint\": \"b\", \"offset\": [0, 1, 0], \"radius\": 0.1, \"color\": \"#ffffff\"}]}";
+	mc_model m;
+	mc_err err;
+	if (mc_model_parse(text, "arm.json", &m, &err)) {
+		fprintf(stderr, "arm.json: %s\n", err.msg);
+		mc_test_failures++;
+		return;
+	}
+	CHECK(m.ndof == 6 + 3);
+	CHECK(m.joints[1].dof0 == 6 && m.joints[2].dof0 == 7);
+	double pose[9] = {0, 0, 0, 0, 0, 0, M_PI / 2, M_PI / 2, 0};
+	mc_fk fk;
+	mc_model_fk(&m, pose, &fk);
+	/* a turns the rest of the arm by 90 degrees, b by another 90. */
+	CHECK(vdist(fk.rig_from_joint[1].t, mc_v3(1, 0, 0)) < 1e-12);
+	CHECK(vdist(fk.rig_from_joint[2].t, mc_v3(1, 1, 0)) < 1e-12);
+	CHECK(vdist(fk.mu[0], mc_v3(0, 1, 0)) < 1e-12);
+	/* b's second dof turns about b's x axis after its z rotation:
+	 * offset (0,1,0) -> Rz(90) Rx(90) (0,1,0) = Rz(90) (0,0,1) = (0,0,1). */
+	pose[8] = M_PI / 2;
+	mc_model_fk(&m, pose, &fk);
+	CHECK(vdist(fk.mu[1], mc_v3(1, 1, 1)) < 1e-12);
+	CHECK(vdist(fk.mu[0], mc_v3(0, 1, 0)) < 1e-12);
+	/* The free root moves and turns everything: 90 degrees about x, then +(0,0,2). */
+	pose[0] = 0, pose[1] = 0, pose[2] = 2, pose[3] = M_PI / 2;
+	mc_model_fk(&m, pose, &fk);
+	CHECK(vdist(fk.rig_from_joint[2].t, mc_v3(1, 0, 3)) < 1e-12);
+	CHECK(vdist(fk.mu[0], mc_v3(0, 0, 3)) < 1e-12);
+	/* Bone scale of b doubles the a->b offset; the Gaussians' default bone
+	 * (b has no child) is b's own, so their offsets double too. */
+	CHECK(m.gauss[0].scale_joint == 2);
+	m.bone_scale[2] = 2;
+	pose[2] = 0, pose[3] = 0, pose[8] = 0;
+	mc_model_fk(&m, pose, &fk);
+	CHECK(vdist(fk.rig_from_joint[2].t, mc_v3(1, 2, 0)) < 1e-12);
+	CHECK(vdist(fk.mu[0], mc_v3(-1, 2, 0)) < 1e-12);
+	/* dof axes and pivots in the rig frame */
+	CHECK(vdist(fk.dof_axis[6], mc_v3(0, 0, 1)) < 1e-12 && vdist(fk.dof_pivot[6], mc_v3(1, 0, 0)) < 1e-12);
+	CHECK(vdist(fk.dof_axis[8], mc_v3(-1, 0, 0)) < 1e-12 && vdist(fk.dof_pivot[8], mc_v3(1, 2, 0)) < 1e-12);
+}
+
+/* ---- Jacobians against central differences ---- */
+
+typedef struct {
+	double worst_rel;   /* largest relative error over non-negligible entries */
+	double worst_abs;   /* largest absolute error over negligible ones */
+	int compared;
+} fd_stats;
+
+/* Relative error < 1e-6 where the derivative is not negligible (|fd| > 1e-4),
+ * else absolute error < 1e-9. */
+static void fd_compare(double analytic, double fd, fd_stats *s, const char *what, int row, int k)
+{
+	double e = fabs(analytic - fd);
+	s->compared++;
+	if (fabs(fd) > 1e-4) {
+		double rel = e / fabs(fd);
+		s->worst_rel = fmax(s->worst_rel, rel);
+		CHECK_MSG(rel < 1e-6, "%s[%d][dof %d]: analytic %.12g, fd %.12g", what, row, k, analytic, fd);
+	} else {
+		s->worst_abs = fmax(s->worst_abs, e);
+		CHECK_MSG(e < 1e-9, "%s[%d][dof %d]: analytic %.12g, fd %.12g", what, row, k, analytic, fd);
+	}
+}
+
+static void fd_compare_vec(mc_vec3 a, mc_vec3 fd, fd_stats *s, const char *what, int row, int k)
+{
+	fd_compare(a.x, fd.x, s, what, row, k);
+	fd_compare(a.y, fd.y, s, what, row, k);
+	fd_compare(a.z, fd.z, s, what, row, k);
+}
+
+static void check_jacobians_at(const mc_model *m, const double *pose0, fd_stats *sg, fd_stats *sj, fd_stats *sb,
+			       unsigned long long *rng)
+{
+	const double h = 1e-5; /* truncation ~h^2/6, rounding ~1e-16 / h */
+	int n = m->ndof;
+	static mc_vec3 Jg[MC_MAX_GAUSSIANS * MC_MAX_DOF], Jj[MC_MAX_JOINTS * MC_MAX_DOF];
+	static mc_fk fk, fkp, fkm;
+	double pose[MC_MAX_DOF];
+	memcpy(pose, pose0, sizeof(double) * (size_t)n);
+	mc_model_fk(m, pose, &fk);
+	mc_model_gauss_jacobian(m, pose, &fk, Jg);
+	mc_model_joint_jacobian(m, pose, &fk, Jj);
+
+	/* A random linear energy E = sum_q g_q . mu_q for the chain rule. */
+	mc_vec3 g[MC_MAX_GAUSSIANS];
+	for (int q = 0; q < m->ngauss; q++)
+		g[q] = mc_v3(2 * mc_test_rand(rng) - 1, 2 * mc_test_rand(rng) - 1, 2 * mc_test_rand(rng) - 1);
+	double grad[MC_MAX_DOF];
+	for (int k = 0; k < n; k++)
+		grad[k] = 1.0; /* backprop adds: start from ones */
+	mc_model_backprop(m, pose, &fk, g, grad);
+
+	for (int k = 0; k < n; k++) {
+		pose[k] = pose0[k] + h;
+		mc_model_fk(m, pose, &fkp);
+		pose[k] = pose0[k] - h;
+		mc_model_fk(m, pose, &fkm);
+		pose[k] = pose0[k];
+		double e_fd = 0, e_jt = 0;
+		for (int q = 0; q < m->ngauss; q++) {
+			mc_vec3 d = mc_v3_scale(mc_v3_sub(fkp.mu[q], fkm.mu[q]), 0.5 / h);
+			fd_compare_vec(Jg[q * n + k], d, sg, "gauss_jacobian", q, k);
+			e_fd += mc_v3_dot(g[q], d);
+			e_jt += mc_v3_dot(g[q], Jg[q * n + k]);
+		}
+		for (int j = 0; j < m->njoints; j++) {
+			mc_vec3 d = mc_v3_scale(mc_v3_sub(fkp.rig_from_joint[j].t, fkm.rig_from_joint[j].t), 0.5 / h);
+			fd_compare_vec(Jj[j * n + k], d, sj, "joint_jacobian", j, k);
+		}
+		fd_compare(grad[k] - 1.0, e_fd, sb, "backprop", 0, k);
+		/* The O(n) chain rule equals J^T g to rounding. */
+		CHECK_MSG(fabs(grad[k] - 1.0 - e_jt) <= 1e-12 * (1 + fabs(e_jt)), "backprop dof %d: %.15g vs J^T g %.15g",
+			  k, grad[k] - 1.0, e_jt);
+	}
+}
+
+static void test_jacobians(bool root_free)
+{
+	mc_model m;
+	if (!load_default(&m))
+		return;
+	if (root_free) {
+		mc_err err;
+		m.root_free = true;
+		if (mc_model_finalize(&m, &err)) {
+			fprintf(stderr, "finalize: %s\n", err.msg);
+			mc_test_failures++;
+			return;
+		}
+		CHECK(m.ndof == 32 + 6 && m.joints[2].dof0 == 6);
+	}
+	unsigned long long rng = root_free ? 7 : 3;
+	fd_stats sg = {0}, sj = {0}, sb = {0};
+	double pose[MC_MAX_DOF];
+	for (int trial = 0; trial < 6; trial++) {
+		random_bone_scales(&m, &rng);
+		random_pose(&m, &rng, pose);
+		if (root_free && trial == 0)
+			pose[3] = pose[4] = pose[5] = 0; /* rotation vector at exactly zero */
+		if (root_free && trial == 1) {
+			pose[3] = 0, pose[4] = 3.1, pose[5] = 0; /* close to pi */
+		}
+		if (root_free && trial == 2) {
+			/* tiny angle: the left Jacobian's series branch */
+			pose[3] = 6e-5, pose[4] = -5e-5, pose[5] = 4e-5;
+		}
+		check_jacobians_at(&m, pose, &sg, &sj, &sb, &rng);
+	}
+	printf("jacobians (%s root): %d/%d/%d entries, worst relative error gauss %.2g joint %.2g backprop %.2g, "
+	       "worst absolute error on negligible entries %.2g\n",
+	       root_free ? "free" : "fixed", sg.compared, sj.compared, sb.compared, sg.worst_rel, sj.worst_rel,
+	       sb.worst_rel, fmax(sg.worst_abs, fmax(sj.worst_abs, sb.worst_abs)));
+}
+
+/* Entries of dofs that cannot move a point are exactly zero. */
+static void test_jacobian_sparsity(void)
+{
+	mc_model m;
+	if (!load_default(&m))
+		return;
+	static mc_vec3 J[MC_MAX_JOINTS * MC_MAX_DOF];
+	double pose[MC_MAX_DOF];
+	unsigned long long rng = 11;
+	random_pose(&m, &rng, pose);
+	mc_fk fk;
+	mc_model_fk(&m, pose, &fk);
+	mc_model_joint_jacobian(&m, pose, &fk, J);
+	int lw = mc_model_find_joint(&m, "left_wrist"), rk = mc_model_find_joint(&m, "right_knee");
+	int le = mc_model_find_joint(&m, "left_elbow");
+	CHECK(lw >= 0 && rk >= 0 && le >= 0);
+	/* The right knee's dof does not move the left wrist; the left elbow's does. */
+	int k_rk = m.joints[rk].dof0, k_le = m.joints[le].dof0;
+	CHECK(mc_v3_norm(J[lw * m.ndof + k_rk]) == 0);
+	CHECK(mc_v3_norm(J[lw * m.ndof + k_le]) > 0.05);
+	/* A joint's own rotation does not move its origin. */
+	CHECK(mc_v3_norm(J[le * m.ndof + k_le]) < 1e-15);
+}
+
+/* ---- limits, bone scaling, helpers ---- */
+
+static void test_limits(void)
+{
+	mc_model m;
+	if (!load_default(&m))
+		return;
+	double pose[MC_MAX_DOF], rest[MC_MAX_DOF], lo[MC_MAX_DOF], hi[MC_MAX_DOF];
+	mc_model_dof_limits(&m, lo, hi);
+	mc_model_rest_pose(&m, rest);
+	unsigned long long rng = 5;
+	for (int trial = 0; trial < 200; trial++) {
+		for (int k = 0; k < m.ndof; k++)
+			pose[k] = (mc_test_rand(&rng) * 2 - 1) * 4.0; /* well beyond most limits */
+		double before[MC_MAX_DOF];
+		memcpy(before, pose, sizeof(pose));
+		mc_model_clamp_pose(&m, pose);
+		for (int k = 0; k < m.ndof; k++) {
+			CHECK(pose[k] >= lo[k] && pose[k] <= hi[k]);
+			/* Values inside the limits are kept; others go to the nearest limit. */
+			if (before[k] >= lo[k] && before[k] <= hi[k])
+				CHECK(pose[k] == before[k]);
+			else
+				CHECK(pose[k] == (before[k] < lo[k] ? lo[k] : hi[k]));
+		}
+	}
+	/* The limits are the file's degrees. */
+	int lk = mc_model_find_joint(&m, "left_knee");
+	CHECK_NEAR(lo[m.joints[lk].dof0], -150 * DEG, 1e-12);
+	CHECK_NEAR(hi[m.joints[lk].dof0], 5 * DEG, 1e-12);
+	/* Non-finite values fall back to the rest value. */
+	pose[m.joints[lk].dof0] = NAN;
+	mc_model_clamp_pose(&m, pose);
+	CHECK(pose[m.joints[lk].dof0] == rest[m.joints[lk].dof0]);
+	/* A free root's dofs are unlimited and left alone. */
+	mc_err err;
+	m.root_free = true;
+	CHECK(mc_model_finalize(&m, &err) == 0);
+	mc_model_dof_limits(&m, lo, hi);
+	CHECK(isinf(lo[0]) && lo[0] < 0 && isinf(hi[5]) && hi[5] > 0);
+	for (int k = 0; k < m.ndof; k++)
+		pose[k] = 10.0;
+	mc_model_clamp_pose(&m, pose);
+	CHECK(pose[0] == 10.0 && pose[5] == 10.0);
+	CHECK(pose[m.joints[lk].dof0] == 5 * DEG);
+	/* A rest pose whose zero lies outside a joint's limits is clamped. */
+	m.joints[lk].lower[0] = 10 * DEG;
+	m.joints[lk].upper[0] = 20 * DEG;
+	mc_model_rest_pose(&m, pose);
+	CHECK(pose[m.joints[lk].dof0] == 10 * DEG);
+}
+
+/* Scaling one bone moves every descendant joint by the scaled offset, and
+ * only them; the Gaussians along that bone stretch with it. */
+static void test_bone_scale(void)
+{
+	mc_model m;
+	if (!load_default(&m))
+		return;
+	double pose[MC_MAX_DOF];
+	unsigned long long rng = 9;
+	random_pose(&m, &rng, pose);
+	static mc_fk a, b;
+	mc_model_fk(&m, pose, &a);
+	int sh = mc_model_find_joint(&m, "left_shoulder"), el = mc_model_find_joint(&m, "left_elbow");
+	double s = 1.2;
+	m.bone_scale[el] = s;
+	mc_model_fk(&m, pose, &b);
+	bool below[MC_MAX_JOINTS];
+	int n = mc_model_subtree(&m, el, below);
+	CHECK(n == 2); /* elbow and wrist */
+	/* The offset shoulder->elbow, in the rig frame, grows by (s - 1). */
+	mc_vec3 shift = mc_m3_apply(a.rig_from_joint[sh].R, mc_v3_scale(m.joints[el].offset, s - 1));
+	CHECK(mc_v3_norm(shift) > 0.05);
+	for (int j = 0; j < m.njoints; j++) {
+		mc_vec3 moved = mc_v3_sub(b.rig_from_joint[j].t, a.rig_from_joint[j].t);
+		if (below[j])
+			CHECK_MSG(vdist(moved, shift) < 1e-12, "joint %s", m.joints[j].name);
+		else
+			CHECK_MSG(mc_v3_norm(moved) < 1e-15, "joint %s", m.joints[j].name);
+	}
+	int stretched = 0;
+	for (int q = 0; q < m.ngauss; q++) {
+		const mc_gauss_def *g = &m.gauss[q];
+		mc_vec3 moved = mc_v3_sub(b.mu[q], a.mu[q]);
+		if (g->joint == sh) {
+			/* Upper-arm Gaussians lie along the bone to the elbow: their
+			 * offset is scaled by s. */
+			CHECK(g->scale_joint == el);
+			mc_vec3 expect = mc_m3_apply(a.rig_from_joint[sh].R, mc_v3_scale(g->offset, s - 1));
+			CHECK(vdist(moved, expect) < 1e-12);
+			stretched++;
+		} else if (below[g->joint]) {
+			CHECK(vdist(moved, shift) < 1e-12);
+		} else {
+			CHECK(mc_v3_norm(moved) < 1e-15);
+		}
+	}
+	CHECK(stretched >= 3);
+}
+
+static void test_helpers(void)
+{
+	mc_model m;
+	if (!load_default(&m))
+		return;
+	CHECK(mc_model_find_joint(&m, "head") == 0);
+	CHECK(mc_model_find_joint(&m, "nose") == -1);
+	bool in[MC_MAX_JOINTS];
+	CHECK(mc_model_subtree(&m, 0, in) == m.njoints);
+	CHECK(mc_model_subtree(&m, -1, in) == 0 && mc_model_subtree(&m, m.njoints, in) == 0);
+	int pelvis = mc_model_find_joint(&m, "pelvis");
+	CHECK(mc_model_subtree(&m, pelvis, in) == 9); /* pelvis + 2 x (hip, knee, ankle, toe) */
+	CHECK(in[mc_model_find_joint(&m, "right_toe")] && !in[mc_model_find_joint(&m, "spine")]);
+	char name[64];
+	int le = mc_model_find_joint(&m, "left_elbow");
+	CHECK(mc_model_dof_joint(&m, m.joints[le].dof0 + 1) == le);
+	CHECK(mc_model_dof_joint(&m, m.ndof) == -1);
+	mc_model_dof_name(&m, m.joints[le].dof0 + 1, name, sizeof(name));
+	CHECK(strcmp(name, "left_elbow.y") == 0);
+	mc_err err;
+	m.root_free = true;
+	CHECK(mc_model_finalize(&m, &err) == 0);
+	CHECK(mc_model_dof_joint(&m, 4) == -1);
+	mc_model_dof_name(&m, 4, name, sizeof(name));
+	CHECK(strcmp(name, "root.ry") == 0);
+	/* The in-memory checks catch what a hand-built model can get wrong. */
+	mc_model bad = m;
+	bad.joints[3].parent = 5;
+	CHECK(mc_model_finalize(&bad, &err) == -1 && strstr(err.msg, "joints[3]") && strstr(err.msg, "parent"));
+	bad = m;
+	bad.joints[4].lower[0] = 1, bad.joints[4].upper[0] = 0;
+	CHECK(mc_model_finalize(&bad, &err) == -1 && strstr(err.msg, "joints[4]") && strstr(err.msg, "limits"));
+	bad = m;
+	bad.gauss[2].radius = 0;
+	CHECK(mc_model_finalize(&bad, &err) == -1 && strstr(err.msg, "gaussians[2].radius"));
+	bad = m;
+	bad.ndof++;
+	CHECK(mc_model_validate(&bad, &err) == -1 && strstr(err.msg, "ndof"));
+	CHECK(mc_model_validate(&m, &err) == 0);
+}
+
+/* ---- sphere to Gaussian (thesis 4.3) ---- */
+
+/* Visibility (eq. 4.10, K = {-4..0}, lambda = sigma) of one Gaussian at
+ * (0, 0, depth) for the orthographic ray o = (d, 0, 0), n = +z, with the
+ * transmittance of eq. 4.6; written out independently of mc_model.c. */
+static double single_visibility(double sigma, double c, double d)
+{
+	mc_vec3 mu = mc_v3(0, 0, 40 * sigma), o = mc_v3(d, 0, 0), n = mc_v3(0, 0, 1);
+	mc_vec3 r = mc_v3_sub(mu, o);
+	double mu1 = mc_v3_dot(r, n);
+	double c1 = c * exp(-(mc_v3_norm2(r) - mu1 * mu1) / (2 * sigma * sigma));
+	double v = 0;
+	for (int k = -4; k <= 0; k++) {
+		double s = mu1 + k * sigma;
+		double T = exp(-sigma * c1 * sqrt(M_PI / 2) *
+			       (erf((s - mu1) / (sqrt(2) * sigma)) - erf(-mu1 / (sqrt(2) * sigma))));
+		double G = c1 * exp(-(s - mu1) * (s - mu1) / (2 * sigma * sigma));
+		v += sigma * T * G;
+	}
+	return v;
+}
+
+static double visibility_d2(double sigma, double c, double d, double h)
+{
+	return (single_visibility(sigma, c, d + h) - 2 * single_visibility(sigma, c, d) +
+		single_visibility(sigma, c, d - h)) /
+	       (h * h);
+}
+
+static void test_sphere_to_gaussian(void)
+{
+	const double radii[] = {0.02, 0.05, 0.1, 0.3, 1.0};
+	const double ms[] = {0.1, 0.1, 0.1, 0.1, 0.1, 0.05, 0.3, 0.6};
+	for (size_t i = 0; i < sizeof(ms) / sizeof(ms[0]); i++) {
+		double m = ms[i], r = i < 5 ? radii[i] : 0.1;
+		double sigma, c;
+		CHECK(mc_sphere_to_gaussian(r, m, &sigma, &c) == 0);
+		/* 1 - V at the centre is m. */
+		CHECK_NEAR(1 - single_visibility(sigma, c, 0), m, 1e-9);
+		/* V'' changes sign at r: bisect the finite-difference V''. */
+		double h = 1e-3 * r, lo = 0.8 * r, hi = 1.2 * r;
+		double dlo = visibility_d2(sigma, c, lo, h);
+		CHECK(dlo < 0 && visibility_d2(sigma, c, hi, h) > 0);
+		for (int it = 0; it < 60; it++) {
+			double mid = 0.5 * (lo + hi), dm = visibility_d2(sigma, c, mid, h);
+			if ((dm < 0) == (dlo < 0))
+				lo = mid;
+			else
+				hi = mid;
+		}
+		CHECK_NEAR(0.5 * (lo + hi) / r, 1.0, 1e-4);
+		/* ... and it is where V falls fastest. */
+		double slope_r = single_visibility(sigma, c, r - h) - single_visibility(sigma, c, r + h);
+		for (double d = 0.05 * r; d < 4 * r; d += 0.05 * r)
+			CHECK(single_visibility(sigma, c, d - h) - single_visibility(sigma, c, d + h) <= slope_r * (1 + 1e-6));
+		if (i == 2)
+			printf("sphere r = 0.1 m, m = 0.1: sigma = %.6f m, c = %.4f /m\n", sigma, c);
+	}
+	/* sigma is proportional to r, c to 1/r. */
+	double s1, c1, s2, c2;
+	CHECK(mc_sphere_to_gaussian(0.1, 0.1, &s1, &c1) == 0 && mc_sphere_to_gaussian(0.4, 0.1, &s2, &c2) == 0);
+	CHECK_NEAR(s2 / s1, 4, 1e-12);
+	CHECK_NEAR(c1 / c2, 4, 1e-12);
+	/* bad arguments */
+	CHECK(mc_sphere_to_gaussian(0, 0.1, &s1, &c1) == -1);
+	CHECK(mc_sphere_to_gaussian(-1, 0.1, &s1, &c1) == -1);
+	CHECK(mc_sphere_to_gaussian(NAN, 0.1, &s1, &c1) == -1);
+	CHECK(mc_sphere_to_gaussian(0.1, 0, &s1, &c1) == -1);
+	CHECK(mc_sphere_to_gaussian(0.1, 1, &s1, &c1) == -1);
+	CHECK(mc_sphere_to_gaussian(0.1, NAN, &s1, &c1) == -1);
+}
+
+/* ---- JSON ---- */
+
+static bool same_model(const mc_model *a, const mc_model *b)
+{
+	bool ok = strcmp(a->name, b->name) == 0 && a->njoints == b->njoints && a->ngauss == b->ngauss &&
+		  a->ndof == b->ndof && a->root_free == b->root_free && fabs(a->smoothness_m - b->smoothness_m) < 1e-15;
+	for (int i = 0; ok && i < 3; i++) {
+		ok = fabs(a->rig_from_root.t.x - b->rig_from_root.t.x) < 1e-15 || a->root_free;
+		for (int j = 0; j < 3; j++)
+			ok = ok && (a->root_free || fabs(a->rig_from_root.R.m[i][j] - b->rig_from_root.R.m[i][j]) < 1e-12);
+	}
+	for (int j = 0; ok && j < a->njoints; j++) {
+		const mc_joint *x = &a->joints[j], *y = &b->joints[j];
+		ok = strcmp(x->name, y->name) == 0 && x->parent == y->parent && vdist(x->offset, y->offset) == 0 &&
+		     x->ndof == y->ndof && x->dof0 == y->dof0 && a->bone_scale[j] == b->bone_scale[j];
+		for (int k = 0; ok && k < x->ndof; k++)
+			ok = x->axis[k] == y->axis[k] && fabs(x->lower[k] - y->lower[k]) < 1e-14 &&
+			     fabs(x->upper[k] - y->upper[k]) < 1e-14;
+	}
+	for (int q = 0; ok && q < a->ngauss; q++) {
+		const mc_gauss_def *x = &a->gauss[q], *y = &b->gauss[q];
+		ok = x->joint == y->joint && x->scale_joint == y->scale_joint && vdist(x->offset, y->offset) == 0 &&
+		     x->radius == y->radius && x->sigma == y->sigma && x->c == y->c && x->rgb[0] == y->rgb[0] &&
+		     x->rgb[1] == y->rgb[1] && x->rgb[2] == y->rgb[2];
+	}
+	return ok;
+}
+
+static void test_round_trip(void)
+{
+	mc_model m, back;
+	mc_err err;
+	if (!load_default(&m))
+		return;
+	/* Per-actor changes must survive: bone scales, calibrated colours,
+	 * another smoothness, a different rig placement. */
+	m.bone_scale[4] = 1.0 / 3.0;
+	m.bone_scale[12] = 1.1;
+	m.gauss[5].rgb[0] = 0.123456789012345;
+	m.smoothness_m = 0.2;
+	m.rig_from_root.R = mc_m3_from_rotvec(mc_v3(0.1, -0.2, 0.3));
+	CHECK(mc_model_update_gaussians(&m, &err) == 0);
+	char path[] = "/tmp/test_model_XXXXXX";
+	int fd = mkstemp(path);
+	CHECK(fd >= 0);
+	close(fd);
+	CHECK(mc_model_save(&m, path, &err) == 0);
+	if (mc_model_load(path, &back, &err)) {
+		fprintf(stderr, "reload: %s\n", err.msg);
+		mc_test_failures++;
+	} else {
+		CHECK(same_model(&m, &back));
+	}
+	/* The free-root variant too. */
+	m.root_free = true;
+	CHECK(mc_model_finalize(&m, &err) == 0);
+	CHECK(mc_model_save(&m, path, &err) == 0);
+	CHECK(mc_model_load(path, &back, &err) == 0 && same_model(&m, &back) && back.ndof == 38);
+	/* An invalid model is not written. */
+	m.gauss[0].radius = -1;
+	CHECK(mc_model_save(&m, path, &err) == -1 && strstr(err.msg, "not saved"));
+	unlink(path);
+	/* A missing file names itself. */
+	CHECK(mc_model_load("tests/data/models/no_such_file.json", &back, &err) == -1);
+	CHECK(strstr(err.msg, "no_such_file.json") != NULL);
+}
+
+/* Colours as "#rrggbb" and defaults of optional fields. */
+static void test_parse_details(void)
+{
+	mc_model m;
+	mc_err err;
+	if (mc_model_load("tests/data/models/good_tiny.json", &m, &err)) {
+		fprintf(stderr, "good_tiny.json: %s\n", err.msg);
+		mc_test_failures++;
+		return;
+	}
+	CHECK(!m.root_free && m.ndof == 4 && m.njoints == 5 && m.ngauss == 2);
+	CHECK_NEAR(m.gauss[0].rgb[0], 0xd8 / 255.0, 1e-15);
+	CHECK_NEAR(m.gauss[0].rgb[2], 0x88 / 255.0, 1e-15);
+	CHECK_NEAR(m.smoothness_m, 0.1, 0);
+	CHECK(m.bone_scale[3] == 1.0);
+	CHECK(vdist(m.rig_from_root.t, mc_v3(0, 0, 0)) == 0 && m.rig_from_root.R.m[1][1] == 1);
+	/* Default bones: the bone to the only child (head -> neck, spine -> pelvis). */
+	CHECK(m.gauss[0].scale_joint == 1 && m.gauss[1].scale_joint == 3);
+	double s, c;
+	mc_sphere_to_gaussian(0.09, 0.1, &s, &c);
+	CHECK(m.gauss[1].sigma == s && m.gauss[1].c == c);
+	CHECK(m.joints[2].dof0 == 1 && m.joints[4].dof0 == 3);
+	CHECK_NEAR(m.joints[2].upper[0], M_PI / 2, 1e-15);
+}
+
+typedef struct {
+	const char *file;
+	const char *field;   /* must appear in the message after the file name */
+	const char *problem; /* must appear too */
+} bad_case;
+
+static const bad_case BAD_CASES[] = {
+	{"missing_joints.json", "missing_joints.json: joints", "missing"},
+	{"missing_radius.json", "gaussians[1].radius", "missing"},
+	{"missing_joint_name.json", "joints[2].name", "missing"},
+	{"wrong_type_offset.json", "joints[1].offset", "expected an array"},
+	{"wrong_type_radius.json", "gaussians[0].radius", "expected a number"},
+	{"wrong_type_joints.json", "joints", "expected an array"},
+	{"short_offset.json", "gaussians[1].offset", "expected 3 numbers"},
+	{"nan_number.json", "nan_number.json:", "invalid token"},
+	{"inf_number.json", "inf_number.json:", "real number overflow"},
+	{"radius_zero.json", "gaussians[1].radius", "positive"},
+	{"radius_negative.json", "gaussians[0].radius", "positive"},
+	{"unknown_parent.json", "joints[3].parent", "unknown joint 'chest'"},
+	{"unknown_gauss_joint.json", "gaussians[1].joint", "unknown joint 'hand'"},
+	{"unknown_bone.json", "gaussians[0].bone", "unknown joint 'skull'"},
+	{"cycle.json", "joints[1].parent", "cycle through 'pelvis'"},
+	{"self_parent.json", "joints[4].parent", "cycle through 'left_hip'"},
+	{"parent_after_child.json", "joints[2].parent", "listed later"},
+	{"two_roots.json", "joints[3].parent", "only one root"},
+	{"duplicate_name.json", "joints[4].name", "duplicate joint name 'spine'"},
+	{"empty_name.json", "joints[4].name", "empty"},
+	{"unknown_axis.json", "joints[2].dofs[1].axis", "unknown axis 'w'"},
+	{"repeated_axis.json", "joints[2].dofs[1].axis", "same axis"},
+	{"min_gt_max.json", "joints[1].dofs[0]", "min_deg (30) is greater than max_deg (10)"},
+	{"missing_limit.json", "joints[1].dofs[0].max_deg", "missing"},
+	{"four_dofs.json", "joints[2].dofs", "at most 3"},
+	{"bad_hex_color.json", "gaussians[0].color", "hex colour"},
+	{"color_range.json", "gaussians[1].color[1]", "outside [0, 1]"},
+	{"unknown_field.json", "gaussians[1].raduis", "unknown field"},
+	{"bad_root_kind.json", "bad_root_kind.json: root", "\"fixed\" or \"free\""},
+	{"free_with_rig_from_root.json", "rig_from_root", "only allowed"},
+	{"rig_from_root_scaled.json", "rig_from_root", "rotation"},
+	{"smoothness_range.json", "smoothness_m", "out of range"},
+	{"bone_scale_zero.json", "joints[2].bone_scale", "out of range"},
+	{"offset_huge.json", "joints[2].offset", "within"},
+	{"empty_joints.json", "joints", "at least 1"},
+	{"too_many_joints.json", "joints", "at most 32"},
+	{"too_many_dofs.json", "joints[30].dofs", "more than 96 degrees of freedom"},
+	{"too_many_gaussians.json", "gaussians", "at most 128"},
+	{"top_level_array.json", "top_level_array.json", "top level"},
+};
+
+static void test_bad_inputs(void)
+{
+	for (size_t i = 0; i < sizeof(BAD_CASES) / sizeof(BAD_CASES[0]); i++) {
+		const bad_case *b = &BAD_CASES[i];
+		char path[256];
+		snprintf(path, sizeof(path), "tests/data/models/%s", b->file);
+		mc_model m;
+		mc_err err = {{0}};
+		int r = mc_model_load(path, &m, &err);
+		CHECK_MSG(r == -1, "%s: loaded", b->file);
+		const char *at = strstr(err.msg, path);
+		CHECK_MSG(at == err.msg, "%s: message does not start with the file: %s", b->file, err.msg);
+		CHECK_MSG(strstr(err.msg, b->field) != NULL, "%s: message lacks the field '%s': %s", b->file, b->field,
+			  err.msg);
+		CHECK_MSG(strstr(err.msg, b->problem) != NULL, "%s: message lacks '%s': %s", b->file, b->problem, err.msg);
+	}
+	/* The brief's example message, verbatim in shape. */
+	mc_model m;
+	mc_err err;
+	mc_model_load("tests/data/models/cycle.json", &m, &err);
+	printf("e.g. %s\n", err.msg);
+	/* Text input names its origin the same way. */
+	CHECK(mc_model_parse("{\"name\": 3}", "inline.json", &m, &err) == -1);
+	CHECK(strstr(err.msg, "inline.json: name: expected a string") == err.msg);
+	CHECK(mc_model_parse("{", "inline.json", &m, &err) == -1 && strstr(err.msg, "inline.json:1:") == err.msg);
+}
+
+/* ---- the default human model ---- */
+
+static mc_vec3 root_coords(const mc_model *m, const mc_fk *fk, const char *joint)
+{
+	int j = mc_model_find_joint(m, joint);
+	return mc_xform_apply(mc_xform_inverse(m->rig_from_root), fk->rig_from_joint[j < 0 ? 0 : j].t);
+}
+
+static void test_default_model(void)
+{
+	mc_model m;
+	if (!load_default(&m))
+		return;
+	CHECK(!m.root_free && strcmp(m.joints[0].name, "head") == 0);
+	CHECK(m.njoints >= 15 && m.njoints <= 20);
+	CHECK(m.ngauss >= 60 && m.ngauss <= 90);
+	CHECK(m.ndof >= 30 && m.ndof <= 40);
+	for (int i = 0; i < NOUTPUT; i++)
+		CHECK_MSG(mc_model_find_joint(&m, OUTPUT_JOINTS[i]) >= 0, "%s missing", OUTPUT_JOINTS[i]);
+	double pose[MC_MAX_DOF], clamped[MC_MAX_DOF];
+	mc_model_rest_pose(&m, pose);
+	for (int k = 0; k < m.ndof; k++)
+		CHECK(pose[k] == 0); /* zero is inside every limit */
+	memcpy(clamped, pose, sizeof(pose));
+	mc_model_clamp_pose(&m, clamped);
+	CHECK(memcmp(clamped, pose, sizeof(pose)) == 0);
+	static mc_fk fk;
+	mc_model_fk(&m, pose, &fk);
+	/* Root frame: x to the actor's right, y down, z forward. */
+	double height = root_coords(&m, &fk, "left_ankle").y - root_coords(&m, &fk, "head_top").y;
+	double shoulders = vdist(root_coords(&m, &fk, "left_shoulder"), root_coords(&m, &fk, "right_shoulder"));
+	double hips = vdist(root_coords(&m, &fk, "left_hip"), root_coords(&m, &fk, "right_hip"));
+	printf("default model: %d joints, %d dofs, %d Gaussians; head_top to ankle %.3f m, shoulders %.3f m, "
+	       "hips %.3f m\n",
+	       m.njoints, m.ndof, m.ngauss, height, shoulders, hips);
+	CHECK(height >= 1.6 && height <= 1.75);
+	CHECK(shoulders >= 0.35 && shoulders <= 0.45);
+	CHECK(hips >= 0.2 && hips <= 0.3);
+	for (int j = 0; j < m.njoints; j++) {
+		double x = root_coords(&m, &fk, m.joints[j].name).x;
+		if (strncmp(m.joints[j].name, "left_", 5) == 0)
+			CHECK_MSG(x < -0.05, "%s x = %g", m.joints[j].name, x);
+		if (strncmp(m.joints[j].name, "right_", 6) == 0)
+			CHECK_MSG(x > 0.05, "%s x = %g", m.joints[j].name, x);
+	}
+	CHECK(root_coords(&m, &fk, "left_toe").z > root_coords(&m, &fk, "left_ankle").z + 0.1);
+	/* Left and right halves mirror each other (x -> -x). */
+	mc_mat3 mirror = {{{-1, 0, 0}, {0, 1, 0}, {0, 0, 1}}};
+	mc_xform root_from_rig = mc_xform_inverse(m.rig_from_root);
+	double floor_y = root_coords(&m, &fk, "left_ankle").y + 0.08;
+	for (int q = 0; q < m.ngauss; q++) {
+		mc_vec3 p = mc_xform_apply(root_from_rig, fk.mu[q]), mp = mc_m3_apply(mirror, p);
+		int twin = -1;
+		for (int r = 0; r < m.ngauss; r++)
+			if (vdist(mc_xform_apply(root_from_rig, fk.mu[r]), mp) < 1e-9 && m.gauss[r].radius == m.gauss[q].radius)
+				twin = r;
+		CHECK_MSG(twin >= 0, "gaussians[%d] has no mirror image", q);
+		/* Nothing pokes through the floor by more than 1 cm; the body's
+		 * width stays human. */
+		CHECK_MSG(p.y + m.gauss[q].radius < floor_y + 0.01, "gaussians[%d] below the floor", q);
+		CHECK(fabs(p.x) < 0.35);
+		CHECK_NEAR(m.gauss[q].sigma / m.gauss[q].radius, 0.6223, 1e-3);
+	}
+}
+
+/* Frame 0 of the evaluation clips: the default model's proportions, scaled
+ * to the actor's height, are within 20% of the ground truth's segment
+ * lengths, and its rest placement in the rig puts the neck where the
+ * data's helmet rig has it. */
+static void test_default_against_data(void)
+{
+	const char *dir = mc_test_data_dir();
+	if (!dir) {
+		printf("note: proportion check against the evaluation data skipped\n");
+		return;
+	}
+	mc_model m;
+	if (!load_default(&m))
+		return;
+	double pose[MC_MAX_DOF];
+	static mc_fk fk;
+	mc_model_rest_pose(&m, pose);
+	mc_model_fk(&m, pose, &fk);
+	static const char *const segs[][2] = {
+		{"head_top", "neck"}, {"neck", "pelvis"}, {"left_shoulder", "right_shoulder"},
+		{"left_shoulder", "left_elbow"}, {"left_elbow", "left_wrist"}, {"right_shoulder", "right_elbow"},
+		{"right_elbow", "right_wrist"}, {"left_hip", "left_knee"}, {"left_knee", "left_ankle"},
+		{"right_hip", "right_knee"}, {"right_knee", "right_ankle"}, {"left_ankle", "left_toe"},
+		{"left_hip", "right_hip"}};
+	const char *clips[] = {"walk_131_01", "jumps_01_01"};
+	for (int c = 0; c < 2; c++) {
+		char path[512];
+		snprintf(path, sizeof(path), "%s/ego/%s/gt.json", dir, clips[c]);
+		json_t *gt;
+		mc_err err;
+		if (mc_json_load_file(path, &gt, &err)) {
+			printf("note: %s\n", err.msg);
+			continue;
+		}
+		double height = json_number_value(json_object_get(gt, "height_m"));
+		json_t *joints = json_object_get(json_array_get(json_object_get(gt, "frames"), 0), "joints_left_cam");
+		CHECK(height > 1 && json_is_object(joints));
+		double worst = 0;
+		for (size_t s = 0; s < sizeof(segs) / sizeof(segs[0]) && json_is_object(joints); s++) {
+			mc_vec3 a, b;
+			CHECK(mc_json_vec3(joints, segs[s][0], path, &a, true, &err) == 0);
+			CHECK(mc_json_vec3(joints, segs[s][1], path, &b, true, &err) == 0);
+			double data = vdist(a, b);
+			double model = vdist(fk.rig_from_joint[mc_model_find_joint(&m, segs[s][0])].t,
+					     fk.rig_from_joint[mc_model_find_joint(&m, segs[s][1])].t) *
+				       height / 1.75;
+			double ratio = model / data;
+			worst = fmax(worst, fabs(ratio - 1));
+			CHECK_MSG(ratio > 0.8 && ratio < 1.2, "%s: %s-%s model %.3f m, data %.3f m", clips[c], segs[s][0],
+				  segs[s][1], model, data);
+		}
+		mc_vec3 neck;
+		if (json_is_object(joints) && mc_json_vec3(joints, "neck", path, &neck, true, &err) == 0) {
+			double d = vdist(neck, fk.rig_from_joint[mc_model_find_joint(&m, "neck")].t);
+			CHECK_MSG(d < 0.02, "%s: rest neck %.3f m from frame 0", clips[c], d);
+			printf("%s: worst segment length deviation %.0f%%, neck %.1f cm from frame 0\n", clips[c],
+			       100 * worst, 100 * d);
+		}
+		json_decref(gt);
+	}
+}
+
+int main(void)
+{
+	test_fk_hand_computed();
+	test_jacobians(false);
+	test_jacobians(true);
+	test_jacobian_sparsity();
+	test_limits();
+	test_bone_scale();
+	test_helpers();
+	test_sphere_to_gaussian();
+	test_round_trip();
+	test_parse_details();
+	test_bad_inputs();
+	test_default_model();
+	test_default_against_data();
+	return mc_test_finish("test_model");
+}
