@@ -3,11 +3,15 @@
 
 #include "mocap_driver.h"
 
+#include <errno.h>
 #include <limits.h>
 #include <math.h>
 #include <stdbool.h>
 #include <stdlib.h>
 #include <string.h>
+#include <png.h>
+#include <stdio.h>
+#include <sys/stat.h>
 #include <turbojpeg.h>
 
 #define MAX_SIDE 32768 /* larger images are refused: sizes come from foreign input */
@@ -66,6 +70,14 @@ static tjhandle decoder(mc_image_conv *conv, mc_err *err)
 	return conv->dec;
 }
 
+/* After a failed decode the handle can keep state that breaks the next
+ * image (seen with libjpeg-turbo 2.1): start over with a fresh one. */
+static void reset_decoder(mc_image_conv *conv)
+{
+	tjDestroy(conv->dec);
+	conv->dec = NULL;
+}
+
 int mc_image_jpeg_size(mc_image_conv *conv, const uint8_t *jpeg, size_t bytes, int *width, int *height, mc_err *err)
 {
 	tjhandle h = decoder(conv, err);
@@ -76,8 +88,11 @@ int mc_image_jpeg_size(mc_image_conv *conv, const uint8_t *jpeg, size_t bytes, i
 	if (bytes > ULONG_MAX)
 		return mc_err_set(err, "MJPEG: %zu bytes: too large", bytes);
 	int subsamp, colorspace;
-	if (tjDecompressHeader3(h, jpeg, (unsigned long)bytes, width, height, &subsamp, &colorspace) != 0)
-		return mc_err_set(err, "MJPEG: %zu bytes: bad header: %s", bytes, tjGetErrorStr2(h));
+	if (tjDecompressHeader3(h, jpeg, (unsigned long)bytes, width, height, &subsamp, &colorspace) != 0) {
+		mc_err_set(err, "MJPEG: %zu bytes: bad header: %s", bytes, tjGetErrorStr2(h));
+		reset_decoder(conv);
+		return -1;
+	}
 	if (*width <= 0 || *height <= 0 || *width > MAX_SIDE || *height > MAX_SIDE)
 		return mc_err_set(err, "MJPEG: image size %dx%d out of range", *width, *height);
 	return 0;
@@ -96,9 +111,12 @@ static int jpeg_to_rgb(mc_image_conv *conv, const mc_image_frame *f, uint8_t *ds
 				  (size_t)w * (size_t)h * 3, dst_bytes);
 	/* Any warning (a truncated or damaged stream) rejects the frame: a
 	 * half-grey image would mislead the tracker. */
-	if (tjDecompress2(conv->dec, f->data, (unsigned long)f->bytes, dst, w, 0, h, TJPF_RGB, 0) != 0)
-		return mc_err_set(err, "MJPEG: %zu-byte %dx%d image does not decode: %s", f->bytes, w, h,
-				  tjGetErrorStr2(conv->dec));
+	if (tjDecompress2(conv->dec, f->data, (unsigned long)f->bytes, dst, w, 0, h, TJPF_RGB, 0) != 0) {
+		mc_err_set(err, "MJPEG: %zu-byte %dx%d image does not decode: %s", f->bytes, w, h,
+			   tjGetErrorStr2(conv->dec));
+		reset_decoder(conv);
+		return -1;
+	}
 	return 0;
 }
 
@@ -384,5 +402,168 @@ out:
 	box_axis_free(&ax);
 	box_axis_free(&ay);
 	free(tmp);
+	return rc;
+}
+
+/* ---- image files ---- */
+
+mc_image_file_kind mc_image_file_kind_of(const uint8_t *d, size_t n)
+{
+	if (n >= 3 && d[0] == 0xFF && d[1] == 0xD8 && d[2] == 0xFF)
+		return MC_IMAGE_FILE_JPEG;
+	if (n >= 8 && png_sig_cmp(d, 0, 8) == 0)
+		return MC_IMAGE_FILE_PNG;
+	if (n >= 2 && d[0] == 'P' && (d[1] == '6' || d[1] == '5'))
+		return MC_IMAGE_FILE_PNM;
+	return MC_IMAGE_FILE_UNKNOWN;
+}
+
+static int decode_png(const uint8_t *data, size_t n, const char *origin, uint8_t **rgb, int *w, int *h, mc_err *err)
+{
+	png_image img;
+	memset(&img, 0, sizeof(img));
+	img.version = PNG_IMAGE_VERSION;
+	if (!png_image_begin_read_from_memory(&img, data, n))
+		return mc_err_set(err, "%s: PNG: %s", origin, img.message);
+	if (img.width == 0 || img.height == 0 || img.width > MAX_SIDE || img.height > MAX_SIDE) {
+		png_image_free(&img);
+		return mc_err_set(err, "%s: PNG: size %ux%u out of range", origin, img.width, img.height);
+	}
+	img.format = PNG_FORMAT_RGB;
+	uint8_t *buf = malloc(PNG_IMAGE_SIZE(img));
+	if (!buf) {
+		png_image_free(&img);
+		return mc_err_set(err, "%s: PNG: out of memory", origin);
+	}
+	if (!png_image_finish_read(&img, NULL, buf, 0, NULL)) {
+		free(buf);
+		png_image_free(&img);
+		return mc_err_set(err, "%s: PNG: %s", origin, img.message);
+	}
+	*rgb = buf;
+	*w = (int)img.width;
+	*h = (int)img.height;
+	return 0;
+}
+
+/* Reads one header number of a PNM file, skipping whitespace and comments. */
+static int pnm_number(const uint8_t *d, size_t n, size_t *pos, long *out)
+{
+	while (*pos < n) {
+		if (d[*pos] == '#') {
+			while (*pos < n && d[*pos] != '\n')
+				(*pos)++;
+		} else if (d[*pos] == ' ' || d[*pos] == '\t' || d[*pos] == '\r' || d[*pos] == '\n') {
+			(*pos)++;
+		} else {
+			break;
+		}
+	}
+	long v = 0;
+	size_t start = *pos;
+	while (*pos < n && d[*pos] >= '0' && d[*pos] <= '9' && v < 1000000)
+		v = v * 10 + (d[(*pos)++] - '0');
+	if (*pos == start)
+		return -1;
+	*out = v;
+	return 0;
+}
+
+static int decode_pnm(const uint8_t *d, size_t n, const char *origin, uint8_t **rgb, int *w, int *h, mc_err *err)
+{
+	int channels = d[1] == '6' ? 3 : 1;
+	size_t pos = 2;
+	long width, height, maxval;
+	if (pnm_number(d, n, &pos, &width) || pnm_number(d, n, &pos, &height) || pnm_number(d, n, &pos, &maxval))
+		return mc_err_set(err, "%s: PNM: bad header", origin);
+	if (width <= 0 || height <= 0 || width > MAX_SIDE || height > MAX_SIDE)
+		return mc_err_set(err, "%s: PNM: size %ldx%ld out of range", origin, width, height);
+	if (maxval < 1 || maxval > 255)
+		return mc_err_set(err, "%s: PNM: maxval %ld unsupported (8-bit only)", origin, maxval);
+	pos++; /* the single whitespace before the pixels */
+	size_t need = (size_t)width * (size_t)height * (size_t)channels;
+	if (pos > n || n - pos < need)
+		return mc_err_set(err, "%s: PNM: %ldx%ld needs %zu bytes of pixels, the file has %zu", origin, width,
+				  height, need, pos > n ? 0 : n - pos);
+	uint8_t *buf = malloc((size_t)width * (size_t)height * 3);
+	if (!buf)
+		return mc_err_set(err, "%s: PNM: out of memory", origin);
+	const uint8_t *p = d + pos;
+	for (size_t i = 0; i < (size_t)width * (size_t)height; i++)
+		for (int c = 0; c < 3; c++)
+			buf[3 * i + (size_t)c] = (uint8_t)(p[i * (size_t)channels + (channels == 3 ? (size_t)c : 0)] * 255 / maxval);
+	*rgb = buf;
+	*w = (int)width;
+	*h = (int)height;
+	return 0;
+}
+
+int mc_image_decode(mc_image_conv *conv, const uint8_t *data, size_t bytes, const char *origin, uint8_t **rgb,
+		    int *width, int *height, mc_err *err)
+{
+	*rgb = NULL;
+	switch (mc_image_file_kind_of(data, bytes)) {
+	case MC_IMAGE_FILE_JPEG: {
+		int w, h;
+		if (mc_image_jpeg_size(conv, data, bytes, &w, &h, err) != 0)
+			return mc_err_prefix(err, "%s", origin);
+		uint8_t *buf = malloc((size_t)w * (size_t)h * 3);
+		if (!buf)
+			return mc_err_set(err, "%s: out of memory", origin);
+		mc_image_frame f = {.pixfmt = MOCAP_FMT_MJPEG, .data = data, .bytes = bytes};
+		if (mc_image_to_rgb24(conv, &f, buf, (size_t)w * (size_t)h * 3, err) != 0) {
+			free(buf);
+			return mc_err_prefix(err, "%s", origin);
+		}
+		*rgb = buf;
+		*width = w;
+		*height = h;
+		return 0;
+	}
+	case MC_IMAGE_FILE_PNG:
+		return decode_png(data, bytes, origin, rgb, width, height, err);
+	case MC_IMAGE_FILE_PNM:
+		return decode_pnm(data, bytes, origin, rgb, width, height, err);
+	default:
+		return mc_err_set(err, "%s: not a JPEG, PNG or binary PPM/PGM image", origin);
+	}
+}
+
+int mc_image_read_file(const char *path, uint8_t **data, size_t *bytes, mc_err *err)
+{
+	*data = NULL;
+	FILE *f = fopen(path, "rb");
+	if (!f)
+		return mc_err_set(err, "%s: %s", path, strerror(errno));
+	struct stat st;
+	if (fstat(fileno(f), &st) != 0 || !S_ISREG(st.st_mode)) {
+		fclose(f);
+		return mc_err_set(err, "%s: not a regular file", path);
+	}
+	size_t n = (size_t)st.st_size;
+	uint8_t *buf = malloc(n ? n : 1);
+	if (!buf) {
+		fclose(f);
+		return mc_err_set(err, "%s: out of memory (%zu bytes)", path, n);
+	}
+	size_t got = fread(buf, 1, n, f);
+	fclose(f);
+	if (got != n) {
+		free(buf);
+		return mc_err_set(err, "%s: read error", path);
+	}
+	*data = buf;
+	*bytes = n;
+	return 0;
+}
+
+int mc_image_load(mc_image_conv *conv, const char *path, uint8_t **rgb, int *width, int *height, mc_err *err)
+{
+	uint8_t *data;
+	size_t n;
+	if (mc_image_read_file(path, &data, &n, err) != 0)
+		return -1;
+	int rc = mc_image_decode(conv, data, n, path, rgb, width, height, err);
+	free(data);
 	return rc;
 }

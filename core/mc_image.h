@@ -15,6 +15,8 @@
  * decode or whose size disagrees with the declared size, is rejected with an
  * error naming the format and the sizes; nothing is read out of bounds.
  *
+ * Whole image files (JPEG, PNG, binary PPM/PGM) decode with mc_image_decode.
+ *
  * A converter holds the JPEG decoder; use one per thread. */
 #ifndef MC_IMAGE_H
 #define MC_IMAGE_H
@@ -54,6 +56,26 @@ int mc_image_to_rgb24(mc_image_conv *conv, const mc_image_frame *frame, uint8_t 
  * of the source area it covers, weighted by overlap.  Meant for shrinking
  * (it also enlarges, as nearest-neighbour-like boxes). */
 int mc_image_resize_rgb24(const uint8_t *src, int src_w, int src_h, uint8_t *dst, int dst_w, int dst_h, mc_err *err);
+
+/* Image files, recognised by their first bytes. */
+typedef enum {
+	MC_IMAGE_FILE_UNKNOWN = 0,
+	MC_IMAGE_FILE_JPEG,
+	MC_IMAGE_FILE_PNG,
+	MC_IMAGE_FILE_PNM, /* binary PPM (P6) or PGM (P5) */
+} mc_image_file_kind;
+
+mc_image_file_kind mc_image_file_kind_of(const uint8_t *data, size_t bytes);
+
+/* Decodes a JPEG, PNG or binary PPM/PGM (maxval up to 255) held in memory
+ * into packed RGB24 in a buffer allocated with malloc (*rgb; free() it).
+ * `origin` (e.g. the file name) starts every error message. */
+int mc_image_decode(mc_image_conv *conv, const uint8_t *data, size_t bytes, const char *origin, uint8_t **rgb,
+		    int *width, int *height, mc_err *err);
+/* Reads a whole file into a malloc'd buffer (*data, *bytes). */
+int mc_image_read_file(const char *path, uint8_t **data, size_t *bytes, mc_err *err);
+/* mc_image_read_file + mc_image_decode. */
+int mc_image_load(mc_image_conv *conv, const char *path, uint8_t **rgb, int *width, int *height, mc_err *err);
 
 /* Encodes packed RGB24 as a JPEG (quality 1..100) into a buffer allocated
  * with malloc (*jpeg, *bytes; free it with free()).  Used by tools and tests

@@ -3,6 +3,7 @@
 #include "mocap_driver.h"
 #include "test_util.h"
 
+#include <png.h>
 #include <stdint.h>
 #include <string.h>
 
@@ -295,6 +296,73 @@ static void test_resize(void)
 	CHECK(strstr(err.msg, "resize"));
 }
 
+static void test_decode_files(void)
+{
+	mc_err err;
+	enum { W = 7, H = 5 };
+	uint8_t rgb[W * H * 3];
+	for (int i = 0; i < W * H * 3; i++)
+		rgb[i] = (uint8_t)(i * 7 + 3);
+	uint8_t *out = NULL;
+	int w = 0, h = 0;
+
+	/* PNG, written with libpng. */
+	png_image img;
+	memset(&img, 0, sizeof(img));
+	img.version = PNG_IMAGE_VERSION;
+	img.width = W;
+	img.height = H;
+	img.format = PNG_FORMAT_RGB;
+	png_alloc_size_t pn = 0;
+	CHECK(png_image_write_to_memory(&img, NULL, &pn, 0, rgb, 0, NULL));
+	uint8_t *png = malloc(pn);
+	CHECK(png_image_write_to_memory(&img, png, &pn, 0, rgb, 0, NULL));
+	CHECK(mc_image_file_kind_of(png, pn) == MC_IMAGE_FILE_PNG);
+	CHECK_MSG(mc_image_decode(conv, png, pn, "a.png", &out, &w, &h, &err) == 0, "%s", err.msg);
+	CHECK(w == W && h == H && out && memcmp(out, rgb, sizeof(rgb)) == 0);
+	free(out);
+	CHECK(mc_image_decode(conv, png, pn / 2, "a.png", &out, &w, &h, &err) == -1);
+	CHECK(strstr(err.msg, "a.png: PNG") && out == NULL);
+	free(png);
+
+	/* PPM (P6) with a comment, and PGM (P5) with maxval 15. */
+	char hdr[64];
+	int hn = snprintf(hdr, sizeof(hdr), "P6\n# made by a test\n%d %d\n255\n", W, H);
+	uint8_t *ppm = malloc((size_t)hn + sizeof(rgb));
+	memcpy(ppm, hdr, (size_t)hn);
+	memcpy(ppm + hn, rgb, sizeof(rgb));
+	CHECK(mc_image_decode(conv, ppm, (size_t)hn + sizeof(rgb), "a.ppm", &out, &w, &h, &err) == 0);
+	CHECK(w == W && h == H && out && memcmp(out, rgb, sizeof(rgb)) == 0);
+	free(out);
+	CHECK(mc_image_decode(conv, ppm, (size_t)hn + sizeof(rgb) - 1, "a.ppm", &out, &w, &h, &err) == -1);
+	CHECK(strstr(err.msg, "a.ppm: PNM") && strstr(err.msg, "needs"));
+	free(ppm);
+	const uint8_t pgm[] = {'P', '5', ' ', '2', ' ', '1', ' ', '1', '5', '\n', 0, 15};
+	CHECK(mc_image_decode(conv, pgm, sizeof(pgm), "a.pgm", &out, &w, &h, &err) == 0);
+	CHECK(w == 2 && h == 1 && out && out[0] == 0 && out[3] == 255 && out[4] == 255 && out[5] == 255);
+	free(out);
+	const uint8_t deep[] = "P5 2 1 65535\n\1\2\3\4";
+	CHECK(mc_image_decode(conv, deep, sizeof(deep) - 1, "d.pgm", &out, &w, &h, &err) == -1);
+	CHECK(strstr(err.msg, "maxval"));
+	const uint8_t bad[] = "P6 x 1 255\n";
+	CHECK(mc_image_decode(conv, bad, sizeof(bad) - 1, "b.ppm", &out, &w, &h, &err) == -1);
+	CHECK(strstr(err.msg, "bad header"));
+
+	/* JPEG through the same entry point; unknown bytes are refused. */
+	uint8_t *jpeg;
+	size_t jn;
+	CHECK(mc_image_encode_jpeg(conv, rgb, W, H, 90, &jpeg, &jn, &err) == 0);
+	CHECK_MSG(mc_image_decode(conv, jpeg, jn, "a.jpg", &out, &w, &h, &err) == 0 && w == W && h == H, "%s", err.msg);
+	free(out);
+	CHECK(mc_image_decode(conv, jpeg, jn / 3, "a.jpg", &out, &w, &h, &err) == -1);
+	CHECK(strncmp(err.msg, "a.jpg: MJPEG", 12) == 0);
+	free(jpeg);
+	CHECK(mc_image_decode(conv, (const uint8_t *)"GIF89a", 6, "a.gif", &out, &w, &h, &err) == -1);
+	CHECK(strstr(err.msg, "a.gif: not a JPEG"));
+	CHECK(mc_image_load(conv, "/nonexistent.png", &out, &w, &h, &err) == -1);
+	CHECK(strstr(err.msg, "/nonexistent.png"));
+}
+
 int main(void)
 {
 	mc_err err;
@@ -308,6 +376,7 @@ int main(void)
 	test_bayer();
 	test_depth();
 	test_resize();
+	test_decode_files();
 	mc_image_conv_free(conv);
 	return mc_test_finish("test_image");
 }
