@@ -314,7 +314,9 @@ static int parse_gaussians(const json_t *root, const char *origin, mc_model *m, 
 
 /* ---- top level ---- */
 
-static const char *const MODEL_KEYS[] = {"name", "root", "rig_from_root", "smoothness_m", "joints", "gaussians", NULL};
+/* "note" is free text for people (JSON has no comments); it is not kept. */
+static const char *const MODEL_KEYS[] = {"name",   "note",      "root", "rig_from_root", "smoothness_m",
+					 "joints", "gaussians", NULL};
 
 /* Matrices in files are often printed with 4-6 digits: accept a rotation to
  * 1e-3 and re-orthonormalise it. */
@@ -359,6 +361,10 @@ static int parse_model(const json_t *root, const char *origin, mc_model *m, mc_e
 	if (mc_json_check_keys(root, origin, MODEL_KEYS, err) ||
 	    mc_json_string(root, "name", origin, m->name, sizeof(m->name), true, err))
 		return -1;
+	json_t *note = json_object_get(root, "note");
+	char p0[WHERE_CAP];
+	if (note && !json_is_string(note))
+		return mc_err_set(err, "%s: expected a string", mc_json_path(p0, sizeof(p0), origin, "note"));
 	char kind[16], p[WHERE_CAP];
 	if (mc_json_string(root, "root", origin, kind, sizeof(kind), true, err) < 0) {
 		if (json_is_string(json_object_get(root, "root")))

@@ -602,6 +602,7 @@ static const bad_case BAD_CASES[] = {
 	{"smoothness_range.json", "smoothness_m", "out of range"},
 	{"bone_scale_zero.json", "joints[2].bone_scale", "out of range"},
 	{"offset_huge.json", "joints[2].offset", "within"},
+	{"note_not_string.json", "note", "expected a string"},
 	{"empty_joints.json", "joints", "at least 1"},
 	{"too_many_joints.json", "joints", "at most 32"},
 	{"too_many_dofs.json", "joints[30].dofs", "more than 96 degrees of freedom"},

@@ -84,6 +84,7 @@ variant("rig_from_root_scaled.json", lambda m: m.__setitem__(
 variant("smoothness_range.json", lambda m: m.__setitem__("smoothness_m", 1.5))
 variant("bone_scale_zero.json", lambda m: m["joints"][2].__setitem__("bone_scale", 0))
 variant("offset_huge.json", lambda m: m["joints"][2].__setitem__("offset", [0, 1e6, 0]))
+variant("note_not_string.json", lambda m: m.__setitem__("note", ["not", "text"]))
 variant("empty_joints.json", lambda m: m.__setitem__("joints", []))
 
 
