@@ -1,0 +1,447 @@
+/* Tests of the files driver plugin (drivers/files), loaded with dlopen as the
+ * daemon loads it, on the bundled demo clip tests/data/ego_demo and on
+ * small folders made here.
+ *
+ * The plugin is found in $MOCAP_DRIVER_DIR, else in <this program's
+ * folder>/../drivers (the layout of $(BUILD)/tests and $(BUILD)/drivers). */
+#include "mc_image.h"
+#include "mocap_driver.h"
+#include "test_util.h"
+
+#include <dlfcn.h>
+#include <libgen.h>
+#include <limits.h>
+#include <stdint.h>
+#include <string.h>
+#include <time.h>
+#include <unistd.h>
+
+#define DEMO "tests/data/ego_demo"
+
+/* ---- a minimal host ---- */
+
+typedef struct {
+	const char *keys[16];
+	char vals[16][PATH_MAX];
+	int n;
+} config;
+
+static const char *cfg_get(void *ctx, const char *key)
+{
+	config *c = ctx;
+	for (int i = 0; i < c->n; i++)
+		if (strcmp(c->keys[i], key) == 0)
+			return c->vals[i];
+	return NULL;
+}
+
+static void cfg_log(void *ctx, int level, const char *msg)
+{
+	(void)ctx;
+	printf("driver log [%d]: %s\n", level, msg);
+}
+
+static void cfg_set(config *c, const char *key, const char *val)
+{
+	for (int i = 0; i < c->n; i++)
+		if (strcmp(c->keys[i], key) == 0) {
+			snprintf(c->vals[i], sizeof(c->vals[i]), "%s", val);
+			return;
+		}
+	c->keys[c->n] = key;
+	snprintf(c->vals[c->n++], sizeof(c->vals[0]), "%s", val);
+}
+
+static mocap_host host_for(config *c) { return (mocap_host){.ctx = c, .config_get = cfg_get, .log = cfg_log}; }
+
+static uint64_t now_ns(void)
+{
+	struct timespec ts;
+	clock_gettime(CLOCK_MONOTONIC, &ts);
+	return (uint64_t)ts.tv_sec * 1000000000ull + (uint64_t)ts.tv_nsec;
+}
+
+static const mocap_driver *load_plugin(void **dl)
+{
+	char dir[PATH_MAX], path[PATH_MAX + 64];
+	const char *env = getenv("MOCAP_DRIVER_DIR");
+	if (env) {
+		snprintf(dir, sizeof(dir), "%s", env);
+	} else {
+		char exe[PATH_MAX];
+		ssize_t n = readlink("/proc/self/exe", exe, sizeof(exe) - 1);
+		if (n <= 0)
+			return NULL;
+		exe[n] = 0;
+		snprintf(dir, sizeof(dir), "%s/../drivers", dirname(exe));
+	}
+	snprintf(path, sizeof(path), "%s/mocap-driver-files.so", dir);
+	*dl = dlopen(path, RTLD_NOW | RTLD_LOCAL);
+	if (!*dl) {
+		fprintf(stderr, "dlopen: %s\n", dlerror());
+		return NULL;
+	}
+	mocap_driver_entry_fn entry = (mocap_driver_entry_fn)dlsym(*dl, MOCAP_DRIVER_ENTRY_SYMBOL);
+	return entry ? entry() : NULL;
+}
+
+static const mocap_driver *drv;
+static char err[512];
+
+/* Opens and starts; NULL (err set) on failure. */
+static void *open_start(config *c, mocap_host *h)
+{
+	*h = host_for(c);
+	void *dev = drv->open(h, err, sizeof(err));
+	if (dev && drv->start(dev, err, sizeof(err)) != MOCAP_OK) {
+		drv->close(dev);
+		return NULL;
+	}
+	return dev;
+}
+
+static int pull(void *dev, mocap_frame *f, uint8_t *buf, size_t cap, int timeout_ms)
+{
+	memset(f, 0, sizeof(*f));
+	f->data = buf;
+	f->capacity = cap;
+	return drv->next_frame(dev, f, timeout_ms, err, sizeof(err));
+}
+
+static int file_equals(const char *path, const uint8_t *data, size_t n)
+{
+	FILE *fp = fopen(path, "rb");
+	if (!fp)
+		return 0;
+	uint8_t *tmp = malloc(n + 1);
+	size_t got = fread(tmp, 1, n + 1, fp);
+	fclose(fp);
+	int same = got == n && memcmp(tmp, data, n) == 0;
+	free(tmp);
+	return same;
+}
+
+static void expect_open_fails(config *c, const char *needle)
+{
+	mocap_host h = host_for(c);
+	void *dev = drv->open(&h, err, sizeof(err));
+	CHECK_MSG(dev == NULL, "open succeeded, expected '%s'", needle);
+	CHECK_MSG(strstr(err, needle) != NULL, "'%s' lacks '%s'", err, needle);
+	if (dev)
+		drv->close(dev);
+}
+
+/* ---- tests ---- */
+
+static void test_entry_and_config(void)
+{
+	CHECK(drv->abi_version == MOCAP_DRIVER_ABI_VERSION);
+	CHECK(strcmp(drv->name, "files") == 0);
+	config c = {0};
+	mocap_host h = host_for(&c);
+	mocap_device_info info[4];
+	CHECK(drv->probe(&h, info, 4, err, sizeof(err)) == 0);
+
+	expect_open_fails(&c, "'path' is required");
+	cfg_set(&c, "path", "/nonexistent/folder/left");
+	expect_open_fails(&c, "/nonexistent/folder/left");
+	expect_open_fails(&c, "No such file");
+	cfg_set(&c, "path", DEMO "/left");
+	cfg_set(&c, "rate", "-1");
+	expect_open_fails(&c, "'rate'");
+	cfg_set(&c, "rate", "0");
+	cfg_set(&c, "loop", "maybe");
+	expect_open_fails(&c, "'loop'");
+	cfg_set(&c, "loop", "false");
+	cfg_set(&c, "format", "bmp");
+	expect_open_fails(&c, "'format'");
+	cfg_set(&c, "format", "mjpeg");
+	cfg_set(&c, "epoch", "soon");
+	expect_open_fails(&c, "'epoch'");
+	cfg_set(&c, "epoch", "0");
+	cfg_set(&c, "start", "1000");
+	expect_open_fails(&c, "from frame 1000");
+	cfg_set(&c, "path", DEMO); /* a folder without numbered images */
+	cfg_set(&c, "start", "0");
+	expect_open_fails(&c, "no numbered");
+}
+
+static void test_mjpeg(void)
+{
+	config c = {0};
+	cfg_set(&c, "path", DEMO "/left");
+	cfg_set(&c, "rate", "0");
+	cfg_set(&c, "start", "3");
+	cfg_set(&c, "count", "5");
+	mocap_host h;
+	void *dev = open_start(&c, &h);
+	CHECK_MSG(dev != NULL, "%s", err);
+	if (!dev)
+		return;
+	mocap_format fmt;
+	CHECK(drv->get_format(dev, &fmt, err, sizeof(err)) == MOCAP_OK);
+	CHECK(fmt.pixfmt == MOCAP_FMT_MJPEG && fmt.width == 256 && fmt.height == 256 && fmt.stride == 0);
+	CHECK(fmt.max_bytes > 1000 && fmt.max_bytes < 100000);
+	uint8_t *buf = malloc(fmt.max_bytes);
+	mocap_frame f;
+	uint64_t last_ts = 0;
+	for (int k = 0; k < 5; k++) {
+		int rc = pull(dev, &f, buf, fmt.max_bytes, 1000);
+		CHECK_MSG(rc == MOCAP_OK, "frame %d: %s", k, err);
+		char path[256];
+		snprintf(path, sizeof(path), DEMO "/left/%05d.jpg", 3 + k);
+		CHECK_MSG(file_equals(path, buf, f.bytesused), "frame %d is not %s", k, path);
+		CHECK(f.sequence == (uint64_t)k && f.format.pixfmt == MOCAP_FMT_MJPEG && f.format.width == 256);
+		CHECK(f.timestamp_ns >= last_ts && f.timestamp_ns > 0);
+		last_ts = f.timestamp_ns;
+	}
+	CHECK(pull(dev, &f, buf, fmt.max_bytes, 1000) == MOCAP_ERR_END);
+	CHECK(strstr(err, "end of"));
+	CHECK(pull(dev, &f, buf, fmt.max_bytes, 1000) == MOCAP_ERR_END);
+	/* A slot that is too small. */
+	drv->stop(dev);
+	CHECK(pull(dev, &f, buf, fmt.max_bytes, 0) != MOCAP_OK); /* stopped */
+	CHECK(drv->start(dev, err, sizeof(err)) == MOCAP_OK);
+	CHECK(pull(dev, &f, buf, 100, 1000) == MOCAP_ERR_NOSPACE);
+	CHECK(strstr(err, "00003.jpg"));
+	free(buf);
+	drv->close(dev);
+}
+
+static void test_rgb24(void)
+{
+	config c = {0};
+	cfg_set(&c, "path", DEMO "/right");
+	cfg_set(&c, "rate", "0");
+	cfg_set(&c, "count", "2");
+	cfg_set(&c, "format", "rgb24");
+	mocap_host h;
+	void *dev = open_start(&c, &h);
+	CHECK_MSG(dev != NULL, "%s", err);
+	if (!dev)
+		return;
+	mocap_format fmt;
+	drv->get_format(dev, &fmt, err, sizeof(err));
+	CHECK(fmt.pixfmt == MOCAP_FMT_RGB24 && fmt.stride == 256 * 3 && fmt.max_bytes == 256 * 256 * 3);
+	uint8_t *buf = malloc(fmt.max_bytes);
+	mocap_frame f;
+	mc_err e;
+	mc_image_conv *conv = mc_image_conv_new(&e);
+	for (int k = 0; k < 2; k++) {
+		CHECK(pull(dev, &f, buf, fmt.max_bytes, 1000) == MOCAP_OK);
+		char path[256];
+		snprintf(path, sizeof(path), DEMO "/right/%05d.jpg", k);
+		uint8_t *want = NULL;
+		int w, hh;
+		CHECK(mc_image_load(conv, path, &want, &w, &hh, &e) == 0);
+		CHECK(f.bytesused == fmt.max_bytes && want && memcmp(want, buf, f.bytesused) == 0);
+		free(want);
+	}
+	CHECK(pull(dev, &f, buf, fmt.max_bytes, 1000) == MOCAP_ERR_END);
+	mc_image_conv_free(conv);
+	free(buf);
+	drv->close(dev);
+}
+
+/* Pacing at a rate, shared epoch across two cameras, and timeouts. */
+static void test_pacing(void)
+{
+	config cl = {0}, cr = {0};
+	uint64_t epoch = now_ns() + 20 * 1000000ull;
+	char es[32];
+	snprintf(es, sizeof(es), "%llu", (unsigned long long)epoch);
+	cfg_set(&cl, "path", DEMO "/left");
+	cfg_set(&cr, "path", DEMO "/right");
+	for (config *c = &cl; c; c = c == &cl ? &cr : NULL) {
+		cfg_set(c, "rate", "50");
+		cfg_set(c, "count", "6");
+		cfg_set(c, "epoch", es);
+	}
+	mocap_host hl, hr;
+	void *l = open_start(&cl, &hl), *r = open_start(&cr, &hr);
+	CHECK(l && r);
+	if (!l || !r) {
+		if (l)
+			drv->close(l);
+		if (r)
+			drv->close(r);
+		return;
+	}
+	uint8_t *buf = malloc(1 << 20);
+	mocap_frame fl, fr;
+	uint64_t first = 0, last = 0;
+	for (int k = 0; k < 6; k++) {
+		CHECK(pull(l, &fl, buf, 1 << 20, 1000) == MOCAP_OK);
+		uint64_t t = now_ns();
+		CHECK(pull(r, &fr, buf, 1 << 20, 1000) == MOCAP_OK);
+		CHECK(fl.timestamp_ns == epoch + (uint64_t)k * 20000000ull);
+		CHECK(fl.timestamp_ns == fr.timestamp_ns); /* same frame, same time */
+		CHECK(t >= fl.timestamp_ns);              /* never delivered early */
+		if (k == 0)
+			first = t;
+		last = t;
+	}
+	double span = (double)(last - first) * 1e-9;
+	CHECK_MSG(span > 0.09 && span < 0.5, "6 frames at 50 fps took %.3f s", span);
+	drv->close(l);
+	drv->close(r);
+
+	/* A frame due in 10 s: next_frame times out after about timeout_ms. */
+	config c = {0};
+	snprintf(es, sizeof(es), "%llu", (unsigned long long)(now_ns() + 10000000000ull));
+	cfg_set(&c, "path", DEMO "/left");
+	cfg_set(&c, "rate", "30");
+	cfg_set(&c, "epoch", es);
+	mocap_host h;
+	void *dev = open_start(&c, &h);
+	CHECK(dev != NULL);
+	if (dev) {
+		uint64_t t0 = now_ns();
+		CHECK(pull(dev, &fl, buf, 1 << 20, 30) == MOCAP_ERR_TIMEOUT);
+		double waited = (double)(now_ns() - t0) * 1e-9;
+		CHECK_MSG(waited > 0.025 && waited < 1.0, "waited %.3f s", waited);
+		drv->close(dev);
+	}
+	free(buf);
+}
+
+static void test_loop(void)
+{
+	config c = {0};
+	cfg_set(&c, "path", DEMO "/left");
+	cfg_set(&c, "rate", "0");
+	cfg_set(&c, "count", "3");
+	cfg_set(&c, "loop", "true");
+	mocap_host h;
+	void *dev = open_start(&c, &h);
+	CHECK(dev != NULL);
+	if (!dev)
+		return;
+	uint8_t *buf = malloc(1 << 20);
+	mocap_frame f;
+	for (int k = 0; k < 7; k++) {
+		CHECK(pull(dev, &f, buf, 1 << 20, 1000) == MOCAP_OK);
+		char path[256];
+		snprintf(path, sizeof(path), DEMO "/left/%05d.jpg", k % 3);
+		CHECK_MSG(file_equals(path, buf, f.bytesused), "frame %d is not %s", k, path);
+		CHECK(f.sequence == (uint64_t)k);
+	}
+	free(buf);
+	drv->close(dev);
+}
+
+/* A folder of PNG and PPM files with other files around, and a bad JPEG. */
+static void test_other_files(void)
+{
+	char dir[] = "/tmp/mocap-files-test-XXXXXX";
+	CHECK(mkdtemp(dir) != NULL);
+	char path[PATH_MAX];
+	mc_err e;
+	mc_image_conv *conv = mc_image_conv_new(&e);
+	uint8_t *jpeg;
+	size_t jn;
+	enum { W = 8, H = 6 };
+	uint8_t rgb[W * H * 3];
+	for (int i = 0; i < W * H * 3; i++)
+		rgb[i] = (uint8_t)(i * 5);
+	/* frame_2.ppm, frame_10.ppm (numeric order, not name order), notes.txt, cover.ppm */
+	int numbers[2] = {10, 2};
+	for (int i = 0; i < 2; i++) {
+		snprintf(path, sizeof(path), "%s/frame_%d.ppm", dir, numbers[i]);
+		FILE *fp = fopen(path, "wb");
+		fprintf(fp, "P6\n%d %d\n255\n", W, H);
+		rgb[0] = (uint8_t)numbers[i];
+		fwrite(rgb, 1, sizeof(rgb), fp);
+		fclose(fp);
+	}
+	snprintf(path, sizeof(path), "%s/notes.txt", dir);
+	FILE *fp = fopen(path, "w");
+	fputs("frame 7\n", fp);
+	fclose(fp);
+	snprintf(path, sizeof(path), "%s/cover.ppm", dir);
+	fp = fopen(path, "w");
+	fputs("P6\n", fp);
+	fclose(fp);
+
+	config c = {0};
+	cfg_set(&c, "path", dir);
+	cfg_set(&c, "rate", "0");
+	cfg_set(&c, "format", "mjpeg");
+	expect_open_fails(&c, "mjpeg needs JPEG files");
+	cfg_set(&c, "format", "rgb24");
+	mocap_host h;
+	void *dev = open_start(&c, &h);
+	CHECK_MSG(dev != NULL, "%s", err);
+	uint8_t *buf = malloc(W * H * 3);
+	mocap_frame f;
+	if (dev) {
+		CHECK(pull(dev, &f, buf, W * H * 3, 1000) == MOCAP_OK && buf[0] == 2 && buf[1] == rgb[1]);
+		CHECK(pull(dev, &f, buf, W * H * 3, 1000) == MOCAP_OK && buf[0] == 10);
+		CHECK(pull(dev, &f, buf, W * H * 3, 1000) == MOCAP_ERR_END);
+		drv->close(dev);
+	}
+
+	/* JPEGs: 0 good, 1 garbage, 2 good: the bad one is an error that names
+	 * it, and playback goes on. */
+	char jdir[] = "/tmp/mocap-files-jpeg-XXXXXX";
+	CHECK(mkdtemp(jdir) != NULL);
+	CHECK(mc_image_encode_jpeg(conv, rgb, W, H, 90, &jpeg, &jn, &e) == 0);
+	for (int i = 0; i < 3; i++) {
+		snprintf(path, sizeof(path), "%s/%d.jpg", jdir, i);
+		fp = fopen(path, "wb");
+		fwrite(jpeg, 1, i == 1 ? jn / 2 : jn, fp);
+		fclose(fp);
+	}
+	config cj = {0};
+	cfg_set(&cj, "path", jdir);
+	cfg_set(&cj, "rate", "0");
+	cfg_set(&cj, "format", "rgb24");
+	dev = open_start(&cj, &h);
+	CHECK_MSG(dev != NULL, "%s", err);
+	if (dev) {
+		CHECK(pull(dev, &f, buf, W * H * 3, 1000) == MOCAP_OK && f.sequence == 0);
+		CHECK(pull(dev, &f, buf, W * H * 3, 1000) == MOCAP_ERR_IO);
+		CHECK_MSG(strstr(err, "1.jpg") != NULL, "%s", err);
+		CHECK(pull(dev, &f, buf, W * H * 3, 1000) == MOCAP_OK && f.sequence == 2);
+		CHECK(pull(dev, &f, buf, W * H * 3, 1000) == MOCAP_ERR_END);
+		drv->close(dev);
+	}
+	/* Default format for all-JPEG folders is mjpeg, bytes as in the file. */
+	config cd = {0};
+	cfg_set(&cd, "path", jdir);
+	cfg_set(&cd, "rate", "0");
+	dev = open_start(&cd, &h);
+	CHECK(dev != NULL);
+	if (dev) {
+		uint8_t *jb = malloc(jn);
+		CHECK(pull(dev, &f, jb, jn, 1000) == MOCAP_OK && f.format.pixfmt == MOCAP_FMT_MJPEG);
+		CHECK(f.bytesused == jn && memcmp(jb, jpeg, jn) == 0);
+		free(jb);
+		drv->close(dev);
+	}
+	free(jpeg);
+	free(buf);
+	mc_image_conv_free(conv);
+	char cmd[PATH_MAX * 2 + 16];
+	snprintf(cmd, sizeof(cmd), "rm -rf '%s' '%s'", dir, jdir);
+	CHECK(system(cmd) == 0);
+}
+
+int main(void)
+{
+	if (access(DEMO "/left/00000.jpg", R_OK) != 0)
+		TEST_SKIP("the demo clip %s is missing (run from the repository root)", DEMO);
+	void *dl = NULL;
+	drv = load_plugin(&dl);
+	CHECK_MSG(drv != NULL, "cannot load mocap-driver-files.so (set MOCAP_DRIVER_DIR)");
+	if (!drv)
+		return mc_test_finish("test_driver_files");
+	test_entry_and_config();
+	test_mjpeg();
+	test_rgb24();
+	test_pacing();
+	test_loop();
+	test_other_files();
+	dlclose(dl);
+	return mc_test_finish("test_driver_files");
+}
