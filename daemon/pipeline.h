@@ -1,0 +1,91 @@
+/* pipeline: capture -> group -> track -> publish.
+ *
+ * Threads: one capture thread per camera (camera.h) writing into that
+ * camera's frame ring; one tracking thread that groups the views of one
+ * instant (grouper.h), copies them out of the rings, converts them to RGB24
+ * (core/mc_image.h) and runs the tracker; one publishing thread
+ * (publish.h).  The main thread only starts, watches, reloads and stops.
+ *
+ * With many frame sets due at once (the tracker is slower than the
+ * cameras), only the newest is tracked and the older ones are counted as
+ * skipped: a live pose is worth more than a complete but late one. */
+#ifndef MCD_PIPELINE_H
+#define MCD_PIPELINE_H
+
+#include "camera.h"
+#include "config.h"
+#include "mc_server.h"
+#include "publish.h"
+#include "tracking.h"
+
+#include <stdbool.h>
+#include <stdint.h>
+
+typedef struct {
+	char name[MCD_NAME_MAX];
+	char driver[MCD_NAME_MAX];
+	mcd_cam_state state;
+	mcd_cam_counters counters;
+	mocap_format format;
+	uint64_t missing;     /* frame sets emitted without this camera */
+	uint64_t late;        /* frames that came after their frame set */
+	uint64_t overrun;     /* frames overwritten in the ring before use */
+	uint64_t undecodable; /* frames that failed conversion to RGB */
+	char last_error[256];
+} mcd_cam_status;
+
+typedef struct {
+	int ncams;
+	mcd_cam_status cams[MCD_MAX_CAMERAS];
+	bool tracking;          /* a tracker is configured */
+	uint64_t sets;          /* frame sets emitted by the grouper */
+	uint64_t complete_sets; /* with every camera */
+	uint64_t tracked;       /* frame sets tracked */
+	uint64_t skipped;       /* frame sets skipped because newer ones were due */
+	uint64_t track_errors;
+	double track_ms_total;  /* sum over all tracked sets */
+	double track_ms_max;    /* since the last mcd_pipeline_status(.., reset_max) */
+	int track_state;        /* mc_track_state of the last tracked set, -1 none */
+	mcd_publish_stats publish;
+} mcd_pipeline_status;
+
+typedef struct mcd_pipeline mcd_pipeline;
+
+/* Loads the driver plugins of every camera (refusing untrusted ones) and
+ * prepares the cameras; starts nothing.  `tracking` (may be NULL: tracker
+ * disabled) and `srv` (may be NULL) stay the caller's and must outlive the
+ * pipeline. */
+mcd_pipeline *mcd_pipeline_create(const mcd_config *cfg, mcd_tracking *tracking, mc_server *srv, mc_err *err);
+int mcd_pipeline_start(mcd_pipeline *p, mc_err *err);
+/* Stops every thread; a camera thread stuck in its driver is abandoned
+ * after `grace_ms` (logged) rather than waited for forever. */
+void mcd_pipeline_stop(mcd_pipeline *p, int grace_ms);
+void mcd_pipeline_destroy(mcd_pipeline *p);
+
+/* An eventfd that becomes readable when something the main thread cares
+ * about changed: a camera's state or ring, or the end of all streams. */
+int mcd_pipeline_event_fd(mcd_pipeline *p);
+/* Resets the event fd and returns true if the set of camera rings changed
+ * since the last call. */
+bool mcd_pipeline_take_events(mcd_pipeline *p);
+
+/* True once every camera has finished its first attempt to open. */
+bool mcd_pipeline_cameras_attempted(mcd_pipeline *p);
+/* True when no camera will deliver again (all ended or failed), at least
+ * one ended, and every frame set was tracked and published. */
+bool mcd_pipeline_finished(mcd_pipeline *p);
+/* True if every pipeline thread has gone round its loop since the last
+ * call (a stuck thread makes it false): the watchdog's evidence. */
+bool mcd_pipeline_progress(mcd_pipeline *p, char *stuck, size_t cap);
+
+void mcd_pipeline_get_status(mcd_pipeline *p, mcd_pipeline_status *st, bool reset_max);
+
+/* Applies what can change safely at run time: grouping limits, reopen
+ * backoff and stall limit, printing, tracker budgets. */
+void mcd_pipeline_reload(mcd_pipeline *p, const mcd_config *cfg);
+
+/* Offers every camera ring to the server's clients (after start and when
+ * mcd_pipeline_take_events says the rings changed). */
+void mcd_pipeline_share_rings(mcd_pipeline *p);
+
+#endif

@@ -1,0 +1,200 @@
+#include "publish.h"
+
+#include "log.h"
+
+#include <pthread.h>
+#include <stdatomic.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+#define QUEUE_LEN 8
+
+struct mcd_publisher {
+	mc_server *srv;
+	FILE *out;
+	pthread_t thread;
+	pthread_mutex_t lock;
+	pthread_cond_t cond;
+	bool stop, print, busy;
+	mcd_output queue[QUEUE_LEN];
+	int head, count;
+	mcd_publish_stats stats;
+	uint64_t t0_ns;
+	bool have_t0;
+	atomic_uint_fast64_t heartbeat;
+	uint64_t server_seq;    /* publisher thread only */
+	uint64_t logged_errors; /* publisher thread only */
+};
+
+void mcd_format_output(const mcd_output *o, uint64_t t0_ns, char *buf, size_t cap)
+{
+	double t = o->timestamp_ns >= t0_ns ? (double)(o->timestamp_ns - t0_ns) / 1e9 : 0;
+	size_t len = 0;
+#define APPEND(...)                                                                      \
+	do {                                                                             \
+		int w_ = snprintf(buf + len, cap > len ? cap - len : 0, __VA_ARGS__);    \
+		if (w_ > 0)                                                              \
+			len = len + (size_t)w_ < cap ? len + (size_t)w_ : (cap ? cap - 1 : 0); \
+	} while (0)
+	if (cap)
+		buf[0] = 0;
+	if (!o->tracked) {
+		APPEND("frame %llu t=%.3f cams %d/%d (not tracked)", (unsigned long long)o->seq, t, o->present,
+		       o->ncams);
+		return;
+	}
+	const mc_skeleton *sk = &o->sk;
+	APPEND("frame %llu t=%.3f %s %.1fms cams %d/%d", (unsigned long long)o->seq, t, mc_track_state_name(sk->state),
+	       sk->track_ms, o->present, o->ncams);
+	for (int j = 0; j < sk->njoints; j++) {
+		const mc_vec3 *p = &sk->joints[j].position;
+		APPEND(" %s=(%.3f,%.3f,%.3f)", sk->joints[j].name, p->x, p->y, p->z);
+	}
+#undef APPEND
+}
+
+/* Returns 1 if the server refused the frame. Publisher thread only. */
+static int handle(mcd_publisher *p, const mcd_output *o, bool print)
+{
+	int failed = 0;
+	if (o->tracked && p->srv) {
+		mc_err err;
+		if (mc_server_publish(p->srv, &o->sk, ++p->server_seq, &err) != 0) {
+			failed = 1;
+			if (++p->logged_errors <= 3)
+				mcd_warn("publish: %s", err.msg);
+		}
+	}
+	if (print) {
+		if (!p->have_t0) {
+			p->t0_ns = o->timestamp_ns;
+			p->have_t0 = true;
+		}
+		char line[4096];
+		mcd_format_output(o, p->t0_ns, line, sizeof(line));
+		fprintf(p->out, "%s\n", line);
+		fflush(p->out);
+	}
+	return failed;
+}
+
+static void *publish_main(void *arg)
+{
+	mcd_publisher *p = arg;
+	pthread_mutex_lock(&p->lock);
+	for (;;) {
+		while (!p->count && !p->stop) {
+			struct timespec ts;
+			clock_gettime(CLOCK_MONOTONIC, &ts);
+			ts.tv_nsec += 100000000L;
+			if (ts.tv_nsec >= 1000000000L) {
+				ts.tv_sec++;
+				ts.tv_nsec -= 1000000000L;
+			}
+			pthread_cond_timedwait(&p->cond, &p->lock, &ts);
+			atomic_fetch_add(&p->heartbeat, 1);
+		}
+		if (!p->count && p->stop)
+			break;
+		mcd_output *o = malloc(sizeof(*o));
+		if (o)
+			*o = p->queue[p->head];
+		p->head = (p->head + 1) % QUEUE_LEN;
+		p->count--;
+		p->busy = true;
+		bool print = p->print;
+		pthread_mutex_unlock(&p->lock);
+		int failed = o ? handle(p, o, print) : 0;
+		free(o);
+		atomic_fetch_add(&p->heartbeat, 1);
+		pthread_mutex_lock(&p->lock);
+		p->stats.server_errors += (uint64_t)failed;
+		p->busy = false;
+		p->stats.published++;
+	}
+	pthread_mutex_unlock(&p->lock);
+	return NULL;
+}
+
+mcd_publisher *mcd_publisher_create(mc_server *srv, FILE *out, bool print, mc_err *err)
+{
+	mcd_publisher *p = calloc(1, sizeof(*p));
+	if (!p) {
+		mc_err_set(err, "publisher: out of memory");
+		return NULL;
+	}
+	p->srv = srv;
+	p->out = out ? out : stdout;
+	p->print = print;
+	pthread_mutex_init(&p->lock, NULL);
+	pthread_condattr_t ca;
+	pthread_condattr_init(&ca);
+	pthread_condattr_setclock(&ca, CLOCK_MONOTONIC);
+	pthread_cond_init(&p->cond, &ca);
+	pthread_condattr_destroy(&ca);
+	int rc = pthread_create(&p->thread, NULL, publish_main, p);
+	if (rc) {
+		mc_err_set(err, "publisher: cannot start its thread: %s", strerror(rc));
+		pthread_mutex_destroy(&p->lock);
+		pthread_cond_destroy(&p->cond);
+		free(p);
+		return NULL;
+	}
+	return p;
+}
+
+void mcd_publisher_destroy(mcd_publisher *p)
+{
+	if (!p)
+		return;
+	pthread_mutex_lock(&p->lock);
+	p->stop = true;
+	pthread_cond_signal(&p->cond);
+	pthread_mutex_unlock(&p->lock);
+	pthread_join(p->thread, NULL);
+	pthread_mutex_destroy(&p->lock);
+	pthread_cond_destroy(&p->cond);
+	free(p);
+}
+
+void mcd_publisher_push(mcd_publisher *p, const mcd_output *o)
+{
+	pthread_mutex_lock(&p->lock);
+	if (p->count == QUEUE_LEN) {
+		p->head = (p->head + 1) % QUEUE_LEN;
+		p->count--;
+		p->stats.dropped++;
+	}
+	p->queue[(p->head + p->count) % QUEUE_LEN] = *o;
+	p->count++;
+	pthread_cond_signal(&p->cond);
+	pthread_mutex_unlock(&p->lock);
+}
+
+void mcd_publisher_set_print(mcd_publisher *p, bool print)
+{
+	pthread_mutex_lock(&p->lock);
+	p->print = print;
+	pthread_mutex_unlock(&p->lock);
+}
+
+void mcd_publisher_stats(mcd_publisher *p, mcd_publish_stats *st)
+{
+	pthread_mutex_lock(&p->lock);
+	*st = p->stats;
+	pthread_mutex_unlock(&p->lock);
+}
+
+uint64_t mcd_publisher_heartbeat(mcd_publisher *p)
+{
+	return atomic_load(&p->heartbeat);
+}
+
+bool mcd_publisher_idle(mcd_publisher *p)
+{
+	pthread_mutex_lock(&p->lock);
+	bool idle = !p->count && !p->busy;
+	pthread_mutex_unlock(&p->lock);
+	return idle;
+}

@@ -1,0 +1,47 @@
+/* publish: the publishing thread.  Takes tracked skeletons (or, with the
+ * tracker disabled, bare frame-set records) from the tracking thread
+ * through a short queue that never blocks its writer (the oldest entry is
+ * dropped and counted when full), hands them to the socket server and, with
+ * printing on, writes one text line per frame to stdout. */
+#ifndef MCD_PUBLISH_H
+#define MCD_PUBLISH_H
+
+#include "mc_error.h"
+#include "mc_server.h"
+#include "mc_tracker.h"
+
+#include <stdbool.h>
+#include <stdint.h>
+#include <stdio.h>
+
+typedef struct {
+	uint64_t seq;          /* frame sets handled by the tracking thread */
+	uint64_t timestamp_ns; /* capture time */
+	int present, ncams;    /* cameras in the frame set */
+	bool tracked;          /* sk is valid */
+	mc_skeleton sk;
+} mcd_output;
+
+typedef struct {
+	uint64_t published;    /* entries handled */
+	uint64_t dropped;      /* entries dropped because the queue was full */
+	uint64_t server_errors;
+} mcd_publish_stats;
+
+typedef struct mcd_publisher mcd_publisher;
+
+/* srv may be NULL (no socket); out is where lines go (stdout). */
+mcd_publisher *mcd_publisher_create(mc_server *srv, FILE *out, bool print, mc_err *err);
+void mcd_publisher_destroy(mcd_publisher *p); /* stops the thread after draining */
+void mcd_publisher_push(mcd_publisher *p, const mcd_output *o);
+void mcd_publisher_set_print(mcd_publisher *p, bool print);
+void mcd_publisher_stats(mcd_publisher *p, mcd_publish_stats *st);
+uint64_t mcd_publisher_heartbeat(mcd_publisher *p);
+/* True when nothing is queued or being handled. */
+bool mcd_publisher_idle(mcd_publisher *p);
+
+/* The text line for one output (no newline), e.g.
+ *   "frame 12 t=0.400 ok 35.1ms 2/2 neck=(0.150,0.267,0.170) ..." */
+void mcd_format_output(const mcd_output *o, uint64_t t0_ns, char *buf, size_t cap);
+
+#endif

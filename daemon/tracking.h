@@ -1,0 +1,47 @@
+/* tracking: the [tracker] section made real: the rig, the body model, the
+ * tracker with its settings, its initial pose, and the map from configured
+ * cameras to rig cameras.
+ *
+ * Initial pose: with `init_joints = gt.json`, frame 0's joints (rig frame,
+ * i.e. the left camera frame of the ego data) initialise pose and bone
+ * lengths through mc_tracker_init_from_joints; otherwise the model's rest
+ * pose.  Errors name the config key they come from, e.g.
+ *   "mocapd.conf:24: [tracker] rig: rigs/x.json: cameras[0].f: ..." */
+#ifndef MCD_TRACKING_H
+#define MCD_TRACKING_H
+
+#include "config.h"
+#include "mc_error.h"
+#include "mc_model.h"
+#include "mc_rig.h"
+#include "mc_tracker.h"
+
+typedef struct {
+	mc_rig rig;
+	mc_model model;
+	mc_tracker *tracker;
+	mc_tracker_settings settings;
+	int cam_to_rig[MCD_MAX_CAMERAS]; /* configured camera -> rig camera index */
+	char *rig_json;                  /* the rig as JSON text, for clients; NULL if unknown */
+	bool calibrate_pending;          /* calibrate colours on the first complete frame set */
+} mcd_tracking;
+
+/* Loads rig and model, creates and initialises the tracker. */
+int mcd_tracking_setup(const mcd_config *cfg, mcd_tracking *t, mc_err *err);
+void mcd_tracking_free(mcd_tracking *t);
+
+/* The tracker settings a config asks for (the tracker's defaults where the
+ * config is silent). */
+void mcd_tracking_settings(const mcd_tracker_config *tc, mc_tracker_settings *s);
+
+/* Applies the budget keys of a reloaded config (iterations, pixel_fraction,
+ * dropout, step, momentum) by rebuilding the tracker around the current
+ * pose and actor.  Call on the tracking thread, between frames. */
+int mcd_tracking_reload(mcd_tracking *t, const mcd_tracker_config *tc, mc_err *err);
+
+/* Reads frame 0's joints from a gt.json (the ego data's format).  *names and
+ * *pos are malloc'ed arrays of n entries; free both with mcd_joints_free. */
+int mcd_read_init_joints(const char *path, char ***names, mc_vec3 **pos, int *n, mc_err *err);
+void mcd_joints_free(char **names, mc_vec3 *pos, int n);
+
+#endif
