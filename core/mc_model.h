@@ -84,7 +84,10 @@ typedef struct {
 /* Load / parse (origin names the text in errors) / save the JSON format of
  * docs/MODEL_FORMAT.md.  Loading computes dof0, ndof, sigma and c.  Errors
  * name the file and field, e.g. "m.json: joints[4].parent: cycle through
- * 'spine'".  Saving writes every field explicitly (angles in degrees). */
+ * 'spine'".  Saving writes every field explicitly (angles in degrees,
+ * colours as numbers, every Gaussian's bone) except the free-text "note"
+ * and bone_scale values of 1; it refuses a model that fails
+ * mc_model_validate. */
 int mc_model_load(const char *path, mc_model *model, mc_err *err);
 int mc_model_parse(const char *json_text, const char *origin, mc_model *model, mc_err *err);
 int mc_model_save(const mc_model *model, const char *path, mc_err *err);

@@ -432,7 +432,7 @@ static void test_sphere_to_gaussian(void)
 	const double ms[] = {0.1, 0.1, 0.1, 0.1, 0.1, 0.05, 0.3, 0.6};
 	for (size_t i = 0; i < sizeof(ms) / sizeof(ms[0]); i++) {
 		double m = ms[i], r = i < 5 ? radii[i] : 0.1;
-		double sigma, c;
+		double sigma = 0, c = 0;
 		CHECK(mc_sphere_to_gaussian(r, m, &sigma, &c) == 0);
 		/* 1 - V at the centre is m. */
 		CHECK_NEAR(1 - single_visibility(sigma, c, 0), m, 1e-9);
@@ -456,7 +456,7 @@ static void test_sphere_to_gaussian(void)
 			printf("sphere r = 0.1 m, m = 0.1: sigma = %.6f m, c = %.4f /m\n", sigma, c);
 	}
 	/* sigma is proportional to r, c to 1/r. */
-	double s1, c1, s2, c2;
+	double s1 = 0, c1 = 0, s2 = 0, c2 = 0;
 	CHECK(mc_sphere_to_gaussian(0.1, 0.1, &s1, &c1) == 0 && mc_sphere_to_gaussian(0.4, 0.1, &s2, &c2) == 0);
 	CHECK_NEAR(s2 / s1, 4, 1e-12);
 	CHECK_NEAR(c1 / c2, 4, 1e-12);
@@ -554,7 +554,7 @@ static void test_parse_details(void)
 	CHECK(vdist(m.rig_from_root.t, mc_v3(0, 0, 0)) == 0 && m.rig_from_root.R.m[1][1] == 1);
 	/* Default bones: the bone to the only child (head -> neck, spine -> pelvis). */
 	CHECK(m.gauss[0].scale_joint == 1 && m.gauss[1].scale_joint == 3);
-	double s, c;
+	double s = 0, c = 0;
 	mc_sphere_to_gaussian(0.09, 0.1, &s, &c);
 	CHECK(m.gauss[1].sigma == s && m.gauss[1].c == c);
 	CHECK(m.joints[2].dof0 == 1 && m.joints[4].dof0 == 3);
