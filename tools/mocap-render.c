@@ -1,0 +1,505 @@
+/* mocap-render: renders the body model through a rig's cameras, and draws
+ * projected skeletons over images.  A debugging tool; see docs/RENDER.md.
+ *
+ *   mocap-render --rig R.json --model M.json [--pose P.json | --rest]
+ *                [--width W --height H] [--background grey|black]
+ *                [--cam NAME] [--skeleton] --out PREFIX
+ *   mocap-render --rig R.json --model M.json [--pose P.json | --rest]
+ *                --cam NAME --overlay IMAGE [--gt gt.json --frame K] --out PREFIX
+ *
+ * The first form writes PREFIX_<cam>.png for every camera (or only NAME):
+ * the model's image formation (mc_ray_render_rgb) at the working resolution.
+ * The second writes PREFIX_<cam>_overlay.png: IMAGE with the posed model's
+ * skeleton, and optionally a ground-truth skeleton, projected on it. */
+#include "mc_camera.h"
+#include "mc_energy.h"
+#include "mc_image.h"
+#include "mc_json.h"
+#include "mc_model.h"
+#include "mc_rig.h"
+
+#include <errno.h>
+#include <getopt.h>
+#include <png.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+#define DEG (M_PI / 180.0)
+
+typedef struct {
+	const char *rig_path, *model_path, *pose_path, *out, *cam, *overlay, *gt_path;
+	int width, height, frame;
+	bool skeleton;
+	double background[3];
+} options;
+
+typedef struct {
+	uint8_t *rgb;
+	int width, height;
+} image;
+
+static const uint8_t COLOR_LEFT[3] = {255, 64, 64}, COLOR_RIGHT[3] = {64, 160, 255}, COLOR_MID[3] = {255, 230, 64},
+		     COLOR_GT[3] = {64, 255, 96};
+
+/* ---- command line -------------------------------------------------------- */
+
+static void usage(FILE *f)
+{
+	fprintf(f, "usage: mocap-render --rig RIG.json --model MODEL.json [--pose POSE.json | --rest]\n"
+		   "                    [--width W --height H] [--background grey|black] [--cam NAME]\n"
+		   "                    [--skeleton] --out PREFIX\n"
+		   "       mocap-render --rig RIG.json --model MODEL.json [--pose POSE.json | --rest]\n"
+		   "                    --cam NAME --overlay IMAGE [--gt gt.json --frame K] --out PREFIX\n"
+		   "Renders the body model through every rig camera into PREFIX_<cam>.png, or draws\n"
+		   "the projected skeleton over IMAGE into PREFIX_<cam>_overlay.png. See docs/RENDER.md.\n");
+}
+
+static int parse_int(const char *opt, const char *s, int lo, int hi, int *out)
+{
+	char *end;
+	long v = strtol(s, &end, 10);
+	if (*s == 0 || *end || v < lo || v > hi) {
+		fprintf(stderr, "mocap-render: %s: expected an integer %d..%d, got '%s'\n", opt, lo, hi, s);
+		return -1;
+	}
+	*out = (int)v;
+	return 0;
+}
+
+static int parse_args(int argc, char **argv, options *o)
+{
+	static const struct option longopts[] = {
+		{"rig", required_argument, 0, 'r'},    {"model", required_argument, 0, 'm'},
+		{"pose", required_argument, 0, 'p'},   {"rest", no_argument, 0, 'R'},
+		{"width", required_argument, 0, 'W'},  {"height", required_argument, 0, 'H'},
+		{"background", required_argument, 0, 'b'}, {"cam", required_argument, 0, 'c'},
+		{"skeleton", no_argument, 0, 's'},     {"overlay", required_argument, 0, 'o'},
+		{"gt", required_argument, 0, 'g'},     {"frame", required_argument, 0, 'f'},
+		{"out", required_argument, 0, 'O'},    {"help", no_argument, 0, 'h'},
+		{0, 0, 0, 0},
+	};
+	memset(o, 0, sizeof(*o));
+	o->frame = -1;
+	o->background[0] = o->background[1] = o->background[2] = 0.5;
+	int ch;
+	while ((ch = getopt_long(argc, argv, "", longopts, NULL)) != -1) {
+		switch (ch) {
+		case 'r': o->rig_path = optarg; break;
+		case 'm': o->model_path = optarg; break;
+		case 'p': o->pose_path = optarg; break;
+		case 'R': o->pose_path = NULL; break;
+		case 'W': if (parse_int("--width", optarg, 1, 4096, &o->width)) return -1; break;
+		case 'H': if (parse_int("--height", optarg, 1, 4096, &o->height)) return -1; break;
+		case 'f': if (parse_int("--frame", optarg, 0, 1000000, &o->frame)) return -1; break;
+		case 'c': o->cam = optarg; break;
+		case 's': o->skeleton = true; break;
+		case 'o': o->overlay = optarg; break;
+		case 'g': o->gt_path = optarg; break;
+		case 'O': o->out = optarg; break;
+		case 'b':
+			if (strcmp(optarg, "grey") == 0 || strcmp(optarg, "gray") == 0) {
+				o->background[0] = o->background[1] = o->background[2] = 0.5;
+			} else if (strcmp(optarg, "black") == 0) {
+				o->background[0] = o->background[1] = o->background[2] = 0;
+			} else {
+				fprintf(stderr, "mocap-render: --background: expected grey or black, got '%s'\n", optarg);
+				return -1;
+			}
+			break;
+		case 'h': usage(stdout); exit(0);
+		default: usage(stderr); return -1;
+		}
+	}
+	const char *missing = !o->rig_path ? "--rig" : !o->model_path ? "--model" : !o->out ? "--out" : NULL;
+	if (missing) {
+		fprintf(stderr, "mocap-render: %s is required\n", missing);
+		usage(stderr);
+		return -1;
+	}
+	if (optind < argc) {
+		fprintf(stderr, "mocap-render: unexpected argument '%s'\n", argv[optind]);
+		return -1;
+	}
+	if ((o->width > 0) != (o->height > 0)) {
+		fprintf(stderr, "mocap-render: give both --width and --height, or neither\n");
+		return -1;
+	}
+	if (o->overlay && !o->cam) {
+		fprintf(stderr, "mocap-render: --overlay needs --cam NAME (the camera that took the image)\n");
+		return -1;
+	}
+	if ((o->gt_path != NULL) != (o->frame >= 0) || (o->gt_path && !o->overlay)) {
+		fprintf(stderr, "mocap-render: --gt and --frame go together, with --overlay\n");
+		return -1;
+	}
+	return 0;
+}
+
+/* ---- pose file ------------------------------------------------------------- */
+
+/* {"pose": [ndof numbers]} in the model's units (radians, metres), or
+ * {"dofs": {"left_elbow.x": 45, ...}} with angles in degrees (root.tx..tz in
+ * metres); unnamed dofs keep their rest value. */
+static int load_pose(const char *path, const mc_model *model, double *pose, mc_err *err)
+{
+	json_t *root, *dofs;
+	if (mc_json_load_file(path, &root, err))
+		return -1;
+	static const char *const keys[] = {"pose", "dofs", "note", NULL};
+	int r = -1;
+	if (mc_json_check_keys(root, path, keys, err))
+		goto out;
+	size_t n = 0;
+	int has_vec = mc_json_numbers_var(root, "pose", path, pose, MC_MAX_DOF, &n, false, err);
+	if (has_vec < 0)
+		goto out;
+	if (has_vec == 0 && (int)n != model->ndof) {
+		mc_err_set(err, "%s: pose: the model has %d dofs, got %zu numbers", path, model->ndof, n);
+		goto out;
+	}
+	int has_map = mc_json_object(root, "dofs", path, &dofs, false, err);
+	if (has_map < 0)
+		goto out;
+	if (has_vec == 0 && has_map == 0) {
+		mc_err_set(err, "%s: give pose or dofs, not both", path);
+		goto out;
+	}
+	if (has_vec == 1 && has_map == 1) {
+		mc_err_set(err, "%s: pose: missing (or dofs)", path);
+		goto out;
+	}
+	if (has_map == 0) {
+		const char *key;
+		json_t *v;
+		char where[512];
+		snprintf(where, sizeof(where), "%s: dofs", path);
+		json_object_foreach(dofs, key, v) {
+			int k;
+			char name[96];
+			for (k = 0; k < model->ndof; k++) {
+				mc_model_dof_name(model, k, name, sizeof(name));
+				if (strcmp(name, key) == 0)
+					break;
+			}
+			if (k == model->ndof) {
+				mc_err_set(err, "%s.%s: no such dof in the model (names look like left_elbow.x)", where,
+					   key);
+				goto out;
+			}
+			double x;
+			if (mc_json_number(dofs, key, where, &x, true, err))
+				goto out;
+			bool translation = model->root_free && k < 3;
+			pose[k] = translation ? x : x * DEG;
+		}
+	}
+	r = 0;
+out:
+	json_decref(root);
+	return r;
+}
+
+/* ---- drawing ----------------------------------------------------------------- */
+
+static void put_pixel(image *im, int x, int y, const uint8_t c[3])
+{
+	if (x < 0 || y < 0 || x >= im->width || y >= im->height)
+		return;
+	memcpy(im->rgb + ((size_t)y * im->width + x) * 3, c, 3);
+}
+
+static void draw_disc(image *im, double cx, double cy, double r, const uint8_t c[3])
+{
+	for (int y = (int)floor(cy - r); y <= (int)ceil(cy + r); y++)
+		for (int x = (int)floor(cx - r); x <= (int)ceil(cx + r); x++)
+			if ((x - cx) * (x - cx) + (y - cy) * (y - cy) <= r * r)
+				put_pixel(im, x, y, c);
+}
+
+static void draw_line(image *im, double x0, double y0, double x1, double y1, double thick, const uint8_t c[3])
+{
+	double len = hypot(x1 - x0, y1 - y0);
+	int steps = (int)ceil(len * 2) + 1;
+	for (int i = 0; i <= steps; i++) {
+		double t = (double)i / steps;
+		draw_disc(im, x0 + t * (x1 - x0), y0 + t * (y1 - y0), thick / 2, c);
+	}
+}
+
+/* Projects a rig-frame point into the image (scaled from the camera's
+ * native resolution). */
+static bool project_rig_point(const mc_camera *cam, const image *im, mc_vec3 p_rig, double *x, double *y)
+{
+	mc_vec3 p = mc_xform_apply(mc_xform_inverse(cam->rig_from_cam), p_rig);
+	double u, v;
+	if (!mc_camera_project(cam, p, &u, &v))
+		return false;
+	*x = (u + 0.5) * im->width / cam->width - 0.5;
+	*y = (v + 0.5) * im->height / cam->height - 0.5;
+	return true;
+}
+
+/* A 3D segment through a fisheye is a curve in the image: project it piece
+ * by piece. */
+static void draw_segment(image *im, const mc_camera *cam, mc_vec3 a, mc_vec3 b, double thick, const uint8_t c[3])
+{
+	const int pieces = 24;
+	double px = 0, py = 0;
+	bool prev = false;
+	for (int i = 0; i <= pieces; i++) {
+		double x, y;
+		bool ok = project_rig_point(cam, im, mc_v3_axpy((double)i / pieces, mc_v3_sub(b, a), a), &x, &y);
+		if (ok && prev)
+			draw_line(im, px, py, x, y, thick, c);
+		prev = ok, px = x, py = y;
+	}
+}
+
+static const uint8_t *side_color(const char *name)
+{
+	if (strncmp(name, "left_", 5) == 0)
+		return COLOR_LEFT;
+	if (strncmp(name, "right_", 6) == 0)
+		return COLOR_RIGHT;
+	return COLOR_MID;
+}
+
+/* Bones of the model skeleton (parent -> child), then joints as discs. */
+static void draw_skeleton(image *im, const mc_camera *cam, const mc_model *model, const mc_fk *fk,
+			  const uint8_t *one_color)
+{
+	double thick = fmax(1.5, im->width / 200.0);
+	for (int j = 0; j < model->njoints; j++) {
+		int p = model->joints[j].parent;
+		if (p >= 0)
+			draw_segment(im, cam, fk->rig_from_joint[p].t, fk->rig_from_joint[j].t, thick,
+				     one_color ? one_color : side_color(model->joints[j].name));
+	}
+	for (int j = 0; j < model->njoints; j++) {
+		double x, y;
+		if (project_rig_point(cam, im, fk->rig_from_joint[j].t, &x, &y))
+			draw_disc(im, x, y, thick * 1.6, one_color ? one_color : side_color(model->joints[j].name));
+	}
+}
+
+/* Ground truth: frames[K].joints_left_cam of the evaluation data's gt.json,
+ * taken as rig-frame points (the ego rigs' frame is the left camera's).
+ * Bones follow the model's tree, skipping joints gt.json lacks. */
+static int draw_ground_truth(image *im, const mc_camera *cam, const mc_model *model, const char *path, int frame,
+			     mc_err *err)
+{
+	json_t *root, *frames, *joints;
+	if (mc_json_load_file(path, &root, err))
+		return -1;
+	int r = -1;
+	char where[512];
+	if (mc_json_array(root, "frames", path, 1, SIZE_MAX, &frames, true, err))
+		goto out;
+	if ((size_t)frame >= json_array_size(frames)) {
+		mc_err_set(err, "%s: frames: no frame %d (the file has %zu)", path, frame, json_array_size(frames));
+		goto out;
+	}
+	mc_json_path_index(where, sizeof(where), path, "frames", (size_t)frame);
+	if (mc_json_object(json_array_get(frames, (size_t)frame), "joints_left_cam", where, &joints, true, err))
+		goto out;
+	snprintf(where + strlen(where), sizeof(where) - strlen(where), ".joints_left_cam");
+	mc_vec3 pos[MC_MAX_JOINTS];
+	bool have[MC_MAX_JOINTS];
+	for (int j = 0; j < model->njoints; j++) {
+		int got = mc_json_vec3(joints, model->joints[j].name, where, &pos[j], false, err);
+		if (got < 0)
+			goto out;
+		have[j] = got == 0;
+	}
+	double thick = fmax(1.5, im->width / 200.0);
+	for (int j = 0; j < model->njoints; j++) {
+		int p = model->joints[j].parent;
+		while (p >= 0 && !have[p])
+			p = model->joints[p].parent;
+		if (have[j] && p >= 0)
+			draw_segment(im, cam, pos[p], pos[j], thick * 0.6, COLOR_GT);
+	}
+	for (int j = 0; j < model->njoints; j++) {
+		double x, y;
+		if (have[j] && project_rig_point(cam, im, pos[j], &x, &y))
+			draw_disc(im, x, y, thick, COLOR_GT);
+	}
+	r = 0;
+out:
+	json_decref(root);
+	return r;
+}
+
+/* ---- PNG output ------------------------------------------------------------------ */
+
+static int write_png(const char *path, const image *im, mc_err *err)
+{
+	FILE *f = fopen(path, "wb");
+	if (!f)
+		return mc_err_set(err, "%s: cannot create: %s", path, strerror(errno));
+	png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, NULL, NULL, NULL);
+	png_infop info = png ? png_create_info_struct(png) : NULL;
+	if (!png || !info || setjmp(png_jmpbuf(png))) {
+		png_destroy_write_struct(&png, &info);
+		fclose(f);
+		return mc_err_set(err, "%s: PNG encoding failed", path);
+	}
+	png_init_io(png, f);
+	png_set_IHDR(png, info, im->width, im->height, 8, PNG_COLOR_TYPE_RGB, PNG_INTERLACE_NONE,
+		     PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
+	png_write_info(png, info);
+	for (int y = 0; y < im->height; y++)
+		png_write_row(png, im->rgb + (size_t)y * im->width * 3);
+	png_write_end(png, NULL);
+	png_destroy_write_struct(&png, &info);
+	if (fclose(f) != 0)
+		return mc_err_set(err, "%s: write failed: %s", path, strerror(errno));
+	return 0;
+}
+
+/* ---- rendering ---------------------------------------------------------------------- */
+
+static uint8_t to_byte(double x)
+{
+	return (uint8_t)lround(fmin(1, fmax(0, x)) * 255);
+}
+
+/* The model's image formation through one camera at w x h: every valid
+ * pixel's colour is sum_q V_q albedo_q + B * background; pixels outside
+ * the lens' field are black. */
+static int render_camera(const mc_camera *cam, const mc_scene *scene, const double (*albedo)[3],
+			 const double bg[3], int w, int h, image *im, mc_err *err)
+{
+	mc_raytable rt;
+	if (mc_raytable_build(cam, w, h, &rt, err))
+		return -1;
+	im->width = w, im->height = h;
+	im->rgb = calloc((size_t)w * h, 3);
+	if (!im->rgb) {
+		mc_raytable_free(&rt);
+		return mc_err_set(err, "out of memory for a %dx%d image", w, h);
+	}
+	for (int k = 0; k < w * h; k++) {
+		if (!rt.valid[k])
+			continue;
+		double rgb[3];
+		mc_ray_render_rgb(scene, albedo, rt.origin, rt.dir[k], bg, rgb);
+		for (int ch = 0; ch < 3; ch++)
+			im->rgb[(size_t)k * 3 + ch] = to_byte(rgb[ch]);
+	}
+	mc_raytable_free(&rt);
+	return 0;
+}
+
+static double now_s(void)
+{
+	struct timespec ts;
+	clock_gettime(CLOCK_MONOTONIC, &ts);
+	return ts.tv_sec + ts.tv_nsec * 1e-9;
+}
+
+static int output_path(char *buf, size_t cap, const char *prefix, const char *cam, const char *suffix,
+		       mc_err *err)
+{
+	if ((size_t)snprintf(buf, cap, "%s_%s%s.png", prefix, cam, suffix) >= cap)
+		return mc_err_set(err, "%s: output path too long", prefix);
+	return 0;
+}
+
+static int run_render(const options *o, const mc_rig *rig, const mc_model *model, const mc_fk *fk, mc_err *err)
+{
+	static mc_scene scene;
+	double albedo[MC_MAX_GAUSSIANS][3];
+	mc_scene_from_model(model, fk, &scene);
+	for (int q = 0; q < model->ngauss; q++)
+		memcpy(albedo[q], model->gauss[q].rgb, sizeof(albedo[q]));
+	for (int i = 0; i < rig->ncams; i++) {
+		const mc_camera *cam = &rig->cams[i];
+		if (o->cam && strcmp(o->cam, cam->name) != 0)
+			continue;
+		int w = o->width ? o->width : cam->width, h = o->height ? o->height : cam->height;
+		image im = {0};
+		char path[4096];
+		double t0 = now_s();
+		if (output_path(path, sizeof(path), o->out, cam->name, "", err) ||
+		    render_camera(cam, &scene, (const double(*)[3])albedo, o->background, w, h, &im, err))
+			return -1;
+		if (o->skeleton)
+			draw_skeleton(&im, cam, model, fk, NULL);
+		int r = write_png(path, &im, err);
+		free(im.rgb);
+		if (r)
+			return -1;
+		printf("%s: %dx%d, %.2f s\n", path, w, h, now_s() - t0);
+	}
+	return 0;
+}
+
+static int run_overlay(const options *o, const mc_rig *rig, const mc_model *model, const mc_fk *fk, mc_err *err)
+{
+	const mc_camera *cam = &rig->cams[mc_rig_find(rig, o->cam)];
+	mc_image_conv *conv = mc_image_conv_new(err);
+	if (!conv)
+		return -1;
+	image im = {0};
+	int r = mc_image_load(conv, o->overlay, &im.rgb, &im.width, &im.height, err);
+	mc_image_conv_free(conv);
+	if (r)
+		return -1;
+	if (im.width * cam->height != im.height * cam->width)
+		fprintf(stderr, "mocap-render: warning: %s is %dx%d, camera '%s' is %dx%d: aspect ratios differ\n",
+			o->overlay, im.width, im.height, cam->name, cam->width, cam->height);
+	char path[4096];
+	r = output_path(path, sizeof(path), o->out, cam->name, "_overlay", err);
+	if (r == 0 && o->gt_path)
+		r = draw_ground_truth(&im, cam, model, o->gt_path, o->frame, err);
+	if (r == 0) {
+		draw_skeleton(&im, cam, model, fk, NULL);
+		r = write_png(path, &im, err);
+	}
+	free(im.rgb);
+	if (r == 0)
+		printf("%s: %dx%d\n", path, im.width, im.height);
+	return r;
+}
+
+int main(int argc, char **argv)
+{
+	options o;
+	if (parse_args(argc, argv, &o))
+		return 2;
+	static mc_rig rig;
+	static mc_model model;
+	static mc_fk fk;
+	double pose[MC_MAX_DOF];
+	mc_err err = {0};
+	if (mc_rig_load(o.rig_path, &rig, &err) || mc_model_load(o.model_path, &model, &err))
+		goto fail;
+	if (o.cam && mc_rig_find(&rig, o.cam) < 0) {
+		mc_err_set(&err, "%s: no camera named '%s'", o.rig_path, o.cam);
+		goto fail;
+	}
+	mc_model_rest_pose(&model, pose);
+	if (o.pose_path && load_pose(o.pose_path, &model, pose, &err))
+		goto fail;
+	double clamped[MC_MAX_DOF];
+	memcpy(clamped, pose, sizeof(double) * model.ndof);
+	mc_model_clamp_pose(&model, clamped);
+	for (int k = 0; k < model.ndof; k++) {
+		if (clamped[k] != pose[k]) {
+			char name[96];
+			mc_model_dof_name(&model, k, name, sizeof(name));
+			fprintf(stderr, "mocap-render: warning: %s clamped into its limits\n", name);
+		}
+	}
+	mc_model_fk(&model, clamped, &fk);
+	if (o.overlay ? run_overlay(&o, &rig, &model, &fk, &err) : run_render(&o, &rig, &model, &fk, &err))
+		goto fail;
+	return 0;
+fail:
+	fprintf(stderr, "mocap-render: %s\n", err.msg);
+	return 1;
+}
