@@ -182,9 +182,9 @@ void mc_server_get_stats(mc_server *srv, mc_server_stats *st);
 
 /* --- What clients send to the daemon ----------------------------------- */
 
-/* An fd that is readable while control requests, keypoints or head poses
- * are waiting to be polled (an eventfd; read it to reset it, or just poll
- * the queues until they are empty and then read it). */
+/* An fd (eventfd) that is readable exactly while control requests or
+ * keypoint batches are waiting to be polled; the poll functions reset it
+ * when both queues are empty.  Add it to the daemon's poll set. */
 int mc_server_event_fd(mc_server *srv);
 
 typedef enum {

@@ -1,0 +1,220 @@
+/* mocap.h: libmocap, the client library of mocapd.
+ *
+ * Connects to the daemon's Unix socket, subscribes to skeleton frames and
+ * makes requests (status, skeleton definition, rig, control, camera rings,
+ * external keypoints, VR head poses).  The wire protocol is documented in
+ * docs/PROTOCOL.md; this library is one client of it.
+ *
+ *     mocap_client *c = mocap_connect(NULL, "my-app");   // $MOCAP_SOCKET or the default path
+ *     if (!c) { fprintf(stderr, "%s\n", mocap_errmsg()); return 1; }
+ *     mocap_subscribe(c, MOCAP_LATEST, MOCAP_SPACE_RIG, 0);
+ *     mocap_frame f;
+ *     while (mocap_read_frame(c, &f, -1) == 1)
+ *             use(f.joints[0].position);
+ *     mocap_close(c);
+ *
+ * Threads: every function may be called from any thread at the same time on
+ * the same client (e.g. one thread reading frames while another asks for
+ * the status); replies reach the thread that asked.  No callbacks.
+ *
+ * Errors: functions return a negative MOCAP_E_* code on failure, and
+ * mocap_errmsg() gives a message for the user of the last failure in the
+ * calling thread, e.g. "daemon not running at /run/mocapd/mocapd.sock".
+ *
+ * Times are CLOCK_MONOTONIC nanoseconds (same clock as the daemon's). Units
+ * are metres; quaternions are (w, x, y, z). */
+#ifndef MOCAP_H
+#define MOCAP_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+#define MOCAP_LIB_VERSION "1.0.0"
+#define MOCAP_PROTOCOL_VERSION 1
+#define MOCAP_DEFAULT_SOCKET "/run/mocapd/mocapd.sock"
+#define MOCAP_SOCKET_ENV "MOCAP_SOCKET"
+
+#define MOCAP_MAX_JOINTS 128
+#define MOCAP_MAX_CAMERAS 16
+#define MOCAP_MAX_RINGS 16
+#define MOCAP_MAX_KEYPOINTS 256
+#define MOCAP_NAME_MAX 64  /* bytes, with the terminating NUL */
+
+/* Error codes (negative return values). */
+#define MOCAP_E_NOT_RUNNING -1  /* no daemon listens at the socket path */
+#define MOCAP_E_ACCESS -2       /* the socket exists but we may not connect */
+#define MOCAP_E_VERSION -3      /* the daemon speaks another protocol version */
+#define MOCAP_E_PROTOCOL -4     /* the daemon sent something this library does not understand */
+#define MOCAP_E_DISCONNECTED -5 /* the connection is closed (daemon stopped, or it closed us) */
+#define MOCAP_E_TIMEOUT -6      /* no reply in time (mocap_set_timeout) */
+#define MOCAP_E_PERMISSION -7   /* needs the daemon's user or group */
+#define MOCAP_E_REFUSED -8      /* the daemon refused the request (see the message) */
+#define MOCAP_E_UNAVAILABLE -9  /* nothing to answer yet (no skeleton, no rig) */
+#define MOCAP_E_FAILED -10      /* a control command ran and failed */
+#define MOCAP_E_ARG -11         /* bad argument */
+#define MOCAP_E_SYSTEM -12      /* a system call failed (out of memory, descriptors, ...) */
+
+typedef enum { MOCAP_LATEST = 1, MOCAP_ALL = 2 } mocap_mode;
+typedef enum { MOCAP_SPACE_RIG = 0, MOCAP_SPACE_WORLD = 1 } mocap_space;
+typedef enum {
+	MOCAP_TRACK_OK = 0,
+	MOCAP_TRACK_UNCERTAIN = 1,
+	MOCAP_TRACK_LOST = 2,
+	MOCAP_TRACK_IDLE = 3, /* status only: the daemon is not tracking */
+} mocap_track_state;
+typedef enum {
+	MOCAP_CMD_RELOAD = 1,
+	MOCAP_CMD_RECORD_START = 2, /* argument: output path, "" = the daemon's default */
+	MOCAP_CMD_RECORD_STOP = 3,
+} mocap_command;
+
+typedef struct {
+	double position[3];    /* metres */
+	double orientation[4]; /* w, x, y, z: space_from_joint */
+	float confidence;      /* 0..1 */
+} mocap_joint;
+
+typedef struct {
+	uint64_t seq;          /* the daemon's publish counter */
+	uint64_t capture_ns;   /* when the cameras exposed the images */
+	uint64_t publish_ns;   /* when the daemon published the skeleton */
+	uint64_t receive_ns;   /* when this library received it */
+	uint64_t missed;       /* frames lost just before this one ("all" mode gaps) */
+	uint32_t skeleton_id;  /* the mocap_skeleton these joints follow */
+	mocap_track_state state;
+	mocap_space space;     /* WORLD only when the daemon had a head pose (or the rig is the world) */
+	int njoints;
+	mocap_joint joints[MOCAP_MAX_JOINTS];
+} mocap_frame;
+
+typedef struct {
+	char name[MOCAP_NAME_MAX];
+	int parent;            /* -1 for the root; parents come first */
+	double rest_offset[3]; /* in the parent's frame, metres */
+} mocap_joint_def;
+
+typedef struct {
+	uint32_t id;
+	int rig_is_world;      /* 1 for outside-in rigs */
+	int njoints;
+	mocap_joint_def joints[MOCAP_MAX_JOINTS];
+} mocap_skeleton;
+
+typedef struct {
+	char name[MOCAP_NAME_MAX];
+	int state;             /* 0 ok, 1 stalled, 2 error, 3 off */
+	int width, height;
+	double fps;
+	uint64_t frames, drops;
+} mocap_camera_status;
+
+typedef struct {
+	mocap_track_state tracker_state;
+	int recording;
+	double publish_fps, track_ms_mean, track_ms_max;
+	uint64_t frames_published, frames_dropped;
+	uint64_t client_drops; /* frames dropped from slow clients' queues, all clients */
+	uint64_t server_time_ns, uptime_ns;
+	int clients;
+	char device[MOCAP_NAME_MAX];
+	int ncams;
+	mocap_camera_status cams[MOCAP_MAX_CAMERAS];
+} mocap_daemon_status;
+
+typedef struct {
+	char camera[MOCAP_NAME_MAX];
+	int fd;                /* read-only; mmap(NULL, size, PROT_READ, MAP_SHARED, fd, 0); close it yourself */
+	uint64_t size;
+} mocap_ring;
+
+typedef struct {
+	int joint;             /* index in the mocap_skeleton */
+	float u, v;            /* pixels of the camera's native image */
+	float confidence;      /* 0..1 */
+} mocap_keypoint;
+
+typedef struct mocap_client mocap_client;
+
+/* $MOCAP_SOCKET if set, else MOCAP_DEFAULT_SOCKET. */
+const char *mocap_default_socket(void);
+
+/* Connects and performs the handshake.  path NULL: mocap_default_socket().
+ * client_name (may be NULL) shows in the daemon's log.  NULL on failure;
+ * mocap_errcode() and mocap_errmsg() say why. */
+mocap_client *mocap_connect(const char *path, const char *client_name);
+void mocap_close(mocap_client *c);
+
+/* 1 if this client may control the daemon, map rings and send inputs. */
+int mocap_is_privileged(const mocap_client *c);
+
+/* Timeout for requests (status, control, ...), milliseconds; default 10000. */
+void mocap_set_timeout(mocap_client *c, int timeout_ms);
+
+/* LATEST: only the newest frame, nothing queued (VR).  ALL: every frame,
+ * through a queue of queue_len frames at the daemon (0 = its default);
+ * frames lost on overflow are counted in the next frame's `missed`.
+ * Subscribing again replaces the subscription.  Returns 0 or an error. */
+int mocap_subscribe(mocap_client *c, mocap_mode mode, mocap_space space, unsigned queue_len);
+int mocap_unsubscribe(mocap_client *c);
+
+/* The next frame: 1 and *f filled, 0 on timeout, or an error.  timeout_ms
+ * -1 waits forever, 0 only looks.  In LATEST mode it is the newest frame
+ * received (older ones are skipped). */
+int mocap_read_frame(mocap_client *c, mocap_frame *f, int timeout_ms);
+
+/* An fd for poll/epoll that is readable when mocap_read_frame may have a
+ * frame (or an error) to return without waiting.  Do not read from it. */
+int mocap_fd(mocap_client *c);
+
+/* The newest skeleton definition (joint names, parents, rest offsets). */
+int mocap_get_skeleton(mocap_client *c, mocap_skeleton *s);
+int mocap_get_status(mocap_client *c, mocap_daemon_status *st);
+/* The rig in use as JSON text; *json is malloc'd, free() it. */
+int mocap_get_rig(mocap_client *c, char **json, int *ncams);
+
+/* Runs a command in the daemon and waits for its result.  msg (may be
+ * NULL) receives the daemon's message.  0 done, MOCAP_E_FAILED (message
+ * says why), MOCAP_E_PERMISSION, or another error. */
+int mocap_control(mocap_client *c, mocap_command cmd, const char *argument, char *msg, size_t msglen);
+
+/* Read-only descriptors of the camera frame rings.  Returns how many (at
+ * most max) or an error; the caller closes each fd. */
+int mocap_get_rings(mocap_client *c, mocap_ring *rings, int max);
+
+/* 2D detections for one camera image (the image's capture_ns), as input to
+ * the tracker.  Not acknowledged, so it costs no round trip: when the
+ * daemon refuses a batch or a head pose (bad camera or joint index, no
+ * permission), the next mocap_send_keypoints or mocap_send_head_pose call
+ * returns that error (MOCAP_E_REFUSED, MOCAP_E_PERMISSION) with the
+ * daemon's message.  n <= MOCAP_MAX_KEYPOINTS. */
+int mocap_send_keypoints(mocap_client *c, uint64_t capture_ns, int camera, const mocap_keypoint *kp, int n);
+
+/* The rig's pose in a VR runtime's world frame (world_from_rig), so the
+ * daemon can send skeletons in world space.  Not acknowledged. */
+int mocap_send_head_pose(mocap_client *c, uint64_t timestamp_ns, const double position[3],
+			 const double orientation_wxyz[4]);
+
+/* Round trip to the daemon; *server_time_ns may be NULL. */
+int mocap_ping(mocap_client *c, uint64_t *server_time_ns);
+
+/* CLOCK_MONOTONIC now, in nanoseconds. */
+uint64_t mocap_now_ns(void);
+
+/* Name of an error code, e.g. "daemon not running". */
+const char *mocap_strerror(int code);
+/* The last failure of a mocap_ call in the calling thread. */
+int mocap_errcode(void);
+const char *mocap_errmsg(void);
+
+/* "ok", "uncertain", "lost", "idle". */
+const char *mocap_track_state_name(mocap_track_state s);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif

@@ -1,0 +1,357 @@
+/* mocapctl: command-line client of mocapd (status, watch, rig, skeleton,
+ * reload, record).  Built on libmocap; see `mocapctl --help`. */
+#include "mocap.h"
+
+#include <errno.h>
+#include <signal.h>
+#include <stdbool.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+/* Exit codes, also listed in --help and docs/PROTOCOL.md. */
+enum {
+	EXIT_OK = 0,
+	EXIT_FAILED = 1,      /* the daemon refused or a command failed */
+	EXIT_USAGE = 2,
+	EXIT_NOT_RUNNING = 3, /* cannot connect: no daemon at the path */
+	EXIT_PERMISSION = 4,  /* socket or request not allowed for this user */
+	EXIT_VERSION = 5,     /* protocol version mismatch */
+	EXIT_LOST = 6,        /* connection lost or protocol error */
+};
+
+static const char usage[] =
+	"usage: mocapctl [--socket PATH] COMMAND [OPTIONS]\n"
+	"\n"
+	"commands:\n"
+	"  status                 cameras, frame rates, drops, tracking time, tracker state\n"
+	"  watch                  print skeletons as they arrive\n"
+	"      --json             one JSON object per frame and line\n"
+	"      --count N          stop after N frames\n"
+	"      --all              every frame (recorder mode) instead of only the newest\n"
+	"      --world            world frame (needs a head pose from a VR runtime)\n"
+	"  rig                    print the rig in use (JSON)\n"
+	"  skeleton               print the joints: names, parents, rest offsets\n"
+	"  reload                 reload configuration, rig and model (daemon's user or group)\n"
+	"  record start [PATH]    start recording (daemon's user or group)\n"
+	"  record stop            stop recording\n"
+	"  ping                   round-trip time to the daemon\n"
+	"\n"
+	"The socket is --socket PATH, else $MOCAP_SOCKET, else " MOCAP_DEFAULT_SOCKET ".\n"
+	"Exit status: 0 ok, 1 refused or failed, 2 usage, 3 daemon not running,\n"
+	"4 permission denied, 5 protocol version mismatch, 6 connection lost.\n";
+
+static volatile sig_atomic_t interrupted;
+static void on_signal(int sig) { (void)sig; interrupted = 1; }
+
+static int exit_code_for(int err)
+{
+	switch (err) {
+	case MOCAP_E_NOT_RUNNING: return EXIT_NOT_RUNNING;
+	case MOCAP_E_ACCESS:
+	case MOCAP_E_PERMISSION: return EXIT_PERMISSION;
+	case MOCAP_E_VERSION: return EXIT_VERSION;
+	case MOCAP_E_DISCONNECTED:
+	case MOCAP_E_PROTOCOL:
+	case MOCAP_E_TIMEOUT: return EXIT_LOST;
+	}
+	return EXIT_FAILED;
+}
+
+static int fail(const char *what)
+{
+	int code = mocap_errcode();
+	fprintf(stderr, "mocapctl: %s%s%s\n", what ? what : "", what ? ": " : "", mocap_errmsg());
+	return exit_code_for(code);
+}
+
+static const char *cam_state_name(int s)
+{
+	static const char *names[] = {"ok", "stalled", "error", "off"};
+	return s >= 0 && s < 4 ? names[s] : "unknown";
+}
+
+static void print_duration(double s)
+{
+	if (s >= 3600)
+		printf("%dh%02dm", (int)(s / 3600), (int)(s / 60) % 60);
+	else if (s >= 60)
+		printf("%dm%02ds", (int)(s / 60), (int)s % 60);
+	else
+		printf("%.1fs", s);
+}
+
+static int cmd_status(mocap_client *c, const char *path)
+{
+	mocap_daemon_status st;
+	int rc = mocap_get_status(c, &st);
+	if (rc)
+		return fail("status");
+	printf("mocapd at %s\n", path);
+	printf("tracker:    %s", mocap_track_state_name(st.tracker_state));
+	if (st.device[0])
+		printf("  (device: %s)", st.device);
+	printf("\npublished:  %llu skeletons, %.1f fps; frame sets skipped by the tracker: %llu\n",
+	       (unsigned long long)st.frames_published, st.publish_fps, (unsigned long long)st.frames_dropped);
+	printf("tracking:   %.2f ms mean, %.2f ms max per frame\n", st.track_ms_mean, st.track_ms_max);
+	printf("clients:    %d connected; frames dropped for slow clients: %llu\n", st.clients,
+	       (unsigned long long)st.client_drops);
+	printf("recording:  %s\n", st.recording ? "yes" : "no");
+	printf("uptime:     ");
+	print_duration((double)st.uptime_ns * 1e-9);
+	printf("\ncameras:    %d\n", st.ncams);
+	for (int i = 0; i < st.ncams; i++) {
+		const mocap_camera_status *cs = &st.cams[i];
+		printf("  %-16s %-8s %5dx%-5d %6.1f fps  frames %llu  drops %llu\n", cs->name, cam_state_name(cs->state),
+		       cs->width, cs->height, cs->fps, (unsigned long long)cs->frames, (unsigned long long)cs->drops);
+	}
+	return EXIT_OK;
+}
+
+static void json_string(const char *s)
+{
+	putchar('"');
+	for (; *s; s++) {
+		unsigned char ch = (unsigned char)*s;
+		if (ch == '"' || ch == '\\')
+			printf("\\%c", ch);
+		else if (ch < 0x20)
+			printf("\\u%04x", ch);
+		else
+			putchar(ch);
+	}
+	putchar('"');
+}
+
+static const char *joint_name(const mocap_skeleton *s, const mocap_frame *f, int j, char *buf, size_t n)
+{
+	if (s && s->id == f->skeleton_id && j < s->njoints)
+		return s->joints[j].name;
+	snprintf(buf, n, "joint%d", j);
+	return buf;
+}
+
+static void print_frame_json(const mocap_frame *f, const mocap_skeleton *s)
+{
+	printf("{\"seq\":%llu,\"capture_ns\":%llu,\"publish_ns\":%llu,\"receive_ns\":%llu,\"missed\":%llu,"
+	       "\"state\":\"%s\",\"space\":\"%s\",\"skeleton_id\":%u,\"joints\":{",
+	       (unsigned long long)f->seq, (unsigned long long)f->capture_ns, (unsigned long long)f->publish_ns,
+	       (unsigned long long)f->receive_ns, (unsigned long long)f->missed, mocap_track_state_name(f->state),
+	       f->space == MOCAP_SPACE_WORLD ? "world" : "rig", f->skeleton_id);
+	for (int j = 0; j < f->njoints; j++) {
+		char buf[32];
+		const mocap_joint *jt = &f->joints[j];
+		if (j)
+			putchar(',');
+		json_string(joint_name(s, f, j, buf, sizeof(buf)));
+		printf(":{\"position\":[%.6f,%.6f,%.6f],\"orientation\":[%.6f,%.6f,%.6f,%.6f],\"confidence\":%.3f}",
+		       jt->position[0], jt->position[1], jt->position[2], jt->orientation[0], jt->orientation[1],
+		       jt->orientation[2], jt->orientation[3], (double)jt->confidence);
+	}
+	printf("}}\n");
+}
+
+static void print_frame_text(const mocap_frame *f, const mocap_skeleton *s)
+{
+	if (f->missed)
+		printf("(%llu frames missed)\n", (unsigned long long)f->missed);
+	printf("frame %llu  state %s  space %s  latency %.3f ms (publish to receive), %.1f ms (capture to receive)\n",
+	       (unsigned long long)f->seq, mocap_track_state_name(f->state),
+	       f->space == MOCAP_SPACE_WORLD ? "world" : "rig", (double)(f->receive_ns - f->publish_ns) * 1e-6,
+	       (double)(f->receive_ns - f->capture_ns) * 1e-6);
+	for (int j = 0; j < f->njoints; j++) {
+		char buf[32];
+		const mocap_joint *jt = &f->joints[j];
+		printf("  %-16s %8.4f %8.4f %8.4f  conf %.2f\n", joint_name(s, f, j, buf, sizeof(buf)), jt->position[0],
+		       jt->position[1], jt->position[2], (double)jt->confidence);
+	}
+}
+
+static int cmd_watch(mocap_client *c, bool json, long count, bool all, bool world)
+{
+	mocap_skeleton *skel = calloc(1, sizeof(*skel));
+	mocap_frame *f = malloc(sizeof(*f));
+	if (!skel || !f) {
+		free(skel);
+		free(f);
+		fprintf(stderr, "mocapctl: out of memory\n");
+		return EXIT_FAILED;
+	}
+	int rc = EXIT_OK;
+	bool have_skel = mocap_get_skeleton(c, skel) == 0;
+	if (mocap_subscribe(c, all ? MOCAP_ALL : MOCAP_LATEST, world ? MOCAP_SPACE_WORLD : MOCAP_SPACE_RIG, 0)) {
+		rc = fail("subscribe");
+		goto out;
+	}
+	for (long n = 0; (count <= 0 || n < count) && !interrupted;) {
+		int r = mocap_read_frame(c, f, 500);
+		if (r < 0) {
+			rc = fail("watch");
+			goto out;
+		}
+		if (r == 0)
+			continue;
+		/* A new definition (after a reload): fetch the names again. */
+		if (!have_skel || skel->id != f->skeleton_id)
+			have_skel = mocap_get_skeleton(c, skel) == 0;
+		if (json)
+			print_frame_json(f, have_skel ? skel : NULL);
+		else
+			print_frame_text(f, have_skel ? skel : NULL);
+		fflush(stdout);
+		n++;
+	}
+out:
+	free(skel);
+	free(f);
+	return rc;
+}
+
+static int cmd_rig(mocap_client *c)
+{
+	char *json = NULL;
+	int ncams = 0;
+	if (mocap_get_rig(c, &json, &ncams))
+		return fail("rig");
+	fputs(json, stdout);
+	if (json[0] && json[strlen(json) - 1] != '\n')
+		putchar('\n');
+	free(json);
+	return EXIT_OK;
+}
+
+static int cmd_skeleton(mocap_client *c)
+{
+	mocap_skeleton *s = malloc(sizeof(*s));
+	if (!s)
+		return EXIT_FAILED;
+	int rc = mocap_get_skeleton(c, s);
+	if (rc) {
+		free(s);
+		return fail("skeleton");
+	}
+	printf("skeleton %u: %d joints%s\n", s->id, s->njoints, s->rig_is_world ? " (rig frame = world frame)" : "");
+	for (int j = 0; j < s->njoints; j++) {
+		const mocap_joint_def *d = &s->joints[j];
+		printf("  %2d %-16s parent %-16s offset %8.4f %8.4f %8.4f\n", j, d->name,
+		       d->parent >= 0 ? s->joints[d->parent].name : "-", d->rest_offset[0], d->rest_offset[1],
+		       d->rest_offset[2]);
+	}
+	free(s);
+	return EXIT_OK;
+}
+
+static int cmd_control(mocap_client *c, mocap_command cmd, const char *arg, const char *what)
+{
+	char msg[1024];
+	mocap_set_timeout(c, 120000); /* a reload may load models and build kernels */
+	if (mocap_control(c, cmd, arg, msg, sizeof(msg)))
+		return fail(what);
+	printf("%s\n", msg[0] ? msg : "done");
+	return EXIT_OK;
+}
+
+static int cmd_ping(mocap_client *c)
+{
+	uint64_t t0 = mocap_now_ns();
+	if (mocap_ping(c, NULL))
+		return fail("ping");
+	printf("round trip %.3f ms\n", (double)(mocap_now_ns() - t0) * 1e-6);
+	return EXIT_OK;
+}
+
+int main(int argc, char **argv)
+{
+	const char *path = NULL, *pos[4] = {0};
+	int npos = 0;
+	bool json = false, all = false, world = false;
+	long count = 0;
+	for (int i = 1; i < argc; i++) {
+		const char *a = argv[i];
+		if (!strcmp(a, "-h") || !strcmp(a, "--help")) {
+			fputs(usage, stdout);
+			return EXIT_OK;
+		} else if (!strcmp(a, "--version")) {
+			printf("mocapctl (libmocap %s, protocol %d)\n", MOCAP_LIB_VERSION, MOCAP_PROTOCOL_VERSION);
+			return EXIT_OK;
+		} else if (!strcmp(a, "--socket") || !strcmp(a, "-s")) {
+			if (++i >= argc) {
+				fprintf(stderr, "mocapctl: %s needs a path\n%s", a, usage);
+				return EXIT_USAGE;
+			}
+			path = argv[i];
+		} else if (!strncmp(a, "--socket=", 9)) {
+			path = a + 9;
+		} else if (!strcmp(a, "--json")) {
+			json = true;
+		} else if (!strcmp(a, "--all")) {
+			all = true;
+		} else if (!strcmp(a, "--world")) {
+			world = true;
+		} else if (!strcmp(a, "--count") || !strncmp(a, "--count=", 8)) {
+			const char *v = a[7] == '=' ? a + 8 : (++i < argc ? argv[i] : NULL);
+			char *end;
+			errno = 0;
+			count = v ? strtol(v, &end, 10) : -1;
+			if (!v || errno || *end || count < 1) {
+				fprintf(stderr, "mocapctl: --count needs a positive number\n");
+				return EXIT_USAGE;
+			}
+		} else if (a[0] == '-' && a[1]) {
+			fprintf(stderr, "mocapctl: unknown option %s\n%s", a, usage);
+			return EXIT_USAGE;
+		} else if (npos < 4) {
+			pos[npos++] = a;
+		} else {
+			fprintf(stderr, "mocapctl: too many arguments\n%s", usage);
+			return EXIT_USAGE;
+		}
+	}
+	if (!npos) {
+		fputs(usage, stderr);
+		return EXIT_USAGE;
+	}
+	const char *cmd = pos[0];
+	bool known = !strcmp(cmd, "status") || !strcmp(cmd, "watch") || !strcmp(cmd, "rig") ||
+		     !strcmp(cmd, "skeleton") || !strcmp(cmd, "reload") || !strcmp(cmd, "ping") ||
+		     (!strcmp(cmd, "record") && npos >= 2 &&
+		      (!strcmp(pos[1], "start") || (!strcmp(pos[1], "stop") && npos == 2)));
+	int max_pos = !strcmp(cmd, "record") ? 3 : 1;
+	if (!known || npos > max_pos) {
+		fprintf(stderr, "mocapctl: %s '%s'\n%s", known ? "too many arguments for" : "unknown command", cmd, usage);
+		return EXIT_USAGE;
+	}
+	if ((json || all || world || count) && strcmp(cmd, "watch")) {
+		fprintf(stderr, "mocapctl: --json, --all, --world and --count go with watch\n");
+		return EXIT_USAGE;
+	}
+
+	if (!path)
+		path = mocap_default_socket();
+	mocap_client *c = mocap_connect(path, "mocapctl");
+	if (!c)
+		return fail(NULL);
+	struct sigaction sa = {.sa_handler = on_signal};
+	sigaction(SIGINT, &sa, NULL);
+	sigaction(SIGTERM, &sa, NULL);
+
+	int rc;
+	if (!strcmp(cmd, "status"))
+		rc = cmd_status(c, path);
+	else if (!strcmp(cmd, "watch"))
+		rc = cmd_watch(c, json, count, all, world);
+	else if (!strcmp(cmd, "rig"))
+		rc = cmd_rig(c);
+	else if (!strcmp(cmd, "skeleton"))
+		rc = cmd_skeleton(c);
+	else if (!strcmp(cmd, "reload"))
+		rc = cmd_control(c, MOCAP_CMD_RELOAD, NULL, "reload");
+	else if (!strcmp(cmd, "ping"))
+		rc = cmd_ping(c);
+	else if (!strcmp(pos[1], "start"))
+		rc = cmd_control(c, MOCAP_CMD_RECORD_START, npos > 2 ? pos[2] : "", "record start");
+	else
+		rc = cmd_control(c, MOCAP_CMD_RECORD_STOP, NULL, "record stop");
+	mocap_close(c);
+	return rc;
+}
