@@ -2,7 +2,12 @@
  *
  * All models use OpenCV camera axes: x right, y down, z forward.  Pixel
  * coordinates are continuous with the centre of the top-left pixel at
- * (0, 0), as in OpenCV.
+ * (0, 0), as in OpenCV; the image covers [-0.5, width - 0.5) x
+ * [-0.5, height - 0.5).  docs/RIG_FORMAT.md gives every formula.
+ *
+ * project() and unproject() are exact inverses of each other (Newton
+ * iterations to 1e-12; tests/test_camera.c checks 1e-6 px over whole images)
+ * and assume a camera that passed mc_camera_validate().
  *
  * Models:
  *   pinhole     - OpenCV radial-tangential distortion (k1 k2 p1 p2 k3).
@@ -75,8 +80,11 @@ bool mc_camera_project(const mc_camera *cam, mc_vec3 p_cam, double *u, double *v
 bool mc_camera_unproject(const mc_camera *cam, double u, double v, mc_vec3 *ray);
 
 /* Checks parameters for sanity (finite, positive sizes, max_theta in (0, pi),
- * pinhole max_theta < pi/2, polynomial lengths in range). The message names
- * the offending field. Returns 0 or -1. */
+ * pinhole max_theta < pi/2, polynomial lengths in range, a distortion that
+ * does not fold back inside max_theta, rig_from_cam a rotation to 1e-5). The
+ * message starts with the offending field ("fx: must be in (0, 1e+07]
+ * pixels, got -1"), for loaders to prefix with file and path. Returns 0 or
+ * -1. */
 int mc_camera_validate(const mc_camera *cam, mc_err *err);
 
 const char *mc_camera_model_name(mc_camera_model m);
