@@ -457,8 +457,11 @@ static void *capture_main(void *arg)
 		}
 		pthread_mutex_unlock(&c->lock);
 		double wait_ms = mcd_backoff_next(&backoff);
-		mcd_warn("camera %s: %s; reopening in %.0f ms (attempt %u)", c->cfg.name, last, wait_ms,
-			 backoff.failures);
+		/* A camera that stays away is reported at attempts 1, 2, 3, 4, 8,
+		 * 16, ... so that the journal is not flooded. */
+		unsigned n = backoff.failures;
+		mcd_log(n <= 4 || (n & (n - 1)) == 0 ? MCD_LOG_WARN : MCD_LOG_DEBUG,
+			"camera %s: %s; reopening in %.0f ms (attempt %u)", c->cfg.name, last, wait_ms, n);
 		set_state(c, MCD_CAM_RETRYING);
 		if (!nap(c, wait_ms))
 			break;

@@ -278,6 +278,7 @@ static const key_def tracker_keys[] = {
 };
 
 static const key_def socket_keys[] = {
+	{"enabled", p_bool, F(mcd_socket_config, enabled), 0, 0, 0},
 	{"path", p_path, F(mcd_socket_config, path), 0, 0, 108}, /* sun_path */
 	{"group", p_name, F(mcd_socket_config, group), 0, 0, MCD_NAME_MAX},
 	{"mode", p_mode, F(mcd_socket_config, mode), 0, 0, 0},
@@ -313,6 +314,7 @@ void mcd_config_defaults(mcd_config *cfg)
 	t->pixel_fraction = t->dropout = t->step = t->momentum = NAN;
 	t->cl_platform = t->cl_device = -2;
 	t->seed = -1;
+	cfg->socket.enabled = true;
 	snprintf(cfg->socket.path, sizeof(cfg->socket.path), "/run/mocapd/mocapd.sock");
 	cfg->socket.mode = 0660;
 	cfg->socket.max_clients = 16;

@@ -62,6 +62,7 @@ typedef struct {
 } mcd_tracker_config;
 
 typedef struct {
+	bool enabled;             /* false: no client socket at all */
 	char path[PATH_MAX];
 	char group[MCD_NAME_MAX]; /* "" = the daemon's group */
 	unsigned mode;            /* permission bits of the socket file */

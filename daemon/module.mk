@@ -8,6 +8,7 @@ DAEMON_PKGS := inih libsystemd
 DAEMON_CFLAGS := $(shell $(PKG_CONFIG) --cflags $(DAEMON_PKGS) 2>/dev/null)
 DAEMON_LIBS := $(shell $(PKG_CONFIG) --libs $(DAEMON_PKGS) 2>/dev/null) -ldl
 DAEMON_SRC := $(filter-out daemon/main.c,$(wildcard daemon/*.c))
+MOCAPD_VERSION := 0.1
 DAEMON_OBJ := $(DAEMON_SRC:%.c=$(BUILD)/%.o)
 DAEMON_LIB := $(BUILD)/daemon/libmocapd.a
 MOCAPD := $(BUILD)/bin/mocapd
@@ -20,22 +21,27 @@ FAULTY_SO := $(FAULTY_DIR)/mocap-driver-faulty.so
 FAULTY_BAD := $(FAULTY_DIR)/bad/mocap-driver-badabi.so $(FAULTY_DIR)/bad/mocap-driver-noentry.so
 FAULTY_LIBS := $(shell $(PKG_CONFIG) --libs libturbojpeg 2>/dev/null)
 
-# mocapd itself is built once its main.c exists (the daemon is assembled in
-# steps; the library and its tests come first).
-ifneq ($(wildcard daemon/main.c),)
+# The socket server library of ipc/module.mk (included after this file, so
+# named by its path here).
+IPC_SERVER_A := $(BUILD)/libmocapipc.a
+
+# mocapd links the tracker (core) and the socket server (ipc); it is built
+# once both are in the tree.
+ifneq ($(and $(wildcard ipc/module.mk),$(wildcard core/mc_tracker.c)),)
 BINS += $(MOCAPD)
 DAEMON_TEST_NEEDS := $(MOCAPD)
 endif
 
-$(BUILD)/daemon/%.o: CPPFLAGS += -Idaemon $(DAEMON_CFLAGS) -DMOCAPD_PLUGIN_DIR='"$(MOCAPD_PLUGIN_DIR)"'
+$(BUILD)/daemon/%.o: CPPFLAGS += -Idaemon $(DAEMON_CFLAGS) -DMOCAPD_PLUGIN_DIR='"$(MOCAPD_PLUGIN_DIR)"' \
+	-DMOCAPD_VERSION='"$(MOCAPD_VERSION)"'
 
 $(DAEMON_LIB): $(DAEMON_OBJ)
 	@rm -f $@
 	ar rcs $@ $^
 
-$(MOCAPD): $(BUILD)/daemon/main.o $(DAEMON_LIB) $(CORE_LIB)
+$(MOCAPD): $(BUILD)/daemon/main.o $(DAEMON_LIB) $(IPC_SERVER_A) $(CORE_LIB)
 	@mkdir -p $(@D)
-	$(CC) $< -o $@ $(LDFLAGS) $(DAEMON_LIB) $(CORE_LIB) $(CORE_LIBS) $(DAEMON_LIBS)
+	$(CC) $< -o $@ $(LDFLAGS) $(DAEMON_LIB) $(IPC_SERVER_A) $(CORE_LIB) $(CORE_LIBS) $(DAEMON_LIBS)
 
 $(FAULTY_SO): tests/drivers/faulty/faulty.c drivers/mocap_driver.h
 	@mkdir -p $(@D)

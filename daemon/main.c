@@ -1,0 +1,537 @@
+/* mocapd: the motion-capture daemon.
+ *
+ * Start-up: config -> socket server (adopting a systemd-passed socket) ->
+ * tracker -> pipeline (plugins, capture threads) -> READY=1 once every
+ * camera has had its first try at opening.  Then the main thread only
+ * waits on signals (signalfd), control requests from clients and pipeline
+ * events, and once per status interval refreshes STATUS=, the server's
+ * status snapshot and, when every pipeline thread made progress, the
+ * watchdog.  SIGTERM/SIGINT stop cleanly; SIGHUP (or `mocapctl reload`)
+ * reloads what can change safely (docs/CONFIG.md). */
+#include "config.h"
+#include "log.h"
+#include "mc_server.h"
+#include "notify.h"
+#include "pipeline.h"
+#include "status.h"
+#include "tracking.h"
+
+#include <errno.h>
+#include <getopt.h>
+#include <grp.h>
+#include <poll.h>
+#include <signal.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/signalfd.h>
+#include <sys/socket.h>
+#include <systemd/sd-daemon.h>
+#include <time.h>
+#include <unistd.h>
+
+#ifndef MOCAPD_VERSION
+#define MOCAPD_VERSION "0.1"
+#endif
+#define DEFAULT_CONFIG "/etc/mocapd/mocapd.conf"
+#define READY_TIMEOUT_S 20.0 /* READY=1 even if a camera is still trying */
+#define STOP_GRACE_MS 3000
+
+typedef struct {
+	const char *config_path;
+	const char *plugin_dir;
+	int log_level; /* -1: from the config */
+	bool print;
+	bool exit_at_end;
+	bool check_only;
+} options;
+
+typedef struct {
+	options opt;
+	mcd_config *cfg;
+	mc_server *srv;
+	mcd_tracking *tracking;
+	mcd_pipeline *pipe;
+	int sigfd;
+	uint64_t start_ns;
+	bool ready;
+	/* status bookkeeping */
+	mcd_pipeline_status prev;
+	uint64_t prev_ns, next_status_ns, next_stats_log_ns, next_watchdog_ns;
+	uint64_t watchdog_usec;
+	unsigned watchdog_misses;
+} daemon_ctx;
+
+static uint64_t now_ns(void)
+{
+	struct timespec ts;
+	clock_gettime(CLOCK_MONOTONIC, &ts);
+	return (uint64_t)ts.tv_sec * 1000000000ull + (uint64_t)ts.tv_nsec;
+}
+
+static void usage(FILE *f)
+{
+	fprintf(f,
+		"usage: mocapd [options]\n"
+		"  -c, --config PATH      config file (default " DEFAULT_CONFIG ")\n"
+		"      --plugin-dir DIR   driver plugin directory (overrides [daemon] plugin_dir)\n"
+		"  -l, --log-level LEVEL  error, warn, info or debug (overrides [daemon] log_level)\n"
+		"  -p, --print            print every tracked skeleton as a text line on stdout\n"
+		"      --exit-at-end      exit when every camera's stream has ended (files without loop)\n"
+		"      --check            check the config and the plugins, then exit\n"
+		"  -V, --version\n"
+		"  -h, --help\n"
+		"See docs/CONFIG.md for the config file.\n");
+}
+
+static int parse_options(int argc, char **argv, options *o)
+{
+	enum { OPT_PLUGIN_DIR = 256, OPT_EXIT_AT_END, OPT_CHECK };
+	static const struct option longs[] = {
+		{"config", required_argument, NULL, 'c'},
+		{"plugin-dir", required_argument, NULL, OPT_PLUGIN_DIR},
+		{"log-level", required_argument, NULL, 'l'},
+		{"print", no_argument, NULL, 'p'},
+		{"exit-at-end", no_argument, NULL, OPT_EXIT_AT_END},
+		{"check", no_argument, NULL, OPT_CHECK},
+		{"version", no_argument, NULL, 'V'},
+		{"help", no_argument, NULL, 'h'},
+		{NULL, 0, NULL, 0},
+	};
+	*o = (options){.config_path = DEFAULT_CONFIG, .log_level = -1};
+	int c;
+	while ((c = getopt_long(argc, argv, "c:l:pVh", longs, NULL)) != -1) {
+		switch (c) {
+		case 'c':
+			o->config_path = optarg;
+			break;
+		case OPT_PLUGIN_DIR:
+			o->plugin_dir = optarg;
+			break;
+		case 'l':
+			o->log_level = mcd_log_parse_level(optarg);
+			if (o->log_level < 0) {
+				fprintf(stderr, "mocapd: --log-level: expected error, warn, info or debug, got '%s'\n",
+					optarg);
+				return 2;
+			}
+			break;
+		case 'p':
+			o->print = true;
+			break;
+		case OPT_EXIT_AT_END:
+			o->exit_at_end = true;
+			break;
+		case OPT_CHECK:
+			o->check_only = true;
+			break;
+		case 'V':
+			printf("mocapd %s (driver ABI %u)\n", MOCAPD_VERSION, (unsigned)MOCAP_DRIVER_ABI_VERSION);
+			return 0;
+		case 'h':
+			usage(stdout);
+			return 0;
+		default:
+			usage(stderr);
+			return 2;
+		}
+	}
+	if (optind < argc) {
+		fprintf(stderr, "mocapd: unexpected argument '%s'\n", argv[optind]);
+		usage(stderr);
+		return 2;
+	}
+	return -1; /* go on */
+}
+
+/* Loads the config and applies the command line over it. */
+static mcd_config *load_config(const options *o, mc_err *err)
+{
+	mcd_config *cfg = calloc(1, sizeof(*cfg));
+	if (!cfg) {
+		mc_err_set(err, "out of memory");
+		return NULL;
+	}
+	if (mcd_config_load(o->config_path, cfg, err)) {
+		free(cfg);
+		return NULL;
+	}
+	if (o->plugin_dir)
+		snprintf(cfg->plugin_dir, sizeof(cfg->plugin_dir), "%s", o->plugin_dir);
+	if (o->log_level >= 0)
+		cfg->log_level = o->log_level;
+	if (o->print)
+		cfg->print = true;
+	return cfg;
+}
+
+/* ---- start-up ---------------------------------------------------------------------- */
+
+static int block_signals(daemon_ctx *d, mc_err *err)
+{
+	/* Blocked before any thread starts, so that every thread inherits the
+	 * mask and only the signalfd sees them. */
+	sigset_t set;
+	sigemptyset(&set);
+	sigaddset(&set, SIGTERM);
+	sigaddset(&set, SIGINT);
+	sigaddset(&set, SIGHUP);
+	if (pthread_sigmask(SIG_BLOCK, &set, NULL) != 0)
+		return mc_err_set(err, "cannot block signals");
+	signal(SIGPIPE, SIG_IGN); /* a client that went away is an error return, not death */
+	d->sigfd = signalfd(-1, &set, SFD_CLOEXEC | SFD_NONBLOCK);
+	if (d->sigfd < 0)
+		return mc_err_set(err, "signalfd: %s", strerror(errno));
+	return 0;
+}
+
+/* The listening socket systemd passed (socket activation), or -1. */
+static int passed_socket(const char *path, mc_err *err)
+{
+	int n = sd_listen_fds(1);
+	if (n < 0)
+		return mc_err_set(err, "sd_listen_fds: %s", strerror(-n)), -2;
+	if (n == 0)
+		return -1;
+	if (n > 1)
+		return mc_err_set(err, "socket activation: %d sockets passed, mocapd takes one", n), -2;
+	int fd = SD_LISTEN_FDS_START;
+	if (sd_is_socket_unix(fd, SOCK_SEQPACKET, 1, NULL, 0) <= 0)
+		return mc_err_set(err,
+				  "socket activation: the passed fd is not a listening SOCK_SEQPACKET Unix socket "
+				  "(mocapd.socket needs ListenSequentialPacket=%s)",
+				  path),
+		       -2;
+	return fd;
+}
+
+static int start_server(daemon_ctx *d, mc_err *err)
+{
+	const mcd_config *cfg = d->cfg;
+	if (!cfg->socket.enabled) {
+		mcd_info("socket: disabled in the config");
+		return 0;
+	}
+	mc_server_config sc;
+	mc_server_config_default(&sc);
+	snprintf(sc.path, sizeof(sc.path), "%s", cfg->socket.path);
+	sc.listen_fd = passed_socket(cfg->socket.path, err);
+	if (sc.listen_fd == -2)
+		return -1;
+	sc.max_clients = cfg->socket.max_clients;
+	sc.socket_mode = cfg->socket.mode;
+	snprintf(sc.daemon_version, sizeof(sc.daemon_version), "mocapd %s", MOCAPD_VERSION);
+	if (cfg->socket.group[0]) {
+		struct group *gr = getgrnam(cfg->socket.group);
+		if (!gr) {
+			char where[700];
+			return mc_err_set(err, "%s: no such group '%s'",
+					  mcd_config_where(cfg, "socket", "group", where, sizeof(where)),
+					  cfg->socket.group);
+		}
+		sc.control_gid = gr->gr_gid;
+	}
+	d->srv = mc_server_create(&sc, err);
+	if (!d->srv)
+		return -1;
+	mcd_info("socket: %s%s", cfg->socket.path, sc.listen_fd >= 0 ? " (from systemd)" : "");
+	return 0;
+}
+
+static int start_tracking(daemon_ctx *d, mc_err *err)
+{
+	if (!d->cfg->tracker.enabled) {
+		mcd_info("tracker: disabled in the config; frames are captured and grouped only");
+		return 0;
+	}
+	d->tracking = calloc(1, sizeof(*d->tracking));
+	if (!d->tracking)
+		return mc_err_set(err, "out of memory");
+	if (mcd_tracking_setup(d->cfg, d->tracking, err)) {
+		free(d->tracking);
+		d->tracking = NULL;
+		return -1;
+	}
+	if (d->srv) {
+		if (mc_server_set_skeleton_def_from_model(d->srv, mc_tracker_model(d->tracking->tracker), err))
+			return -1;
+		if (d->tracking->rig_json &&
+		    mc_server_set_rig(d->srv, d->tracking->rig_json, d->tracking->rig.ncams, err))
+			return -1;
+	}
+	return 0;
+}
+
+/* ---- status, watchdog -------------------------------------------------------------- */
+
+static void refresh_status(daemon_ctx *d, uint64_t now)
+{
+	mcd_pipeline_status st;
+	bool log_now = d->cfg->stats_log_interval_s > 0 && now >= d->next_stats_log_ns;
+	mcd_pipeline_get_status(d->pipe, &st, true);
+	double dt = (double)(now - d->prev_ns) / 1e9;
+	char line[1100];
+	mcd_status_line(&st, &d->prev, dt, line, sizeof(line));
+	mcd_notify_status(line);
+	if (log_now) {
+		mcd_info("status: %s", line);
+		d->next_stats_log_ns = now + (uint64_t)(d->cfg->stats_log_interval_s * 1e9);
+	}
+	if (d->srv) {
+		mc_server_status ss;
+		mcd_status_to_server(&st, &d->prev, dt, d->start_ns,
+				     d->tracking ? mc_tracker_device_name(d->tracking->tracker) : "", &ss);
+		mc_server_set_status(d->srv, &ss);
+	}
+	d->prev = st;
+	d->prev_ns = now;
+}
+
+static void feed_watchdog(daemon_ctx *d)
+{
+	char stuck[128];
+	if (mcd_pipeline_progress(d->pipe, stuck, sizeof(stuck))) {
+		mcd_notify_watchdog();
+		d->watchdog_misses = 0;
+	} else if (d->watchdog_misses++ == 0)
+		mcd_error("watchdog: the %s made no progress; not feeding the watchdog", stuck);
+}
+
+/* ---- reload ------------------------------------------------------------------------- */
+
+/* Names what changed in the new config that only a restart applies. */
+static void report_restart_only(const mcd_config *old, const mcd_config *neu)
+{
+	const mcd_tracker_config *a = &old->tracker, *b = &neu->tracker;
+	bool cams = old->ncams != neu->ncams;
+	for (int c = 0; !cams && c < old->ncams; c++) {
+		const mcd_camera_config *x = &old->cams[c], *y = &neu->cams[c];
+		cams = strcmp(x->name, y->name) || strcmp(x->driver, y->driver) || strcmp(x->rig_camera, y->rig_camera) ||
+		       x->ring_slots != y->ring_slots || x->nkeys != y->nkeys;
+		for (int k = 0; !cams && k < x->nkeys; k++)
+			cams = strcmp(x->keys[k].key, y->keys[k].key) || strcmp(x->keys[k].value, y->keys[k].value);
+	}
+	const char *what[8];
+	int n = 0;
+	if (cams)
+		what[n++] = "cameras";
+	if (strcmp(old->plugin_dir, neu->plugin_dir))
+		what[n++] = "[daemon] plugin_dir";
+	if (memcmp(&old->socket, &neu->socket, sizeof(old->socket)))
+		what[n++] = "[socket]";
+	if (a->enabled != b->enabled || strcmp(a->rig, b->rig) || a->rig_format != b->rig_format ||
+	    a->rig_ocam != b->rig_ocam || strcmp(a->model, b->model) || strcmp(a->init_joints, b->init_joints) ||
+	    a->backend != b->backend || a->width != b->width || a->height != b->height ||
+	    a->cl_platform != b->cl_platform || a->cl_device != b->cl_device || a->seed != b->seed ||
+	    a->calibrate_colors != b->calibrate_colors)
+		what[n++] = "[tracker] rig, model, init, backend, resolution or device";
+	for (int i = 0; i < n; i++)
+		mcd_warn("reload: %s changed; that takes a restart (systemctl restart mocapd)", what[i]);
+}
+
+static int reload(daemon_ctx *d, char *msg, size_t cap)
+{
+	mcd_notify_reloading();
+	mc_err err = {{0}};
+	mcd_config *neu = load_config(&d->opt, &err);
+	int rc = 0;
+	if (!neu) {
+		mcd_error("reload: %s; keeping the running config", err.msg);
+		snprintf(msg, cap, "%s", err.msg);
+		rc = -1;
+	} else {
+		report_restart_only(d->cfg, neu);
+		mcd_log_set_level(neu->log_level);
+		mcd_pipeline_reload(d->pipe, neu);
+		/* Keep what was not applied; take what was. */
+		d->cfg->log_level = neu->log_level;
+		d->cfg->print = neu->print;
+		d->cfg->group_tolerance_ms = neu->group_tolerance_ms;
+		d->cfg->group_deadline_ms = neu->group_deadline_ms;
+		d->cfg->reopen_initial_ms = neu->reopen_initial_ms;
+		d->cfg->reopen_max_ms = neu->reopen_max_ms;
+		d->cfg->stall_timeout_ms = neu->stall_timeout_ms;
+		d->cfg->status_interval_s = neu->status_interval_s;
+		d->cfg->stats_log_interval_s = neu->stats_log_interval_s;
+		mcd_info("reload: %s applied (log level %s)", d->opt.config_path, mcd_log_level_name(neu->log_level));
+		snprintf(msg, cap, "reloaded %s", d->opt.config_path);
+		free(neu);
+	}
+	mcd_notify_ready("running");
+	return rc;
+}
+
+/* ---- the main loop ------------------------------------------------------------------------ */
+
+/* Returns 1 to stop. */
+static int handle_signals(daemon_ctx *d)
+{
+	struct signalfd_siginfo si;
+	while (read(d->sigfd, &si, sizeof(si)) == (ssize_t)sizeof(si)) {
+		if (si.ssi_signo == SIGHUP) {
+			char msg[600];
+			mcd_info("SIGHUP: reloading %s", d->opt.config_path);
+			reload(d, msg, sizeof(msg));
+		} else {
+			mcd_info("%s: shutting down", strsignal((int)si.ssi_signo));
+			return 1;
+		}
+	}
+	return 0;
+}
+
+static void handle_requests(daemon_ctx *d)
+{
+	if (!d->srv)
+		return;
+	mc_server_control ctl;
+	while (mc_server_poll_control(d->srv, &ctl) == 1) {
+		char msg[600];
+		int rc;
+		if (ctl.command == MC_CONTROL_RELOAD) {
+			mcd_info("reload requested by pid %d (uid %u)", (int)ctl.pid, (unsigned)ctl.uid);
+			rc = reload(d, msg, sizeof(msg));
+		} else {
+			rc = -1;
+			snprintf(msg, sizeof(msg), "recording is not available in this mocapd");
+		}
+		mc_server_control_done(d->srv, ctl.token, rc, msg);
+	}
+}
+
+static void maybe_ready(daemon_ctx *d, uint64_t now)
+{
+	if (d->ready)
+		return;
+	bool timed_out = (double)(now - d->start_ns) / 1e9 > READY_TIMEOUT_S;
+	if (!mcd_pipeline_cameras_attempted(d->pipe) && !timed_out)
+		return;
+	d->ready = true;
+	mcd_pipeline_get_status(d->pipe, &d->prev, false);
+	d->prev_ns = now;
+	char line[1100];
+	mcd_status_line(&d->prev, &d->prev, 0, line, sizeof(line));
+	mcd_notify_ready(line);
+	mcd_info("ready: %s", line);
+}
+
+static int run(daemon_ctx *d)
+{
+	for (;;) {
+		uint64_t now = now_ns();
+		maybe_ready(d, now);
+		if (d->ready && now >= d->next_status_ns) {
+			refresh_status(d, now);
+			d->next_status_ns = now + (uint64_t)(d->cfg->status_interval_s * 1e9);
+		}
+		if (d->ready && d->watchdog_usec && now >= d->next_watchdog_ns) {
+			feed_watchdog(d);
+			d->next_watchdog_ns = now + d->watchdog_usec * 1000 / 2;
+		}
+		if (d->opt.exit_at_end && mcd_pipeline_finished(d->pipe)) {
+			mcd_info("every stream has ended; exiting (--exit-at-end)");
+			return 0;
+		}
+		struct pollfd fds[3] = {
+			{.fd = d->sigfd, .events = POLLIN},
+			{.fd = mcd_pipeline_event_fd(d->pipe), .events = POLLIN},
+			{.fd = d->srv ? mc_server_event_fd(d->srv) : -1, .events = POLLIN},
+		};
+		uint64_t wake = d->ready ? d->next_status_ns : now + 50000000ull;
+		if (d->watchdog_usec && d->ready && d->next_watchdog_ns < wake)
+			wake = d->next_watchdog_ns;
+		int timeout_ms = wake > now ? (int)((wake - now) / 1000000ull) + 1 : 0;
+		if (timeout_ms > 1000)
+			timeout_ms = 1000;
+		if (poll(fds, 3, timeout_ms) < 0 && errno != EINTR) {
+			mcd_error("poll: %s", strerror(errno));
+			return 1;
+		}
+		if ((fds[0].revents & POLLIN) && handle_signals(d))
+			return 0;
+		if (fds[1].revents & POLLIN) {
+			if (mcd_pipeline_take_events(d->pipe))
+				mcd_pipeline_share_rings(d->pipe);
+		}
+		if (fds[2].revents & POLLIN)
+			handle_requests(d);
+	}
+}
+
+static void shutdown_all(daemon_ctx *d)
+{
+	mcd_notify_stopping();
+	if (d->pipe) {
+		mcd_pipeline_stop(d->pipe, STOP_GRACE_MS);
+		mcd_pipeline_destroy(d->pipe);
+	}
+	mc_server_destroy(d->srv);
+	if (d->tracking) {
+		mcd_tracking_free(d->tracking);
+		free(d->tracking);
+	}
+	if (d->sigfd >= 0)
+		close(d->sigfd);
+	free(d->cfg);
+}
+
+static int start(daemon_ctx *d, mc_err *err)
+{
+	if (block_signals(d, err))
+		return -1;
+	if (start_server(d, err))
+		return -1;
+	mcd_notify_watchdog(); /* start-up progress */
+	if (start_tracking(d, err))
+		return -1;
+	mcd_notify_watchdog();
+	d->pipe = mcd_pipeline_create(d->cfg, d->tracking, d->srv, err);
+	if (!d->pipe || mcd_pipeline_start(d->pipe, err))
+		return -1;
+	mcd_pipeline_share_rings(d->pipe);
+	d->watchdog_usec = mcd_watchdog_usec();
+	return 0;
+}
+
+int main(int argc, char **argv)
+{
+	daemon_ctx d = {.sigfd = -1};
+	int rc = parse_options(argc, argv, &d.opt);
+	if (rc >= 0)
+		return rc;
+	mcd_log_init();
+	if (d.opt.log_level >= 0)
+		mcd_log_set_level(d.opt.log_level);
+	mc_err err = {{0}};
+	d.cfg = load_config(&d.opt, &err);
+	if (!d.cfg) {
+		mcd_error("%s", err.msg);
+		mcd_notify_status(err.msg);
+		return 1;
+	}
+	mcd_log_set_level(d.cfg->log_level);
+	d.start_ns = now_ns();
+	if (d.opt.check_only) {
+		/* Loading the plugins is the part of start-up that can be checked
+		 * without touching devices. */
+		mcd_pipeline *p = mcd_pipeline_create(d.cfg, NULL, NULL, &err);
+		mcd_pipeline_destroy(p);
+		if (!p)
+			mcd_error("%s", err.msg);
+		else
+			printf("%s: ok\n", d.opt.config_path);
+		free(d.cfg);
+		return p ? 0 : 1;
+	}
+	mcd_info("mocapd %s starting with %s", MOCAPD_VERSION, d.opt.config_path);
+	if (start(&d, &err)) {
+		mcd_error("%s", err.msg);
+		mcd_notify_status(err.msg);
+		shutdown_all(&d);
+		return 1;
+	}
+	rc = run(&d);
+	shutdown_all(&d);
+	mcd_info("stopped");
+	return rc;
+}

@@ -1,0 +1,100 @@
+#include "status.h"
+
+#include <stdio.h>
+#include <string.h>
+
+uint64_t mcd_cam_drops(const mcd_cam_status *c)
+{
+	return c->counters.short_frames + c->counters.corrupt_frames + c->counters.bad_frames + c->counters.nospace +
+	       c->overrun + c->undecodable + c->late;
+}
+
+static double rate(uint64_t now, uint64_t prev, double dt_s)
+{
+	return dt_s > 0 && now >= prev ? (double)(now - prev) / dt_s : 0;
+}
+
+/* Mean tracking time over the interval. */
+static double mean_track_ms(const mcd_pipeline_status *now, const mcd_pipeline_status *prev)
+{
+	uint64_t n = now->tracked - prev->tracked;
+	return n ? (now->track_ms_total - prev->track_ms_total) / (double)n : 0;
+}
+
+static const char *track_state_name(int s)
+{
+	return s == 0 ? "ok" : s == 1 ? "uncertain" : s == 2 ? "lost" : "idle";
+}
+
+void mcd_status_line(const mcd_pipeline_status *now, const mcd_pipeline_status *prev, double dt_s, char *buf,
+		     size_t cap)
+{
+	size_t len = 0;
+#define APPEND(...)                                                                               \
+	do {                                                                                      \
+		int w_ = snprintf(buf + len, cap > len ? cap - len : 0, __VA_ARGS__);             \
+		if (w_ > 0)                                                                       \
+			len = len + (size_t)w_ < cap ? len + (size_t)w_ : (cap ? cap - 1 : 0);    \
+	} while (0)
+	if (cap)
+		buf[0] = 0;
+	if (now->tracking)
+		APPEND("tracking %.1f fps, %.1f ms (max %.1f), %s", rate(now->tracked, prev->tracked, dt_s),
+		       mean_track_ms(now, prev), now->track_ms_max, track_state_name(now->track_state));
+	else
+		APPEND("tracker off, %.1f frame sets/s", rate(now->sets, prev->sets, dt_s));
+	for (int c = 0; c < now->ncams; c++) {
+		const mcd_cam_status *cn = &now->cams[c], *cp = &prev->cams[c];
+		APPEND(" | %s: %s", cn->name, mcd_cam_state_name(cn->state));
+		if (cn->state == MCD_CAM_STREAMING || cn->state == MCD_CAM_STALLED)
+			APPEND(" %.1f fps, %llu drops", rate(cn->counters.frames, cp->counters.frames, dt_s),
+			       (unsigned long long)mcd_cam_drops(cn));
+		else if (cn->last_error[0])
+			APPEND(" (%s)", cn->last_error);
+	}
+#undef APPEND
+}
+
+static mc_server_cam_state server_cam_state(const mcd_cam_status *c)
+{
+	switch (c->state) {
+	case MCD_CAM_STREAMING:
+		return MC_CAM_STATE_OK;
+	case MCD_CAM_STALLED:
+		return MC_CAM_STATE_STALLED;
+	case MCD_CAM_RETRYING:
+	case MCD_CAM_FAILED:
+		return MC_CAM_STATE_ERROR;
+	case MCD_CAM_OPENING:
+		return c->counters.errors ? MC_CAM_STATE_ERROR : MC_CAM_STATE_OFF;
+	default:
+		return MC_CAM_STATE_OFF;
+	}
+}
+
+void mcd_status_to_server(const mcd_pipeline_status *now, const mcd_pipeline_status *prev, double dt_s,
+			  uint64_t start_ns, const char *device, mc_server_status *out)
+{
+	memset(out, 0, sizeof(*out));
+	out->tracker_state = now->tracking && now->track_state >= 0 ? (mc_server_tracker_state)now->track_state
+								     : MC_SERVER_TRACKER_IDLE;
+	out->publish_fps = rate(now->publish.published, prev->publish.published, dt_s);
+	out->track_ms_mean = mean_track_ms(now, prev);
+	out->track_ms_max = now->track_ms_max;
+	out->frames_published = now->publish.published;
+	out->frames_dropped = now->skipped + now->publish.dropped;
+	out->start_ns = start_ns;
+	snprintf(out->device, sizeof(out->device), "%s", device ? device : "");
+	out->ncams = now->ncams < MC_SERVER_STATUS_MAX_CAMS ? now->ncams : MC_SERVER_STATUS_MAX_CAMS;
+	for (int c = 0; c < out->ncams; c++) {
+		const mcd_cam_status *cn = &now->cams[c];
+		mc_server_cam_status *o = &out->cams[c];
+		snprintf(o->name, sizeof(o->name), "%s", cn->name);
+		o->state = server_cam_state(cn);
+		o->width = (int)cn->format.width;
+		o->height = (int)cn->format.height;
+		o->fps = rate(cn->counters.frames, prev->cams[c].counters.frames, dt_s);
+		o->frames = cn->counters.frames;
+		o->drops = mcd_cam_drops(cn);
+	}
+}
