@@ -377,3 +377,80 @@ void mc_bvh_fk(const mc_bvh *bvh, int frame, mc_xform *world_from_joint)
 		world_from_joint[i] = j->parent < 0 ? local : mc_xform_compose(world_from_joint[j->parent], local);
 	}
 }
+
+double mc_bvh_rest_height(const mc_bvh *bvh)
+{
+	if (bvh->njoints == 0)
+		return 0;
+	mc_xform *x = malloc(sizeof(mc_xform) * (size_t)bvh->njoints);
+	if (!x)
+		return 0;
+	mc_bvh rest = *bvh;
+	rest.nframes = 0; /* no values: every channel reads as 0 */
+	mc_bvh_fk(&rest, 0, x);
+	double lo = x[0].t.y, hi = x[0].t.y;
+	for (int i = 1; i < bvh->njoints; i++) {
+		lo = fmin(lo, x[i].t.y);
+		hi = fmax(hi, x[i].t.y);
+	}
+	free(x);
+	return hi - lo;
+}
+
+/* DESIGN.md name, newer CMU name, older CMU name. */
+static const char *const cmu_map[MC_BVH_CMU_JOINTS][3] = {
+	{"head_top", "Head_End", "Head_End"},
+	{"neck", "Head", "Head"},
+	{"spine", "Spine1", "Chest"},
+	{"pelvis", "Hips", "Hips"},
+	{"left_shoulder", "LeftArm", "LeftShoulder"},
+	{"left_elbow", "LeftForeArm", "LeftElbow"},
+	{"left_wrist", "LeftHand", "LeftWrist"},
+	{"left_hip", "LeftUpLeg", "LeftHip"},
+	{"left_knee", "LeftLeg", "LeftKnee"},
+	{"left_ankle", "LeftFoot", "LeftAnkle"},
+	{"left_toe", "LeftToeBase", "LeftToe"},
+	{"right_shoulder", "RightArm", "RightShoulder"},
+	{"right_elbow", "RightForeArm", "RightElbow"},
+	{"right_wrist", "RightHand", "RightWrist"},
+	{"right_hip", "RightUpLeg", "RightHip"},
+	{"right_knee", "RightLeg", "RightKnee"},
+	{"right_ankle", "RightFoot", "RightAnkle"},
+	{"right_toe", "RightToeBase", "RightToe"},
+};
+
+const char *mc_bvh_cmu_joint_name(int i)
+{
+	return i >= 0 && i < MC_BVH_CMU_JOINTS ? cmu_map[i][0] : NULL;
+}
+
+int mc_bvh_map_cmu(const mc_bvh *bvh, int *bvh_index, mc_err *err)
+{
+	int naming = mc_bvh_find(bvh, "LeftUpLeg") >= 0 ? 1 : 2;
+	for (int i = 0; i < MC_BVH_CMU_JOINTS; i++) {
+		bvh_index[i] = mc_bvh_find(bvh, cmu_map[i][naming]);
+		if (bvh_index[i] < 0)
+			return mc_err_set(err, "no joint '%s' (for %s) in this skeleton: not a CMU skeleton in the %s naming",
+					  cmu_map[i][naming], cmu_map[i][0], naming == 1 ? "newer (01_01)" : "older (131_01)");
+	}
+	return 0;
+}
+
+void mc_bvh_joints_in_head(const mc_bvh *bvh, const int *bvh_index, int frame, double metres_per_unit, mc_vec3 *out)
+{
+	mc_xform *x = malloc(sizeof(mc_xform) * (size_t)bvh->njoints);
+	if (!x) {
+		for (int i = 0; i < MC_BVH_CMU_JOINTS; i++)
+			out[i] = mc_v3(NAN, NAN, NAN);
+		return;
+	}
+	mc_bvh_fk(bvh, frame, x);
+	const mc_xform *head = &x[bvh_index[1]];
+	mc_mat3 head_from_world = mc_m3_transpose(head->R);
+	for (int i = 0; i < MC_BVH_CMU_JOINTS; i++) {
+		mc_vec3 q = mc_m3_apply(head_from_world, mc_v3_sub(x[bvh_index[i]].t, head->t));
+		/* BVH axes (x left, y up, z forward) to the model's (x right, y down, z forward). */
+		out[i] = mc_v3(-q.x * metres_per_unit, -q.y * metres_per_unit, q.z * metres_per_unit);
+	}
+	free(x);
+}

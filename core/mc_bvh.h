@@ -69,4 +69,49 @@ const double *mc_bvh_frame(const mc_bvh *bvh, int frame);
 /* Forward kinematics of one frame: world_from_joint[njoints], file units. */
 void mc_bvh_fk(const mc_bvh *bvh, int frame, mc_xform *world_from_joint);
 
+/* Height of the rest pose (every channel 0): the extent along +y (up in
+ * BVH) over all joints and end sites, in file units.  actor height /
+ * this = metres per file unit. */
+double mc_bvh_rest_height(const mc_bvh *bvh);
+
+/* ---- the CMU skeletons under the joint names of DESIGN.md ----
+ *
+ * The CMU database in B. Hahne's BVH conversion comes with two joint
+ * namings (131_01.bvh and 01_01.bvh in shared/data/mocap); both map:
+ *
+ *   DESIGN.md        older naming (131_01)   newer naming (01_01)
+ *   head_top         Head_End                Head_End
+ *   neck             Head                    Head        (base of the skull)
+ *   spine            Chest                   Spine1      (differs; not evaluated)
+ *   pelvis           Hips                    Hips
+ *   left_shoulder    LeftShoulder            LeftArm     (01_01's LeftShoulder is the clavicle)
+ *   left_elbow       LeftElbow               LeftForeArm
+ *   left_wrist       LeftWrist               LeftHand
+ *   left_hip         LeftHip                 LeftUpLeg
+ *   left_knee        LeftKnee                LeftLeg
+ *   left_ankle       LeftAnkle               LeftFoot
+ *   left_toe         LeftToe                 LeftToeBase
+ *   right_*          the same with Right
+ *
+ * The naming is told apart by the presence of LeftUpLeg.  Scaled by
+ * mc_bvh_rest_height and expressed in the Head joint's frame, these
+ * positions match shared/data/ego/<clip>/gt.json up to one rigid transform
+ * per clip (the helmet's pose on the head), to below a millimetre. */
+#define MC_BVH_CMU_JOINTS 18
+
+/* The DESIGN.md name of mapped joint i (0 .. MC_BVH_CMU_JOINTS-1). */
+const char *mc_bvh_cmu_joint_name(int i);
+
+/* Finds the BVH joint of every mapped joint: bvh_index[MC_BVH_CMU_JOINTS].
+ * Errors name the first joint that is missing, and the Head joint. */
+int mc_bvh_map_cmu(const mc_bvh *bvh, int *bvh_index, mc_err *err);
+
+/* Positions of the mapped joints at one frame relative to the skeleton's
+ * Head joint, in metres (file units * metres_per_unit), in head axes turned
+ * to the body model's root convention: x to the actor's right, y down, z
+ * forward (BVH rest axes are x left, y up, z forward).  bvh_index comes
+ * from mc_bvh_map_cmu; out holds MC_BVH_CMU_JOINTS positions. */
+void mc_bvh_joints_in_head(const mc_bvh *bvh, const int *bvh_index, int frame, double metres_per_unit,
+			   mc_vec3 *out);
+
 #endif

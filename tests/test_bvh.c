@@ -3,6 +3,7 @@
 #include "mc_bvh.h"
 #include "test_util.h"
 
+#include <jansson.h>
 #include <string.h>
 
 static const char *small_bvh =
@@ -165,6 +166,66 @@ static void test_malformed(void)
 	CHECK(b.nframes == 1 && b.values && b.values[0] == 7);
 	mc_bvh_free(&b);
 	CHECK(mc_bvh_load("/nonexistent/x.bvh", &b, &err) == -1 && strstr(err.msg, "/nonexistent/x.bvh"));
+	/* Not a CMU skeleton. */
+	CHECK(mc_bvh_parse(small_bvh, strlen(small_bvh), "small", &b, &err) == 0);
+	int idx[MC_BVH_CMU_JOINTS];
+	CHECK(mc_bvh_map_cmu(&b, idx, &err) == -1 && strstr(err.msg, "Head_End"));
+	CHECK_NEAR(mc_bvh_rest_height(&b), 16, 1e-12); /* leg end -1 .. spine end 15 */
+	mc_bvh_free(&b);
+	CHECK(mc_bvh_cmu_joint_name(MC_BVH_CMU_JOINTS) == NULL && strcmp(mc_bvh_cmu_joint_name(4), "left_shoulder") == 0);
+}
+
+/* The mapped CMU joints, scaled to the actor and put in the head frame,
+ * are the evaluation data's ground truth up to one rigid transform: every
+ * distance between two joints agrees. */
+static void test_cmu_map(const char *dir, const char *bvh_file, const char *clip, double start_s)
+{
+	char path[512];
+	snprintf(path, sizeof(path), "%s/mocap/%s", dir, bvh_file);
+	mc_bvh b;
+	mc_err err;
+	CHECK_MSG(mc_bvh_load(path, &b, &err) == 0, "%s", err.msg);
+	int idx[MC_BVH_CMU_JOINTS];
+	CHECK_MSG(mc_bvh_map_cmu(&b, idx, &err) == 0, "%s", err.msg);
+	snprintf(path, sizeof(path), "%s/ego/%s/gt.json", dir, clip);
+	json_error_t je;
+	json_t *gt = json_load_file(path, 0, &je);
+	CHECK_MSG(gt != NULL, "%s: %s", path, je.text);
+	if (!gt || !b.joints) {
+		mc_bvh_free(&b);
+		return;
+	}
+	double height = json_number_value(json_object_get(gt, "height_m"));
+	double fps = json_number_value(json_object_get(gt, "fps"));
+	double mpu = height / mc_bvh_rest_height(&b);
+	json_t *frames = json_object_get(gt, "frames");
+	double worst = 0;
+	for (size_t k = 0; k < json_array_size(frames); k += 17) {
+		int f = (int)lround((start_s + (double)k / fps) / b.frame_time);
+		mc_vec3 mine[MC_BVH_CMU_JOINTS], theirs[MC_BVH_CMU_JOINTS];
+		mc_bvh_joints_in_head(&b, idx, f, mpu, mine);
+		json_t *joints = json_object_get(json_array_get(frames, k), "joints_left_cam");
+		for (int i = 0; i < MC_BVH_CMU_JOINTS; i++) {
+			json_t *a = json_object_get(joints, mc_bvh_cmu_joint_name(i));
+			theirs[i] = mc_v3(json_number_value(json_array_get(a, 0)), json_number_value(json_array_get(a, 1)),
+					  json_number_value(json_array_get(a, 2)));
+		}
+		for (int i = 0; i < MC_BVH_CMU_JOINTS; i++)
+			for (int j = i + 1; j < MC_BVH_CMU_JOINTS; j++) {
+				double d = fabs(mc_v3_norm(mc_v3_sub(mine[i], mine[j])) -
+						mc_v3_norm(mc_v3_sub(theirs[i], theirs[j])));
+				worst = fmax(worst, d);
+			}
+		/* The head frame: the neck is its origin, head_top straight up. */
+		CHECK(mc_v3_norm(mine[1]) < 1e-9);
+		CHECK(mine[0].y < -0.09 && fabs(mine[0].x) < 0.03);
+		/* The left shoulder is on the actor's left: -x in model axes. */
+		CHECK(mine[4].x < mine[11].x);
+	}
+	CHECK_MSG(worst < 0.003, "%s: joint distances differ from gt.json by up to %.4f m", clip, worst);
+	printf("%s: joint distances agree with gt.json to %.4f m\n", clip, worst);
+	json_decref(gt);
+	mc_bvh_free(&b);
 }
 
 int main(void)
@@ -175,6 +236,9 @@ int main(void)
 	if (dir) {
 		test_cmu_file(dir, "131_01.bvh", 994, "LeftElbow");
 		test_cmu_file(dir, "01_01.bvh", 2752, "LeftForeArm");
+		/* Clip start times from shared/data/README.md. */
+		test_cmu_map(dir, "131_01.bvh", "walk_131_01", 0.0);
+		test_cmu_map(dir, "01_01.bvh", "jumps_01_01", 2.0);
 	} else {
 		printf("the CMU files were not checked\n");
 	}
