@@ -8,19 +8,20 @@
  * the pixel list).  Per pixel it
  *   1. culls the Gaussians whose ray magnitude c'_q < 1e-5 (a test on the
  *      squared distance to the ray) and those dropped at random, keeping a
- *      compact private list of the survivors;
- *   2. evaluates the transmittance at the five samples of every survivor,
- *      skipping the erf of Gaussians the sample is far from (their erf is
- *      saturated at -1 or +1), then V_q and the energy;
- *   3. back-propagates to (mu'_q, sigma_q, c'_q) of the ray Gaussians and
- *      on to (mu_q, sigma_q), adding into the work-item's row of a
- *      work-group scratch array in local memory.
+ *      compact private list of the n survivors (the ray Gaussians);
+ *   2. lists the 5 n visibility samples and evaluates them VW at a time
+ *      (SIMD lanes = samples): for each ray Gaussian p, erf and exp at the
+ *      VW sample depths, giving the transmittance T, each sample's energy
+ *      W = d_q sigma_q c'_q exp(-k^2/2) h T and its derivative along the ray;
+ *   3. back-propagates through T to (mu'_p, sigma_p, c'_p) of every ray
+ *      Gaussian (sums over the samples weighted by W, reusing the stored
+ *      erf and exp values) and on to (mu_p, sigma_p), adding into the
+ *      work-item's row of a work-group scratch array in local memory.
  * At the end the rows are summed per work-group into `partial`; the host
  * adds the work-group rows in double.  No atomics. */
 
 #define MAXG 128            /* MC_MAX_GAUSSIANS */
 #define CULL_MAGNITUDE 1e-5f /* MC_CULL_MAGNITUDE */
-#define SAT_Z 3.5f          /* |z| beyond this: erf(z) = +-1, exp(-z^2) = 0 */
 #define SQRT_HALF_PI 1.25331413732f
 #define SQRT2 1.41421356237f
 #define INV_SQRT2 0.70710678118f
@@ -76,177 +77,258 @@ float mc_dissimilarity(float4 m, float2 wdg, float3 i)
 	return 1.0f - u2 * u2 * (8.0f * x + 2.0f);
 }
 
-/* Where a visibility sample lies relative to the camera (docs/ENERGY.md,
- * "Samples near the camera", as mc_energy.c's near_camera()): within a
- * band of width lambda around the camera, x = s / lambda + 1/2 in (0, 1),
- * the sample is faded by h(x) = x^3 (6x^2 - 15x + 10) and T is read at the
- * soft-clamped depth t = lambda (x^3 - x^4 / 2); behind the band the sample
- * is dropped (returns false), beyond it h = 1 and t = s. */
-typedef struct {
-	float h, dh_ds, dh_dl; /* weight and its derivatives (s, lambda) */
-	float t, dt_ds, dt_dl; /* depth at which T is read */
-} mc_sample;
+/* Vector width over the ray Gaussians: VW lanes evaluate VW Gaussians at
+ * one sample depth at once.  Set by the host (-DVW=...) from the device's
+ * preferred float vector width: 16 with AVX-512, 8 with AVX2, 1 on GPUs. */
+#ifndef VW
+#define VW 8
+#endif
+#define CAT_(a, b) a##b
+#define CAT(a, b) CAT_(a, b)
+#if VW == 1
+#define floatv float
+#define VLOAD(i, p) ((p)[i])
+#define VSTORE(v, i, p) ((p)[i] = (v))
+#else
+#define floatv CAT(float, VW)
+#define VLOAD(i, p) CAT(vload, VW)(i, p)
+#define VSTORE(v, i, p) CAT(vstore, VW)(v, i, p)
+#endif
+#define MAXV (MAXG / VW)
 
-bool mc_near_camera(float s, float lambda, mc_sample *sp)
+float hsum(floatv v)
 {
-	float x = s / lambda + 0.5f;
-	if (x >= 1.0f) {
-		sp->h = 1.0f;
-		sp->t = s;
-		sp->dt_ds = 1.0f;
-		sp->dh_ds = sp->dh_dl = sp->dt_dl = 0.0f;
-		return true;
-	}
-	if (x <= 0.0f)
-		return false;
-	float x2 = x * x, y = 1.0f - x;
-	float dh_dx = 30.0f * x2 * y * y;
-	sp->h = x2 * x * (x * (6.0f * x - 15.0f) + 10.0f);
-	sp->dh_ds = dh_dx / lambda;
-	sp->dh_dl = -dh_dx * s / (lambda * lambda);
-	sp->t = lambda * x2 * x * (1.0f - 0.5f * x);
-	sp->dt_ds = x2 * (3.0f - 2.0f * x);
-	sp->dt_dl = 1.5f * x2 * y * y;
-	return true;
+#if VW == 16
+	float8 a = v.lo + v.hi;
+	float4 b = a.lo + a.hi;
+#elif VW == 8
+	float4 b = v.lo + v.hi;
+#elif VW == 4
+	float4 b = v;
+#endif
+#if VW == 1
+	return v;
+#else
+	float2 c = b.lo + b.hi;
+	return c.x + c.y;
+#endif
 }
 
-/* The ray Gaussians of one pixel that survived culling and dropout. */
-typedef struct {
-	int n;
-	int idx[MAXG];   /* Gaussian index in the scene */
-	float m[MAXG];   /* mu' */
-	float sg[MAXG];  /* sigma */
-	float c[MAXG];   /* c' */
-	float A[MAXG];   /* sigma c' sqrt(pi/2): optical depth per unit erf */
-	float inv[MAXG]; /* 1 / (sqrt2 sigma) */
-	float hw[MAXG];  /* SAT_Z sqrt2 sigma: half-width of the erf's unsaturated range */
-	float d[MAXG];   /* colour dissimilarity to the pixel */
-} mc_ray_set;
+/* mc_erf_exp on VW lanes. */
+floatv erf_exp_v(floatv z, floatv *e)
+{
+	floatv az = fabs(z);
+	floatv ez = exp(-z * z);
+	floatv t = 1.0f / (1.0f + 0.3275911f * az);
+	floatv poly = t * (0.254829592f + t * (-0.284496736f + t * (1.421413741f +
+			t * (-1.453152027f + t * 1.061405429f))));
+	*e = ez;
+	return copysign(1.0f - poly * ez, z);
+}
 
+/* Where a visibility sample lies relative to the camera (docs/ENERGY.md,
+ * "Samples near the camera", as near_camera() in mc_energy.c): within a
+ * band of width lambda around the camera, x = s / lambda + 1/2 in (0, 1),
+ * the sample is faded by h(x) = x^3 (6x^2 - 15x + 10) and T is read at the
+ * soft-clamped depth t = lambda (x^3 - x^4 / 2); behind the band (x <= 0)
+ * h = 0; beyond it h = 1 and t = s.  With x clamped to [0, 1] the same
+ * polynomials give all three cases, except t, selected.  VW lanes. */
+typedef struct {
+	floatv h, dh_ds, dh_dl; /* weight and its derivatives (s, lambda) */
+	floatv t, dt_ds, dt_dl; /* depth at which T is read */
+} mc_samples;
+
+mc_samples mc_near_camera(floatv s, floatv x, floatv lambda, floatv inv_lambda)
+{
+	mc_samples sp;
+	floatv xc = clamp(x, 0.0f, 1.0f), x2 = xc * xc, y = 1.0f - xc;
+	floatv dh_dx = 30.0f * x2 * y * y;
+	sp.h = x2 * xc * (xc * (6.0f * xc - 15.0f) + 10.0f);
+	sp.dh_ds = dh_dx * inv_lambda;
+	sp.dh_dl = -dh_dx * s * inv_lambda * inv_lambda;
+	sp.t = select(lambda * x2 * xc * (1.0f - 0.5f * xc), s, x >= 1.0f);
+	sp.dt_ds = x2 * (3.0f - 2.0f * xc);
+	sp.dt_dl = 1.5f * x2 * y * y;
+	return sp;
+}
+
+#define MC_VIS_SAMPLES 5
+#define SMAX (MC_VIS_SAMPLES * MAXG + VW) /* samples of one pixel, padded */
+/* erf and exp of (ray Gaussian, sample vector) pairs kept from the forward
+ * pass for the backward one; rays with more pairs compute them again. */
+#define PAIRV_MAX (2048 / VW)
+
+/* E of one pixel; adds its gradient into row[4 q .. 4 q + 3]. */
 float mc_pixel(global const float4 *gauss, int ngauss, float3 o, float3 n, float3 colour,
 	       uint seed_mix, uint cam, uint pixel, uint thr24, local float *row)
 {
-	mc_ray_set rs;
-	rs.n = 0;
+	/* The ray Gaussians that survive culling and dropout, padded to a
+	 * multiple of VW with inert lanes (A = c = 0). */
+	int idx[MAXG];
+	float m[MAXG];   /* mu' */
+	float sg[MAXG];  /* sigma */
+	float c[MAXG];   /* c' */
+	float A[MAXG];   /* sqrt(pi/2) sigma c': optical depth per unit of erf */
+	float inv[MAXG]; /* 1 / (sqrt2 sigma) */
+	float d[MAXG];   /* colour dissimilarity to the pixel */
+	int na = 0;
 	for (int q = 0; q < ngauss; q++) {
 		float4 ms = gauss[4 * q];
 		float r2max = gauss[4 * q + 1].y;
 		float3 dv = ms.xyz - o;
-		float m = dot(dv, n);
-		if (dot(dv, dv) - m * m >= r2max)
+		float mq = dot(dv, n);
+		if (dot(dv, dv) - mq * mq >= r2max)
 			continue;
 		if (thr24 && mc_dropped(seed_mix, cam, pixel, (uint)q, thr24))
 			continue;
 		/* The perpendicular offset, free of the cancellation above. */
-		float3 perp = dv - m * n;
-		float sg = ms.w;
-		float cq = gauss[4 * q + 1].x * exp(-dot(perp, perp) / (2.0f * sg * sg));
+		float3 perp = dv - mq * n;
+		float s = ms.w;
+		float cq = gauss[4 * q + 1].x * exp(-dot(perp, perp) / (2.0f * s * s));
 		if (cq < CULL_MAGNITUDE)
 			continue;
-		int k = rs.n++;
-		rs.idx[k] = q;
-		rs.m[k] = m;
-		rs.sg[k] = sg;
-		rs.c[k] = cq;
-		rs.A[k] = sg * cq * SQRT_HALF_PI;
-		rs.inv[k] = INV_SQRT2 / sg;
-		rs.hw[k] = SAT_Z * SQRT2 * sg;
-		rs.d[k] = mc_dissimilarity(gauss[4 * q + 2], gauss[4 * q + 3].xy, colour);
+		idx[na] = q;
+		m[na] = mq;
+		sg[na] = s;
+		c[na] = cq;
+		A[na] = s * cq * SQRT_HALF_PI;
+		inv[na] = INV_SQRT2 / s;
+		d[na] = mc_dissimilarity(gauss[4 * q + 2], gauss[4 * q + 3].xy, colour);
+		na++;
 	}
-	if (rs.n == 0)
+	if (na == 0)
 		return 0.0f;
+	const int nv = (na + VW - 1) / VW;
+	for (int p = na; p < nv * VW; p++)
+		m[p] = inv[p] = A[p] = c[p] = 0.0f;
 
-	/* Optical depth offset: tau(s) = sum_p A_p (erf(z_p(s)) - erf(z0_p)). */
+	/* tau(t) = sum_p A_p (erf(z_p(t)) - erf(z0_p)), z0_p = -mu'_p / (sqrt2 sigma_p) */
 	float erf0[MAXG], e0[MAXG];
-	float base = 0.0f;
-	for (int p = 0; p < rs.n; p++) {
-		erf0[p] = mc_erf_exp(-rs.m[p] * rs.inv[p], &e0[p]);
-		base += rs.A[p] * erf0[p];
+	floatv basev = 0.0f;
+	for (int v = 0; v < nv; v++) {
+		floatv e;
+		floatv ef = erf_exp_v(-VLOAD(v, m) * VLOAD(v, inv), &e);
+		VSTORE(ef, v, erf0);
+		VSTORE(e, v, e0);
+		basev += VLOAD(v, A) * ef;
 	}
+	const float base = hsum(basev);
 
-	/* Per-Gaussian sums over all samples j, weighted by the sample's energy
-	 * W_j: W erf_p(s_j), W exp(-z_p^2), W z_p exp(-z_p^2); and the direct
-	 * gradient terms of each Gaussian's own samples. */
-	float sE[MAXG], se[MAXG], sze[MAXG], gm[MAXG], gs[MAXG], gc[MAXG];
-	float erfp[MAXG], ep[MAXG], zp[MAXG];
-	float wtot = 0.0f, energy = 0.0f;
-	for (int p = 0; p < rs.n; p++)
-		sE[p] = se[p] = sze[p] = 0.0f;
-
-	for (int q = 0; q < rs.n; q++) {
-		gm[q] = gs[q] = gc[q] = 0.0f;
-		if (rs.d[q] == 0.0f)
-			continue; /* contributes nothing; still occludes */
-		float vis = 0.0f, gpos_m = 0.0f, gpos_s = 0.0f;
-		float sg = rs.sg[q];
-		float pre = rs.d[q] * sg * rs.c[q];
-		for (int k = -4; k <= 0; k++) {
-			float s = rs.m[q] + k * sg;
-			mc_sample sp;
-			if (!mc_near_camera(s, sg, &sp))
-				continue;
-			float tau = -base, dens = 0.0f;
-			for (int p = 0; p < rs.n; p++) {
-				float u = sp.t - rs.m[p];
-				if (u > rs.hw[p]) {
-					erfp[p] = 1.0f;
-					ep[p] = zp[p] = 0.0f;
-					tau += rs.A[p];
-				} else if (u < -rs.hw[p]) {
-					erfp[p] = -1.0f;
-					ep[p] = zp[p] = 0.0f;
-					tau -= rs.A[p];
-				} else {
-					float z = u * rs.inv[p];
-					float e;
-					float ef = mc_erf_exp(z, &e);
-					erfp[p] = ef;
-					ep[p] = e;
-					zp[p] = z;
-					tau += rs.A[p] * ef;
-					dens += rs.c[p] * e;
-				}
-			}
-			float wkT = exp(-0.5f * k * k - tau); /* exp(-k^2/2) T(t) */
-			float W = pre * sp.h * wkT;           /* this sample's energy */
-			vis += sp.h * wkT;
-			/* The sample depth s moves with mu' (ds/dmu' = 1) and sigma
-			 * (ds/dsigma = k); near the camera h and t depend on s and
-			 * lambda = sigma too. */
-			float dE_dt = -W * dens, dE_dh = pre * wkT;
-			float dE_ds = dE_dt * sp.dt_ds + dE_dh * sp.dh_ds;
-			gpos_m += dE_ds;
-			gpos_s += dE_dt * sp.dt_dl + dE_dh * sp.dh_dl + k * dE_ds;
-			wtot += W;
-			for (int p = 0; p < rs.n; p++) {
-				sE[p] += W * erfp[p];
-				se[p] += W * ep[p];
-				sze[p] += W * zp[p] * ep[p];
-			}
+	/* The samples s = mu'_q + k sigma_q, k = -4..0, of every ray Gaussian q
+	 * that contributes (d_q != 0; the others only occlude), padded to a
+	 * multiple of VW with samples of no weight. */
+	float s_s[SMAX];   /* depth s */
+	float s_x[SMAX];   /* s / lambda + 1/2 (near-camera rule) */
+	float s_l[SMAX];   /* lambda = sigma_q */
+	float s_il[SMAX];  /* 1 / lambda */
+	float s_pre[SMAX]; /* d_q sigma_q c'_q exp(-k^2/2) */
+	float s_k[SMAX];
+	int s_q[SMAX];     /* the ray Gaussian it belongs to */
+	int ns = 0;
+	for (int q = 0; q < na; q++) {
+		if (d[q] == 0.0f)
+			continue;
+		float il = 1.0f / sg[q], pre = d[q] * sg[q] * c[q];
+		for (int k = -4; k <= 0; k++, ns++) {
+			s_s[ns] = m[q] + k * sg[q];
+			s_x[ns] = m[q] * il + (k + 0.5f);
+			s_l[ns] = sg[q];
+			s_il[ns] = il;
+			s_pre[ns] = pre * exp(-0.5f * k * k);
+			s_k[ns] = k;
+			s_q[ns] = q;
 		}
-		energy += pre * vis;
-		gm[q] = gpos_m;
-		gs[q] = gpos_s + rs.d[q] * rs.c[q] * vis;
-		gc[q] = rs.d[q] * sg * vis;
+	}
+	if (ns == 0)
+		return 0.0f;
+	const int nsv = (ns + VW - 1) / VW;
+	for (int j = ns; j < nsv * VW; j++) {
+		s_s[j] = s_x[j] = s_pre[j] = s_k[j] = 0.0f;
+		s_l[j] = s_il[j] = 1.0f;
 	}
 
-	/* Occlusion terms (through tau), then the chain rule from the ray
-	 * Gaussian (mu', sigma, c') to (mu, sigma). */
-	for (int p = 0; p < rs.n; p++) {
-		float cp = rs.c[p], sg = rs.sg[p];
-		float z0 = -rs.m[p] * rs.inv[p];
-		float dE = sE[p] - erf0[p] * wtot;
-		float g_m = gm[p] - cp * (e0[p] * wtot - se[p]);
-		float g_c = gc[p] - sg * SQRT_HALF_PI * dE;
-		float g_s = gs[p] - cp * SQRT_HALF_PI * dE + SQRT2 * cp * (sze[p] - z0 * e0[p] * wtot);
+	/* Forward: T at every sample, the sample's energy W and its partial
+	 * derivatives through the sample's own depth. */
+	const bool keep = na * nsv <= PAIRV_MAX;
+	floatv erfbuf[PAIRV_MAX], ebuf[PAIRV_MAX]; /* [p * nsv + J] */
+	float o_t[SMAX], o_W[SMAX], o_gm[SMAX], o_gs[SMAX];
+	floatv wtotv = 0.0f;
+	for (int J = 0; J < nsv; J++) {
+		floatv s = VLOAD(J, s_s);
+		mc_samples sp = mc_near_camera(s, VLOAD(J, s_x), VLOAD(J, s_l), VLOAD(J, s_il));
+		floatv tau = -base, dens = 0.0f;
+		for (int p = 0; p < na; p++) {
+			floatv e;
+			floatv ef = erf_exp_v((sp.t - m[p]) * inv[p], &e);
+			if (keep) {
+				erfbuf[p * nsv + J] = ef;
+				ebuf[p * nsv + J] = e;
+			}
+			tau += A[p] * ef;
+			dens += c[p] * e;
+		}
+		floatv pre = VLOAD(J, s_pre);
+		floatv preT = pre * exp(-tau);
+		floatv W = preT * sp.h; /* this sample's energy */
+		/* The depth s moves with mu' (ds/dmu' = 1) and sigma (ds/dsigma =
+		 * k); near the camera h and t depend on s and lambda = sigma too. */
+		floatv dE_dt = -W * dens;
+		floatv dE_ds = dE_dt * sp.dt_ds + preT * sp.dh_ds;
+		VSTORE(sp.t, J, o_t);
+		VSTORE(W, J, o_W);
+		VSTORE(dE_ds, J, o_gm);
+		VSTORE(dE_dt * sp.dt_dl + preT * sp.dh_dl + VLOAD(J, s_k) * dE_ds, J, o_gs);
+		wtotv += W;
+	}
+	const float wtot = hsum(wtotv);
 
-		int q = rs.idx[p];
+	/* Per ray Gaussian: dE/d(mu', sigma, c') through its own samples. */
+	float gm[MAXG], gs[MAXG], gW[MAXG];
+	for (int p = 0; p < na; p++)
+		gm[p] = gs[p] = gW[p] = 0.0f;
+	for (int j = 0; j < ns; j++) {
+		int q = s_q[j];
+		gW[q] += o_W[j];
+		gm[q] += o_gm[j];
+		gs[q] += o_gs[j];
+	}
+
+	/* Backward through T = exp(-tau) to every ray Gaussian p:
+	 * dtau/dmu'_p = c'_p (e0_p - e_p), dtau/dc'_p = sqrt(pi/2) sigma_p
+	 * (erf_p - erf0_p), dtau/dsigma_p = sqrt(pi/2) c'_p (erf_p - erf0_p)
+	 * - sqrt2 c'_p (z_p e_p - z0_p e0_p), summed over the samples with
+	 * weights W; then the chain rule from (mu', sigma, c') to (mu, sigma). */
+	float energy = 0.0f;
+	for (int p = 0; p < na; p++) {
+		floatv aE = 0.0f, ae = 0.0f, aze = 0.0f;
+		for (int J = 0; J < nsv; J++) {
+			floatv W = VLOAD(J, o_W);
+			floatv z = (VLOAD(J, o_t) - m[p]) * inv[p];
+			floatv ef, e;
+			if (keep) {
+				ef = erfbuf[p * nsv + J];
+				e = ebuf[p * nsv + J];
+			} else {
+				ef = erf_exp_v(z, &e);
+			}
+			aE += W * ef;
+			ae += W * e;
+			aze += W * z * e;
+		}
+		float cp = c[p], s = sg[p];
+		float z0 = -m[p] * inv[p];
+		float dE = hsum(aE) - erf0[p] * wtot;
+		float g_m = gm[p] - cp * (e0[p] * wtot - hsum(ae));
+		float g_c = gW[p] / cp - s * SQRT_HALF_PI * dE;
+		float g_s = gs[p] + gW[p] / s - cp * SQRT_HALF_PI * dE + SQRT2 * cp * (hsum(aze) - z0 * e0[p] * wtot);
+		energy += gW[p];
+
+		int q = idx[p];
 		float3 dv = gauss[4 * q].xyz - o;
-		float3 perp = dv - rs.m[p] * n;
-		float inv_s2 = 1.0f / (sg * sg);
-		float gcc = g_c * cp * inv_s2;
+		float3 perp = dv - m[p] * n;
+		float gcc = g_c * cp / (s * s);
 		float3 gmu = g_m * n - gcc * perp;
-		float gsig = g_s + gcc * dot(perp, perp) / sg;
+		float gsig = g_s + gcc * dot(perp, perp) / s;
 		row[4 * q + 0] += gmu.x;
 		row[4 * q + 1] += gmu.y;
 		row[4 * q + 2] += gmu.z;
