@@ -25,7 +25,9 @@ typedef struct {
 	double m;       /* mu'_q = d.n, depth of the 1D mean along the ray */
 	double r2;      /* |d|^2 - m^2, squared distance of mu_q from the ray */
 	double sigma;   /* sigma'_q = sigma_q */
-	double c;       /* c'_q = c_q exp(-r2 / (2 sigma^2)) */
+	double c;       /* c'_q = c_q exp(-r2 / (2 sigma^2)) f(c'_q / C), culling faded in */
+	double c0;      /* c_q exp(-r2 / (2 sigma^2)) before the fade */
+	double dc;      /* d c' / d c0, the fade's chain factor */
 	double a;       /* sqrt(pi/2) sigma c', scale of the erf terms */
 	double erf0;    /* erf(m / (sqrt2 sigma)) = -erf(-m / (sqrt2 sigma)) */
 	double v, ev;   /* v = m / (sqrt2 sigma), ev = exp(-v^2) (gradient only) */
@@ -47,14 +49,33 @@ static const double sample_w[MC_VIS_SAMPLES] = {
 	1.0,
 };
 
+/* Culling (thesis 4.2.3) with a smooth edge: a ray Gaussian of magnitude
+ * c' < C = MC_CULL_MAGNITUDE is skipped, and between C and 2C it is faded
+ * in by f(r) = smootherstep(r - 1), r = c' / C, so that the energy stays C2
+ * in the Gaussians' parameters (docs/ENERGY.md, "Culling").  Returns the
+ * faded magnitude c' f(r) and its derivative f(r) + r f'(r). */
+static double cull_fade(double c, double *dfade)
+{
+	double x = c / MC_CULL_MAGNITUDE - 1;
+	if (x >= 1) {
+		*dfade = 1;
+		return c;
+	}
+	double x2 = x * x, y = 1 - x;
+	double f = x2 * x * (x * (6 * x - 15) + 10), df_dx = 30 * x2 * y * y;
+	*dfade = f + (x + 1) * df_dx;
+	return c * f;
+}
+
 static bool gauss_active(const unsigned char *active, int q)
 {
 	return active == NULL || active[q] != 0;
 }
 
 /* Projects the scene onto the ray (o, n), n unit length (eq. 4.4), and
- * drops Gaussians masked out by `active` or with c'_q < MC_CULL_MAGNITUDE
- * (thesis 4.2.3).  Non-positive sigma or c never take part. */
+ * drops Gaussians masked out by `active` or with c'_q <= MC_CULL_MAGNITUDE
+ * (thesis 4.2.3; faded in up to twice that, see cull_fade).  Non-positive
+ * sigma or c never take part. */
 static void ray_project(const mc_scene *scene, mc_vec3 o, mc_vec3 n, const unsigned char *active,
 			ray_set *rs)
 {
@@ -68,9 +89,10 @@ static void ray_project(const mc_scene *scene, mc_vec3 o, mc_vec3 n, const unsig
 		g.m = mc_v3_dot(g.d, n);
 		g.r2 = fmax(0.0, mc_v3_norm2(g.d) - g.m * g.m);
 		g.sigma = scene->sigma[q];
-		g.c = scene->c[q] * exp(-g.r2 / (2 * g.sigma * g.sigma));
-		if (!(g.c >= MC_CULL_MAGNITUDE))
+		g.c0 = scene->c[q] * exp(-g.r2 / (2 * g.sigma * g.sigma));
+		if (!(g.c0 > MC_CULL_MAGNITUDE))
 			continue;
+		g.c = cull_fade(g.c0, &g.dc);
 		g.a = SQRT_PI_2 * g.sigma * g.c;
 		g.v = g.m / (SQRT_2 * g.sigma);
 		g.erf0 = erf(g.v);
@@ -256,21 +278,23 @@ static void sample_backprop(const ray_set *rs, int i, double k, double wk, const
 	gr->gs[i] += k * dE_ds;
 }
 
-/* Chain rule of eq. 4.4 into the scene's dmu, dsigma:
- * dmu'/dmu = n, dc'/dmu = -c' (d - mu' n) / sigma^2, dc'/dsigma = c' r2 / sigma^3. */
+/* Chain rule of eq. 4.4 into the scene's dmu, dsigma.  With the unfaded
+ * magnitude c0 = c_q exp(-r2 / (2 sigma^2)): dmu'/dmu = n,
+ * dc0/dmu = -c0 (d - mu' n) / sigma^2, dc0/dsigma = c0 r2 / sigma^3, and
+ * dc'/dc0 = g->dc. */
 static void ray_set_scatter(const ray_set *rs, mc_vec3 n, const ray_grad *gr, mc_vec3 *dmu, double *dsigma)
 {
 	for (int p = 0; p < rs->n; p++) {
 		const ray_gauss *g = &rs->g[p];
 		double s2 = g->sigma * g->sigma;
+		double gc0 = gr->gc[p] * g->dc * g->c0; /* dE/dc0 times c0 */
 		mc_vec3 perp = mc_v3_axpy(-g->m, n, g->d); /* d - mu' n */
 		if (dmu) {
-			mc_vec3 dc_dmu = mc_v3_scale(perp, -g->c / s2);
-			mc_vec3 d = mc_v3_axpy(gr->gm[p], n, mc_v3_scale(dc_dmu, gr->gc[p]));
+			mc_vec3 d = mc_v3_axpy(gr->gm[p], n, mc_v3_scale(perp, -gc0 / s2));
 			dmu[g->q] = mc_v3_add(dmu[g->q], d);
 		}
 		if (dsigma)
-			dsigma[g->q] += gr->gs[p] + gr->gc[p] * g->c * g->r2 / (s2 * g->sigma);
+			dsigma[g->q] += gr->gs[p] + gc0 * g->r2 / (s2 * g->sigma);
 	}
 }
 

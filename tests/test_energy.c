@@ -79,23 +79,12 @@ static void random_scene(scene_kind kind, int n, unsigned long long *rng, mc_vec
 	}
 }
 
-/* c'_q of eq. 4.4, recomputed here to keep finite differences away from
- * the culling threshold (where the energy jumps by design). */
+/* c'_q of eq. 4.4 (before culling), recomputed here. */
 static double ray_magnitude(const mc_scene *s, int q, mc_vec3 o, mc_vec3 n)
 {
 	mc_vec3 d = mc_v3_sub(s->mu[q], o);
 	double m = mc_v3_dot(d, n);
 	return s->c[q] * exp(-(mc_v3_norm2(d) - m * m) / (2 * s->sigma[q] * s->sigma[q]));
-}
-
-static bool ray_clear_of_cull_threshold(const mc_scene *s, mc_vec3 o, mc_vec3 n)
-{
-	for (int q = 0; q < s->n; q++) {
-		double r = ray_magnitude(s, q, o, n) / MC_CULL_MAGNITUDE;
-		if (r > 0.9 && r < 1.1)
-			return false;
-	}
-	return true;
 }
 
 /* ---- generic finite-difference check of dE/dmu, dE/dsigma ---- */
@@ -141,7 +130,8 @@ static double central_difference(const double e[4], double h)
 	return (8 * (e[2] - e[1]) - (e[3] - e[0])) / (12 * h);
 }
 
-static void fd_check(const char *what, const mc_scene *s0, energy_fn fn, const void *ctx)
+/* hrel: step relative to sigma_q (1e-3 suits the energy's usual scale). */
+static void fd_check_step(const char *what, const mc_scene *s0, energy_fn fn, const void *ctx, double hrel)
 {
 	mc_vec3 dmu[MC_MAX_GAUSSIANS] = {{0, 0, 0}};
 	double dsigma[MC_MAX_GAUSSIANS] = {0};
@@ -154,7 +144,7 @@ static void fd_check(const char *what, const mc_scene *s0, energy_fn fn, const v
 	mc_scene s = *s0;
 	for (int q = 0; q < s0->n; q++) {
 		/* the energy varies on the scale of sigma_q in mu_q and sigma_q */
-		double h = 1e-3 * s0->sigma[q];
+		double h = hrel * s0->sigma[q];
 		for (int comp = 0; comp < 4; comp++) {
 			double *x = comp == 0 ? &s.mu[q].x : comp == 1 ? &s.mu[q].y : comp == 2 ? &s.mu[q].z : &s.sigma[q];
 			double x0 = *x, e[4];
@@ -167,6 +157,11 @@ static void fd_check(const char *what, const mc_scene *s0, energy_fn fn, const v
 			compare(what, q, comp, an, central_difference(e, h), scale, &fd_all);
 		}
 	}
+}
+
+static void fd_check(const char *what, const mc_scene *s0, energy_fn fn, const void *ctx)
+{
+	fd_check_step(what, s0, fn, ctx, 1e-3);
 }
 
 /* ---- energies under test, as energy_fn ---- */
@@ -218,8 +213,6 @@ static void test_weighted_visibility_gradients(void)
 			mc_scene s;
 			int ng = 3 + (int)(mc_test_rand(&rng) * 8);
 			random_scene(kind, ng, &rng, o, n, &s);
-			if (!ray_clear_of_cull_threshold(&s, o, n))
-				continue;
 			double w[MC_MAX_GAUSSIANS];
 			unsigned char active[MC_MAX_GAUSSIANS];
 			for (int q = 0; q < s.n; q++) {
@@ -278,11 +271,6 @@ static void test_color_energy(void)
 		mc_view view = {&sv.rt, sv.hsv};
 		mc_scene s;
 		random_scene(trial % 2 ? SCENE_SCATTERED : SCENE_DISOCCLUSION, 6, &rng, o, sv.dir[6], &s);
-		bool clear = true;
-		for (int p = 0; p < 12; p++)
-			clear = clear && ray_clear_of_cull_threshold(&s, o, sv.dir[p]);
-		if (!clear)
-			continue;
 		color_ctx all = {&view, NULL, 0};
 		fd_check("color energy", &s, color_fn, &all);
 
@@ -321,11 +309,6 @@ static void test_detection_energy(void)
 			mc_vec3 target = mc_v3_add(s.mu[q], mc_v3_scale(rand_unit(&rng), 0.5 * s.sigma[q]));
 			det[k] = (mc_detection_ray){q, o, mc_v3_normalize(target), urand(&rng, 0.2, 1)};
 		}
-		bool clear = true;
-		for (int k = 0; k < 3; k++)
-			clear = clear && ray_clear_of_cull_threshold(&s, o, det[k].n);
-		if (!clear)
-			continue;
 		mc_err err;
 		CHECK(mc_detections_check(&s, det, 3, &err) == 0);
 		det_ctx ctx = {det, 3};
@@ -464,11 +447,11 @@ static void test_transmittance(void)
 		for (double S = 0.25; S <= 4; S += 0.25) {
 			double T = mc_ray_transmittance(&s, o, n, S);
 			double depth = simpson_density(&s, o, n, S, 4000);
-			/* culled Gaussians (c' < 1e-5) make up at most this much depth */
+			/* culled or faded Gaussians (c' < 2e-5) make up at most this much depth */
 			double cull_slack = 0;
 			for (int q = 0; q < s.n; q++)
-				if (ray_magnitude(&s, q, o, n) < MC_CULL_MAGNITUDE)
-					cull_slack += 2.6 * s.sigma[q] * MC_CULL_MAGNITUDE;
+				if (ray_magnitude(&s, q, o, n) < 2 * MC_CULL_MAGNITUDE)
+					cull_slack += 2.6 * s.sigma[q] * 2 * MC_CULL_MAGNITUDE;
 			CHECK_MSG(fabs(-log(T) - depth) < 1e-8 * fmax(1, depth) + cull_slack,
 				  "T(%g) = %.12g, exp(-integral) = %.12g", S, T, exp(-depth));
 			CHECK(T <= prev + 1e-15); /* non-increasing with depth */
@@ -575,6 +558,65 @@ static void test_occlusion(void)
 	CHECK_NEAR(rgb[0], both[0], 1e-12);
 	CHECK_NEAR(rgb[1], both[1], 1e-12);
 	CHECK_NEAR(rgb[2], b, 1e-12);
+}
+
+/* Culling: below c' = MC_CULL_MAGNITUDE a Gaussian is skipped on the ray,
+ * above twice that it counts fully, and in between it is faded in so that
+ * visibility and its gradient stay continuous (no jump at the threshold). */
+static void test_culling_edge(void)
+{
+	mc_vec3 o = mc_v3(0, 0, 0), n = mc_v3(0, 0, 1);
+	mc_scene s;
+	memset(&s, 0, sizeof(s));
+	s.n = 2;
+	s.mu[0] = mc_v3(0, 0, 2), s.sigma[0] = 0.1, s.c[0] = 5;   /* on the ray */
+	s.sigma[1] = 0.1, s.c[1] = 1e4;                         /* in front, sideways */
+	double w[2] = {0.5, 1};
+	/* lateral offset where the unculled c'_1 equals r * MC_CULL_MAGNITUDE */
+#define OFFSET_AT(r) (0.1 * sqrt(2 * log(1e4 / ((r)*MC_CULL_MAGNITUDE))))
+	double vis[2], b;
+	s.mu[1] = mc_v3(OFFSET_AT(0.99), 0, 1.0);
+	mc_ray_visibility(&s, o, n, vis, &b);
+	CHECK(vis[1] == 0);
+	double alone[2];
+	mc_scene single = s;
+	single.n = 1;
+	mc_ray_visibility(&single, o, n, alone, &b);
+	CHECK(vis[0] == alone[0]); /* nor does it occlude */
+	s.mu[1] = mc_v3(OFFSET_AT(2.01), 0, 1.0);
+	mc_ray_visibility(&s, o, n, vis, &b);
+	double full = 2.01 * MC_CULL_MAGNITUDE * 0.1; /* sigma c' */
+	double ksum = 0;
+	for (int k = 0; k <= 4; k++)
+		ksum += exp(-0.5 * k * k);
+	CHECK_NEAR(vis[1], ksum * full, 1e-3 * ksum * full);
+	/* across the band, finely sampled: continuous value and derivative */
+	double x0 = OFFSET_AT(2.2), x1 = OFFSET_AT(0.9);
+	double prev_v = -1, prev_d = 0, max_jump_v = 0, max_jump_d = 0, dmax = 0;
+	int steps = 2000;
+	for (int i = 0; i <= steps; i++) {
+		s.mu[1] = mc_v3(x0 + (x1 - x0) * i / steps, 0, 1.0);
+		mc_vec3 dmu[2] = {{0, 0, 0}, {0, 0, 0}};
+		double ds[2] = {0, 0};
+		double e = mc_ray_weighted_visibility(&s, o, n, w, NULL, dmu, ds);
+		if (i > 0) {
+			max_jump_v = fmax(max_jump_v, fabs(e - prev_v));
+			max_jump_d = fmax(max_jump_d, fabs(dmu[1].x - prev_d));
+		}
+		dmax = fmax(dmax, fabs(dmu[1].x));
+		prev_v = e, prev_d = dmu[1].x;
+	}
+	/* a step of (x1 - x0) / steps moves E by at most |dE/dx| times that */
+	CHECK(max_jump_v <= 1.01 * dmax * (x1 - x0) / steps);
+	CHECK(max_jump_d < 0.05 * dmax);
+	/* and the gradient matches finite differences inside the band, where
+	 * c' changes by 4% per 1e-3 sigma of sigma: smaller steps */
+	for (double r = 1.1; r < 2; r += 0.2) {
+		s.mu[1] = mc_v3(OFFSET_AT(r), 0.01, 1.0);
+		ray_ctx ctx = {o, n, w, NULL};
+		fd_check_step("weighted visibility, culling band", &s, weighted_vis_fn, &ctx, 1e-5);
+	}
+#undef OFFSET_AT
 }
 
 /* A Gaussian masked out by `active` behaves as if it were not in the scene. */
@@ -687,6 +729,7 @@ int main(void)
 	test_visibility_budget();
 	test_occlusion();
 	test_dropout_mask();
+	test_culling_edge();
 	test_weighted_visibility_gradients();
 	test_color_energy();
 	test_detection_energy();
