@@ -16,6 +16,9 @@ extern const unsigned char mc_cl_color_energy[];
 extern const unsigned int mc_cl_color_energy_len;
 
 #define ROW_MAX (4 * MC_MAX_GAUSSIANS + 1) /* floats per work-group result */
+/* Gaussian buffer: 4 float4 per Gaussian, then mu.x, mu.y, mu.z and r2_max
+ * of every Gaussian as four float arrays (for the SIMD culling test). */
+#define GAUSS_FLOAT4S (5 * MC_MAX_GAUSSIANS)
 
 struct mc_cl_energy {
 	char name[256];
@@ -39,8 +42,8 @@ struct mc_cl_energy {
 	cl_mem rays, image, origins, firsts, gauss, pixels, partial;
 	size_t pixel_cap; /* capacity of `pixels`, entries */
 
-	/* host staging */
-	cl_float4 gauss_host[4 * MC_MAX_GAUSSIANS];
+	/* host staging: the Gaussian records (layout in color_energy.cl) */
+	cl_float4 gauss_host[GAUSS_FLOAT4S];
 	cl_uint *pixel_host;
 	cl_float4 *image_host; /* one camera */
 	float *partial_host;
@@ -475,6 +478,12 @@ static int pack_scene(mc_cl_energy *e, const mc_scene *scene, mc_err *err)
 {
 	if (scene->n < 0 || scene->n > MC_MAX_GAUSSIANS)
 		return mc_err_set(err, "mc_cl_energy_eval: scene: %d Gaussians, at most %d", scene->n, MC_MAX_GAUSSIANS);
+	/* Lanes past the last Gaussian never pass the culling test. */
+	float *soa = (float *)&e->gauss_host[4 * MC_MAX_GAUSSIANS];
+	for (int q = scene->n; q < MC_MAX_GAUSSIANS; q++) {
+		soa[q] = soa[MC_MAX_GAUSSIANS + q] = soa[2 * MC_MAX_GAUSSIANS + q] = 0;
+		soa[3 * MC_MAX_GAUSSIANS + q] = -1;
+	}
 	for (int q = 0; q < scene->n; q++) {
 		double s = scene->sigma[q], c = scene->c[q];
 		const double *m = scene->hsv[q];
@@ -494,6 +503,11 @@ static int pack_scene(mc_cl_energy *e, const mc_scene *scene, mc_err *err)
 		 * as w_g = 0.5 where m_s = 0. */
 		double ws = sqrt(m[1]), wd = fmax(0, 0.5 - m[2]), wg = fmax(0, 0.5 - m[1]);
 		double z = ws + wd + wg;
+		float *soa = (float *)&e->gauss_host[4 * MC_MAX_GAUSSIANS];
+		soa[q] = (float)scene->mu[q].x;
+		soa[MC_MAX_GAUSSIANS + q] = (float)scene->mu[q].y;
+		soa[2 * MC_MAX_GAUSSIANS + q] = (float)scene->mu[q].z;
+		soa[3 * MC_MAX_GAUSSIANS + q] = (float)r2max;
 		cl_float4 *g = &e->gauss_host[4 * q];
 		*g++ = (cl_float4){{(float)scene->mu[q].x, (float)scene->mu[q].y, (float)scene->mu[q].z, (float)s}};
 		*g++ = (cl_float4){{(float)c, (float)r2max, 0, 0}};
@@ -557,8 +571,8 @@ static int launch(mc_cl_energy *e, int ngauss, size_t npix, uint32_t seed, uint3
 	size_t groups = (npix + e->wg - 1) / e->wg;
 	if (groups > e->max_groups)
 		groups = e->max_groups;
-	cl_int rc = clEnqueueWriteBuffer(e->queue, e->gauss, CL_FALSE, 0, sizeof(cl_float4) * 4 * (size_t)ngauss,
-					 e->gauss_host, 0, NULL, NULL);
+	cl_int rc = clEnqueueWriteBuffer(e->queue, e->gauss, CL_FALSE, 0, sizeof(e->gauss_host), e->gauss_host, 0,
+					 NULL, NULL);
 	if (rc != CL_SUCCESS)
 		return cl_fail(err, "clEnqueueWriteBuffer(gauss)", rc);
 	rc = clEnqueueWriteBuffer(e->queue, e->pixels, CL_FALSE, 0, sizeof(cl_uint) * npix, e->pixel_host, 0, NULL,

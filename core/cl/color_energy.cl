@@ -26,11 +26,13 @@
 #define SQRT2 1.41421356237f
 #define INV_SQRT2 0.70710678118f
 
-/* Gaussian record, 4 float4 per Gaussian (written by mc_cl.c):
- *   [0] mu.xyz, sigma
- *   [1] c, r2_max (cull when the squared ray distance >= r2_max), 0, 0
- *   [2] albedo h, s, v, w_s
- *   [3] w_d, w_g, 0, 0 */
+/* Gaussian records (written by mc_cl.c), 4 float4 per Gaussian q:
+ *   gauss[4q + 0] mu.xyz, sigma
+ *   gauss[4q + 1] c, r2_max (culled when the squared ray distance >= r2_max)
+ *   gauss[4q + 2] albedo h, s, v, w_s
+ *   gauss[4q + 3] w_d, w_g
+ * then, from gauss + 4 MAXG, four float arrays of MAXG: mu.x, mu.y, mu.z
+ * and r2_max (-1 past the last Gaussian), for the SIMD culling test. */
 
 /* Dropout hash; mc_cl_dropped() in mc_cl.h is the same function. */
 uint mc_lowbias32(uint x)
@@ -87,12 +89,18 @@ float mc_dissimilarity(float4 m, float2 wdg, float3 i)
 #define CAT(a, b) CAT_(a, b)
 #if VW == 1
 #define floatv float
+#define intv int
 #define VLOAD(i, p) ((p)[i])
 #define VSTORE(v, i, p) ((p)[i] = (v))
+#define VSTOREI(v, i, p) ((p)[i] = (v))
+#define ANY(x) ((x) != 0) /* scalar comparisons give 1, vector ones -1 */
 #else
 #define floatv CAT(float, VW)
+#define intv CAT(int, VW)
 #define VLOAD(i, p) CAT(vload, VW)(i, p)
 #define VSTORE(v, i, p) CAT(vstore, VW)(v, i, p)
+#define VSTOREI(v, i, p) CAT(vstore, VW)(v, i, p)
+#define ANY(x) any(x)
 #endif
 #define MAXV (MAXG / VW)
 
@@ -172,29 +180,39 @@ float mc_pixel(global const float4 *gauss, int ngauss, float3 o, float3 n, float
 	float inv[MAXG]; /* 1 / (sqrt2 sigma) */
 	float d[MAXG];   /* colour dissimilarity to the pixel */
 	int na = 0;
-	for (int q = 0; q < ngauss; q++) {
-		float4 ms = gauss[4 * q];
-		float r2max = gauss[4 * q + 1].y;
-		float3 dv = ms.xyz - o;
-		float mq = dot(dv, n);
-		if (dot(dv, dv) - mq * mq >= r2max)
+	/* The culling test, VW Gaussians at a time: c' < 1e-5 <=> the squared
+	 * distance of mu from the ray >= r2_max. */
+	global const float *soa = (global const float *)(gauss + 4 * MAXG);
+	for (int v = 0; v * VW < ngauss; v++) {
+		floatv dx = VLOAD(v, soa) - o.x, dy = VLOAD(v, soa + MAXG) - o.y, dz = VLOAD(v, soa + 2 * MAXG) - o.z;
+		floatv mq = dx * n.x + dy * n.y + dz * n.z;
+		intv pass = dx * dx + dy * dy + dz * dz - mq * mq < VLOAD(v, soa + 3 * MAXG);
+		if (!ANY(pass))
 			continue;
-		if (thr24 && mc_dropped(seed_mix, cam, pixel, (uint)q, thr24))
-			continue;
-		/* The perpendicular offset, free of the cancellation above. */
-		float3 perp = dv - mq * n;
-		float s = ms.w;
-		float cq = gauss[4 * q + 1].x * exp(-dot(perp, perp) / (2.0f * s * s));
-		if (cq < CULL_MAGNITUDE)
-			continue;
-		idx[na] = q;
-		m[na] = mq;
-		sg[na] = s;
-		c[na] = cq;
-		A[na] = s * cq * SQRT_HALF_PI;
-		inv[na] = INV_SQRT2 / s;
-		d[na] = mc_dissimilarity(gauss[4 * q + 2], gauss[4 * q + 3].xy, colour);
-		na++;
+		int passes[VW];
+		VSTOREI(pass, 0, passes);
+		for (int l = 0; l < VW; l++) {
+			int q = v * VW + l;
+			if (!passes[l] || (thr24 && mc_dropped(seed_mix, cam, pixel, (uint)q, thr24)))
+				continue;
+			float4 ms = gauss[4 * q];
+			float3 dv = ms.xyz - o;
+			float mr = dot(dv, n);
+			/* The perpendicular offset, free of the cancellation above. */
+			float3 perp = dv - mr * n;
+			float s = ms.w;
+			float cq = gauss[4 * q + 1].x * exp(-dot(perp, perp) / (2.0f * s * s));
+			if (cq < CULL_MAGNITUDE)
+				continue;
+			idx[na] = q;
+			m[na] = mr;
+			sg[na] = s;
+			c[na] = cq;
+			A[na] = s * cq * SQRT_HALF_PI;
+			inv[na] = INV_SQRT2 / s;
+			d[na] = mc_dissimilarity(gauss[4 * q + 2], gauss[4 * q + 3].xy, colour);
+			na++;
+		}
 	}
 	if (na == 0)
 		return 0.0f;
