@@ -27,6 +27,8 @@ struct mcd_camera {
 	mcd_camera_sink sink;
 	mocap_host host;
 	bool key_read[MCD_MAX_DRIVER_KEYS];
+	char epoch[32]; /* offered as "epoch" on the first opening; "" = none */
+	bool opened_once;
 
 	pthread_t thread;
 	bool thread_started;
@@ -76,6 +78,11 @@ static const char *host_config_get(void *ctx, const char *key)
 			c->key_read[i] = true;
 			return c->cfg.keys[i].value;
 		}
+	/* The shared time origin, so that frame k of every camera carries the
+	 * same timestamp (drivers that pace recorded frames ask for it). Only
+	 * on the first opening: a reopened camera starts a new stream. */
+	if (strcmp(key, "epoch") == 0 && !c->opened_once && c->epoch[0])
+		return c->epoch;
 	/* The daemon's own keys are visible too (read-only, never "unknown"). */
 	if (strcmp(key, "driver") == 0)
 		return c->cfg.driver;
@@ -311,6 +318,7 @@ static void *open_device(mcd_camera *c, run_result *result)
 	pthread_mutex_lock(&c->lock);
 	c->format = fmt;
 	pthread_mutex_unlock(&c->lock);
+	c->opened_once = true;
 	mcd_info("camera %s: opened (%s driver, %s %ux%u, %.4g fps)", c->cfg.name, c->drv->name,
 		 mocap_pixfmt_name(fmt.pixfmt), fmt.width, fmt.height, fmt.fps);
 	return dev;
@@ -552,6 +560,11 @@ void mcd_camera_destroy(mcd_camera *c)
 	pthread_mutex_destroy(&c->ring_lock);
 	pthread_cond_destroy(&c->wake);
 	free(c);
+}
+
+void mcd_camera_set_epoch(mcd_camera *c, uint64_t epoch_ns)
+{
+	snprintf(c->epoch, sizeof(c->epoch), "%llu", (unsigned long long)epoch_ns);
 }
 
 void mcd_camera_set_limits(mcd_camera *c, double reopen_initial_ms, double reopen_max_ms, double stall_timeout_ms)

@@ -14,7 +14,9 @@
  * Driver keys: the driver reads its keys through mocap_host.config_get; a
  * key of the camera's section it has not read by the time start() returned
  * is reported as unknown ("mocapd.conf:9: [camera left] fsp: unknown key
- * (the files driver does not read it)"). */
+ * (the files driver does not read it)").  Besides the section's keys, the
+ * host answers "epoch" (see mcd_camera_set_epoch), "driver" and
+ * "rig_camera". */
 #ifndef MCD_CAMERA_H
 #define MCD_CAMERA_H
 
@@ -76,6 +78,11 @@ void mcd_camera_request_stop(mcd_camera *c);
 int mcd_camera_join(mcd_camera *c, int timeout_ms);
 /* Frees everything; the thread must have been joined (else it leaks it). */
 void mcd_camera_destroy(mcd_camera *c);
+
+/* A CLOCK_MONOTONIC time origin shared by all cameras, offered to the
+ * driver as the key "epoch" on the first opening when the config gives
+ * none (call before start). */
+void mcd_camera_set_epoch(mcd_camera *c, uint64_t epoch_ns);
 
 /* Reload: reopen backoff and stall limit. */
 void mcd_camera_set_limits(mcd_camera *c, double reopen_initial_ms, double reopen_max_ms, double stall_timeout_ms);

@@ -521,6 +521,13 @@ static int apply_key(parser *p, const key_def *def, void *base, const char *key,
 	return 1;
 }
 
+/* Driver keys that hold a path: "path" and "*_path". */
+static bool is_path_key(const char *key)
+{
+	size_t n = strlen(key);
+	return strcmp(key, "path") == 0 || (n > 5 && strcmp(key + n - 5, "_path") == 0);
+}
+
 static int camera_key(parser *p, const char *key, const char *value)
 {
 	mcd_camera_config *cam = p->cam;
@@ -548,6 +555,13 @@ static int camera_key(parser *p, const char *key, const char *value)
 	mcd_kv *kv = &cam->keys[cam->nkeys++];
 	snprintf(kv->key, sizeof(kv->key), "%s", key);
 	snprintf(kv->value, sizeof(kv->value), "%s", value);
+	if (is_path_key(key)) {
+		/* Like the daemon's own paths: relative to the config file. */
+		char why[300];
+		const key_def def = {key, p_path, 0, 0, 0, sizeof(kv->value)};
+		if (p_path(&def, value, kv->value, p->cfg->dir, why, sizeof(why)) != 0)
+			return fail(p, "[%s] %s: %s", p->section, key, why);
+	}
 	kv->line = p->line;
 	record_where(p->cfg, p->section, key, p->line);
 	return 1;

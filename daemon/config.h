@@ -7,7 +7,8 @@
  * daemon does not know itself are driver keys: they are kept, in order, and
  * handed to the driver through mocap_host.config_get; the camera code then
  * rejects those the driver never asked for (see mcd_camera_config.keys).
- * Relative paths are resolved against the directory of the config file.
+ * Relative paths are resolved against the directory of the config file:
+ * those of the daemon's own keys and driver keys named "path" or "*_path".
  * Every key is documented in docs/CONFIG.md. */
 #ifndef MCD_CONFIG_H
 #define MCD_CONFIG_H

@@ -10,7 +10,7 @@
  *     frame for this instant was lost);
  *   - otherwise when `deadline` has passed since its first member arrived:
  *     a missing camera is counted, never waited on forever.
- * "Expected" cameras are those the caller says are streaming; a camera that
+ * "Expected" cameras are those the caller says may deliver; a camera that
  * is down is not waited for (but still counted as missing).
  * A frame that arrives after its instant's group was emitted (its timestamp
  * is within tolerance of, or older than, the last emitted group) is late:

@@ -95,12 +95,16 @@ static void on_change(void *ctx, int cam)
 
 /* ---- the tracking thread -------------------------------------------------------- */
 
+/* Cameras a frame set waits for (up to the deadline): those streaming, and
+ * those opening, whose first frame may be on its way. */
 static uint32_t expected_cameras(mcd_pipeline *p)
 {
 	uint32_t mask = 0;
-	for (int c = 0; c < p->ncams; c++)
-		if (mcd_camera_state(p->cams[c]) == MCD_CAM_STREAMING)
+	for (int c = 0; c < p->ncams; c++) {
+		mcd_cam_state s = mcd_camera_state(p->cams[c]);
+		if (s == MCD_CAM_STREAMING || s == MCD_CAM_OPENING)
 			mask |= 1u << c;
+	}
 	return mask;
 }
 
@@ -382,6 +386,9 @@ mcd_pipeline *mcd_pipeline_create(const mcd_config *cfg, mcd_tracking *tracking,
 		}
 	}
 	mcd_camera_sink sink = {.ctx = p, .on_frame = on_frame, .on_change = on_change};
+	/* Frame 0 of every camera at the same instant, a little ahead so that
+	 * all cameras are open before it is due. */
+	uint64_t epoch = now_ns() + 300 * MS;
 	for (int c = 0; c < p->ncams; c++) {
 		const mcd_camera_config *cc = &cfg->cams[c];
 		const mcd_plugin *pl = load_plugin(p, cfg, cc, err);
@@ -390,6 +397,7 @@ mcd_pipeline *mcd_pipeline_create(const mcd_config *cfg, mcd_tracking *tracking,
 			return NULL;
 		}
 		mcd_camera_set_limits(p->cams[c], cfg->reopen_initial_ms, cfg->reopen_max_ms, cfg->stall_timeout_ms);
+		mcd_camera_set_epoch(p->cams[c], epoch);
 		p->joined[c] = true;
 		snprintf(p->st.cams[c].name, sizeof(p->st.cams[c].name), "%s", cc->name);
 		snprintf(p->st.cams[c].driver, sizeof(p->st.cams[c].driver), "%s", cc->driver);

@@ -50,7 +50,9 @@ static void test_full_config(void)
 			   "driver = files\n"
 			   "rig_camera = right\n"
 			   "ring_slots = 16\n"
-			   "path = /data/right/%05d.jpg\n"
+			   "path = right\n"
+			   "calib_path = calib/r.txt\n"
+			   "device = cam0\n"
 			   "[tracker]\n"
 			   "rig = rigs/ego.json\n"
 			   "rig_format = ego-calib\n"
@@ -87,6 +89,12 @@ static void test_full_config(void)
 	CHECK(cfg.cams[0].nkeys == 2);
 	const mcd_kv *kv = mcd_camera_config_find(&cfg.cams[0], "path");
 	CHECK(kv && strcmp(kv->value, "/data/left/%05d.jpg") == 0 && kv->line == 15);
+	kv = mcd_camera_config_find(&cfg.cams[1], "path");
+	CHECK(kv && strcmp(kv->value, "/etc/mocapd/right") == 0); /* relative to the config */
+	kv = mcd_camera_config_find(&cfg.cams[1], "calib_path");
+	CHECK(kv && strcmp(kv->value, "/etc/mocapd/calib/r.txt") == 0);
+	kv = mcd_camera_config_find(&cfg.cams[1], "device");
+	CHECK(kv && strcmp(kv->value, "cam0") == 0); /* other driver keys verbatim */
 	CHECK(cfg.cams[0].ring_slots == 8);
 	CHECK(cfg.cams[1].ring_slots == 16);
 	CHECK(strcmp(cfg.cams[1].rig_camera, "right") == 0);
@@ -108,7 +116,7 @@ static void test_full_config(void)
 	CHECK(cfg.socket.mode == 0666 && cfg.socket.max_clients == 4);
 
 	char where[256];
-	CHECK(strcmp(mcd_config_where(&cfg, "tracker", "rig", where, sizeof(where)), "mocapd.conf:24: [tracker] rig") ==
+	CHECK(strcmp(mcd_config_where(&cfg, "tracker", "rig", where, sizeof(where)), "mocapd.conf:26: [tracker] rig") ==
 	      0);
 	CHECK(strcmp(mcd_config_where(&cfg, "tracker", "step", where, sizeof(where)), "mocapd.conf: [tracker] step") ==
 	      0);
