@@ -11,7 +11,7 @@ HWDRV_TEST_DIR := $(BUILD)/tests/drivers
 HWDRV_HARNESS_OBJ := $(BUILD)/tests/drivers/drv_harness.o
 HWDRV_TEST_CPPFLAGS := $(CPPFLAGS) -Itests -Itests/drivers -Idrivers/v4l2
 # Library code (glib, OpenNI2) allocates once per process; see the file.
-HWDRV_RUN = MOCAP_DRIVER_DIR=$(BUILD)/drivers \
+HWDRV_RUN = MOCAP_DRIVER_DIR=$(BUILD)/drivers MOCAP_BUILD=$(BUILD) \
 	LSAN_OPTIONS=suppressions=$(CURDIR)/tests/drivers/lsan.supp:print_suppressions=0 \
 	tests/run-tests.sh $(BUILD)
 

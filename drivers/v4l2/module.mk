@@ -1,0 +1,26 @@
+# drivers/v4l2: V4L2 capture plugin.  `make check-v4l2` runs the host-side
+# test (config errors, no device) and the vivid test inside a qemu VM.
+include drivers/v4l2/common.mk
+
+V4L2_PLUGIN := $(BUILD)/drivers/mocap-driver-v4l2.so
+# The V4L2 core and sysfs helpers are shared with the usb plugin.
+V4L2_CORE_OBJ := $(BUILD)/drivers/v4l2/drv_v4l2.o $(BUILD)/drivers/v4l2/drv_sysfs.o $(HWDRV_COMMON_OBJ)
+V4L2_OBJ := $(BUILD)/drivers/v4l2/v4l2_plugin.o $(V4L2_CORE_OBJ)
+
+$(V4L2_PLUGIN): $(V4L2_OBJ)
+	@mkdir -p $(@D)
+	$(CC) $(HWDRV_SO_LDFLAGS) -o $@ $^ $(LDFLAGS) -lm
+
+PLUGINS += $(V4L2_PLUGIN)
+
+$(HWDRV_TEST_DIR)/test_v4l2: tests/drivers/test_v4l2.c $(HWDRV_HARNESS_OBJ)
+	$(HWDRV_LINK_TEST)
+
+# The VM test program runs inside the guest; it loads the same plugin.
+$(HWDRV_TEST_DIR)/test_v4l2_vivid: tests/drivers/test_v4l2_vivid.c $(HWDRV_HARNESS_OBJ)
+	$(HWDRV_LINK_TEST)
+
+.PHONY: check-v4l2
+check-v4l2: $(V4L2_PLUGIN) $(HWDRV_TEST_DIR)/test_v4l2 $(HWDRV_TEST_DIR)/test_v4l2_vivid
+	$(HWDRV_RUN) $(HWDRV_TEST_DIR)/test_v4l2 tests/vm/vivid-test.sh
+CHECKS += check-v4l2

@@ -1,0 +1,145 @@
+/* mocap-driver-v4l2: USB (UVC) and other V4L2 capture devices.
+ *
+ * A camera is selected by `device` (a node such as /dev/video0 or a stable
+ * link such as /dev/v4l/by-id/...), or by `bus_info` (the physical port, as
+ * VIDIOC_QUERYCAP reports it, e.g. usb-0000:00:14.0-2) and/or `serial` (the
+ * USB serial number from sysfs), which survive renumbering of /dev/videoN.
+ * Config keys are listed in docs/DRIVERS.md. */
+#include <limits.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "drv_common.h"
+#include "drv_v4l2.h"
+#include "mocap_driver.h"
+
+#define DRV "v4l2"
+#define MAX_NODES 64
+
+/* True when paths a and b name the same file (e.g. a by-id link and its
+ * node). */
+static bool same_node(const char *a, const char *b)
+{
+	char ra[PATH_MAX], rb[PATH_MAX];
+	return realpath(a, ra) && realpath(b, rb) && !strcmp(ra, rb);
+}
+
+/* Picks the node the config's device / bus_info / serial keys select. */
+static int select_node(const mocap_host *host, char *path, size_t n, char *err, size_t errlen)
+{
+	const char *device = drv_cfg_str(host, "device");
+	const char *bus_info = drv_cfg_str(host, "bus_info");
+	const char *serial = drv_cfg_str(host, "serial");
+	if (!device && !bus_info && !serial)
+		return drv_errf(err, errlen, MOCAP_ERR_CONFIG,
+				DRV ": config needs 'device' (e.g. /dev/video0), 'bus_info' or 'serial' to pick a camera");
+	if (device && !bus_info && !serial) {
+		drv_strlcpy(path, device, n);
+		return MOCAP_OK;
+	}
+	drv_v4l2_node *nodes = calloc(MAX_NODES, sizeof *nodes);
+	if (!nodes)
+		return drv_errf(err, errlen, MOCAP_ERR_IO, DRV ": out of memory");
+	int count = drv_v4l2_list("/dev", "/sys", nodes, MAX_NODES);
+	int match = -1, n_match = 0;
+	char seen[768] = "";
+	for (int i = 0; i < count; i++) {
+		size_t len = strlen(seen);
+		snprintf(seen + len, sizeof seen - len, "%s%s [bus_info %s, serial '%s']", i ? ", " : "",
+			 nodes[i].path, nodes[i].bus_info, nodes[i].serial);
+		if ((device && !same_node(device, nodes[i].path)) || (bus_info && strcmp(bus_info, nodes[i].bus_info)) ||
+		    (serial && strcmp(serial, nodes[i].serial)))
+			continue;
+		if (n_match++ == 0)
+			match = i;
+	}
+	int st = MOCAP_OK;
+	if (n_match == 0)
+		st = drv_errf(err, errlen, MOCAP_ERR_NODEV,
+			      DRV ": no capture device matches%s%s%s%s%s%s (found: %s)", device ? " device=" : "",
+			      device ? device : "", bus_info ? " bus_info=" : "", bus_info ? bus_info : "",
+			      serial ? " serial=" : "", serial ? serial : "", count ? seen : "none");
+	else if (n_match > 1)
+		st = drv_errf(err, errlen, MOCAP_ERR_CONFIG,
+			      DRV ": %d capture devices match; add 'bus_info' or 'device' to pick one (found: %s)",
+			      n_match, seen);
+	else
+		drv_strlcpy(path, nodes[match].path, n);
+	free(nodes);
+	return st;
+}
+
+static int drv_probe(const mocap_host *host, mocap_device_info *out, int max, char *err, size_t errlen)
+{
+	(void)host;
+	(void)err;
+	(void)errlen;
+	drv_v4l2_node nodes[MAX_NODES];
+	int n = drv_v4l2_list("/dev", "/sys", nodes, max < MAX_NODES ? max : MAX_NODES);
+	for (int i = 0; i < n; i++) {
+		memset(&out[i], 0, sizeof out[i]);
+		drv_strlcpy(out[i].id, nodes[i].path, sizeof out[i].id);
+		drv_strlcpy(out[i].name, nodes[i].card, sizeof out[i].name);
+		drv_strlcpy(out[i].bus_info, nodes[i].bus_info, sizeof out[i].bus_info);
+		drv_strlcpy(out[i].serial, nodes[i].serial, sizeof out[i].serial);
+	}
+	return n;
+}
+
+static void *drv_open(const mocap_host *host, char *err, size_t errlen)
+{
+	drv_v4l2_settings s;
+	char path[PATH_MAX];
+	int status;
+	if (drv_v4l2_read_settings(host, DRV, &s, err, errlen) != MOCAP_OK ||
+	    select_node(host, path, sizeof path, err, errlen) != MOCAP_OK)
+		return NULL;
+	return drv_v4l2_open(path, &s, host, DRV, &status, err, errlen);
+}
+
+static int drv_get_format(void *dev, mocap_format *fmt, char *err, size_t errlen)
+{
+	(void)err;
+	(void)errlen;
+	drv_v4l2_get_format(dev, fmt);
+	return MOCAP_OK;
+}
+
+static int drv_start(void *dev, char *err, size_t errlen)
+{
+	return drv_v4l2_start(dev, err, errlen);
+}
+
+static int drv_next_frame(void *dev, mocap_frame *slot, int timeout_ms, char *err, size_t errlen)
+{
+	return drv_v4l2_next_frame(dev, slot, timeout_ms, err, errlen);
+}
+
+static void drv_stop(void *dev)
+{
+	drv_v4l2_stop(dev);
+}
+
+static void drv_close(void *dev)
+{
+	drv_v4l2_close(dev);
+}
+
+static const mocap_driver v4l2_driver = {
+	.abi_version = MOCAP_DRIVER_ABI_VERSION,
+	.name = "v4l2",
+	.description = "V4L2 capture devices (USB UVC cameras): YUYV, MJPEG, GREY",
+	.probe = drv_probe,
+	.open = drv_open,
+	.get_format = drv_get_format,
+	.start = drv_start,
+	.next_frame = drv_next_frame,
+	.stop = drv_stop,
+	.close = drv_close,
+};
+
+const mocap_driver *mocap_driver_entry(void)
+{
+	return &v4l2_driver;
+}
