@@ -1,0 +1,336 @@
+/* Runs mocapd as a child process for the integration tests.
+ *
+ * Each run gets a scratch directory under /tmp with its config, the
+ * daemon's stdout and stderr, its socket, and a datagram socket standing in
+ * for systemd's $NOTIFY_SOCKET, so that READY=1, STATUS=, WATCHDOG=1 and
+ * friends can be checked.  mocapd and the fault driver are found next to
+ * the test program: <build>/bin/mocapd and <build>/tests/faulty/. */
+#ifndef MCD_TEST_HARNESS_H
+#define MCD_TEST_HARNESS_H
+
+#include <errno.h>
+#include <fcntl.h>
+#include <limits.h>
+#include <poll.h>
+#include <signal.h>
+#include <stdarg.h>
+#include <stdbool.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/socket.h>
+#include <sys/stat.h>
+#include <sys/un.h>
+#include <sys/wait.h>
+#include <time.h>
+#include <unistd.h>
+
+typedef struct {
+	char dir[64];
+	char conf[128], log[128], out[128], sock[128], notify[128];
+	pid_t pid;
+	int status; /* wait status once exited */
+	int notify_fd;
+	char *notes; /* every notify message received, each ending in "\n--\n" */
+	size_t notes_len, notes_cap;
+} mcd_run;
+
+static char mcd_build_dir[PATH_MAX];
+static char mcd_mocapd[PATH_MAX + 32];
+static char mcd_faulty_dir[PATH_MAX + 32];
+
+static inline uint64_t mcd_now_ms(void)
+{
+	struct timespec ts;
+	clock_gettime(CLOCK_MONOTONIC, &ts);
+	return (uint64_t)ts.tv_sec * 1000u + (uint64_t)ts.tv_nsec / 1000000u;
+}
+
+static inline void mcd_sleep_ms(int ms)
+{
+	struct timespec ts = {.tv_sec = ms / 1000, .tv_nsec = (long)(ms % 1000) * 1000000L};
+	while (nanosleep(&ts, &ts) == -1 && errno == EINTR)
+		;
+}
+
+/* Finds mocapd and the fault driver; false (with a reason printed) if
+ * they are not built. */
+static inline bool mcd_find_build(void)
+{
+	char exe[PATH_MAX];
+	ssize_t n = readlink("/proc/self/exe", exe, sizeof(exe) - 1);
+	if (n <= 0)
+		return false;
+	exe[n] = 0;
+	*strrchr(exe, '/') = 0; /* <build>/tests */
+	char *slash = strrchr(exe, '/');
+	if (!slash)
+		return false;
+	*slash = 0;
+	snprintf(mcd_build_dir, sizeof(mcd_build_dir), "%s", exe);
+	snprintf(mcd_mocapd, sizeof(mcd_mocapd), "%s/bin/mocapd", mcd_build_dir);
+	snprintf(mcd_faulty_dir, sizeof(mcd_faulty_dir), "%s/tests/faulty", mcd_build_dir);
+	if (access(mcd_mocapd, X_OK) != 0) {
+		printf("mocapd is not built (%s)\n", mcd_mocapd);
+		return false;
+	}
+	return true;
+}
+
+static inline char *mcd_read_file(const char *path)
+{
+	FILE *f = fopen(path, "rb");
+	if (!f)
+		return calloc(1, 1);
+	fseek(f, 0, SEEK_END);
+	long n = ftell(f);
+	fseek(f, 0, SEEK_SET);
+	char *s = calloc(1, (size_t)(n > 0 ? n : 0) + 1);
+	if (s && n > 0 && fread(s, 1, (size_t)n, f) != (size_t)n)
+		s[0] = 0;
+	fclose(f);
+	return s;
+}
+
+static inline int mcd_count(const char *hay, const char *needle)
+{
+	int n = 0;
+	for (const char *p = hay; (p = strstr(p, needle)); p += strlen(needle))
+		n++;
+	return n;
+}
+
+static inline bool mcd_run_init(mcd_run *r)
+{
+	memset(r, 0, sizeof(*r));
+	r->pid = -1;
+	r->notify_fd = -1;
+	snprintf(r->dir, sizeof(r->dir), "/tmp/mocapd-test-XXXXXX");
+	if (!mkdtemp(r->dir))
+		return false;
+	chmod(r->dir, 0755);
+	snprintf(r->conf, sizeof(r->conf), "%s/t.conf", r->dir);
+	snprintf(r->log, sizeof(r->log), "%s/stderr.txt", r->dir);
+	snprintf(r->out, sizeof(r->out), "%s/stdout.txt", r->dir);
+	snprintf(r->sock, sizeof(r->sock), "%s/mocapd.sock", r->dir);
+	snprintf(r->notify, sizeof(r->notify), "%s/notify", r->dir);
+	r->notify_fd = socket(AF_UNIX, SOCK_DGRAM | SOCK_CLOEXEC | SOCK_NONBLOCK, 0);
+	struct sockaddr_un a = {.sun_family = AF_UNIX};
+	snprintf(a.sun_path, sizeof(a.sun_path), "%.100s", r->notify);
+	return r->notify_fd >= 0 && bind(r->notify_fd, (struct sockaddr *)&a, sizeof(a)) == 0;
+}
+
+/* Writes the config; "@FAULTY@" and "@SOCK@" in the text become the fault
+ * driver's directory and the run's socket path. */
+static inline void mcd_run_config(mcd_run *r, const char *text)
+{
+	FILE *f = fopen(r->conf, "w");
+	if (!f)
+		return;
+	for (const char *p = text; *p;) {
+		if (strncmp(p, "@FAULTY@", 8) == 0) {
+			fputs(mcd_faulty_dir, f);
+			p += 8;
+		} else if (strncmp(p, "@SOCK@", 6) == 0) {
+			fputs(r->sock, f);
+			p += 6;
+		} else
+			fputc(*p++, f);
+	}
+	fclose(f);
+}
+
+/* Starts mocapd -c <conf> plus args (NULL-terminated).  env: extra
+ * "NAME=value" strings (NULL-terminated, may be NULL).  listen_fd >= 0 is
+ * passed as systemd would pass a socket (fd 3, LISTEN_FDS, LISTEN_PID). */
+static inline bool mcd_run_start_fd(mcd_run *r, const char *const *args, const char *const *env, int listen_fd)
+{
+	r->notes_len = 0;
+	if (r->notes)
+		r->notes[0] = 0;
+	pid_t pid = fork();
+	if (pid < 0)
+		return false;
+	if (pid == 0) {
+		int out = open(r->out, O_WRONLY | O_CREAT | O_TRUNC, 0644);
+		int err = open(r->log, O_WRONLY | O_CREAT | O_TRUNC, 0644);
+		if (out < 0 || err < 0)
+			_exit(126);
+		dup2(out, 1);
+		dup2(err, 2);
+		setenv("NOTIFY_SOCKET", r->notify, 1);
+		unsetenv("JOURNAL_STREAM");
+		unsetenv("LISTEN_FDS");
+		unsetenv("WATCHDOG_USEC");
+		for (int i = 0; env && env[i]; i++)
+			putenv((char *)env[i]);
+		if (listen_fd >= 0) {
+			if (listen_fd != 3) {
+				dup2(listen_fd, 3);
+				close(listen_fd);
+			} else
+				fcntl(3, F_SETFD, 0);
+			char pidbuf[32];
+			snprintf(pidbuf, sizeof(pidbuf), "%d", (int)getpid());
+			setenv("LISTEN_PID", pidbuf, 1);
+			setenv("LISTEN_FDS", "1", 1);
+		}
+		const char *argv[32] = {mcd_mocapd, "-c", r->conf};
+		int n = 3;
+		for (int i = 0; args && args[i] && n < 31; i++)
+			argv[n++] = args[i];
+		argv[n] = NULL;
+		execv(mcd_mocapd, (char *const *)argv);
+		_exit(127);
+	}
+	r->pid = pid;
+	return true;
+}
+
+static inline bool mcd_run_start(mcd_run *r, const char *const *args, const char *const *env)
+{
+	return mcd_run_start_fd(r, args, env, -1);
+}
+
+static inline void mcd_run_read_notify(mcd_run *r)
+{
+	char buf[4096];
+	ssize_t n;
+	while ((n = recv(r->notify_fd, buf, sizeof(buf) - 1, 0)) > 0) {
+		if (r->notes_len + (size_t)n + 8 > r->notes_cap) {
+			size_t cap = (r->notes_len + (size_t)n + 8) * 2;
+			char *grown = realloc(r->notes, cap);
+			if (!grown)
+				return;
+			r->notes = grown;
+			r->notes_cap = cap;
+		}
+		memcpy(r->notes + r->notes_len, buf, (size_t)n);
+		r->notes_len += (size_t)n;
+		memcpy(r->notes + r->notes_len, "\n--\n", 5);
+		r->notes_len += 4;
+	}
+}
+
+static inline bool mcd_run_alive(mcd_run *r)
+{
+	if (r->pid <= 0)
+		return false;
+	pid_t w = waitpid(r->pid, &r->status, WNOHANG);
+	if (w == r->pid) {
+		r->pid = -1;
+		return false;
+	}
+	return true;
+}
+
+/* Waits until the daemon's stderr contains needle. */
+static inline bool mcd_run_wait_log(mcd_run *r, const char *needle, int timeout_ms)
+{
+	uint64_t end = mcd_now_ms() + (uint64_t)timeout_ms;
+	for (;;) {
+		char *log = mcd_read_file(r->log);
+		bool found = log && strstr(log, needle);
+		free(log);
+		if (found)
+			return true;
+		if (mcd_now_ms() >= end)
+			return false;
+		mcd_sleep_ms(20);
+	}
+}
+
+/* Counts occurrences of needle in the daemon's stderr (or stdout). */
+static inline int mcd_run_count(const char *path, const char *needle)
+{
+	char *s = mcd_read_file(path);
+	int n = s ? mcd_count(s, needle) : 0;
+	free(s);
+	return n;
+}
+
+/* Waits until a notify message containing needle arrived. */
+static inline bool mcd_run_wait_notify(mcd_run *r, const char *needle, int timeout_ms)
+{
+	uint64_t end = mcd_now_ms() + (uint64_t)timeout_ms;
+	for (;;) {
+		mcd_run_read_notify(r);
+		if (r->notes && strstr(r->notes, needle))
+			return true;
+		if (mcd_now_ms() >= end)
+			return false;
+		struct pollfd p = {.fd = r->notify_fd, .events = POLLIN};
+		poll(&p, 1, 20);
+	}
+}
+
+/* Waits for the daemon to exit; returns its exit code, 128+signal, or -1
+ * on timeout. */
+static inline int mcd_run_wait_exit(mcd_run *r, int timeout_ms)
+{
+	uint64_t end = mcd_now_ms() + (uint64_t)timeout_ms;
+	while (r->pid > 0) {
+		pid_t w = waitpid(r->pid, &r->status, WNOHANG);
+		if (w == r->pid) {
+			r->pid = -1;
+			break;
+		}
+		if (mcd_now_ms() >= end)
+			return -1;
+		mcd_sleep_ms(10);
+	}
+	mcd_run_read_notify(r);
+	if (WIFEXITED(r->status))
+		return WEXITSTATUS(r->status);
+	if (WIFSIGNALED(r->status))
+		return 128 + WTERMSIG(r->status);
+	return -1;
+}
+
+static inline void mcd_run_signal(mcd_run *r, int sig)
+{
+	if (r->pid > 0)
+		kill(r->pid, sig);
+}
+
+/* Prints the daemon's stderr (for a failing check). */
+static inline void mcd_run_dump(mcd_run *r, const char *why)
+{
+	char *log = mcd_read_file(r->log);
+	fprintf(stderr, "---- %s: mocapd stderr (%s) ----\n%s---- end ----\n", why, r->log, log ? log : "");
+	free(log);
+}
+
+static inline void mcd_run_cleanup(mcd_run *r)
+{
+	if (r->pid > 0) {
+		kill(r->pid, SIGKILL);
+		waitpid(r->pid, &r->status, 0);
+		r->pid = -1;
+	}
+	if (r->notify_fd >= 0)
+		close(r->notify_fd);
+	free(r->notes);
+	const char *names[] = {"t.conf", "stderr.txt", "stdout.txt", "mocapd.sock", "notify", "other.sock"};
+	for (size_t i = 0; i < sizeof(names) / sizeof(names[0]); i++) {
+		char p[256];
+		snprintf(p, sizeof(p), "%s/%s", r->dir, names[i]);
+		unlink(p);
+	}
+	rmdir(r->dir);
+}
+
+/* True if something accepts connections on a SOCK_SEQPACKET socket path. */
+static inline bool mcd_can_connect(const char *path)
+{
+	int fd = socket(AF_UNIX, SOCK_SEQPACKET | SOCK_CLOEXEC, 0);
+	struct sockaddr_un a = {.sun_family = AF_UNIX};
+	snprintf(a.sun_path, sizeof(a.sun_path), "%.100s", path);
+	bool ok = fd >= 0 && connect(fd, (struct sockaddr *)&a, sizeof(a)) == 0;
+	if (fd >= 0)
+		close(fd);
+	return ok;
+}
+
+#endif

@@ -1,0 +1,240 @@
+/* mocapd as a process: a run to the end of finite streams, config and
+ * plugin errors at start-up, SIGTERM, SIGHUP reload, SIGKILL then restart
+ * (no stale socket or lock), a second instance, socket activation. */
+#include "daemon/harness.h"
+#include "test_util.h"
+
+#define BASE BASE_WITH("")
+#define BASE_WITH(daemon_keys)               \
+	"[daemon]\n" daemon_keys             \
+	"plugin_dir = @FAULTY@\n"            \
+	"reopen_initial_ms = 50\n"           \
+	"reopen_max_ms = 200\n"              \
+	"[socket]\n"                         \
+	"path = @SOCK@\n"                    \
+	"[tracker]\n"                        \
+	"enabled = false\n"
+
+#define TWO_CAMS                             \
+	"[camera a]\n"                       \
+	"driver = faulty\n"                  \
+	"device = A\n"                       \
+	"[camera b]\n"                       \
+	"driver = faulty\n"                  \
+	"device = B\n"                       \
+	"format = mjpeg\n"
+
+static const char *const print_args[] = {"--print", NULL};
+
+static void test_run_to_end(void)
+{
+	mcd_run r;
+	CHECK(mcd_run_init(&r));
+	mcd_run_config(&r, BASE "[camera a]\ndriver = faulty\ndevice = A\nend_after = 20\n"
+				"[camera b]\ndriver = faulty\ndevice = B\nformat = mjpeg\nend_after = 20\n");
+	const char *const args[] = {"--print", "--exit-at-end", NULL};
+	CHECK(mcd_run_start(&r, args, NULL));
+	int rc = mcd_run_wait_exit(&r, 20000);
+	CHECK_MSG(rc == 0, "exit %d", rc);
+	char *out = mcd_read_file(r.out);
+	int frames = mcd_count(out, "frame "), pairs = mcd_count(out, "cams 2/2");
+	CHECK_MSG(frames >= 18 && frames <= 21, "%d frame lines", frames);
+	CHECK_MSG(pairs >= 18, "%d complete frame sets of %d", pairs, frames);
+	free(out);
+	CHECK(r.notes && strstr(r.notes, "READY=1"));
+	CHECK(r.notes && strstr(r.notes, "STATUS="));
+	CHECK(r.notes && strstr(r.notes, "STOPPING=1"));
+	CHECK(mcd_run_wait_log(&r, "every stream has ended; exiting", 0));
+	CHECK(access(r.sock, F_OK) != 0); /* removed on the way out */
+	if (mc_test_failures)
+		mcd_run_dump(&r, "run to end");
+	mcd_run_cleanup(&r);
+}
+
+static void test_config_error(void)
+{
+	mcd_run r;
+	CHECK(mcd_run_init(&r));
+	mcd_run_config(&r, BASE "iteratons = 5\n" TWO_CAMS);
+	CHECK(mcd_run_start(&r, NULL, NULL));
+	CHECK(mcd_run_wait_exit(&r, 10000) == 1);
+	char want[256];
+	snprintf(want, sizeof(want), "mocapd: error: %s:9: [tracker] iteratons: unknown key", r.conf);
+	CHECK_MSG(mcd_run_wait_log(&r, want, 0), "no '%s'", want);
+	CHECK(r.notes && strstr(r.notes, "STATUS=") && strstr(r.notes, "iteratons: unknown key"));
+	mcd_run_cleanup(&r);
+
+	/* --check reports the same without starting anything */
+	CHECK(mcd_run_init(&r));
+	mcd_run_config(&r, BASE TWO_CAMS);
+	const char *const check[] = {"--check", NULL};
+	CHECK(mcd_run_start(&r, check, NULL));
+	CHECK(mcd_run_wait_exit(&r, 10000) == 0);
+	mcd_run_config(&r, BASE "[camera a]\ndriver = nosuch\n");
+	CHECK(mcd_run_start(&r, check, NULL));
+	CHECK(mcd_run_wait_exit(&r, 10000) == 1);
+	CHECK(mcd_run_wait_log(&r, ":10: [camera a] driver: driver 'nosuch': no mocap-driver-nosuch.so in", 0));
+	mcd_run_cleanup(&r);
+}
+
+static void test_refused_plugin_dir(void)
+{
+	mcd_run r;
+	CHECK(mcd_run_init(&r));
+	/* A plugin directory anybody can write to. */
+	char dir[200], cmd[700];
+	snprintf(dir, sizeof(dir), "%s/plugins", r.dir);
+	CHECK(mkdir(dir, 0777) == 0);
+	chmod(dir, 0777);
+	snprintf(cmd, sizeof(cmd), "cp %.300s/mocap-driver-faulty.so %.200s/", mcd_faulty_dir, dir);
+	CHECK(system(cmd) == 0);
+	char conf[1024];
+	snprintf(conf, sizeof(conf),
+		 "[daemon]\nplugin_dir = plugins\n[socket]\npath = @SOCK@\n[tracker]\nenabled = false\n" TWO_CAMS);
+	mcd_run_config(&r, conf);
+	CHECK(mcd_run_start(&r, NULL, NULL));
+	CHECK(mcd_run_wait_exit(&r, 10000) == 1);
+	CHECK(mcd_run_wait_log(&r, "plugins: directory writable by others (mode 0777); refused", 0));
+	snprintf(cmd, sizeof(cmd), "rm -rf %s", dir);
+	CHECK(system(cmd) == 0);
+	mcd_run_cleanup(&r);
+}
+
+static void test_sigterm(void)
+{
+	mcd_run r;
+	CHECK(mcd_run_init(&r));
+	mcd_run_config(&r, BASE TWO_CAMS);
+	CHECK(mcd_run_start(&r, print_args, NULL));
+	CHECK(mcd_run_wait_notify(&r, "READY=1", 10000));
+	CHECK(mcd_can_connect(r.sock));
+	CHECK(mcd_run_wait_log(&r, "camera b: opened", 5000));
+	mcd_sleep_ms(300);
+	uint64_t t0 = mcd_now_ms();
+	mcd_run_signal(&r, SIGTERM);
+	int rc = mcd_run_wait_exit(&r, 10000);
+	CHECK_MSG(rc == 0, "exit %d", rc);
+	CHECK_MSG(mcd_now_ms() - t0 < 3000, "took %llu ms to stop", (unsigned long long)(mcd_now_ms() - t0));
+	CHECK(mcd_run_wait_log(&r, "Terminated: shutting down", 0));
+	CHECK(mcd_run_wait_log(&r, "mocapd: info: stopped", 0));
+	CHECK(access(r.sock, F_OK) != 0);
+	CHECK(mcd_run_count(r.out, "cams 2/2") > 3);
+	if (mc_test_failures)
+		mcd_run_dump(&r, "sigterm");
+	mcd_run_cleanup(&r);
+}
+
+static void test_sigkill_restart(void)
+{
+	mcd_run r;
+	CHECK(mcd_run_init(&r));
+	mcd_run_config(&r, BASE TWO_CAMS);
+	CHECK(mcd_run_start(&r, NULL, NULL));
+	CHECK(mcd_run_wait_notify(&r, "READY=1", 10000));
+	mcd_run_signal(&r, SIGKILL);
+	CHECK(mcd_run_wait_exit(&r, 5000) == 128 + SIGKILL);
+	struct stat st;
+	CHECK(stat(r.sock, &st) == 0 && S_ISSOCK(st.st_mode)); /* left behind, stale */
+	CHECK(!mcd_can_connect(r.sock));
+	/* A new daemon starts right away, on the same socket path. */
+	CHECK(mcd_run_start(&r, NULL, NULL));
+	CHECK_MSG(mcd_run_wait_notify(&r, "READY=1", 10000), "no READY=1 after a restart");
+	CHECK(mcd_can_connect(r.sock));
+	CHECK(mcd_run_alive(&r));
+
+	/* A second daemon on the same socket while the first one lives is
+	 * refused, and leaves the first one's socket alone. */
+	mcd_run second;
+	CHECK(mcd_run_init(&second));
+	char conf[2048];
+	snprintf(conf, sizeof(conf),
+		 "[daemon]\nplugin_dir = @FAULTY@\n[socket]\npath = %s\n[tracker]\nenabled = false\n" TWO_CAMS, r.sock);
+	mcd_run_config(&second, conf);
+	CHECK(mcd_run_start(&second, NULL, NULL));
+	CHECK(mcd_run_wait_exit(&second, 10000) == 1);
+	CHECK(mcd_run_wait_log(&second, "another mocapd", 0) || mcd_run_wait_log(&second, "listening", 0));
+	CHECK(mcd_can_connect(r.sock));
+	mcd_run_cleanup(&second);
+
+	mcd_run_signal(&r, SIGTERM);
+	CHECK(mcd_run_wait_exit(&r, 10000) == 0);
+	if (mc_test_failures)
+		mcd_run_dump(&r, "sigkill");
+	mcd_run_cleanup(&r);
+}
+
+static void test_sighup(void)
+{
+	mcd_run r;
+	CHECK(mcd_run_init(&r));
+	mcd_run_config(&r, BASE TWO_CAMS);
+	CHECK(mcd_run_start(&r, NULL, NULL));
+	CHECK(mcd_run_wait_notify(&r, "READY=1", 10000));
+	CHECK(mcd_run_wait_log(&r, "camera b: opened", 5000));
+	/* debug logging and a camera change that needs a restart */
+	mcd_run_config(&r, BASE_WITH("log_level = debug\n") "[camera a]\ndriver = faulty\ndevice = A\nfps = 25\n"
+			   "[camera b]\ndriver = faulty\ndevice = B\nformat = mjpeg\n");
+	mcd_run_signal(&r, SIGHUP);
+	CHECK(mcd_run_wait_log(&r, "applied (log level debug)", 5000));
+	CHECK(mcd_run_wait_log(&r, "reload: cameras changed; that takes a restart", 0));
+	CHECK(mcd_run_wait_notify(&r, "RELOADING=1", 2000));
+	/* a broken config: the running one stays */
+	mcd_run_config(&r, BASE "[camera a]\ndriver = faulty\nring_slots = one\n");
+	mcd_run_signal(&r, SIGHUP);
+	CHECK(mcd_run_wait_log(&r, "ring_slots: expected an integer from 2 to 1024, got 'one'; keeping the running config",
+			       5000));
+	mcd_sleep_ms(200);
+	CHECK(mcd_run_alive(&r));
+	mcd_run_signal(&r, SIGTERM);
+	CHECK(mcd_run_wait_exit(&r, 10000) == 0);
+	if (mc_test_failures)
+		mcd_run_dump(&r, "sighup");
+	mcd_run_cleanup(&r);
+}
+
+static void test_socket_activation(void)
+{
+	mcd_run r;
+	CHECK(mcd_run_init(&r));
+	mcd_run_config(&r, BASE TWO_CAMS);
+	int fd = socket(AF_UNIX, SOCK_SEQPACKET, 0);
+	struct sockaddr_un a = {.sun_family = AF_UNIX};
+	snprintf(a.sun_path, sizeof(a.sun_path), "%.100s", r.sock);
+	CHECK(fd >= 0 && bind(fd, (struct sockaddr *)&a, sizeof(a)) == 0 && listen(fd, 8) == 0);
+	CHECK(mcd_run_start_fd(&r, NULL, NULL, fd));
+	close(fd);
+	CHECK(mcd_run_wait_notify(&r, "READY=1", 10000));
+	CHECK(mcd_run_wait_log(&r, "(from systemd)", 0));
+	CHECK(mcd_can_connect(r.sock));
+	mcd_run_signal(&r, SIGTERM);
+	CHECK(mcd_run_wait_exit(&r, 10000) == 0);
+	/* The socket belongs to systemd: it stays. */
+	struct stat st;
+	CHECK(stat(r.sock, &st) == 0 && S_ISSOCK(st.st_mode));
+
+	/* A passed socket of the wrong type is refused with a clear message. */
+	fd = socket(AF_UNIX, SOCK_STREAM, 0);
+	unlink(r.sock);
+	CHECK(fd >= 0 && bind(fd, (struct sockaddr *)&a, sizeof(a)) == 0 && listen(fd, 8) == 0);
+	CHECK(mcd_run_start_fd(&r, NULL, NULL, fd));
+	close(fd);
+	CHECK(mcd_run_wait_exit(&r, 10000) == 1);
+	CHECK(mcd_run_wait_log(&r, "not a listening SOCK_SEQPACKET Unix socket", 0));
+	if (mc_test_failures)
+		mcd_run_dump(&r, "socket activation");
+	mcd_run_cleanup(&r);
+}
+
+int main(void)
+{
+	if (!mcd_find_build())
+		TEST_SKIP("mocapd is not built");
+	test_run_to_end();
+	test_config_error();
+	test_refused_plugin_dir();
+	test_sigterm();
+	test_sigkill_restart();
+	test_sighup();
+	test_socket_activation();
+	return mc_test_finish("test_daemon_run");
+}
