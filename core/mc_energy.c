@@ -298,38 +298,47 @@ static void ray_set_scatter(const ray_set *rs, mc_vec3 n, const ray_grad *gr, mc
 	}
 }
 
-double mc_ray_weighted_visibility(const mc_scene *scene, mc_vec3 o, mc_vec3 n, const double *w,
-				  const unsigned char *active, mc_vec3 *dmu, double *dsigma)
+/* sum_i w[i] V_i over the ray set (w indexed like rs->g), adding the
+ * gradient into dmu/dsigma when either is given. */
+static double ray_set_weighted(const ray_set *rs, const double *w, mc_vec3 n, mc_vec3 *dmu, double *dsigma)
 {
-	ray_set rs;
-	ray_project(scene, o, n, active, &rs);
 	bool want_grad = dmu || dsigma;
 	ray_grad gr;
 	if (want_grad)
 		memset(&gr, 0, sizeof(gr));
 	sample_terms st;
 	double e = 0;
-	for (int i = 0; i < rs.n; i++) {
-		double wi = w[rs.g[i].q];
-		if (wi == 0)
+	for (int i = 0; i < rs->n; i++) {
+		if (w[i] == 0)
 			continue; /* contributes nothing; still occludes through T */
 		if (!want_grad) {
-			e += wi * ray_set_visibility(&rs, i);
+			e += w[i] * ray_set_visibility(rs, i);
 			continue;
 		}
 		for (int k = 0; k < MC_VIS_SAMPLES; k++) {
-			sample_pos sp = near_camera(rs.g[i].m + sample_k[k] * rs.g[i].sigma, rs.g[i].sigma);
+			sample_pos sp = near_camera(rs->g[i].m + sample_k[k] * rs->g[i].sigma, rs->g[i].sigma);
 			if (!(sp.h > 0))
 				continue;
-			double T = sample_eval(&rs, sp.t, &st);
-			double wk = wi * sample_w[k];
-			e += wk * sp.h * rs.g[i].sigma * rs.g[i].c * T;
-			sample_backprop(&rs, i, sample_k[k], wk, &sp, T, &st, &gr);
+			double T = sample_eval(rs, sp.t, &st);
+			double wk = w[i] * sample_w[k];
+			e += wk * sp.h * rs->g[i].sigma * rs->g[i].c * T;
+			sample_backprop(rs, i, sample_k[k], wk, &sp, T, &st, &gr);
 		}
 	}
 	if (want_grad)
-		ray_set_scatter(&rs, n, &gr, dmu, dsigma);
+		ray_set_scatter(rs, n, &gr, dmu, dsigma);
 	return e;
+}
+
+double mc_ray_weighted_visibility(const mc_scene *scene, mc_vec3 o, mc_vec3 n, const double *w,
+				  const unsigned char *active, mc_vec3 *dmu, double *dsigma)
+{
+	ray_set rs;
+	ray_project(scene, o, n, active, &rs);
+	double wr[MC_MAX_GAUSSIANS];
+	for (int i = 0; i < rs.n; i++)
+		wr[i] = w[rs.g[i].q];
+	return ray_set_weighted(&rs, wr, n, dmu, dsigma);
 }
 
 /* ---- colour ---- */
@@ -428,10 +437,12 @@ static double pixel_color_energy(const mc_scene *scene, mc_vec3 o, mc_vec3 n, co
 				 mc_vec3 *dmu, double *dsigma)
 {
 	double i_hsv[3] = {pix_hsv[0], pix_hsv[1], pix_hsv[2]};
-	double w[MC_MAX_GAUSSIANS];
-	for (int q = 0; q < scene->n; q++)
-		w[q] = mc_hsv_dissimilarity(scene->hsv[q], i_hsv);
-	return mc_ray_weighted_visibility(scene, o, n, w, NULL, dmu, dsigma);
+	ray_set rs;
+	ray_project(scene, o, n, NULL, &rs);
+	double w[MC_MAX_GAUSSIANS]; /* only for the Gaussians on this ray */
+	for (int i = 0; i < rs.n; i++)
+		w[i] = mc_hsv_dissimilarity(scene->hsv[rs.g[i].q], i_hsv);
+	return ray_set_weighted(&rs, w, n, dmu, dsigma);
 }
 
 double mc_energy_color(const mc_scene *scene, const mc_view *view, const int *pixels, int npixels,
