@@ -15,7 +15,6 @@
 #include <string.h>
 
 #define SQRT_PI_2 1.25331413731550025121   /* sqrt(pi / 2) */
-#define SQRT_2PI 2.50662827463100050242    /* sqrt(2 pi) */
 #define SQRT_2 1.41421356237309504880
 
 /* One Gaussian projected onto one ray (thesis eq. 4.3-4.4). */
