@@ -7,7 +7,13 @@
  * dissimilarity of 6.2.1, detection term 6.2.2, priors eq. 6.2 and 6.3.
  *
  * Gradients are with respect to the Gaussian centres mu_q and standard
- * deviations sigma_q; mc_model_backprop() carries them to the pose. */
+ * deviations sigma_q; mc_model_backprop() carries them to the pose.
+ *
+ * docs/ENERGY.md has the exact formulas and derivatives, including three
+ * departures from the thesis: samples near or behind the camera are faded
+ * out, culling (c' < MC_CULL_MAGNITUDE) fades in over [C, 2C] so that the
+ * energy is smooth, and B integrates from the camera (T at infinity).
+ * Ray directions must be unit length. */
 #ifndef MC_ENERGY_H
 #define MC_ENERGY_H
 
@@ -16,7 +22,7 @@
 #include "mc_rig.h"
 
 #define MC_VIS_SAMPLES 5      /* K = {-4, ..., 0} */
-#define MC_CULL_MAGNITUDE 1e-5 /* rays with c'_q below this skip Gaussian q */
+#define MC_CULL_MAGNITUDE 1e-5 /* rays with c'_q below this skip Gaussian q (faded in up to 2x) */
 
 /* The Gaussians of one evaluation, in the rig frame. */
 typedef struct {
@@ -36,10 +42,11 @@ void mc_rgb_to_hsv(const double rgb[3], double hsv[3]);
 void mc_hsv_to_rgb(const double hsv[3], double rgb[3]);
 double mc_hsv_dissimilarity(const double m_hsv[3], const double i_hsv[3]);
 
-/* Per-ray quantities.  vis[q] = V_q (eq. 4.10), *background = B (eq. 5.5).
- * vis must hold scene->n doubles. */
+/* Per-ray quantities.  vis[q] = V_q (eq. 4.10; 0 for Gaussians culled on
+ * this ray), *background = B (eq. 5.5, may be NULL).  vis must hold
+ * scene->n doubles. */
 void mc_ray_visibility(const mc_scene *scene, mc_vec3 o, mc_vec3 n, double *vis, double *background);
-/* Transmittance T(s) along the ray (eq. 4.6). */
+/* Transmittance T(s) along the ray (eq. 4.6); 1 for s <= 0. */
 double mc_ray_transmittance(const mc_scene *scene, mc_vec3 o, mc_vec3 n, double s);
 /* Rendered colour: sum_q V_q albedo_q + B * bg_rgb. */
 void mc_ray_render_rgb(const mc_scene *scene, const double albedo_rgb[][3], mc_vec3 o, mc_vec3 n,
