@@ -34,6 +34,7 @@ struct mcd_pipeline {
 	pthread_cond_t cond;
 	mcd_grouper grouper;
 	bool stop, started, finished;
+	bool stopped; /* mcd_pipeline_stop ran (main thread only) */
 	bool reload_pending;
 	mcd_tracker_config reload_tc;
 	mcd_pipeline_status st; /* counters kept by the tracking thread */
@@ -425,6 +426,9 @@ int mcd_pipeline_start(mcd_pipeline *p, mc_err *err)
 
 void mcd_pipeline_stop(mcd_pipeline *p, int grace_ms)
 {
+	if (p->stopped)
+		return;
+	p->stopped = true;
 	for (int c = 0; c < p->ncams; c++)
 		if (p->cams[c])
 			mcd_camera_request_stop(p->cams[c]);

@@ -395,9 +395,8 @@ static int drv_next_frame(void *dev, mocap_frame *slot, int timeout_ms, char *er
 		d->hang_after = -1;
 		sleep_until(now_ns() + (uint64_t)d->hang_ms * 1000000ull);
 	}
+	uint64_t deadline = now_ns() + (uint64_t)(timeout_ms < 0 ? 0 : timeout_ms) * 1000000ull;
 	for (;;) {
-		uint64_t now = now_ns();
-		uint64_t deadline = now + (uint64_t)(timeout_ms < 0 ? 0 : timeout_ms) * 1000000ull;
 		if (d->next_ns > deadline) {
 			sleep_until(deadline);
 			return MOCAP_ERR_TIMEOUT;

@@ -1,0 +1,194 @@
+/* Camera faults, injected with the fault driver (tests/drivers/faulty): a
+ * driver that fails to open, one that errors mid-stream, short and corrupt
+ * frames (broken JPEG included), a camera that disappears and comes back,
+ * one that stalls, and a driver key nobody reads.  In every case the
+ * daemon keeps running, the healthy camera keeps delivering, the state is
+ * reported (log and STATUS=) and the camera is reopened with an
+ * exponential, capped backoff. */
+#include "daemon/harness.h"
+#include "test_util.h"
+
+#define BASE                                 \
+	"[daemon]\n"                         \
+	"plugin_dir = @FAULTY@\n"            \
+	"reopen_initial_ms = 50\n"           \
+	"reopen_max_ms = 200\n"              \
+	"stall_timeout_ms = 600\n"           \
+	"status_interval_s = 0.2\n"          \
+	"[socket]\n"                         \
+	"path = @SOCK@\n"                    \
+	"[tracker]\n"                        \
+	"enabled = false\n"                  \
+	"[camera good]\n"                    \
+	"driver = faulty\n"
+
+static const char *const print_args[] = {"--print", NULL};
+
+static bool start(mcd_run *r, const char *conf)
+{
+	if (!mcd_run_init(r))
+		return false;
+	mcd_run_config(r, conf);
+	return mcd_run_start(r, print_args, NULL) && mcd_run_wait_notify(r, "READY=1", 10000);
+}
+
+/* Frames printed since `from` lines: the pipeline is still delivering. */
+static int lines_with(mcd_run *r, const char *needle)
+{
+	return mcd_run_count(r->out, needle);
+}
+
+static void finish(mcd_run *r, const char *name, int failures_before)
+{
+	CHECK_MSG(mcd_run_alive(r), "%s: the daemon died", name);
+	mcd_run_signal(r, SIGTERM);
+	int rc = mcd_run_wait_exit(r, 10000);
+	CHECK_MSG(rc == 0, "%s: exit %d", name, rc);
+	if (mc_test_failures > failures_before)
+		mcd_run_dump(r, name);
+	mcd_run_cleanup(r);
+}
+
+static void test_fail_open(void)
+{
+	int before = mc_test_failures;
+	mcd_run r;
+	CHECK(start(&r, BASE "device = G1\n[camera bad]\ndriver = faulty\ndevice = B1\nfail_open = true\n"));
+	/* exponential, capped at reopen_max_ms */
+	CHECK(mcd_run_wait_log(&r, "camera bad: open: faulty camera B1: cannot open (injected, status -1); reopening in 50 ms (attempt 1)", 5000));
+	CHECK(mcd_run_wait_log(&r, "reopening in 100 ms (attempt 2)", 5000));
+	CHECK(mcd_run_wait_log(&r, "reopening in 200 ms (attempt 3)", 5000));
+	CHECK(mcd_run_wait_log(&r, "reopening in 200 ms (attempt 4)", 5000));
+	CHECK(mcd_run_wait_notify(&r, "bad: retrying (open: faulty camera B1: cannot open", 5000));
+	CHECK(mcd_run_wait_notify(&r, "good: streaming", 5000));
+	/* the good camera is tracked on its own, without waiting for the bad one */
+	int n0 = lines_with(&r, "cams 1/2");
+	mcd_sleep_ms(500);
+	CHECK_MSG(lines_with(&r, "cams 1/2") >= n0 + 8, "%d -> %d frame sets", n0, lines_with(&r, "cams 1/2"));
+	finish(&r, "fail_open", before);
+}
+
+static void test_error_mid_stream(void)
+{
+	int before = mc_test_failures;
+	mcd_run r;
+	CHECK(start(&r, BASE "device = G2\n[camera flaky]\ndriver = faulty\ndevice = F2\nerror_after = 10\n"
+			    "error_code = nodev\n"));
+	CHECK(mcd_run_wait_log(&r, "camera flaky: next_frame: faulty camera F2: injected error -2 after 10 frames; "
+				   "reopening in 50 ms (attempt 1)",
+			       5000));
+	/* reopened, streams again, fails again: the backoff restarts each
+	 * time the camera proved itself with a good frame */
+	uint64_t t0 = mcd_now_ms();
+	while (mcd_run_count(r.log, "camera flaky: opened") < 3 && mcd_now_ms() - t0 < 8000)
+		mcd_sleep_ms(50);
+	CHECK(mcd_run_count(r.log, "camera flaky: opened") >= 3);
+	CHECK(mcd_run_count(r.log, "(attempt 2)") == 0);
+	CHECK(lines_with(&r, "cams 2/2") >= 15);
+	finish(&r, "error mid-stream", before);
+}
+
+static void test_io_errors_are_retried_first(void)
+{
+	int before = mc_test_failures;
+	mcd_run r;
+	CHECK(start(&r, BASE "device = G3\n[camera io]\ndriver = faulty\ndevice = I3\nerror_after = 5\nerror_once = true\n"));
+	/* A single I/O error is retried in place, without a reopen. */
+	CHECK(mcd_run_wait_log(&r, "camera io: faulty camera I3: injected error -1 after 5 frames (retrying)", 5000));
+	mcd_sleep_ms(500);
+	CHECK(mcd_run_count(r.log, "camera io: opened") == 1);
+	CHECK(mcd_run_count(r.log, "reopening") == 0);
+	finish(&r, "io errors", before);
+}
+
+static void test_bad_frames(void)
+{
+	int before = mc_test_failures;
+	mcd_run r;
+	CHECK(start(&r, BASE "device = G4\n"
+			    "[camera short]\ndriver = faulty\ndevice = S4\nshort_every = 3\n"
+			    "[camera jpeg]\ndriver = faulty\ndevice = J4\nformat = mjpeg\ncorrupt_every = 4\n"
+			    "[camera flagged]\ndriver = faulty\ndevice = C4\nformat = yuyv\ncorrupt_every = 5\n"));
+	CHECK(mcd_run_wait_log(&r, "camera short: frame dropped (fewer bytes than the format needs)", 5000));
+	CHECK(mcd_run_wait_log(&r, "camera jpeg: frame dropped: MJPEG", 5000));
+	CHECK(mcd_run_wait_log(&r, "camera flagged: frame dropped (flagged corrupt by the driver)", 5000));
+	mcd_sleep_ms(700);
+	/* frame sets go on, with the damaged views missing */
+	CHECK(lines_with(&r, "cams 4/4") >= 3);
+	CHECK(lines_with(&r, "cams 3/4") >= 3);
+	CHECK(mcd_run_count(r.log, "reopening") == 0); /* bad frames are no reason to reopen */
+	/* drops are counted per camera in the status */
+	CHECK(mcd_run_wait_notify(&r, "good: streaming", 2000));
+	mcd_run_read_notify(&r);
+	const char *last = r.notes ? r.notes : "";
+	for (const char *p = last; (p = strstr(p, "STATUS=")); p++)
+		last = p;
+	CHECK_MSG(strstr(last, "good: streaming") && strstr(last, ", 0 drops | short:"), "%s", last);
+	CHECK_MSG(!strstr(last, "short: streaming 30.0 fps, 0 drops"), "%s", last);
+	finish(&r, "bad frames", before);
+}
+
+static void test_disappear_and_return(void)
+{
+	int before = mc_test_failures;
+	mcd_run r;
+	CHECK(start(&r, BASE "device = G5\n[camera usb]\ndriver = faulty\ndevice = U5\ndisappear_after = 10\n"
+			    "return_after_ms = 700\n"));
+	CHECK(mcd_run_wait_log(&r, "camera usb: next_frame: faulty camera U5: device disappeared (injected); reopening", 5000));
+	CHECK(mcd_run_wait_log(&r, "camera usb: open: faulty camera U5: no such device (injected: disappeared)", 5000));
+	CHECK(mcd_run_wait_notify(&r, "usb: retrying", 3000));
+	int during = lines_with(&r, "cams 1/2");
+	CHECK(during > 0); /* the other camera went on alone */
+	/* back after ~700 ms: reopened and grouped again */
+	uint64_t t0 = mcd_now_ms();
+	while (mcd_run_count(r.log, "camera usb: opened") < 2 && mcd_now_ms() - t0 < 5000)
+		mcd_sleep_ms(50);
+	CHECK(mcd_run_count(r.log, "camera usb: opened") == 2);
+	int pairs = lines_with(&r, "cams 2/2");
+	mcd_sleep_ms(500);
+	CHECK(lines_with(&r, "cams 2/2") >= pairs + 8);
+	CHECK(mcd_run_wait_notify(&r, "usb: streaming", 3000));
+	finish(&r, "disappear", before);
+}
+
+static void test_stall(void)
+{
+	int before = mc_test_failures;
+	mcd_run r;
+	/* drop_every = 1: the driver never delivers; next_frame only times out */
+	CHECK(start(&r, BASE "device = G6\n[camera mute]\ndriver = faulty\ndevice = M6\ndrop_every = 1\n"));
+	CHECK(mcd_run_wait_log(&r, "camera mute: stalled: no frame for", 5000));
+	CHECK(mcd_run_wait_log(&r, "reopening in 50 ms (attempt 1)", 3000));
+	CHECK(lines_with(&r, "cams 1/2") >= 5);
+	finish(&r, "stall", before);
+}
+
+static void test_unknown_driver_key(void)
+{
+	int before = mc_test_failures;
+	mcd_run r;
+	CHECK(start(&r, BASE "device = G7\n[camera typo]\ndriver = faulty\ndevice = T7\nfsp = 25\n"));
+	char want[300];
+	snprintf(want, sizeof(want), "%s:17: [camera typo] fsp: unknown key (the faulty driver does not read it)", r.conf);
+	CHECK(mcd_run_wait_log(&r, want, 5000));
+	CHECK(mcd_run_wait_log(&r, "giving up on this camera", 2000));
+	CHECK(mcd_run_wait_notify(&r, "typo: failed", 3000));
+	int n0 = lines_with(&r, "cams 1/2");
+	mcd_sleep_ms(300);
+	CHECK(lines_with(&r, "cams 1/2") > n0);
+	finish(&r, "unknown key", before);
+}
+
+int main(void)
+{
+	if (!mcd_find_build())
+		TEST_SKIP("mocapd is not built");
+	test_fail_open();
+	test_error_mid_stream();
+	test_io_errors_are_retried_first();
+	test_bad_frames();
+	test_disappear_and_return();
+	test_stall();
+	test_unknown_driver_key();
+	return mc_test_finish("test_daemon_faults");
+}
