@@ -57,16 +57,9 @@ static int find_usb_device_dir(const char *start, char *out, size_t n)
 	return -1;
 }
 
-int drv_sysfs_video_usb_info(const char *sysfs_root, const char *node, drv_usb_video_info *out)
+/* Reads the identity of the USB device whose folder is `usb`. */
+static int read_usb_device(const char *usb, drv_usb_video_info *out)
 {
-	memset(out, 0, sizeof *out);
-	char class_dir[PATH_MAX], link[PATH_MAX + 16], dev[PATH_MAX], usb[PATH_MAX];
-	snprintf(class_dir, sizeof class_dir, "%s/class/video4linux/%s", sysfs_root, node);
-	snprintf(link, sizeof link, "%s/device", class_dir);
-	if (!realpath(link, dev))
-		return -1;
-	if (find_usb_device_dir(dev, usb, sizeof usb) != 0)
-		return -1;
 	unsigned vendor, product;
 	if (read_uint_attr(usb, "idVendor", 16, &vendor) || read_uint_attr(usb, "idProduct", 16, &product) ||
 	    read_uint_attr(usb, "busnum", 10, &out->busnum) || read_uint_attr(usb, "devnum", 10, &out->devnum))
@@ -75,10 +68,49 @@ int drv_sysfs_video_usb_info(const char *sysfs_root, const char *node, drv_usb_v
 	out->product = (uint16_t)product;
 	if (read_attr(usb, "serial", out->serial, sizeof out->serial) != 0)
 		out->serial[0] = 0;
-	snprintf(out->port, sizeof out->port, "%s", strrchr(usb, '/') + 1);
+	if (read_attr(usb, "product", out->name, sizeof out->name) != 0)
+		out->name[0] = 0;
+	const char *slash = strrchr(usb, '/');
+	snprintf(out->port, sizeof out->port, "%s", slash ? slash + 1 : usb);
+	return 0;
+}
+
+int drv_sysfs_video_usb_info(const char *sysfs_root, const char *node, drv_usb_video_info *out)
+{
+	memset(out, 0, sizeof *out);
+	char class_dir[PATH_MAX], link[PATH_MAX + 16], dev[PATH_MAX], usb[PATH_MAX];
+	snprintf(class_dir, sizeof class_dir, "%s/class/video4linux/%s", sysfs_root, node);
+	snprintf(link, sizeof link, "%s/device", class_dir);
+	if (!realpath(link, dev))
+		return -1;
+	if (find_usb_device_dir(dev, usb, sizeof usb) != 0 || read_usb_device(usb, out) != 0)
+		return -1;
 	if (read_uint_attr(class_dir, "index", 10, &out->index) != 0)
 		out->index = 0;
 	return 0;
+}
+
+int drv_sysfs_usb_device_info(const char *sysfs_root, unsigned busnum, unsigned devnum, drv_usb_video_info *out)
+{
+	char dir[PATH_MAX];
+	snprintf(dir, sizeof dir, "%s/bus/usb/devices", sysfs_root);
+	DIR *d = opendir(dir);
+	if (!d)
+		return -1;
+	int found = -1;
+	struct dirent *e;
+	while (found != 0 && (e = readdir(d))) {
+		if (e->d_name[0] == '.' || strchr(e->d_name, ':')) /* interfaces have a ':' */
+			continue;
+		char link[PATH_MAX + 256], usb[PATH_MAX];
+		snprintf(link, sizeof link, "%s/%s", dir, e->d_name);
+		memset(out, 0, sizeof *out);
+		if (realpath(link, usb) && read_usb_device(usb, out) == 0 && out->busnum == busnum &&
+		    out->devnum == devnum)
+			found = 0;
+	}
+	closedir(d);
+	return found;
 }
 
 /* The N of "videoN", or -1 for other names. */

@@ -18,6 +18,7 @@ typedef struct {
 	uint16_t vendor, product;
 	unsigned busnum, devnum;
 	char serial[64];  /* "" when the device has none */
+	char name[64];    /* the device's product string, "" if none */
 	char port[64];    /* the USB device's folder name, e.g. "1-2.3" */
 	unsigned index;   /* the node's index within its interface: 0 = main capture node */
 } drv_usb_video_info;
@@ -29,5 +30,9 @@ int drv_sysfs_video_usb_info(const char *sysfs_root, const char *node, drv_usb_v
 /* Finds the main video node ("videoN", lowest index, then lowest N) of the
  * USB device at busnum/devnum.  0, or -1 when it has none (yet). */
 int drv_sysfs_find_usb_video(const char *sysfs_root, unsigned busnum, unsigned devnum, char *node, size_t n);
+
+/* Fills `out` (all but `index`) for the USB device at busnum/devnum, from
+ * /sys/bus/usb/devices.  0, or -1 when there is no such device. */
+int drv_sysfs_usb_device_info(const char *sysfs_root, unsigned busnum, unsigned devnum, drv_usb_video_info *out);
 
 #endif
