@@ -376,7 +376,7 @@ static int drv_probe(const mocap_host *host, mocap_device_info *out, int max, ch
 		snprintf(o->bus_info, sizeof o->bus_info, "usb port %s", info.port);
 		drv_strlcpy(o->serial, info.serial, sizeof o->serial);
 	}
-	if (count > 0)
+	if (count >= 0)
 		libusb_free_device_list(list, 1);
 	libusb_exit(ctx);
 	return n;
