@@ -477,19 +477,21 @@ static void shutdown_all(daemon_ctx *d)
 
 static int start(daemon_ctx *d, mc_err *err)
 {
+	d->watchdog_usec = mcd_watchdog_usec();
 	if (block_signals(d, err))
 		return -1;
 	if (start_server(d, err))
 		return -1;
-	mcd_notify_watchdog(); /* start-up progress */
+	if (d->watchdog_usec)
+		mcd_notify_watchdog(); /* start-up progress (building OpenCL kernels takes a while) */
 	if (start_tracking(d, err))
 		return -1;
-	mcd_notify_watchdog();
+	if (d->watchdog_usec)
+		mcd_notify_watchdog();
 	d->pipe = mcd_pipeline_create(d->cfg, d->tracking, d->srv, err);
 	if (!d->pipe || mcd_pipeline_start(d->pipe, err))
 		return -1;
 	mcd_pipeline_share_rings(d->pipe);
-	d->watchdog_usec = mcd_watchdog_usec();
 	return 0;
 }
 
