@@ -222,33 +222,65 @@ static const uint8_t bayer_cells[4][2][2] = {
 };
 
 /* Bilinear demosaic: a pixel keeps its own colour; each other colour is the
- * mean of that colour's pixels in the 3x3 neighbourhood (inside the image). */
+ * mean of that colour's pixels in the 3x3 neighbourhood (inside the image).
+ * This is the general form, used along the border. */
+static void bayer_pixel(const mc_image_frame *f, size_t stride, const uint8_t (*cell)[2], int x, int y, uint8_t *o)
+{
+	int w = (int)f->width, h = (int)f->height;
+	int y0 = y > 0 ? y - 1 : y, y1 = y < h - 1 ? y + 1 : y;
+	int x0 = x > 0 ? x - 1 : x, x1 = x < w - 1 ? x + 1 : x;
+	int sum[3] = {0, 0, 0}, cnt[3] = {0, 0, 0};
+	for (int yy = y0; yy <= y1; yy++) {
+		const uint8_t *row = f->data + (size_t)yy * stride;
+		for (int xx = x0; xx <= x1; xx++) {
+			int c = cell[yy & 1][xx & 1];
+			sum[c] += row[xx];
+			cnt[c]++;
+		}
+	}
+	int own = cell[y & 1][x & 1];
+	for (int c = 0; c < 3; c++)
+		o[c] = c == own ? f->data[(size_t)y * stride + (size_t)x]
+				: (uint8_t)(cnt[c] ? (sum[c] + cnt[c] / 2) / cnt[c] : 0);
+}
+
+/* The same means inside the image, where every neighbour exists: at a green
+ * pixel the other two colours are the horizontal and the vertical pair; at a
+ * red or blue one green is the cross and the other colour the diagonals. */
+static void bayer_interior_row(const uint8_t *up, const uint8_t *mid, const uint8_t *down, const uint8_t (*cell)[2],
+			       int y, int w, uint8_t *o)
+{
+	for (int x = 1; x < w - 1; x++) {
+		uint8_t *p = o + (size_t)x * 3;
+		int own = cell[y & 1][x & 1];
+		if (own == 1) {
+			int horiz = cell[y & 1][(x + 1) & 1];
+			p[1] = mid[x];
+			p[horiz] = (uint8_t)((mid[x - 1] + mid[x + 1] + 1) / 2);
+			p[2 - horiz] = (uint8_t)((up[x] + down[x] + 1) / 2);
+		} else {
+			p[own] = mid[x];
+			p[1] = (uint8_t)((up[x] + down[x] + mid[x - 1] + mid[x + 1] + 2) / 4);
+			p[2 - own] = (uint8_t)((up[x - 1] + up[x + 1] + down[x - 1] + down[x + 1] + 2) / 4);
+		}
+	}
+}
+
 static void bayer_to_rgb(const mc_image_frame *f, size_t stride, uint8_t *dst)
 {
 	const uint8_t(*cell)[2] = bayer_cells[f->pixfmt - MOCAP_FMT_BAYER_RGGB8];
 	int w = (int)f->width, h = (int)f->height;
 	for (int y = 0; y < h; y++) {
-		int y0 = y > 0 ? y - 1 : y, y1 = y < h - 1 ? y + 1 : y;
-		for (int x = 0; x < w; x++) {
-			int x0 = x > 0 ? x - 1 : x, x1 = x < w - 1 ? x + 1 : x;
-			int sum[3] = {0, 0, 0}, cnt[3] = {0, 0, 0};
-			for (int yy = y0; yy <= y1; yy++) {
-				const uint8_t *row = f->data + (size_t)yy * stride;
-				for (int xx = x0; xx <= x1; xx++) {
-					int c = cell[yy & 1][xx & 1];
-					sum[c] += row[xx];
-					cnt[c]++;
-				}
-			}
-			int own = cell[y & 1][x & 1];
-			uint8_t *o = dst + ((size_t)y * (size_t)w + (size_t)x) * 3;
-			for (int c = 0; c < 3; c++) {
-				if (c == own)
-					o[c] = f->data[(size_t)y * stride + (size_t)x];
-				else
-					o[c] = cnt[c] ? (uint8_t)((sum[c] + cnt[c] / 2) / cnt[c]) : 0;
-			}
+		uint8_t *o = dst + (size_t)y * (size_t)w * 3;
+		if (y == 0 || y == h - 1 || w < 3) {
+			for (int x = 0; x < w; x++)
+				bayer_pixel(f, stride, cell, x, y, o + (size_t)x * 3);
+			continue;
 		}
+		const uint8_t *mid = f->data + (size_t)y * stride;
+		bayer_interior_row(mid - stride, mid, mid + stride, cell, y, w, o);
+		bayer_pixel(f, stride, cell, 0, y, o);
+		bayer_pixel(f, stride, cell, w - 1, y, o + (size_t)(w - 1) * 3);
 	}
 }
 

@@ -227,6 +227,36 @@ static void test_bayer(void)
 		CHECK(convert(fmts[o], W, H, 0, raw, sizeof(raw) - 1, out, sizeof(out), &err) == -1);
 		CHECK(strstr(err.msg, "BAYER") && strstr(err.msg, "short"));
 	}
+	/* Random raw data against a plain implementation of the definition
+	 * (own colour kept, others the mean of the 3x3 neighbours of that
+	 * colour inside the image), odd sizes, every order. */
+	enum { RW = 37, RH = 29 };
+	static uint8_t rr[RW * RH], ro[RW * RH * 3];
+	unsigned long long rng = 99;
+	for (int i = 0; i < RW * RH; i++)
+		rr[i] = (uint8_t)(mc_test_rand(&rng) * 256);
+	for (int o = 0; o < 4; o++) {
+		CHECK(convert(fmts[o], RW, RH, 0, rr, sizeof(rr), ro, sizeof(ro), &err) == 0);
+		int mismatches = 0;
+		for (int y = 0; y < RH; y++)
+			for (int x = 0; x < RW; x++) {
+				int sum[3] = {0, 0, 0}, cnt[3] = {0, 0, 0};
+				for (int yy = y - 1; yy <= y + 1; yy++)
+					for (int xx = x - 1; xx <= x + 1; xx++) {
+						if (yy < 0 || xx < 0 || yy >= RH || xx >= RW)
+							continue;
+						int c = cells[o][yy & 1][xx & 1];
+						sum[c] += rr[yy * RW + xx];
+						cnt[c]++;
+					}
+				int own = cells[o][y & 1][x & 1];
+				for (int c = 0; c < 3; c++) {
+					int want = c == own ? rr[y * RW + x] : (sum[c] + cnt[c] / 2) / cnt[c];
+					mismatches += ro[(y * RW + x) * 3 + c] != want;
+				}
+			}
+		CHECK_MSG(mismatches == 0, "order %d: %d values differ from the definition", o, mismatches);
+	}
 	/* Tiny images: edges everywhere. */
 	uint8_t one = 77;
 	CHECK(convert(MOCAP_FMT_BAYER_RGGB8, 1, 1, 0, &one, 1, out, 3, &err) == 0);
