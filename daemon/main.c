@@ -40,6 +40,8 @@
 typedef struct {
 	const char *config_path;
 	const char *plugin_dir;
+	const char *socket_path;
+	const char *pose_dir;
 	int log_level; /* -1: from the config */
 	bool print;
 	bool exit_at_end;
@@ -75,9 +77,12 @@ static void usage(FILE *f)
 		"usage: mocapd [options]\n"
 		"  -c, --config PATH      config file (default " DEFAULT_CONFIG ")\n"
 		"      --plugin-dir DIR   driver plugin directory (overrides [daemon] plugin_dir)\n"
+		"      --socket PATH      client socket (overrides [socket] path)\n"
 		"  -l, --log-level LEVEL  error, warn, info or debug (overrides [daemon] log_level)\n"
 		"  -p, --print            print every tracked skeleton as a text line on stdout\n"
 		"      --exit-at-end      exit when every camera's stream has ended (files without loop)\n"
+		"      --save-poses DIR   write the tracker's actor model (DIR/actor.json) and every\n"
+		"                         tracked pose (DIR/pose_<frame>.json) for tools/mocap-render\n"
 		"      --check            check the config and the plugins, then exit\n"
 		"  -V, --version\n"
 		"  -h, --help\n"
@@ -86,10 +91,12 @@ static void usage(FILE *f)
 
 static int parse_options(int argc, char **argv, options *o)
 {
-	enum { OPT_PLUGIN_DIR = 256, OPT_EXIT_AT_END, OPT_CHECK };
+	enum { OPT_PLUGIN_DIR = 256, OPT_EXIT_AT_END, OPT_CHECK, OPT_SOCKET, OPT_SAVE_POSES };
 	static const struct option longs[] = {
 		{"config", required_argument, NULL, 'c'},
 		{"plugin-dir", required_argument, NULL, OPT_PLUGIN_DIR},
+		{"socket", required_argument, NULL, OPT_SOCKET},
+		{"save-poses", required_argument, NULL, OPT_SAVE_POSES},
 		{"log-level", required_argument, NULL, 'l'},
 		{"print", no_argument, NULL, 'p'},
 		{"exit-at-end", no_argument, NULL, OPT_EXIT_AT_END},
@@ -107,6 +114,16 @@ static int parse_options(int argc, char **argv, options *o)
 			break;
 		case OPT_PLUGIN_DIR:
 			o->plugin_dir = optarg;
+			break;
+		case OPT_SOCKET:
+			if (strlen(optarg) >= 108) {
+				fprintf(stderr, "mocapd: --socket: path too long (at most 107 bytes)\n");
+				return 2;
+			}
+			o->socket_path = optarg;
+			break;
+		case OPT_SAVE_POSES:
+			o->pose_dir = optarg;
 			break;
 		case 'l':
 			o->log_level = mcd_log_parse_level(optarg);
@@ -158,6 +175,8 @@ static mcd_config *load_config(const options *o, mc_err *err)
 	}
 	if (o->plugin_dir)
 		snprintf(cfg->plugin_dir, sizeof(cfg->plugin_dir), "%s", o->plugin_dir);
+	if (o->socket_path)
+		snprintf(cfg->socket.path, sizeof(cfg->socket.path), "%s", o->socket_path);
 	if (o->log_level >= 0)
 		cfg->log_level = o->log_level;
 	if (o->print)
@@ -251,6 +270,12 @@ static int start_tracking(daemon_ctx *d, mc_err *err)
 		free(d->tracking);
 		d->tracking = NULL;
 		return -1;
+	}
+	if (d->opt.pose_dir) {
+		char path[4200];
+		snprintf(path, sizeof(path), "%s/actor.json", d->opt.pose_dir);
+		if (mc_model_save(mc_tracker_model(d->tracking->tracker), path, err))
+			return mc_err_prefix(err, "--save-poses");
 	}
 	if (d->srv) {
 		if (mc_server_set_skeleton_def_from_model(d->srv, mc_tracker_model(d->tracking->tracker), err))
@@ -489,7 +514,7 @@ static int start(daemon_ctx *d, mc_err *err)
 	if (d->watchdog_usec)
 		mcd_notify_watchdog();
 	d->pipe = mcd_pipeline_create(d->cfg, d->tracking, d->srv, err);
-	if (!d->pipe || mcd_pipeline_start(d->pipe, err))
+	if (!d->pipe || mcd_pipeline_start(d->pipe, d->tracking ? d->opt.pose_dir : NULL, err))
 		return -1;
 	mcd_pipeline_share_rings(d->pipe);
 	return 0;

@@ -152,7 +152,7 @@ static int to_rgb(mcd_pipeline *p, int c, const mc_ring_meta *meta, int *w, int 
 
 /* Copies out and converts the frames of a group; fills views (by rig
  * camera when tracking, else by camera).  Returns how many are usable. */
-static int gather_views(mcd_pipeline *p, const mcd_group *g, mc_frame_view *views)
+static int gather_views(mcd_pipeline *p, const mcd_group *g, mc_frame_view *views, uint64_t *frame)
 {
 	int present = 0;
 	for (int c = 0; c < p->ncams; c++) {
@@ -187,7 +187,8 @@ static int gather_views(mcd_pipeline *p, const mcd_group *g, mc_frame_view *view
 		int slot = p->tracking ? p->tracking->cam_to_rig[c] : c;
 		views[slot] = (mc_frame_view){.width = w, .height = h, .stride = w * 3, .rgb = p->rgb[c],
 					      .timestamp_ns = meta.timestamp_ns};
-		present++;
+		if (!present++)
+			*frame = meta.driver_sequence;
 	}
 	return present;
 }
@@ -236,6 +237,8 @@ static void track(mcd_pipeline *p, const mc_frame_view *views, int present, mcd_
 	pthread_mutex_lock(&p->lock);
 	if (rc == 0) {
 		o->tracked = true;
+		o->ndof = mc_tracker_model(t->tracker)->ndof;
+		memcpy(o->pose, mc_tracker_pose(t->tracker), sizeof(double) * (size_t)o->ndof);
 		p->st.tracked++;
 		p->st.track_ms_total += o->sk.track_ms;
 		if (o->sk.track_ms > p->st.track_ms_max)
@@ -253,10 +256,10 @@ static void process(mcd_pipeline *p, const mcd_group *g)
 {
 	mc_frame_view views[MC_MAX_CAMERAS];
 	memset(views, 0, sizeof(views));
-	int present = gather_views(p, g, views);
 	mcd_output *o = calloc(1, sizeof(*o));
 	if (!o)
 		return;
+	int present = gather_views(p, g, views, &o->frame);
 	o->seq = ++p->seq;
 	o->timestamp_ns = g->timestamp_ns;
 	o->present = present;
@@ -407,11 +410,13 @@ mcd_pipeline *mcd_pipeline_create(const mcd_config *cfg, mcd_tracking *tracking,
 	return p;
 }
 
-int mcd_pipeline_start(mcd_pipeline *p, mc_err *err)
+int mcd_pipeline_start(mcd_pipeline *p, const char *pose_dir, mc_err *err)
 {
 	p->pub = mcd_publisher_create(p->srv, stdout, p->print, err);
 	if (!p->pub)
 		return -1;
+	if (pose_dir)
+		mcd_publisher_save_poses(p->pub, pose_dir);
 	int rc = pthread_create(&p->thread, NULL, tracking_main, p);
 	if (rc)
 		return mc_err_set(err, "cannot start the tracking thread: %s", strerror(rc));

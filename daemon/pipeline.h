@@ -56,7 +56,8 @@ typedef struct mcd_pipeline mcd_pipeline;
  * disabled) and `srv` (may be NULL) stay the caller's and must outlive the
  * pipeline. */
 mcd_pipeline *mcd_pipeline_create(const mcd_config *cfg, mcd_tracking *tracking, mc_server *srv, mc_err *err);
-int mcd_pipeline_start(mcd_pipeline *p, mc_err *err);
+/* pose_dir: also save every tracked pose there (NULL: no). */
+int mcd_pipeline_start(mcd_pipeline *p, const char *pose_dir, mc_err *err);
 /* Stops every thread; a camera thread stuck in its driver is abandoned
  * after `grace_ms` (logged) rather than waited for forever. */
 void mcd_pipeline_stop(mcd_pipeline *p, int grace_ms);

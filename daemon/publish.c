@@ -2,6 +2,7 @@
 
 #include "log.h"
 
+#include <errno.h>
 #include <pthread.h>
 #include <stdatomic.h>
 #include <stdlib.h>
@@ -23,6 +24,7 @@ struct mcd_publisher {
 	uint64_t t0_ns;
 	bool have_t0;
 	atomic_uint_fast64_t heartbeat;
+	char pose_dir[4096];    /* "" = do not save poses */
 	uint64_t server_seq;    /* publisher thread only */
 	uint64_t logged_errors; /* publisher thread only */
 };
@@ -54,9 +56,30 @@ void mcd_format_output(const mcd_output *o, uint64_t t0_ns, char *buf, size_t ca
 #undef APPEND
 }
 
-/* Returns 1 if the server refused the frame. Publisher thread only. */
-static int handle(mcd_publisher *p, const mcd_output *o, bool print)
+static void save_pose(mcd_publisher *p, const mcd_output *o, const char *dir)
 {
+	char path[4200];
+	snprintf(path, sizeof(path), "%s/pose_%05llu.json", dir, (unsigned long long)o->frame);
+	FILE *f = fopen(path, "w");
+	if (!f) {
+		if (++p->logged_errors <= 3)
+			mcd_warn("save poses: %s: %s", path, strerror(errno));
+		return;
+	}
+	fprintf(f, "{\"note\": \"frame %llu, t=%.6f s, %s\",\n \"pose\": [", (unsigned long long)o->frame,
+		(double)o->timestamp_ns / 1e9, mc_track_state_name(o->sk.state));
+	for (int k = 0; k < o->ndof; k++)
+		fprintf(f, "%s%.9g", k ? ", " : "", o->pose[k]);
+	fprintf(f, "]}\n");
+	if (fclose(f) != 0 && ++p->logged_errors <= 3)
+		mcd_warn("save poses: %s: write error", path);
+}
+
+/* Returns 1 if the server refused the frame. Publisher thread only. */
+static int handle(mcd_publisher *p, const mcd_output *o, bool print, const char *pose_dir)
+{
+	if (o->tracked && pose_dir[0])
+		save_pose(p, o, pose_dir);
 	int failed = 0;
 	if (o->tracked && p->srv) {
 		mc_err err;
@@ -104,8 +127,10 @@ static void *publish_main(void *arg)
 		p->count--;
 		p->busy = true;
 		bool print = p->print;
+		char pose_dir[sizeof(p->pose_dir)];
+		memcpy(pose_dir, p->pose_dir, sizeof(pose_dir));
 		pthread_mutex_unlock(&p->lock);
-		int failed = o ? handle(p, o, print) : 0;
+		int failed = o ? handle(p, o, print, pose_dir) : 0;
 		free(o);
 		atomic_fetch_add(&p->heartbeat, 1);
 		pthread_mutex_lock(&p->lock);
@@ -176,6 +201,13 @@ void mcd_publisher_set_print(mcd_publisher *p, bool print)
 {
 	pthread_mutex_lock(&p->lock);
 	p->print = print;
+	pthread_mutex_unlock(&p->lock);
+}
+
+void mcd_publisher_save_poses(mcd_publisher *p, const char *dir)
+{
+	pthread_mutex_lock(&p->lock);
+	snprintf(p->pose_dir, sizeof(p->pose_dir), "%s", dir ? dir : "");
 	pthread_mutex_unlock(&p->lock);
 }
 

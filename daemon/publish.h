@@ -17,9 +17,12 @@
 typedef struct {
 	uint64_t seq;          /* frame sets handled by the tracking thread */
 	uint64_t timestamp_ns; /* capture time */
+	uint64_t frame;        /* the driver's frame number (first camera present) */
 	int present, ncams;    /* cameras in the frame set */
-	bool tracked;          /* sk is valid */
+	bool tracked;          /* sk and pose are valid */
 	mc_skeleton sk;
+	int ndof;
+	double pose[MC_MAX_DOF];
 } mcd_output;
 
 typedef struct {
@@ -35,6 +38,10 @@ mcd_publisher *mcd_publisher_create(mc_server *srv, FILE *out, bool print, mc_er
 void mcd_publisher_destroy(mcd_publisher *p); /* stops the thread after draining */
 void mcd_publisher_push(mcd_publisher *p, const mcd_output *o);
 void mcd_publisher_set_print(mcd_publisher *p, bool print);
+/* Also writes every tracked pose to DIR/pose_<frame>.json ({"note", "pose"},
+ * the format tools/mocap-render reads with --pose).  Call before frames
+ * flow.  NULL stops it. */
+void mcd_publisher_save_poses(mcd_publisher *p, const char *dir);
 void mcd_publisher_stats(mcd_publisher *p, mcd_publish_stats *st);
 uint64_t mcd_publisher_heartbeat(mcd_publisher *p);
 /* True when nothing is queued or being handled. */
