@@ -317,7 +317,7 @@ void mcd_config_defaults(mcd_config *cfg)
 	cfg->socket.enabled = true;
 	snprintf(cfg->socket.path, sizeof(cfg->socket.path), "/run/mocapd/mocapd.sock");
 	cfg->socket.mode = 0660;
-	cfg->socket.max_clients = 16;
+	cfg->socket.max_clients = 64;
 }
 
 /* ---- parsing ----------------------------------------------------------- */

@@ -60,3 +60,34 @@ $(FAULTY_DIR)/bad/mocap-driver-noentry.so: tests/drivers/faulty/faulty.c drivers
 $(BUILD)/tests/test_daemon_%: tests/test_daemon_%.c $(DAEMON_LIB) $(CORE_LIB) | $(DAEMON_TEST_NEEDS) $(FAULTY_SO) $(FAULTY_BAD)
 	@mkdir -p $(@D)
 	$(CC) $(CPPFLAGS) -Idaemon $(DAEMON_CFLAGS) $(CFLAGS) -MMD -MP $< -o $@ $(LDFLAGS) $(DAEMON_LIB) $(CORE_LIB) $(CORE_LIBS) $(DAEMON_LIBS)
+
+# ---- the demo: mocapd on the bundled clip, no hardware (README's first command)
+.PHONY: demo
+demo: all
+	daemon/demo.sh $(BUILD)
+
+# ---- install: the service files and the example config (the binaries and
+# plugins are installed by the top-level rule).  Units, sysusers, tmpfiles
+# and udev rules go under $(PREFIX)/lib, which systemd and udev search for
+# /usr and /usr/local alike; the config goes to $(SYSCONFDIR)/mocapd and is
+# never overwritten.
+SYSCONFDIR ?= /etc
+MOCAPD_UNITDIR ?= $(PREFIX)/lib/systemd/system
+MOCAPD_DOCDIR ?= $(PREFIX)/share/doc/mocapd
+
+.PHONY: install-daemon
+install: install-daemon
+install-daemon:
+	install -d $(DESTDIR)$(MOCAPD_UNITDIR) $(DESTDIR)$(PREFIX)/lib/sysusers.d \
+		$(DESTDIR)$(PREFIX)/lib/tmpfiles.d $(DESTDIR)$(PREFIX)/lib/udev/rules.d \
+		$(DESTDIR)$(SYSCONFDIR)/mocapd $(DESTDIR)$(MOCAPD_DOCDIR)
+	sed -e 's|@BINDIR@|$(PREFIX)/bin|g' -e 's|@SYSCONFDIR@|$(SYSCONFDIR)|g' \
+		-e 's|@DOCDIR@|$(MOCAPD_DOCDIR)|g' systemd/mocapd.service.in > $(DESTDIR)$(MOCAPD_UNITDIR)/mocapd.service
+	chmod 644 $(DESTDIR)$(MOCAPD_UNITDIR)/mocapd.service
+	install -m 644 systemd/mocapd.socket $(DESTDIR)$(MOCAPD_UNITDIR)/mocapd.socket
+	install -m 644 systemd/mocapd.sysusers $(DESTDIR)$(PREFIX)/lib/sysusers.d/mocapd.conf
+	install -m 644 systemd/mocapd.tmpfiles $(DESTDIR)$(PREFIX)/lib/tmpfiles.d/mocapd.conf
+	install -m 644 systemd/70-mocapd.rules $(DESTDIR)$(PREFIX)/lib/udev/rules.d/70-mocapd.rules
+	install -m 644 docs/CONFIG.md docs/SYSTEMD.md $(DESTDIR)$(MOCAPD_DOCDIR)/
+	[ -e $(DESTDIR)$(SYSCONFDIR)/mocapd/mocapd.conf ] || \
+		sed -e 's|@DATADIR@|$(PREFIX)/share/mocapd|g' config/mocapd.conf > $(DESTDIR)$(SYSCONFDIR)/mocapd/mocapd.conf

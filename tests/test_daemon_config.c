@@ -267,6 +267,45 @@ static void test_load_file(void)
 	rmdir(dir);
 }
 
+/* The configs the project ships parse, and mean what they say. */
+static void test_shipped_configs(void)
+{
+	mc_err err;
+	if (access("config/demo.conf", R_OK) != 0) {
+		printf("config/demo.conf not found (not run from the repository root); shipped configs not checked\n");
+		return;
+	}
+	CHECK_MSG(mcd_config_load("config/demo.conf", &cfg, &err) == 0, "%s", err.msg);
+	CHECK(cfg.ncams == 2 && cfg.tracker.enabled);
+	CHECK(strcmp(cfg.tracker.rig, "config/rigs/ego_stereo.json") == 0);
+	CHECK(access(cfg.tracker.rig, R_OK) == 0 && access(cfg.tracker.model, R_OK) == 0);
+	CHECK(access(cfg.tracker.init_joints, R_OK) == 0);
+	const mcd_kv *kv = mcd_camera_config_find(&cfg.cams[0], "path");
+	CHECK(kv && access(kv->value, R_OK) == 0);
+
+	/* mocapd.conf as make install writes it */
+	FILE *f = fopen("config/mocapd.conf", "r");
+	CHECK(f != NULL);
+	if (!f)
+		return;
+	char text[8192];
+	size_t n = fread(text, 1, sizeof(text) - 1, f);
+	fclose(f);
+	text[n] = 0;
+	char installed[9000] = "";
+	const char *rest = text, *at;
+	while ((at = strstr(rest, "@DATADIR@"))) {
+		strncat(installed, rest, (size_t)(at - rest));
+		strcat(installed, "/usr/share/mocapd");
+		rest = at + strlen("@DATADIR@");
+	}
+	strcat(installed, rest);
+	CHECK_MSG(mcd_config_parse(installed, "mocapd.conf", "/etc/mocapd", &cfg, &err) == 0, "%s", err.msg);
+	CHECK(cfg.ncams == 2 && strcmp(cfg.cams[0].driver, "v4l2") == 0);
+	CHECK(strcmp(cfg.tracker.model, "/usr/share/mocapd/models/default.json") == 0);
+	CHECK(strcmp(cfg.socket.path, "/run/mocapd/mocapd.sock") == 0);
+}
+
 int main(void)
 {
 	test_full_config();
@@ -275,5 +314,6 @@ int main(void)
 	test_structure_errors();
 	test_cross_checks();
 	test_load_file();
+	test_shipped_configs();
 	return mc_test_finish("test_daemon_config");
 }

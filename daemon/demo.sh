@@ -1,0 +1,84 @@
+#!/bin/sh
+# The demo behind `make demo`: mocapd tracks the bundled head-mounted clip
+# (tests/data/ego_demo, two fisheye cameras, 60 frames) with the files
+# driver and OpenCL (PoCL on the CPU), no hardware.  The skeletons stream as
+# text lines: from `mocapctl watch`, a client on the daemon's socket, when
+# mocapctl is built, else from mocapd --print.  Afterwards a few frames are
+# drawn with tools/mocap-render: the tracked skeleton (red = left side,
+# blue = right, yellow = spine) and the clip's ground truth (green) over
+# both camera images.
+#
+# usage: daemon/demo.sh BUILD_DIR        (run from the repository root)
+set -u
+build=${1:-build}
+out=$build/demo
+mocapd=$build/bin/mocapd
+mocapctl=$build/bin/mocapctl
+render=$build/bin/mocap-render
+clip=tests/data/ego_demo
+sock=$out/mocapd.sock
+
+for f in "$mocapd" "$render" "$build/drivers/mocap-driver-files.so"; do
+	[ -e "$f" ] || { echo "demo: $f is not built (run make first)" >&2; exit 1; }
+done
+rm -rf "$out"
+mkdir -p "$out"
+
+echo "== mocapd on $clip (config/demo.conf); log in $out/mocapd.log"
+if [ -x "$mocapctl" ]; then print=; else print=--print; fi
+"$mocapd" --config config/demo.conf --plugin-dir "$build/drivers" --socket "$sock" \
+	--exit-at-end --save-poses "$out" $print 2>"$out/mocapd.log" &
+daemon=$!
+
+if [ -x "$mocapctl" ]; then
+	# Connect as soon as the socket is there; the daemon builds its OpenCL
+	# kernels first.
+	i=0
+	while [ ! -S "$sock" ] && kill -0 $daemon 2>/dev/null && [ $i -lt 600 ]; do
+		sleep 0.1
+		i=$((i + 1))
+	done
+	if [ -S "$sock" ]; then
+		echo "== mocapctl watch (live skeletons, joint positions in metres, rig frame)"
+		"$mocapctl" --socket "$sock" watch || true
+	fi
+fi
+wait $daemon
+rc=$?
+if [ $rc -ne 0 ]; then
+	echo "demo: mocapd failed (exit $rc):" >&2
+	tail -n 20 "$out/mocapd.log" >&2
+	exit 1
+fi
+grep -E "tracker:|status:" "$out/mocapd.log" | tail -n 4
+
+# The tracked frame closest to each of a few frame numbers.
+nearest() {
+	best=
+	bestd=1000000
+	for f in "$out"/pose_*.json; do
+		[ -e "$f" ] || continue
+		n=$(basename "$f" .json | sed 's/^pose_0*//')
+		n=${n:-0}
+		d=$((n > $1 ? n - $1 : $1 - n))
+		if [ $d -lt $bestd ]; then best=$n; bestd=$d; fi
+	done
+	echo "$best"
+}
+
+echo "== overlays (tracked skeleton in colour, ground truth in green)"
+made=0
+for want in 5 30 55; do
+	k=$(nearest $want)
+	[ -n "$k" ] || continue
+	kk=$(printf '%05d' "$k")
+	for cam in left right; do
+		"$render" --rig config/rigs/ego_stereo.json --model "$out/actor.json" \
+			--pose "$out/pose_$kk.json" --cam $cam --overlay "$clip/$cam/$kk.jpg" \
+			--gt "$clip/gt.json" --frame "$k" --out "$out/overlay_$kk" >/dev/null 2>>"$out/render.log" &&
+			made=$((made + 1))
+	done
+done
+ls "$out"/overlay_*_overlay.png 2>/dev/null
+[ $made -gt 0 ] || { echo "demo: no overlay was written (no pose tracked?)" >&2; exit 1; }
+echo "== done: $made overlay images in $out"
