@@ -39,12 +39,13 @@ struct mc_cl_energy {
 	size_t wg;         /* work-group size */
 	size_t max_groups; /* work-groups per launch at most */
 
-	cl_mem rays, image, origins, firsts, gauss, pixels, partial;
-	size_t pixel_cap; /* capacity of `pixels`, entries */
-
-	/* host staging: the Gaussian records (layout in color_energy.cl) */
-	cl_float4 gauss_host[GAUSS_FLOAT4S];
-	cl_uint *pixel_host;
+	cl_mem rays, image, origins, firsts, partial;
+	/* Per evaluation, one upload: the Gaussian records (layout in
+	 * color_energy.cl), then the ray indices of the sampled pixels. */
+	cl_mem input;
+	size_t pixel_cap;     /* room for pixels in `input` and input_host */
+	cl_float4 *input_host; /* GAUSS_FLOAT4S records, then pixel_cap indices */
+	cl_uint *pixel_host;  /* = (cl_uint *)(input_host + GAUSS_FLOAT4S) */
 	cl_float4 *image_host; /* one camera */
 	float *partial_host;
 };
@@ -78,6 +79,9 @@ static const char *cl_error_name(cl_int rc)
 	default: return "OpenCL error";
 	}
 }
+
+static int grow_input(mc_cl_energy *e, size_t need, mc_err *err);
+static int set_fixed_args(mc_cl_energy *e, mc_err *err);
 
 static int cl_fail(mc_err *err, const char *what, cl_int rc)
 {
@@ -322,9 +326,6 @@ static int create_buffers(mc_cl_energy *e, mc_err *err)
 	e->image = clCreateBuffer(e->ctx, CL_MEM_READ_ONLY, sizeof(cl_float4) * (size_t)e->total, NULL, &rc);
 	if (rc != CL_SUCCESS)
 		return cl_fail(err, "clCreateBuffer(image)", rc);
-	e->gauss = clCreateBuffer(e->ctx, CL_MEM_READ_ONLY, sizeof(e->gauss_host), NULL, &rc);
-	if (rc != CL_SUCCESS)
-		return cl_fail(err, "clCreateBuffer(gauss)", rc);
 	e->partial = clCreateBuffer(e->ctx, CL_MEM_WRITE_ONLY, sizeof(float) * ROW_MAX * e->max_groups, NULL, &rc);
 	if (rc != CL_SUCCESS)
 		return cl_fail(err, "clCreateBuffer(partial)", rc);
@@ -407,7 +408,8 @@ mc_cl_energy *mc_cl_energy_create(int platform, int device, const mc_raytable *t
 			if (tables[c].valid[i])
 				e->valid[c][e->nvalid[c]++] = i;
 	}
-	if (upload_rays(e, tables, err) != 0 || create_buffers(e, err) != 0)
+	if (upload_rays(e, tables, err) != 0 || create_buffers(e, err) != 0 || set_fixed_args(e, err) != 0 ||
+	    grow_input(e, 4096, err) != 0)
 		goto fail;
 	return e;
 fail:
@@ -425,7 +427,7 @@ void mc_cl_energy_destroy(mc_cl_energy *e)
 {
 	if (!e)
 		return;
-	cl_mem *mems[] = {&e->rays, &e->image, &e->origins, &e->firsts, &e->gauss, &e->pixels, &e->partial};
+	cl_mem *mems[] = {&e->rays, &e->image, &e->origins, &e->firsts, &e->input, &e->partial};
 	for (size_t i = 0; i < sizeof(mems) / sizeof(mems[0]); i++)
 		if (*mems[i])
 			clReleaseMemObject(*mems[i]);
@@ -439,7 +441,7 @@ void mc_cl_energy_destroy(mc_cl_energy *e)
 		clReleaseContext(e->ctx);
 	for (int c = 0; c < MC_MAX_CAMERAS; c++)
 		free(e->valid[c]);
-	free(e->pixel_host);
+	free(e->input_host);
 	free(e->image_host);
 	free(e->partial_host);
 	free(e);
@@ -479,7 +481,7 @@ static int pack_scene(mc_cl_energy *e, const mc_scene *scene, mc_err *err)
 	if (scene->n < 0 || scene->n > MC_MAX_GAUSSIANS)
 		return mc_err_set(err, "mc_cl_energy_eval: scene: %d Gaussians, at most %d", scene->n, MC_MAX_GAUSSIANS);
 	/* Lanes past the last Gaussian never pass the culling test. */
-	float *soa = (float *)&e->gauss_host[4 * MC_MAX_GAUSSIANS];
+	float *soa = (float *)&e->input_host[4 * MC_MAX_GAUSSIANS];
 	for (int q = scene->n; q < MC_MAX_GAUSSIANS; q++) {
 		soa[q] = soa[MC_MAX_GAUSSIANS + q] = soa[2 * MC_MAX_GAUSSIANS + q] = 0;
 		soa[3 * MC_MAX_GAUSSIANS + q] = -1;
@@ -503,17 +505,43 @@ static int pack_scene(mc_cl_energy *e, const mc_scene *scene, mc_err *err)
 		 * as w_g = 0.5 where m_s = 0. */
 		double ws = sqrt(m[1]), wd = fmax(0, 0.5 - m[2]), wg = fmax(0, 0.5 - m[1]);
 		double z = ws + wd + wg;
-		float *soa = (float *)&e->gauss_host[4 * MC_MAX_GAUSSIANS];
+		float *soa = (float *)&e->input_host[4 * MC_MAX_GAUSSIANS];
 		soa[q] = (float)scene->mu[q].x;
 		soa[MC_MAX_GAUSSIANS + q] = (float)scene->mu[q].y;
 		soa[2 * MC_MAX_GAUSSIANS + q] = (float)scene->mu[q].z;
 		soa[3 * MC_MAX_GAUSSIANS + q] = (float)r2max;
-		cl_float4 *g = &e->gauss_host[4 * q];
+		cl_float4 *g = &e->input_host[4 * q];
 		*g++ = (cl_float4){{(float)scene->mu[q].x, (float)scene->mu[q].y, (float)scene->mu[q].z, (float)s}};
 		*g++ = (cl_float4){{(float)c, (float)r2max, 0, 0}};
 		*g++ = (cl_float4){{(float)m[0], (float)m[1], (float)m[2], (float)(ws / z)}};
 		*g = (cl_float4){{(float)(wd / z), (float)(wg / z), 0, 0}};
 	}
+	return 0;
+}
+
+/* Makes room for `need` pixels in the upload buffer and its host copy. */
+static int grow_input(mc_cl_energy *e, size_t need, mc_err *err)
+{
+	size_t cap = need + need / 2 + 256;
+	size_t bytes = sizeof(cl_float4) * GAUSS_FLOAT4S + sizeof(cl_uint) * cap;
+	cl_float4 *host = realloc(e->input_host, bytes);
+	if (!host)
+		return mc_err_set(err, "mc_cl_energy_eval: out of memory");
+	e->input_host = host;
+	e->pixel_host = (cl_uint *)(host + GAUSS_FLOAT4S);
+	if (e->input)
+		clReleaseMemObject(e->input);
+	cl_int rc;
+	e->input = clCreateBuffer(e->ctx, CL_MEM_READ_ONLY, bytes, NULL, &rc);
+	if (rc != CL_SUCCESS) {
+		e->input = NULL;
+		e->pixel_cap = 0;
+		return cl_fail(err, "clCreateBuffer(input)", rc);
+	}
+	e->pixel_cap = cap;
+	rc = clSetKernelArg(e->kernel, 4, sizeof(cl_mem), &e->input);
+	if (rc != CL_SUCCESS)
+		return cl_fail(err, "clSetKernelArg(input)", rc);
 	return 0;
 }
 
@@ -530,23 +558,8 @@ static int gather_pixels(mc_cl_energy *e, const int *const *pixels, const int *n
 			return mc_err_set(err, "mc_cl_energy_eval: camera %d: npixels missing or negative", c);
 		need += (size_t)n;
 	}
-	if (need > e->pixel_cap) {
-		size_t cap = need + need / 2 + 256;
-		cl_uint *host = realloc(e->pixel_host, sizeof(cl_uint) * cap);
-		if (!host)
-			return mc_err_set(err, "mc_cl_energy_eval: out of memory");
-		e->pixel_host = host;
-		if (e->pixels)
-			clReleaseMemObject(e->pixels);
-		cl_int rc;
-		e->pixels = clCreateBuffer(e->ctx, CL_MEM_READ_ONLY, sizeof(cl_uint) * cap, NULL, &rc);
-		if (rc != CL_SUCCESS) {
-			e->pixels = NULL;
-			e->pixel_cap = 0;
-			return cl_fail(err, "clCreateBuffer(pixels)", rc);
-		}
-		e->pixel_cap = cap;
-	}
+	if (need > e->pixel_cap && grow_input(e, need, err) != 0)
+		return -1;
 	size_t k = 0;
 	for (int c = 0; c < e->ncams; c++) {
 		if (!e->has_image[c])
@@ -565,37 +578,42 @@ static int gather_pixels(mc_cl_energy *e, const int *const *pixels, const int *n
 	return 0;
 }
 
+/* Kernel arguments that stay for the backend's life. */
+static int set_fixed_args(mc_cl_energy *e, mc_err *err)
+{
+	cl_kernel k = e->kernel;
+	cl_int rc = clSetKernelArg(k, 0, sizeof(cl_mem), &e->rays);
+	rc |= clSetKernelArg(k, 1, sizeof(cl_mem), &e->image);
+	rc |= clSetKernelArg(k, 2, sizeof(cl_mem), &e->origins);
+	rc |= clSetKernelArg(k, 3, sizeof(cl_mem), &e->firsts);
+	rc |= clSetKernelArg(k, 10, sizeof(cl_mem), &e->partial);
+	if (rc != CL_SUCCESS)
+		return mc_err_set(err, "OpenCL: clSetKernelArg(color_energy) failed");
+	return 0;
+}
+
+/* One evaluation on the device: upload, run, read back the work-group
+ * rows.  Three commands, one wait. */
 static int launch(mc_cl_energy *e, int ngauss, size_t npix, uint32_t seed, uint32_t thr24, size_t *ngroups,
 		  mc_err *err)
 {
 	size_t groups = (npix + e->wg - 1) / e->wg;
 	if (groups > e->max_groups)
 		groups = e->max_groups;
-	cl_int rc = clEnqueueWriteBuffer(e->queue, e->gauss, CL_FALSE, 0, sizeof(e->gauss_host), e->gauss_host, 0,
-					 NULL, NULL);
+	size_t bytes = sizeof(cl_float4) * GAUSS_FLOAT4S + sizeof(cl_uint) * npix;
+	cl_int rc = clEnqueueWriteBuffer(e->queue, e->input, CL_FALSE, 0, bytes, e->input_host, 0, NULL, NULL);
 	if (rc != CL_SUCCESS)
-		return cl_fail(err, "clEnqueueWriteBuffer(gauss)", rc);
-	rc = clEnqueueWriteBuffer(e->queue, e->pixels, CL_FALSE, 0, sizeof(cl_uint) * npix, e->pixel_host, 0, NULL,
-				  NULL);
-	if (rc != CL_SUCCESS)
-		return cl_fail(err, "clEnqueueWriteBuffer(pixels)", rc);
+		return cl_fail(err, "clEnqueueWriteBuffer(input)", rc);
 
 	cl_int ng = ngauss, np = (cl_int)npix;
 	cl_uint sd = seed, thr = thr24;
 	size_t row = sizeof(float) * (4 * (size_t)ngauss + 1);
 	cl_kernel k = e->kernel;
-	rc = clSetKernelArg(k, 0, sizeof(cl_mem), &e->rays);
-	rc |= clSetKernelArg(k, 1, sizeof(cl_mem), &e->image);
-	rc |= clSetKernelArg(k, 2, sizeof(cl_mem), &e->origins);
-	rc |= clSetKernelArg(k, 3, sizeof(cl_mem), &e->firsts);
-	rc |= clSetKernelArg(k, 4, sizeof(cl_mem), &e->gauss);
-	rc |= clSetKernelArg(k, 5, sizeof(cl_int), &ng);
-	rc |= clSetKernelArg(k, 6, sizeof(cl_mem), &e->pixels);
-	rc |= clSetKernelArg(k, 7, sizeof(cl_int), &np);
-	rc |= clSetKernelArg(k, 8, sizeof(cl_uint), &sd);
-	rc |= clSetKernelArg(k, 9, sizeof(cl_uint), &thr);
-	rc |= clSetKernelArg(k, 10, row * e->wg, NULL);
-	rc |= clSetKernelArg(k, 11, sizeof(cl_mem), &e->partial);
+	rc = clSetKernelArg(k, 5, sizeof(cl_int), &ng);
+	rc |= clSetKernelArg(k, 6, sizeof(cl_int), &np);
+	rc |= clSetKernelArg(k, 7, sizeof(cl_uint), &sd);
+	rc |= clSetKernelArg(k, 8, sizeof(cl_uint), &thr);
+	rc |= clSetKernelArg(k, 9, row * e->wg, NULL);
 	if (rc != CL_SUCCESS)
 		return mc_err_set(err, "OpenCL: clSetKernelArg(color_energy) failed");
 	size_t global = groups * e->wg;

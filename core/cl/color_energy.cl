@@ -232,33 +232,36 @@ float mc_pixel(global const float4 *gauss, int ngauss, float3 o, float3 n, float
 	}
 	const float base = hsum(basev);
 
-	/* The samples s = mu'_q + k sigma_q, k = -4..0, of every ray Gaussian q
-	 * that contributes (d_q != 0; the others only occlude), padded to a
-	 * multiple of VW with samples of no weight. */
+	/* The samples s = mu'_q + k sigma_q, k = -4..0, of every ray Gaussian
+	 * q, k-major: sample (k, q) at (k + 4) na + q, padded to a multiple of
+	 * VW with samples of no weight.  Ray Gaussians with d_q = 0 get weight 0
+	 * (they contribute nothing but still occlude). */
+	for (int p = na; p < nv * VW; p++) {
+		sg[p] = 1.0f;
+		d[p] = 0.0f;
+	}
 	float s_s[SMAX];   /* depth s */
 	float s_x[SMAX];   /* s / lambda + 1/2 (near-camera rule) */
 	float s_l[SMAX];   /* lambda = sigma_q */
 	float s_il[SMAX];  /* 1 / lambda */
 	float s_pre[SMAX]; /* d_q sigma_q c'_q exp(-k^2/2) */
 	float s_k[SMAX];
-	int s_q[SMAX];     /* the ray Gaussian it belongs to */
-	int ns = 0;
-	for (int q = 0; q < na; q++) {
-		if (d[q] == 0.0f)
-			continue;
-		float il = 1.0f / sg[q], pre = d[q] * sg[q] * c[q];
-		for (int k = -4; k <= 0; k++, ns++) {
-			s_s[ns] = m[q] + k * sg[q];
-			s_x[ns] = m[q] * il + (k + 0.5f);
-			s_l[ns] = sg[q];
-			s_il[ns] = il;
-			s_pre[ns] = pre * exp(-0.5f * k * k);
-			s_k[ns] = k;
-			s_q[ns] = q;
+	for (int ki = 0; ki < MC_VIS_SAMPLES; ki++) {
+		const float k = ki - 4, wk = exp(-0.5f * k * k);
+		/* Block ki; each block's last vector spills into the next block,
+		 * which is written after it. */
+		const int off = ki * na;
+		for (int v = 0; v < nv; v++) {
+			floatv mv = VLOAD(v, m), sv = VLOAD(v, sg), il = 1.0f / sv;
+			VSTORE(mv + k * sv, v, s_s + off);
+			VSTORE(mv * il + (k + 0.5f), v, s_x + off);
+			VSTORE(sv, v, s_l + off);
+			VSTORE(il, v, s_il + off);
+			VSTORE(VLOAD(v, d) * sv * VLOAD(v, c) * wk, v, s_pre + off);
+			VSTORE((floatv)k, v, s_k + off);
 		}
 	}
-	if (ns == 0)
-		return 0.0f;
+	const int ns = MC_VIS_SAMPLES * na;
 	const int nsv = (ns + VW - 1) / VW;
 	for (int j = ns; j < nsv * VW; j++) {
 		s_s[j] = s_x[j] = s_pre[j] = s_k[j] = 0.0f;
@@ -304,12 +307,12 @@ float mc_pixel(global const float4 *gauss, int ngauss, float3 o, float3 n, float
 	float gm[MAXG], gs[MAXG], gW[MAXG];
 	for (int p = 0; p < na; p++)
 		gm[p] = gs[p] = gW[p] = 0.0f;
-	for (int j = 0; j < ns; j++) {
-		int q = s_q[j];
-		gW[q] += o_W[j];
-		gm[q] += o_gm[j];
-		gs[q] += o_gs[j];
-	}
+	for (int ki = 0; ki < MC_VIS_SAMPLES; ki++)
+		for (int p = 0; p < na; p++) {
+			gW[p] += o_W[ki * na + p];
+			gm[p] += o_gm[ki * na + p];
+			gs[p] += o_gs[ki * na + p];
+		}
 
 	/* Backward through T = exp(-tau) to every ray Gaussian p:
 	 * dtau/dmu'_p = c'_p (e0_p - e_p), dtau/dc'_p = sqrt(pi/2) sigma_p
@@ -359,15 +362,15 @@ float mc_pixel(global const float4 *gauss, int ngauss, float3 o, float3 n, float
  *       xyz (rig frame), w = camera index, or w < 0 for an invalid pixel;
  * image: HSV of every such pixel (w unused);
  * cam_origin / cam_first: per camera, centre (rig frame) and first ray index;
- * pixels: the sampled ray indices;
+ * input: the Gaussian records (5 MAXG float4, layout above), then the
+ *        npixels ray indices of the sampled pixels;
  * thr24: a Gaussian is dropped when its 24-bit hash < thr24 (0: never);
  * acc: local scratch, get_local_size(0) rows of 4 ngauss + 1 floats;
  * partial: per work-group, 4 ngauss gradient sums (dmu xyz, dsigma per
  *          Gaussian) and the energy last. */
 kernel void color_energy(global const float4 *rays, global const float4 *image,
 			 constant float4 *cam_origin, constant uint *cam_first,
-			 global const float4 *gauss, int ngauss,
-			 global const uint *pixels, int npixels, uint seed, uint thr24,
+			 global const float4 *input, int ngauss, int npixels, uint seed, uint thr24,
 			 local float *acc, global float *partial)
 {
 	const int stride = 4 * ngauss + 1;
@@ -377,6 +380,8 @@ kernel void color_energy(global const float4 *rays, global const float4 *image,
 	for (int i = 0; i < stride; i++)
 		row[i] = 0.0f;
 
+	global const float4 *gauss = input;
+	global const uint *pixels = (global const uint *)(input + 5 * MAXG);
 	const uint seed_mix = mc_lowbias32(seed);
 	float energy = 0.0f;
 	for (int i = get_global_id(0); i < npixels; i += get_global_size(0)) {
