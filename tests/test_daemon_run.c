@@ -124,6 +124,41 @@ static void test_sigterm(void)
 	mcd_run_cleanup(&r);
 }
 
+/* mocapctl, where built, sees the daemon's status and reloads it. */
+static void test_mocapctl(void)
+{
+	char ctl[PATH_MAX + 32];
+	snprintf(ctl, sizeof(ctl), "%s/bin/mocapctl", mcd_build_dir);
+	if (access(ctl, X_OK) != 0) {
+		printf("mocapctl is not built; client checks skipped\n");
+		return;
+	}
+	mcd_run r;
+	CHECK(mcd_run_init(&r));
+	mcd_run_config(&r, BASE TWO_CAMS);
+	CHECK(mcd_run_start(&r, NULL, NULL));
+	CHECK(mcd_run_wait_notify(&r, "READY=1", 10000));
+	CHECK(mcd_run_wait_notify(&r, "b: streaming", 5000));
+	mcd_sleep_ms(1200); /* a status snapshot with rates */
+	char cmd[8400], out[4096] = "";
+	snprintf(cmd, sizeof(cmd), "%s --socket %s status 2>&1", ctl, r.sock);
+	FILE *p = popen(cmd, "r");
+	size_t n = p ? fread(out, 1, sizeof(out) - 1, p) : 0;
+	out[n] = 0;
+	int rc = p ? pclose(p) : -1;
+	CHECK_MSG(rc == 0, "mocapctl status: %d\n%s", rc, out);
+	CHECK_MSG(strstr(out, "cameras:    2") && strstr(out, "64x48"), "%s", out);
+	snprintf(cmd, sizeof(cmd), "%s --socket %s reload >/dev/null 2>&1", ctl, r.sock);
+	CHECK(system(cmd) == 0);
+	CHECK(mcd_run_wait_log(&r, "reload requested by pid", 3000));
+	CHECK(mcd_run_wait_log(&r, "applied", 3000));
+	mcd_run_signal(&r, SIGTERM);
+	CHECK(mcd_run_wait_exit(&r, 10000) == 0);
+	if (mc_test_failures)
+		mcd_run_dump(&r, "mocapctl");
+	mcd_run_cleanup(&r);
+}
+
 static void test_sigkill_restart(void)
 {
 	mcd_run r;
@@ -235,6 +270,7 @@ int main(void)
 	test_sigterm();
 	test_sigkill_restart();
 	test_sighup();
+	test_mocapctl();
 	test_socket_activation();
 	return mc_test_finish("test_daemon_run");
 }
