@@ -233,8 +233,14 @@ static void *drv_open(const mocap_host *host, char *err, size_t errlen)
 	int st = try_attach(u, err, errlen);
 	if (st != MOCAP_OK && st != MOCAP_ERR_NODEV)
 		goto fail; /* there, but its format or controls are wrong */
-	if (!u->cam)
+	if (!u->cam) {
+		/* The ctrl.NAME keys are read when the camera's controls are
+		 * known, i.e. once it is here.  This asks a host that checks
+		 * for unread keys to count every ctrl.* key as read (a host
+		 * without that convention answers NULL; see docs/DRIVERS.md). */
+		drv_cfg_str(host, "ctrl.*");
 		drv_logf(host, MOCAP_LOG_INFO, DRV ": waiting for %s to be plugged in", u->what);
+	}
 	return u;
 fail:
 	drv_close(u);
