@@ -42,6 +42,14 @@
 #define READ_BURST 32             /* messages read from one client per wake-up, for fairness */
 #define MAX_PEER_GROUPS 256
 
+/* Copies a C string into a fixed buffer, truncating. */
+static void str_copy(char *dst, size_t size, const char *src)
+{
+	size_t n = strnlen(src, size - 1);
+	memmove(dst, src, n);
+	dst[n] = 0;
+}
+
 static uint64_t now_ns(void)
 {
 	struct timespec ts;
@@ -196,7 +204,7 @@ struct mc_server {
 void mc_server_config_default(mc_server_config *cfg)
 {
 	memset(cfg, 0, sizeof(*cfg));
-	snprintf(cfg->path, sizeof(cfg->path), "%s", MC_SERVER_DEFAULT_PATH);
+	str_copy(cfg->path, sizeof(cfg->path), MC_SERVER_DEFAULT_PATH);
 	cfg->listen_fd = -1;
 	cfg->max_clients = 64;
 	cfg->queue_len = 256;
@@ -225,7 +233,7 @@ static int remove_stale_socket(const char *path, mc_err *err)
 	if (probe < 0)
 		return mc_err_set(err, "socket: %s", strerror(errno));
 	struct sockaddr_un a = {.sun_family = AF_UNIX};
-	snprintf(a.sun_path, sizeof(a.sun_path), "%s", path);
+	str_copy(a.sun_path, sizeof(a.sun_path), path);
 	int rc = connect(probe, (struct sockaddr *)&a, sizeof(a));
 	int e = errno;
 	close(probe);
@@ -534,7 +542,7 @@ static void refuse_connection(mc_server *srv, int fd, const char *why)
 	m->h.type = MC_MSG_ERROR;
 	m->u.error.code = MC_PROTO_E_TOO_MANY_CLIENTS;
 	m->u.error.fatal = 1;
-	snprintf(m->u.error.message, sizeof(m->u.error.message), "%s", why);
+	str_copy(m->u.error.message, sizeof(m->u.error.message), why);
 	size_t n = mc_proto_encode(m, srv->txbuf, sizeof(srv->txbuf));
 	if (n)
 		send(fd, srv->txbuf, n, MSG_DONTWAIT | MSG_NOSIGNAL);
@@ -820,7 +828,7 @@ static void install_definition(mc_server *srv, const mc_server_skeleton_def *d, 
 		s->joints[j].offset[0] = d->rest_offset[j].x;
 		s->joints[j].offset[1] = d->rest_offset[j].y;
 		s->joints[j].offset[2] = d->rest_offset[j].z;
-		snprintf(s->joints[j].name, sizeof(s->joints[j].name), "%s", d->name[j]);
+		str_copy(s->joints[j].name, sizeof(s->joints[j].name), d->name[j]);
 	}
 	blob *b = encode_blob(srv, m, false);
 	if (!b)
@@ -871,7 +879,7 @@ static void drain_mailbox(mc_server *srv)
 static void handle_hello(mc_server *srv, client *c, const mc_proto_msg *m)
 {
 	const mc_msg_hello *h = &m->u.hello;
-	snprintf(c->name, sizeof(c->name), "%s", h->client_name);
+	str_copy(c->name, sizeof(c->name), h->client_name);
 	if (h->min_version > MC_PROTO_VERSION || h->max_version < MC_PROTO_VERSION) {
 		reply_error(srv, c, m->h.request_id, m->h.type, MC_PROTO_E_VERSION, true,
 			    "protocol version mismatch: the client speaks versions %u..%u, this mocapd speaks %d..%d; "
@@ -893,7 +901,7 @@ static void handle_hello(mc_server *srv, client *c, const mc_proto_msg *m)
 	o->u.welcome.max_message = MC_PROTO_MAX_MESSAGE;
 	o->u.welcome.server_pid = (uint32_t)getpid();
 	o->u.welcome.server_time_ns = now_ns();
-	snprintf(o->u.welcome.daemon_version, sizeof(o->u.welcome.daemon_version), "%s", srv->cfg.daemon_version);
+	str_copy(o->u.welcome.daemon_version, sizeof(o->u.welcome.daemon_version), srv->cfg.daemon_version);
 	blob *b = encode_blob(srv, o, false);
 	client_send(srv, c, b);
 	blob_unref(b);
@@ -953,7 +961,7 @@ static void handle_get_status(mc_server *srv, client *c, const mc_proto_msg *m)
 	s->tracker_state = (uint8_t)st->tracker_state;
 	s->recording = st->recording;
 	s->nclients = (uint32_t)srv->stats.clients;
-	snprintf(s->device, sizeof(s->device), "%s", st->device);
+	str_copy(s->device, sizeof(s->device), st->device);
 	int ncams = st->ncams < 0 ? 0 : st->ncams > MC_SERVER_STATUS_MAX_CAMS ? MC_SERVER_STATUS_MAX_CAMS : st->ncams;
 	s->ncams = (uint16_t)ncams;
 	for (int i = 0; i < ncams; i++) {
@@ -964,7 +972,7 @@ static void handle_get_status(mc_server *srv, client *c, const mc_proto_msg *m)
 		s->cams[i].state = (uint32_t)cs->state;
 		s->cams[i].width = (uint32_t)(cs->width > 0 ? cs->width : 0);
 		s->cams[i].height = (uint32_t)(cs->height > 0 ? cs->height : 0);
-		snprintf(s->cams[i].name, sizeof(s->cams[i].name), "%s", cs->name);
+		str_copy(s->cams[i].name, sizeof(s->cams[i].name), cs->name);
 	}
 	pthread_mutex_unlock(&srv->lock);
 	s->server_time_ns = now_ns();
@@ -1046,7 +1054,7 @@ static void handle_control(mc_server *srv, client *c, const mc_proto_msg *m)
 		e->request_id = m->h.request_id;
 		e->req.token = e->token;
 		e->req.command = (mc_control_command)ctl->command;
-		snprintf(e->req.argument, sizeof(e->req.argument), "%s", ctl->argument);
+		str_copy(e->req.argument, sizeof(e->req.argument), ctl->argument);
 		e->req.pid = c->pid;
 		e->req.uid = c->uid;
 		e->req.gid = c->gid;
@@ -1079,7 +1087,7 @@ static void handle_get_rings(mc_server *srv, client *c, const mc_proto_msg *m)
 			continue;
 		fds[n] = d;
 		o->u.rings.rings[n].size = srv->rings[i].size;
-		snprintf(o->u.rings.rings[n].name, sizeof(o->u.rings.rings[n].name), "%s", srv->rings[i].name);
+		str_copy(o->u.rings.rings[n].name, sizeof(o->u.rings.rings[n].name), srv->rings[i].name);
 		n++;
 	}
 	pthread_mutex_unlock(&srv->lock);
@@ -1295,7 +1303,11 @@ static void client_readable(mc_server *srv, client *c)
 			protocol_error(srv, c, 0, 0, why);
 			return;
 		}
-		handle_message(srv, c, (size_t)n);
+		/* What the daemon did before this message was sent must be
+		 * visible to it (e.g. a definition set just before). */
+		drain_mailbox(srv);
+		if (!c->dead)
+			handle_message(srv, c, (size_t)n);
 	}
 }
 
@@ -1334,7 +1346,7 @@ static void deliver_control_results(mc_server *srv)
 		o->h.request_id = rid[i];
 		o->u.control_result.command = cmd[i];
 		o->u.control_result.result = res[i].result;
-		snprintf(o->u.control_result.message, sizeof(o->u.control_result.message), "%s", res[i].message);
+		str_copy(o->u.control_result.message, sizeof(o->u.control_result.message), res[i].message);
 		blob *b = encode_blob(srv, o, false);
 		client_send(srv, c, b);
 		blob_unref(b);
@@ -1524,7 +1536,7 @@ int mc_server_set_skeleton_def_from_model(mc_server *srv, const mc_model *model,
 	d->njoints = model->njoints;
 	d->rig_is_world = model->root_free;
 	for (int j = 0; j < model->njoints && j < MC_MAX_JOINTS; j++) {
-		snprintf(d->name[j], sizeof(d->name[j]), "%s", model->joints[j].name);
+		str_copy(d->name[j], sizeof(d->name[j]), model->joints[j].name);
 		d->parent[j] = model->joints[j].parent;
 		double s = model->bone_scale[j] > 0 ? model->bone_scale[j] : 1.0;
 		d->rest_offset[j] = mc_v3_scale(model->joints[j].offset, s);
@@ -1649,7 +1661,7 @@ void mc_server_control_done(mc_server *srv, uint64_t token, int result, const ch
 		control_result *r = &srv->results[srv->nresults++];
 		r->token = token;
 		r->result = result;
-		snprintf(r->message, sizeof(r->message), "%s", message ? message : "");
+		str_copy(r->message, sizeof(r->message), message ? message : "");
 	}
 	pthread_mutex_unlock(&srv->lock);
 	wake(srv);
@@ -1697,7 +1709,7 @@ int mc_server_add_ring(mc_server *srv, const char *camera_name, int fd, uint64_t
 		ring_entry *r = &srv->rings[srv->nrings++];
 		r->fd = ro;
 		r->size = size;
-		snprintf(r->name, sizeof(r->name), "%s", camera_name);
+		str_copy(r->name, sizeof(r->name), camera_name);
 	}
 	pthread_mutex_unlock(&srv->lock);
 	if (idx >= MC_SERVER_MAX_RINGS) {

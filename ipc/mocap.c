@@ -35,8 +35,8 @@
 #define MAX_RX_FDS 16
 #define FOREVER UINT64_MAX
 
-/* A frame as queued: the mocap_frame header and njoints joints. */
-#define FRAME_BYTES(n) (offsetof(mocap_frame, joints) + (size_t)(n) * sizeof(mocap_joint))
+/* A frame as queued: the mocap_skeleton_frame header and njoints joints. */
+#define FRAME_BYTES(n) (offsetof(mocap_skeleton_frame, joints) + (size_t)(n) * sizeof(mocap_joint))
 
 typedef struct {
 	bool used, done;
@@ -60,11 +60,11 @@ struct mocap_client {
 	int dead;             /* 0, or the error every call now returns */
 	char dead_msg[MC_PROTO_TEXT_MAX + 128];
 	int mode;
-	mocap_frame **fq;     /* ring of FRAME_QUEUE_MAX partial frames */
+	mocap_skeleton_frame **fq;     /* ring of FRAME_QUEUE_MAX partial frames */
 	int fq_head, fq_n;
 	uint64_t pending_missed;
 	bool ev_set;
-	mocap_skeleton *skel; /* newest definition pushed by the daemon */
+	mocap_skeleton_def *skel; /* newest definition pushed by the daemon */
 	waiter waiters[MAX_WAITERS];
 	int async_code;       /* refusal of a keypoint batch or head pose */
 	char async_msg[MC_PROTO_TEXT_MAX + 1];
@@ -171,7 +171,10 @@ const char *mocap_default_socket(void)
 
 /* --- The frame queue and the pollable event --- */
 
-/* Keeps the eventfd readable exactly while a frame or an error waits. */
+/* Makes the eventfd readable exactly while a frame or an error waits.
+ * Called (lock held) when a public function returns to the application,
+ * not on every queue change: a frame that is received and handed out in
+ * the same call then costs no eventfd system calls. */
 static void update_event(mocap_client *c)
 {
 	bool want = c->fq_n > 0 || c->dead;
@@ -190,10 +193,9 @@ static void fq_clear(mocap_client *c)
 		c->fq_head = (c->fq_head + 1) % FRAME_QUEUE_MAX;
 		c->fq_n--;
 	}
-	update_event(c);
 }
 
-static void fq_push(mocap_client *c, mocap_frame *f)
+static void fq_push(mocap_client *c, mocap_skeleton_frame *f)
 {
 	if (c->mode == MOCAP_LATEST)
 		fq_clear(c); /* only the newest counts */
@@ -207,7 +209,6 @@ static void fq_push(mocap_client *c, mocap_frame *f)
 	c->pending_missed = 0;
 	c->fq[(c->fq_head + c->fq_n) % FRAME_QUEUE_MAX] = f;
 	c->fq_n++;
-	update_event(c);
 }
 
 static void set_dead(mocap_client *c, int code, const char *fmt, ...) __attribute__((format(printf, 3, 4)));
@@ -220,7 +221,6 @@ static void set_dead(mocap_client *c, int code, const char *fmt, ...)
 	va_start(ap, fmt);
 	vsnprintf(c->dead_msg, sizeof(c->dead_msg), fmt, ap);
 	va_end(ap);
-	update_event(c);
 }
 
 /* --- Receiving --- */
@@ -239,9 +239,9 @@ static void close_fds(const int *fds, int n)
 		close(fds[i]);
 }
 
-static mocap_frame *convert_frame(const mc_msg_frame *m, uint64_t receive_ns)
+static mocap_skeleton_frame *convert_frame(const mc_msg_frame *m, uint64_t receive_ns)
 {
-	mocap_frame *f = malloc(FRAME_BYTES(m->njoints));
+	mocap_skeleton_frame *f = malloc(FRAME_BYTES(m->njoints));
 	if (!f)
 		return NULL;
 	f->seq = m->seq;
@@ -261,9 +261,9 @@ static mocap_frame *convert_frame(const mc_msg_frame *m, uint64_t receive_ns)
 	return f;
 }
 
-static mocap_skeleton *convert_skeleton(const mc_msg_skeleton *m)
+static mocap_skeleton_def *convert_skeleton(const mc_msg_skeleton *m)
 {
-	mocap_skeleton *s = calloc(1, sizeof(*s));
+	mocap_skeleton_def *s = calloc(1, sizeof(*s));
 	if (!s)
 		return NULL;
 	s->id = m->skeleton_id;
@@ -278,7 +278,7 @@ static mocap_skeleton *convert_skeleton(const mc_msg_skeleton *m)
 }
 
 /* Files one decoded message (lock held).  Takes ownership of fds. */
-static void dispatch(mocap_client *c, const mc_proto_msg *m, size_t len, mocap_frame *frame, mocap_skeleton *skel,
+static void dispatch(mocap_client *c, const mc_proto_msg *m, size_t len, mocap_skeleton_frame *frame, mocap_skeleton_def *skel,
 		     int *fds, int nfds)
 {
 	uint16_t t = m->h.type;
@@ -378,8 +378,8 @@ static void read_burst(mocap_client *c)
 			return;
 		}
 		/* Conversions allocate; do them outside the lock. */
-		mocap_frame *frame = c->dec.h.type == MC_MSG_FRAME ? convert_frame(&c->dec.u.frame, t) : NULL;
-		mocap_skeleton *skel = c->dec.h.type == MC_MSG_SKELETON ? convert_skeleton(&c->dec.u.skeleton) : NULL;
+		mocap_skeleton_frame *frame = c->dec.h.type == MC_MSG_FRAME ? convert_frame(&c->dec.u.frame, t) : NULL;
+		mocap_skeleton_def *skel = c->dec.h.type == MC_MSG_SKELETON ? convert_skeleton(&c->dec.u.skeleton) : NULL;
 		pthread_mutex_lock(&c->lock);
 		dispatch(c, &c->dec, (size_t)n, frame, skel, fds, nfds);
 		pthread_mutex_unlock(&c->lock);
@@ -402,8 +402,9 @@ static void wait_step(mocap_client *c, uint64_t deadline)
 	}
 	c->reading = true;
 	pthread_mutex_unlock(&c->lock);
+	/* deadline 0 only takes what is there: no need to poll first. */
 	struct pollfd p = {.fd = c->fd, .events = POLLIN};
-	if (poll(&p, 1, ms_until(deadline)) > 0)
+	if (deadline == 0 || poll(&p, 1, ms_until(deadline)) > 0)
 		read_burst(c);
 	pthread_mutex_lock(&c->lock);
 	c->reading = false;
@@ -486,6 +487,7 @@ static int request_raw(mocap_client *c, mc_proto_msg *req, uint16_t want, mc_pro
 	memcpy(got_fds, w->fds, sizeof(int) * (size_t)ngot);
 	w->used = false;
 	w->data = NULL;
+	update_event(c);
 	pthread_mutex_unlock(&c->lock);
 
 	if (rc == 0) {
@@ -680,6 +682,7 @@ int mocap_subscribe(mocap_client *c, mocap_mode mode, mocap_space space, unsigne
 	c->mode = 0;
 	fq_clear(c);
 	c->pending_missed = 0;
+	update_event(c);
 	pthread_mutex_unlock(&c->lock);
 	int rc = request(c, m, MC_MSG_OK, m, NULL, NULL);
 	free(m);
@@ -699,30 +702,33 @@ int mocap_unsubscribe(mocap_client *c)
 	pthread_mutex_lock(&c->lock);
 	c->mode = 0;
 	fq_clear(c);
+	update_event(c);
 	pthread_mutex_unlock(&c->lock);
 	int rc = request(c, m, MC_MSG_OK, m, NULL, NULL);
 	free(m);
 	return rc;
 }
 
-int mocap_read_frame(mocap_client *c, mocap_frame *f, int timeout_ms)
+int mocap_read_frame(mocap_client *c, mocap_skeleton_frame *f, int timeout_ms)
 {
 	uint64_t deadline = deadline_after(timeout_ms < 0 ? -1 : timeout_ms);
 	int rc = 0;
+	bool looked = false;
 	pthread_mutex_lock(&c->lock);
 	if (!c->mode && !c->fq_n && !c->dead) {
 		pthread_mutex_unlock(&c->lock);
 		return set_err(MOCAP_E_ARG, "read_frame: not subscribed (call mocap_subscribe first)");
 	}
 	/* LATEST: take in everything already there first, to return the newest. */
-	if (c->mode == MOCAP_LATEST && !c->reading)
+	if (c->mode == MOCAP_LATEST && !c->reading) {
 		wait_step(c, 0);
+		looked = true;
+	}
 	for (;;) {
 		if (c->fq_n) {
-			mocap_frame *q = c->fq[c->fq_head];
+			mocap_skeleton_frame *q = c->fq[c->fq_head];
 			c->fq_head = (c->fq_head + 1) % FRAME_QUEUE_MAX;
 			c->fq_n--;
-			update_event(c);
 			memcpy(f, q, FRAME_BYTES(q->njoints));
 			free(q);
 			rc = 1;
@@ -732,22 +738,25 @@ int mocap_read_frame(mocap_client *c, mocap_frame *f, int timeout_ms)
 			rc = dead_error(c);
 			break;
 		}
-		if (deadline != FOREVER && mocap_now_ns() >= deadline)
+		/* Even with a zero timeout, look at the socket once. */
+		if (looked && deadline != FOREVER && mocap_now_ns() >= deadline)
 			break;
 		wait_step(c, deadline);
+		looked = true;
 	}
+	update_event(c);
 	pthread_mutex_unlock(&c->lock);
 	return rc;
 }
 
-int mocap_get_skeleton(mocap_client *c, mocap_skeleton *s)
+int mocap_get_skeleton(mocap_client *c, mocap_skeleton_def *s)
 {
 	mc_proto_msg *m = new_msg(MC_MSG_GET_SKELETON);
 	if (!m)
 		return MOCAP_E_SYSTEM;
 	int rc = request(c, m, MC_MSG_SKELETON, m, NULL, NULL);
 	if (rc == 0) {
-		mocap_skeleton *k = convert_skeleton(&m->u.skeleton);
+		mocap_skeleton_def *k = convert_skeleton(&m->u.skeleton);
 		if (k) {
 			*s = *k;
 			free(k);
@@ -895,6 +904,7 @@ static int send_oneway(mocap_client *c, mc_proto_msg *m)
 	if (!c->reading)
 		wait_step(c, 0);
 	int rc = take_async_error(c);
+	update_event(c);
 	pthread_mutex_unlock(&c->lock);
 	if (rc)
 		return rc;

@@ -8,7 +8,7 @@
  *     mocap_client *c = mocap_connect(NULL, "my-app");   // $MOCAP_SOCKET or the default path
  *     if (!c) { fprintf(stderr, "%s\n", mocap_errmsg()); return 1; }
  *     mocap_subscribe(c, MOCAP_LATEST, MOCAP_SPACE_RIG, 0);
- *     mocap_frame f;
+ *     mocap_skeleton_frame f;
  *     while (mocap_read_frame(c, &f, -1) == 1)
  *             use(f.joints[0].position);
  *     mocap_close(c);
@@ -84,12 +84,12 @@ typedef struct {
 	uint64_t publish_ns;   /* when the daemon published the skeleton */
 	uint64_t receive_ns;   /* when this library received it */
 	uint64_t missed;       /* frames lost just before this one ("all" mode gaps) */
-	uint32_t skeleton_id;  /* the mocap_skeleton these joints follow */
+	uint32_t skeleton_id;  /* the mocap_skeleton_def these joints follow */
 	mocap_track_state state;
 	mocap_space space;     /* WORLD only when the daemon had a head pose (or the rig is the world) */
 	int njoints;
 	mocap_joint joints[MOCAP_MAX_JOINTS];
-} mocap_frame;
+} mocap_skeleton_frame;
 
 typedef struct {
 	char name[MOCAP_NAME_MAX];
@@ -102,7 +102,7 @@ typedef struct {
 	int rig_is_world;      /* 1 for outside-in rigs */
 	int njoints;
 	mocap_joint_def joints[MOCAP_MAX_JOINTS];
-} mocap_skeleton;
+} mocap_skeleton_def;
 
 typedef struct {
 	char name[MOCAP_NAME_MAX];
@@ -132,7 +132,7 @@ typedef struct {
 } mocap_ring;
 
 typedef struct {
-	int joint;             /* index in the mocap_skeleton */
+	int joint;             /* index in the mocap_skeleton_def */
 	float u, v;            /* pixels of the camera's native image */
 	float confidence;      /* 0..1 */
 } mocap_keypoint;
@@ -164,14 +164,14 @@ int mocap_unsubscribe(mocap_client *c);
 /* The next frame: 1 and *f filled, 0 on timeout, or an error.  timeout_ms
  * -1 waits forever, 0 only looks.  In LATEST mode it is the newest frame
  * received (older ones are skipped). */
-int mocap_read_frame(mocap_client *c, mocap_frame *f, int timeout_ms);
+int mocap_read_frame(mocap_client *c, mocap_skeleton_frame *f, int timeout_ms);
 
 /* An fd for poll/epoll that is readable when mocap_read_frame may have a
  * frame (or an error) to return without waiting.  Do not read from it. */
 int mocap_fd(mocap_client *c);
 
 /* The newest skeleton definition (joint names, parents, rest offsets). */
-int mocap_get_skeleton(mocap_client *c, mocap_skeleton *s);
+int mocap_get_skeleton(mocap_client *c, mocap_skeleton_def *s);
 int mocap_get_status(mocap_client *c, mocap_daemon_status *st);
 /* The rig in use as JSON text; *json is malloc'd, free() it. */
 int mocap_get_rig(mocap_client *c, char **json, int *ncams);

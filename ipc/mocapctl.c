@@ -123,7 +123,7 @@ static void json_string(const char *s)
 	putchar('"');
 }
 
-static const char *joint_name(const mocap_skeleton *s, const mocap_frame *f, int j, char *buf, size_t n)
+static const char *joint_name(const mocap_skeleton_def *s, const mocap_skeleton_frame *f, int j, char *buf, size_t n)
 {
 	if (s && s->id == f->skeleton_id && j < s->njoints)
 		return s->joints[j].name;
@@ -131,7 +131,7 @@ static const char *joint_name(const mocap_skeleton *s, const mocap_frame *f, int
 	return buf;
 }
 
-static void print_frame_json(const mocap_frame *f, const mocap_skeleton *s)
+static void print_frame_json(const mocap_skeleton_frame *f, const mocap_skeleton_def *s)
 {
 	printf("{\"seq\":%llu,\"capture_ns\":%llu,\"publish_ns\":%llu,\"receive_ns\":%llu,\"missed\":%llu,"
 	       "\"state\":\"%s\",\"space\":\"%s\",\"skeleton_id\":%u,\"joints\":{",
@@ -151,7 +151,7 @@ static void print_frame_json(const mocap_frame *f, const mocap_skeleton *s)
 	printf("}}\n");
 }
 
-static void print_frame_text(const mocap_frame *f, const mocap_skeleton *s)
+static void print_frame_text(const mocap_skeleton_frame *f, const mocap_skeleton_def *s)
 {
 	if (f->missed)
 		printf("(%llu frames missed)\n", (unsigned long long)f->missed);
@@ -169,8 +169,8 @@ static void print_frame_text(const mocap_frame *f, const mocap_skeleton *s)
 
 static int cmd_watch(mocap_client *c, bool json, long count, bool all, bool world)
 {
-	mocap_skeleton *skel = calloc(1, sizeof(*skel));
-	mocap_frame *f = malloc(sizeof(*f));
+	mocap_skeleton_def *skel = calloc(1, sizeof(*skel));
+	mocap_skeleton_frame *f = malloc(sizeof(*f));
 	if (!skel || !f) {
 		free(skel);
 		free(f);
@@ -222,7 +222,7 @@ static int cmd_rig(mocap_client *c)
 
 static int cmd_skeleton(mocap_client *c)
 {
-	mocap_skeleton *s = malloc(sizeof(*s));
+	mocap_skeleton_def *s = malloc(sizeof(*s));
 	if (!s)
 		return EXIT_FAILED;
 	int rc = mocap_get_skeleton(c, s);

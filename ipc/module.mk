@@ -1,0 +1,116 @@
+# ipc/: the wire protocol (mc_proto), the server library the daemon links
+# (mc_server), the client library libmocap (shared, with soname and
+# pkg-config file), mocapctl, the IPC tests, the fuzzer and the benchmark.
+#
+# For the daemon: link $(BUILD)/libmocapipc.a before $(CORE_LIB)
+# (mc_server uses mc_error and mc_math from the core).  Use the literal path
+# in daemon/module.mk: it is included before this file, so IPC_SERVER_LIB is
+# not defined yet when its prerequisites are read.
+
+IPC_SERVER_LIB := $(BUILD)/libmocapipc.a
+IPC_CLIENT_LIB := $(BUILD)/libmocap.a
+IPC_SO_VERSION := 1.0.0
+IPC_SO := $(BUILD)/lib/libmocap.so.$(IPC_SO_VERSION)
+IPC_PC := $(BUILD)/lib/pkgconfig/mocap.pc
+IPC_TESTPUB := $(BUILD)/ipc/mocap-testpub
+IPC_EXAMPLES := $(patsubst examples/%.c,$(BUILD)/examples/%,$(wildcard examples/*.c))
+IPC_TESTS := $(patsubst tests/%.c,$(BUILD)/tests/%,$(wildcard tests/test_ipc*.c))
+IPC_LINK := $(IPC_SERVER_LIB) $(IPC_CLIENT_LIB) $(CORE_LIB) $(CORE_LIBS)
+
+LIBS += $(IPC_SERVER_LIB) $(IPC_CLIENT_LIB) $(IPC_SO) $(IPC_PC)
+BINS += $(BUILD)/bin/mocapctl
+CHECKS += check-ipc-python fuzz-ipc
+BENCHES += bench-ipc
+
+$(IPC_SERVER_LIB): $(BUILD)/ipc/mc_proto.o $(BUILD)/ipc/mc_server.o
+	@rm -f $@
+	ar rcs $@ $^
+
+$(IPC_CLIENT_LIB): $(BUILD)/ipc/mc_proto.o $(BUILD)/ipc/mocap.o
+	@rm -f $@
+	ar rcs $@ $^
+
+# Only the mocap_ symbols are exported (ipc/libmocap.map).
+$(IPC_SO): $(BUILD)/ipc/mc_proto.o $(BUILD)/ipc/mocap.o ipc/libmocap.map
+	@mkdir -p $(@D)
+	$(CC) -shared -Wl,-soname,libmocap.so.1 -Wl,--version-script=ipc/libmocap.map -Wl,--no-undefined \
+		-o $@ $(filter %.o,$^) $(LDFLAGS) -lm
+	ln -sf libmocap.so.$(IPC_SO_VERSION) $(BUILD)/lib/libmocap.so.1
+	ln -sf libmocap.so.1 $(BUILD)/lib/libmocap.so
+
+# Written on every build, so that it always carries the PREFIX in use.
+.PHONY: $(IPC_PC)
+$(IPC_PC):
+	@mkdir -p $(@D)
+	@printf '%s\n' 'prefix=$(PREFIX)' 'libdir=$${prefix}/lib' 'includedir=$${prefix}/include' '' \
+		'Name: mocap' 'Description: client library of mocapd, the motion-capture daemon' \
+		'Version: $(IPC_SO_VERSION)' 'Libs: -L$${libdir} -lmocap' 'Libs.private: -pthread -lm' \
+		'Cflags: -I$${includedir}' > $@
+
+$(BUILD)/bin/mocapctl: ipc/mocapctl.c $(IPC_CLIENT_LIB)
+	@mkdir -p $(@D)
+	$(CC) $(CPPFLAGS) $(CFLAGS) -MMD -MP $< -o $@ $(LDFLAGS) $(IPC_CLIENT_LIB) -lm
+
+$(IPC_TESTPUB): ipc/mocap-testpub.c $(IPC_SERVER_LIB) $(CORE_LIB)
+	@mkdir -p $(@D)
+	$(CC) $(CPPFLAGS) $(CFLAGS) -MMD -MP $< -o $@ $(LDFLAGS) $(IPC_LINK)
+
+# The examples link the shared library, as an application would.
+$(IPC_EXAMPLES): $(BUILD)/examples/%: examples/%.c $(IPC_SO)
+	@mkdir -p $(@D)
+	$(CC) $(CPPFLAGS) $(CFLAGS) -MMD -MP $< -o $@ $(LDFLAGS) -L$(BUILD)/lib -lmocap -Wl,-rpath,'$$ORIGIN/../lib'
+
+all: $(IPC_TESTPUB) $(IPC_EXAMPLES)
+
+# The IPC tests link the server and client libraries as well as the core.
+$(IPC_TESTS): $(BUILD)/tests/%: tests/%.c $(IPC_SERVER_LIB) $(IPC_CLIENT_LIB) $(CORE_LIB)
+	@mkdir -p $(@D)
+	$(CC) $(CPPFLAGS) $(CFLAGS) -MMD -MP $< -o $@ $(LDFLAGS) $(IPC_LINK)
+
+# The Python module against the test publisher.
+.PHONY: check-ipc-python fuzz-ipc bench-ipc install-ipc
+check-ipc-python: $(IPC_TESTPUB) $(BUILD)/bin/mocapctl $(IPC_EXAMPLES)
+	@if command -v python3 >/dev/null; then \
+		python3 -B python/test_mocap.py $(IPC_TESTPUB) $(BUILD)/bin/mocapctl $(BUILD)/examples; \
+	else echo "SKIP check-ipc-python: python3 not installed"; fi
+
+# libFuzzer on the protocol decoder the server runs on every datagram, with
+# ASan+UBSan and leak detection.  FUZZ_SECONDS=60 as in CI.
+FUZZ_CC ?= clang
+FUZZ_SECONDS ?= 60
+IPC_FUZZ := $(BUILD)/fuzz/fuzz_ipc
+$(IPC_FUZZ): tests/fuzz/fuzz_ipc.c ipc/mc_proto.c ipc/mc_proto.h
+	@mkdir -p $(@D)
+	$(FUZZ_CC) -std=c11 -D_GNU_SOURCE -Iipc -g -O1 -fsanitize=fuzzer,address,undefined \
+		-fno-sanitize-recover=undefined tests/fuzz/fuzz_ipc.c ipc/mc_proto.c -o $@ -lm
+
+$(BUILD)/fuzz/fuzz_ipc_seeds: tests/fuzz/fuzz_ipc_seeds.c ipc/mc_proto.c ipc/mc_proto.h
+	@mkdir -p $(@D)
+	$(CC) $(CPPFLAGS) $(CFLAGS) tests/fuzz/fuzz_ipc_seeds.c ipc/mc_proto.c -o $@ $(LDFLAGS) -lm
+
+fuzz-ipc: $(IPC_FUZZ) $(BUILD)/fuzz/fuzz_ipc_seeds
+	@rm -rf $(BUILD)/fuzz/seeds && mkdir -p $(BUILD)/fuzz/seeds $(BUILD)/fuzz/corpus
+	$(BUILD)/fuzz/fuzz_ipc_seeds $(BUILD)/fuzz/seeds
+	ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=halt_on_error=1:print_stacktrace=1 \
+		$(IPC_FUZZ) -max_total_time=$(FUZZ_SECONDS) -max_len=65536 -print_final_stats=1 \
+		-artifact_prefix=$(BUILD)/fuzz/ $(BUILD)/fuzz/corpus $(BUILD)/fuzz/seeds 2>$(BUILD)/fuzz/fuzz_ipc.log \
+		|| { tail -n 60 $(BUILD)/fuzz/fuzz_ipc.log; exit 1; }
+	@grep -E '^(Done|stat::number_of_executed_units)' $(BUILD)/fuzz/fuzz_ipc.log || true
+
+$(BUILD)/tests/bench_ipc: tests/bench_ipc.c $(IPC_SERVER_LIB) $(IPC_CLIENT_LIB) $(CORE_LIB)
+	@mkdir -p $(@D)
+	$(CC) $(CPPFLAGS) $(CFLAGS) -MMD -MP $< -o $@ $(LDFLAGS) $(IPC_LINK)
+
+bench-ipc: $(BUILD)/tests/bench_ipc
+	$(BUILD)/tests/bench_ipc
+
+# Installs what the top-level install does not know about: the shared
+# library, its header and pkg-config file.
+install: install-ipc
+install-ipc: $(IPC_SO) $(IPC_PC)
+	install -d $(DESTDIR)$(PREFIX)/lib/pkgconfig $(DESTDIR)$(PREFIX)/include
+	install -m 755 $(IPC_SO) $(DESTDIR)$(PREFIX)/lib/
+	ln -sf libmocap.so.$(IPC_SO_VERSION) $(DESTDIR)$(PREFIX)/lib/libmocap.so.1
+	ln -sf libmocap.so.1 $(DESTDIR)$(PREFIX)/lib/libmocap.so
+	install -m 644 ipc/mocap.h $(DESTDIR)$(PREFIX)/include/
+	install -m 644 $(IPC_PC) $(DESTDIR)$(PREFIX)/lib/pkgconfig/

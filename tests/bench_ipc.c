@@ -1,0 +1,175 @@
+/* bench_ipc: latency from mc_server_publish() to the client library's
+ * receipt of the frame (both CLOCK_MONOTONIC, same machine), at 60 Hz with
+ * 1 and with 64 subscribers, each a libmocap client on its own thread.
+ * Also the time the publisher spends in mc_server_publish().  Target:
+ * p99 < 1 ms.  Usage: bench_ipc [seconds per run, default 10]. */
+#include "mc_server.h"
+#include "mocap.h"
+
+#include <errno.h>
+#include <pthread.h>
+#include <stdatomic.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+#include <unistd.h>
+
+#define NJ 18
+
+static char path[96];
+
+typedef struct {
+	mocap_mode mode;
+	int max_samples, n;
+	double *lat_ms;
+	atomic_int *ready;
+	atomic_bool *stop;
+} sub_arg;
+
+static void *subscriber(void *arg)
+{
+	sub_arg *s = arg;
+	mocap_client *c = mocap_connect(path, "bench");
+	if (!c || mocap_subscribe(c, s->mode, MOCAP_SPACE_RIG, 0) != 0) {
+		fprintf(stderr, "bench_ipc: %s\n", mocap_errmsg());
+		exit(1);
+	}
+	atomic_fetch_add(s->ready, 1);
+	mocap_skeleton_frame *f = malloc(sizeof(*f));
+	while (!atomic_load(s->stop)) {
+		int r = mocap_read_frame(c, f, 100);
+		if (r < 0)
+			break;
+		if (r == 1 && s->n < s->max_samples)
+			s->lat_ms[s->n++] = (double)(f->receive_ns - f->publish_ns) * 1e-6;
+	}
+	free(f);
+	mocap_close(c);
+	return NULL;
+}
+
+static int cmp_double(const void *a, const void *b)
+{
+	double x = *(const double *)a, y = *(const double *)b;
+	return (x > y) - (x < y);
+}
+
+static double pct(const double *sorted, int n, double p)
+{
+	if (n == 0)
+		return 0;
+	int i = (int)(p * (n - 1) + 0.5);
+	return sorted[i];
+}
+
+static void sleep_until(uint64_t t)
+{
+	struct timespec ts = {(time_t)(t / 1000000000ull), (long)(t % 1000000000ull)};
+	while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, NULL) == EINTR) {
+	}
+}
+
+static bool run(mc_server *srv, int nsubs, mocap_mode mode, int frames)
+{
+	static uint64_t seq = 0;
+	pthread_t th[64];
+	sub_arg args[64];
+	atomic_int ready = 0;
+	atomic_bool stop = false;
+	for (int i = 0; i < nsubs; i++) {
+		args[i] = (sub_arg){mode, frames, 0, calloc((size_t)frames, sizeof(double)), &ready, &stop};
+		pthread_create(&th[i], NULL, subscriber, &args[i]);
+	}
+	while (atomic_load(&ready) < nsubs)
+		usleep(1000);
+	usleep(100000);
+
+	mc_skeleton *sk = calloc(1, sizeof(*sk));
+	sk->njoints = NJ;
+	for (int j = 0; j < NJ; j++) {
+		sk->joints[j].orientation = mc_quat_identity();
+		sk->joints[j].confidence = 1;
+	}
+	double *pub_us = calloc((size_t)frames, sizeof(double));
+	uint64_t period = 1000000000ull / 60, next = mocap_now_ns();
+	for (int i = 0; i < frames; i++) {
+		next += period;
+		sleep_until(next);
+		sk->timestamp_ns = mocap_now_ns();
+		sk->joints[0].position = mc_v3(i, 0, 0);
+		mc_err err;
+		uint64_t t0 = mocap_now_ns();
+		if (mc_server_publish(srv, sk, ++seq, &err))
+			fprintf(stderr, "bench_ipc: %s\n", err.msg);
+		pub_us[i] = (double)(mocap_now_ns() - t0) * 1e-3;
+	}
+	usleep(200000);
+	atomic_store(&stop, true);
+	int total = 0;
+	for (int i = 0; i < nsubs; i++) {
+		pthread_join(th[i], NULL);
+		total += args[i].n;
+	}
+	double *all = calloc((size_t)total + 1, sizeof(double));
+	int k = 0;
+	for (int i = 0; i < nsubs; i++) {
+		memcpy(all + k, args[i].lat_ms, sizeof(double) * (size_t)args[i].n);
+		k += args[i].n;
+		free(args[i].lat_ms);
+	}
+	qsort(all, (size_t)total, sizeof(double), cmp_double);
+	qsort(pub_us, (size_t)frames, sizeof(double), cmp_double);
+	double p99 = pct(all, total, 0.99);
+	printf("  %3d   %-6s  %7d/%-7d  %7.3f  %7.3f  %7.3f   %6.1f %6.1f\n", nsubs, mode == MOCAP_LATEST ? "latest" : "all",
+	       total, frames * nsubs, pct(all, total, 0.5), p99, total ? all[total - 1] : 0.0, pct(pub_us, frames, 0.5),
+	       pct(pub_us, frames, 0.99));
+	free(all);
+	free(pub_us);
+	free(sk);
+	return p99 < 1.0 && total == frames * nsubs;
+}
+
+int main(int argc, char **argv)
+{
+	double seconds = argc > 1 ? atof(argv[1]) : 10;
+	int frames = (int)(seconds * 60);
+	if (frames < 10) {
+		fprintf(stderr, "usage: bench_ipc [seconds per run >= 0.2]\n");
+		return 2;
+	}
+	char dir[] = "/tmp/mocap-bench-XXXXXX";
+	if (!mkdtemp(dir)) {
+		perror("mkdtemp");
+		return 1;
+	}
+	snprintf(path, sizeof(path), "%s/mocapd.sock", dir);
+	mc_server_config cfg;
+	mc_server_config_default(&cfg);
+	snprintf(cfg.path, sizeof(cfg.path), "%s", path);
+	mc_err err;
+	mc_server *srv = mc_server_create(&cfg, &err);
+	if (!srv) {
+		fprintf(stderr, "bench_ipc: %s\n", err.msg);
+		return 1;
+	}
+	mc_server_skeleton_def def = {0};
+	def.njoints = NJ;
+	for (int j = 0; j < NJ; j++) {
+		snprintf(def.name[j], sizeof(def.name[j]), "joint%d", j);
+		def.parent[j] = j - 1;
+	}
+	mc_server_set_skeleton_def(srv, &def, &err);
+	long ncpu = sysconf(_SC_NPROCESSORS_ONLN);
+	printf("bench_ipc: publish -> client receive latency, 60 Hz, %d joints (%zu-byte frames), %d frames per run, "
+	       "%ld CPUs\n", NJ, (size_t)48 + 64 * NJ, frames, ncpu);
+	printf("  subs  mode    received         p50 ms   p99 ms   max ms   publish us p50 p99\n");
+	bool ok = run(srv, 1, MOCAP_LATEST, frames);
+	ok &= run(srv, 64, MOCAP_LATEST, frames);
+	ok &= run(srv, 1, MOCAP_ALL, frames);
+	ok &= run(srv, 64, MOCAP_ALL, frames);
+	printf("bench_ipc: target p99 < 1 ms with every frame received: %s\n", ok ? "met" : "NOT met");
+	mc_server_destroy(srv);
+	rmdir(dir);
+	return 0;
+}
