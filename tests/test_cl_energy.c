@@ -178,6 +178,42 @@ static void test_random_scenes(void)
 	free(v.hsv);
 }
 
+/* Gaussian 0 lies at the culling edge for every ray (C < c0 < 2C, where
+ * the reference fades it in; docs/ENERGY.md "Culling"), behind an occluder
+ * (1) and in front of another Gaussian (2).  Each Gaussian's gradient must
+ * agree relative to its own size, so that the small edge terms count. */
+static void test_culling_edge(void)
+{
+	unsigned long long rng = 11;
+	view v;
+	/* 16 x 16 rays within +-0.004 rad of the optical axis */
+	table_pinhole(&v.rays, 16, 16, 2000, mc_v3(0, 0, 0));
+	v.hsv = image_random(&v.rays, &rng);
+	mc_cl_energy *e = open_backend(&v, 1);
+	mc_scene sc;
+	memset(&sc, 0, sizeof(sc));
+	sc.n = 3;
+	/* c0 = C at r = sigma sqrt(2 ln(c / C)) = 0.5257 m, 2C at 0.5122 m */
+	sc.mu[0] = mc_v3(0.519, 0, 2.0), sc.sigma[0] = 0.1, sc.c[0] = 10;
+	sc.mu[1] = mc_v3(0.01, 0, 1.5), sc.sigma[1] = 0.3, sc.c[1] = 2;
+	sc.mu[2] = mc_v3(0, 0.02, 2.5), sc.sigma[2] = 0.1, sc.c[2] = 10;
+	for (int q = 0; q < 3; q++)
+		scene_random_hsv(&rng, sc.hsv[q]);
+	static result cl, ref;
+	eval_cl(e, &sc, NULL, NULL, 0, 0, &cl);
+	eval_ref(&sc, &v, 1, NULL, NULL, 0, 0, &ref);
+	check_agree("culling edge", &cl, &ref, sc.n, 1e-3);
+	for (int q = 0; q < sc.n; q++) {
+		double size = fmax(mc_v3_norm(ref.dmu[q]), fabs(ref.dsigma[q]));
+		double err = fmax(mc_v3_norm(mc_v3_sub(cl.dmu[q], ref.dmu[q])), fabs(cl.dsigma[q] - ref.dsigma[q]));
+		CHECK_MSG(size > 0 && err <= 1e-3 * size, "culling edge: Gaussian %d: gradient error %.3g of %.3g", q,
+			  err, size);
+	}
+	mc_cl_energy_destroy(e);
+	table_free(&v.rays);
+	free(v.hsv);
+}
+
 /* A head-mounted stereo rig and a person in random poses: every pixel, then
  * random pixel subsets, then with dropout (the same decisions on both
  * sides), then with one camera missing. */
@@ -349,6 +385,7 @@ static void test_errors(void)
 int main(void)
 {
 	test_random_scenes();
+	test_culling_edge();
 	test_human();
 	test_dropout();
 	test_errors();

@@ -64,21 +64,6 @@ float mc_erf_exp(float z, float *e)
 	return copysign(1.0f - poly * ez, z);
 }
 
-/* HSV dissimilarity d(m, i) in [-1, 1] (thesis 6.2.1).  m: albedo HSV and
- * its weight w_s; wdg: its w_d, w_g (weights normalised on the host). */
-float mc_dissimilarity(float4 m, float2 wdg, float3 i)
-{
-	float dh = fabs(m.x - i.x);
-	float hue = 2.0f * fmin(dh, 1.0f - dh);
-	float dv = m.z - i.z;
-	float ds = m.y - i.y;
-	float x = m.w * hue * hue + wdg.x * 2.0f * dv * dv + wdg.y * (fabs(dv) + fabs(ds));
-	x = clamp(x, 0.0f, 1.0f);
-	float u = 1.0f - x;
-	float u2 = u * u;
-	return 1.0f - u2 * u2 * (8.0f * x + 2.0f);
-}
-
 /* Vector width over the ray Gaussians: VW lanes evaluate VW Gaussians at
  * one sample depth at once.  Set by the host (-DVW=...) from the device's
  * preferred float vector width: 16 with AVX-512, 8 with AVX2, 1 on GPUs. */
@@ -166,6 +151,24 @@ mc_samples mc_near_camera(floatv s, floatv x, floatv lambda, floatv inv_lambda)
  * pass for the backward one; rays with more pairs compute them again. */
 #define PAIRV_MAX (2048 / VW)
 
+/* HSV dissimilarity d(m, i) in [-1, 1] (thesis 6.2.1, mc_hsv_dissimilarity)
+ * of VW albedos m = (h, s, v) with weights w_s, w_d, w_g (normalised on the
+ * host) to the pixel colour i. */
+floatv dissimilarity_v(floatv h, floatv s, floatv v, floatv w_s, floatv w_d, floatv w_g, float3 i)
+{
+	floatv dh = fabs(h - i.x);
+	floatv hue = 2.0f * fmin(dh, 1.0f - dh);
+	floatv dv = v - i.z;
+	floatv ds = s - i.y;
+	/* d_s: hue, plus the saturation difference (the hue of a grey pixel is
+	 * meaningless; docs/ENERGY.md) */
+	floatv d_s = fmin(1.0f, hue * hue + fabs(ds));
+	floatv x = clamp(w_s * d_s + w_d * 2.0f * dv * dv + w_g * (fabs(dv) + fabs(ds)), 0.0f, 1.0f);
+	floatv u = 1.0f - x;
+	floatv u2 = u * u;
+	return 1.0f - u2 * u2 * (8.0f * x + 2.0f);
+}
+
 /* E of one pixel; adds its gradient into row[4 q .. 4 q + 3]. */
 float mc_pixel(global const float4 *gauss, int ngauss, float3 o, float3 n, float3 colour,
 	       uint seed_mix, uint cam, uint pixel, uint thr24, local float *row)
@@ -179,9 +182,13 @@ float mc_pixel(global const float4 *gauss, int ngauss, float3 o, float3 n, float
 	float A[MAXG];   /* sqrt(pi/2) sigma c': optical depth per unit of erf */
 	float inv[MAXG]; /* 1 / (sqrt2 sigma) */
 	float d[MAXG];   /* colour dissimilarity to the pixel */
+	float cfac[MAXG];/* c0 dc'/dc0, c0 = c exp(-r^2 / (2 sigma^2)) (chain rule) */
 	int na = 0;
 	/* The culling test, VW Gaussians at a time: c' < 1e-5 <=> the squared
-	 * distance of mu from the ray >= r2_max. */
+	 * distance of mu from the ray >= r2_max.  The survivors' records are
+	 * gathered into private arrays (m, c, d, ... hold mu.xyz, c, albedo for
+	 * now) and projected onto the ray below, VW at a time. */
+	float mx[MAXG], my[MAXG], hh[MAXG], hs[MAXG], hv[MAXG], ws[MAXG], wd[MAXG], wg[MAXG];
 	global const float *soa = (global const float *)(gauss + 4 * MAXG);
 	for (int v = 0; v * VW < ngauss; v++) {
 		floatv dx = VLOAD(v, soa) - o.x, dy = VLOAD(v, soa + MAXG) - o.y, dz = VLOAD(v, soa + 2 * MAXG) - o.z;
@@ -195,30 +202,55 @@ float mc_pixel(global const float4 *gauss, int ngauss, float3 o, float3 n, float
 			int q = v * VW + l;
 			if (!passes[l] || (thr24 && mc_dropped(seed_mix, cam, pixel, (uint)q, thr24)))
 				continue;
-			float4 ms = gauss[4 * q];
-			float3 dv = ms.xyz - o;
-			float mr = dot(dv, n);
-			/* The perpendicular offset, free of the cancellation above. */
-			float3 perp = dv - mr * n;
-			float s = ms.w;
-			float cq = gauss[4 * q + 1].x * exp(-dot(perp, perp) / (2.0f * s * s));
-			if (cq < CULL_MAGNITUDE)
-				continue;
+			float4 ms = gauss[4 * q], cw = gauss[4 * q + 1], alb = gauss[4 * q + 2], wdg = gauss[4 * q + 3];
 			idx[na] = q;
-			m[na] = mr;
-			sg[na] = s;
-			c[na] = cq;
-			A[na] = s * cq * SQRT_HALF_PI;
-			inv[na] = INV_SQRT2 / s;
-			d[na] = mc_dissimilarity(gauss[4 * q + 2], gauss[4 * q + 3].xy, colour);
+			mx[na] = ms.x;
+			my[na] = ms.y;
+			m[na] = ms.z;
+			sg[na] = ms.w;
+			c[na] = cw.x;
+			hh[na] = alb.x;
+			hs[na] = alb.y;
+			hv[na] = alb.z;
+			ws[na] = alb.w;
+			wd[na] = wdg.x;
+			wg[na] = wdg.y;
 			na++;
 		}
 	}
 	if (na == 0)
 		return 0.0f;
 	const int nv = (na + VW - 1) / VW;
-	for (int p = na; p < nv * VW; p++)
-		m[p] = inv[p] = A[p] = c[p] = 0.0f;
+	for (int p = na; p < nv * VW; p++) {
+		mx[p] = my[p] = m[p] = c[p] = hh[p] = hs[p] = hv[p] = ws[p] = wd[p] = wg[p] = 0.0f;
+		sg[p] = 1.0f;
+	}
+	/* Ray Gaussians (eq. 4.4): mu' = (mu - o).n and c' = c exp(-r^2 / (2
+	 * sigma^2)), r the distance of mu from the ray, from the perpendicular
+	 * offset (free of the cancellation in the culling test); and each one's
+	 * colour dissimilarity to the pixel.  Padding lanes get c' = 0. */
+	for (int v = 0; v < nv; v++) {
+		floatv dx = VLOAD(v, mx) - o.x, dy = VLOAD(v, my) - o.y, dz = VLOAD(v, m) - o.z;
+		floatv mr = dx * n.x + dy * n.y + dz * n.z;
+		dx -= mr * n.x;
+		dy -= mr * n.y;
+		dz -= mr * n.z;
+		floatv sv = VLOAD(v, sg);
+		floatv c0 = VLOAD(v, c) * exp(-(dx * dx + dy * dy + dz * dz) / (2.0f * sv * sv));
+		/* The culling edge (docs/ENERGY.md, "Culling"): c' = c0 F(c0 / C -
+		 * 1), F a smooth step from 0 at c0 = C to 1 at c0 = 2C. */
+		floatv x = clamp(c0 * (1.0f / CULL_MAGNITUDE) - 1.0f, 0.0f, 1.0f), y = 1.0f - x;
+		floatv F = x * x * x * (x * (6.0f * x - 15.0f) + 10.0f);
+		floatv cq = c0 * F;
+		VSTORE(c0 * (F + (x + 1.0f) * 30.0f * x * x * y * y), v, cfac); /* c0 dc'/dc0 */
+		VSTORE(mr, v, m);
+		VSTORE(cq, v, c);
+		VSTORE(sv * cq * SQRT_HALF_PI, v, A);
+		VSTORE(INV_SQRT2 / sv, v, inv);
+		VSTORE(dissimilarity_v(VLOAD(v, hh), VLOAD(v, hs), VLOAD(v, hv), VLOAD(v, ws), VLOAD(v, wd),
+				       VLOAD(v, wg), colour),
+		       v, d);
+	}
 
 	/* tau(t) = sum_p A_p (erf(z_p(t)) - erf(z0_p)), z0_p = -mu'_p / (sqrt2 sigma_p) */
 	float erf0[MAXG], e0[MAXG];
@@ -244,7 +276,8 @@ float mc_pixel(global const float4 *gauss, int ngauss, float3 o, float3 n, float
 	float s_x[SMAX];   /* s / lambda + 1/2 (near-camera rule) */
 	float s_l[SMAX];   /* lambda = sigma_q */
 	float s_il[SMAX];  /* 1 / lambda */
-	float s_pre[SMAX]; /* d_q sigma_q c'_q exp(-k^2/2) */
+	float s_pre[SMAX]; /* d_q sigma_q exp(-k^2/2) */
+	float s_c[SMAX];   /* c'_q */
 	float s_k[SMAX];
 	for (int ki = 0; ki < MC_VIS_SAMPLES; ki++) {
 		const float k = ki - 4, wk = exp(-0.5f * k * k);
@@ -257,14 +290,15 @@ float mc_pixel(global const float4 *gauss, int ngauss, float3 o, float3 n, float
 			VSTORE(mv * il + (k + 0.5f), v, s_x + off);
 			VSTORE(sv, v, s_l + off);
 			VSTORE(il, v, s_il + off);
-			VSTORE(VLOAD(v, d) * sv * VLOAD(v, c) * wk, v, s_pre + off);
+			VSTORE(VLOAD(v, d) * sv * wk, v, s_pre + off);
+			VSTORE(VLOAD(v, c), v, s_c + off);
 			VSTORE((floatv)k, v, s_k + off);
 		}
 	}
 	const int ns = MC_VIS_SAMPLES * na;
 	const int nsv = (ns + VW - 1) / VW;
 	for (int j = ns; j < nsv * VW; j++) {
-		s_s[j] = s_x[j] = s_pre[j] = s_k[j] = 0.0f;
+		s_s[j] = s_x[j] = s_pre[j] = s_c[j] = s_k[j] = 0.0f;
 		s_l[j] = s_il[j] = 1.0f;
 	}
 
@@ -272,7 +306,7 @@ float mc_pixel(global const float4 *gauss, int ngauss, float3 o, float3 n, float
 	 * derivatives through the sample's own depth. */
 	const bool keep = na * nsv <= PAIRV_MAX;
 	floatv erfbuf[PAIRV_MAX], ebuf[PAIRV_MAX]; /* [p * nsv + J] */
-	float o_t[SMAX], o_W[SMAX], o_gm[SMAX], o_gs[SMAX];
+	float o_t[SMAX], o_W[SMAX], o_V[SMAX], o_gm[SMAX], o_gs[SMAX];
 	floatv wtotv = 0.0f;
 	for (int J = 0; J < nsv; J++) {
 		floatv s = VLOAD(J, s_s);
@@ -288,15 +322,18 @@ float mc_pixel(global const float4 *gauss, int ngauss, float3 o, float3 n, float
 			tau += A[p] * ef;
 			dens += c[p] * e;
 		}
-		floatv pre = VLOAD(J, s_pre);
-		floatv preT = pre * exp(-tau);
-		floatv W = preT * sp.h; /* this sample's energy */
+		floatv preT = VLOAD(J, s_pre) * exp(-tau); /* d sigma exp(-k^2/2) T */
+		floatv V = preT * sp.h;                     /* this sample's energy / c' */
+		floatv cs = VLOAD(J, s_c);
+		floatv W = V * cs;                          /* this sample's energy */
+		preT *= cs;
 		/* The depth s moves with mu' (ds/dmu' = 1) and sigma (ds/dsigma =
 		 * k); near the camera h and t depend on s and lambda = sigma too. */
 		floatv dE_dt = -W * dens;
 		floatv dE_ds = dE_dt * sp.dt_ds + preT * sp.dh_ds;
 		VSTORE(sp.t, J, o_t);
 		VSTORE(W, J, o_W);
+		VSTORE(V, J, o_V);
 		VSTORE(dE_ds, J, o_gm);
 		VSTORE(dE_dt * sp.dt_dl + preT * sp.dh_dl + VLOAD(J, s_k) * dE_ds, J, o_gs);
 		wtotv += W;
@@ -304,12 +341,12 @@ float mc_pixel(global const float4 *gauss, int ngauss, float3 o, float3 n, float
 	const float wtot = hsum(wtotv);
 
 	/* Per ray Gaussian: dE/d(mu', sigma, c') through its own samples. */
-	float gm[MAXG], gs[MAXG], gW[MAXG];
+	float gm[MAXG], gs[MAXG], gV[MAXG];
 	for (int p = 0; p < na; p++)
-		gm[p] = gs[p] = gW[p] = 0.0f;
+		gm[p] = gs[p] = gV[p] = 0.0f;
 	for (int ki = 0; ki < MC_VIS_SAMPLES; ki++)
 		for (int p = 0; p < na; p++) {
-			gW[p] += o_W[ki * na + p];
+			gV[p] += o_V[ki * na + p];
 			gm[p] += o_gm[ki * na + p];
 			gs[p] += o_gs[ki * na + p];
 		}
@@ -340,14 +377,14 @@ float mc_pixel(global const float4 *gauss, int ngauss, float3 o, float3 n, float
 		float z0 = -m[p] * inv[p];
 		float dE = hsum(aE) - erf0[p] * wtot;
 		float g_m = gm[p] - cp * (e0[p] * wtot - hsum(ae));
-		float g_c = gW[p] / cp - s * SQRT_HALF_PI * dE;
-		float g_s = gs[p] + gW[p] / s - cp * SQRT_HALF_PI * dE + SQRT2 * cp * (hsum(aze) - z0 * e0[p] * wtot);
-		energy += gW[p];
+		float g_c = gV[p] - s * SQRT_HALF_PI * dE;
+		float g_s = gs[p] + cp * gV[p] / s - cp * SQRT_HALF_PI * dE + SQRT2 * cp * (hsum(aze) - z0 * e0[p] * wtot);
+		energy += cp * gV[p];
 
 		int q = idx[p];
 		float3 dv = gauss[4 * q].xyz - o;
 		float3 perp = dv - m[p] * n;
-		float gcc = g_c * cp / (s * s);
+		float gcc = g_c * cfac[p] / (s * s);
 		float3 gmu = g_m * n - gcc * perp;
 		float gsig = g_s + gcc * dot(perp, perp) / s;
 		row[4 * q + 0] += gmu.x;
