@@ -405,7 +405,10 @@ double mc_hsv_dissimilarity(const double m_hsv[3], const double i_hsv[3])
 {
 	double ms = clamp01(m_hsv[1]), mv = clamp01(m_hsv[2]);
 	double is = clamp01(i_hsv[1]), iv = clamp01(i_hsv[2]);
-	double d_s = hue_distance2(m_hsv[0], i_hsv[0]); /* saturated: hue */
+	/* saturated: hue, plus the saturation difference, because the hue of
+	 * a grey pixel is undefined (0, i.e. red, for pure grey) and must not
+	 * match a saturated model colour (a departure from ch. 6.2.1) */
+	double d_s = fmin(1.0, hue_distance2(m_hsv[0], i_hsv[0]) + fabs(ms - is));
 	double d_d = 2 * (mv - iv) * (mv - iv);         /* dark: value */
 	double d_g = fabs(mv - iv) + fabs(ms - is);     /* grey: value + saturation */
 	double w_s = sqrt(ms), w_d = fmax(0, 0.5 - mv), w_g = fmax(0, 0.5 - ms);

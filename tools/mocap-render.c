@@ -12,6 +12,7 @@
  * The second writes PREFIX_<cam>_overlay.png: IMAGE with the posed model's
  * skeleton, and optionally a ground-truth skeleton, projected on it. */
 #include "mc_camera.h"
+#include "mc_draw.h"
 #include "mc_energy.h"
 #include "mc_image.h"
 #include "mc_json.h"
@@ -36,13 +37,7 @@ typedef struct {
 	double background[3];
 } options;
 
-typedef struct {
-	uint8_t *rgb;
-	int width, height;
-} image;
-
-static const uint8_t COLOR_LEFT[3] = {255, 64, 64}, COLOR_RIGHT[3] = {64, 160, 255}, COLOR_MID[3] = {255, 230, 64},
-		     COLOR_GT[3] = {64, 255, 96};
+typedef mc_canvas image;
 
 /* ---- command line -------------------------------------------------------- */
 
@@ -204,85 +199,18 @@ out:
 
 /* ---- drawing ----------------------------------------------------------------- */
 
-static void put_pixel(image *im, int x, int y, const uint8_t c[3])
-{
-	if (x < 0 || y < 0 || x >= im->width || y >= im->height)
-		return;
-	memcpy(im->rgb + ((size_t)y * im->width + x) * 3, c, 3);
-}
-
-static void draw_disc(image *im, double cx, double cy, double r, const uint8_t c[3])
-{
-	for (int y = (int)floor(cy - r); y <= (int)ceil(cy + r); y++)
-		for (int x = (int)floor(cx - r); x <= (int)ceil(cx + r); x++)
-			if ((x - cx) * (x - cx) + (y - cy) * (y - cy) <= r * r)
-				put_pixel(im, x, y, c);
-}
-
-static void draw_line(image *im, double x0, double y0, double x1, double y1, double thick, const uint8_t c[3])
-{
-	double len = hypot(x1 - x0, y1 - y0);
-	int steps = (int)ceil(len * 2) + 1;
-	for (int i = 0; i <= steps; i++) {
-		double t = (double)i / steps;
-		draw_disc(im, x0 + t * (x1 - x0), y0 + t * (y1 - y0), thick / 2, c);
-	}
-}
-
-/* Projects a rig-frame point into the image (scaled from the camera's
- * native resolution). */
-static bool project_rig_point(const mc_camera *cam, const image *im, mc_vec3 p_rig, double *x, double *y)
-{
-	mc_vec3 p = mc_xform_apply(mc_xform_inverse(cam->rig_from_cam), p_rig);
-	double u, v;
-	if (!mc_camera_project(cam, p, &u, &v))
-		return false;
-	*x = (u + 0.5) * im->width / cam->width - 0.5;
-	*y = (v + 0.5) * im->height / cam->height - 0.5;
-	return true;
-}
-
-/* A 3D segment through a fisheye is a curve in the image: project it piece
- * by piece. */
-static void draw_segment(image *im, const mc_camera *cam, mc_vec3 a, mc_vec3 b, double thick, const uint8_t c[3])
-{
-	const int pieces = 24;
-	double px = 0, py = 0;
-	bool prev = false;
-	for (int i = 0; i <= pieces; i++) {
-		double x, y;
-		bool ok = project_rig_point(cam, im, mc_v3_axpy((double)i / pieces, mc_v3_sub(b, a), a), &x, &y);
-		if (ok && prev)
-			draw_line(im, px, py, x, y, thick, c);
-		prev = ok, px = x, py = y;
-	}
-}
-
-static const uint8_t *side_color(const char *name)
-{
-	if (strncmp(name, "left_", 5) == 0)
-		return COLOR_LEFT;
-	if (strncmp(name, "right_", 6) == 0)
-		return COLOR_RIGHT;
-	return COLOR_MID;
-}
-
 /* Bones of the model skeleton (parent -> child), then joints as discs. */
-static void draw_skeleton(image *im, const mc_camera *cam, const mc_model *model, const mc_fk *fk,
-			  const uint8_t *one_color)
+static void draw_skeleton(image *im, const mc_camera *cam, const mc_model *model, const mc_fk *fk)
 {
-	double thick = fmax(1.5, im->width / 200.0);
+	mc_vec3 pos[MC_MAX_JOINTS];
+	int parent[MC_MAX_JOINTS];
+	const char *names[MC_MAX_JOINTS];
 	for (int j = 0; j < model->njoints; j++) {
-		int p = model->joints[j].parent;
-		if (p >= 0)
-			draw_segment(im, cam, fk->rig_from_joint[p].t, fk->rig_from_joint[j].t, thick,
-				     one_color ? one_color : side_color(model->joints[j].name));
+		pos[j] = fk->rig_from_joint[j].t;
+		parent[j] = model->joints[j].parent;
+		names[j] = model->joints[j].name;
 	}
-	for (int j = 0; j < model->njoints; j++) {
-		double x, y;
-		if (project_rig_point(cam, im, fk->rig_from_joint[j].t, &x, &y))
-			draw_disc(im, x, y, thick * 1.6, one_color ? one_color : side_color(model->joints[j].name));
-	}
+	mc_draw_skeleton(im, cam, model->njoints, pos, parent, NULL, names, NULL, mc_draw_thickness(im));
 }
 
 /* Ground truth: frames[K].joints_left_cam of the evaluation data's gt.json,
@@ -314,50 +242,14 @@ static int draw_ground_truth(image *im, const mc_camera *cam, const mc_model *mo
 			goto out;
 		have[j] = got == 0;
 	}
-	double thick = fmax(1.5, im->width / 200.0);
-	for (int j = 0; j < model->njoints; j++) {
-		int p = model->joints[j].parent;
-		while (p >= 0 && !have[p])
-			p = model->joints[p].parent;
-		if (have[j] && p >= 0)
-			draw_segment(im, cam, pos[p], pos[j], thick * 0.6, COLOR_GT);
-	}
-	for (int j = 0; j < model->njoints; j++) {
-		double x, y;
-		if (have[j] && project_rig_point(cam, im, pos[j], &x, &y))
-			draw_disc(im, x, y, thick, COLOR_GT);
-	}
+	int parent[MC_MAX_JOINTS];
+	for (int j = 0; j < model->njoints; j++)
+		parent[j] = model->joints[j].parent;
+	mc_draw_skeleton(im, cam, model->njoints, pos, parent, have, NULL, MC_DRAW_GT, 0.6 * mc_draw_thickness(im));
 	r = 0;
 out:
 	json_decref(root);
 	return r;
-}
-
-/* ---- PNG output ------------------------------------------------------------------ */
-
-static int write_png(const char *path, const image *im, mc_err *err)
-{
-	FILE *f = fopen(path, "wb");
-	if (!f)
-		return mc_err_set(err, "%s: cannot create: %s", path, strerror(errno));
-	png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, NULL, NULL, NULL);
-	png_infop info = png ? png_create_info_struct(png) : NULL;
-	if (!png || !info || setjmp(png_jmpbuf(png))) {
-		png_destroy_write_struct(&png, &info);
-		fclose(f);
-		return mc_err_set(err, "%s: PNG encoding failed", path);
-	}
-	png_init_io(png, f);
-	png_set_IHDR(png, info, im->width, im->height, 8, PNG_COLOR_TYPE_RGB, PNG_INTERLACE_NONE,
-		     PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
-	png_write_info(png, info);
-	for (int y = 0; y < im->height; y++)
-		png_write_row(png, im->rgb + (size_t)y * im->width * 3);
-	png_write_end(png, NULL);
-	png_destroy_write_struct(&png, &info);
-	if (fclose(f) != 0)
-		return mc_err_set(err, "%s: write failed: %s", path, strerror(errno));
-	return 0;
 }
 
 /* ---- rendering ---------------------------------------------------------------------- */
@@ -428,8 +320,8 @@ static int run_render(const options *o, const mc_rig *rig, const mc_model *model
 		    render_camera(cam, &scene, (const double(*)[3])albedo, o->background, w, h, &im, err))
 			return -1;
 		if (o->skeleton)
-			draw_skeleton(&im, cam, model, fk, NULL);
-		int r = write_png(path, &im, err);
+			draw_skeleton(&im, cam, model, fk);
+		int r = mc_draw_write_png(path, &im, err);
 		free(im.rgb);
 		if (r)
 			return -1;
@@ -457,8 +349,8 @@ static int run_overlay(const options *o, const mc_rig *rig, const mc_model *mode
 	if (r == 0 && o->gt_path)
 		r = draw_ground_truth(&im, cam, model, o->gt_path, o->frame, err);
 	if (r == 0) {
-		draw_skeleton(&im, cam, model, fk, NULL);
-		r = write_png(path, &im, err);
+		draw_skeleton(&im, cam, model, fk);
+		r = mc_draw_write_png(path, &im, err);
 	}
 	free(im.rgb);
 	if (r == 0)

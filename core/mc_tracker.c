@@ -1,0 +1,860 @@
+/* mc_tracker: per-frame stochastic gradient tracking (thesis ch. 6.2.3).
+ *
+ * Per frame: convert the views to HSV at the working resolution, predict the
+ * pose from the last two, choose candidate pixels near the predicted body,
+ * then run a fixed budget of gradient iterations.  Each iteration samples a
+ * random subset of the candidate pixels per camera; the data term and its
+ * gradient with respect to the Gaussians come from the OpenCL backend (or
+ * the reference implementation); the host does kinematics, the chain rule
+ * and the priors, and takes an Adam step (per-parameter step conditioning
+ * with momentum). */
+#include "mc_tracker.h"
+
+#include "mc_cl.h"
+#include "mc_energy.h"
+#include "mc_ik.h"
+
+#include <float.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+/* Extra angular margin (metres at the Gaussian) around each Gaussian when
+ * choosing candidate pixels: covers the motion within one frame. */
+#define CANDIDATE_MARGIN_M 0.06
+/* A camera whose value channel varies less than this is blank. */
+#define BLANK_STDDEV 0.02
+/* Tracking quality (data energy relative to the calibrated baseline) below
+ * which the state is uncertain, and lost. */
+#define QUALITY_UNCERTAIN 0.6
+#define QUALITY_LOST 0.3
+
+struct mc_tracker {
+	mc_rig rig;
+	mc_model model;
+	mc_tracker_settings s;
+	mc_raytable rays[MC_MAX_CAMERAS];
+	float *hsv[MC_MAX_CAMERAS];
+	bool present[MC_MAX_CAMERAS];
+	int *candidates[MC_MAX_CAMERAS];
+	int ncandidates[MC_MAX_CAMERAS];
+	int *samples[MC_MAX_CAMERAS];
+	int nsamples[MC_MAX_CAMERAS];
+	unsigned char *mask;
+	bool hidden[MC_MAX_GAUSSIANS]; /* left out of the image energy */
+	mc_cl_energy *cl;
+	char device[160];
+
+	double pose[MC_MAX_DOF];
+	double prev[MC_MAX_DOF], prev2[MC_MAX_DOF];
+	int history; /* frames of history in prev/prev2 (0..2) */
+	double baseline; /* mean data energy per pixel after calibration (< 0) */
+	uint64_t rng;
+};
+
+void mc_tracker_settings_default(mc_tracker_settings *s)
+{
+	memset(s, 0, sizeof(*s));
+	s->backend = MC_BACKEND_OPENCL;
+	s->width = 128;
+	s->height = 128;
+	s->iterations = 50;
+	s->pixel_fraction = 0.15;
+	s->dropout = 0.2;
+	s->step = 0.004;
+	s->momentum = 0.7;
+	s->lambda_detection = 1.0 / 3.0;
+	s->lambda_limit = 0.1;
+	s->lambda_pose = 1e-4;
+	s->lambda_smooth = 0.1;
+	s->cl_platform = -1;
+	s->cl_device = -1;
+	s->seed = 1;
+}
+
+const char *mc_track_state_name(mc_track_state s)
+{
+	switch (s) {
+	case MC_TRACK_OK:
+		return "ok";
+	case MC_TRACK_UNCERTAIN:
+		return "uncertain";
+	case MC_TRACK_LOST:
+		return "lost";
+	}
+	return "unknown";
+}
+
+static double now_ms(void)
+{
+	struct timespec ts;
+	clock_gettime(CLOCK_MONOTONIC, &ts);
+	return ts.tv_sec * 1e3 + ts.tv_nsec * 1e-6;
+}
+
+static uint64_t rng_next(uint64_t *s)
+{
+	/* splitmix64: cheap, good enough for pixel sampling */
+	uint64_t z = (*s += 0x9e3779b97f4a7c15ULL);
+	z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
+	z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
+	return z ^ (z >> 31);
+}
+
+static int validate_settings(const mc_tracker_settings *s, mc_err *err)
+{
+	if (s->width < 8 || s->height < 8 || s->width > 2048 || s->height > 2048)
+		return mc_err_set(err, "tracker: width and height must be in 8..2048, got %dx%d", s->width, s->height);
+	if (s->iterations < 1 || s->iterations > 100000)
+		return mc_err_set(err, "tracker: iterations must be in 1..100000, got %d", s->iterations);
+	if (!(s->pixel_fraction > 0 && s->pixel_fraction <= 1))
+		return mc_err_set(err, "tracker: pixel_fraction must be in (0, 1], got %g", s->pixel_fraction);
+	if (!(s->dropout >= 0 && s->dropout < 1))
+		return mc_err_set(err, "tracker: dropout must be in [0, 1), got %g", s->dropout);
+	if (!(s->step > 0 && s->step < 1))
+		return mc_err_set(err, "tracker: step must be in (0, 1), got %g", s->step);
+	if (!(s->momentum >= 0 && s->momentum < 1))
+		return mc_err_set(err, "tracker: momentum must be in [0, 1), got %g", s->momentum);
+	return 0;
+}
+
+/* On an egocentric rig the cameras sit in front of the wearer's face and
+ * look down: the head itself is behind them or at the very edge of the
+ * image.  Gaussians rigidly attached to the root (no dof in between) are
+ * therefore left out of the image energy. */
+static void hide_head_gaussians(mc_tracker *t)
+{
+	if (t->model.root_free)
+		return;
+	bool rigid[MC_MAX_JOINTS];
+	for (int j = 0; j < t->model.njoints; j++) {
+		int p = t->model.joints[j].parent;
+		rigid[j] = p < 0 || (rigid[p] && t->model.joints[j].ndof == 0);
+	}
+	for (int q = 0; q < t->model.ngauss; q++)
+		t->hidden[q] = rigid[t->model.gauss[q].joint];
+}
+
+/* The Gaussians at a pose; hidden ones get zero magnitude, which the energy
+ * culls on every ray. */
+static void make_scene(const mc_tracker *t, const mc_fk *fk, mc_scene *scene)
+{
+	mc_scene_from_model(&t->model, fk, scene);
+	for (int q = 0; q < scene->n; q++)
+		if (t->hidden[q])
+			scene->c[q] = 0;
+}
+
+static int alloc_buffers(mc_tracker *t, mc_err *err)
+{
+	int max_pixels = 0;
+	for (int c = 0; c < t->rig.ncams; c++) {
+		if (mc_raytable_build(&t->rig.cams[c], t->s.width, t->s.height, &t->rays[c], err) < 0)
+			return mc_err_prefix(err, "camera '%s'", t->rig.cams[c].name);
+		int n = t->s.width * t->s.height;
+		t->hsv[c] = calloc((size_t)n * 3, sizeof(float));
+		t->candidates[c] = malloc(sizeof(int) * n);
+		t->samples[c] = malloc(sizeof(int) * n);
+		if (!t->hsv[c] || !t->candidates[c] || !t->samples[c])
+			return mc_err_set(err, "tracker: out of memory");
+		max_pixels = n > max_pixels ? n : max_pixels;
+	}
+	t->mask = malloc((size_t)max_pixels);
+	return t->mask ? 0 : mc_err_set(err, "tracker: out of memory");
+}
+
+mc_tracker *mc_tracker_create(const mc_rig *rig, const mc_model *model, const mc_tracker_settings *s, mc_err *err)
+{
+	if (validate_settings(s, err) < 0)
+		return NULL;
+	if (rig->ncams < 1 || rig->ncams > MC_MAX_CAMERAS) {
+		mc_err_set(err, "tracker: the rig has %d cameras", rig->ncams);
+		return NULL;
+	}
+	mc_tracker *t = calloc(1, sizeof(*t));
+	if (!t) {
+		mc_err_set(err, "tracker: out of memory");
+		return NULL;
+	}
+	t->rig = *rig;
+	t->model = *model;
+	t->s = *s;
+	t->rng = s->seed ? s->seed : 1;
+	hide_head_gaussians(t);
+	if (alloc_buffers(t, err) < 0)
+		goto fail;
+	if (s->backend == MC_BACKEND_OPENCL) {
+		t->cl = mc_cl_energy_create(s->cl_platform, s->cl_device, t->rays, rig->ncams, err);
+		if (!t->cl)
+			goto fail;
+		snprintf(t->device, sizeof(t->device), "%s", mc_cl_energy_device(t->cl));
+	} else {
+		snprintf(t->device, sizeof(t->device), "reference (C, double, 1 thread)");
+	}
+	mc_model_rest_pose(&t->model, t->pose);
+	mc_tracker_set_pose(t, t->pose);
+	return t;
+fail:
+	mc_tracker_destroy(t);
+	return NULL;
+}
+
+void mc_tracker_destroy(mc_tracker *t)
+{
+	if (!t)
+		return;
+	for (int c = 0; c < MC_MAX_CAMERAS; c++) {
+		if (c < t->rig.ncams)
+			mc_raytable_free(&t->rays[c]);
+		free(t->hsv[c]);
+		free(t->candidates[c]);
+		free(t->samples[c]);
+	}
+	free(t->mask);
+	if (t->cl)
+		mc_cl_energy_destroy(t->cl);
+	free(t);
+}
+
+void mc_tracker_set_pose(mc_tracker *t, const double *pose)
+{
+	memcpy(t->pose, pose, sizeof(double) * t->model.ndof);
+	mc_model_clamp_pose(&t->model, t->pose);
+	memcpy(t->prev, t->pose, sizeof(t->prev));
+	memcpy(t->prev2, t->pose, sizeof(t->prev2));
+	t->history = 0;
+}
+
+const double *mc_tracker_pose(const mc_tracker *t)
+{
+	return t->pose;
+}
+
+const mc_model *mc_tracker_model(const mc_tracker *t)
+{
+	return &t->model;
+}
+
+const char *mc_tracker_device_name(const mc_tracker *t)
+{
+	return t->device;
+}
+
+int mc_tracker_init_from_joints(mc_tracker *t, const char *const *names, const mc_vec3 *positions, int n,
+				mc_err *err)
+{
+	mc_ik_target targets[MC_MAX_JOINTS];
+	int nt = 0;
+	for (int i = 0; i < n && nt < MC_MAX_JOINTS; i++) {
+		int j = mc_model_find_joint(&t->model, names[i]);
+		if (j < 0)
+			continue;
+		targets[nt++] = (mc_ik_target){j, positions[i], 1.0};
+	}
+	mc_ik_options o;
+	mc_ik_options_default(&o);
+	o.iterations = 200;
+	double pose[MC_MAX_DOF] = {0};
+	mc_model_rest_pose(&t->model, pose);
+	double rms = mc_ik_solve(&t->model, pose, targets, nt, &o, err);
+	if (rms < 0)
+		return -1;
+	mc_tracker_set_pose(t, pose);
+	return 0;
+}
+
+/* ---- images ---------------------------------------------------------- */
+
+/* Box-filters a packed RGB24 view down (or nearest-samples up) to the
+ * working resolution, as floats in [0, 1]. */
+static void resample_rgb(const mc_frame_view *v, int W, int H, float *out)
+{
+	double sx = (double)v->width / W, sy = (double)v->height / H;
+	for (int j = 0; j < H; j++) {
+		int y0 = (int)(j * sy), y1 = (int)((j + 1) * sy);
+		if (y1 <= y0)
+			y1 = y0 + 1;
+		if (y1 > v->height)
+			y1 = v->height;
+		for (int i = 0; i < W; i++) {
+			int x0 = (int)(i * sx), x1 = (int)((i + 1) * sx);
+			if (x1 <= x0)
+				x1 = x0 + 1;
+			if (x1 > v->width)
+				x1 = v->width;
+			double acc[3] = {0, 0, 0};
+			int n = 0;
+			for (int y = y0; y < y1; y++) {
+				const uint8_t *row = v->rgb + (size_t)y * v->stride;
+				for (int x = x0; x < x1; x++, n++)
+					for (int k = 0; k < 3; k++)
+						acc[k] += row[3 * x + k];
+			}
+			float *o = out + 3 * ((size_t)j * W + i);
+			for (int k = 0; k < 3; k++)
+				o[k] = (float)(n ? acc[k] / (255.0 * n) : 0.0);
+		}
+	}
+}
+
+static bool view_usable(const mc_frame_view *v)
+{
+	return v && v->rgb && v->width > 0 && v->height > 0 && v->stride >= 3 * v->width;
+}
+
+/* Converts the views; returns how many cameras carry a usable, non-blank image. */
+static int load_views(mc_tracker *t, const mc_frame_view *views, int nviews, float *rgb_scratch)
+{
+	int W = t->s.width, H = t->s.height, present = 0;
+	for (int c = 0; c < t->rig.ncams; c++) {
+		t->present[c] = false;
+		if (c >= nviews || !view_usable(&views[c]))
+			continue;
+		resample_rgb(&views[c], W, H, rgb_scratch);
+		double sum = 0, sum2 = 0;
+		int n = 0;
+		for (int p = 0; p < W * H; p++) {
+			double rgb[3] = {rgb_scratch[3 * p], rgb_scratch[3 * p + 1], rgb_scratch[3 * p + 2]}, hsv[3];
+			mc_rgb_to_hsv(rgb, hsv);
+			for (int k = 0; k < 3; k++)
+				t->hsv[c][3 * p + k] = (float)hsv[k];
+			if (t->rays[c].valid[p]) {
+				sum += hsv[2];
+				sum2 += hsv[2] * hsv[2];
+				n++;
+			}
+		}
+		double var = n ? sum2 / n - (sum / n) * (sum / n) : 0;
+		if (!(sqrt(fmax(var, 0)) > BLANK_STDDEV))
+			continue; /* blank or constant: no evidence */
+		t->present[c] = true;
+		present++;
+		if (t->cl) {
+			mc_err err;
+			if (mc_cl_energy_set_image(t->cl, c, t->hsv[c], &err) < 0) {
+				t->present[c] = false;
+				present--;
+			}
+		}
+	}
+	return present;
+}
+
+/* ---- candidate pixels -------------------------------------------------- */
+
+static void rasterize_disc(unsigned char *mask, int W, int H, double cu, double cv, double r)
+{
+	int i0 = (int)floor(cu - r), i1 = (int)ceil(cu + r);
+	int j0 = (int)floor(cv - r), j1 = (int)ceil(cv + r);
+	i0 = i0 < 0 ? 0 : i0;
+	j0 = j0 < 0 ? 0 : j0;
+	i1 = i1 >= W ? W - 1 : i1;
+	j1 = j1 >= H ? H - 1 : j1;
+	for (int j = j0; j <= j1; j++)
+		for (int i = i0; i <= i1; i++)
+			if ((i - cu) * (i - cu) + (j - cv) * (j - cv) <= r * r)
+				mask[j * W + i] = 1;
+}
+
+/* Native pixel -> working pixel coordinates (see mc_raytable). */
+static void to_working(const mc_raytable *rt, double u, double v, double *wu, double *wv)
+{
+	*wu = (u + 0.5) / rt->scale_x - 0.5;
+	*wv = (v + 0.5) / rt->scale_y - 0.5;
+}
+
+/* Marks the working pixels whose rays pass within 3 sigma + margin of a
+ * Gaussian: only they can see the body, so only they are sampled. */
+static void mark_gaussian(const mc_camera *cam, const mc_raytable *rt, mc_vec3 p, double radius, unsigned char *mask)
+{
+	double dist = mc_v3_norm(p);
+	if (dist < 1e-6)
+		return;
+	if (radius >= dist) { /* the camera is inside the Gaussian */
+		memset(mask, 1, (size_t)rt->width * rt->height);
+		return;
+	}
+	double alpha = asin(radius / dist);
+	mc_vec3 d = mc_v3_scale(p, 1.0 / dist);
+	mc_vec3 any = fabs(d.x) < 0.9 ? mc_v3(1, 0, 0) : mc_v3(0, 1, 0);
+	mc_vec3 e1 = mc_v3_normalize(mc_v3_cross(d, any)), e2 = mc_v3_cross(d, e1);
+	double u, v, cu, cv, r = 0;
+	bool centre = mc_camera_project(cam, d, &u, &v);
+	if (centre)
+		to_working(rt, u, v, &cu, &cv);
+	double ex[4][2] = {{1, 0}, {-1, 0}, {0, 1}, {0, -1}};
+	double pu[4], pv[4];
+	int np = 0;
+	for (int k = 0; k < 4; k++) {
+		mc_vec3 e = mc_v3_add(mc_v3_scale(e1, ex[k][0]), mc_v3_scale(e2, ex[k][1]));
+		mc_vec3 q = mc_v3_add(mc_v3_scale(d, cos(alpha)), mc_v3_scale(e, sin(alpha)));
+		if (mc_camera_project(cam, q, &u, &v)) {
+			to_working(rt, u, v, &pu[np], &pv[np]);
+			np++;
+		}
+	}
+	if (!np)
+		return;
+	if (!centre) { /* centre outside the field of view: use the edge points */
+		cu = cv = 0;
+		for (int k = 0; k < np; k++) {
+			cu += pu[k] / np;
+			cv += pv[k] / np;
+		}
+	}
+	for (int k = 0; k < np; k++)
+		r = fmax(r, hypot(pu[k] - cu, pv[k] - cv));
+	rasterize_disc(mask, rt->width, rt->height, cu, cv, r + 1.5);
+}
+
+static void choose_candidates(mc_tracker *t, const mc_fk *fk)
+{
+	for (int c = 0; c < t->rig.ncams; c++) {
+		const mc_camera *cam = &t->rig.cams[c];
+		const mc_raytable *rt = &t->rays[c];
+		int n = rt->width * rt->height;
+		memset(t->mask, 0, (size_t)n);
+		mc_xform cam_from_rig = mc_xform_inverse(cam->rig_from_cam);
+		for (int q = 0; q < t->model.ngauss; q++) {
+			if (t->hidden[q])
+				continue;
+			mc_vec3 p = mc_xform_apply(cam_from_rig, fk->mu[q]);
+			mark_gaussian(cam, rt, p, 3 * t->model.gauss[q].sigma + CANDIDATE_MARGIN_M, t->mask);
+		}
+		t->ncandidates[c] = 0;
+		for (int p = 0; p < n; p++)
+			if (t->mask[p] && rt->valid[p])
+				t->candidates[c][t->ncandidates[c]++] = p;
+	}
+}
+
+/* Draws this iteration's pixels: a partial Fisher-Yates shuffle of each
+ * camera's candidates, so that no pixel is drawn twice. */
+static int sample_pixels(mc_tracker *t, double fraction)
+{
+	int total = 0;
+	for (int c = 0; c < t->rig.ncams; c++) {
+		int n = t->present[c] ? t->ncandidates[c] : 0;
+		int k = (int)ceil(fraction * n);
+		int *cand = t->candidates[c];
+		for (int i = 0; i < k; i++) {
+			int j = i + (int)(rng_next(&t->rng) % (uint64_t)(n - i));
+			int tmp = cand[i];
+			cand[i] = cand[j];
+			cand[j] = tmp;
+			t->samples[c][i] = tmp;
+		}
+		t->nsamples[c] = k;
+		total += k;
+	}
+	return total;
+}
+
+/* ---- energy ------------------------------------------------------------ */
+
+static double reference_data_term(mc_tracker *t, const mc_scene *scene, double dropout, mc_vec3 *dmu,
+				  double *dsigma)
+{
+	double E = 0, w[MC_MAX_GAUSSIANS];
+	unsigned char active[MC_MAX_GAUSSIANS];
+	for (int c = 0; c < t->rig.ncams; c++) {
+		const mc_raytable *rt = &t->rays[c];
+		for (int i = 0; i < t->nsamples[c]; i++) {
+			int p = t->samples[c][i];
+			double pix[3] = {t->hsv[c][3 * p], t->hsv[c][3 * p + 1], t->hsv[c][3 * p + 2]};
+			for (int q = 0; q < scene->n; q++) {
+				w[q] = mc_hsv_dissimilarity(scene->hsv[q], pix);
+				active[q] = dropout <= 0 || (rng_next(&t->rng) >> 11) * 0x1.0p-53 >= dropout;
+			}
+			E += mc_ray_weighted_visibility(scene, rt->origin, rt->dir[p], w, active, dmu, dsigma);
+		}
+	}
+	return E;
+}
+
+/* E_color over this iteration's samples, as a mean per sampled pixel, and
+ * its gradient with respect to the Gaussian centres. */
+static int data_term(mc_tracker *t, const mc_scene *scene, int nsampled, double dropout, double *E, mc_vec3 *dmu,
+		     mc_err *err)
+{
+	double dsigma[MC_MAX_GAUSSIANS];
+	memset(dmu, 0, sizeof(mc_vec3) * scene->n);
+	memset(dsigma, 0, sizeof(double) * scene->n);
+	*E = 0;
+	if (nsampled == 0)
+		return 0;
+	if (t->cl) {
+		const int *pix[MC_MAX_CAMERAS];
+		for (int c = 0; c < t->rig.ncams; c++)
+			pix[c] = t->samples[c];
+		uint32_t seed = (uint32_t)rng_next(&t->rng);
+		if (mc_cl_energy_eval(t->cl, scene, pix, t->nsamples, dropout, seed, E, dmu, dsigma, err) < 0)
+			return -1;
+	} else {
+		*E = reference_data_term(t, scene, dropout, dmu, dsigma);
+	}
+	double inv = 1.0 / nsampled;
+	*E *= inv;
+	for (int q = 0; q < scene->n; q++)
+		dmu[q] = mc_v3_scale(dmu[q], inv);
+	return 0;
+}
+
+/* E_detection on Gaussians placed at the detected joints; returns the
+ * energy and adds its pose gradient. */
+static double detection_term(mc_tracker *t, const double *pose, const mc_fk *fk, const mc_keypoint *kp, int nkp,
+			     double *grad)
+{
+	if (!kp || nkp <= 0 || t->s.lambda_detection <= 0)
+		return 0;
+	mc_scene det = {0};
+	mc_detection_ray rays[MC_MAX_GAUSSIANS];
+	int joint_of[MC_MAX_GAUSSIANS], nd = 0;
+	for (int i = 0; i < nkp && nd < MC_MAX_GAUSSIANS; i++) {
+		const mc_keypoint *k = &kp[i];
+		mc_vec3 ray;
+		if (k->cam < 0 || k->cam >= t->rig.ncams || k->joint < 0 || k->joint >= t->model.njoints ||
+		    !(k->conf > 0) || !mc_camera_unproject(&t->rig.cams[k->cam], k->u, k->v, &ray))
+			continue;
+		const mc_xform *X = &t->rig.cams[k->cam].rig_from_cam;
+		det.mu[nd] = fk->rig_from_joint[k->joint].t;
+		det.sigma[nd] = 0.05;
+		det.c[nd] = 10.0;
+		joint_of[nd] = k->joint;
+		rays[nd] = (mc_detection_ray){nd, X->t, mc_m3_apply(X->R, ray), fmin(k->conf, 1.0)};
+		nd++;
+	}
+	if (!nd)
+		return 0;
+	det.n = nd;
+	mc_vec3 dmu[MC_MAX_GAUSSIANS] = {{0}};
+	double dsigma[MC_MAX_GAUSSIANS] = {0};
+	double E = mc_energy_detection(&det, rays, nd, t->s.lambda_detection / nd, dmu, dsigma);
+	mc_vec3 *J = malloc(sizeof(mc_vec3) * MC_MAX_JOINTS * t->model.ndof);
+	if (!J)
+		return E;
+	mc_model_joint_jacobian(&t->model, pose, fk, J);
+	for (int i = 0; i < nd; i++)
+		for (int k = 0; k < t->model.ndof; k++)
+			grad[k] += mc_v3_dot(dmu[i], J[joint_of[i] * t->model.ndof + k]);
+	free(J);
+	return E;
+}
+
+/* ---- optimisation -------------------------------------------------------- */
+
+/* Per-parameter step conditioning: each dof k gets a lever L_k = sum_q
+ * |d mu_q / d p_k|^2, the squared motion of the Gaussians it moves.  The
+ * gradient per unit of Gaussian motion, r_k = g_k / sqrt(L_k), is divided by
+ * its running RMS over all dofs, so that one iteration moves the Gaussians
+ * by about `step` metres whatever the energy's scale, and a dof with a weak
+ * (noisy) gradient moves less than one with a strong gradient.  Momentum
+ * smooths the stochastic gradients. */
+typedef struct {
+	double lever[MC_MAX_DOF];
+	double velocity[MC_MAX_DOF];
+	double mean_sq; /* running mean of r_k^2 */
+	int steps;
+} step_state;
+
+static void compute_levers(const mc_tracker *t, const double *pose, step_state *st)
+{
+	int nd = t->model.ndof;
+	mc_vec3 *J = malloc(sizeof(mc_vec3) * (size_t)t->model.ngauss * nd);
+	mc_fk fk;
+	for (int k = 0; k < nd; k++)
+		st->lever[k] = 1e-4; /* keeps dofs that move nothing finite */
+	if (!J)
+		return;
+	mc_model_fk(&t->model, pose, &fk);
+	mc_model_gauss_jacobian(&t->model, pose, &fk, J);
+	for (int q = 0; q < t->model.ngauss; q++)
+		for (int k = 0; k < nd; k++)
+			st->lever[k] += mc_v3_norm2(J[q * nd + k]);
+	free(J);
+}
+
+static void conditioned_step(const mc_tracker *t, step_state *st, const double *grad, double step, double *pose)
+{
+	const double beta = 0.9;
+	int nd = t->model.ndof;
+	double r[MC_MAX_DOF], sq = 0;
+	for (int k = 0; k < nd; k++) {
+		r[k] = grad[k] / sqrt(st->lever[k]);
+		sq += r[k] * r[k];
+	}
+	st->steps++;
+	st->mean_sq = beta * st->mean_sq + (1 - beta) * sq / nd;
+	double rms = sqrt(st->mean_sq / (1 - pow(beta, st->steps)));
+	if (!(rms > 0))
+		return;
+	for (int k = 0; k < nd; k++) {
+		double d = -step * r[k] / rms / sqrt(st->lever[k]);
+		st->velocity[k] = t->s.momentum * st->velocity[k] + d;
+		pose[k] += st->velocity[k];
+	}
+	mc_model_clamp_pose(&t->model, pose);
+}
+
+static void predict(const mc_tracker *t, double *pred)
+{
+	for (int k = 0; k < t->model.ndof; k++)
+		pred[k] = t->history >= 2 ? t->prev[k] + 0.25 * (t->prev[k] - t->prev2[k]) : t->prev[k];
+	mc_model_clamp_pose(&t->model, pred);
+}
+
+/* Runs the iteration budget from `pose` (in/out). Returns the mean data
+ * energy per pixel over the last quarter of the iterations. */
+static int optimise(mc_tracker *t, double *pose, const double *pred, const mc_keypoint *kp, int nkp, double *final_E,
+		    mc_err *err)
+{
+	step_state st;
+	memset(&st, 0, sizeof(st));
+	compute_levers(t, pose, &st);
+	int iters = t->s.iterations, tail = iters / 4 > 0 ? iters / 4 : 1, ntail = 0;
+	double Etail = 0;
+	mc_vec3 dmu[MC_MAX_GAUSSIANS];
+	for (int it = 0; it < iters; it++) {
+		mc_fk fk;
+		mc_scene scene;
+		double grad[MC_MAX_DOF] = {0}, E;
+		mc_model_fk(&t->model, pose, &fk);
+		make_scene(t, &fk, &scene);
+		int ns = sample_pixels(t, t->s.pixel_fraction);
+		if (data_term(t, &scene, ns, t->s.dropout, &E, dmu, err) < 0)
+			return -1;
+		mc_model_backprop(&t->model, pose, &fk, dmu, grad);
+		mc_energy_pose(&t->model, pose, t->s.lambda_limit, t->s.lambda_pose, grad);
+		mc_energy_smooth(t->model.ndof, pose, pred, t->s.lambda_smooth, grad);
+		detection_term(t, pose, &fk, kp, nkp, grad);
+		if (it >= iters - tail) {
+			Etail += E;
+			ntail++;
+		}
+		/* The step shrinks linearly to a fifth over the budget. */
+		double step = t->s.step * (1.0 - 0.8 * it / (double)iters);
+		conditioned_step(t, &st, grad, step, pose);
+	}
+	*final_E = ntail ? Etail / ntail : 0;
+	return 0;
+}
+
+/* ---- actor colour calibration (thesis 5.3.2) ----------------------------- */
+
+typedef struct {
+	float rgb[3];
+	float weight;
+	float dist;
+} colour_sample;
+
+typedef struct {
+	colour_sample *s;
+	int n, cap;
+} colour_samples;
+
+static int push_sample(colour_samples *cs, const float *rgb, double weight)
+{
+	if (cs->n == cs->cap) {
+		int cap = cs->cap ? cs->cap * 2 : 256;
+		colour_sample *s = realloc(cs->s, sizeof(*s) * cap);
+		if (!s)
+			return -1;
+		cs->s = s;
+		cs->cap = cap;
+	}
+	colour_sample *x = &cs->s[cs->n++];
+	memcpy(x->rgb, rgb, sizeof(x->rgb));
+	x->weight = (float)weight;
+	return 0;
+}
+
+static void weighted_mean(const colour_sample *s, int n, double mean[3])
+{
+	double w = 0;
+	mean[0] = mean[1] = mean[2] = 0;
+	for (int i = 0; i < n; i++) {
+		for (int k = 0; k < 3; k++)
+			mean[k] += s[i].weight * s[i].rgb[k];
+		w += s[i].weight;
+	}
+	for (int k = 0; k < 3 && w > 0; k++)
+		mean[k] /= w;
+}
+
+static int by_distance(const void *a, const void *b)
+{
+	float x = ((const colour_sample *)a)->dist, y = ((const colour_sample *)b)->dist;
+	return (x > y) - (x < y);
+}
+
+/* Visibility-weighted mean, then the same after dropping the half of the
+ * weight that lies farthest from it. Returns false without samples. */
+static bool robust_colour(colour_samples *cs, double out[3])
+{
+	if (cs->n == 0)
+		return false;
+	double mean[3], total = 0, kept = 0;
+	weighted_mean(cs->s, cs->n, mean);
+	for (int i = 0; i < cs->n; i++) {
+		colour_sample *x = &cs->s[i];
+		x->dist = (float)(pow(x->rgb[0] - mean[0], 2) + pow(x->rgb[1] - mean[1], 2) + pow(x->rgb[2] - mean[2], 2));
+		total += x->weight;
+	}
+	qsort(cs->s, cs->n, sizeof(colour_sample), by_distance);
+	int n = 0;
+	while (n < cs->n && kept < 0.5 * total)
+		kept += cs->s[n++].weight;
+	weighted_mean(cs->s, n ? n : 1, out);
+	return true;
+}
+
+static int collect_colours(mc_tracker *t, const mc_frame_view *views, int nviews, const mc_scene *scene,
+			   float *rgb, colour_samples *per_gauss)
+{
+	double vis[MC_MAX_GAUSSIANS], B;
+	for (int c = 0; c < t->rig.ncams && c < nviews; c++) {
+		if (!t->present[c])
+			continue;
+		resample_rgb(&views[c], t->s.width, t->s.height, rgb);
+		const mc_raytable *rt = &t->rays[c];
+		for (int i = 0; i < t->ncandidates[c]; i++) {
+			int p = t->candidates[c][i];
+			mc_ray_visibility(scene, rt->origin, rt->dir[p], vis, &B);
+			for (int q = 0; q < scene->n; q++)
+				if (vis[q] > 0.05 && push_sample(&per_gauss[q], &rgb[3 * p], vis[q]) < 0)
+					return -1;
+		}
+	}
+	return 0;
+}
+
+static int measure_baseline(mc_tracker *t, mc_err *err)
+{
+	mc_fk fk;
+	mc_scene scene;
+	mc_vec3 dmu[MC_MAX_GAUSSIANS];
+	mc_model_fk(&t->model, t->pose, &fk);
+	make_scene(t, &fk, &scene);
+	int ns = sample_pixels(t, 1.0);
+	double E;
+	if (data_term(t, &scene, ns, 0.0, &E, dmu, err) < 0)
+		return -1;
+	t->baseline = E < -1e-3 ? E : -1e-3;
+	return 0;
+}
+
+int mc_tracker_calibrate_colors(mc_tracker *t, const mc_frame_view *views, int nviews, mc_err *err)
+{
+	size_t npix = (size_t)t->s.width * t->s.height;
+	float *rgb = malloc(sizeof(float) * 3 * npix);
+	colour_samples *per_gauss = calloc(MC_MAX_GAUSSIANS, sizeof(colour_samples));
+	int rc = -1;
+	if (!rgb || !per_gauss) {
+		mc_err_set(err, "tracker: out of memory");
+		goto out;
+	}
+	if (load_views(t, views, nviews, rgb) == 0) {
+		mc_err_set(err, "tracker: colour calibration needs at least one usable, non-blank view");
+		goto out;
+	}
+	mc_fk fk;
+	mc_scene scene;
+	mc_model_fk(&t->model, t->pose, &fk);
+	make_scene(t, &fk, &scene);
+	choose_candidates(t, &fk);
+	if (collect_colours(t, views, nviews, &scene, rgb, per_gauss) < 0) {
+		mc_err_set(err, "tracker: out of memory");
+		goto out;
+	}
+	for (int q = 0; q < t->model.ngauss; q++)
+		robust_colour(&per_gauss[q], t->model.gauss[q].rgb);
+	rc = measure_baseline(t, err);
+out:
+	for (int q = 0; per_gauss && q < MC_MAX_GAUSSIANS; q++)
+		free(per_gauss[q].s);
+	free(per_gauss);
+	free(rgb);
+	return rc;
+}
+
+/* ---- tracking ------------------------------------------------------------ */
+
+static void fill_skeleton(const mc_tracker *t, const double *pose, double quality, mc_skeleton *out)
+{
+	mc_fk fk;
+	mc_model_fk(&t->model, pose, &fk);
+	out->njoints = t->model.njoints;
+	float conf = (float)fmin(fmax(quality, 0.0), 1.0);
+	if (out->state == MC_TRACK_LOST)
+		conf = 0;
+	for (int j = 0; j < t->model.njoints; j++) {
+		mc_skeleton_joint *sj = &out->joints[j];
+		snprintf(sj->name, sizeof(sj->name), "%s", t->model.joints[j].name);
+		sj->parent = t->model.joints[j].parent;
+		sj->position = fk.rig_from_joint[j].t;
+		sj->orientation = mc_quat_from_m3(fk.rig_from_joint[j].R);
+		sj->confidence = conf;
+	}
+}
+
+static mc_track_state state_from_quality(double quality)
+{
+	if (!(quality >= QUALITY_LOST))
+		return MC_TRACK_LOST;
+	return quality >= QUALITY_UNCERTAIN ? MC_TRACK_OK : MC_TRACK_UNCERTAIN;
+}
+
+static bool pose_finite(const double *p, int n)
+{
+	for (int k = 0; k < n; k++)
+		if (!isfinite(p[k]))
+			return false;
+	return true;
+}
+
+int mc_tracker_track(mc_tracker *t, const mc_frame_view *views, int nviews, const mc_keypoint *kp, int nkp,
+		     mc_skeleton *out, mc_err *err)
+{
+	double start = now_ms();
+	memset(out, 0, sizeof(*out));
+	for (int c = 0; c < nviews && c < t->rig.ncams; c++)
+		if (view_usable(&views[c]) && views[c].timestamp_ns > out->timestamp_ns)
+			out->timestamp_ns = views[c].timestamp_ns;
+	float *rgb = malloc(sizeof(float) * 3 * (size_t)t->s.width * t->s.height);
+	if (!rgb)
+		return mc_err_set(err, "tracker: out of memory");
+	int present = load_views(t, views, nviews, rgb);
+	free(rgb);
+
+	double pred[MC_MAX_DOF], pose[MC_MAX_DOF], E = 0, quality = 0;
+	predict(t, pred);
+	memcpy(pose, pred, sizeof(pose));
+	if (present > 0) {
+		mc_fk fk;
+		mc_model_fk(&t->model, pred, &fk);
+		choose_candidates(t, &fk);
+		if (optimise(t, pose, pred, kp, nkp, &E, err) < 0)
+			return -1;
+		quality = E / t->baseline;
+		out->iterations = t->s.iterations;
+	}
+	out->state = state_from_quality(quality);
+	if (!pose_finite(pose, t->model.ndof))
+		out->state = MC_TRACK_LOST;
+	if (out->state != MC_TRACK_LOST) {
+		memcpy(t->prev2, t->prev, sizeof(t->prev2));
+		memcpy(t->prev, pose, sizeof(t->prev));
+		memcpy(t->pose, pose, sizeof(t->pose));
+		t->history = t->history < 2 ? t->history + 1 : 2;
+	} else {
+		/* Keep the last good pose and forget the velocity, so that real
+		 * frames restart from where the body was last seen. */
+		memcpy(t->prev2, t->prev, sizeof(t->prev2));
+		t->history = 0;
+	}
+	out->energy = E;
+	fill_skeleton(t, t->pose, quality, out);
+	out->track_ms = now_ms() - start;
+	return 0;
+}

@@ -1,0 +1,67 @@
+/* Inverse kinematics: recovers bone scales, root placement and a pose from
+ * the joint positions of a known posed model. */
+#include "mc_ik.h"
+#include "test_util.h"
+
+#include <string.h>
+
+static void random_pose(const mc_model *m, double *pose, unsigned long long *rng, double amount)
+{
+	mc_model_rest_pose(m, pose);
+	for (int j = 0; j < m->njoints; j++)
+		for (int d = 0; d < m->joints[j].ndof; d++) {
+			const mc_joint *jt = &m->joints[j];
+			double mid = 0.5 * (jt->lower[d] + jt->upper[d]), half = 0.5 * (jt->upper[d] - jt->lower[d]);
+			pose[jt->dof0 + d] = mid + amount * half * (2 * mc_test_rand(rng) - 1);
+		}
+	mc_model_clamp_pose(m, pose);
+}
+
+int main(void)
+{
+	mc_model truth;
+	mc_err err = {{0}};
+	if (mc_model_load("config/models/default.json", &truth, &err) < 0) {
+		fprintf(stderr, "%s\n", err.msg);
+		return 1;
+	}
+	unsigned long long rng = 3;
+	for (int trial = 0; trial < 5; trial++) {
+		mc_model m = truth;
+		double pose[MC_MAX_DOF], est[MC_MAX_DOF];
+		for (int j = 0; j < truth.njoints; j++)
+			truth.bone_scale[j] = 0.9 + 0.2 * mc_test_rand(&rng);
+		truth.rig_from_root.R = mc_m3_from_rotvec(mc_v3(0.3 * mc_test_rand(&rng), 0.2, -0.1));
+		truth.rig_from_root.t = mc_v3(0.1, 0.2 * mc_test_rand(&rng), 0.05);
+		random_pose(&truth, pose, &rng, 0.3);
+		mc_fk fk, fk2;
+		mc_model_fk(&truth, pose, &fk);
+		mc_ik_target targets[MC_MAX_JOINTS];
+		for (int j = 0; j < truth.njoints; j++)
+			targets[j] = (mc_ik_target){j, fk.rig_from_joint[j].t, 1.0};
+		mc_ik_options o;
+		mc_ik_options_default(&o);
+		o.iterations = 300;
+		o.pose_prior = 1e-8;
+		mc_model_rest_pose(&m, est);
+		double rms = mc_ik_solve(&m, est, targets, truth.njoints, &o, &err);
+		CHECK_MSG(rms >= 0 && rms < 0.005, "trial %d: rms %g m (%s)", trial, rms, err.msg);
+		mc_model_fk(&m, est, &fk2);
+		double worst = 0;
+		for (int j = 0; j < truth.njoints; j++)
+			worst = fmax(worst, mc_v3_norm(mc_v3_sub(fk.rig_from_joint[j].t, fk2.rig_from_joint[j].t)));
+		CHECK_MSG(worst < 0.01, "trial %d: worst joint error %g m", trial, worst);
+		for (int j = 1; j < truth.njoints; j++)
+			if (mc_v3_norm(truth.joints[j].offset) > 0.02)
+				CHECK_NEAR(m.bone_scale[j], truth.bone_scale[j], 1e-6);
+	}
+	/* Too few targets are refused with a message. */
+	mc_model m = truth;
+	double est[MC_MAX_DOF];
+	mc_ik_target two[2] = {{0, mc_v3(0, 0, 0), 1}, {1, mc_v3(0, 0.1, 0), 1}};
+	mc_ik_options o;
+	mc_ik_options_default(&o);
+	mc_model_rest_pose(&m, est);
+	CHECK(mc_ik_solve(&m, est, two, 2, &o, &err) < 0 && strstr(err.msg, "at least 3"));
+	return mc_test_finish("test_ik");
+}

@@ -1,0 +1,577 @@
+/* mocap-bench: tracks a head-mounted stereo fisheye clip (the layout of
+ * ../shared/data/ego/<clip>) from its images and scores it against gt.json.
+ *
+ * Evaluation protocol (DESIGN.md): only the images, the calibration and the
+ * ground truth of frame 0 (to initialise pose and bone lengths) are used;
+ * MPJPE in cm over the evaluated joints, in the left camera frame, with no
+ * alignment.  The last line is machine-readable:
+ *   RESULT clip=NAME frames=N mpjpe_cm=X fps=Y ms_p99=Z device=DEV */
+#include "mc_energy.h"
+#include "mc_cl.h"
+#include "mc_clip.h"
+#include "mc_draw.h"
+#include "mc_tracker.h"
+
+#include <getopt.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+static const char *const eval_joints[] = {
+	"neck",      "left_shoulder", "left_elbow",     "left_wrist",  "left_hip",    "left_knee",
+	"left_ankle", "left_toe",     "right_shoulder", "right_elbow", "right_wrist", "right_hip",
+	"right_knee", "right_ankle",  "right_toe",
+};
+#define NEVAL ((int)(sizeof(eval_joints) / sizeof(eval_joints[0])))
+
+static const struct {
+	const char *name;
+	const char *members[4];
+} groups[] = {
+	{"torso", {"neck", "shoulder", NULL}},
+	{"arms", {"elbow", "wrist", NULL}},
+	{"legs", {"hip", "knee", NULL}},
+	{"feet", {"ankle", "toe", NULL}},
+};
+
+typedef struct {
+	const char *clip;
+	const char *model_path;
+	const char *out_path;
+	const char *overlay_dir;
+	int overlay_every;
+	int max_frames;
+	int reference_frames;
+	bool use_ocam;
+	bool quiet;
+	mc_tracker_settings s;
+} options;
+
+
+static double now_ms(void)
+{
+	struct timespec ts;
+	clock_gettime(CLOCK_MONOTONIC, &ts);
+	return ts.tv_sec * 1e3 + ts.tv_nsec * 1e-6;
+}
+
+/* ---- tracking ---------------------------------------------------------- */
+
+static mc_tracker *start_tracker(const options *o, const mc_clip *clip, const mc_tracker_settings *s, mc_err *err)
+{
+	mc_model model;
+	if (mc_model_load(o->model_path, &model, err) < 0)
+		return NULL;
+	mc_tracker *t = mc_tracker_create(&clip->rig, &model, s, err);
+	if (t && mc_clip_init_tracker(clip, t, err) < 0) {
+		mc_tracker_destroy(t);
+		return NULL;
+	}
+	return t;
+}
+
+typedef struct {
+	int frames;
+	double *ms;
+	double err_sum[NEVAL];
+	int err_n;
+	int states[3];
+} run_stats;
+
+static void write_estimate(FILE *out, int k, const mc_skeleton *sk)
+{
+	fprintf(out, "{\"index\": %d, \"state\": \"%s\", \"joints\": {", k, mc_track_state_name(sk->state));
+	for (int j = 0; j < sk->njoints; j++)
+		fprintf(out, "%s\"%s\": [%.5f, %.5f, %.5f]", j ? ", " : "", sk->joints[j].name, sk->joints[j].position.x,
+			sk->joints[j].position.y, sk->joints[j].position.z);
+	fprintf(out, "}}\n");
+}
+
+/* Left camera image with the estimate (by side colour) and the ground truth
+ * (green) drawn over it, as DIR/overlay_%05d.png. */
+static void write_overlay(const options *o, const mc_clip *clip, int k, const mc_frame_view *view,
+			  const mc_skeleton *sk)
+{
+	mc_canvas im = {malloc((size_t)view->width * view->height * 3), view->width, view->height};
+	if (!im.rgb)
+		return;
+	for (int y = 0; y < view->height; y++)
+		memcpy(im.rgb + (size_t)y * view->width * 3, view->rgb + (size_t)y * view->stride, view->width * 3);
+	mc_vec3 pos[MC_MAX_JOINTS], gt[MC_MAX_JOINTS];
+	int parent[MC_MAX_JOINTS];
+	bool have[MC_MAX_JOINTS];
+	const char *names[MC_MAX_JOINTS];
+	for (int j = 0; j < sk->njoints; j++) {
+		int g = mc_clip_joint(clip, sk->joints[j].name);
+		pos[j] = sk->joints[j].position;
+		parent[j] = sk->joints[j].parent;
+		names[j] = sk->joints[j].name;
+		have[j] = g >= 0;
+		gt[j] = g >= 0 ? mc_clip_gt(clip, k, g) : pos[j];
+	}
+	double thick = mc_draw_thickness(&im);
+	mc_draw_skeleton(&im, &clip->rig.cams[0], sk->njoints, gt, parent, have, NULL, MC_DRAW_GT, 0.6 * thick);
+	mc_draw_skeleton(&im, &clip->rig.cams[0], sk->njoints, pos, parent, NULL, names, NULL, thick);
+	char path[4096];
+	mc_err err;
+	snprintf(path, sizeof(path), "%s/overlay_%05d.png", o->overlay_dir, k);
+	if (mc_draw_write_png(path, &im, &err) < 0)
+		fprintf(stderr, "mocap-bench: %s\n", err.msg);
+	free(im.rgb);
+}
+
+static void score(const mc_clip *clip, int k, const mc_skeleton *sk, run_stats *st)
+{
+	for (int e = 0; e < NEVAL; e++) {
+		int g = mc_clip_joint(clip, eval_joints[e]);
+		int m = -1;
+		for (int j = 0; j < sk->njoints; j++)
+			if (!strcmp(sk->joints[j].name, eval_joints[e]))
+				m = j;
+		/* A joint the model lacks counts as an error of the full distance
+		 * to the camera, so that it cannot improve the score. */
+		mc_vec3 est = m >= 0 ? sk->joints[m].position : mc_v3(0, 0, 0);
+		if (g >= 0)
+			st->err_sum[e] += mc_v3_norm(mc_v3_sub(est, mc_clip_gt(clip, k, g)));
+	}
+	st->err_n++;
+}
+
+static double mpjpe_of(const run_stats *st)
+{
+	double sum = 0;
+	for (int e = 0; e < NEVAL; e++)
+		sum += st->err_sum[e];
+	return st->err_n ? sum / (st->err_n * NEVAL) : 0;
+}
+
+static int track_clip(const options *o, mc_tracker *t, const mc_clip *clip, int nframes, FILE *out,
+		      run_stats *st, mc_err *err)
+{
+	st->ms = calloc(nframes, sizeof(double));
+	if (!st->ms)
+		return mc_err_set(err, "out of memory");
+	for (int k = 0; k < nframes; k++) {
+		mc_frame_view views[2];
+		mc_skeleton sk;
+		if (mc_clip_load_frame(clip, k, views, err) < 0)
+			return -1;
+		double t0 = now_ms();
+		int rc = mc_tracker_track(t, views, 2, NULL, 0, &sk, err);
+		st->ms[k] = now_ms() - t0;
+		if (rc == 0 && o->overlay_dir && k % o->overlay_every == 0)
+			write_overlay(o, clip, k, &views[0], &sk);
+		mc_clip_free_frame(views);
+		if (rc < 0)
+			return -1;
+		st->states[sk.state]++;
+		score(clip, k, &sk, st);
+		if (out)
+			write_estimate(out, k, &sk);
+		if (!o->quiet && (k % 30 == 0 || k == nframes - 1))
+			printf("  frame %4d  %-9s  %6.1f ms  running mpjpe %.2f cm\n", k, mc_track_state_name(sk.state),
+			       st->ms[k], 100.0 * mpjpe_of(st));
+		st->frames++;
+	}
+	return 0;
+}
+
+/* ---- report ------------------------------------------------------------ */
+
+static int cmp_double(const void *a, const void *b)
+{
+	double x = *(const double *)a, y = *(const double *)b;
+	return (x > y) - (x < y);
+}
+
+static double percentile(const double *sorted, int n, double p)
+{
+	if (n == 0)
+		return 0;
+	int i = (int)ceil(p / 100.0 * n) - 1;
+	return sorted[i < 0 ? 0 : (i >= n ? n - 1 : i)];
+}
+
+static void print_accuracy(const run_stats *st)
+{
+	printf("accuracy (MPJPE, cm, left camera frame, no alignment):\n");
+	for (size_t g = 0; g < sizeof(groups) / sizeof(groups[0]); g++) {
+		double sum = 0;
+		int n = 0;
+		for (int e = 0; e < NEVAL; e++)
+			for (int m = 0; groups[g].members[m]; m++)
+				if (strstr(eval_joints[e], groups[g].members[m])) {
+					sum += st->err_sum[e];
+					n++;
+				}
+		printf("  %-6s %6.2f\n", groups[g].name, n ? 100.0 * sum / (n * st->err_n) : 0);
+	}
+	for (int e = 0; e < NEVAL; e++)
+		printf("  %-15s %6.2f\n", eval_joints[e], 100.0 * st->err_sum[e] / st->err_n);
+	printf("  overall %6.2f over %d frames (states: %d ok, %d uncertain, %d lost)\n", 100.0 * mpjpe_of(st),
+	       st->err_n, st->states[0], st->states[1], st->states[2]);
+}
+
+typedef struct {
+	double median, p95, p99, mean;
+} timing;
+
+static timing timing_of(const double *ms, int n)
+{
+	double *sorted = malloc(sizeof(double) * (n ? n : 1));
+	timing t = {0, 0, 0, 0};
+	if (!sorted || n == 0) {
+		free(sorted);
+		return t;
+	}
+	memcpy(sorted, ms, sizeof(double) * n);
+	qsort(sorted, n, sizeof(double), cmp_double);
+	for (int i = 0; i < n; i++)
+		t.mean += sorted[i] / n;
+	t.median = percentile(sorted, n, 50);
+	t.p95 = percentile(sorted, n, 95);
+	t.p99 = percentile(sorted, n, 99);
+	free(sorted);
+	return t;
+}
+
+static void print_settings(const mc_tracker_settings *s, const char *device)
+{
+	printf("device: %s\n", device);
+	printf("settings: backend=%s width=%d height=%d iterations=%d pixel_fraction=%g dropout=%g step=%g "
+	       "momentum=%g lambda_detection=%g lambda_limit=%g lambda_pose=%g lambda_smooth=%g seed=%llu\n",
+	       s->backend == MC_BACKEND_OPENCL ? "opencl" : "reference", s->width, s->height, s->iterations,
+	       s->pixel_fraction, s->dropout, s->step, s->momentum, s->lambda_detection, s->lambda_limit,
+	       s->lambda_pose, s->lambda_smooth, (unsigned long long)s->seed);
+}
+
+/* ---- the reference backend on a few frames, for a speed ratio ----------- */
+
+static double reference_ms_per_frame(const options *o, const mc_clip *clip, mc_err *err)
+{
+	mc_tracker_settings s = o->s;
+	s.backend = MC_BACKEND_REFERENCE;
+	mc_tracker *t = start_tracker(o, clip, &s, err);
+	if (!t)
+		return -1;
+	run_stats st = {0};
+	options q = *o;
+	q.quiet = true;
+	int rc = track_clip(&q, t, clip, o->reference_frames, NULL, &st, err);
+	timing tm = timing_of(st.ms, st.frames);
+	free(st.ms);
+	mc_tracker_destroy(t);
+	return rc < 0 ? -1 : tm.median;
+}
+
+/* ---- the thesis' ch. 4 configuration -------------------------------------
+ * About 10,000 pixels near the body, 72 Gaussians, no sampling: full
+ * gradient iterations (kinematics, energy and gradient, chain rule) per
+ * second.  The thesis reports 8.1 on a 4-core 3.6 GHz CPU. */
+
+typedef struct {
+	mc_raytable rt;
+	int *pixels;
+	int npixels;
+	float *hsv;
+} thesis_view;
+
+static bool near_model(const mc_scene *sc, mc_vec3 o, mc_vec3 n)
+{
+	for (int q = 0; q < sc->n; q++) {
+		mc_vec3 d = mc_v3_sub(sc->mu[q], o);
+		double along = mc_v3_dot(d, n);
+		if (along > 0 && mc_v3_norm2(d) - along * along < pow(3 * sc->sigma[q], 2))
+			return true;
+	}
+	return false;
+}
+
+static int thesis_view_build(const mc_camera *cam, const mc_scene *sc, const mc_frame_view *img, thesis_view *tv,
+			     mc_err *err)
+{
+	for (int res = 128; res <= 512; res += 32) {
+		if (mc_raytable_build(cam, res, res, &tv->rt, err) < 0)
+			return -1;
+		tv->pixels = malloc(sizeof(int) * res * res);
+		tv->npixels = 0;
+		for (int p = 0; p < res * res && tv->pixels && tv->npixels < 10000; p++)
+			if (tv->rt.valid[p] && near_model(sc, tv->rt.origin, tv->rt.dir[p]))
+				tv->pixels[tv->npixels++] = p;
+		if (tv->npixels >= 10000 || res == 512)
+			break;
+		free(tv->pixels);
+		mc_raytable_free(&tv->rt);
+	}
+	int W = tv->rt.width, H = tv->rt.height;
+	tv->hsv = malloc(sizeof(float) * 3 * W * H);
+	if (!tv->pixels || !tv->hsv)
+		return mc_err_set(err, "out of memory");
+	for (int j = 0; j < H; j++)
+		for (int i = 0; i < W; i++) { /* nearest-neighbour sample of the image */
+			const uint8_t *px = img->rgb + (size_t)(j * img->height / H) * img->stride + 3 * (i * img->width / W);
+			double rgb[3] = {px[0] / 255.0, px[1] / 255.0, px[2] / 255.0}, hsv[3];
+			mc_rgb_to_hsv(rgb, hsv);
+			for (int k = 0; k < 3; k++)
+				tv->hsv[3 * (j * W + i) + k] = (float)hsv[k];
+		}
+	return 0;
+}
+
+static double thesis_iterations_per_s(const mc_model *m, const double *pose, thesis_view *tv, mc_cl_energy *cl,
+				      int iterations, mc_err *err)
+{
+	mc_view view = {&tv->rt, tv->hsv};
+	double t0 = now_ms();
+	for (int it = 0; it < iterations; it++) {
+		mc_fk fk;
+		mc_scene sc;
+		mc_vec3 dmu[MC_MAX_GAUSSIANS] = {{0}};
+		double dsigma[MC_MAX_GAUSSIANS] = {0}, grad[MC_MAX_DOF] = {0}, E;
+		mc_model_fk(m, pose, &fk);
+		mc_scene_from_model(m, &fk, &sc);
+		if (cl) {
+			const int *pix[1] = {tv->pixels};
+			if (mc_cl_energy_eval(cl, &sc, pix, &tv->npixels, 0.0, 1, &E, dmu, dsigma, err) < 0)
+				return -1;
+		} else {
+			E = mc_energy_color(&sc, &view, tv->pixels, tv->npixels, dmu, dsigma);
+		}
+		mc_model_backprop(m, pose, &fk, dmu, grad);
+		(void)E;
+	}
+	return iterations / ((now_ms() - t0) / 1e3);
+}
+
+static int run_thesis_config(const options *o, const mc_clip *clip, mc_err *err)
+{
+	mc_tracker_settings s = o->s;
+	s.backend = MC_BACKEND_REFERENCE;
+	mc_tracker *t = start_tracker(o, clip, &s, err);
+	if (!t)
+		return -1;
+	mc_model m = *mc_tracker_model(t);
+	double pose[MC_MAX_DOF];
+	memcpy(pose, mc_tracker_pose(t), sizeof(double) * m.ndof);
+	mc_tracker_destroy(t);
+	if (m.ngauss > 72)
+		m.ngauss = 72;
+	mc_fk fk;
+	mc_scene sc;
+	mc_model_fk(&m, pose, &fk);
+	mc_scene_from_model(&m, &fk, &sc);
+	mc_frame_view views[2];
+	thesis_view tv = {0};
+	if (mc_clip_load_frame(clip, 0, views, err) < 0)
+		return -1;
+	int rc = thesis_view_build(&clip->rig.cams[0], &sc, &views[0], &tv, err);
+	mc_clip_free_frame(views);
+	mc_cl_energy *cl = rc == 0 ? mc_cl_energy_create(o->s.cl_platform, o->s.cl_device, &tv.rt, 1, err) : NULL;
+	if (cl)
+		rc = mc_cl_energy_set_image(cl, 0, tv.hsv, err);
+	double cl_rate = (cl && rc == 0) ? thesis_iterations_per_s(&m, pose, &tv, cl, 20, err) : -1;
+	double ref_rate = rc == 0 ? thesis_iterations_per_s(&m, pose, &tv, NULL, 2, err) : -1;
+	if (rc == 0)
+		printf("thesis ch. 4 configuration: %d pixels (%dx%d), %d Gaussians, %d pose parameters, no sampling:\n"
+		       "  opencl    %.2f gradient iterations/s\n  reference %.2f gradient iterations/s\n"
+		       "  (thesis: 8.1 on a 4-core 3.6 GHz CPU, 72 Gaussians, 44 parameters)\n",
+		       tv.npixels, tv.rt.width, tv.rt.height, m.ngauss, m.ndof, cl_rate, ref_rate);
+	if (cl)
+		mc_cl_energy_destroy(cl);
+	mc_raytable_free(&tv.rt);
+	free(tv.pixels);
+	free(tv.hsv);
+	return cl_rate < 0 || ref_rate < 0 ? -1 : 0;
+}
+
+/* ---- options ----------------------------------------------------------- */
+
+static void usage(FILE *f)
+{
+	fprintf(f, "usage: mocap-bench --clip DIR [options]\n"
+		   "  --model PATH          body model (default config/models/default.json)\n"
+		   "  --out FILE            write per-frame estimates as JSON lines\n"
+		   "  --frames N            track only the first N frames\n"
+		   "  --backend opencl|reference\n"
+		   "  --width W --height H  working resolution per camera (default 128x128)\n"
+		   "  --iterations N        gradient iterations per frame (default 50)\n"
+		   "  --pixel-fraction F    share of candidate pixels per iteration\n"
+		   "  --dropout P           per-pixel Gaussian dropout probability\n"
+		   "  --step S --momentum M --lambda-smooth L --lambda-pose L --lambda-limit L\n"
+		   "  --platform N --device N   OpenCL device (default: first GPU, else first CPU)\n"
+		   "  --seed N              random seed\n"
+		   "  --ocam                use the clip's OCam polynomial instead of the equidistant model\n"
+		   "  --reference-frames N  frames tracked by the reference backend for the speed ratio (default 3, 0 = skip)\n"
+		   "  --no-thesis           skip the thesis ch. 4 configuration\n"
+		   "  --overlay-dir DIR     write DIR/overlay_K.png: left image, estimate and ground truth\n"
+		   "  --overlay-every N     every Nth frame (default 10)\n"
+		   "  --quiet               no per-frame progress\n");
+}
+
+static int parse_number(const char *opt, const char *arg, double lo, double hi, double *out)
+{
+	char *end;
+	double v = strtod(arg, &end);
+	if (end == arg || *end || !isfinite(v) || v < lo || v > hi) {
+		fprintf(stderr, "mocap-bench: %s: expected a number in [%g, %g], got '%s'\n", opt, lo, hi, arg);
+		return -1;
+	}
+	*out = v;
+	return 0;
+}
+
+enum { OPT_MODEL = 256, OPT_OUT, OPT_FRAMES, OPT_BACKEND, OPT_WIDTH, OPT_HEIGHT, OPT_ITER, OPT_FRAC, OPT_DROP,
+       OPT_STEP, OPT_MOM, OPT_LSMOOTH, OPT_LPOSE, OPT_LLIMIT, OPT_PLAT, OPT_DEV, OPT_SEED, OPT_OCAM, OPT_REF,
+       OPT_NOTHESIS, OPT_QUIET, OPT_CLIP, OPT_HELP, OPT_OVERLAY, OPT_OVERLAY_EVERY };
+
+static int apply_option(options *o, int c, const char *name, const char *arg, bool *thesis)
+{
+	double v = 0;
+	mc_tracker_settings *s = &o->s;
+	switch (c) {
+	case OPT_CLIP: o->clip = arg; return 0;
+	case OPT_MODEL: o->model_path = arg; return 0;
+	case OPT_OUT: o->out_path = arg; return 0;
+	case OPT_OVERLAY: o->overlay_dir = arg; return 0;
+	case OPT_OCAM: o->use_ocam = true; return 0;
+	case OPT_NOTHESIS: *thesis = false; return 0;
+	case OPT_QUIET: o->quiet = true; return 0;
+	case OPT_BACKEND:
+		if (!strcmp(arg, "opencl") || !strcmp(arg, "reference")) {
+			s->backend = !strcmp(arg, "opencl") ? MC_BACKEND_OPENCL : MC_BACKEND_REFERENCE;
+			return 0;
+		}
+		fprintf(stderr, "mocap-bench: --backend: expected opencl or reference, got '%s'\n", arg);
+		return -1;
+	}
+	if (parse_number(name, arg, -1, 1e9, &v) < 0)
+		return -1;
+	switch (c) {
+	case OPT_FRAMES: o->max_frames = (int)v; break;
+	case OPT_REF: o->reference_frames = (int)v; break;
+	case OPT_OVERLAY_EVERY: o->overlay_every = v >= 1 ? (int)v : 1; break;
+	case OPT_WIDTH: s->width = (int)v; break;
+	case OPT_HEIGHT: s->height = (int)v; break;
+	case OPT_ITER: s->iterations = (int)v; break;
+	case OPT_FRAC: s->pixel_fraction = v; break;
+	case OPT_DROP: s->dropout = v; break;
+	case OPT_STEP: s->step = v; break;
+	case OPT_MOM: s->momentum = v; break;
+	case OPT_LSMOOTH: s->lambda_smooth = v; break;
+	case OPT_LPOSE: s->lambda_pose = v; break;
+	case OPT_LLIMIT: s->lambda_limit = v; break;
+	case OPT_PLAT: s->cl_platform = (int)v; break;
+	case OPT_DEV: s->cl_device = (int)v; break;
+	case OPT_SEED: s->seed = (uint64_t)v; break;
+	}
+	return 0;
+}
+
+static int parse_options(int argc, char **argv, options *o, bool *thesis)
+{
+	static const struct option longopts[] = {
+		{"clip", 1, 0, OPT_CLIP}, {"model", 1, 0, OPT_MODEL}, {"out", 1, 0, OPT_OUT},
+		{"frames", 1, 0, OPT_FRAMES}, {"backend", 1, 0, OPT_BACKEND}, {"width", 1, 0, OPT_WIDTH},
+		{"height", 1, 0, OPT_HEIGHT}, {"iterations", 1, 0, OPT_ITER}, {"pixel-fraction", 1, 0, OPT_FRAC},
+		{"dropout", 1, 0, OPT_DROP}, {"step", 1, 0, OPT_STEP}, {"momentum", 1, 0, OPT_MOM},
+		{"lambda-smooth", 1, 0, OPT_LSMOOTH}, {"lambda-pose", 1, 0, OPT_LPOSE},
+		{"lambda-limit", 1, 0, OPT_LLIMIT}, {"platform", 1, 0, OPT_PLAT}, {"device", 1, 0, OPT_DEV},
+		{"seed", 1, 0, OPT_SEED}, {"ocam", 0, 0, OPT_OCAM}, {"reference-frames", 1, 0, OPT_REF},
+		{"no-thesis", 0, 0, OPT_NOTHESIS}, {"overlay-dir", 1, 0, OPT_OVERLAY},
+		{"overlay-every", 1, 0, OPT_OVERLAY_EVERY}, {"quiet", 0, 0, OPT_QUIET}, {"help", 0, 0, OPT_HELP},
+		{0, 0, 0, 0}};
+	int c, idx;
+	while ((c = getopt_long(argc, argv, "", longopts, &idx)) != -1) {
+		if (c == OPT_HELP) {
+			usage(stdout);
+			exit(0);
+		}
+		if (c == '?' || apply_option(o, c, longopts[idx].name, optarg, thesis) < 0) {
+			usage(stderr);
+			return -1;
+		}
+	}
+	if (!o->clip) {
+		fprintf(stderr, "mocap-bench: --clip DIR is required\n");
+		usage(stderr);
+		return -1;
+	}
+	return 0;
+}
+
+/* ---- main -------------------------------------------------------------- */
+
+static void print_speed(const options *o, const mc_clip *clip, const run_stats *st, mc_err *err)
+{
+	timing tm = timing_of(st->ms, st->frames);
+	printf("speed: per frame median %.2f ms, p95 %.2f ms, p99 %.2f ms, mean %.2f ms; %.1f frames/s, "
+	       "%.0f iterations/s\n",
+	       tm.median, tm.p95, tm.p99, tm.mean, 1e3 / tm.mean, o->s.iterations * 1e3 / tm.mean);
+	if (o->reference_frames > 0) {
+		double ref = reference_ms_per_frame(o, clip, err);
+		if (ref > 0)
+			printf("reference backend: %.1f ms per frame (median of %d frames): %s is %.1fx faster\n", ref,
+			       o->reference_frames, o->s.backend == MC_BACKEND_OPENCL ? "opencl" : "reference",
+			       ref / tm.median);
+	}
+}
+
+static int run(const options *o, bool thesis, mc_err *err)
+{
+	mc_clip clip;
+	if (mc_clip_open(o->clip, o->use_ocam, &clip, err) < 0)
+		return -1;
+	int nframes = o->max_frames > 0 && o->max_frames < clip.nframes ? o->max_frames : clip.nframes;
+	mc_tracker *t = start_tracker(o, &clip, &o->s, err);
+	FILE *out = t && o->out_path ? fopen(o->out_path, "w") : NULL;
+	if (!t || (o->out_path && !out)) {
+		if (t)
+			mc_err_set(err, "%s: cannot write", o->out_path);
+		mc_tracker_destroy(t);
+		mc_clip_close(&clip);
+		return -1;
+	}
+	printf("clip: %s (%d frames)\n", clip.name, nframes);
+	print_settings(&o->s, mc_tracker_device_name(t));
+	run_stats st = {0};
+	int rc = track_clip(o, t, &clip, nframes, out, &st, err);
+	if (out)
+		fclose(out);
+	char device[160];
+	snprintf(device, sizeof(device), "%s", mc_tracker_device_name(t));
+	mc_tracker_destroy(t);
+	if (rc == 0) {
+		print_accuracy(&st);
+		print_speed(o, &clip, &st, err);
+		if (thesis && run_thesis_config(o, &clip, err) < 0)
+			fprintf(stderr, "mocap-bench: thesis configuration: %s\n", err->msg);
+		for (char *p = device; *p; p++)
+			if (*p == ' ')
+				*p = '_';
+		timing tm = timing_of(st.ms, st.frames);
+		printf("RESULT clip=%s frames=%d mpjpe_cm=%.2f fps=%.1f ms_p99=%.2f device=%s\n", clip.name, st.frames,
+		       100.0 * mpjpe_of(&st), 1e3 / tm.mean, tm.p99, device);
+	}
+	free(st.ms);
+	mc_clip_close(&clip);
+	return rc;
+}
+
+int main(int argc, char **argv)
+{
+	options o = {0};
+	bool thesis = true;
+	o.model_path = "config/models/default.json";
+	o.reference_frames = 3;
+	o.overlay_every = 10;
+	mc_tracker_settings_default(&o.s);
+	if (parse_options(argc, argv, &o, &thesis) < 0)
+		return 2;
+	mc_err err = {{0}};
+	if (run(&o, thesis, &err) < 0) {
+		fprintf(stderr, "mocap-bench: %s\n", err.msg);
+		return 1;
+	}
+	return 0;
+}
