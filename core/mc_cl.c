@@ -36,6 +36,7 @@ struct mc_cl_energy {
 	int nvalid[MC_MAX_CAMERAS];
 	int total;                     /* rays over all cameras */
 
+	int vw;            /* SIMD lanes in the kernel (-DVW) */
 	size_t wg;         /* work-group size */
 	size_t max_groups; /* work-groups per launch at most */
 
@@ -242,7 +243,7 @@ static int build_program(mc_cl_energy *e, mc_err *err)
 	if (rc != CL_SUCCESS)
 		return cl_fail(err, "clCreateProgramWithSource", rc);
 	char options[128];
-	snprintf(options, sizeof(options), "-cl-std=CL1.2 -cl-mad-enable -DVW=%d", vector_width(e->dev));
+	snprintf(options, sizeof(options), "-cl-std=CL1.2 -cl-mad-enable -DVW=%d", e->vw);
 	rc = clBuildProgram(e->prog, 1, &e->dev, options, NULL, NULL);
 	if (rc != CL_SUCCESS) {
 		size_t loglen = 0;
@@ -265,8 +266,9 @@ static int build_program(mc_cl_energy *e, mc_err *err)
 
 /* Work-group size and count: every work-group keeps a row of ROW_MAX floats
  * per work-item in local memory; CPUs get few, small groups (one per
- * thread is enough, a few more balance uneven pixels), GPUs many. */
-static void choose_launch(mc_cl_energy *e)
+ * thread is enough, a few more balance uneven pixels), GPUs many.  The
+ * caller's choices (opts) are checked against the device's limits. */
+static int choose_launch(mc_cl_energy *e, const mc_cl_options *opts, mc_err *err)
 {
 	cl_ulong local_mem = 0;
 	cl_uint units = 1;
@@ -274,19 +276,47 @@ static void choose_launch(mc_cl_energy *e)
 	clGetDeviceInfo(e->dev, CL_DEVICE_LOCAL_MEM_SIZE, sizeof(local_mem), &local_mem, NULL);
 	clGetDeviceInfo(e->dev, CL_DEVICE_MAX_COMPUTE_UNITS, sizeof(units), &units, NULL);
 	clGetKernelWorkGroupInfo(e->kernel, e->dev, CL_KERNEL_WORK_GROUP_SIZE, sizeof(kernel_wg), &kernel_wg, NULL);
+	size_t wg_max = kernel_wg;
+	while (wg_max > 1 && wg_max * ROW_MAX * sizeof(float) > local_mem)
+		wg_max--;
 	bool gpu = device_type(e->dev) & CL_DEVICE_TYPE_GPU;
-	size_t wg = gpu ? 64 : 8;
-	while (wg > 1 && (wg > kernel_wg || wg * ROW_MAX * sizeof(float) > local_mem))
-		wg /= 2;
-	e->wg = wg;
-	e->max_groups = (size_t)(units ? units : 1) * (gpu ? 16 : 4);
+	if (opts && opts->work_group_size > 0) {
+		if ((size_t)opts->work_group_size > wg_max)
+			return mc_err_set(err, "work_group_size %d: at most %zu on this device", opts->work_group_size,
+					  wg_max);
+		e->wg = (size_t)opts->work_group_size;
+	} else {
+		size_t wg = gpu ? 64 : 8;
+		while (wg > 1 && wg > wg_max)
+			wg /= 2;
+		e->wg = wg;
+	}
+	if (opts && opts->max_groups > 0)
+		e->max_groups = (size_t)opts->max_groups;
+	else
+		e->max_groups = (size_t)(units ? units : 1) * (gpu ? 16 : 4);
+	return 0;
+}
+
+static int check_options(const mc_cl_options *opts, mc_err *err)
+{
+	if (!opts)
+		return 0;
+	int w = opts->vector_width;
+	if (w != 0 && w != 1 && w != 4 && w != 8 && w != 16)
+		return mc_err_set(err, "mc_cl_energy_create: vector_width %d: must be 0, 1, 4, 8 or 16", w);
+	if (opts->work_group_size < 0)
+		return mc_err_set(err, "mc_cl_energy_create: work_group_size %d: must be >= 0", opts->work_group_size);
+	if (opts->max_groups < 0)
+		return mc_err_set(err, "mc_cl_energy_create: max_groups %d: must be >= 0", opts->max_groups);
+	return 0;
 }
 
 static int upload_rays(mc_cl_energy *e, const mc_raytable *tables, mc_err *err)
 {
 	cl_float4 *rays = malloc(sizeof(cl_float4) * (size_t)e->total);
 	if (!rays)
-		return mc_err_set(err, "mc_cl_energy_create: out of memory");
+		return mc_err_set(err, "out of memory");
 	cl_float4 origins[MC_MAX_CAMERAS];
 	cl_uint firsts[MC_MAX_CAMERAS];
 	memset(origins, 0, sizeof(origins));
@@ -336,7 +366,7 @@ static int create_buffers(mc_cl_energy *e, mc_err *err)
 			maxpix = e->cam_npix[c];
 	e->image_host = malloc(sizeof(cl_float4) * (size_t)maxpix);
 	if (!e->partial_host || !e->image_host)
-		return mc_err_set(err, "mc_cl_energy_create: out of memory");
+		return mc_err_set(err, "out of memory");
 	return 0;
 }
 
@@ -363,8 +393,18 @@ static int check_tables(const mc_raytable *tables, int ncams, mc_err *err)
 
 mc_cl_energy *mc_cl_energy_create(int platform, int device, const mc_raytable *tables, int ncams, mc_err *err)
 {
-	if (!tables || check_tables(tables, ncams, err) != 0)
-		return tables ? NULL : (mc_err_set(err, "mc_cl_energy_create: no ray tables"), NULL);
+	return mc_cl_energy_create_opts(platform, device, tables, ncams, NULL, err);
+}
+
+mc_cl_energy *mc_cl_energy_create_opts(int platform, int device, const mc_raytable *tables, int ncams,
+				       const mc_cl_options *opts, mc_err *err)
+{
+	if (!tables) {
+		mc_err_set(err, "mc_cl_energy_create: no ray tables");
+		return NULL;
+	}
+	if (check_tables(tables, ncams, err) != 0 || check_options(opts, err) != 0)
+		return NULL;
 	mc_cl_energy *e = calloc(1, sizeof(*e));
 	if (!e) {
 		mc_err_set(err, "mc_cl_energy_create: out of memory");
@@ -390,9 +430,9 @@ mc_cl_energy *mc_cl_energy_create(int platform, int device, const mc_raytable *t
 		cl_fail(err, "clCreateCommandQueue", rc);
 		goto fail;
 	}
-	if (build_program(e, err) != 0)
+	e->vw = opts && opts->vector_width ? opts->vector_width : vector_width(e->dev);
+	if (build_program(e, err) != 0 || choose_launch(e, opts, err) != 0)
 		goto fail;
-	choose_launch(e);
 
 	e->ncams = ncams;
 	for (int c = 0; c < ncams; c++) {
@@ -401,7 +441,7 @@ mc_cl_energy *mc_cl_energy_create(int platform, int device, const mc_raytable *t
 		e->total += e->cam_npix[c];
 		e->valid[c] = malloc(sizeof(int) * (size_t)e->cam_npix[c]);
 		if (!e->valid[c]) {
-			mc_err_set(err, "mc_cl_energy_create: out of memory");
+			mc_err_set(err, "out of memory");
 			goto fail;
 		}
 		for (int i = 0; i < e->cam_npix[c]; i++)
@@ -421,6 +461,13 @@ fail:
 const char *mc_cl_energy_device(const mc_cl_energy *e)
 {
 	return e->name;
+}
+
+void mc_cl_energy_config(const mc_cl_energy *e, mc_cl_options *out)
+{
+	out->vector_width = e->vw;
+	out->work_group_size = (int)e->wg;
+	out->max_groups = (int)e->max_groups;
 }
 
 void mc_cl_energy_destroy(mc_cl_energy *e)

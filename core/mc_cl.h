@@ -33,8 +33,26 @@ typedef struct mc_cl_energy mc_cl_energy;
 mc_cl_energy *mc_cl_energy_create(int platform, int device, const mc_raytable *tables, int ncams,
 				  mc_err *err);
 
+/* Launch settings, for tuning and tests; 0 = chosen from the device. */
+typedef struct {
+	int vector_width;    /* SIMD lanes per work-item: 1, 4, 8 or 16 (CPUs:
+	                      * the preferred float width; GPUs: 1) */
+	int work_group_size; /* work-items per group (CPUs 8, GPUs 64, or less
+	                      * where local memory is short) */
+	int max_groups;      /* work-groups per launch at most (CPUs 4, GPUs 16
+	                      * per compute unit); each work-item loops over
+	                      * its share of the pixels */
+} mc_cl_options;
+
+/* mc_cl_energy_create with settings (opts NULL: all chosen). */
+mc_cl_energy *mc_cl_energy_create_opts(int platform, int device, const mc_raytable *tables, int ncams,
+				       const mc_cl_options *opts, mc_err *err);
+
 /* "platform name: device name". */
 const char *mc_cl_energy_device(const mc_cl_energy *e);
+
+/* The settings in use. */
+void mc_cl_energy_config(const mc_cl_energy *e, mc_cl_options *out);
 
 /* Sets camera cam's image: working-resolution HSV (3 floats per pixel of
  * its ray table, each in [0, 1], row-major), copied.  hsv NULL marks the

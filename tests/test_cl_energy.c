@@ -275,6 +275,57 @@ static void test_human(void)
 	}
 }
 
+/* The kernel with every vector width (1: the GPU path) and assorted
+ * work-group shapes gives the reference's numbers. */
+static void test_launch_settings(void)
+{
+	unsigned long long rng = 21;
+	view v[2];
+	mc_raytable t[2];
+	tables_ego(t, 24);
+	for (int c = 0; c < 2; c++) {
+		v[c].rays = t[c];
+		v[c].hsv = image_random(&t[c], &rng);
+	}
+	mc_scene sc;
+	scene_human(&sc, 0.5, &rng);
+	static result cl, ref;
+	eval_ref(&sc, v, 2, NULL, NULL, 0, 0, &ref);
+	static const mc_cl_options settings[] = {
+		{1, 0, 0}, {4, 3, 5}, {8, 1, 1}, {16, 8, 0}, {16, 2, 64},
+	};
+	for (size_t i = 0; i < sizeof(settings) / sizeof(settings[0]); i++) {
+		mc_err err = {{0}};
+		mc_cl_energy *e = mc_cl_energy_create_opts(-1, -1, t, 2, &settings[i], &err);
+		CHECK_MSG(e != NULL, "%s", err.msg);
+		if (!e)
+			continue;
+		mc_cl_options got;
+		mc_cl_energy_config(e, &got);
+		CHECK(got.vector_width == settings[i].vector_width);
+		CHECK(!settings[i].work_group_size || got.work_group_size == settings[i].work_group_size);
+		for (int c = 0; c < 2; c++)
+			CHECK(mc_cl_energy_set_image(e, c, v[c].hsv, &err) == 0);
+		eval_cl(e, &sc, NULL, NULL, 0, 0, &cl);
+		char what[64];
+		snprintf(what, sizeof(what), "VW %d, work-group %d, groups <= %d", got.vector_width,
+			 got.work_group_size, got.max_groups);
+		check_agree(what, &cl, &ref, sc.n, 1e-3);
+		mc_cl_energy_destroy(e);
+	}
+	mc_err err = {{0}};
+	mc_cl_options bad = {3, 0, 0};
+	CHECK(mc_cl_energy_create_opts(-1, -1, t, 2, &bad, &err) == NULL);
+	CHECK_MSG(strstr(err.msg, "vector_width 3"), "%s", err.msg);
+	bad = (mc_cl_options){0, 1 << 20, 0};
+	CHECK(mc_cl_energy_create_opts(-1, -1, t, 2, &bad, &err) == NULL);
+	CHECK_MSG(strstr(err.msg, "work_group_size 1048576"), "%s", err.msg);
+	for (int c = 0; c < 2; c++) {
+		table_free(&t[c]);
+		free(v[c].hsv);
+	}
+}
+
 static void test_dropout(void)
 {
 	unsigned long long rng = 5;
@@ -387,6 +438,7 @@ int main(void)
 	test_random_scenes();
 	test_culling_edge();
 	test_human();
+	test_launch_settings();
 	test_dropout();
 	test_errors();
 	return mc_test_finish("test_cl_energy");
