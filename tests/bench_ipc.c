@@ -127,7 +127,8 @@ static bool run(mc_server *srv, int nsubs, mocap_mode mode, int frames)
 	free(all);
 	free(pub_us);
 	free(sk);
-	return p99 < 1.0 && total == frames * nsubs;
+	/* "latest" clients skip frames by design when they fall behind. */
+	return p99 < 1.0 && (mode == MOCAP_LATEST || total == frames * nsubs);
 }
 
 int main(int argc, char **argv)
@@ -168,7 +169,15 @@ int main(int argc, char **argv)
 	ok &= run(srv, 64, MOCAP_LATEST, frames);
 	ok &= run(srv, 1, MOCAP_ALL, frames);
 	ok &= run(srv, 64, MOCAP_ALL, frames);
-	printf("bench_ipc: target p99 < 1 ms with every frame received: %s\n", ok ? "met" : "NOT met");
+	double load[3] = {0};
+	FILE *la = fopen("/proc/loadavg", "r");
+	if (la) {
+		if (fscanf(la, "%lf %lf %lf", &load[0], &load[1], &load[2]) != 3)
+			load[0] = -1;
+		fclose(la);
+	}
+	printf("bench_ipc: target p99 < 1 ms (and every frame in \"all\" mode): %s; load average %.2f on %ld CPUs\n",
+	       ok ? "met" : "NOT met", load[0], ncpu);
 	mc_server_destroy(srv);
 	rmdir(dir);
 	return 0;

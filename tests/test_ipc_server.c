@@ -73,6 +73,12 @@ static bool raw_expect(int fd, uint16_t type)
 
 static mc_proto_msg tx;
 
+static void sleep_ms_local(int ms)
+{
+	struct timespec ts = {0, ms * 1000000L};
+	nanosleep(&ts, NULL);
+}
+
 static void send_hello(int fd, uint16_t lo, uint16_t hi)
 {
 	memset(&tx, 0, sizeof(tx));
@@ -332,6 +338,50 @@ static void test_disconnects(void)
 	mc_server_destroy(srv);
 }
 
+/* A client that asks and asks but never reads its replies is cut off once
+ * its socket buffer and its reply budget are full; nobody else notices. */
+static void test_flood(void)
+{
+	mc_server *srv = make_server(8, -1);
+	int other = hello_client();
+	int fd = hello_client();
+	int flags = fcntl(fd, F_GETFL);
+	fcntl(fd, F_SETFL, flags | O_NONBLOCK);
+	int sent = 0;
+	for (int i = 0; i < 20000; i++) {
+		uint8_t req[16] = {0x04, 0, 0, 0, 16, 0, 0, 0, (uint8_t)i, (uint8_t)(i >> 8), 1};
+		ssize_t n = send(fd, req, sizeof(req), MSG_NOSIGNAL);
+		if (n < 0 && errno == EAGAIN) {
+			sleep_ms_local(1);
+			continue;
+		}
+		if (n < 0)
+			break; /* EPIPE: the server has closed us */
+		sent++;
+	}
+	fcntl(fd, F_SETFL, flags);
+	int replies = 0;
+	bool eof = false;
+	for (;;) {
+		int r = raw_recv(fd, 3000);
+		if (r < 0) {
+			eof = true;
+			break;
+		}
+		if (r == 0)
+			break;
+		replies++;
+	}
+	CHECK_MSG(eof, "the flooding client was not disconnected (%d sent, %d replies)", sent, replies);
+	CHECK(replies < sent);
+	printf("flood: %d requests sent, %d replies read before the server closed the connection\n", sent, replies);
+	simple_request(other, MC_MSG_PING, 77);
+	CHECK(raw_expect(other, MC_MSG_PONG) && rx.h.request_id == 77);
+	close(fd);
+	close(other);
+	mc_server_destroy(srv);
+}
+
 static void test_client_limit(void)
 {
 	mc_server *srv = make_server(4, -1);
@@ -532,6 +582,7 @@ int main(void)
 	test_handshake();
 	test_malformed();
 	test_disconnects();
+	test_flood();
 	test_client_limit();
 	test_socket_file();
 	test_socket_activation();
