@@ -456,23 +456,27 @@ static void client_flush(mc_server *srv, client *c)
 	epoll_update(srv, c, false);
 }
 
+static void reply_error(mc_server *srv, client *c, uint32_t request_id, uint16_t request_type, uint32_t code,
+			bool fatal, const char *fmt, ...) __attribute__((format(printf, 7, 8)));
+
 /* Queues a reply; a client that does not read its replies is dropped. */
 static void client_send(mc_server *srv, client *c, blob *b)
 {
-	if (!b)
+	if (!b || c->dead)
 		return;
 	if (!q_push(c, b)) {
-		client_close(srv, c);
+		reply_error(srv, c, 0, 0, MC_PROTO_E_OVERLOAD, true,
+			    "more than %d replies unread: the client does not read its socket", NONFRAME_MAX);
 		return;
 	}
 	client_flush(srv, c);
 }
 
 static void reply_error(mc_server *srv, client *c, uint32_t request_id, uint16_t request_type, uint32_t code,
-			bool fatal, const char *fmt, ...) __attribute__((format(printf, 7, 8)));
-static void reply_error(mc_server *srv, client *c, uint32_t request_id, uint16_t request_type, uint32_t code,
 			bool fatal, const char *fmt, ...)
 {
+	if (c->dead)
+		return;
 	mc_proto_msg *m = &srv->out;
 	memset(&m->h, 0, sizeof(m->h));
 	m->h.type = MC_MSG_ERROR;
