@@ -1,0 +1,159 @@
+/* mocapd end to end with the tracker: the bundled clip (tests/data/ego_demo)
+ * through the files driver, grouped, converted from JPEG, tracked on OpenCL
+ * (PoCL) from the initial joints of frame 0, printed and saved; then a
+ * looping clip whose tracker budget is changed by SIGHUP while it runs. */
+#include "daemon/harness.h"
+#include "mc_model.h"
+#include "test_util.h"
+
+#define CONF(extra_camera_keys, extra_tracker_keys)                  \
+	"[daemon]\n"                                                  \
+	"plugin_dir = @DRIVERS@\n"                                    \
+	"[camera left]\n"                                             \
+	"driver = files\n"                                            \
+	"rig_camera = left\n"                                         \
+	"path = @REPO@/tests/data/ego_demo/left\n" extra_camera_keys  \
+	"[camera right]\n"                                            \
+	"driver = files\n"                                            \
+	"rig_camera = right\n"                                        \
+	"path = @REPO@/tests/data/ego_demo/right\n" extra_camera_keys \
+	"[tracker]\n"                                                 \
+	"rig = @REPO@/config/rigs/ego_stereo.json\n"                  \
+	"model = @REPO@/config/models/default.json\n"                 \
+	"init_joints = @REPO@/tests/data/ego_demo/gt.json\n" extra_tracker_keys \
+	"[socket]\n"                                                  \
+	"path = @SOCK@\n"
+
+static char repo[PATH_MAX];
+
+/* mcd_run_config with @DRIVERS@ and @REPO@ filled in too. */
+static void write_config(mcd_run *r, const char *tmpl)
+{
+	char text[8192] = "";
+	const char *p = tmpl;
+	while (*p) {
+		if (strncmp(p, "@DRIVERS@", 9) == 0) {
+			strcat(text, mcd_build_dir);
+			strcat(text, "/drivers");
+			p += 9;
+		} else if (strncmp(p, "@REPO@", 6) == 0) {
+			strcat(text, repo);
+			p += 6;
+		} else
+			strncat(text, p++, 1);
+	}
+	mcd_run_config(r, text);
+}
+
+/* Skips the whole test when the tracker cannot run here (no OpenCL). */
+static void skip_without_opencl(mcd_run *r)
+{
+	char *log = mcd_read_file(r->log);
+	bool no_cl = log && (strstr(log, "OpenCL") || strstr(log, "CL_")) && strstr(log, "error");
+	free(log);
+	if (no_cl) {
+		mcd_run_dump(r, "no OpenCL");
+		mcd_run_cleanup(r);
+		TEST_SKIP("the tracker cannot run here (no usable OpenCL device)");
+	}
+}
+
+/* The value of joint `name` in a --print line: " name=(x,y,z)". */
+static bool joint_in_line(const char *line, const char *name, mc_vec3 *v)
+{
+	char key[64];
+	snprintf(key, sizeof(key), " %s=(", name);
+	const char *at = strstr(line, key);
+	return at && sscanf(at + strlen(key), "%lf,%lf,%lf", &v->x, &v->y, &v->z) == 3;
+}
+
+static void test_clip(void)
+{
+	mcd_run r;
+	CHECK(mcd_run_init(&r));
+	write_config(&r, CONF("", ""));
+	char poses[128];
+	snprintf(poses, sizeof(poses), "%s/poses", r.dir);
+	mkdir(poses, 0755);
+	const char *const args[] = {"--print", "--exit-at-end", "--save-poses", poses, NULL};
+	CHECK(mcd_run_start(&r, args, NULL));
+	int rc = mcd_run_wait_exit(&r, 120000);
+	if (rc == 1)
+		skip_without_opencl(&r);
+	CHECK_MSG(rc == 0, "exit %d", rc);
+	CHECK(r.notes && strstr(r.notes, "READY=1"));
+	CHECK(mcd_run_wait_log(&r, "tracker: initialised from 18 joints", 0));
+	char *out = mcd_read_file(r.out);
+	int lines = mcd_count(out, "frame "), pairs = mcd_count(out, "cams 2/2");
+	int tracked = lines - mcd_count(out, "(not tracked)");
+	printf("%d frame sets tracked of 60 frames, %d with both cameras\n", tracked, pairs);
+	CHECK_MSG(tracked >= 5, "%d frame sets tracked", tracked);
+	CHECK_MSG(pairs >= lines - 1, "%d of %d frame sets have both cameras", pairs, lines);
+	/* The first frame set starts from frame 0's ground truth:
+	 * neck (0.150, 0.267, 0.170) in the left camera frame. */
+	mc_vec3 neck;
+	CHECK(out && joint_in_line(out, "neck", &neck));
+	CHECK_NEAR(neck.x, 0.150, 0.03);
+	CHECK_NEAR(neck.y, 0.267, 0.03);
+	CHECK_NEAR(neck.z, 0.170, 0.03);
+	free(out);
+	/* The saved actor and poses are what mocap-render reads. */
+	char path[256];
+	snprintf(path, sizeof(path), "%s/actor.json", poses);
+	mc_model *actor = calloc(1, sizeof(*actor));
+	mc_err err = {{0}};
+	CHECK_MSG(actor && mc_model_load(path, actor, &err) == 0, "%s", err.msg);
+	snprintf(path, sizeof(path), "%s/pose_00000.json", poses);
+	char *pose = mcd_read_file(path);
+	CHECK_MSG(pose && strstr(pose, "\"pose\": [") && strstr(pose, "frame 0"), "%s", path);
+	const char *values = pose ? strstr(pose, "\"pose\": [") : NULL;
+	int commas = values ? mcd_count(values, ", ") : 0;
+	CHECK_MSG(actor && commas == actor->ndof - 1, "%d values for %d dofs", commas + 1, actor ? actor->ndof : 0);
+	free(pose);
+	free(actor);
+	char cmd[300];
+	snprintf(cmd, sizeof(cmd), "rm -rf %s", poses);
+	CHECK(system(cmd) == 0);
+	if (mc_test_failures)
+		mcd_run_dump(&r, "clip");
+	mcd_run_cleanup(&r);
+}
+
+static void test_reload_budget(void)
+{
+	mcd_run r;
+	CHECK(mcd_run_init(&r));
+	write_config(&r, CONF("loop = true\n", "iterations = 30\n"));
+	const char *const args[] = {"--print", NULL};
+	CHECK(mcd_run_start(&r, args, NULL));
+	CHECK(mcd_run_wait_notify(&r, "READY=1", 60000));
+	CHECK(mcd_run_wait_log(&r, "30 iterations", 0));
+	CHECK(mcd_run_wait_notify(&r, "tracking", 5000));
+	write_config(&r, CONF("loop = true\n", "iterations = 10\npixel_fraction = 0.1\n"));
+	mcd_run_signal(&r, SIGHUP);
+	CHECK(mcd_run_wait_log(&r, "tracker: now 10 iterations, pixel fraction 0.1", 60000));
+	int before = mcd_run_count(r.out, "frame ");
+	mcd_sleep_ms(1000);
+	CHECK_MSG(mcd_run_count(r.out, "frame ") > before, "no frame set tracked after the reload");
+	CHECK(mcd_run_alive(&r));
+	mcd_run_signal(&r, SIGTERM);
+	CHECK(mcd_run_wait_exit(&r, 20000) == 0);
+	if (mc_test_failures)
+		mcd_run_dump(&r, "reload");
+	mcd_run_cleanup(&r);
+}
+
+int main(void)
+{
+	if (!mcd_find_build())
+		TEST_SKIP("mocapd is not built");
+	if (!getcwd(repo, sizeof(repo)) || access("tests/data/ego_demo/gt.json", R_OK) != 0)
+		TEST_SKIP("run from the repository root (tests/data/ego_demo not found)");
+	char files[PATH_MAX + 64];
+	snprintf(files, sizeof(files), "%s/drivers/mocap-driver-files.so", mcd_build_dir);
+	if (access(files, R_OK) != 0)
+		TEST_SKIP("the files driver is not built (%s)", files);
+	test_clip();
+	test_reload_budget();
+	return mc_test_finish("test_daemon_track");
+}
