@@ -33,7 +33,7 @@
 #include <time.h>
 #include <unistd.h>
 
-#define MAILBOX_LEN 64            /* frames between two wake-ups of the server thread */
+#define MAILBOX_LEN 128           /* frames the server thread may lag behind (2 s at 60 Hz) */
 #define NONFRAME_MAX 64           /* replies, gaps, definitions queued per client */
 #define KEYPOINT_QUEUE_LEN 64
 #define CONTROL_QUEUE_LEN 16
