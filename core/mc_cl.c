@@ -83,6 +83,8 @@ static const char *cl_error_name(cl_int rc)
 
 static int grow_input(mc_cl_energy *e, size_t need, mc_err *err);
 static int set_fixed_args(mc_cl_energy *e, mc_err *err);
+static int launch(mc_cl_energy *e, int ngauss, size_t npix, uint32_t seed, uint32_t thr24, size_t *ngroups,
+		  mc_err *err);
 
 static int cl_fail(mc_err *err, const char *what, cl_int rc)
 {
@@ -451,6 +453,12 @@ mc_cl_energy *mc_cl_energy_create_opts(int platform, int device, const mc_raytab
 	if (upload_rays(e, tables, err) != 0 || create_buffers(e, err) != 0 || set_fixed_args(e, err) != 0 ||
 	    grow_input(e, 4096, err) != 0)
 		goto fail;
+	/* An empty launch, so that the device compiles the kernel for its
+	 * work-group size now rather than during the first frame. */
+	size_t groups;
+	memset(e->input_host, 0, sizeof(cl_float4) * GAUSS_FLOAT4S);
+	if (launch(e, 0, 0, 0, 0, &groups, err) != 0)
+		goto fail;
 	return e;
 fail:
 	mc_err_prefix(err, "mc_cl_energy_create");
@@ -647,6 +655,8 @@ static int launch(mc_cl_energy *e, int ngauss, size_t npix, uint32_t seed, uint3
 	size_t groups = (npix + e->wg - 1) / e->wg;
 	if (groups > e->max_groups)
 		groups = e->max_groups;
+	if (groups == 0)
+		groups = 1;
 	size_t bytes = sizeof(cl_float4) * GAUSS_FLOAT4S + sizeof(cl_uint) * npix;
 	cl_int rc = clEnqueueWriteBuffer(e->queue, e->input, CL_FALSE, 0, bytes, e->input_host, 0, NULL, NULL);
 	if (rc != CL_SUCCESS)

@@ -121,7 +121,7 @@ static void eval_ref(const mc_scene *sc, const view *v, int nv, int *const *pixe
 
 static mc_cl_energy *open_backend(const view *v, int nv)
 {
-	mc_raytable t[MC_MAX_CAMERAS];
+	mc_raytable t[MC_MAX_CAMERAS] = {{0}};
 	for (int c = 0; c < nv; c++)
 		t[c] = v[c].rays;
 	mc_err err = {{0}};
@@ -402,6 +402,11 @@ static void test_errors(void)
 	if (!e)
 		return;
 	CHECK(strchr(mc_cl_energy_device(e), ':') != NULL);
+	/* Cameras start missing: nothing to see. */
+	mc_scene sc;
+	scene_random(&sc, 5, &rng);
+	double E = 1;
+	CHECK(mc_cl_energy_eval(e, &sc, NULL, NULL, 0, 0, &E, NULL, NULL, &err) == 0 && E == 0);
 
 	CHECK(mc_cl_energy_set_image(e, 1, v.hsv, &err) == -1);
 	CHECK_MSG(strstr(err.msg, "camera 1 out of range"), "%s", err.msg);
@@ -411,9 +416,6 @@ static void test_errors(void)
 	v.hsv[3 * 5 + 1] = 0.5f;
 	CHECK(mc_cl_energy_set_image(e, 0, v.hsv, &err) == 0);
 
-	mc_scene sc;
-	scene_random(&sc, 5, &rng);
-	double E;
 	int bad[2] = {3, 48}, nbad = 2;
 	const int *pl[1] = {bad};
 	CHECK(mc_cl_energy_eval(e, &sc, pl, &nbad, 0, 0, &E, NULL, NULL, &err) == -1);
