@@ -15,7 +15,8 @@
  *
  * Threads: every function may be called from any thread at the same time on
  * the same client (e.g. one thread reading frames while another asks for
- * the status); replies reach the thread that asked.  No callbacks.
+ * the status); replies reach the thread that asked.  No callbacks.  Only
+ * mocap_close() must wait until no other thread uses the client.
  *
  * Errors: functions return a negative MOCAP_E_* code on failure, and
  * mocap_errmsg() gives a message for the user of the last failure in the
