@@ -6,9 +6,11 @@
  *
  * One work-item handles one sampled pixel at a time (a strided loop over
  * the pixel list).  Per pixel it
- *   1. culls the Gaussians whose ray magnitude c'_q < 1e-5 (a test on the
- *      squared distance to the ray) and those dropped at random, keeping a
- *      compact private list of the n survivors (the ray Gaussians);
+ *   1. culls the Gaussians whose ray magnitude c0_q < 1e-5 (a test on the
+ *      squared distance to the ray, VW Gaussians at a time) and those
+ *      dropped at random, keeping a compact private list of the n
+ *      survivors, which it projects onto the ray (mu', c' with the smooth
+ *      culling edge, dissimilarity to the pixel) VW at a time;
  *   2. lists the 5 n visibility samples and evaluates them VW at a time
  *      (SIMD lanes = samples): for each ray Gaussian p, erf and exp at the
  *      VW sample depths, giving the transmittance T, each sample's energy
@@ -51,22 +53,10 @@ bool mc_dropped(uint seed_mix, uint cam, uint pixel, uint q, uint thr24)
 	return (mc_lowbias32(seed_mix ^ key) >> 8) < thr24;
 }
 
-/* erf and exp(-z^2) together (Abramowitz-Stegun 7.1.26, |error| < 1.5e-7);
- * the exponential is needed by the gradient anyway. */
-float mc_erf_exp(float z, float *e)
-{
-	float az = fabs(z);
-	float ez = exp(-z * z);
-	float t = 1.0f / (1.0f + 0.3275911f * az);
-	float poly = t * (0.254829592f + t * (-0.284496736f + t * (1.421413741f +
-			t * (-1.453152027f + t * 1.061405429f))));
-	*e = ez;
-	return copysign(1.0f - poly * ez, z);
-}
-
-/* Vector width over the ray Gaussians: VW lanes evaluate VW Gaussians at
- * one sample depth at once.  Set by the host (-DVW=...) from the device's
- * preferred float vector width: 16 with AVX-512, 8 with AVX2, 1 on GPUs. */
+/* SIMD width: VW lanes hold VW Gaussians (culling, projection) or VW
+ * visibility samples (transmittance).  Set by the host (-DVW=...) from the
+ * device's preferred float vector width: 16 with AVX-512, 8 with AVX2; 1 on
+ * GPUs, whose work-items are the SIMD lanes already. */
 #ifndef VW
 #define VW 8
 #endif
@@ -87,7 +77,6 @@ float mc_erf_exp(float z, float *e)
 #define VSTOREI(v, i, p) CAT(vstore, VW)(v, i, p)
 #define ANY(x) any(x)
 #endif
-#define MAXV (MAXG / VW)
 
 float hsum(floatv v)
 {
@@ -107,7 +96,8 @@ float hsum(floatv v)
 #endif
 }
 
-/* mc_erf_exp on VW lanes. */
+/* erf(z) and exp(-z^2) together (Abramowitz-Stegun 7.1.26, |error| <
+ * 1.5e-7); the exponential is needed by the gradient anyway. */
 floatv erf_exp_v(floatv z, floatv *e)
 {
 	floatv az = fabs(z);
@@ -169,27 +159,35 @@ floatv dissimilarity_v(floatv h, floatv s, floatv v, floatv w_s, floatv w_d, flo
 	return 1.0f - u2 * u2 * (8.0f * x + 2.0f);
 }
 
-/* E of one pixel; adds its gradient into row[4 q .. 4 q + 3]. */
-float mc_pixel(global const float4 *gauss, int ngauss, float3 o, float3 n, float3 colour,
-	       uint seed_mix, uint cam, uint pixel, uint thr24, local float *row)
+/* The Gaussians on one pixel's ray that survive culling and dropout,
+ * projected onto the ray (eq. 4.4).  Arrays are padded to nv * VW entries
+ * with inert lanes (c' = A = 0, sigma = 1, d = 0). */
+typedef struct {
+	int n, nv;        /* count, and count in vectors of VW */
+	int idx[MAXG];    /* index in the scene */
+	float m[MAXG];    /* mu' = (mu - o).n */
+	float sg[MAXG];   /* sigma */
+	float c[MAXG];    /* c', with the culling edge */
+	float cfac[MAXG]; /* c0 dc'/dc0, c0 = c exp(-r^2 / (2 sigma^2)): chain rule */
+	float A[MAXG];    /* sqrt(pi/2) sigma c': optical depth per unit of erf */
+	float inv[MAXG];  /* 1 / (sqrt2 sigma) */
+	float d[MAXG];    /* colour dissimilarity to the pixel */
+	float erf0[MAXG], e0[MAXG]; /* erf(z0), exp(-z0^2), z0 = -mu' / (sqrt2 sigma) */
+	float base;       /* sum_p A_p erf0_p: tau(t) = sum_p A_p erf(z_p(t)) - base */
+} mc_ray_set;
+
+/* The culling test, VW Gaussians at a time (c0 > 1e-5 <=> the squared
+ * distance of mu from the ray < r2_max), and dropout.  The survivors'
+ * records are gathered into rs and the scratch g; returns their count. */
+typedef struct {
+	float mx[MAXG], my[MAXG], mz[MAXG], h[MAXG], s[MAXG], v[MAXG], ws[MAXG], wd[MAXG], wg[MAXG];
+} mc_gathered;
+
+int mc_ray_cull(global const float4 *gauss, int ngauss, float3 o, float3 n, uint seed_mix, uint cam,
+		uint pixel, uint thr24, mc_ray_set *rs, mc_gathered *g)
 {
-	/* The ray Gaussians that survive culling and dropout, padded to a
-	 * multiple of VW with inert lanes (A = c = 0). */
-	int idx[MAXG];
-	float m[MAXG];   /* mu' */
-	float sg[MAXG];  /* sigma */
-	float c[MAXG];   /* c' */
-	float A[MAXG];   /* sqrt(pi/2) sigma c': optical depth per unit of erf */
-	float inv[MAXG]; /* 1 / (sqrt2 sigma) */
-	float d[MAXG];   /* colour dissimilarity to the pixel */
-	float cfac[MAXG];/* c0 dc'/dc0, c0 = c exp(-r^2 / (2 sigma^2)) (chain rule) */
-	int na = 0;
-	/* The culling test, VW Gaussians at a time: c' < 1e-5 <=> the squared
-	 * distance of mu from the ray >= r2_max.  The survivors' records are
-	 * gathered into private arrays (m, c, d, ... hold mu.xyz, c, albedo for
-	 * now) and projected onto the ray below, VW at a time. */
-	float mx[MAXG], my[MAXG], hh[MAXG], hs[MAXG], hv[MAXG], ws[MAXG], wd[MAXG], wg[MAXG];
 	global const float *soa = (global const float *)(gauss + 4 * MAXG);
+	int na = 0;
 	for (int v = 0; v * VW < ngauss; v++) {
 		floatv dx = VLOAD(v, soa) - o.x, dy = VLOAD(v, soa + MAXG) - o.y, dz = VLOAD(v, soa + 2 * MAXG) - o.z;
 		floatv mq = dx * n.x + dy * n.y + dz * n.z;
@@ -203,169 +201,183 @@ float mc_pixel(global const float4 *gauss, int ngauss, float3 o, float3 n, float
 			if (!passes[l] || (thr24 && mc_dropped(seed_mix, cam, pixel, (uint)q, thr24)))
 				continue;
 			float4 ms = gauss[4 * q], cw = gauss[4 * q + 1], alb = gauss[4 * q + 2], wdg = gauss[4 * q + 3];
-			idx[na] = q;
-			mx[na] = ms.x;
-			my[na] = ms.y;
-			m[na] = ms.z;
-			sg[na] = ms.w;
-			c[na] = cw.x;
-			hh[na] = alb.x;
-			hs[na] = alb.y;
-			hv[na] = alb.z;
-			ws[na] = alb.w;
-			wd[na] = wdg.x;
-			wg[na] = wdg.y;
+			rs->idx[na] = q;
+			g->mx[na] = ms.x;
+			g->my[na] = ms.y;
+			g->mz[na] = ms.z;
+			rs->sg[na] = ms.w;
+			rs->c[na] = cw.x;
+			g->h[na] = alb.x;
+			g->s[na] = alb.y;
+			g->v[na] = alb.z;
+			g->ws[na] = alb.w;
+			g->wd[na] = wdg.x;
+			g->wg[na] = wdg.y;
 			na++;
 		}
 	}
-	if (na == 0)
-		return 0.0f;
-	const int nv = (na + VW - 1) / VW;
-	for (int p = na; p < nv * VW; p++) {
-		mx[p] = my[p] = m[p] = c[p] = hh[p] = hs[p] = hv[p] = ws[p] = wd[p] = wg[p] = 0.0f;
-		sg[p] = 1.0f;
+	return na;
+}
+
+/* Projects the gathered Gaussians onto the ray (o, n): mu', c' with the
+ * culling edge, the erf terms at the camera, the dissimilarities. */
+void mc_ray_project(float3 o, float3 n, float3 colour, mc_ray_set *rs, mc_gathered *g)
+{
+	rs->nv = (rs->n + VW - 1) / VW;
+	for (int p = rs->n; p < rs->nv * VW; p++) {
+		g->mx[p] = g->my[p] = g->mz[p] = rs->c[p] = g->h[p] = g->s[p] = g->v[p] = g->ws[p] = g->wd[p] =
+			g->wg[p] = 0.0f;
+		rs->sg[p] = 1.0f;
 	}
-	/* Ray Gaussians (eq. 4.4): mu' = (mu - o).n and c' = c exp(-r^2 / (2
-	 * sigma^2)), r the distance of mu from the ray, from the perpendicular
-	 * offset (free of the cancellation in the culling test); and each one's
-	 * colour dissimilarity to the pixel.  Padding lanes get c' = 0. */
-	for (int v = 0; v < nv; v++) {
-		floatv dx = VLOAD(v, mx) - o.x, dy = VLOAD(v, my) - o.y, dz = VLOAD(v, m) - o.z;
+	floatv basev = 0.0f;
+	for (int v = 0; v < rs->nv; v++) {
+		/* r^2 from the perpendicular offset, free of the cancellation in
+		 * the culling test */
+		floatv dx = VLOAD(v, g->mx) - o.x, dy = VLOAD(v, g->my) - o.y, dz = VLOAD(v, g->mz) - o.z;
 		floatv mr = dx * n.x + dy * n.y + dz * n.z;
 		dx -= mr * n.x;
 		dy -= mr * n.y;
 		dz -= mr * n.z;
-		floatv sv = VLOAD(v, sg);
-		floatv c0 = VLOAD(v, c) * exp(-(dx * dx + dy * dy + dz * dz) / (2.0f * sv * sv));
+		floatv sv = VLOAD(v, rs->sg);
+		floatv c0 = VLOAD(v, rs->c) * exp(-(dx * dx + dy * dy + dz * dz) / (2.0f * sv * sv));
 		/* The culling edge (docs/ENERGY.md, "Culling"): c' = c0 F(c0 / C -
 		 * 1), F a smooth step from 0 at c0 = C to 1 at c0 = 2C. */
 		floatv x = clamp(c0 * (1.0f / CULL_MAGNITUDE) - 1.0f, 0.0f, 1.0f), y = 1.0f - x;
 		floatv F = x * x * x * (x * (6.0f * x - 15.0f) + 10.0f);
 		floatv cq = c0 * F;
-		VSTORE(c0 * (F + (x + 1.0f) * 30.0f * x * x * y * y), v, cfac); /* c0 dc'/dc0 */
-		VSTORE(mr, v, m);
-		VSTORE(cq, v, c);
-		VSTORE(sv * cq * SQRT_HALF_PI, v, A);
-		VSTORE(INV_SQRT2 / sv, v, inv);
-		VSTORE(dissimilarity_v(VLOAD(v, hh), VLOAD(v, hs), VLOAD(v, hv), VLOAD(v, ws), VLOAD(v, wd),
-				       VLOAD(v, wg), colour),
-		       v, d);
-	}
-
-	/* tau(t) = sum_p A_p (erf(z_p(t)) - erf(z0_p)), z0_p = -mu'_p / (sqrt2 sigma_p) */
-	float erf0[MAXG], e0[MAXG];
-	floatv basev = 0.0f;
-	for (int v = 0; v < nv; v++) {
+		floatv A = sv * cq * SQRT_HALF_PI, inv = INV_SQRT2 / sv;
+		VSTORE(c0 * (F + (x + 1.0f) * 30.0f * x * x * y * y), v, rs->cfac);
+		VSTORE(mr, v, rs->m);
+		VSTORE(cq, v, rs->c);
+		VSTORE(A, v, rs->A);
+		VSTORE(inv, v, rs->inv);
+		VSTORE(dissimilarity_v(VLOAD(v, g->h), VLOAD(v, g->s), VLOAD(v, g->v), VLOAD(v, g->ws),
+				       VLOAD(v, g->wd), VLOAD(v, g->wg), colour),
+		       v, rs->d);
 		floatv e;
-		floatv ef = erf_exp_v(-VLOAD(v, m) * VLOAD(v, inv), &e);
-		VSTORE(ef, v, erf0);
-		VSTORE(e, v, e0);
-		basev += VLOAD(v, A) * ef;
+		floatv ef = erf_exp_v(-mr * inv, &e);
+		VSTORE(ef, v, rs->erf0);
+		VSTORE(e, v, rs->e0);
+		basev += A * ef;
 	}
-	const float base = hsum(basev);
+	rs->base = hsum(basev);
+}
 
-	/* The samples s = mu'_q + k sigma_q, k = -4..0, of every ray Gaussian
-	 * q, k-major: sample (k, q) at (k + 4) na + q, padded to a multiple of
-	 * VW with samples of no weight.  Ray Gaussians with d_q = 0 get weight 0
-	 * (they contribute nothing but still occlude). */
-	for (int p = na; p < nv * VW; p++) {
-		sg[p] = 1.0f;
-		d[p] = 0.0f;
-	}
-	float s_s[SMAX];   /* depth s */
-	float s_x[SMAX];   /* s / lambda + 1/2 (near-camera rule) */
-	float s_l[SMAX];   /* lambda = sigma_q */
-	float s_il[SMAX];  /* 1 / lambda */
-	float s_pre[SMAX]; /* d_q sigma_q exp(-k^2/2) */
-	float s_c[SMAX];   /* c'_q */
-	float s_k[SMAX];
+/* The visibility samples s = mu'_q + k sigma_q, k = -4..0, of every ray
+ * Gaussian q, k-major: sample (k, q) at (k + 4) n + q, padded to nv * VW
+ * with samples of no weight; and what the forward pass finds for each. */
+typedef struct {
+	int n, nv;
+	float s[SMAX];   /* depth s */
+	float x[SMAX];   /* s / lambda + 1/2 (near-camera rule) */
+	float l[SMAX];   /* lambda = sigma_q */
+	float il[SMAX];  /* 1 / lambda */
+	float pre[SMAX]; /* d_q sigma_q exp(-k^2/2) */
+	float c[SMAX];   /* c'_q */
+	float k[SMAX];
+	/* forward results */
+	float t[SMAX];   /* depth at which T is read */
+	float W[SMAX];   /* the sample's energy d sigma c' exp(-k^2/2) h T */
+	float V[SMAX];   /* W / c' */
+	float gm[SMAX], gs[SMAX]; /* dW/dmu'_q, dW/dsigma_q through the sample's position */
+	float wtot;      /* sum of W */
+} mc_sample_set;
+
+void mc_samples_make(const mc_ray_set *rs, mc_sample_set *ss)
+{
 	for (int ki = 0; ki < MC_VIS_SAMPLES; ki++) {
 		const float k = ki - 4, wk = exp(-0.5f * k * k);
 		/* Block ki; each block's last vector spills into the next block,
-		 * which is written after it. */
-		const int off = ki * na;
-		for (int v = 0; v < nv; v++) {
-			floatv mv = VLOAD(v, m), sv = VLOAD(v, sg), il = 1.0f / sv;
-			VSTORE(mv + k * sv, v, s_s + off);
-			VSTORE(mv * il + (k + 0.5f), v, s_x + off);
-			VSTORE(sv, v, s_l + off);
-			VSTORE(il, v, s_il + off);
-			VSTORE(VLOAD(v, d) * sv * wk, v, s_pre + off);
-			VSTORE(VLOAD(v, c), v, s_c + off);
-			VSTORE((floatv)k, v, s_k + off);
+		 * which is written after it (SMAX leaves room past the last). */
+		const int off = ki * rs->n;
+		for (int v = 0; v < rs->nv; v++) {
+			floatv mv = VLOAD(v, rs->m), sv = VLOAD(v, rs->sg), il = 1.0f / sv;
+			VSTORE(mv + k * sv, v, ss->s + off);
+			VSTORE(mv * il + (k + 0.5f), v, ss->x + off);
+			VSTORE(sv, v, ss->l + off);
+			VSTORE(il, v, ss->il + off);
+			VSTORE(VLOAD(v, rs->d) * sv * wk, v, ss->pre + off);
+			VSTORE(VLOAD(v, rs->c), v, ss->c + off);
+			VSTORE((floatv)k, v, ss->k + off);
 		}
 	}
-	const int ns = MC_VIS_SAMPLES * na;
-	const int nsv = (ns + VW - 1) / VW;
-	for (int j = ns; j < nsv * VW; j++) {
-		s_s[j] = s_x[j] = s_pre[j] = s_c[j] = s_k[j] = 0.0f;
-		s_l[j] = s_il[j] = 1.0f;
+	ss->n = MC_VIS_SAMPLES * rs->n;
+	ss->nv = (ss->n + VW - 1) / VW;
+	for (int j = ss->n; j < ss->nv * VW; j++) {
+		ss->s[j] = ss->x[j] = ss->pre[j] = ss->c[j] = ss->k[j] = 0.0f;
+		ss->l[j] = ss->il[j] = 1.0f;
 	}
+}
 
-	/* Forward: T at every sample, the sample's energy W and its partial
-	 * derivatives through the sample's own depth. */
-	const bool keep = na * nsv <= PAIRV_MAX;
-	floatv erfbuf[PAIRV_MAX], ebuf[PAIRV_MAX]; /* [p * nsv + J] */
-	float o_t[SMAX], o_W[SMAX], o_V[SMAX], o_gm[SMAX], o_gs[SMAX];
+/* Forward pass, VW samples at a time: T at each sample (eq. 4.6), its
+ * energy W, and W's derivatives through the sample's own depth.  The erf
+ * and exp of every (ray Gaussian, sample vector) pair go to erfbuf and
+ * ebuf ([p * nv + J]) when `keep`. */
+void mc_samples_forward(const mc_ray_set *rs, mc_sample_set *ss, bool keep, floatv *erfbuf, floatv *ebuf)
+{
 	floatv wtotv = 0.0f;
-	for (int J = 0; J < nsv; J++) {
-		floatv s = VLOAD(J, s_s);
-		mc_samples sp = mc_near_camera(s, VLOAD(J, s_x), VLOAD(J, s_l), VLOAD(J, s_il));
-		floatv tau = -base, dens = 0.0f;
-		for (int p = 0; p < na; p++) {
+	for (int J = 0; J < ss->nv; J++) {
+		floatv s = VLOAD(J, ss->s);
+		mc_samples sp = mc_near_camera(s, VLOAD(J, ss->x), VLOAD(J, ss->l), VLOAD(J, ss->il));
+		floatv tau = -rs->base, dens = 0.0f;
+		for (int p = 0; p < rs->n; p++) {
 			floatv e;
-			floatv ef = erf_exp_v((sp.t - m[p]) * inv[p], &e);
+			floatv ef = erf_exp_v((sp.t - rs->m[p]) * rs->inv[p], &e);
 			if (keep) {
-				erfbuf[p * nsv + J] = ef;
-				ebuf[p * nsv + J] = e;
+				erfbuf[p * ss->nv + J] = ef;
+				ebuf[p * ss->nv + J] = e;
 			}
-			tau += A[p] * ef;
-			dens += c[p] * e;
+			tau += rs->A[p] * ef;
+			dens += rs->c[p] * e;
 		}
-		floatv preT = VLOAD(J, s_pre) * exp(-tau); /* d sigma exp(-k^2/2) T */
-		floatv V = preT * sp.h;                     /* this sample's energy / c' */
-		floatv cs = VLOAD(J, s_c);
-		floatv W = V * cs;                          /* this sample's energy */
+		floatv cs = VLOAD(J, ss->c);
+		floatv preT = VLOAD(J, ss->pre) * exp(-tau); /* d sigma exp(-k^2/2) T */
+		floatv V = preT * sp.h;
+		floatv W = V * cs;
 		preT *= cs;
 		/* The depth s moves with mu' (ds/dmu' = 1) and sigma (ds/dsigma =
 		 * k); near the camera h and t depend on s and lambda = sigma too. */
 		floatv dE_dt = -W * dens;
 		floatv dE_ds = dE_dt * sp.dt_ds + preT * sp.dh_ds;
-		VSTORE(sp.t, J, o_t);
-		VSTORE(W, J, o_W);
-		VSTORE(V, J, o_V);
-		VSTORE(dE_ds, J, o_gm);
-		VSTORE(dE_dt * sp.dt_dl + preT * sp.dh_dl + VLOAD(J, s_k) * dE_ds, J, o_gs);
+		VSTORE(sp.t, J, ss->t);
+		VSTORE(W, J, ss->W);
+		VSTORE(V, J, ss->V);
+		VSTORE(dE_ds, J, ss->gm);
+		VSTORE(dE_dt * sp.dt_dl + preT * sp.dh_dl + VLOAD(J, ss->k) * dE_ds, J, ss->gs);
 		wtotv += W;
 	}
-	const float wtot = hsum(wtotv);
+	ss->wtot = hsum(wtotv);
+}
 
-	/* Per ray Gaussian: dE/d(mu', sigma, c') through its own samples. */
-	float gm[MAXG], gs[MAXG], gV[MAXG];
-	for (int p = 0; p < na; p++)
-		gm[p] = gs[p] = gV[p] = 0.0f;
-	for (int ki = 0; ki < MC_VIS_SAMPLES; ki++)
-		for (int p = 0; p < na; p++) {
-			gV[p] += o_V[ki * na + p];
-			gm[p] += o_gm[ki * na + p];
-			gs[p] += o_gs[ki * na + p];
-		}
-
-	/* Backward through T = exp(-tau) to every ray Gaussian p:
-	 * dtau/dmu'_p = c'_p (e0_p - e_p), dtau/dc'_p = sqrt(pi/2) sigma_p
-	 * (erf_p - erf0_p), dtau/dsigma_p = sqrt(pi/2) c'_p (erf_p - erf0_p)
-	 * - sqrt2 c'_p (z_p e_p - z0_p e0_p), summed over the samples with
-	 * weights W; then the chain rule from (mu', sigma, c') to (mu, sigma). */
+/* Backward pass: for every ray Gaussian p, dE/d(mu'_p, sigma_p, c'_p)
+ * through its own samples and, through T = exp(-tau), through every
+ * sample: dtau/dmu'_p = c'_p (e0_p - e_p), dtau/dc'_p = sqrt(pi/2) sigma_p
+ * (erf_p - erf0_p), dtau/dsigma_p = sqrt(pi/2) c'_p (erf_p - erf0_p) -
+ * sqrt2 c'_p (z_p e_p - z0_p e0_p), weighted by the samples' W; then the
+ * chain rule to (mu_p, sigma_p), added into row.  Returns the energy. */
+float mc_samples_backward(global const float4 *gauss, float3 o, float3 n, const mc_ray_set *rs,
+			  const mc_sample_set *ss, bool keep, const floatv *erfbuf, const floatv *ebuf,
+			  local float *row)
+{
+	const float wtot = ss->wtot;
 	float energy = 0.0f;
-	for (int p = 0; p < na; p++) {
+	for (int p = 0; p < rs->n; p++) {
+		/* own samples: (k, p) at k-block offsets */
+		float gV = 0.0f, gm = 0.0f, gs = 0.0f;
+		for (int ki = 0; ki < MC_VIS_SAMPLES; ki++) {
+			gV += ss->V[ki * rs->n + p];
+			gm += ss->gm[ki * rs->n + p];
+			gs += ss->gs[ki * rs->n + p];
+		}
+		/* every sample, through T */
 		floatv aE = 0.0f, ae = 0.0f, aze = 0.0f;
-		for (int J = 0; J < nsv; J++) {
-			floatv W = VLOAD(J, o_W);
-			floatv z = (VLOAD(J, o_t) - m[p]) * inv[p];
+		for (int J = 0; J < ss->nv; J++) {
+			floatv W = VLOAD(J, ss->W);
+			floatv z = (VLOAD(J, ss->t) - rs->m[p]) * rs->inv[p];
 			floatv ef, e;
 			if (keep) {
-				ef = erfbuf[p * nsv + J];
-				e = ebuf[p * nsv + J];
+				ef = erfbuf[p * ss->nv + J];
+				e = ebuf[p * ss->nv + J];
 			} else {
 				ef = erf_exp_v(z, &e);
 			}
@@ -373,26 +385,45 @@ float mc_pixel(global const float4 *gauss, int ngauss, float3 o, float3 n, float
 			ae += W * e;
 			aze += W * z * e;
 		}
-		float cp = c[p], s = sg[p];
-		float z0 = -m[p] * inv[p];
-		float dE = hsum(aE) - erf0[p] * wtot;
-		float g_m = gm[p] - cp * (e0[p] * wtot - hsum(ae));
-		float g_c = gV[p] - s * SQRT_HALF_PI * dE;
-		float g_s = gs[p] + cp * gV[p] / s - cp * SQRT_HALF_PI * dE + SQRT2 * cp * (hsum(aze) - z0 * e0[p] * wtot);
-		energy += cp * gV[p];
+		float cp = rs->c[p], s = rs->sg[p], e0 = rs->e0[p];
+		float z0 = -rs->m[p] * rs->inv[p];
+		float dE = hsum(aE) - rs->erf0[p] * wtot;
+		float g_m = gm - cp * (e0 * wtot - hsum(ae));
+		float g_c = gV - s * SQRT_HALF_PI * dE;
+		float g_s = gs + cp * gV / s - cp * SQRT_HALF_PI * dE + SQRT2 * cp * (hsum(aze) - z0 * e0 * wtot);
+		energy += cp * gV;
 
-		int q = idx[p];
-		float3 dv = gauss[4 * q].xyz - o;
-		float3 perp = dv - m[p] * n;
-		float gcc = g_c * cfac[p] / (s * s);
+		/* dmu'/dmu = n, dc0/dmu = -c0 (d - mu' n) / sigma^2,
+		 * dc0/dsigma = c0 r^2 / sigma^3 */
+		int q = rs->idx[p];
+		float3 perp = gauss[4 * q].xyz - o - rs->m[p] * n;
+		float gcc = g_c * rs->cfac[p] / (s * s);
 		float3 gmu = g_m * n - gcc * perp;
-		float gsig = g_s + gcc * dot(perp, perp) / s;
 		row[4 * q + 0] += gmu.x;
 		row[4 * q + 1] += gmu.y;
 		row[4 * q + 2] += gmu.z;
-		row[4 * q + 3] += gsig;
+		row[4 * q + 3] += g_s + gcc * dot(perp, perp) / s;
 	}
 	return energy;
+}
+
+/* E of one pixel; adds its gradient into row[4 q .. 4 q + 3]. */
+float mc_pixel(global const float4 *gauss, int ngauss, float3 o, float3 n, float3 colour, uint seed_mix,
+	       uint cam, uint pixel, uint thr24, local float *row)
+{
+	mc_ray_set rs;
+	mc_gathered g;
+	rs.n = mc_ray_cull(gauss, ngauss, o, n, seed_mix, cam, pixel, thr24, &rs, &g);
+	if (rs.n == 0)
+		return 0.0f;
+	mc_ray_project(o, n, colour, &rs, &g);
+
+	mc_sample_set ss;
+	mc_samples_make(&rs, &ss);
+	const bool keep = rs.n * ss.nv <= PAIRV_MAX;
+	floatv erfbuf[PAIRV_MAX], ebuf[PAIRV_MAX];
+	mc_samples_forward(&rs, &ss, keep, erfbuf, ebuf);
+	return mc_samples_backward(gauss, o, n, &rs, &ss, keep, erfbuf, ebuf, row);
 }
 
 /* rays: one per ray-table pixel of every camera, concatenated: direction
