@@ -539,16 +539,19 @@ int main(int argc, char **argv)
 	mcd_log_set_level(d.cfg->log_level);
 	d.start_ns = now_ns();
 	if (d.opt.check_only) {
-		/* Loading the plugins is the part of start-up that can be checked
-		 * without touching devices. */
-		mcd_pipeline *p = mcd_pipeline_create(d.cfg, NULL, NULL, &err);
+		/* The rig, the model, the initial joints and the plugins are the
+		 * parts of start-up that can be checked without touching devices
+		 * or OpenCL. */
+		bool ok = !d.cfg->tracker.enabled || mcd_tracking_check(d.cfg, &err) == 0;
+		mcd_pipeline *p = ok ? mcd_pipeline_create(d.cfg, NULL, NULL, &err) : NULL;
+		ok = p != NULL;
 		mcd_pipeline_destroy(p);
-		if (!p)
+		if (!ok)
 			mcd_error("%s", err.msg);
 		else
 			printf("%s: ok\n", d.opt.config_path);
 		free(d.cfg);
-		return p ? 0 : 1;
+		return ok ? 0 : 1;
 	}
 	mcd_info("mocapd %s starting with %s", MOCAPD_VERSION, d.opt.config_path);
 	if (start(&d, &err)) {

@@ -187,6 +187,36 @@ static int init_pose(const mcd_config *cfg, mcd_tracking *t, mc_err *err)
 	return 0;
 }
 
+int mcd_tracking_check(const mcd_config *cfg, mc_err *err)
+{
+	mcd_tracking *t = calloc(1, sizeof(*t));
+	if (!t)
+		return mc_err_set(err, "out of memory");
+	char where[700];
+	int rc = -1;
+	if (load_rig(cfg, t, err) || map_cameras(cfg, t, err))
+		goto out;
+	if (mc_model_load(cfg->tracker.model, &t->model, err)) {
+		mc_err_prefix(err, "%s", mcd_config_where(cfg, "tracker", "model", where, sizeof(where)));
+		goto out;
+	}
+	if (cfg->tracker.init_joints[0]) {
+		char **names;
+		mc_vec3 *pos;
+		int n;
+		if (mcd_read_init_joints(cfg->tracker.init_joints, &names, &pos, &n, err)) {
+			mc_err_prefix(err, "%s", mcd_config_where(cfg, "tracker", "init_joints", where, sizeof(where)));
+			goto out;
+		}
+		mcd_joints_free(names, pos, n);
+	}
+	rc = 0;
+out:
+	mcd_tracking_free(t);
+	free(t);
+	return rc;
+}
+
 int mcd_tracking_setup(const mcd_config *cfg, mcd_tracking *t, mc_err *err)
 {
 	memset(t, 0, sizeof(*t));

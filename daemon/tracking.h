@@ -26,6 +26,10 @@ typedef struct {
 	bool calibrate_pending;          /* calibrate colours on the first complete frame set */
 } mcd_tracking;
 
+/* Loads rig, model and initial joints and maps the cameras, without
+ * creating a tracker (no OpenCL): what `mocapd --check` verifies. */
+int mcd_tracking_check(const mcd_config *cfg, mc_err *err);
+
 /* Loads rig and model, creates and initialises the tracker. */
 int mcd_tracking_setup(const mcd_config *cfg, mcd_tracking *t, mc_err *err);
 void mcd_tracking_free(mcd_tracking *t);

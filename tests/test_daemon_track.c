@@ -119,6 +119,36 @@ static void test_clip(void)
 	mcd_run_cleanup(&r);
 }
 
+/* --check loads rig, model and initial joints and maps the cameras. */
+static void test_check(void)
+{
+	mcd_run r;
+	CHECK(mcd_run_init(&r));
+	const char *const check[] = {"--check", NULL};
+	write_config(&r, CONF("", ""));
+	CHECK(mcd_run_start(&r, check, NULL));
+	CHECK(mcd_run_wait_exit(&r, 20000) == 0);
+	/* a rig camera the rig does not have */
+	write_config(&r, "[daemon]\nplugin_dir = @DRIVERS@\n[camera left]\ndriver = files\nrig_camera = middle\n"
+			 "path = @REPO@/tests/data/ego_demo/left\n[tracker]\nrig = @REPO@/config/rigs/ego_stereo.json\n"
+			 "model = @REPO@/config/models/default.json\n");
+	CHECK(mcd_run_start(&r, check, NULL));
+	CHECK(mcd_run_wait_exit(&r, 20000) == 1);
+	CHECK(mcd_run_wait_log(&r, ":5: [camera left] rig_camera: 'middle' is not a camera of rig", 0));
+	CHECK(mcd_run_wait_log(&r, "(it has: left, right)", 0));
+	/* a model file that is not there */
+	write_config(&r, "[daemon]\nplugin_dir = @DRIVERS@\n[camera left]\ndriver = files\nrig_camera = left\n"
+			 "path = @REPO@/tests/data/ego_demo/left\n[tracker]\nrig = @REPO@/config/rigs/ego_stereo.json\n"
+			 "model = @REPO@/config/models/nosuch.json\n");
+	CHECK(mcd_run_start(&r, check, NULL));
+	CHECK(mcd_run_wait_exit(&r, 20000) == 1);
+	CHECK(mcd_run_wait_log(&r, ":9: [tracker] model: ", 0));
+	CHECK(mcd_run_wait_log(&r, "nosuch.json", 0));
+	if (mc_test_failures)
+		mcd_run_dump(&r, "check");
+	mcd_run_cleanup(&r);
+}
+
 static void test_reload_budget(void)
 {
 	mcd_run r;
@@ -153,6 +183,7 @@ int main(void)
 	snprintf(files, sizeof(files), "%s/drivers/mocap-driver-files.so", mcd_build_dir);
 	if (access(files, R_OK) != 0)
 		TEST_SKIP("the files driver is not built (%s)", files);
+	test_check();
 	test_clip();
 	test_reload_budget();
 	return mc_test_finish("test_daemon_track");
