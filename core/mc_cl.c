@@ -504,6 +504,17 @@ void mc_cl_energy_destroy(mc_cl_energy *e)
 
 /* ---- per frame and per evaluation ---- */
 
+/* An HSV channel as the reference reads it (mc_hsv_dissimilarity): hue in
+ * turns, wrapped into [0, 1); saturation and value clamped to [0, 1]. */
+static float hsv_channel(double v, int k)
+{
+	if (k == 0)
+		return (float)(v - floor(v));
+	return (float)(v < 0 ? 0 : v > 1 ? 1 : v);
+}
+
+static const char *const hsv_names[3] = {"hue", "saturation", "value"};
+
 int mc_cl_energy_set_image(mc_cl_energy *e, int cam, const float *hsv, mc_err *err)
 {
 	if (cam < 0 || cam >= e->ncams)
@@ -515,10 +526,10 @@ int mc_cl_energy_set_image(mc_cl_energy *e, int cam, const float *hsv, mc_err *e
 	for (int i = 0; i < e->cam_npix[cam]; i++) {
 		for (int k = 0; k < 3; k++) {
 			float v = hsv[3 * i + k];
-			if (!(v >= 0.0f && v <= 1.0f))
-				return mc_err_set(err, "mc_cl_energy_set_image: camera %d: pixel %d: %s = %g, not in [0, 1]",
-						  cam, i, (const char *[]){"hue", "saturation", "value"}[k], (double)v);
-			e->image_host[i].s[k] = v;
+			if (!isfinite(v))
+				return mc_err_set(err, "mc_cl_energy_set_image: camera %d: pixel %d: %s is not finite", cam, i,
+						  hsv_names[k]);
+			e->image_host[i].s[k] = hsv_channel(v, k);
 		}
 		e->image_host[i].s[3] = 0.0f;
 	}
@@ -550,17 +561,19 @@ static int pack_scene(mc_cl_energy *e, const mc_scene *scene, mc_err *err)
 			return mc_err_set(err, "mc_cl_energy_eval: scene: gaussian %d: sigma = %g, must be positive", q, s);
 		if (!(c >= 0) || !isfinite(c))
 			return mc_err_set(err, "mc_cl_energy_eval: scene: gaussian %d: c = %g, must be >= 0", q, c);
-		for (int k = 0; k < 3; k++)
-			if (!(m[k] >= 0 && m[k] <= 1))
-				return mc_err_set(err, "mc_cl_energy_eval: scene: gaussian %d: hsv[%d] = %g, not in [0, 1]", q,
-						  k, m[k]);
+		float hsv[3];
+		for (int k = 0; k < 3; k++) {
+			if (!isfinite(m[k]))
+				return mc_err_set(err, "mc_cl_energy_eval: scene: gaussian %d: %s is not finite", q,
+						  hsv_names[k]);
+			hsv[k] = hsv_channel(m[k], k);
+		}
 		/* c' = c exp(-r2 / (2 sigma^2)) < MC_CULL_MAGNITUDE  <=>  r2 > r2_max */
 		double r2max = c > MC_CULL_MAGNITUDE ? 2 * s * s * log(c / MC_CULL_MAGNITUDE) : -1;
 		/* Dissimilarity weights of the albedo (thesis 6.2.1); Z > 0 always,
 		 * as w_g = 0.5 where m_s = 0. */
-		double ws = sqrt(m[1]), wd = fmax(0, 0.5 - m[2]), wg = fmax(0, 0.5 - m[1]);
+		double ws = sqrt(hsv[1]), wd = fmax(0, 0.5 - hsv[2]), wg = fmax(0, 0.5 - hsv[1]);
 		double z = ws + wd + wg;
-		float *soa = (float *)&e->input_host[4 * MC_MAX_GAUSSIANS];
 		soa[q] = (float)scene->mu[q].x;
 		soa[MC_MAX_GAUSSIANS + q] = (float)scene->mu[q].y;
 		soa[2 * MC_MAX_GAUSSIANS + q] = (float)scene->mu[q].z;
@@ -568,7 +581,7 @@ static int pack_scene(mc_cl_energy *e, const mc_scene *scene, mc_err *err)
 		cl_float4 *g = &e->input_host[4 * q];
 		*g++ = (cl_float4){{(float)scene->mu[q].x, (float)scene->mu[q].y, (float)scene->mu[q].z, (float)s}};
 		*g++ = (cl_float4){{(float)c, (float)r2max, 0, 0}};
-		*g++ = (cl_float4){{(float)m[0], (float)m[1], (float)m[2], (float)(ws / z)}};
+		*g++ = (cl_float4){{hsv[0], hsv[1], hsv[2], (float)(ws / z)}};
 		*g = (cl_float4){{(float)(wd / z), (float)(wg / z), 0, 0}};
 	}
 	return 0;

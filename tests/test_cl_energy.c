@@ -153,6 +153,11 @@ static void test_random_scenes(void)
 	for (int it = 0; it < 6; it++) {
 		mc_scene sc;
 		scene_random(&sc, 4 + it * 7, &rng);
+		if (it == 5) {
+			/* out-of-range colours, read as the reference reads them:
+			 * hue wrapped, saturation and value clamped */
+			sc.hsv[0][0] = 1.25, sc.hsv[1][1] = 1.5, sc.hsv[2][2] = -0.25, sc.hsv[3][0] = -0.4;
+		}
 		eval_cl(e, &sc, NULL, NULL, 0, 0, &cl);
 		eval_ref(&sc, &v, 1, NULL, NULL, 0, 0, &ref);
 		char what[64];
@@ -410,9 +415,9 @@ static void test_errors(void)
 
 	CHECK(mc_cl_energy_set_image(e, 1, v.hsv, &err) == -1);
 	CHECK_MSG(strstr(err.msg, "camera 1 out of range"), "%s", err.msg);
-	v.hsv[3 * 5 + 1] = 1.5f;
+	v.hsv[3 * 5 + 1] = NAN;
 	CHECK(mc_cl_energy_set_image(e, 0, v.hsv, &err) == -1);
-	CHECK_MSG(strstr(err.msg, "pixel 5: saturation"), "%s", err.msg);
+	CHECK_MSG(strstr(err.msg, "pixel 5: saturation is not finite"), "%s", err.msg);
 	v.hsv[3 * 5 + 1] = 0.5f;
 	CHECK(mc_cl_energy_set_image(e, 0, v.hsv, &err) == 0);
 
@@ -424,6 +429,10 @@ static void test_errors(void)
 	CHECK(mc_cl_energy_eval(e, &sc, NULL, NULL, 0, 0, &E, NULL, NULL, &err) == -1);
 	CHECK_MSG(strstr(err.msg, "gaussian 2: sigma"), "%s", err.msg);
 	sc.sigma[2] = 0.1;
+	sc.hsv[1][2] = INFINITY;
+	CHECK(mc_cl_energy_eval(e, &sc, NULL, NULL, 0, 0, &E, NULL, NULL, &err) == -1);
+	CHECK_MSG(strstr(err.msg, "gaussian 1: value is not finite"), "%s", err.msg);
+	sc.hsv[1][2] = 0.5;
 	CHECK(mc_cl_energy_eval(e, &sc, NULL, NULL, 1.5, 0, &E, NULL, NULL, &err) == -1);
 	CHECK_MSG(strstr(err.msg, "dropout"), "%s", err.msg);
 	CHECK(mc_cl_energy_eval(e, &sc, NULL, NULL, 0, 0, &E, NULL, NULL, &err) == 0);
