@@ -159,6 +159,36 @@ static void test_mocapctl(void)
 	mcd_run_cleanup(&r);
 }
 
+/* Under journald (stderr is the stream named by $JOURNAL_STREAM) lines
+ * carry sd-daemon priority prefixes instead of level words. */
+static void test_journal_prefixes(void)
+{
+	mcd_run r;
+	CHECK(mcd_run_init(&r));
+	mcd_run_config(&r, BASE "[camera a]\ndriver = faulty\ndevice = A\nend_after = 5\n"
+				"[camera b]\ndriver = nosuch\n");
+	/* The log file exists before the daemon opens it (O_TRUNC keeps the
+	 * inode), so its device:inode can be named in advance. */
+	FILE *f = fopen(r.log, "w");
+	CHECK(f != NULL);
+	if (f)
+		fclose(f);
+	struct stat st;
+	CHECK(stat(r.log, &st) == 0);
+	char env_js[96];
+	snprintf(env_js, sizeof(env_js), "JOURNAL_STREAM=%llu:%llu", (unsigned long long)st.st_dev,
+		 (unsigned long long)st.st_ino);
+	const char *const env[] = {env_js, NULL};
+	CHECK(mcd_run_start(&r, NULL, env));
+	CHECK(mcd_run_wait_exit(&r, 10000) == 1);
+	CHECK(mcd_run_wait_log(&r, "<6>mocapd ", 0) && mcd_run_wait_log(&r, " starting with ", 0));
+	CHECK(mcd_run_wait_log(&r, "<3>", 0));
+	CHECK(!mcd_run_wait_log(&r, "mocapd: info:", 0));
+	if (mc_test_failures)
+		mcd_run_dump(&r, "journal");
+	mcd_run_cleanup(&r);
+}
+
 static void test_sigkill_restart(void)
 {
 	mcd_run r;
@@ -270,6 +300,7 @@ int main(void)
 	test_sigterm();
 	test_sigkill_restart();
 	test_sighup();
+	test_journal_prefixes();
 	test_mocapctl();
 	test_socket_activation();
 	return mc_test_finish("test_daemon_run");
