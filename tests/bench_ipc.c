@@ -2,12 +2,19 @@
  * receipt of the frame (both CLOCK_MONOTONIC, same machine), at 60 Hz with
  * 1 and with 64 subscribers, each a libmocap client on its own thread.
  * Also the time the publisher spends in mc_server_publish().  Target:
- * p99 < 1 ms.  Usage: bench_ipc [seconds per run, default 10]. */
+ * p99 < 1 ms.
+ *
+ *   bench_ipc [--rt] [SECONDS per run, default 10]
+ *
+ * --rt runs every thread (publisher, server, subscribers) with SCHED_FIFO,
+ * as a VR deployment might: the figures then show the IPC path without
+ * other processes' load on a shared machine (needs CAP_SYS_NICE). */
 #include "mc_server.h"
 #include "mocap.h"
 
 #include <errno.h>
 #include <pthread.h>
+#include <sched.h>
 #include <stdatomic.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -133,6 +140,18 @@ static bool run(mc_server *srv, int nsubs, mocap_mode mode, int frames)
 
 int main(int argc, char **argv)
 {
+	bool rt = argc > 1 && strcmp(argv[1], "--rt") == 0;
+	if (rt) {
+		argc--;
+		argv++;
+		/* Threads created from here on inherit the policy. */
+		struct sched_param sp = {.sched_priority = 10};
+		int e = pthread_setschedparam(pthread_self(), SCHED_FIFO, &sp);
+		if (e) {
+			fprintf(stderr, "bench_ipc: --rt: SCHED_FIFO not allowed here (%s)\n", strerror(e));
+			return 77;
+		}
+	}
 	double seconds = argc > 1 ? atof(argv[1]) : 10;
 	int frames = (int)(seconds * 60);
 	if (frames < 10) {
@@ -163,7 +182,7 @@ int main(int argc, char **argv)
 	mc_server_set_skeleton_def(srv, &def, &err);
 	long ncpu = sysconf(_SC_NPROCESSORS_ONLN);
 	printf("bench_ipc: publish -> client receive latency, 60 Hz, %d joints (%zu-byte frames), %d frames per run, "
-	       "%ld CPUs\n", NJ, (size_t)48 + 64 * NJ, frames, ncpu);
+	       "%ld CPUs%s\n", NJ, (size_t)48 + 64 * NJ, frames, ncpu, rt ? ", SCHED_FIFO" : "");
 	printf("  subs  mode    received         p50 ms   p99 ms   max ms   publish us p50 p99\n");
 	bool ok = run(srv, 1, MOCAP_LATEST, frames);
 	ok &= run(srv, 64, MOCAP_LATEST, frames);
