@@ -1,0 +1,312 @@
+/* Tests of the sim driver plugin (drivers/sim), loaded with dlopen: renders
+ * the default body model driven by shared/data/mocap/131_01.bvh through the
+ * left camera of config/rigs/ego_stereo.json.
+ *
+ * The check of content: the mapped joints of the same BVH frame, put in the
+ * rig frame and projected with the rig camera, land on body pixels (not the
+ * green background) of the rendered frame; pixels outside the fisheye circle
+ * are black; the image changes with the motion.
+ *
+ * The plugin is found in $MOCAP_DRIVER_DIR, else in <this program's
+ * folder>/../drivers. */
+#include "mc_bvh.h"
+#include "mc_model.h"
+#include "mc_rig.h"
+#include "mocap_driver.h"
+#include "test_util.h"
+
+#include <dlfcn.h>
+#include <libgen.h>
+#include <limits.h>
+#include <stdint.h>
+#include <string.h>
+#include <time.h>
+#include <unistd.h>
+
+#define W 96
+#define H 96
+
+typedef struct {
+	const char *keys[16];
+	char vals[16][PATH_MAX];
+	int n;
+} config;
+
+static const char *cfg_get(void *ctx, const char *key)
+{
+	config *c = ctx;
+	for (int i = 0; i < c->n; i++)
+		if (strcmp(c->keys[i], key) == 0)
+			return c->vals[i];
+	return NULL;
+}
+
+static void cfg_log(void *ctx, int level, const char *msg)
+{
+	(void)ctx;
+	printf("driver log [%d]: %s\n", level, msg);
+}
+
+static void cfg_set(config *c, const char *key, const char *val)
+{
+	for (int i = 0; i < c->n; i++)
+		if (strcmp(c->keys[i], key) == 0) {
+			snprintf(c->vals[i], sizeof(c->vals[i]), "%s", val);
+			return;
+		}
+	c->keys[c->n] = key;
+	snprintf(c->vals[c->n++], sizeof(c->vals[0]), "%s", val);
+}
+
+static uint64_t now_ns(void)
+{
+	struct timespec ts;
+	clock_gettime(CLOCK_MONOTONIC, &ts);
+	return (uint64_t)ts.tv_sec * 1000000000ull + (uint64_t)ts.tv_nsec;
+}
+
+static const mocap_driver *load_plugin(void **dl)
+{
+	char dir[PATH_MAX], path[PATH_MAX + 64];
+	const char *env = getenv("MOCAP_DRIVER_DIR");
+	if (env) {
+		snprintf(dir, sizeof(dir), "%s", env);
+	} else {
+		char exe[PATH_MAX];
+		ssize_t n = readlink("/proc/self/exe", exe, sizeof(exe) - 1);
+		if (n <= 0)
+			return NULL;
+		exe[n] = 0;
+		snprintf(dir, sizeof(dir), "%s/../drivers", dirname(exe));
+	}
+	snprintf(path, sizeof(path), "%s/mocap-driver-sim.so", dir);
+	*dl = dlopen(path, RTLD_NOW | RTLD_LOCAL);
+	if (!*dl) {
+		fprintf(stderr, "dlopen: %s\n", dlerror());
+		return NULL;
+	}
+	mocap_driver_entry_fn entry = (mocap_driver_entry_fn)dlsym(*dl, MOCAP_DRIVER_ENTRY_SYMBOL);
+	return entry ? entry() : NULL;
+}
+
+static const mocap_driver *drv;
+static char err[512];
+static char bvh_path[PATH_MAX];
+
+static void base_config(config *c)
+{
+	memset(c, 0, sizeof(*c));
+	cfg_set(c, "bvh", bvh_path);
+	cfg_set(c, "rig", "config/rigs/ego_stereo.json");
+	cfg_set(c, "model", "config/models/default.json");
+	cfg_set(c, "camera", "left");
+	cfg_set(c, "width", "96");
+	cfg_set(c, "height", "96");
+	cfg_set(c, "rate", "0");
+	cfg_set(c, "background", "#00ff00");
+}
+
+static void *open_start(config *c, mocap_host *h)
+{
+	*h = (mocap_host){.ctx = c, .config_get = cfg_get, .log = cfg_log};
+	void *dev = drv->open(h, err, sizeof(err));
+	if (dev && drv->start(dev, err, sizeof(err)) != MOCAP_OK) {
+		drv->close(dev);
+		return NULL;
+	}
+	return dev;
+}
+
+static int pull(void *dev, mocap_frame *f, uint8_t *buf, size_t cap, int timeout_ms)
+{
+	memset(f, 0, sizeof(*f));
+	f->data = buf;
+	f->capacity = cap;
+	return drv->next_frame(dev, f, timeout_ms, err, sizeof(err));
+}
+
+static void expect_open_fails(config *c, const char *needle)
+{
+	mocap_host h = {.ctx = c, .config_get = cfg_get, .log = cfg_log};
+	void *dev = drv->open(&h, err, sizeof(err));
+	CHECK_MSG(dev == NULL, "open succeeded, expected '%s'", needle);
+	CHECK_MSG(strstr(err, needle) != NULL, "'%s' lacks '%s'", err, needle);
+	if (dev)
+		drv->close(dev);
+}
+
+static void test_config_errors(void)
+{
+	config c;
+	base_config(&c);
+	cfg_set(&c, "bvh", "/nonexistent.bvh");
+	expect_open_fails(&c, "/nonexistent.bvh");
+	base_config(&c);
+	cfg_set(&c, "rig", "/nonexistent-rig.json");
+	expect_open_fails(&c, "'rig'");
+	base_config(&c);
+	cfg_set(&c, "camera", "middle");
+	expect_open_fails(&c, "no camera 'middle'");
+	base_config(&c);
+	cfg_set(&c, "background", "green");
+	expect_open_fails(&c, "'background'");
+	base_config(&c);
+	cfg_set(&c, "height_m", "7");
+	expect_open_fails(&c, "'height_m'");
+	config empty = {0};
+	expect_open_fails(&empty, "'bvh' is required");
+}
+
+static int is_green(const uint8_t *p) { return p[0] < 30 && p[1] > 225 && p[2] < 30; }
+
+/* Joints of BVH frame f projected into the rendered image must be on the body. */
+static void check_joints_on_body(const mc_bvh *bvh, const int *idx, double mpu, const mc_model *model,
+				 const mc_camera *cam, int f, const uint8_t *img, int *on_body, int *visible)
+{
+	mc_vec3 head[MC_BVH_CMU_JOINTS];
+	mc_bvh_joints_in_head(bvh, idx, f, mpu, head);
+	mc_xform cam_from_rig = mc_xform_inverse(cam->rig_from_cam);
+	/* Joints the head hides or that the lens sees at grazing angles are
+	 * left out: pelvis, hips, knees, ankles. */
+	static const char *const names[] = {"pelvis", "left_hip", "right_hip", "left_knee", "right_knee",
+					    "left_ankle", "right_ankle"};
+	for (size_t i = 0; i < sizeof(names) / sizeof(names[0]); i++) {
+		int j = 0;
+		while (strcmp(mc_bvh_cmu_joint_name(j), names[i]) != 0)
+			j++;
+		mc_vec3 p = mc_xform_apply(cam_from_rig, mc_xform_apply(model->rig_from_root, head[j]));
+		double u, v;
+		if (!mc_camera_project(cam, p, &u, &v))
+			continue;
+		/* working pixel of native (u, v) */
+		int x = (int)floor((u + 0.5) * W / cam->width), y = (int)floor((v + 0.5) * H / cam->height);
+		if (x < 0 || y < 0 || x >= W || y >= H)
+			continue;
+		(*visible)++;
+		*on_body += !is_green(img + ((size_t)y * W + (size_t)x) * 3);
+	}
+}
+
+static void test_render(void)
+{
+	config c;
+	base_config(&c);
+	mocap_host h;
+	void *dev = open_start(&c, &h);
+	CHECK_MSG(dev != NULL, "%s", err);
+	if (!dev)
+		return;
+	mocap_format fmt;
+	CHECK(drv->get_format(dev, &fmt, err, sizeof(err)) == MOCAP_OK);
+	CHECK(fmt.pixfmt == MOCAP_FMT_RGB24 && fmt.width == W && fmt.height == H && fmt.stride == W * 3);
+	CHECK(fmt.max_bytes == W * H * 3);
+
+	mc_bvh bvh;
+	mc_rig rig;
+	mc_model model;
+	mc_err e;
+	int idx[MC_BVH_CMU_JOINTS];
+	CHECK(mc_bvh_load(bvh_path, &bvh, &e) == 0 && mc_bvh_map_cmu(&bvh, idx, &e) == 0);
+	CHECK(mc_rig_load("config/rigs/ego_stereo.json", &rig, &e) == 0);
+	CHECK(mc_model_load("config/models/default.json", &model, &e) == 0);
+	double mpu = 1.75 / mc_bvh_rest_height(&bvh);
+
+	static uint8_t img[W * H * 3], first[W * H * 3];
+	mocap_frame f;
+	int on_body = 0, visible = 0;
+	uint64_t t0 = now_ns();
+	/* rate 0: frame k shows motion time k / 30 s = BVH frame 4k. */
+	for (int k = 0; k < 8; k++) {
+		int rc = pull(dev, &f, img, sizeof(img), 5000);
+		CHECK_MSG(rc == MOCAP_OK, "frame %d: %s", k, err);
+		if (rc != MOCAP_OK)
+			break;
+		CHECK(f.sequence == (uint64_t)k && f.bytesused == sizeof(img) && f.format.pixfmt == MOCAP_FMT_RGB24);
+		if (k == 0)
+			memcpy(first, img, sizeof(img));
+		check_joints_on_body(&bvh, idx, mpu, &model, &rig.cams[0], 4 * k, img, &on_body, &visible);
+		/* Corners are outside the 180-degree circle: black. */
+		CHECK(img[0] == 0 && img[1] == 0 && img[2] == 0);
+		/* Some background, some body. */
+		int green = 0;
+		for (int i = 0; i < W * H; i++)
+			green += is_green(img + 3 * i);
+		CHECK_MSG(green > W * H / 10 && green < W * H * 7 / 10, "frame %d: %d green pixels", k, green);
+	}
+	double per_frame = (double)(now_ns() - t0) * 1e-9 / 8;
+	printf("sim: %dx%d frame in %.3f s; %d of %d projected joints on the body\n", W, H, per_frame, on_body,
+	       visible);
+	CHECK(visible >= 30);
+	CHECK_MSG(on_body >= visible * 9 / 10, "%d of %d joints on body pixels", on_body, visible);
+	size_t changed = 0;
+	for (size_t i = 0; i < sizeof(img); i++)
+		changed += img[i] != first[i];
+	CHECK(changed > 100); /* the actor moved */
+	CHECK(pull(dev, &f, img, 100, 1000) == MOCAP_ERR_NOSPACE);
+	drv->close(dev);
+	mc_bvh_free(&bvh);
+}
+
+/* Pacing, timestamps from a shared epoch, end of the motion, loop. */
+static void test_timing(void)
+{
+	config c;
+	base_config(&c);
+	cfg_set(&c, "width", "16");
+	cfg_set(&c, "height", "16");
+	cfg_set(&c, "rate", "40");
+	uint64_t epoch = now_ns() + 10000000ull;
+	char es[32];
+	snprintf(es, sizeof(es), "%llu", (unsigned long long)epoch);
+	cfg_set(&c, "epoch", es);
+	cfg_set(&c, "start", "8.2"); /* 131_01 lasts 994 / 120 = 8.28 s */
+	mocap_host h;
+	void *dev = open_start(&c, &h);
+	CHECK_MSG(dev != NULL, "%s", err);
+	if (!dev)
+		return;
+	uint8_t img[16 * 16 * 3];
+	mocap_frame f;
+	int n = 0;
+	int rc;
+	while ((rc = pull(dev, &f, img, sizeof(img), 1000)) == MOCAP_OK) {
+		CHECK(f.timestamp_ns == epoch + (uint64_t)n * 25000000ull);
+		CHECK(now_ns() >= f.timestamp_ns);
+		n++;
+	}
+	CHECK_MSG(rc == MOCAP_ERR_END, "rc %d: %s", rc, err);
+	CHECK_MSG(n == 3 || n == 4, "%d frames before the end", n);
+	drv->close(dev);
+
+	/* Looping from 8.2 s wraps around the end of the motion. */
+	cfg_set(&c, "loop", "true");
+	cfg_set(&c, "rate", "0");
+	dev = open_start(&c, &h);
+	CHECK(dev != NULL);
+	if (dev) {
+		for (int k = 0; k < 10; k++)
+			CHECK(pull(dev, &f, img, sizeof(img), 1000) == MOCAP_OK && f.sequence == (uint64_t)k);
+		drv->close(dev);
+	}
+}
+
+int main(void)
+{
+	const char *data = mc_test_data_dir();
+	if (!data)
+		TEST_SKIP("no evaluation data for the BVH file");
+	snprintf(bvh_path, sizeof(bvh_path), "%s/mocap/131_01.bvh", data);
+	if (access("config/models/default.json", R_OK) != 0 || access("config/rigs/ego_stereo.json", R_OK) != 0)
+		TEST_SKIP("config/models/default.json or config/rigs/ego_stereo.json missing (run from the repository root)");
+	void *dl = NULL;
+	drv = load_plugin(&dl);
+	CHECK_MSG(drv != NULL, "cannot load mocap-driver-sim.so (set MOCAP_DRIVER_DIR)");
+	if (!drv)
+		return mc_test_finish("test_driver_sim");
+	CHECK(drv->abi_version == MOCAP_DRIVER_ABI_VERSION && strcmp(drv->name, "sim") == 0);
+	test_config_errors();
+	test_render();
+	test_timing();
+	dlclose(dl);
+	return mc_test_finish("test_driver_sim");
+}
