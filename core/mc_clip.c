@@ -36,8 +36,8 @@ static int read_frames(const char *path, json_t *root, mc_clip *clip, mc_err *er
 	for (int k = 0; k < clip->nframes; k++) {
 		json_t *jl = json_object_get(json_array_get(frames, k), "joints_left_cam");
 		for (int j = 0; j < clip->njoints; j++) {
-			char where[256];
-			snprintf(where, sizeof(where), "%s: frames[%d].joints_left_cam", path, k);
+			char where[1400];
+			snprintf(where, sizeof(where), "%.1200s: frames[%d].joints_left_cam", path, k);
 			if (mc_json_vec3(jl, clip->joint_names[j], where, &clip->joints[k * clip->njoints + j], true, err) < 0)
 				return -1;
 		}

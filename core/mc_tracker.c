@@ -29,6 +29,9 @@
  * which the state is uncertain, and lost. */
 #define QUALITY_UNCERTAIN 0.6
 #define QUALITY_LOST 0.3
+/* Visibility summed over the calibration frame's pixels below which a
+ * Gaussian's own colour estimate is not trusted (about 3 pixels seen whole). */
+#define MIN_COLOUR_EVIDENCE 3.0
 
 struct mc_tracker {
 	mc_rig rig;
@@ -709,6 +712,44 @@ static bool robust_colour(colour_samples *cs, double out[3])
 	return true;
 }
 
+static double total_weight(const colour_samples *cs)
+{
+	double w = 0;
+	for (int i = 0; i < cs->n; i++)
+		w += cs->s[i].weight;
+	return w;
+}
+
+/* A Gaussian seen too little in the calibration frame (e.g. a foot hidden
+ * behind the body) would take its colour from a few fringe pixels, often
+ * the floor, and then be drawn to the floor.  It borrows instead the
+ * evidence-weighted colour of the Gaussians on the nearest joint up the
+ * chain that were seen well: clothing is mostly continuous along a limb. */
+static void borrow_colours(mc_model *m, const double *evidence)
+{
+	double rgb[MC_MAX_GAUSSIANS][3];
+	for (int q = 0; q < m->ngauss; q++)
+		memcpy(rgb[q], m->gauss[q].rgb, sizeof(rgb[q]));
+	for (int q = 0; q < m->ngauss; q++) {
+		if (evidence[q] >= MIN_COLOUR_EVIDENCE)
+			continue;
+		for (int j = m->gauss[q].joint; j >= 0; j = m->joints[j].parent) {
+			double sum[3] = {0, 0, 0}, w = 0;
+			for (int r = 0; r < m->ngauss; r++)
+				if (m->gauss[r].joint == j && evidence[r] >= MIN_COLOUR_EVIDENCE) {
+					for (int k = 0; k < 3; k++)
+						sum[k] += evidence[r] * rgb[r][k];
+					w += evidence[r];
+				}
+			if (w > 0) {
+				for (int k = 0; k < 3; k++)
+					m->gauss[q].rgb[k] = sum[k] / w;
+				break;
+			}
+		}
+	}
+}
+
 static int collect_colours(mc_tracker *t, const mc_frame_view *views, int nviews, const mc_scene *scene,
 			   float *rgb, colour_samples *per_gauss)
 {
@@ -729,15 +770,18 @@ static int collect_colours(mc_tracker *t, const mc_frame_view *views, int nviews
 	return 0;
 }
 
+
+/* The mean data energy per candidate pixel at the calibration pose, every
+ * candidate, no dropout: the reference for the tracking quality. */
 static int measure_baseline(mc_tracker *t, mc_err *err)
 {
 	mc_fk fk;
 	mc_scene scene;
 	mc_vec3 dmu[MC_MAX_GAUSSIANS];
+	double E;
 	mc_model_fk(&t->model, t->pose, &fk);
 	make_scene(t, &fk, &scene);
 	int ns = sample_pixels(t, 1.0);
-	double E;
 	if (data_term(t, &scene, ns, 0.0, &E, dmu, err) < 0)
 		return -1;
 	t->baseline = E < -1e-3 ? E : -1e-3;
@@ -767,8 +811,13 @@ int mc_tracker_calibrate_colors(mc_tracker *t, const mc_frame_view *views, int n
 		mc_err_set(err, "tracker: out of memory");
 		goto out;
 	}
-	for (int q = 0; q < t->model.ngauss; q++)
-		robust_colour(&per_gauss[q], t->model.gauss[q].rgb);
+	double evidence[MC_MAX_GAUSSIANS];
+	for (int q = 0; q < t->model.ngauss; q++) {
+		evidence[q] = total_weight(&per_gauss[q]);
+		if (evidence[q] >= MIN_COLOUR_EVIDENCE)
+			robust_colour(&per_gauss[q], t->model.gauss[q].rgb);
+	}
+	borrow_colours(&t->model, evidence);
 	rc = measure_baseline(t, err);
 out:
 	for (int q = 0; per_gauss && q < MC_MAX_GAUSSIANS; q++)

@@ -93,11 +93,15 @@ static void write_estimate(FILE *out, int k, const mc_skeleton *sk)
 static void write_overlay(const options *o, const mc_clip *clip, int k, const mc_frame_view *view,
 			  const mc_skeleton *sk)
 {
-	mc_canvas im = {malloc((size_t)view->width * view->height * 3), view->width, view->height};
+	const int zoom = 3; /* small fisheye images: enlarge for reading */
+	mc_canvas im = {malloc((size_t)view->width * view->height * 3 * zoom * zoom), view->width * zoom,
+			view->height * zoom};
 	if (!im.rgb)
 		return;
-	for (int y = 0; y < view->height; y++)
-		memcpy(im.rgb + (size_t)y * view->width * 3, view->rgb + (size_t)y * view->stride, view->width * 3);
+	for (int y = 0; y < im.height; y++)
+		for (int x = 0; x < im.width; x++)
+			memcpy(im.rgb + ((size_t)y * im.width + x) * 3,
+			       view->rgb + (size_t)(y / zoom) * view->stride + 3 * (x / zoom), 3);
 	mc_vec3 pos[MC_MAX_JOINTS], gt[MC_MAX_JOINTS];
 	int parent[MC_MAX_JOINTS];
 	bool have[MC_MAX_JOINTS];
