@@ -56,6 +56,12 @@ all:
 
 -include $(sort $(wildcard */module.mk) $(wildcard drivers/*/module.mk))
 
+# The OpenCL energy kernel alone: evaluations per second at several pixel counts.
+BENCHES += bench-cl
+.PHONY: bench-cl
+bench-cl: $(BUILD)/tests/bench_cl_energy
+	$(BUILD)/tests/bench_cl_energy
+
 # The tracker on every evaluation clip (../shared/data/ego/*): accuracy and speed.
 DATA_DIR ?= ../shared/data
 BENCHES += bench-tracker
