@@ -2,9 +2,10 @@
  * opened when it is plugged in and closed cleanly when it is pulled out.
  *
  * Design: this is a wrapper around the v4l2 driver code (drivers/v4l2).  It
- * watches the USB bus with libusb (hotplug callbacks where libusb has them,
- * which needs udev; otherwise it lists the bus at most twice a second), maps
- * the matching USB device to its V4L2 node through sysfs
+ * learns of arrivals and departures from libusb's hotplug callbacks (which
+ * need udev running) and, as a safety net, by listing the USB devices in
+ * sysfs every 2 s (0.5 s without hotplug); it maps the matching USB device
+ * to its V4L2 node through sysfs
  * (/sys/class/video4linux/videoN/device -> the USB interface -> the device),
  * and delegates formats, controls and frames to the V4L2 code.  open()
  * succeeds whether or not the camera is there; while it is absent,
@@ -39,6 +40,7 @@
 /* A matching device whose video node is not there yet (uvcvideo binds it
  * shortly after the USB device appears) is looked at again this soon. */
 #define SCAN_PENDING_NS 200000000ull
+#define MAX_USB_DEVICES 128
 
 typedef struct {
 	mocap_host host;
@@ -55,7 +57,11 @@ typedef struct {
 	drv_v4l2 *cam;    /* the V4L2 node while the camera is there */
 	unsigned busnum, devnum;
 	bool started; /* the host wants frames */
+	bool delivered;        /* a frame was delivered since open */
 	uint64_t sequence_base, last_sequence;
+	uint64_t last_frame_ns;
+	bool have_base;   /* the V4L2 counter's first value on this attach is known */
+	uint64_t first_v4l2_seq;
 } usb_dev;
 
 static int LIBUSB_CALL on_hotplug(libusb_context *ctx, libusb_device *dev, libusb_hotplug_event event, void *user)
@@ -109,36 +115,28 @@ static int parse_config(usb_dev *u, const mocap_host *host, char *err, size_t er
 	return MOCAP_OK;
 }
 
-/* Looks for the configured camera on the bus; fills busnum/devnum and the
+/* Looks for the configured camera in sysfs (libusb's own device list only
+ * changes on udev events, so it is not asked); fills busnum/devnum and the
  * V4L2 node name.  0 if it is there with a video node, 1 if it is there
  * without one (yet), -1 if it is not there. */
 static int find_camera(usb_dev *u, char *node, size_t n)
 {
-	libusb_device **list;
-	ssize_t count = libusb_get_device_list(u->usb, &list);
-	if (count < 0)
-		return -1;
+	drv_usb_video_info list[MAX_USB_DEVICES];
+	int count = drv_sysfs_list_usb_devices(SYSFS, list, MAX_USB_DEVICES);
 	int found = -1;
-	for (ssize_t i = 0; i < count && found != 0; i++) {
-		struct libusb_device_descriptor desc;
-		if (libusb_get_device_descriptor(list[i], &desc) != 0 || desc.idVendor != u->vendor ||
-		    desc.idProduct != u->product)
+	for (int i = 0; i < count && found != 0; i++) {
+		const drv_usb_video_info *d = &list[i];
+		if (d->vendor != u->vendor || d->product != u->product || (u->serial[0] && strcmp(u->serial, d->serial)) ||
+		    (u->port[0] && strcmp(u->port, d->port)))
 			continue;
-		unsigned bus = libusb_get_bus_number(list[i]), addr = libusb_get_device_address(list[i]);
-		drv_usb_video_info info;
-		if (drv_sysfs_usb_device_info(SYSFS, bus, addr, &info) != 0)
-			continue;
-		if ((u->serial[0] && strcmp(u->serial, info.serial)) || (u->port[0] && strcmp(u->port, info.port)))
-			continue;
-		if (drv_sysfs_find_usb_video(SYSFS, bus, addr, node, n) != 0) {
+		if (drv_sysfs_find_usb_video(SYSFS, d->busnum, d->devnum, node, n) != 0) {
 			found = 1;
 			continue;
 		}
-		u->busnum = bus;
-		u->devnum = addr;
+		u->busnum = d->busnum;
+		u->devnum = d->devnum;
 		found = 0;
 	}
-	libusb_free_device_list(list, 1);
 	return found;
 }
 
@@ -186,8 +184,16 @@ static int try_attach(usb_dev *u, char *err, size_t errlen)
 		detach(u, "could not start streaming");
 		return st;
 	}
-	/* sequence numbers go on across replugs, with a gap */
-	u->sequence_base = u->last_sequence + 1;
+	/* Sequence numbers go on across replugs, leaving out as many numbers
+	 * as frames were missed while the camera was away (at least one). */
+	if (u->delivered) {
+		mocap_format fmt;
+		drv_v4l2_get_format(u->cam, &fmt);
+		double away_s = (double)(drv_monotonic_ns() - u->last_frame_ns) * 1e-9;
+		uint64_t missed = fmt.fps > 0 ? (uint64_t)(away_s * fmt.fps) : 1;
+		u->sequence_base = u->last_sequence + 1 + (missed ? missed : 1);
+	}
+	u->have_base = false;
 	return MOCAP_OK;
 }
 
@@ -328,8 +334,15 @@ static int drv_next_frame(void *dev, mocap_frame *slot, int timeout_ms, char *er
 		return drv_errf(err, errlen, MOCAP_ERR_NODEV, DRV ": %s was unplugged", u->what);
 	}
 	if (st == MOCAP_OK) {
-		slot->sequence += u->sequence_base;
+		/* count from the first frame of this attach, after the base */
+		if (!u->have_base) {
+			u->have_base = true;
+			u->first_v4l2_seq = slot->sequence;
+		}
+		slot->sequence = u->sequence_base + (slot->sequence - u->first_v4l2_seq);
 		u->last_sequence = slot->sequence;
+		u->last_frame_ns = drv_monotonic_ns();
+		u->delivered = true;
 	}
 	return st;
 }
@@ -360,31 +373,24 @@ static void drv_close(void *dev)
 static int drv_probe(const mocap_host *host, mocap_device_info *out, int max, char *err, size_t errlen)
 {
 	(void)host;
-	libusb_context *ctx;
-	int r = libusb_init(&ctx);
-	if (r != 0)
-		return drv_errf(err, errlen, MOCAP_ERR_IO, DRV ": cannot start libusb: %s", libusb_strerror(r));
-	libusb_device **list;
-	ssize_t count = libusb_get_device_list(ctx, &list);
+	(void)err;
+	(void)errlen;
+	drv_usb_video_info list[MAX_USB_DEVICES];
+	int count = drv_sysfs_list_usb_devices(SYSFS, list, MAX_USB_DEVICES);
 	int n = 0;
-	for (ssize_t i = 0; i < count && n < max; i++) {
-		unsigned bus = libusb_get_bus_number(list[i]), addr = libusb_get_device_address(list[i]);
-		drv_usb_video_info info;
+	for (int i = 0; i < count && n < max; i++) {
+		const drv_usb_video_info *d = &list[i];
 		char node[32];
-		if (drv_sysfs_find_usb_video(SYSFS, bus, addr, node, sizeof node) != 0 ||
-		    drv_sysfs_usb_device_info(SYSFS, bus, addr, &info) != 0)
+		if (drv_sysfs_find_usb_video(SYSFS, d->busnum, d->devnum, node, sizeof node) != 0)
 			continue;
 		mocap_device_info *o = &out[n++];
 		memset(o, 0, sizeof *o);
-		snprintf(o->id, sizeof o->id, "%04x:%04x%s%s", info.vendor, info.product, info.serial[0] ? ":" : "",
-			 info.serial);
-		snprintf(o->name, sizeof o->name, "%s (/dev/%s)", info.name[0] ? info.name : "USB camera", node);
-		snprintf(o->bus_info, sizeof o->bus_info, "usb port %s", info.port);
-		drv_strlcpy(o->serial, info.serial, sizeof o->serial);
+		snprintf(o->id, sizeof o->id, "%04x:%04x%s%s", d->vendor, d->product, d->serial[0] ? ":" : "",
+			 d->serial);
+		snprintf(o->name, sizeof o->name, "%s (/dev/%s)", d->name[0] ? d->name : "USB camera", node);
+		snprintf(o->bus_info, sizeof o->bus_info, "usb port %s", d->port);
+		drv_strlcpy(o->serial, d->serial, sizeof o->serial);
 	}
-	if (count >= 0)
-		libusb_free_device_list(list, 1);
-	libusb_exit(ctx);
 	return n;
 }
 

@@ -90,27 +90,39 @@ int drv_sysfs_video_usb_info(const char *sysfs_root, const char *node, drv_usb_v
 	return 0;
 }
 
-int drv_sysfs_usb_device_info(const char *sysfs_root, unsigned busnum, unsigned devnum, drv_usb_video_info *out)
+int drv_sysfs_list_usb_devices(const char *sysfs_root, drv_usb_video_info *out, int max)
 {
 	char dir[PATH_MAX];
 	snprintf(dir, sizeof dir, "%s/bus/usb/devices", sysfs_root);
 	DIR *d = opendir(dir);
 	if (!d)
-		return -1;
-	int found = -1;
+		return 0;
+	int n = 0;
 	struct dirent *e;
-	while (found != 0 && (e = readdir(d))) {
+	while (n < max && (e = readdir(d))) {
 		if (e->d_name[0] == '.' || strchr(e->d_name, ':')) /* interfaces have a ':' */
 			continue;
 		char link[PATH_MAX + 256], usb[PATH_MAX];
 		snprintf(link, sizeof link, "%s/%s", dir, e->d_name);
-		memset(out, 0, sizeof *out);
-		if (realpath(link, usb) && read_usb_device(usb, out) == 0 && out->busnum == busnum &&
-		    out->devnum == devnum)
-			found = 0;
+		memset(&out[n], 0, sizeof out[n]);
+		if (realpath(link, usb) && read_usb_device(usb, &out[n]) == 0)
+			n++;
 	}
 	closedir(d);
-	return found;
+	return n;
+}
+
+int drv_sysfs_usb_device_info(const char *sysfs_root, unsigned busnum, unsigned devnum, drv_usb_video_info *out)
+{
+	drv_usb_video_info list[128];
+	int n = drv_sysfs_list_usb_devices(sysfs_root, list, 128);
+	for (int i = 0; i < n; i++) {
+		if (list[i].busnum == busnum && list[i].devnum == devnum) {
+			*out = list[i];
+			return 0;
+		}
+	}
+	return -1;
 }
 
 /* The N of "videoN", or -1 for other names. */

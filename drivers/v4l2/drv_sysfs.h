@@ -35,4 +35,8 @@ int drv_sysfs_find_usb_video(const char *sysfs_root, unsigned busnum, unsigned d
  * /sys/bus/usb/devices.  0, or -1 when there is no such device. */
 int drv_sysfs_usb_device_info(const char *sysfs_root, unsigned busnum, unsigned devnum, drv_usb_video_info *out);
 
+/* Lists the USB devices (not their interfaces) in /sys/bus/usb/devices, at
+ * most max; returns how many. */
+int drv_sysfs_list_usb_devices(const char *sysfs_root, drv_usb_video_info *out, int max);
+
 #endif

@@ -20,7 +20,21 @@ $(HWDRV_TEST_DIR)/test_v4l2: tests/drivers/test_v4l2.c $(HWDRV_HARNESS_OBJ)
 $(HWDRV_TEST_DIR)/test_v4l2_vivid: tests/drivers/test_v4l2_vivid.c $(HWDRV_HARNESS_OBJ)
 	$(HWDRV_LINK_TEST)
 
-.PHONY: check-v4l2
+# A software UVC camera for the VM (tests/vm/uvc-test.sh), and the test that
+# drives the v4l2 and usb plugins against it.
+$(BUILD)/tests/vm/uvc_gadget: tests/vm/uvc_gadget.c
+	@mkdir -p $(@D)
+	$(CC) $(CPPFLAGS) $(CFLAGS) -MMD -MP $< -o $@ $(LDFLAGS) $(shell $(PKG_CONFIG) --libs libturbojpeg)
+
+$(HWDRV_TEST_DIR)/test_uvc_vm: tests/drivers/test_uvc_vm.c $(HWDRV_HARNESS_OBJ)
+	$(HWDRV_LINK_TEST)
+
+UVC_VM_DEPS := $(BUILD)/tests/vm/uvc_gadget $(HWDRV_TEST_DIR)/test_uvc_vm $(V4L2_PLUGIN) \
+	$(BUILD)/drivers/mocap-driver-usb.so
+
+.PHONY: check-v4l2 check-uvc
 check-v4l2: $(V4L2_PLUGIN) $(HWDRV_TEST_DIR)/test_v4l2 $(HWDRV_TEST_DIR)/test_v4l2_vivid
 	$(HWDRV_RUN) $(HWDRV_TEST_DIR)/test_v4l2 tests/vm/vivid-test.sh
-CHECKS += check-v4l2
+check-uvc: $(UVC_VM_DEPS)
+	$(HWDRV_RUN) tests/vm/uvc-test.sh
+CHECKS += check-v4l2 check-uvc

@@ -10,6 +10,10 @@
 #   --module  a module to load with modprobe's dependency order (repeatable)
 #   --file    a file copied to /test/ in the guest, with the shared libraries
 #             it needs (from ldd) at their own paths (repeatable)
+#   --env     VAR=VALUE set for the command (repeatable)
+#   --udev    run systemd-udevd in the guest (from the host's udevadm), so
+#             that libudev users (libcamera, libusb hotplug) see initialised
+#             devices and hotplug events
 #   COMMAND   run in the guest with MOCAP_DRIVER_DIR=/test
 # Environment: MOCAP_BUILD (work folder parent, default build),
 #              MOCAP_VM_TIMEOUT (seconds, default 300), MOCAP_VM_KEEP=1 keeps
@@ -24,11 +28,15 @@ fail() { echo "FAIL: $*"; exit 1; }
 name=vm
 modules=()
 files=()
+envs=()
+udev=0
 while [ $# -gt 0 ]; do
 	case $1 in
 	--name) name=$2; shift 2 ;;
 	--module) modules+=("$2"); shift 2 ;;
 	--file) files+=("$2"); shift 2 ;;
+	--env) envs+=("$2"); shift 2 ;;
+	--udev) udev=1; shift ;;
 	--) shift; break ;;
 	*) fail "run-vm.sh: unknown option $1" ;;
 	esac
@@ -100,6 +108,20 @@ copy_with_libs() {
 }
 for f in "${files[@]}"; do copy_with_libs "$f"; done
 
+udev_start=""
+if [ $udev = 1 ]; then
+	udevadm=$(command -v udevadm) || skip "udevadm not found (Debian package udev)"
+	copy_with_libs "$udevadm"
+	mkdir -p "$root/usr/bin" "$root/lib/systemd" "$root/run" "$root/etc/udev"
+	mv "$root/test/udevadm" "$root/usr/bin/udevadm"
+	ln -s /usr/bin/udevadm "$root/lib/systemd/systemd-udevd"
+	udev_start='mount -t tmpfs tmpfs /run
+mkdir -p /run/udev
+/lib/systemd/systemd-udevd --daemon 2>/dev/null
+/usr/bin/udevadm trigger --action=add
+/usr/bin/udevadm settle --timeout=20'
+fi
+
 cat >"$root/init" <<EOF
 #!/bin/busybox sh
 /bin/busybox --install -s /bin
@@ -111,9 +133,10 @@ mount -t tmpfs tmpfs /tmp
 while read -r n ko params; do
 	insmod /modules/\$ko \$params || echo "MOCAP-VM: insmod \$ko failed"
 done </modules/order
+$udev_start
 echo MOCAP-VM-BEGIN
 cd /test
-MOCAP_DRIVER_DIR=/test ASAN_OPTIONS=detect_leaks=1 ${command[*]} 2>&1
+MOCAP_DRIVER_DIR=/test ASAN_OPTIONS=detect_leaks=1 ${envs[*]} ${command[*]} 2>&1
 echo "MOCAP-VM-RESULT \$?"
 poweroff -f
 EOF
