@@ -73,6 +73,15 @@ static const char *host_config_get(void *ctx, const char *key)
 	mcd_camera *c = ctx;
 	if (!key)
 		return NULL;
+	/* "prefix.*" claims every key with that prefix as read (a driver that
+	 * reads them later, e.g. camera controls once the camera appears). */
+	size_t n = strlen(key);
+	if (n >= 2 && strcmp(key + n - 2, ".*") == 0) {
+		for (int i = 0; i < c->cfg.nkeys; i++)
+			if (strncmp(c->cfg.keys[i].key, key, n - 1) == 0)
+				c->key_read[i] = true;
+		return NULL;
+	}
 	for (int i = 0; i < c->cfg.nkeys; i++)
 		if (strcmp(c->cfg.keys[i].key, key) == 0) {
 			c->key_read[i] = true;

@@ -399,6 +399,16 @@ static bool valid_name(const char *s)
 	return true;
 }
 
+static bool valid_driver_key(const char *key)
+{
+	if (!*key || *key == '.')
+		return false;
+	for (const char *c = key; *c; c++)
+		if (!isalnum((unsigned char)*c) && *c != '_' && *c != '-' && *c != '.')
+			return false;
+	return true;
+}
+
 /* Called by the reader for every "[...]" line. */
 static void begin_section(parser *p, const char *name)
 {
@@ -542,9 +552,10 @@ static int camera_key(parser *p, const char *key, const char *value)
 			cam->rig_camera_line = p->line;
 		return ok;
 	}
-	/* A driver key: checked against what the driver reads, at open. */
-	if (!valid_name(key) || strlen(key) >= MCD_NAME_MAX)
-		return fail(p, "[%s] %s: a key is letters, digits, '_' and '-'", p->section, key);
+	/* A driver key: checked against what the driver reads, at open.  Dots
+	 * group keys (ctrl.NAME for camera controls). */
+	if (!valid_driver_key(key) || strlen(key) >= MCD_NAME_MAX)
+		return fail(p, "[%s] %s: a driver key is letters, digits, '_', '-' and '.'", p->section, key);
 	const mcd_kv *dup = mcd_camera_config_find(cam, key);
 	if (dup)
 		return fail(p, "[%s] %s: given twice (first at line %d)", p->section, key, dup->line);

@@ -79,7 +79,10 @@ enum { MOCAP_LOG_ERROR = 0, MOCAP_LOG_WARN = 1, MOCAP_LOG_INFO = 2, MOCAP_LOG_DE
 /* What the host offers a driver. */
 typedef struct {
 	void *ctx;
-	/* The value of `key` in this camera's config section, or NULL. */
+	/* The value of `key` in this camera's config section, or NULL.  The
+	 * host reports keys no driver call asked for as config errors; asking
+	 * for "prefix.*" (returns NULL) claims every key starting with
+	 * "prefix." as read, for keys the driver uses later. */
 	const char *(*config_get)(void *ctx, const char *key);
 	void (*log)(void *ctx, int level, const char *msg);
 } mocap_host;

@@ -179,6 +179,17 @@ static void test_unknown_driver_key(void)
 	finish(&r, "unknown key", before);
 }
 
+/* A driver may claim keys by prefix ("extra.*"): they are not unknown. */
+static void test_claimed_key_prefix(void)
+{
+	int before = mc_test_failures;
+	mcd_run r;
+	CHECK(start(&r, BASE "device = G8\n[camera claimed]\ndriver = faulty\ndevice = C8\nextra.gain = 3\n"));
+	CHECK(mcd_run_wait_notify(&r, "claimed: streaming", 5000));
+	CHECK(mcd_run_count(r.log, "unknown key") == 0);
+	finish(&r, "claimed key prefix", before);
+}
+
 int main(void)
 {
 	if (!mcd_find_build())
@@ -190,5 +201,6 @@ int main(void)
 	test_disappear_and_return();
 	test_stall();
 	test_unknown_driver_key();
+	test_claimed_key_prefix();
 	return mc_test_finish("test_daemon_faults");
 }

@@ -254,6 +254,8 @@ static int read_keys(faulty_dev *d, const mocap_host *h, char *err, size_t errle
 	d->fmt.max_bytes = bpp ? (size_t)d->fmt.stride * (size_t)hh : (size_t)w * (size_t)hh * 3 + 4096;
 	/* Read for the host's unknown-key check even when unused below. */
 	(void)h->config_get(h->ctx, "device");
+	/* Claims every extra.* key (the host's wildcard rule). */
+	(void)h->config_get(h->ctx, "extra.*");
 	if (delay > 0)
 		sleep_until(now_ns() + (uint64_t)delay * 1000000ull);
 	return MOCAP_OK;
