@@ -1,5 +1,6 @@
 #include "mc_ik.h"
 
+#include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -148,6 +149,49 @@ static double lm_solve(const mc_model *m, double *p, const mc_ik_target *t, int 
 	return cost;
 }
 
+/* Levenberg-Marquardt from the given start, and, while the fit is worse
+ * than IK_GOOD_RMS, from other starts: the joint dofs at the middle of
+ * their limits, then at deterministic pseudo-random points inside them
+ * (the root dofs keep the given start).  Limb poses far from the start can
+ * otherwise end in a local minimum (an arm folded the wrong way). */
+#define IK_GOOD_RMS 0.002
+#define IK_RESTARTS 6
+
+static void restart_pose(const mc_model *m, int attempt, int first_joint_dof, const double *start, double *p)
+{
+	uint64_t state = 0x9e3779b97f4a7c15ull * (uint64_t)(attempt + 1);
+	memcpy(p, start, sizeof(double) * m->ndof);
+	for (int j = 0; j < m->njoints; j++)
+		for (int d = 0; d < m->joints[j].ndof; d++) {
+			const mc_joint *jt = &m->joints[j];
+			int k = jt->dof0 + d;
+			if (k < first_joint_dof)
+				continue;
+			state ^= state << 13, state ^= state >> 7, state ^= state << 17;
+			double u = attempt == 1 ? 0.5 : (double)(state >> 11) / 9007199254740992.0;
+			p[k] = jt->lower[d] + u * (jt->upper[d] - jt->lower[d]);
+		}
+}
+
+static double solve_with_restarts(const mc_model *m, double *p, const mc_ik_target *t, int n,
+				  const mc_ik_options *o, int first_joint_dof, int nfrozen, double wsum)
+{
+	double start[MC_MAX_DOF], best[MC_MAX_DOF], trial[MC_MAX_DOF];
+	memcpy(start, p, sizeof(double) * m->ndof);
+	memcpy(best, p, sizeof(double) * m->ndof);
+	double best_cost = lm_solve(m, best, t, n, o, first_joint_dof, nfrozen);
+	for (int a = 1; a <= IK_RESTARTS && sqrt(best_cost / wsum) > IK_GOOD_RMS; a++) {
+		restart_pose(m, a, first_joint_dof, start, trial);
+		double c = lm_solve(m, trial, t, n, o, first_joint_dof, nfrozen);
+		if (c < best_cost) {
+			best_cost = c;
+			memcpy(best, trial, sizeof(double) * m->ndof);
+		}
+	}
+	memcpy(p, best, sizeof(double) * m->ndof);
+	return best_cost;
+}
+
 double mc_ik_solve(mc_model *model, double *pose, const mc_ik_target *targets, int n, const mc_ik_options *o,
 		   mc_err *err)
 {
@@ -181,7 +225,7 @@ double mc_ik_solve(mc_model *model, double *pose, const mc_ik_target *targets, i
 	}
 	int first_joint_dof = work.root_free ? 6 : 0;
 	int nfrozen = (work.root_free && !o->fit_root) ? 6 : 0;
-	double cost = lm_solve(&work, p, targets, n, o, first_joint_dof, nfrozen);
+	double cost = solve_with_restarts(&work, p, targets, n, o, first_joint_dof, nfrozen, wsum);
 	if (solve_root) {
 		model->rig_from_root.t = mc_v3(p[0], p[1], p[2]);
 		model->rig_from_root.R = mc_m3_from_rotvec(mc_v3(p[3], p[4], p[5]));
