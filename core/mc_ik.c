@@ -54,18 +54,6 @@ void mc_ik_fit_bone_scale(mc_model *model, const mc_ik_target *targets, int n)
 			model->bone_scale[j] = median;
 }
 
-/* A fixed-root model is solved as a free-root one, so that the root
- * placement becomes six ordinary pose parameters. */
-static void assign_dofs(mc_model *m)
-{
-	int k = m->root_free ? 6 : 0;
-	for (int j = 0; j < m->njoints; j++) {
-		m->joints[j].dof0 = k;
-		k += m->joints[j].ndof;
-	}
-	m->ndof = k;
-}
-
 static double ik_cost(const mc_model *m, const double *p, const mc_ik_target *t, int n, double prior, int first_joint_dof)
 {
 	mc_fk fk;
@@ -210,8 +198,11 @@ double mc_ik_solve(mc_model *model, double *pose, const mc_ik_target *targets, i
 	mc_model work = *model;
 	double p[MC_MAX_DOF] = {0};
 	if (solve_root) {
+		/* A fixed-root model is solved as a free-root one, so that the
+		 * root placement becomes six ordinary pose parameters. */
 		work.root_free = true;
-		assign_dofs(&work);
+		if (mc_model_finalize(&work, err) < 0)
+			return -1;
 		p[0] = model->rig_from_root.t.x;
 		p[1] = model->rig_from_root.t.y;
 		p[2] = model->rig_from_root.t.z;
