@@ -144,7 +144,7 @@ mc_ring *mc_ring_create(const char *name, unsigned nslots, size_t slot_bytes, mc
 		return NULL;
 	}
 	/* Readers in other processes must be able to trust the size. */
-	if (fcntl(fd, F_ADD_SEALS, F_SEAL_SHRINK | F_SEAL_GROW | F_SEAL_SEAL) != 0) {
+	if (fcntl(fd, F_ADD_SEALS, F_SEAL_SHRINK | F_SEAL_GROW) != 0) {
 		mc_err_set(err, "ring '%s': sealing the memfd: %s", name, strerror(errno));
 		close(fd);
 		return NULL;
@@ -152,6 +152,14 @@ mc_ring *mc_ring_create(const char *name, unsigned nslots, size_t slot_bytes, mc
 	void *p = mmap(NULL, total, PROT_READ | PROT_WRITE, MAP_SHARED, fd, 0);
 	if (p == MAP_FAILED) {
 		mc_err_set(err, "ring '%s': mmap of %zu bytes: %s", name, total, strerror(errno));
+		close(fd);
+		return NULL;
+	}
+	/* Only this mapping may write: a reader given the fd (or reopening
+	 * /proc/self/fd/N) cannot map it writable or write() to it. */
+	if (fcntl(fd, F_ADD_SEALS, F_SEAL_FUTURE_WRITE | F_SEAL_SEAL) != 0) {
+		mc_err_set(err, "ring '%s': sealing the memfd against writers: %s", name, strerror(errno));
+		munmap(p, total);
 		close(fd);
 		return NULL;
 	}
@@ -265,6 +273,12 @@ size_t mc_ring_slot_bytes(const mc_ring *ring) { return ring->slot_bytes; }
 uint64_t mc_ring_head(const mc_ring *ring)
 {
 	return atomic_load_explicit(&ring->shm->head, memory_order_acquire);
+}
+
+void *mc_ring_shared_memory(mc_ring *ring, size_t *bytes)
+{
+	*bytes = ring->map_bytes;
+	return ring->shm;
 }
 
 void mc_ring_set_copy_hook(mc_ring *ring, void (*hook)(void *ctx), void *ctx)

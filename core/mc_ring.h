@@ -135,6 +135,12 @@ int mc_ring_read_latest(const mc_ring *ring, mc_ring_cursor *cursor, void *dst, 
  * err.  Works across processes (a shared futex in the ring). */
 int mc_ring_wait(const mc_ring *ring, const mc_ring_cursor *cursor, int timeout_ms, mc_err *err);
 
+/* The mapped shared memory and its size: writable for the ring's creator,
+ * read-only for a mapped reader.  For tests that fake a foreign writer's
+ * damage, and for diagnostics; the ring's memfd itself is sealed against
+ * new writable mappings. */
+void *mc_ring_shared_memory(mc_ring *ring, size_t *bytes);
+
 /* Test hook: called by the read functions after copying a slot and before
  * checking its lock again, so that a test can rewrite the slot in between
  * and make a torn read happen deterministically. NULL removes it. */

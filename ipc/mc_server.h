@@ -240,9 +240,9 @@ int mc_server_latest_head_pose(mc_server *srv, mc_server_head_pose *out);
 /* Offers a camera's frame ring (a memfd) to privileged clients, read-only:
  * the server keeps its own O_RDONLY descriptor of it (the caller keeps
  * `fd`).  `size` is the number of bytes a client maps.  Returns the ring's
- * index or -1.  For the mapping to stay read-only even against a client
- * that reopens /proc/self/fd, the ring should be sealed with
- * F_SEAL_FUTURE_WRITE after the writer has mapped it. */
+ * index or -1.  Rings made by mc_ring_create are sealed with
+ * F_SEAL_FUTURE_WRITE once the writer has mapped them, so the mapping stays
+ * read-only even against a client that reopens /proc/self/fd. */
 int mc_server_add_ring(mc_server *srv, const char *camera_name, int fd, uint64_t size, mc_err *err);
 /* Withdraws every ring (e.g. before a reload); clients keep what they have. */
 void mc_server_clear_rings(mc_server *srv);

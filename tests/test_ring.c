@@ -159,6 +159,33 @@ static void test_basic(void)
 }
 
 /* A reader that falls behind sees a gap, then intact frames. */
+/* Only the writer's own mapping may write: the fd handed to readers, even
+ * reopened read-write through /proc, cannot be mapped writable or written. */
+static void test_readers_cannot_write(void)
+{
+	mc_err err;
+	mc_ring *w = mc_ring_create("sealed", 2, 4096, &err);
+	CHECK(w != NULL);
+	if (!w)
+		return;
+	CHECK(write_frame(w, 0) == 0); /* the writer still writes */
+	char path[64];
+	snprintf(path, sizeof(path), "/proc/self/fd/%d", mc_ring_fd(w));
+	int fd = open(path, O_RDWR | O_CLOEXEC);
+	CHECK(fd >= 0);
+	if (fd >= 0) {
+		void *p = mmap(NULL, 4096, PROT_READ | PROT_WRITE, MAP_SHARED, fd, 0);
+		CHECK(p == MAP_FAILED && errno == EPERM);
+		if (p != MAP_FAILED)
+			munmap(p, 4096);
+		char byte = 1;
+		CHECK(pwrite(fd, &byte, 1, 0) < 0 && errno == EPERM);
+		close(fd);
+	}
+	CHECK(write_frame(w, 1) == 0);
+	mc_ring_close(w);
+}
+
 static void test_lagging_reader(void)
 {
 	mc_err err;
@@ -279,13 +306,8 @@ static void test_poked_lock(void)
 		return;
 	for (uint64_t s = 0; s < 3; s++)
 		CHECK(write_frame(w, s) == 0);
-	size_t bytes = (size_t)lseek(mc_ring_fd(w), 0, SEEK_END);
-	uint8_t *raw = mmap(NULL, bytes, PROT_READ | PROT_WRITE, MAP_SHARED, mc_ring_fd(w), 0);
-	CHECK(raw != MAP_FAILED);
-	if (raw == MAP_FAILED) {
-		mc_ring_close(w);
-		return;
-	}
+	size_t bytes;
+	uint8_t *raw = mc_ring_shared_memory(w, &bytes);
 	/* Layout version 1: the slot headers follow the 192-byte header (the
 	 * first field, the lock word, at the start of each 64-byte slot). */
 	uint64_t *lock1 = (uint64_t *)(raw + 192 + 64 * 1);
@@ -304,7 +326,6 @@ static void test_poked_lock(void)
 	cur.next = 2;
 	CHECK(mc_ring_read_next(w, &cur, buf, sizeof(buf), &m, &err) == -1);
 	CHECK(strstr(err.msg, "corrupt") != NULL);
-	munmap(raw, bytes);
 	mc_ring_close(w);
 }
 
@@ -607,6 +628,7 @@ int main(int argc, char **argv)
 	int only_conc = argc > 1 && strcmp(argv[1], "concurrent") == 0;
 	if (!only_conc) {
 		test_basic();
+		test_readers_cannot_write();
 		test_lagging_reader();
 		test_torn_read();
 		test_poked_lock();
