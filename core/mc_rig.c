@@ -275,7 +275,7 @@ static json_t *camera_to_json(const mc_camera *cam)
 	return o;
 }
 
-int mc_rig_save(const mc_rig *rig, const char *path, mc_err *err)
+static json_t *rig_to_json(const mc_rig *rig)
 {
 	json_t *root = json_object();
 	json_object_set_new(root, "name", json_string(rig->name));
@@ -284,9 +284,25 @@ int mc_rig_save(const mc_rig *rig, const char *path, mc_err *err)
 	for (int i = 0; i < rig->ncams; i++)
 		json_array_append_new(cams, camera_to_json(&rig->cams[i]));
 	json_object_set_new(root, "cameras", cams);
+	return root;
+}
+
+int mc_rig_save(const mc_rig *rig, const char *path, mc_err *err)
+{
+	json_t *root = rig_to_json(rig);
 	int r = mc_json_save_file(root, path, err);
 	json_decref(root);
 	return r;
+}
+
+char *mc_rig_to_json(const mc_rig *rig, mc_err *err)
+{
+	json_t *root = rig_to_json(rig);
+	char *text = json_dumps(root, JSON_INDENT(1) | JSON_PRESERVE_ORDER | JSON_REAL_PRECISION(17));
+	json_decref(root);
+	if (!text)
+		mc_err_set(err, "rig '%s': out of memory writing JSON", rig->name);
+	return text;
 }
 
 /* ---- import: the evaluation data's calib.json --------------------------- */

@@ -28,6 +28,9 @@ typedef struct {
  * field, e.g. "rig.json: cameras[0].model: unknown camera model 'foo'". */
 int mc_rig_load(const char *path, mc_rig *rig, mc_err *err);
 int mc_rig_save(const mc_rig *rig, const char *path, mc_err *err);
+/* The rig in the rig file format, as malloc'ed text (free() it), e.g. for
+ * clients of a daemon whose rig was imported from another format. */
+char *mc_rig_to_json(const mc_rig *rig, mc_err *err);
 /* Parses a rig from a JSON text; `origin` names it in error messages. */
 int mc_rig_parse(const char *json_text, const char *origin, mc_rig *rig, mc_err *err);
 

@@ -36,33 +36,6 @@ void mcd_tracking_settings(const mcd_tracker_config *tc, mc_tracker_settings *s)
 		s->seed = (uint64_t)tc->seed;
 }
 
-static char *read_text(const char *path, mc_err *err)
-{
-	FILE *f = fopen(path, "rb");
-	if (!f) {
-		mc_err_set(err, "%s: %s", path, strerror(errno));
-		return NULL;
-	}
-	char *text = NULL;
-	size_t len = 0;
-	for (;;) {
-		char *grown = realloc(text, len + 65537);
-		if (!grown) {
-			free(text);
-			fclose(f);
-			mc_err_set(err, "%s: out of memory", path);
-			return NULL;
-		}
-		text = grown;
-		size_t n = fread(text + len, 1, 65536, f);
-		len += n;
-		if (n < 65536)
-			break;
-	}
-	fclose(f);
-	text[len] = 0;
-	return text;
-}
 
 int mcd_read_init_joints(const char *path, char ***names_out, mc_vec3 **pos_out, int *n_out, mc_err *err)
 {
@@ -132,15 +105,13 @@ static int load_rig(const mcd_config *cfg, mcd_tracking *t, mc_err *err)
 	const mcd_tracker_config *tc = &cfg->tracker;
 	char where[700];
 	mcd_config_where(cfg, "tracker", "rig", where, sizeof(where));
-	if (tc->rig_format == MCD_RIG_EGO_CALIB) {
-		if (mc_rig_import_ego_calib(tc->rig, tc->rig_ocam, &t->rig, err))
-			return mc_err_prefix(err, "%s", where);
-		return 0; /* no JSON text to show clients; see the report to the lead */
-	}
-	if (mc_rig_load(tc->rig, &t->rig, err))
+	int rc = tc->rig_format == MCD_RIG_EGO_CALIB ? mc_rig_import_ego_calib(tc->rig, tc->rig_ocam, &t->rig, err)
+						      : mc_rig_load(tc->rig, &t->rig, err);
+	if (rc)
 		return mc_err_prefix(err, "%s", where);
+	/* Clients get the rig in the rig file format, whatever it came from. */
 	mc_err ignored;
-	t->rig_json = read_text(tc->rig, &ignored);
+	t->rig_json = mc_rig_to_json(&t->rig, &ignored);
 	return 0;
 }
 

@@ -159,6 +159,17 @@ static void test_parse_save(void)
 	} else {
 		CHECK_MSG(0, "%s", err.msg);
 	}
+	/* as text (what the daemon sends clients): the same rig again */
+	char *text = mc_rig_to_json(&rig, &err);
+	CHECK(text != NULL);
+	if (text && mc_rig_parse(text, "to_json", &back, &err) == 0) {
+		CHECK(strcmp(back.name, rig.name) == 0 && back.kind == rig.kind && back.ncams == rig.ncams);
+		for (int i = 0; i < rig.ncams; i++)
+			check_same_camera(&rig.cams[i], &back.cams[i]);
+	} else {
+		CHECK_MSG(0, "%s", err.msg);
+	}
+	free(text);
 	/* saving over an unwritable path fails with the path named */
 	CHECK(mc_rig_save(&rig, "/nonexistent-dir/rig.json", &err) == -1);
 	CHECK_ERR(err.msg, "/nonexistent-dir/rig.json");
