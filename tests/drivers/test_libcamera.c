@@ -5,24 +5,12 @@
 #include <stdio.h>
 #include <string.h>
 
-#include "drv_harness.h"
+#include "drv_check.h"
 #include "test_util.h"
 
 static drv_harness H;
 
-static void expect_open_error(const char *needle)
-{
-	char err[1024] = "";
-	void *dev = H.drv->open(&H.host, err, sizeof err);
-	CHECK_MSG(dev == NULL, "open should fail (%s)", needle);
-	if (dev) {
-		H.drv->close(dev);
-		return;
-	}
-	printf("  %s\n", err);
-	CHECK_MSG(strstr(err, needle) != NULL, "error '%s' should mention '%s'", err, needle);
-	CHECK_MSG(strncmp(err, "libcamera: ", 11) == 0, "error '%s' should name the driver", err);
-}
+static void expect_open_error(const char *needle) { drv_check_open_error(&H, "libcamera: ", needle); }
 
 int main(void)
 {

@@ -12,25 +12,13 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "drv_harness.h"
+#include "drv_check.h"
 #include "test_util.h"
 
 static drv_harness H;
 static uint8_t buf[1 << 20];
 
-static void expect_open_error(const char *needle)
-{
-	char err[1024] = "";
-	void *dev = H.drv->open(&H.host, err, sizeof err);
-	CHECK_MSG(dev == NULL, "open should fail (%s)", needle);
-	if (dev) {
-		H.drv->close(dev);
-		return;
-	}
-	printf("  %s\n", err);
-	CHECK_MSG(strstr(err, needle) != NULL, "error '%s' should mention '%s'", err, needle);
-	CHECK_MSG(strncmp(err, "openni2: ", 9) == 0, "error '%s' should name the driver", err);
-}
+static void expect_open_error(const char *needle) { drv_check_open_error(&H, "openni2: ", needle); }
 
 static void dummy(const char *stream)
 {

@@ -14,7 +14,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
-#include "drv_harness.h"
+#include "drv_check.h"
 #include "drv_sysfs.h"
 #include "test_util.h"
 
@@ -157,19 +157,7 @@ static void test_sysfs(void)
 
 static drv_harness H;
 
-static void expect_open_error(const char *needle)
-{
-	char err[1024] = "";
-	void *dev = H.drv->open(&H.host, err, sizeof err);
-	CHECK_MSG(dev == NULL, "open should fail (%s)", needle);
-	if (dev) {
-		H.drv->close(dev);
-		return;
-	}
-	printf("  %s\n", err);
-	CHECK_MSG(strstr(err, needle) != NULL, "error '%s' should mention '%s'", err, needle);
-	CHECK_MSG(strncmp(err, "usb: ", 5) == 0, "error '%s' should name the driver", err);
-}
+static void expect_open_error(const char *needle) { drv_check_open_error(&H, "usb: ", needle); }
 
 static void test_plugin(void)
 {
