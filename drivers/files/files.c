@@ -39,7 +39,6 @@
 #include <string.h>
 #include <strings.h>
 #include <sys/stat.h>
-#include <time.h>
 
 #define DRV "files"
 
@@ -244,19 +243,9 @@ static int parse_config(files_dev *d, unsigned *start, unsigned *count, int *for
 	    (rc = drv_cfg_bool(h, DRV, "loop", &d->loop, err, errlen)) != MOCAP_OK ||
 	    (rc = drv_cfg_choice(h, DRV, "format", formats, 2, format, err, errlen)) != MOCAP_OK ||
 	    (rc = drv_cfg_uint(h, DRV, "start", 0, UINT_MAX, start, err, errlen)) != MOCAP_OK ||
-	    (rc = drv_cfg_uint(h, DRV, "count", 0, UINT_MAX, count, err, errlen)) != MOCAP_OK)
+	    (rc = drv_cfg_uint(h, DRV, "count", 0, UINT_MAX, count, err, errlen)) != MOCAP_OK ||
+	    (rc = drv_cfg_monotonic_ns(h, DRV, "epoch", &d->epoch_ns, &d->epoch_given, err, errlen)) != MOCAP_OK)
 		return rc;
-	const char *epoch = drv_cfg_str(h, "epoch");
-	if (epoch) {
-		char *end;
-		errno = 0;
-		unsigned long long v = strtoull(epoch, &end, 10);
-		if (!isdigit((unsigned char)epoch[0]) || *end || errno)
-			return drv_errf(err, errlen, MOCAP_ERR_CONFIG,
-					"%s: config key 'epoch': expected CLOCK_MONOTONIC nanoseconds, got '%s'", DRV, epoch);
-		d->epoch_given = true;
-		d->epoch_ns = v;
-	}
 	return MOCAP_OK;
 }
 
@@ -337,13 +326,6 @@ static int files_start(void *dev, char *err, size_t errlen)
 
 static void files_stop(void *dev) { ((files_dev *)dev)->started = false; }
 
-static void sleep_until(uint64_t t_ns)
-{
-	struct timespec ts = {.tv_sec = (time_t)(t_ns / 1000000000ull), .tv_nsec = (long)(t_ns % 1000000000ull)};
-	while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, NULL) == EINTR)
-		;
-}
-
 /* Copies or decodes file `f` into the slot. */
 static int fill_slot(files_dev *d, const frame_file *f, mocap_frame *slot, char *err, size_t errlen)
 {
@@ -401,11 +383,11 @@ static int files_next_frame(void *dev, mocap_frame *slot, int timeout_ms, char *
 		uint64_t now = drv_monotonic_ns();
 		if (ts > now) {
 			if (timeout_ms >= 0 && ts - now > (uint64_t)timeout_ms * 1000000ull) {
-				sleep_until(now + (uint64_t)timeout_ms * 1000000ull);
+				drv_sleep_until_ns(now + (uint64_t)timeout_ms * 1000000ull);
 				return drv_errf(err, errlen, MOCAP_ERR_TIMEOUT, "%s: next frame due in %.1f ms", DRV,
 						(double)(ts - now) * 1e-6 - timeout_ms);
 			}
-			sleep_until(ts);
+			drv_sleep_until_ns(ts);
 		}
 	} else {
 		ts = drv_monotonic_ns();

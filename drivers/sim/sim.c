@@ -45,12 +45,10 @@
 #include "mc_rig.h"
 #include "mocap_driver.h"
 
-#include <errno.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <time.h>
 
 #define DRV "sim"
 #define DEFAULT_MODEL "config/models/default.json"
@@ -142,19 +140,9 @@ static int parse_options(sim_dev *d, unsigned *width, unsigned *height, double *
 	    (rc = drv_cfg_bool(h, DRV, "loop", &d->loop, err, errlen)) != MOCAP_OK ||
 	    (rc = drv_cfg_double(h, DRV, "height_m", 0.5, 2.5, height_m, err, errlen)) != MOCAP_OK ||
 	    (rc = drv_cfg_double(h, DRV, "start", 0, 1e6, &d->start_s, err, errlen)) != MOCAP_OK ||
-	    (rc = drv_cfg_bool(h, DRV, "hide_head", &d->hide_head, err, errlen)) != MOCAP_OK)
+	    (rc = drv_cfg_bool(h, DRV, "hide_head", &d->hide_head, err, errlen)) != MOCAP_OK ||
+	    (rc = drv_cfg_monotonic_ns(h, DRV, "epoch", &d->epoch_ns, &d->epoch_given, err, errlen)) != MOCAP_OK)
 		return rc;
-	const char *epoch = drv_cfg_str(h, "epoch");
-	if (epoch) {
-		char *end;
-		errno = 0;
-		unsigned long long v = strtoull(epoch, &end, 10);
-		if (epoch[0] < '0' || epoch[0] > '9' || *end || errno)
-			return drv_errf(err, errlen, MOCAP_ERR_CONFIG,
-					"%s: config key 'epoch': expected CLOCK_MONOTONIC nanoseconds, got '%s'", DRV, epoch);
-		d->epoch_given = true;
-		d->epoch_ns = v;
-	}
 	const char *bg = drv_cfg_str(h, "background");
 	d->background[0] = d->background[1] = d->background[2] = 0.5;
 	if (bg && parse_colour(bg, d->background) != 0)
@@ -318,13 +306,6 @@ static int sim_start(void *dev, char *err, size_t errlen)
 
 static void sim_stop(void *dev) { ((sim_dev *)dev)->started = false; }
 
-static void sleep_until(uint64_t t_ns)
-{
-	struct timespec ts = {.tv_sec = (time_t)(t_ns / 1000000000ull), .tv_nsec = (long)(t_ns % 1000000000ull)};
-	while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, NULL) == EINTR)
-		;
-}
-
 static int sim_next_frame(void *dev, mocap_frame *slot, int timeout_ms, char *err, size_t errlen)
 {
 	sim_dev *d = dev;
@@ -345,7 +326,7 @@ static int sim_next_frame(void *dev, mocap_frame *slot, int timeout_ms, char *er
 		ts = d->epoch_ns + (uint64_t)((double)d->k * 1e9 / d->rate + 0.5);
 		uint64_t now = drv_monotonic_ns();
 		if (ts > now && timeout_ms >= 0 && ts - now > (uint64_t)timeout_ms * 1000000ull) {
-			sleep_until(now + (uint64_t)timeout_ms * 1000000ull);
+			drv_sleep_until_ns(now + (uint64_t)timeout_ms * 1000000ull);
 			return drv_errf(err, errlen, MOCAP_ERR_TIMEOUT, "%s: next frame due later", DRV);
 		}
 	}
@@ -355,7 +336,7 @@ static int sim_next_frame(void *dev, mocap_frame *slot, int timeout_ms, char *er
 		return rc;
 	render(d, slot->data);
 	if (d->rate > 0)
-		sleep_until(ts); /* rendered ahead of time: wait for the frame's moment */
+		drv_sleep_until_ns(ts); /* rendered ahead of time: wait for the frame's moment */
 	else
 		ts = drv_monotonic_ns();
 	slot->bytesused = d->fmt.max_bytes;

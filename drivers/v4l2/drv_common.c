@@ -161,6 +161,23 @@ int drv_cfg_choice(const mocap_host *host, const char *drv, const char *key, con
 			list, v);
 }
 
+int drv_cfg_monotonic_ns(const mocap_host *host, const char *drv, const char *key, uint64_t *out, bool *present,
+			 char *err, size_t errlen)
+{
+	const char *v = drv_cfg_str(host, key);
+	if (!v)
+		return MOCAP_OK;
+	char *end;
+	errno = 0;
+	unsigned long long n = strtoull(v, &end, 10);
+	if (v[0] < '0' || v[0] > '9' || *end || errno)
+		return drv_errf(err, errlen, MOCAP_ERR_CONFIG,
+				"%s: config key '%s': expected CLOCK_MONOTONIC nanoseconds, got '%s'", drv, key, v);
+	*out = n;
+	*present = true;
+	return MOCAP_OK;
+}
+
 static uint64_t clock_ns(clockid_t id)
 {
 	struct timespec ts;
@@ -176,6 +193,13 @@ uint64_t drv_monotonic_ns(void)
 uint64_t drv_realtime_ns(void)
 {
 	return clock_ns(CLOCK_REALTIME);
+}
+
+void drv_sleep_until_ns(uint64_t t_ns)
+{
+	struct timespec ts = {.tv_sec = (time_t)(t_ns / 1000000000ull), .tv_nsec = (long)(t_ns % 1000000000ull)};
+	while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, NULL) == EINTR)
+		;
 }
 
 void drv_strlcpy(char *dst, const char *src, size_t n)

@@ -1,5 +1,5 @@
-/* drv_common: helpers shared by the hardware driver plugins (v4l2, usb,
- * aravis, libcamera, openni2): reading typed values from the camera's config
+/* drv_common: helpers shared by the driver plugins (v4l2, usb, aravis,
+ * libcamera, openni2, files, sim): reading typed values from the camera's config
  * section with clear errors, formatting errors into the caller's buffer, and
  * logging through the host.
  *
@@ -56,9 +56,17 @@ int drv_cfg_auto_double(const mocap_host *host, const char *drv, const char *key
 int drv_cfg_choice(const mocap_host *host, const char *drv, const char *key, const char *const *names,
 		   int n_names, int *out, char *err, size_t errlen);
 
+/* A CLOCK_MONOTONIC time in nanoseconds, digits only (such as the `epoch` of
+ * the files and sim drivers); sets *present when the key is given. */
+int drv_cfg_monotonic_ns(const mocap_host *host, const char *drv, const char *key, uint64_t *out, bool *present,
+			 char *err, size_t errlen);
+
 /* CLOCK_MONOTONIC and CLOCK_REALTIME now, in nanoseconds. */
 uint64_t drv_monotonic_ns(void);
 uint64_t drv_realtime_ns(void);
+
+/* Sleeps until CLOCK_MONOTONIC reaches t_ns (on through signals). */
+void drv_sleep_until_ns(uint64_t t_ns);
 
 /* Copies src into dst (size n), always NUL-terminating; NULL src gives "". */
 void drv_strlcpy(char *dst, const char *src, size_t n);
