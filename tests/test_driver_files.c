@@ -1,15 +1,12 @@
 /* Tests of the files driver plugin (drivers/files), loaded with dlopen as the
  * daemon loads it, on the bundled demo clip tests/data/ego_demo and on
- * small folders made here.
- *
- * The plugin is found in $MOCAP_DRIVER_DIR, else in <this program's
- * folder>/../drivers (the layout of $(BUILD)/tests and $(BUILD)/drivers). */
+ * small folders made here.  The host and the plugin's location: see
+ * tests/drivers/plugin_host.h. */
 #include "mc_image.h"
 #include "mocap_driver.h"
 #include "test_util.h"
+#include "drivers/plugin_host.h"
 
-#include <dlfcn.h>
-#include <libgen.h>
 #include <limits.h>
 #include <stdint.h>
 #include <string.h>
@@ -17,96 +14,6 @@
 #include <unistd.h>
 
 #define DEMO "tests/data/ego_demo"
-
-/* ---- a minimal host ---- */
-
-typedef struct {
-	const char *keys[16];
-	char vals[16][PATH_MAX];
-	int n;
-} config;
-
-static const char *cfg_get(void *ctx, const char *key)
-{
-	config *c = ctx;
-	for (int i = 0; i < c->n; i++)
-		if (strcmp(c->keys[i], key) == 0)
-			return c->vals[i];
-	return NULL;
-}
-
-static void cfg_log(void *ctx, int level, const char *msg)
-{
-	(void)ctx;
-	printf("driver log [%d]: %s\n", level, msg);
-}
-
-static void cfg_set(config *c, const char *key, const char *val)
-{
-	for (int i = 0; i < c->n; i++)
-		if (strcmp(c->keys[i], key) == 0) {
-			snprintf(c->vals[i], sizeof(c->vals[i]), "%s", val);
-			return;
-		}
-	c->keys[c->n] = key;
-	snprintf(c->vals[c->n++], sizeof(c->vals[0]), "%s", val);
-}
-
-static mocap_host host_for(config *c) { return (mocap_host){.ctx = c, .config_get = cfg_get, .log = cfg_log}; }
-
-static uint64_t now_ns(void)
-{
-	struct timespec ts;
-	clock_gettime(CLOCK_MONOTONIC, &ts);
-	return (uint64_t)ts.tv_sec * 1000000000ull + (uint64_t)ts.tv_nsec;
-}
-
-static const mocap_driver *load_plugin(void **dl)
-{
-	char dir[PATH_MAX], path[PATH_MAX + 64];
-	const char *env = getenv("MOCAP_DRIVER_DIR");
-	if (env) {
-		snprintf(dir, sizeof(dir), "%s", env);
-	} else {
-		char exe[PATH_MAX];
-		ssize_t n = readlink("/proc/self/exe", exe, sizeof(exe) - 1);
-		if (n <= 0)
-			return NULL;
-		exe[n] = 0;
-		snprintf(dir, sizeof(dir), "%s/../drivers", dirname(exe));
-	}
-	snprintf(path, sizeof(path), "%s/mocap-driver-files.so", dir);
-	*dl = dlopen(path, RTLD_NOW | RTLD_LOCAL);
-	if (!*dl) {
-		fprintf(stderr, "dlopen: %s\n", dlerror());
-		return NULL;
-	}
-	mocap_driver_entry_fn entry = (mocap_driver_entry_fn)dlsym(*dl, MOCAP_DRIVER_ENTRY_SYMBOL);
-	return entry ? entry() : NULL;
-}
-
-static const mocap_driver *drv;
-static char err[512];
-
-/* Opens and starts; NULL (err set) on failure. */
-static void *open_start(config *c, mocap_host *h)
-{
-	*h = host_for(c);
-	void *dev = drv->open(h, err, sizeof(err));
-	if (dev && drv->start(dev, err, sizeof(err)) != MOCAP_OK) {
-		drv->close(dev);
-		return NULL;
-	}
-	return dev;
-}
-
-static int pull(void *dev, mocap_frame *f, uint8_t *buf, size_t cap, int timeout_ms)
-{
-	memset(f, 0, sizeof(*f));
-	f->data = buf;
-	f->capacity = cap;
-	return drv->next_frame(dev, f, timeout_ms, err, sizeof(err));
-}
 
 static int file_equals(const char *path, const uint8_t *data, size_t n)
 {
@@ -119,16 +26,6 @@ static int file_equals(const char *path, const uint8_t *data, size_t n)
 	int same = got == n && memcmp(tmp, data, n) == 0;
 	free(tmp);
 	return same;
-}
-
-static void expect_open_fails(config *c, const char *needle)
-{
-	mocap_host h = host_for(c);
-	void *dev = drv->open(&h, err, sizeof(err));
-	CHECK_MSG(dev == NULL, "open succeeded, expected '%s'", needle);
-	CHECK_MSG(strstr(err, needle) != NULL, "'%s' lacks '%s'", err, needle);
-	if (dev)
-		drv->close(dev);
 }
 
 /* ---- tests ---- */
@@ -432,7 +329,7 @@ int main(void)
 	if (access(DEMO "/left/00000.jpg", R_OK) != 0)
 		TEST_SKIP("the demo clip %s is missing (run from the repository root)", DEMO);
 	void *dl = NULL;
-	drv = load_plugin(&dl);
+	drv = load_plugin("files", &dl);
 	CHECK_MSG(drv != NULL, "cannot load mocap-driver-files.so (set MOCAP_DRIVER_DIR)");
 	if (!drv)
 		return mc_test_finish("test_driver_files");

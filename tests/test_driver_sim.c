@@ -7,16 +7,14 @@
  * green background) of the rendered frame; pixels outside the fisheye circle
  * are black; the image changes with the motion.
  *
- * The plugin is found in $MOCAP_DRIVER_DIR, else in <this program's
- * folder>/../drivers. */
+ * The host and the plugin's location: see tests/drivers/plugin_host.h. */
 #include "mc_bvh.h"
 #include "mc_model.h"
 #include "mc_rig.h"
 #include "mocap_driver.h"
 #include "test_util.h"
+#include "drivers/plugin_host.h"
 
-#include <dlfcn.h>
-#include <libgen.h>
 #include <limits.h>
 #include <stdint.h>
 #include <string.h>
@@ -26,71 +24,6 @@
 #define W 96
 #define H 96
 
-typedef struct {
-	const char *keys[16];
-	char vals[16][PATH_MAX];
-	int n;
-} config;
-
-static const char *cfg_get(void *ctx, const char *key)
-{
-	config *c = ctx;
-	for (int i = 0; i < c->n; i++)
-		if (strcmp(c->keys[i], key) == 0)
-			return c->vals[i];
-	return NULL;
-}
-
-static void cfg_log(void *ctx, int level, const char *msg)
-{
-	(void)ctx;
-	printf("driver log [%d]: %s\n", level, msg);
-}
-
-static void cfg_set(config *c, const char *key, const char *val)
-{
-	for (int i = 0; i < c->n; i++)
-		if (strcmp(c->keys[i], key) == 0) {
-			snprintf(c->vals[i], sizeof(c->vals[i]), "%s", val);
-			return;
-		}
-	c->keys[c->n] = key;
-	snprintf(c->vals[c->n++], sizeof(c->vals[0]), "%s", val);
-}
-
-static uint64_t now_ns(void)
-{
-	struct timespec ts;
-	clock_gettime(CLOCK_MONOTONIC, &ts);
-	return (uint64_t)ts.tv_sec * 1000000000ull + (uint64_t)ts.tv_nsec;
-}
-
-static const mocap_driver *load_plugin(void **dl)
-{
-	char dir[PATH_MAX], path[PATH_MAX + 64];
-	const char *env = getenv("MOCAP_DRIVER_DIR");
-	if (env) {
-		snprintf(dir, sizeof(dir), "%s", env);
-	} else {
-		char exe[PATH_MAX];
-		ssize_t n = readlink("/proc/self/exe", exe, sizeof(exe) - 1);
-		if (n <= 0)
-			return NULL;
-		exe[n] = 0;
-		snprintf(dir, sizeof(dir), "%s/../drivers", dirname(exe));
-	}
-	snprintf(path, sizeof(path), "%s/mocap-driver-sim.so", dir);
-	*dl = dlopen(path, RTLD_NOW | RTLD_LOCAL);
-	if (!*dl) {
-		fprintf(stderr, "dlopen: %s\n", dlerror());
-		return NULL;
-	}
-	mocap_driver_entry_fn entry = (mocap_driver_entry_fn)dlsym(*dl, MOCAP_DRIVER_ENTRY_SYMBOL);
-	return entry ? entry() : NULL;
-}
-
-static const mocap_driver *drv;
-static char err[512];
 static char bvh_path[PATH_MAX];
 
 static void base_config(config *c)
@@ -104,35 +37,6 @@ static void base_config(config *c)
 	cfg_set(c, "height", "96");
 	cfg_set(c, "rate", "0");
 	cfg_set(c, "background", "#00ff00");
-}
-
-static void *open_start(config *c, mocap_host *h)
-{
-	*h = (mocap_host){.ctx = c, .config_get = cfg_get, .log = cfg_log};
-	void *dev = drv->open(h, err, sizeof(err));
-	if (dev && drv->start(dev, err, sizeof(err)) != MOCAP_OK) {
-		drv->close(dev);
-		return NULL;
-	}
-	return dev;
-}
-
-static int pull(void *dev, mocap_frame *f, uint8_t *buf, size_t cap, int timeout_ms)
-{
-	memset(f, 0, sizeof(*f));
-	f->data = buf;
-	f->capacity = cap;
-	return drv->next_frame(dev, f, timeout_ms, err, sizeof(err));
-}
-
-static void expect_open_fails(config *c, const char *needle)
-{
-	mocap_host h = {.ctx = c, .config_get = cfg_get, .log = cfg_log};
-	void *dev = drv->open(&h, err, sizeof(err));
-	CHECK_MSG(dev == NULL, "open succeeded, expected '%s'", needle);
-	CHECK_MSG(strstr(err, needle) != NULL, "'%s' lacks '%s'", err, needle);
-	if (dev)
-		drv->close(dev);
 }
 
 static void test_config_errors(void)
@@ -299,7 +203,7 @@ int main(void)
 	if (access("config/models/default.json", R_OK) != 0 || access("config/rigs/ego_stereo.json", R_OK) != 0)
 		TEST_SKIP("config/models/default.json or config/rigs/ego_stereo.json missing (run from the repository root)");
 	void *dl = NULL;
-	drv = load_plugin(&dl);
+	drv = load_plugin("sim", &dl);
 	CHECK_MSG(drv != NULL, "cannot load mocap-driver-sim.so (set MOCAP_DRIVER_DIR)");
 	if (!drv)
 		return mc_test_finish("test_driver_sim");
