@@ -48,17 +48,19 @@ char *mc_json_path_index(char *buf, size_t cap, const char *where, const char *k
 	return mc_json_path(buf, cap, where, k);
 }
 
-/* Looks up key: 0 found, 1 absent and optional, -1 absent and required. */
-static int lookup(const json_t *obj, const char *key, const char *where, bool required, json_t **val, mc_err *err)
+/* Looks up key and writes its path ("where.key") into path, for the
+ * caller's messages: 0 found, 1 absent and optional, -1 absent and required. */
+static int lookup(const json_t *obj, const char *key, const char *where, bool required, json_t **val,
+		  char path[PATH_CAP], mc_err *err)
 {
+	mc_json_path(path, PATH_CAP, where, key);
 	*val = json_is_object(obj) ? json_object_get(obj, key) : NULL;
 	if (*val && !json_is_null(*val))
 		return 0;
 	*val = NULL;
 	if (!required)
 		return 1;
-	char p[PATH_CAP];
-	return mc_err_set(err, "%s: missing", mc_json_path(p, sizeof(p), where, key));
+	return mc_err_set(err, "%s: missing", path);
 }
 
 static const char *type_name(const json_t *v)
@@ -91,11 +93,11 @@ static int number_value(const json_t *v, const char *path, double *out, mc_err *
 int mc_json_number(const json_t *obj, const char *key, const char *where, double *out, bool required, mc_err *err)
 {
 	json_t *v;
-	int r = lookup(obj, key, where, required, &v, err);
+	char p[PATH_CAP];
+	int r = lookup(obj, key, where, required, &v, p, err);
 	if (r)
 		return r;
-	char p[PATH_CAP];
-	return number_value(v, mc_json_path(p, sizeof(p), where, key), out, err);
+	return number_value(v, p, out, err);
 }
 
 int mc_json_positive(const json_t *obj, const char *key, const char *where, double *out, bool required, mc_err *err)
@@ -130,11 +132,10 @@ int mc_json_int(const json_t *obj, const char *key, const char *where, long long
 		bool required, mc_err *err)
 {
 	json_t *v;
-	int r = lookup(obj, key, where, required, &v, err);
+	char p[PATH_CAP];
+	int r = lookup(obj, key, where, required, &v, p, err);
 	if (r)
 		return r;
-	char p[PATH_CAP];
-	mc_json_path(p, sizeof(p), where, key);
 	double x;
 	if (json_is_integer(v)) {
 		json_int_t i = json_integer_value(v);
@@ -158,13 +159,12 @@ int mc_json_int(const json_t *obj, const char *key, const char *where, long long
 int mc_json_bool(const json_t *obj, const char *key, const char *where, bool *out, bool required, mc_err *err)
 {
 	json_t *v;
-	int r = lookup(obj, key, where, required, &v, err);
+	char p[PATH_CAP];
+	int r = lookup(obj, key, where, required, &v, p, err);
 	if (r)
 		return r;
-	char p[PATH_CAP];
 	if (!json_is_boolean(v))
-		return mc_err_set(err, "%s: expected true or false, got %s", mc_json_path(p, sizeof(p), where, key),
-				  type_name(v));
+		return mc_err_set(err, "%s: expected true or false, got %s", p, type_name(v));
 	*out = json_is_true(v);
 	return 0;
 }
@@ -173,11 +173,10 @@ int mc_json_string(const json_t *obj, const char *key, const char *where, char *
 		   mc_err *err)
 {
 	json_t *v;
-	int r = lookup(obj, key, where, required, &v, err);
+	char p[PATH_CAP];
+	int r = lookup(obj, key, where, required, &v, p, err);
 	if (r)
 		return r;
-	char p[PATH_CAP];
-	mc_json_path(p, sizeof(p), where, key);
 	if (!json_is_string(v))
 		return mc_err_set(err, "%s: expected a string, got %s", p, type_name(v));
 	size_t n = json_string_length(v);
@@ -205,11 +204,10 @@ int mc_json_numbers(const json_t *obj, const char *key, const char *where, doubl
 		    mc_err *err)
 {
 	json_t *v;
-	int r = lookup(obj, key, where, required, &v, err);
+	char p[PATH_CAP];
+	int r = lookup(obj, key, where, required, &v, p, err);
 	if (r)
 		return r;
-	char p[PATH_CAP];
-	mc_json_path(p, sizeof(p), where, key);
 	if (!json_is_array(v))
 		return mc_err_set(err, "%s: expected an array of %zu numbers, got %s", p, n, type_name(v));
 	if (json_array_size(v) != n)
@@ -245,11 +243,10 @@ static int square_matrix(const json_t *obj, const char *key, const char *where, 
 			 mc_err *err)
 {
 	json_t *v;
-	int r = lookup(obj, key, where, required, &v, err);
+	char p[PATH_CAP];
+	int r = lookup(obj, key, where, required, &v, p, err);
 	if (r)
 		return r;
-	char p[PATH_CAP];
-	mc_json_path(p, sizeof(p), where, key);
 	if (json_is_array(v) && json_array_size(v) == n * n)
 		return array_numbers(v, p, out, n * n, err);
 	if (!json_is_array(v) || json_array_size(v) != n)
@@ -290,11 +287,10 @@ int mc_json_array(const json_t *obj, const char *key, const char *where, size_t 
 		  bool required, mc_err *err)
 {
 	json_t *v;
-	int r = lookup(obj, key, where, required, &v, err);
+	char p[PATH_CAP];
+	int r = lookup(obj, key, where, required, &v, p, err);
 	if (r)
 		return r;
-	char p[PATH_CAP];
-	mc_json_path(p, sizeof(p), where, key);
 	if (!json_is_array(v))
 		return mc_err_set(err, "%s: expected an array, got %s", p, type_name(v));
 	size_t n = json_array_size(v);
@@ -309,13 +305,12 @@ int mc_json_array(const json_t *obj, const char *key, const char *where, size_t 
 int mc_json_object(const json_t *obj, const char *key, const char *where, json_t **out, bool required, mc_err *err)
 {
 	json_t *v;
-	int r = lookup(obj, key, where, required, &v, err);
+	char p[PATH_CAP];
+	int r = lookup(obj, key, where, required, &v, p, err);
 	if (r)
 		return r;
-	char p[PATH_CAP];
 	if (!json_is_object(v))
-		return mc_err_set(err, "%s: expected an object, got %s", mc_json_path(p, sizeof(p), where, key),
-				  type_name(v));
+		return mc_err_set(err, "%s: expected an object, got %s", p, type_name(v));
 	*out = v;
 	return 0;
 }
