@@ -1,6 +1,7 @@
 #include "publish.h"
 
 #include "log.h"
+#include "textbuf.h"
 
 #include <errno.h>
 #include <pthread.h>
@@ -33,27 +34,20 @@ void mcd_format_output(const mcd_output *o, uint64_t t0_ns, char *buf, size_t ca
 {
 	double t = o->timestamp_ns >= t0_ns ? (double)(o->timestamp_ns - t0_ns) / 1e9 : 0;
 	size_t len = 0;
-#define APPEND(...)                                                                      \
-	do {                                                                             \
-		int w_ = snprintf(buf + len, cap > len ? cap - len : 0, __VA_ARGS__);    \
-		if (w_ > 0)                                                              \
-			len = len + (size_t)w_ < cap ? len + (size_t)w_ : (cap ? cap - 1 : 0); \
-	} while (0)
 	if (cap)
 		buf[0] = 0;
 	if (!o->tracked) {
-		APPEND("frame %llu t=%.3f cams %d/%d (not tracked)", (unsigned long long)o->seq, t, o->present,
-		       o->ncams);
+		mcd_appendf(buf, cap, &len, "frame %llu t=%.3f cams %d/%d (not tracked)", (unsigned long long)o->seq, t,
+			    o->present, o->ncams);
 		return;
 	}
 	const mc_skeleton *sk = &o->sk;
-	APPEND("frame %llu t=%.3f %s %.1fms cams %d/%d", (unsigned long long)o->seq, t, mc_track_state_name(sk->state),
-	       sk->track_ms, o->present, o->ncams);
+	mcd_appendf(buf, cap, &len, "frame %llu t=%.3f %s %.1fms cams %d/%d", (unsigned long long)o->seq, t,
+		    mc_track_state_name(sk->state), sk->track_ms, o->present, o->ncams);
 	for (int j = 0; j < sk->njoints; j++) {
 		const mc_vec3 *p = &sk->joints[j].position;
-		APPEND(" %s=(%.3f,%.3f,%.3f)", sk->joints[j].name, p->x, p->y, p->z);
+		mcd_appendf(buf, cap, &len, " %s=(%.3f,%.3f,%.3f)", sk->joints[j].name, p->x, p->y, p->z);
 	}
-#undef APPEND
 }
 
 static void save_pose(mcd_publisher *p, const mcd_output *o, const char *dir)

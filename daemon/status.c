@@ -1,5 +1,7 @@
 #include "status.h"
 
+#include "textbuf.h"
+
 #include <stdio.h>
 #include <string.h>
 
@@ -30,29 +32,23 @@ void mcd_status_line(const mcd_pipeline_status *now, const mcd_pipeline_status *
 		     size_t cap)
 {
 	size_t len = 0;
-#define APPEND(...)                                                                               \
-	do {                                                                                      \
-		int w_ = snprintf(buf + len, cap > len ? cap - len : 0, __VA_ARGS__);             \
-		if (w_ > 0)                                                                       \
-			len = len + (size_t)w_ < cap ? len + (size_t)w_ : (cap ? cap - 1 : 0);    \
-	} while (0)
 	if (cap)
 		buf[0] = 0;
 	if (now->tracking)
-		APPEND("tracking %.1f fps, %.1f ms (max %.1f), %s", rate(now->tracked, prev->tracked, dt_s),
-		       mean_track_ms(now, prev), now->track_ms_max, track_state_name(now->track_state));
+		mcd_appendf(buf, cap, &len, "tracking %.1f fps, %.1f ms (max %.1f), %s",
+			    rate(now->tracked, prev->tracked, dt_s), mean_track_ms(now, prev), now->track_ms_max,
+			    track_state_name(now->track_state));
 	else
-		APPEND("tracker off, %.1f frame sets/s", rate(now->sets, prev->sets, dt_s));
+		mcd_appendf(buf, cap, &len, "tracker off, %.1f frame sets/s", rate(now->sets, prev->sets, dt_s));
 	for (int c = 0; c < now->ncams; c++) {
 		const mcd_cam_status *cn = &now->cams[c], *cp = &prev->cams[c];
-		APPEND(" | %s: %s", cn->name, mcd_cam_state_name(cn->state));
+		mcd_appendf(buf, cap, &len, " | %s: %s", cn->name, mcd_cam_state_name(cn->state));
 		if (cn->state == MCD_CAM_STREAMING || cn->state == MCD_CAM_STALLED)
-			APPEND(" %.1f fps, %llu drops", rate(cn->counters.frames, cp->counters.frames, dt_s),
-			       (unsigned long long)mcd_cam_drops(cn));
+			mcd_appendf(buf, cap, &len, " %.1f fps, %llu drops",
+				    rate(cn->counters.frames, cp->counters.frames, dt_s), (unsigned long long)mcd_cam_drops(cn));
 		else if (cn->last_error[0])
-			APPEND(" (%s)", cn->last_error);
+			mcd_appendf(buf, cap, &len, " (%s)", cn->last_error);
 	}
-#undef APPEND
 }
 
 static mc_server_cam_state server_cam_state(const mcd_cam_status *c)
