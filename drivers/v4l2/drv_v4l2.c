@@ -632,14 +632,18 @@ static int gone_error(drv_v4l2 *v, char *err, size_t errlen)
 	return drv_errf(err, errlen, MOCAP_ERR_NODEV, "%s: %s (%s) was unplugged", v->drv, v->path, v->card);
 }
 
-/* Extends the driver's 32-bit frame counter to 64 bits. */
+/* Extends the driver's 32-bit frame counter to 64 bits, strictly
+ * increasing: a device that repeats or restarts its count (vivid does when
+ * its thread falls behind) advances it by one, so that readers never see a
+ * sequence number go backwards; real gaps still show as jumps. */
 static uint64_t extend_sequence(drv_v4l2 *v, uint32_t seq32)
 {
 	if (!v->have_seq) {
 		v->have_seq = true;
 		v->seq = seq32;
 	} else {
-		v->seq += (uint32_t)(seq32 - v->last_seq32);
+		uint32_t step = seq32 - v->last_seq32;
+		v->seq += (step == 0 || step > 0x80000000u) ? 1 : step;
 	}
 	v->last_seq32 = seq32;
 	return v->seq;
