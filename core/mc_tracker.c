@@ -51,6 +51,7 @@ struct mc_tracker {
 
 	double pose[MC_MAX_DOF];
 	double prev[MC_MAX_DOF], prev2[MC_MAX_DOF];
+	double anchor[MC_MAX_DOF]; /* calibration pose, for lambda_anchor */
 	int history; /* frames of history in prev/prev2 (0..2) */
 	double baseline; /* mean data energy per pixel after calibration (< 0) */
 	uint64_t rng;
@@ -71,6 +72,7 @@ void mc_tracker_settings_default(mc_tracker_settings *s)
 	s->lambda_limit = 0.1;
 	s->lambda_pose = 1e-4;
 	s->lambda_smooth = 0.1;
+	s->lambda_anchor = 0; /* off: it biases real motion (docs/TRACKER.md) */
 	s->cl_platform = -1;
 	s->cl_device = -1;
 	s->seed = 1;
@@ -119,6 +121,8 @@ static int validate_settings(const mc_tracker_settings *s, mc_err *err)
 		return mc_err_set(err, "tracker: step must be in (0, 1), got %g", s->step);
 	if (!(s->momentum >= 0 && s->momentum < 1))
 		return mc_err_set(err, "tracker: momentum must be in [0, 1), got %g", s->momentum);
+	if (!(s->lambda_anchor >= 0 && s->lambda_anchor < 1e6))
+		return mc_err_set(err, "tracker: lambda_anchor must be in [0, 1e6), got %g", s->lambda_anchor);
 	return 0;
 }
 
@@ -226,6 +230,7 @@ void mc_tracker_set_pose(mc_tracker *t, const double *pose)
 	mc_model_clamp_pose(&t->model, t->pose);
 	memcpy(t->prev, t->pose, sizeof(t->prev));
 	memcpy(t->prev2, t->pose, sizeof(t->prev2));
+	memcpy(t->anchor, t->pose, sizeof(t->anchor));
 	t->history = 0;
 }
 
@@ -630,6 +635,9 @@ static int optimise(mc_tracker *t, double *pose, const double *pred, const mc_ke
 		mc_model_backprop(&t->model, pose, &fk, dmu, grad);
 		mc_energy_pose(&t->model, pose, t->s.lambda_limit, t->s.lambda_pose, grad);
 		mc_energy_smooth(t->model.ndof, pose, pred, t->s.lambda_smooth, grad);
+		/* the same pseudo-Huber pull, toward the calibration pose */
+		if (t->s.lambda_anchor > 0)
+			mc_energy_smooth(t->model.ndof, pose, t->anchor, t->s.lambda_anchor, grad);
 		detection_term(t, pose, &fk, kp, nkp, grad);
 		if (it >= iters - tail) {
 			Etail += E;

@@ -32,6 +32,10 @@ typedef struct {
 	double step;             /* base step size */
 	double momentum;         /* 0..1 */
 	double lambda_detection, lambda_limit, lambda_pose, lambda_smooth;
+	/* Pull toward the pose set by mc_tracker_set_pose / init_from_joints
+	 * (the calibration pose), same pseudo-Huber form as lambda_smooth:
+	 * keeps weakly observed dofs from random-walking (docs/TRACKER.md). */
+	double lambda_anchor;
 	int cl_platform, cl_device; /* -1: first GPU, else first CPU */
 	uint64_t seed;
 } mc_tracker_settings;
