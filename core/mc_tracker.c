@@ -32,6 +32,20 @@
 /* Visibility summed over the calibration frame's pixels below which a
  * Gaussian's own colour estimate is not trusted (about 3 pixels seen whole). */
 #define MIN_COLOUR_EVIDENCE 3.0
+/* Calibration pixels with background visibility above this are background;
+ * those below BODY_MAX_B give the body's direction. */
+#define BACKGROUND_MIN_B 0.9
+#define BODY_MAX_B 0.5
+/* Backdrop (see place_backdrop): a GRID x GRID fan of Gaussians spaced by
+ * SPACING radians, DISTANCE metres from the cameras, each with standard
+ * deviation SIGMA and optical depth DEPTH through its centre.  Far and wide
+ * enough to cover the rays around the body evenly and to hide less than
+ * about 6% of a body 2 m away. */
+#define BACKDROP_GRID 3
+#define BACKDROP_SPACING_RAD 0.6
+#define BACKDROP_DISTANCE_M 20.0
+#define BACKDROP_SIGMA_M 7.0
+#define BACKDROP_DEPTH 8.0
 
 struct mc_tracker {
 	mc_rig rig;
@@ -52,6 +66,10 @@ struct mc_tracker {
 	double pose[MC_MAX_DOF];
 	double prev[MC_MAX_DOF], prev2[MC_MAX_DOF];
 	double anchor[MC_MAX_DOF]; /* calibration pose, for lambda_anchor */
+	/* backdrop: Gaussians far behind the body in the background colour */
+	int nback;
+	mc_vec3 back_mu[BACKDROP_GRID * BACKDROP_GRID];
+	double back_sigma, back_c, back_hsv[3];
 	int history; /* frames of history in prev/prev2 (0..2) */
 	double baseline; /* mean data energy per pixel after calibration (< 0) */
 	uint64_t rng;
@@ -151,7 +169,17 @@ static void make_scene(const mc_tracker *t, const mc_fk *fk, mc_scene *scene)
 	for (int q = 0; q < scene->n; q++)
 		if (t->hidden[q])
 			scene->c[q] = 0;
+	/* the backdrop goes after the model's Gaussians: gradients with respect
+	 * to it are computed and ignored */
+	for (int b = 0; b < t->nback && scene->n < MC_MAX_GAUSSIANS; b++) {
+		int q = scene->n++;
+		scene->mu[q] = t->back_mu[b];
+		scene->sigma[q] = t->back_sigma;
+		scene->c[q] = t->back_c;
+		memcpy(scene->hsv[q], t->back_hsv, sizeof(t->back_hsv));
+	}
 }
+
 
 static int alloc_buffers(mc_tracker *t, mc_err *err)
 {
@@ -758,8 +786,12 @@ static void borrow_colours(mc_model *m, const double *evidence)
 	}
 }
 
+/* Collects, per Gaussian, the calibration pixels it explains; the pixels no
+ * Gaussian explains (the background around the body, for the backdrop
+ * colour); and the sum of the ray directions of the pixels the body covers
+ * (the body's direction from the cameras). */
 static int collect_colours(mc_tracker *t, const mc_frame_view *views, int nviews, const mc_scene *scene,
-			   float *rgb, colour_samples *per_gauss)
+			   float *rgb, colour_samples *per_gauss, colour_samples *background, mc_vec3 *centroid_dir)
 {
 	double vis[MC_MAX_GAUSSIANS], B;
 	for (int c = 0; c < t->rig.ncams && c < nviews; c++) {
@@ -773,11 +805,47 @@ static int collect_colours(mc_tracker *t, const mc_frame_view *views, int nviews
 			for (int q = 0; q < scene->n; q++)
 				if (vis[q] > 0.05 && push_sample(&per_gauss[q], &rgb[3 * p], vis[q]) < 0)
 					return -1;
+			if (B > BACKGROUND_MIN_B && push_sample(background, &rgb[3 * p], 1.0) < 0)
+				return -1;
+			if (B < BODY_MAX_B)
+				*centroid_dir = mc_v3_add(*centroid_dir, rt->dir[p]);
 		}
 	}
 	return 0;
 }
 
+
+/* The backdrop: a grid of wide Gaussians far behind the body, in the
+ * robust mean colour of the calibration pixels that no body Gaussian
+ * explains.  Their visibility on a ray is about the body's background
+ * visibility B, so the energy gains the term B d(I, background): covering a
+ * pixel that looks like the background costs, and explaining one that does
+ * not pays, which the overlap energy alone lacks (docs/TRACKER.md).  They
+ * are fixed in the rig frame, centred on the direction of the body seen
+ * from the cameras at calibration, and receive no gradient. */
+static void place_backdrop(mc_tracker *t, colour_samples *background, mc_vec3 dir)
+{
+	double rgb[3];
+	if (!robust_colour(background, rgb) || !(mc_v3_norm(dir) > 0))
+		return;
+	mc_rgb_to_hsv(rgb, t->back_hsv);
+	t->back_sigma = BACKDROP_SIGMA_M;
+	t->back_c = BACKDROP_DEPTH / (BACKDROP_SIGMA_M * sqrt(2 * M_PI));
+	mc_vec3 origin = mc_v3(0, 0, 0);
+	for (int c = 0; c < t->rig.ncams; c++)
+		origin = mc_v3_add(origin, mc_v3_scale(t->rays[c].origin, 1.0 / t->rig.ncams));
+	mc_vec3 d = mc_v3_normalize(dir);
+	mc_vec3 any = fabs(d.x) < 0.9 ? mc_v3(1, 0, 0) : mc_v3(0, 1, 0);
+	mc_vec3 e1 = mc_v3_normalize(mc_v3_cross(d, any)), e2 = mc_v3_cross(d, e1);
+	int h = BACKDROP_GRID / 2;
+	for (int a = -h; a <= h; a++)
+		for (int b = -h; b <= h; b++) {
+			mc_vec3 off = mc_v3_add(mc_v3_scale(e1, tan(a * BACKDROP_SPACING_RAD)),
+						mc_v3_scale(e2, tan(b * BACKDROP_SPACING_RAD)));
+			mc_vec3 r = mc_v3_normalize(mc_v3_add(d, off));
+			t->back_mu[t->nback++] = mc_v3_add(origin, mc_v3_scale(r, BACKDROP_DISTANCE_M));
+		}
+}
 
 /* The mean data energy per candidate pixel at the calibration pose, every
  * candidate, no dropout: the reference for the tracking quality. */
@@ -801,7 +869,10 @@ int mc_tracker_calibrate_colors(mc_tracker *t, const mc_frame_view *views, int n
 	size_t npix = (size_t)t->s.width * t->s.height;
 	float *rgb = malloc(sizeof(float) * 3 * npix);
 	colour_samples *per_gauss = calloc(MC_MAX_GAUSSIANS, sizeof(colour_samples));
+	colour_samples background = {0};
+	mc_vec3 centroid_dir = mc_v3(0, 0, 0);
 	int rc = -1;
+	t->nback = 0;
 	if (!rgb || !per_gauss) {
 		mc_err_set(err, "tracker: out of memory");
 		goto out;
@@ -815,7 +886,7 @@ int mc_tracker_calibrate_colors(mc_tracker *t, const mc_frame_view *views, int n
 	mc_model_fk(&t->model, t->pose, &fk);
 	make_scene(t, &fk, &scene);
 	choose_candidates(t, &fk);
-	if (collect_colours(t, views, nviews, &scene, rgb, per_gauss) < 0) {
+	if (collect_colours(t, views, nviews, &scene, rgb, per_gauss, &background, &centroid_dir) < 0) {
 		mc_err_set(err, "tracker: out of memory");
 		goto out;
 	}
@@ -826,11 +897,13 @@ int mc_tracker_calibrate_colors(mc_tracker *t, const mc_frame_view *views, int n
 			robust_colour(&per_gauss[q], t->model.gauss[q].rgb);
 	}
 	borrow_colours(&t->model, evidence);
+	place_backdrop(t, &background, centroid_dir);
 	rc = measure_baseline(t, err);
 out:
 	for (int q = 0; per_gauss && q < MC_MAX_GAUSSIANS; q++)
 		free(per_gauss[q].s);
 	free(per_gauss);
+	free(background.s);
 	free(rgb);
 	return rc;
 }
