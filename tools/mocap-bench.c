@@ -326,7 +326,7 @@ static int thesis_view_build(const mc_camera *cam, const mc_scene *sc, const mc_
 static double thesis_iterations_per_s(const mc_model *m, const double *pose, thesis_view *tv, mc_cl_energy *cl,
 				      int iterations, mc_err *err)
 {
-	mc_view view = {&tv->rt, tv->hsv};
+	mc_view view = {&tv->rt, tv->hsv, NULL};
 	double t0 = now_ms();
 	for (int it = 0; it < iterations; it++) {
 		mc_fk fk;
@@ -427,7 +427,7 @@ static int parse_number(const char *opt, const char *arg, double lo, double hi, 
 
 enum { OPT_MODEL = 256, OPT_OUT, OPT_FRAMES, OPT_BACKEND, OPT_WIDTH, OPT_HEIGHT, OPT_ITER, OPT_FRAC, OPT_DROP,
        OPT_STEP, OPT_MOM, OPT_LSMOOTH, OPT_LPOSE, OPT_LLIMIT, OPT_PLAT, OPT_DEV, OPT_SEED, OPT_OCAM, OPT_REF,
-       OPT_NOTHESIS, OPT_QUIET, OPT_CLIP, OPT_HELP, OPT_OVERLAY, OPT_OVERLAY_EVERY };
+       OPT_NOTHESIS, OPT_QUIET, OPT_CLIP, OPT_HELP, OPT_OVERLAY, OPT_OVERLAY_EVERY, OPT_LANCHOR };
 
 static int apply_option(options *o, int c, const char *name, const char *arg, bool *thesis)
 {
@@ -465,6 +465,7 @@ static int apply_option(options *o, int c, const char *name, const char *arg, bo
 	case OPT_LSMOOTH: s->lambda_smooth = v; break;
 	case OPT_LPOSE: s->lambda_pose = v; break;
 	case OPT_LLIMIT: s->lambda_limit = v; break;
+	case OPT_LANCHOR: s->lambda_anchor = v; break;
 	case OPT_PLAT: s->cl_platform = (int)v; break;
 	case OPT_DEV: s->cl_device = (int)v; break;
 	case OPT_SEED: s->seed = (uint64_t)v; break;
@@ -480,7 +481,7 @@ static int parse_options(int argc, char **argv, options *o, bool *thesis)
 		{"height", 1, 0, OPT_HEIGHT}, {"iterations", 1, 0, OPT_ITER}, {"pixel-fraction", 1, 0, OPT_FRAC},
 		{"dropout", 1, 0, OPT_DROP}, {"step", 1, 0, OPT_STEP}, {"momentum", 1, 0, OPT_MOM},
 		{"lambda-smooth", 1, 0, OPT_LSMOOTH}, {"lambda-pose", 1, 0, OPT_LPOSE},
-		{"lambda-limit", 1, 0, OPT_LLIMIT}, {"platform", 1, 0, OPT_PLAT}, {"device", 1, 0, OPT_DEV},
+		{"lambda-limit", 1, 0, OPT_LLIMIT}, {"lambda-anchor", 1, 0, OPT_LANCHOR}, {"platform", 1, 0, OPT_PLAT}, {"device", 1, 0, OPT_DEV},
 		{"seed", 1, 0, OPT_SEED}, {"ocam", 0, 0, OPT_OCAM}, {"reference-frames", 1, 0, OPT_REF},
 		{"no-thesis", 0, 0, OPT_NOTHESIS}, {"overlay-dir", 1, 0, OPT_OVERLAY},
 		{"overlay-every", 1, 0, OPT_OVERLAY_EVERY}, {"quiet", 0, 0, OPT_QUIET}, {"help", 0, 0, OPT_HELP},
