@@ -837,11 +837,11 @@ static void place_backdrop(mc_tracker *t, colour_samples *background, mc_vec3 di
 	mc_vec3 d = mc_v3_normalize(dir);
 	mc_vec3 any = fabs(d.x) < 0.9 ? mc_v3(1, 0, 0) : mc_v3(0, 1, 0);
 	mc_vec3 e1 = mc_v3_normalize(mc_v3_cross(d, any)), e2 = mc_v3_cross(d, e1);
-	int h = BACKDROP_GRID / 2;
-	for (int a = -h; a <= h; a++)
-		for (int b = -h; b <= h; b++) {
-			mc_vec3 off = mc_v3_add(mc_v3_scale(e1, tan(a * BACKDROP_SPACING_RAD)),
-						mc_v3_scale(e2, tan(b * BACKDROP_SPACING_RAD)));
+	double h = 0.5 * (BACKDROP_GRID - 1);
+	for (int a = 0; a < BACKDROP_GRID; a++)
+		for (int b = 0; b < BACKDROP_GRID; b++) {
+			mc_vec3 off = mc_v3_add(mc_v3_scale(e1, tan((a - h) * BACKDROP_SPACING_RAD)),
+						mc_v3_scale(e2, tan((b - h) * BACKDROP_SPACING_RAD)));
 			mc_vec3 r = mc_v3_normalize(mc_v3_add(d, off));
 			t->back_mu[t->nback++] = mc_v3_add(origin, mc_v3_scale(r, BACKDROP_DISTANCE_M));
 		}

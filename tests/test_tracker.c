@@ -273,7 +273,7 @@ static void test_real_clip(void)
 	}
 	double mpjpe = n ? sum / n : 1e9;
 	printf("real clip %s, 30 frames: MPJPE %.2f cm\n", clip.name, 100 * mpjpe);
-	CHECK_MSG(n > 0 && mpjpe < 0.10, "MPJPE %.2f cm over the first 30 frames", 100 * mpjpe);
+	CHECK_MSG(n > 0 && mpjpe < 0.07, "MPJPE %.2f cm over the first 30 frames", 100 * mpjpe);
 	mc_tracker_destroy(t);
 	mc_clip_close(&clip);
 }
