@@ -517,11 +517,6 @@ static const char *const hsv_names[3] = {"hue", "saturation", "value"};
 
 int mc_cl_energy_set_image(mc_cl_energy *e, int cam, const float *hsv, mc_err *err)
 {
-	return mc_cl_energy_set_image_bg(e, cam, hsv, NULL, err);
-}
-
-int mc_cl_energy_set_image_bg(mc_cl_energy *e, int cam, const float *hsv, const float *bgmatch, mc_err *err)
-{
 	if (cam < 0 || cam >= e->ncams)
 		return mc_err_set(err, "mc_cl_energy_set_image: camera %d out of range 0..%d", cam, e->ncams - 1);
 	if (!hsv) {
@@ -536,11 +531,7 @@ int mc_cl_energy_set_image_bg(mc_cl_energy *e, int cam, const float *hsv, const 
 						  hsv_names[k]);
 			e->image_host[i].s[k] = hsv_channel(v, k);
 		}
-		float b = bgmatch ? bgmatch[i] : 0.0f;
-		if (!(b >= 0.0f && b <= 1.0f))
-			return mc_err_set(err, "mc_cl_energy_set_image: camera %d: pixel %d: background likeness %g is not in [0, 1]",
-					  cam, i, b);
-		e->image_host[i].s[3] = b;
+		e->image_host[i].s[3] = 0.0f;
 	}
 	cl_int rc = clEnqueueWriteBuffer(e->queue, e->image, CL_TRUE, sizeof(cl_float4) * (size_t)e->cam_first[cam],
 					 sizeof(cl_float4) * (size_t)e->cam_npix[cam], e->image_host, 0, NULL, NULL);

@@ -59,11 +59,6 @@ void mc_cl_energy_config(const mc_cl_energy *e, mc_cl_options *out);
  * camera missing: its pixels are ignored by mc_cl_energy_eval() until an
  * image is set again.  Cameras start missing. */
 int mc_cl_energy_set_image(mc_cl_energy *e, int cam, const float *hsv, mc_err *err);
-/* The same, with each pixel's likeness to the background in [0, 1]
- * (bgmatch, one float per pixel, NULL = 0): the dissimilarity d to every
- * Gaussian becomes d + bgmatch (1 - d) / 2, as mc_view.bgmatch does in the
- * reference (docs/ENERGY.md, "Background contrast"). */
-int mc_cl_energy_set_image_bg(mc_cl_energy *e, int cam, const float *hsv, const float *bgmatch, mc_err *err);
 
 /* E_color over sampled pixels of every camera that has an image.
  * pixels[cam][0..npixels[cam]-1] are indices into camera cam's ray table

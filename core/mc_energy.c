@@ -435,12 +435,7 @@ void mc_scene_from_model(const mc_model *model, const mc_fk *fk, mc_scene *scene
 }
 
 /* E_color of one pixel: sum_q d(I, a_q) V_q (eq. 4.13). */
-double mc_background_contrast(double d, double bgmatch)
-{
-	return d + 0.5 * bgmatch * (1.0 - d);
-}
-
-static double pixel_color_energy(const mc_scene *scene, mc_vec3 o, mc_vec3 n, const float *pix_hsv, double bgmatch,
+static double pixel_color_energy(const mc_scene *scene, mc_vec3 o, mc_vec3 n, const float *pix_hsv,
 				 mc_vec3 *dmu, double *dsigma)
 {
 	double i_hsv[3] = {pix_hsv[0], pix_hsv[1], pix_hsv[2]};
@@ -448,7 +443,7 @@ static double pixel_color_energy(const mc_scene *scene, mc_vec3 o, mc_vec3 n, co
 	ray_project(scene, o, n, NULL, &rs);
 	double w[MC_MAX_GAUSSIANS]; /* only for the Gaussians on this ray */
 	for (int i = 0; i < rs.n; i++)
-		w[i] = mc_background_contrast(mc_hsv_dissimilarity(scene->hsv[rs.g[i].q], i_hsv), bgmatch);
+		w[i] = mc_hsv_dissimilarity(scene->hsv[rs.g[i].q], i_hsv);
 	return ray_set_weighted(&rs, w, n, dmu, dsigma);
 }
 
@@ -463,8 +458,7 @@ double mc_energy_color(const mc_scene *scene, const mc_view *view, const int *pi
 		int pix = pixels ? pixels[j] : j;
 		if (pix < 0 || pix >= total || !rt->valid[pix])
 			continue;
-		e += pixel_color_energy(scene, rt->origin, rt->dir[pix], view->hsv + 3 * (size_t)pix,
-					view->bgmatch ? view->bgmatch[pix] : 0.0, dmu, dsigma);
+		e += pixel_color_energy(scene, rt->origin, rt->dir[pix], view->hsv + 3 * (size_t)pix, dmu, dsigma);
 	}
 	return e;
 }

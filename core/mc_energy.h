@@ -41,11 +41,6 @@ void mc_scene_from_model(const mc_model *model, const mc_fk *fk, mc_scene *scene
 void mc_rgb_to_hsv(const double rgb[3], double hsv[3]);
 void mc_hsv_to_rgb(const double hsv[3], double rgb[3]);
 double mc_hsv_dissimilarity(const double m_hsv[3], const double i_hsv[3]);
-/* Background contrast: the dissimilarity d of a pixel that looks like the
- * background by bgmatch in [0, 1] becomes d + bgmatch (1 - d) / 2, so that
- * covering a background-like pixel is rewarded less (not at all when
- * bgmatch = 1), whatever the Gaussian's colour.  Still in [-1, 1]. */
-double mc_background_contrast(double d, double bgmatch);
 
 /* Per-ray quantities.  vis[q] = V_q (eq. 4.10; 0 for Gaussians culled on
  * this ray), *background = B (eq. 5.5, may be NULL).  vis must hold
@@ -67,9 +62,6 @@ double mc_ray_weighted_visibility(const mc_scene *scene, mc_vec3 o, mc_vec3 n, c
 typedef struct {
 	const mc_raytable *rays;
 	const float *hsv; /* 3 floats per working pixel, HSV in [0, 1] */
-	/* Optional (NULL = 0): per working pixel, how much it looks like the
-	 * background, in [0, 1] (mc_background_match). */
-	const float *bgmatch;
 } mc_view;
 
 /* E_color over a set of pixels of one view (pixel indices into the ray

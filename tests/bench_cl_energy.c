@@ -122,7 +122,7 @@ static int run_scenario(const char *title, int platform, int device, mc_cl_optio
 			mc_vec3 dmu[MC_MAX_GAUSSIANS] = {{0}};
 			double dsig[MC_MAX_GAUSSIANS] = {0};
 			for (int c = 0; c < 2; c++) {
-				mc_view v = {&t[c], img[c], NULL};
+				mc_view v = {&t[c], img[c]};
 				Eref += mc_energy_color(sc, &v, pix[c], npix[c], dmu, dsig);
 			}
 			printf("%6d pixels, reference mc_energy_color (double, 1 thread): %8.3f ms CPU/eval\n",

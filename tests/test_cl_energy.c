@@ -16,7 +16,6 @@
 typedef struct {
 	mc_raytable rays;
 	float *hsv;
-	float *bgmatch; /* NULL: no background model */
 } view;
 
 /* E over pixel lists of several views (pixels NULL or pixels[c] NULL: every
@@ -34,7 +33,7 @@ static double ref_energy(const mc_scene *sc, const view *v, int nv, int *const *
 		const int *list = pixels ? pixels[c] : NULL;
 		int n = list ? npixels[c] : t->width * t->height;
 		if (dropout == 0) {
-			mc_view view = {t, v[c].hsv, v[c].bgmatch};
+			mc_view view = {t, v[c].hsv};
 			E += mc_energy_color(sc, &view, list, n, dmu, dsigma);
 		}
 		for (int i = 0; i < n; i++) {
@@ -46,8 +45,7 @@ static double ref_energy(const mc_scene *sc, const view *v, int nv, int *const *
 			for (int k = 0; k < 3; k++)
 				ihsv[k] = v[c].hsv[3 * px + k];
 			for (int q = 0; q < sc->n; q++) {
-				w[q] = mc_background_contrast(mc_hsv_dissimilarity(sc->hsv[q], ihsv),
-							      v[c].bgmatch ? v[c].bgmatch[px] : 0.0);
+				w[q] = mc_hsv_dissimilarity(sc->hsv[q], ihsv);
 				wabs[q] = fabs(w[q]);
 				keep[q] = !mc_cl_dropped(seed, c, px, q, dropout);
 			}
@@ -135,7 +133,7 @@ static mc_cl_energy *open_backend(const view *v, int nv)
 		exit(1);
 	}
 	for (int c = 0; c < nv; c++) {
-		int rc = mc_cl_energy_set_image_bg(e, c, v[c].hsv, v[c].bgmatch, &err);
+		int rc = mc_cl_energy_set_image(e, c, v[c].hsv, &err);
 		CHECK_MSG(rc == 0, "set_image: %s", err.msg);
 	}
 	return e;
@@ -146,7 +144,7 @@ static mc_cl_energy *open_backend(const view *v, int nv)
 static void test_random_scenes(void)
 {
 	unsigned long long rng = 1234;
-	view v = {0};
+	view v;
 	table_pinhole(&v.rays, 40, 30, 32, mc_v3(0, 0, 0));
 	v.hsv = image_random(&v.rays, &rng);
 	mc_cl_energy *e = open_backend(&v, 1);
@@ -192,7 +190,7 @@ static void test_random_scenes(void)
 static void test_culling_edge(void)
 {
 	unsigned long long rng = 11;
-	view v = {0};
+	view v;
 	/* 16 x 16 rays within +-0.004 rad of the optical axis */
 	table_pinhole(&v.rays, 16, 16, 2000, mc_v3(0, 0, 0));
 	v.hsv = image_random(&v.rays, &rng);
@@ -227,7 +225,7 @@ static void test_culling_edge(void)
 static void test_human(void)
 {
 	unsigned long long rng = 99;
-	view v[2] = {0};
+	view v[2];
 	mc_raytable t[2];
 	tables_ego(t, 48);
 	for (int c = 0; c < 2; c++) {
@@ -269,24 +267,6 @@ static void test_human(void)
 	mc_scene sc;
 	scene_human(&sc, 0.3, &rng);
 	mc_err err;
-	/* With a background model: each pixel's likeness to the background
-	 * weakens its reward (docs/ENERGY.md), on the device as in the reference. */
-	for (int c = 0; c < 2; c++) {
-		v[c].bgmatch = malloc(sizeof(float) * (size_t)t[c].width * t[c].height);
-		for (int i = 0; i < t[c].width * t[c].height; i++)
-			v[c].bgmatch[i] = (float)mc_test_rand(&rng);
-		CHECK(mc_cl_energy_set_image_bg(e, c, v[c].hsv, v[c].bgmatch, &err) == 0);
-	}
-	eval_cl(e, &sc, NULL, NULL, 0, 0, &cl);
-	eval_ref(&sc, v, 2, NULL, NULL, 0, 0, &ref);
-	check_agree("person, background likeness", &cl, &ref, sc.n, 1e-3);
-	v[0].bgmatch[0] = 1.5f; /* out of range: refused with the pixel named */
-	CHECK(mc_cl_energy_set_image_bg(e, 0, v[0].hsv, v[0].bgmatch, &err) < 0 && strstr(err.msg, "pixel 0"));
-	for (int c = 0; c < 2; c++) {
-		free(v[c].bgmatch);
-		v[c].bgmatch = NULL;
-		CHECK(mc_cl_energy_set_image(e, c, v[c].hsv, &err) == 0);
-	}
 	CHECK(mc_cl_energy_set_image(e, 1, NULL, &err) == 0);
 	eval_cl(e, &sc, NULL, NULL, 0, 0, &cl);
 	eval_ref(&sc, v, 1, NULL, NULL, 0, 0, &ref);
@@ -305,7 +285,7 @@ static void test_human(void)
 static void test_launch_settings(void)
 {
 	unsigned long long rng = 21;
-	view v[2] = {0};
+	view v[2];
 	mc_raytable t[2];
 	tables_ego(t, 24);
 	for (int c = 0; c < 2; c++) {
@@ -354,7 +334,7 @@ static void test_launch_settings(void)
 static void test_dropout(void)
 {
 	unsigned long long rng = 5;
-	view v[2] = {0};
+	view v[2];
 	mc_raytable t[2];
 	tables_ego(t, 32);
 	for (int c = 0; c < 2; c++) {
@@ -406,7 +386,7 @@ static void test_dropout(void)
 static void test_errors(void)
 {
 	unsigned long long rng = 3;
-	view v = {0};
+	view v;
 	table_pinhole(&v.rays, 8, 6, 8, mc_v3(0, 0, 0));
 	v.hsv = image_random(&v.rays, &rng);
 	mc_err err = {{0}};

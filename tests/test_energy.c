@@ -268,7 +268,7 @@ static void test_color_energy(void)
 		mc_vec3 o = mc_v3(urand(&rng, -0.2, 0.2), urand(&rng, -0.2, 0.2), -2.0);
 		small_view sv;
 		small_view_init(&sv, o, &rng);
-		mc_view view = {&sv.rt, sv.hsv, NULL};
+		mc_view view = {&sv.rt, sv.hsv};
 		mc_scene s;
 		random_scene(trial % 2 ? SCENE_SCATTERED : SCENE_DISOCCLUSION, 6, &rng, o, sv.dir[6], &s);
 		color_ctx all = {&view, NULL, 0};

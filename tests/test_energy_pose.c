@@ -54,7 +54,7 @@ static int stereo_init(stereo *st, int w, mc_err *err)
 		st->hsv[c] = calloc((size_t)3 * w * w, sizeof(float));
 		if (!st->hsv[c])
 			return mc_err_set(err, "out of memory");
-		st->view[c] = (mc_view){&st->rt[c], st->hsv[c], NULL};
+		st->view[c] = (mc_view){&st->rt[c], st->hsv[c]};
 	}
 	return 0;
 }

@@ -326,7 +326,7 @@ static int thesis_view_build(const mc_camera *cam, const mc_scene *sc, const mc_
 static double thesis_iterations_per_s(const mc_model *m, const double *pose, thesis_view *tv, mc_cl_energy *cl,
 				      int iterations, mc_err *err)
 {
-	mc_view view = {&tv->rt, tv->hsv, NULL};
+	mc_view view = {&tv->rt, tv->hsv};
 	double t0 = now_ms();
 	for (int it = 0; it < iterations; it++) {
 		mc_fk fk;

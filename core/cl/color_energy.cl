@@ -221,7 +221,7 @@ int mc_ray_cull(global const float4 *gauss, int ngauss, float3 o, float3 n, uint
 
 /* Projects the gathered Gaussians onto the ray (o, n): mu', c' with the
  * culling edge, the erf terms at the camera, the dissimilarities. */
-void mc_ray_project(float3 o, float3 n, float4 colour, mc_ray_set *rs, mc_gathered *g)
+void mc_ray_project(float3 o, float3 n, float3 colour, mc_ray_set *rs, mc_gathered *g)
 {
 	rs->nv = (rs->n + VW - 1) / VW;
 	for (int p = rs->n; p < rs->nv * VW; p++) {
@@ -251,11 +251,9 @@ void mc_ray_project(float3 o, float3 n, float4 colour, mc_ray_set *rs, mc_gather
 		VSTORE(cq, v, rs->c);
 		VSTORE(A, v, rs->A);
 		VSTORE(inv, v, rs->inv);
-		/* background contrast (docs/ENERGY.md): a pixel that looks like
-		 * the background (colour.w) rewards covering it less */
-		floatv dq = dissimilarity_v(VLOAD(v, g->h), VLOAD(v, g->s), VLOAD(v, g->v), VLOAD(v, g->ws),
-					    VLOAD(v, g->wd), VLOAD(v, g->wg), colour.xyz);
-		VSTORE(dq + 0.5f * colour.w * (1.0f - dq), v, rs->d);
+		VSTORE(dissimilarity_v(VLOAD(v, g->h), VLOAD(v, g->s), VLOAD(v, g->v), VLOAD(v, g->ws),
+				       VLOAD(v, g->wd), VLOAD(v, g->wg), colour),
+		       v, rs->d);
 		floatv e;
 		floatv ef = erf_exp_v(-mr * inv, &e);
 		VSTORE(ef, v, rs->erf0);
@@ -410,7 +408,7 @@ float mc_samples_backward(global const float4 *gauss, float3 o, float3 n, const 
 }
 
 /* E of one pixel; adds its gradient into row[4 q .. 4 q + 3]. */
-float mc_pixel(global const float4 *gauss, int ngauss, float3 o, float3 n, float4 colour, uint seed_mix,
+float mc_pixel(global const float4 *gauss, int ngauss, float3 o, float3 n, float3 colour, uint seed_mix,
 	       uint cam, uint pixel, uint thr24, local float *row)
 {
 	mc_ray_set rs;
@@ -430,8 +428,7 @@ float mc_pixel(global const float4 *gauss, int ngauss, float3 o, float3 n, float
 
 /* rays: one per ray-table pixel of every camera, concatenated: direction
  *       xyz (rig frame), w = camera index, or w < 0 for an invalid pixel;
- * image: HSV of every such pixel, w = its likeness to the background in
- *        [0, 1] (0 without a background model);
+ * image: HSV of every such pixel (w unused);
  * cam_origin / cam_first: per camera, centre (rig frame) and first ray index;
  * input: the Gaussian records (5 MAXG float4, layout above), then the
  *        npixels ray indices of the sampled pixels;
@@ -461,7 +458,7 @@ kernel void color_energy(global const float4 *rays, global const float4 *image,
 		if (ray.w < 0.0f)
 			continue;
 		uint cam = (uint)ray.w;
-		energy += mc_pixel(gauss, ngauss, cam_origin[cam].xyz, ray.xyz, image[r], seed_mix, cam,
+		energy += mc_pixel(gauss, ngauss, cam_origin[cam].xyz, ray.xyz, image[r].xyz, seed_mix, cam,
 				   r - cam_first[cam], thr24, row);
 	}
 	row[4 * ngauss] = energy;
