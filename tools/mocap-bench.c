@@ -76,6 +76,7 @@ typedef struct {
 	double *ms;
 	double err_sum[NEVAL];
 	int err_n;
+	double still_sum[NEVAL]; /* holding the initial pose for every frame */
 	int states[3];
 } run_stats;
 
@@ -125,7 +126,7 @@ static void write_overlay(const options *o, const mc_clip *clip, int k, const mc
 	free(im.rgb);
 }
 
-static void score(const mc_clip *clip, int k, const mc_skeleton *sk, run_stats *st)
+static void score(const mc_clip *clip, int k, const mc_skeleton *sk, double err_sum[NEVAL])
 {
 	for (int e = 0; e < NEVAL; e++) {
 		int g = mc_clip_joint(clip, eval_joints[e]);
@@ -137,9 +138,23 @@ static void score(const mc_clip *clip, int k, const mc_skeleton *sk, run_stats *
 		 * to the camera, so that it cannot improve the score. */
 		mc_vec3 est = m >= 0 ? sk->joints[m].position : mc_v3(0, 0, 0);
 		if (g >= 0)
-			st->err_sum[e] += mc_v3_norm(mc_v3_sub(est, mc_clip_gt(clip, k, g)));
+			err_sum[e] += mc_v3_norm(mc_v3_sub(est, mc_clip_gt(clip, k, g)));
 	}
-	st->err_n++;
+}
+
+/* The skeleton of the tracker's current pose (before tracking: the
+ * initial pose), for the "no tracking" reference figure. */
+static void current_skeleton(const mc_tracker *t, mc_skeleton *sk)
+{
+	const mc_model *m = mc_tracker_model(t);
+	mc_fk fk;
+	mc_model_fk(m, mc_tracker_pose(t), &fk);
+	memset(sk, 0, sizeof(*sk));
+	sk->njoints = m->njoints;
+	for (int j = 0; j < m->njoints; j++) {
+		snprintf(sk->joints[j].name, sizeof(sk->joints[j].name), "%s", m->joints[j].name);
+		sk->joints[j].position = fk.rig_from_joint[j].t;
+	}
 }
 
 static double mpjpe_of(const run_stats *st)
@@ -156,6 +171,8 @@ static int track_clip(const options *o, mc_tracker *t, const mc_clip *clip, int 
 	st->ms = calloc(nframes, sizeof(double));
 	if (!st->ms)
 		return mc_err_set(err, "out of memory");
+	mc_skeleton still;
+	current_skeleton(t, &still);
 	for (int k = 0; k < nframes; k++) {
 		mc_frame_view views[2];
 		mc_skeleton sk;
@@ -170,7 +187,9 @@ static int track_clip(const options *o, mc_tracker *t, const mc_clip *clip, int 
 		if (rc < 0)
 			return -1;
 		st->states[sk.state]++;
-		score(clip, k, &sk, st);
+		score(clip, k, &sk, st->err_sum);
+		score(clip, k, &still, st->still_sum);
+		st->err_n++;
 		if (out)
 			write_estimate(out, k, &sk);
 		if (!o->quiet && (k % 30 == 0 || k == nframes - 1))
@@ -213,6 +232,11 @@ static void print_accuracy(const run_stats *st)
 	}
 	for (int e = 0; e < NEVAL; e++)
 		printf("  %-15s %6.2f\n", eval_joints[e], 100.0 * st->err_sum[e] / st->err_n);
+	double still = 0;
+	for (int e = 0; e < NEVAL; e++)
+		still += st->still_sum[e];
+	printf("  holding the initial pose instead (no tracking): %.2f\n",
+	       st->err_n ? 100.0 * still / (st->err_n * NEVAL) : 0.0);
 	printf("  overall %6.2f over %d frames (states: %d ok, %d uncertain, %d lost)\n", 100.0 * mpjpe_of(st),
 	       st->err_n, st->states[0], st->states[1], st->states[2]);
 }
