@@ -82,7 +82,7 @@ void mc_tracker_settings_default(mc_tracker_settings *s)
 	s->width = 128;
 	s->height = 128;
 	s->iterations = 50;
-	s->pixel_fraction = 0.15;
+	s->pixel_fraction = 0.07;
 	s->dropout = 0.2;
 	s->step = 0.004;
 	s->momentum = 0.7;
