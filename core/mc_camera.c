@@ -154,28 +154,51 @@ static bool equidistant_project(const mc_camera *cam, mc_vec3 p, double *u, doub
 	return true;
 }
 
-/* Solves kb_theta_d(theta) = td for theta in [0, hi], where kb_theta_d is
- * increasing (validated): Newton, falling back to bisection whenever a step
- * leaves the bracket. */
-static double kb_solve_theta(const double k[5], double td, double hi)
+/* Solves f(x) = target for x in the bracket [lo, hi], f increasing there:
+ * Newton from x, falling back to bisection whenever a step leaves the
+ * bracket; stops when a step is below tol. */
+typedef struct {
+	double (*f)(const void *ctx, double x);
+	double (*df)(const void *ctx, double x);
+	const void *ctx;
+} increasing_fn;
+
+static double solve_increasing(increasing_fn fn, double target, double lo, double hi, double x, double tol)
 {
-	double lo = 0, t = fmin(td, hi);
 	for (int it = 0; it < SOLVE_MAX_ITER; it++) {
-		double f = kb_theta_d(k, t) - td;
+		double f = fn.f(fn.ctx, x) - target;
 		if (f > 0)
-			hi = t;
+			hi = x;
 		else
-			lo = t;
-		double d = kb_dtheta_d(k, t);
-		double next = d > 0 ? t - f / d : -1;
+			lo = x;
+		double d = fn.df(fn.ctx, x);
+		double next = d > 0 ? x - f / d : -1;
 		if (!(next > lo && next < hi))
 			next = 0.5 * (lo + hi);
-		double step = fabs(next - t);
-		t = next;
-		if (step < SOLVE_TOL)
+		double step = fabs(next - x);
+		x = next;
+		if (step < tol)
 			break;
 	}
-	return t;
+	return x;
+}
+
+static double kb_f(const void *k, double t)
+{
+	return kb_theta_d(k, t);
+}
+
+static double kb_df(const void *k, double t)
+{
+	return kb_dtheta_d(k, t);
+}
+
+/* Solves kb_theta_d(theta) = td for theta in [0, hi], where kb_theta_d is
+ * increasing (validated). */
+static double kb_solve_theta(const double k[5], double td, double hi)
+{
+	increasing_fn fn = {kb_f, kb_df, k};
+	return solve_increasing(fn, td, 0, hi, fmin(td, hi), SOLVE_TOL);
 }
 
 static bool equidistant_unproject(const mc_camera *cam, double u, double v, mc_vec3 *ray)
@@ -259,6 +282,16 @@ static bool ocam_unproject(const mc_camera *cam, double u, double v, mc_vec3 *ra
  * from the centre (theta(rho) increases up to the edge of the valid field),
  * then Newton with bisection safeguard, started from the inverse polynomial
  * when there is one. Returns false if the angle is not reached. */
+static double ocam_f(const void *cam, double r)
+{
+	return ocam_theta(cam, r);
+}
+
+static double ocam_df(const void *cam, double r)
+{
+	return ocam_dtheta(cam, r);
+}
+
 static bool ocam_solve_rho(const mc_camera *cam, double theta, double *rho_out)
 {
 	const int nscan = 64;
@@ -282,22 +315,8 @@ static bool ocam_solve_rho(const mc_camera *cam, double theta, double *rho_out)
 		if (guess > lo && guess < hi)
 			r = guess;
 	}
-	for (int it = 0; it < SOLVE_MAX_ITER; it++) {
-		double f = ocam_theta(cam, r) - theta;
-		if (f > 0)
-			hi = r;
-		else
-			lo = r;
-		double d = ocam_dtheta(cam, r);
-		double next = d > 0 ? r - f / d : -1;
-		if (!(next > lo && next < hi))
-			next = 0.5 * (lo + hi);
-		double step = fabs(next - r);
-		r = next;
-		if (step < SOLVE_TOL * fmax(1, limit))
-			break;
-	}
-	*rho_out = r;
+	increasing_fn fn = {ocam_f, ocam_df, cam};
+	*rho_out = solve_increasing(fn, theta, lo, hi, r, SOLVE_TOL * fmax(1, limit));
 	return true;
 }
 
