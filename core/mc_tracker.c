@@ -235,6 +235,21 @@ fail:
 	return NULL;
 }
 
+int mc_tracker_set_budget(mc_tracker *t, int iterations, double pixel_fraction, double dropout, double step,
+			  double momentum, mc_err *err)
+{
+	mc_tracker_settings s = t->s;
+	s.iterations = iterations;
+	s.pixel_fraction = pixel_fraction;
+	s.dropout = dropout;
+	s.step = step;
+	s.momentum = momentum;
+	if (validate_settings(&s, err) < 0)
+		return -1;
+	t->s = s;
+	return 0;
+}
+
 void mc_tracker_destroy(mc_tracker *t)
 {
 	if (!t)

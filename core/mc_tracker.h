@@ -83,6 +83,12 @@ mc_tracker *mc_tracker_create(const mc_rig *rig, const mc_model *model, const mc
 			      mc_err *err);
 void mc_tracker_destroy(mc_tracker *t);
 
+/* Changes the per-frame budget of a running tracker (e.g. on a config
+ * reload), checked like mc_tracker_create's settings.  The actor, its
+ * calibration, the pose and the device are kept. */
+int mc_tracker_set_budget(mc_tracker *t, int iterations, double pixel_fraction, double dropout, double step,
+			  double momentum, mc_err *err);
+
 /* Sets the current pose (and history) to `pose` (model->ndof values). */
 void mc_tracker_set_pose(mc_tracker *t, const double *pose);
 const double *mc_tracker_pose(const mc_tracker *t);

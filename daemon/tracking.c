@@ -228,30 +228,11 @@ int mcd_tracking_reload(mcd_tracking *t, const mcd_tracker_config *tc, mc_err *e
 	s.momentum = want.momentum;
 	if (memcmp(&s, &t->settings, sizeof(s)) == 0)
 		return 0;
-	/* The tracker has no setter for its budgets: build a new one around
-	 * the current actor (bone lengths, colours) and pose. */
-	mc_model *actor = malloc(sizeof(*actor));
-	double *pose = malloc(sizeof(double) * MC_MAX_DOF);
-	if (!actor || !pose) {
-		free(actor);
-		free(pose);
-		return mc_err_set(err, "out of memory");
-	}
-	*actor = *mc_tracker_model(t->tracker);
-	memcpy(pose, mc_tracker_pose(t->tracker), sizeof(double) * (size_t)actor->ndof);
-	mc_tracker *fresh = mc_tracker_create(&t->rig, actor, &s, err);
-	if (fresh) {
-		mc_tracker_set_pose(fresh, pose);
-		mc_tracker_destroy(t->tracker);
-		t->tracker = fresh;
-		t->model = *actor;
-		t->settings = s;
-		mcd_info("tracker: now %d iterations, pixel fraction %g, dropout %g", s.iterations, s.pixel_fraction,
-			 s.dropout);
-	}
-	free(actor);
-	free(pose);
-	return fresh ? 0 : -1;
+	if (mc_tracker_set_budget(t->tracker, s.iterations, s.pixel_fraction, s.dropout, s.step, s.momentum, err) < 0)
+		return -1;
+	t->settings = s;
+	mcd_info("tracker: now %d iterations, pixel fraction %g, dropout %g", s.iterations, s.pixel_fraction, s.dropout);
+	return 0;
 }
 
 void mcd_tracking_free(mcd_tracking *t)

@@ -218,6 +218,12 @@ static void test_synthetic(mc_backend backend)
 		CHECK_MSG(mean < 0.03, "mean joint error %.2f cm after loss", 100 * mean);
 		CHECK(skeleton_finite(&sk));
 	}
+	/* A budget change keeps the calibration and the pose; a bad one is
+	 * refused with the setting named. */
+	CHECK(mc_tracker_set_budget(t, 20, 0.2, 0.1, 0.004, 0.5, &err) == 0);
+	CHECK(mc_tracker_track(t, v, 2, NULL, 0, &sk, &err) == 0 && sk.iterations == 20 &&
+	      sk.state != MC_TRACK_LOST);
+	CHECK(mc_tracker_set_budget(t, 20, 1.5, 0.1, 0.004, 0.5, &err) < 0 && strstr(err.msg, "pixel_fraction"));
 	mc_tracker_destroy(t);
 	synth_close(&s);
 }
