@@ -6,13 +6,13 @@
  * random subset of the candidate pixels per camera; the data term and its
  * gradient with respect to the Gaussians come from the OpenCL backend (or
  * the reference implementation); the host does kinematics, the chain rule
- * and the priors, and takes an Adam step (per-parameter step conditioning
- * with momentum). */
+ * and the priors, and takes a step conditioned per parameter by how far it
+ * moves the Gaussians, with momentum (docs/TRACKER.md).  The actor
+ * calibration is in mc_calibrate.c. */
 #include "mc_tracker.h"
 
-#include "mc_cl.h"
-#include "mc_energy.h"
 #include "mc_ik.h"
+#include "mc_tracker_internal.h"
 
 #include <float.h>
 #include <stdio.h>
@@ -29,51 +29,6 @@
  * which the state is uncertain, and lost. */
 #define QUALITY_UNCERTAIN 0.6
 #define QUALITY_LOST 0.3
-/* Visibility summed over the calibration frame's pixels below which a
- * Gaussian's own colour estimate is not trusted (about 3 pixels seen whole). */
-#define MIN_COLOUR_EVIDENCE 3.0
-/* Calibration pixels with background visibility above this are background;
- * those below BODY_MAX_B give the body's direction. */
-#define BACKGROUND_MIN_B 0.9
-#define BODY_MAX_B 0.5
-/* Backdrop (see place_backdrop): a GRID x GRID fan of Gaussians spaced by
- * SPACING radians, DISTANCE metres from the cameras, each with standard
- * deviation SIGMA and optical depth DEPTH through its centre.  Far and wide
- * enough to cover the rays around the body evenly and to hide less than
- * about 6% of a body 2 m away. */
-#define BACKDROP_GRID 3
-#define BACKDROP_SPACING_RAD 0.6
-#define BACKDROP_DISTANCE_M 20.0
-#define BACKDROP_SIGMA_M 7.0
-#define BACKDROP_DEPTH 8.0
-
-struct mc_tracker {
-	mc_rig rig;
-	mc_model model;
-	mc_tracker_settings s;
-	mc_raytable rays[MC_MAX_CAMERAS];
-	float *hsv[MC_MAX_CAMERAS];
-	bool present[MC_MAX_CAMERAS];
-	int *candidates[MC_MAX_CAMERAS];
-	int ncandidates[MC_MAX_CAMERAS];
-	int *samples[MC_MAX_CAMERAS];
-	int nsamples[MC_MAX_CAMERAS];
-	unsigned char *mask;
-	bool hidden[MC_MAX_GAUSSIANS]; /* left out of the image energy */
-	mc_cl_energy *cl;
-	char device[160];
-
-	double pose[MC_MAX_DOF];
-	double prev[MC_MAX_DOF], prev2[MC_MAX_DOF];
-	double anchor[MC_MAX_DOF]; /* calibration pose, for lambda_anchor */
-	/* backdrop: Gaussians far behind the body in the background colour */
-	int nback;
-	mc_vec3 back_mu[BACKDROP_GRID * BACKDROP_GRID];
-	double back_sigma, back_c, back_hsv[3];
-	int history; /* frames of history in prev/prev2 (0..2) */
-	double baseline; /* mean data energy per pixel after calibration (< 0) */
-	uint64_t rng;
-};
 
 void mc_tracker_settings_default(mc_tracker_settings *s)
 {
@@ -163,7 +118,7 @@ static void hide_head_gaussians(mc_tracker *t)
 
 /* The Gaussians at a pose; hidden ones get zero magnitude, which the energy
  * culls on every ray. */
-static void make_scene(const mc_tracker *t, const mc_fk *fk, mc_scene *scene)
+void mc_trk_make_scene(const mc_tracker *t, const mc_fk *fk, mc_scene *scene)
 {
 	mc_scene_from_model(&t->model, fk, scene);
 	for (int q = 0; q < scene->n; q++)
@@ -319,7 +274,7 @@ int mc_tracker_init_from_joints(mc_tracker *t, const char *const *names, const m
 
 /* Box-filters a packed RGB24 view down (or nearest-samples up) to the
  * working resolution, as floats in [0, 1]. */
-static void resample_rgb(const mc_frame_view *v, int W, int H, float *out)
+void mc_trk_resample_rgb(const mc_frame_view *v, int W, int H, float *out)
 {
 	double sx = (double)v->width / W, sy = (double)v->height / H;
 	for (int j = 0; j < H; j++) {
@@ -355,14 +310,14 @@ static bool view_usable(const mc_frame_view *v)
 }
 
 /* Converts the views; returns how many cameras carry a usable, non-blank image. */
-static int load_views(mc_tracker *t, const mc_frame_view *views, int nviews, float *rgb_scratch)
+int mc_trk_load_views(mc_tracker *t, const mc_frame_view *views, int nviews, float *rgb_scratch)
 {
 	int W = t->s.width, H = t->s.height, present = 0;
 	for (int c = 0; c < t->rig.ncams; c++) {
 		t->present[c] = false;
 		if (c >= nviews || !view_usable(&views[c]))
 			continue;
-		resample_rgb(&views[c], W, H, rgb_scratch);
+		mc_trk_resample_rgb(&views[c], W, H, rgb_scratch);
 		double sum = 0, sum2 = 0;
 		int n = 0;
 		for (int p = 0; p < W * H; p++) {
@@ -459,7 +414,7 @@ static void mark_gaussian(const mc_camera *cam, const mc_raytable *rt, mc_vec3 p
 	rasterize_disc(mask, rt->width, rt->height, cu, cv, r + 1.5);
 }
 
-static void choose_candidates(mc_tracker *t, const mc_fk *fk)
+void mc_trk_choose_candidates(mc_tracker *t, const mc_fk *fk)
 {
 	for (int c = 0; c < t->rig.ncams; c++) {
 		const mc_camera *cam = &t->rig.cams[c];
@@ -482,7 +437,7 @@ static void choose_candidates(mc_tracker *t, const mc_fk *fk)
 
 /* Draws this iteration's pixels: a partial Fisher-Yates shuffle of each
  * camera's candidates, so that no pixel is drawn twice. */
-static int sample_pixels(mc_tracker *t, double fraction)
+int mc_trk_sample_pixels(mc_tracker *t, double fraction)
 {
 	int total = 0;
 	for (int c = 0; c < t->rig.ncams; c++) {
@@ -526,7 +481,7 @@ static double reference_data_term(mc_tracker *t, const mc_scene *scene, double d
 
 /* E_color over this iteration's samples, as a mean per sampled pixel, and
  * its gradient with respect to the Gaussian centres. */
-static int data_term(mc_tracker *t, const mc_scene *scene, int nsampled, double dropout, double *E, mc_vec3 *dmu,
+int mc_trk_data_term(mc_tracker *t, const mc_scene *scene, int nsampled, double dropout, double *E, mc_vec3 *dmu,
 		     mc_err *err)
 {
 	double dsigma[MC_MAX_GAUSSIANS];
@@ -671,9 +626,9 @@ static int optimise(mc_tracker *t, double *pose, const double *pred, const mc_ke
 		mc_scene scene;
 		double grad[MC_MAX_DOF] = {0}, E;
 		mc_model_fk(&t->model, pose, &fk);
-		make_scene(t, &fk, &scene);
-		int ns = sample_pixels(t, t->s.pixel_fraction);
-		if (data_term(t, &scene, ns, t->s.dropout, &E, dmu, err) < 0)
+		mc_trk_make_scene(t, &fk, &scene);
+		int ns = mc_trk_sample_pixels(t, t->s.pixel_fraction);
+		if (mc_trk_data_term(t, &scene, ns, t->s.dropout, &E, dmu, err) < 0)
 			return -1;
 		mc_model_backprop(&t->model, pose, &fk, dmu, grad);
 		mc_energy_pose(&t->model, pose, t->s.lambda_limit, t->s.lambda_pose, grad);
@@ -692,235 +647,6 @@ static int optimise(mc_tracker *t, double *pose, const double *pred, const mc_ke
 	}
 	*final_E = ntail ? Etail / ntail : 0;
 	return 0;
-}
-
-/* ---- actor colour calibration (thesis 5.3.2) ----------------------------- */
-
-typedef struct {
-	float rgb[3];
-	float weight;
-	float dist;
-} colour_sample;
-
-typedef struct {
-	colour_sample *s;
-	int n, cap;
-} colour_samples;
-
-static int push_sample(colour_samples *cs, const float *rgb, double weight)
-{
-	if (cs->n == cs->cap) {
-		int cap = cs->cap ? cs->cap * 2 : 256;
-		colour_sample *s = realloc(cs->s, sizeof(*s) * cap);
-		if (!s)
-			return -1;
-		cs->s = s;
-		cs->cap = cap;
-	}
-	colour_sample *x = &cs->s[cs->n++];
-	memcpy(x->rgb, rgb, sizeof(x->rgb));
-	x->weight = (float)weight;
-	return 0;
-}
-
-static void weighted_mean(const colour_sample *s, int n, double mean[3])
-{
-	double w = 0;
-	mean[0] = mean[1] = mean[2] = 0;
-	for (int i = 0; i < n; i++) {
-		for (int k = 0; k < 3; k++)
-			mean[k] += s[i].weight * s[i].rgb[k];
-		w += s[i].weight;
-	}
-	for (int k = 0; k < 3 && w > 0; k++)
-		mean[k] /= w;
-}
-
-static int by_distance(const void *a, const void *b)
-{
-	float x = ((const colour_sample *)a)->dist, y = ((const colour_sample *)b)->dist;
-	return (x > y) - (x < y);
-}
-
-/* Visibility-weighted mean, then the same after dropping the half of the
- * weight that lies farthest from it. Returns false without samples. */
-static bool robust_colour(colour_samples *cs, double out[3])
-{
-	if (cs->n == 0)
-		return false;
-	double mean[3], total = 0, kept = 0;
-	weighted_mean(cs->s, cs->n, mean);
-	for (int i = 0; i < cs->n; i++) {
-		colour_sample *x = &cs->s[i];
-		x->dist = (float)(pow(x->rgb[0] - mean[0], 2) + pow(x->rgb[1] - mean[1], 2) + pow(x->rgb[2] - mean[2], 2));
-		total += x->weight;
-	}
-	qsort(cs->s, cs->n, sizeof(colour_sample), by_distance);
-	int n = 0;
-	while (n < cs->n && kept < 0.5 * total)
-		kept += cs->s[n++].weight;
-	weighted_mean(cs->s, n ? n : 1, out);
-	return true;
-}
-
-static double total_weight(const colour_samples *cs)
-{
-	double w = 0;
-	for (int i = 0; i < cs->n; i++)
-		w += cs->s[i].weight;
-	return w;
-}
-
-/* A Gaussian seen too little in the calibration frame (e.g. a foot hidden
- * behind the body) would take its colour from a few fringe pixels, often
- * the floor, and then be drawn to the floor.  It borrows instead the
- * evidence-weighted colour of the Gaussians on the nearest joint up the
- * chain that were seen well: clothing is mostly continuous along a limb. */
-static void borrow_colours(mc_model *m, const double *evidence)
-{
-	double rgb[MC_MAX_GAUSSIANS][3];
-	for (int q = 0; q < m->ngauss; q++)
-		memcpy(rgb[q], m->gauss[q].rgb, sizeof(rgb[q]));
-	for (int q = 0; q < m->ngauss; q++) {
-		if (evidence[q] >= MIN_COLOUR_EVIDENCE)
-			continue;
-		for (int j = m->gauss[q].joint; j >= 0; j = m->joints[j].parent) {
-			double sum[3] = {0, 0, 0}, w = 0;
-			for (int r = 0; r < m->ngauss; r++)
-				if (m->gauss[r].joint == j && evidence[r] >= MIN_COLOUR_EVIDENCE) {
-					for (int k = 0; k < 3; k++)
-						sum[k] += evidence[r] * rgb[r][k];
-					w += evidence[r];
-				}
-			if (w > 0) {
-				for (int k = 0; k < 3; k++)
-					m->gauss[q].rgb[k] = sum[k] / w;
-				break;
-			}
-		}
-	}
-}
-
-/* Collects, per Gaussian, the calibration pixels it explains; the pixels no
- * Gaussian explains (the background around the body, for the backdrop
- * colour); and the sum of the ray directions of the pixels the body covers
- * (the body's direction from the cameras). */
-static int collect_colours(mc_tracker *t, const mc_frame_view *views, int nviews, const mc_scene *scene,
-			   float *rgb, colour_samples *per_gauss, colour_samples *background, mc_vec3 *centroid_dir)
-{
-	double vis[MC_MAX_GAUSSIANS], B;
-	for (int c = 0; c < t->rig.ncams && c < nviews; c++) {
-		if (!t->present[c])
-			continue;
-		resample_rgb(&views[c], t->s.width, t->s.height, rgb);
-		const mc_raytable *rt = &t->rays[c];
-		for (int i = 0; i < t->ncandidates[c]; i++) {
-			int p = t->candidates[c][i];
-			mc_ray_visibility(scene, rt->origin, rt->dir[p], vis, &B);
-			for (int q = 0; q < scene->n; q++)
-				if (vis[q] > 0.05 && push_sample(&per_gauss[q], &rgb[3 * p], vis[q]) < 0)
-					return -1;
-			if (B > BACKGROUND_MIN_B && push_sample(background, &rgb[3 * p], 1.0) < 0)
-				return -1;
-			if (B < BODY_MAX_B)
-				*centroid_dir = mc_v3_add(*centroid_dir, rt->dir[p]);
-		}
-	}
-	return 0;
-}
-
-
-/* The backdrop: a grid of wide Gaussians far behind the body, in the
- * robust mean colour of the calibration pixels that no body Gaussian
- * explains.  Their visibility on a ray is about the body's background
- * visibility B, so the energy gains the term B d(I, background): covering a
- * pixel that looks like the background costs, and explaining one that does
- * not pays, which the overlap energy alone lacks (docs/TRACKER.md).  They
- * are fixed in the rig frame, centred on the direction of the body seen
- * from the cameras at calibration, and receive no gradient. */
-static void place_backdrop(mc_tracker *t, colour_samples *background, mc_vec3 dir)
-{
-	double rgb[3];
-	if (!robust_colour(background, rgb) || !(mc_v3_norm(dir) > 0))
-		return;
-	mc_rgb_to_hsv(rgb, t->back_hsv);
-	t->back_sigma = BACKDROP_SIGMA_M;
-	t->back_c = BACKDROP_DEPTH / (BACKDROP_SIGMA_M * sqrt(2 * M_PI));
-	mc_vec3 origin = mc_v3(0, 0, 0);
-	for (int c = 0; c < t->rig.ncams; c++)
-		origin = mc_v3_add(origin, mc_v3_scale(t->rays[c].origin, 1.0 / t->rig.ncams));
-	mc_vec3 d = mc_v3_normalize(dir);
-	mc_vec3 any = fabs(d.x) < 0.9 ? mc_v3(1, 0, 0) : mc_v3(0, 1, 0);
-	mc_vec3 e1 = mc_v3_normalize(mc_v3_cross(d, any)), e2 = mc_v3_cross(d, e1);
-	double h = 0.5 * (BACKDROP_GRID - 1);
-	for (int a = 0; a < BACKDROP_GRID; a++)
-		for (int b = 0; b < BACKDROP_GRID; b++) {
-			mc_vec3 off = mc_v3_add(mc_v3_scale(e1, tan((a - h) * BACKDROP_SPACING_RAD)),
-						mc_v3_scale(e2, tan((b - h) * BACKDROP_SPACING_RAD)));
-			mc_vec3 r = mc_v3_normalize(mc_v3_add(d, off));
-			t->back_mu[t->nback++] = mc_v3_add(origin, mc_v3_scale(r, BACKDROP_DISTANCE_M));
-		}
-}
-
-/* The mean data energy per candidate pixel at the calibration pose, every
- * candidate, no dropout: the reference for the tracking quality. */
-static int measure_baseline(mc_tracker *t, mc_err *err)
-{
-	mc_fk fk;
-	mc_scene scene;
-	mc_vec3 dmu[MC_MAX_GAUSSIANS];
-	double E;
-	mc_model_fk(&t->model, t->pose, &fk);
-	make_scene(t, &fk, &scene);
-	int ns = sample_pixels(t, 1.0);
-	if (data_term(t, &scene, ns, 0.0, &E, dmu, err) < 0)
-		return -1;
-	t->baseline = E < -1e-3 ? E : -1e-3;
-	return 0;
-}
-
-int mc_tracker_calibrate_colors(mc_tracker *t, const mc_frame_view *views, int nviews, mc_err *err)
-{
-	size_t npix = (size_t)t->s.width * t->s.height;
-	float *rgb = malloc(sizeof(float) * 3 * npix);
-	colour_samples *per_gauss = calloc(MC_MAX_GAUSSIANS, sizeof(colour_samples));
-	colour_samples background = {0};
-	mc_vec3 centroid_dir = mc_v3(0, 0, 0);
-	int rc = -1;
-	t->nback = 0;
-	if (!rgb || !per_gauss) {
-		mc_err_set(err, "tracker: out of memory");
-		goto out;
-	}
-	if (load_views(t, views, nviews, rgb) == 0) {
-		mc_err_set(err, "tracker: colour calibration needs at least one usable, non-blank view");
-		goto out;
-	}
-	mc_fk fk;
-	mc_scene scene;
-	mc_model_fk(&t->model, t->pose, &fk);
-	make_scene(t, &fk, &scene);
-	choose_candidates(t, &fk);
-	if (collect_colours(t, views, nviews, &scene, rgb, per_gauss, &background, &centroid_dir) < 0) {
-		mc_err_set(err, "tracker: out of memory");
-		goto out;
-	}
-	double evidence[MC_MAX_GAUSSIANS];
-	for (int q = 0; q < t->model.ngauss; q++) {
-		evidence[q] = total_weight(&per_gauss[q]);
-		if (evidence[q] >= MIN_COLOUR_EVIDENCE)
-			robust_colour(&per_gauss[q], t->model.gauss[q].rgb);
-	}
-	borrow_colours(&t->model, evidence);
-	place_backdrop(t, &background, centroid_dir);
-	rc = measure_baseline(t, err);
-out:
-	for (int q = 0; per_gauss && q < MC_MAX_GAUSSIANS; q++)
-		free(per_gauss[q].s);
-	free(per_gauss);
-	free(background.s);
-	free(rgb);
-	return rc;
 }
 
 /* ---- tracking ------------------------------------------------------------ */
@@ -969,7 +695,7 @@ int mc_tracker_track(mc_tracker *t, const mc_frame_view *views, int nviews, cons
 	float *rgb = malloc(sizeof(float) * 3 * (size_t)t->s.width * t->s.height);
 	if (!rgb)
 		return mc_err_set(err, "tracker: out of memory");
-	int present = load_views(t, views, nviews, rgb);
+	int present = mc_trk_load_views(t, views, nviews, rgb);
 	free(rgb);
 
 	double pred[MC_MAX_DOF], pose[MC_MAX_DOF], E = 0, quality = 0;
@@ -978,7 +704,7 @@ int mc_tracker_track(mc_tracker *t, const mc_frame_view *views, int nviews, cons
 	if (present > 0) {
 		mc_fk fk;
 		mc_model_fk(&t->model, pred, &fk);
-		choose_candidates(t, &fk);
+		mc_trk_choose_candidates(t, &fk);
 		if (optimise(t, pose, pred, kp, nkp, &E, err) < 0)
 			return -1;
 		quality = E / t->baseline;

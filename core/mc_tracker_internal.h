@@ -1,0 +1,67 @@
+/* mc_tracker_internal: the tracker's state and the helpers that the
+ * tracking loop (mc_tracker.c) and the actor calibration (mc_calibrate.c)
+ * share.  Not part of the public API. */
+#ifndef MC_TRACKER_INTERNAL_H
+#define MC_TRACKER_INTERNAL_H
+
+#include "mc_cl.h"
+#include "mc_energy.h"
+#include "mc_tracker.h"
+
+/* Backdrop (see place_backdrop): a GRID x GRID fan of Gaussians spaced by
+ * SPACING radians, DISTANCE metres from the cameras, each with standard
+ * deviation SIGMA and optical depth DEPTH through its centre.  Far and wide
+ * enough to cover the rays around the body evenly and to hide less than
+ * about 6% of a body 2 m away. */
+#define BACKDROP_GRID 3
+#define BACKDROP_SPACING_RAD 0.6
+#define BACKDROP_DISTANCE_M 20.0
+#define BACKDROP_SIGMA_M 7.0
+#define BACKDROP_DEPTH 8.0
+
+struct mc_tracker {
+	mc_rig rig;
+	mc_model model;
+	mc_tracker_settings s;
+	mc_raytable rays[MC_MAX_CAMERAS];
+	float *hsv[MC_MAX_CAMERAS];
+	bool present[MC_MAX_CAMERAS];
+	int *candidates[MC_MAX_CAMERAS];
+	int ncandidates[MC_MAX_CAMERAS];
+	int *samples[MC_MAX_CAMERAS];
+	int nsamples[MC_MAX_CAMERAS];
+	unsigned char *mask;
+	bool hidden[MC_MAX_GAUSSIANS]; /* left out of the image energy */
+	mc_cl_energy *cl;
+	char device[160];
+
+	double pose[MC_MAX_DOF];
+	double prev[MC_MAX_DOF], prev2[MC_MAX_DOF];
+	double anchor[MC_MAX_DOF]; /* calibration pose, for lambda_anchor */
+	/* backdrop: Gaussians far behind the body in the background colour */
+	int nback;
+	mc_vec3 back_mu[BACKDROP_GRID * BACKDROP_GRID];
+	double back_sigma, back_c, back_hsv[3];
+	int history; /* frames of history in prev/prev2 (0..2) */
+	double baseline; /* mean data energy per pixel after calibration (< 0) */
+	uint64_t rng;
+};
+
+/* Converts the views to working-resolution HSV (t->hsv); returns how many
+ * cameras carry a usable, non-blank image (t->present). */
+int mc_trk_load_views(mc_tracker *t, const mc_frame_view *views, int nviews, float *rgb_scratch);
+/* Box-filters a packed RGB24 view to W x H floats in [0, 1]. */
+void mc_trk_resample_rgb(const mc_frame_view *v, int W, int H, float *out);
+/* The Gaussians at a pose, as the image energy sees them. */
+void mc_trk_make_scene(const mc_tracker *t, const mc_fk *fk, mc_scene *scene);
+/* Candidate pixels (t->candidates) near the body at fk. */
+void mc_trk_choose_candidates(mc_tracker *t, const mc_fk *fk);
+/* Draws a share of each present camera's candidates into t->samples;
+ * returns how many in all. */
+int mc_trk_sample_pixels(mc_tracker *t, double fraction);
+/* E_color over t->samples as a mean per sampled pixel, and its gradient
+ * with respect to the Gaussian centres. */
+int mc_trk_data_term(mc_tracker *t, const mc_scene *scene, int nsampled, double dropout, double *E, mc_vec3 *dmu,
+		     mc_err *err);
+
+#endif
