@@ -126,14 +126,14 @@ static void borrow_colours(mc_model *m, const double *evidence)
  * Gaussian explains (the background around the body, for the backdrop
  * colour); and the sum of the ray directions of the pixels the body covers
  * (the body's direction from the cameras). */
-static int collect_colours(mc_tracker *t, const mc_frame_view *views, int nviews, const mc_scene *scene,
-			   float *rgb, colour_samples *per_gauss, colour_samples *background, mc_vec3 *centroid_dir)
+static int collect_colours(mc_tracker *t, int nviews, const mc_scene *scene,
+			   colour_samples *per_gauss, colour_samples *background, mc_vec3 *centroid_dir)
 {
 	double vis[MC_MAX_GAUSSIANS], B;
 	for (int c = 0; c < t->rig.ncams && c < nviews; c++) {
 		if (!t->present[c])
 			continue;
-		mc_trk_resample_rgb(&views[c], t->s.width, t->s.height, rgb);
+		const float *rgb = t->rgb[c]; /* resampled by mc_trk_load_views */
 		const mc_raytable *rt = &t->rays[c];
 		for (int i = 0; i < t->ncandidates[c]; i++) {
 			int p = t->candidates[c][i];
@@ -202,18 +202,16 @@ static int measure_baseline(mc_tracker *t, mc_err *err)
 
 int mc_tracker_calibrate_colors(mc_tracker *t, const mc_frame_view *views, int nviews, mc_err *err)
 {
-	size_t npix = (size_t)t->s.width * t->s.height;
-	float *rgb = malloc(sizeof(float) * 3 * npix);
 	colour_samples *per_gauss = calloc(MC_MAX_GAUSSIANS, sizeof(colour_samples));
 	colour_samples background = {0};
 	mc_vec3 centroid_dir = mc_v3(0, 0, 0);
 	int rc = -1;
 	t->nback = 0;
-	if (!rgb || !per_gauss) {
+	if (!per_gauss) {
 		mc_err_set(err, "tracker: out of memory");
 		goto out;
 	}
-	if (mc_trk_load_views(t, views, nviews, rgb) == 0) {
+	if (mc_trk_load_views(t, views, nviews) == 0) {
 		mc_err_set(err, "tracker: colour calibration needs at least one usable, non-blank view");
 		goto out;
 	}
@@ -222,7 +220,7 @@ int mc_tracker_calibrate_colors(mc_tracker *t, const mc_frame_view *views, int n
 	mc_model_fk(&t->model, t->pose, &fk);
 	mc_trk_make_scene(t, &fk, &scene);
 	mc_trk_choose_candidates(t, &fk);
-	if (collect_colours(t, views, nviews, &scene, rgb, per_gauss, &background, &centroid_dir) < 0) {
+	if (collect_colours(t, nviews, &scene, per_gauss, &background, &centroid_dir) < 0) {
 		mc_err_set(err, "tracker: out of memory");
 		goto out;
 	}
@@ -240,7 +238,6 @@ out:
 		free(per_gauss[q].s);
 	free(per_gauss);
 	free(background.s);
-	free(rgb);
 	return rc;
 }
 

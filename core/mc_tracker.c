@@ -143,10 +143,11 @@ static int alloc_buffers(mc_tracker *t, mc_err *err)
 		if (mc_raytable_build(&t->rig.cams[c], t->s.width, t->s.height, &t->rays[c], err) < 0)
 			return mc_err_prefix(err, "camera '%s'", t->rig.cams[c].name);
 		int n = t->s.width * t->s.height;
+		t->rgb[c] = calloc((size_t)n * 3, sizeof(float));
 		t->hsv[c] = calloc((size_t)n * 3, sizeof(float));
 		t->candidates[c] = malloc(sizeof(int) * n);
 		t->samples[c] = malloc(sizeof(int) * n);
-		if (!t->hsv[c] || !t->candidates[c] || !t->samples[c])
+		if (!t->rgb[c] || !t->hsv[c] || !t->candidates[c] || !t->samples[c])
 			return mc_err_set(err, "tracker: out of memory");
 		max_pixels = n > max_pixels ? n : max_pixels;
 	}
@@ -212,6 +213,7 @@ void mc_tracker_destroy(mc_tracker *t)
 	for (int c = 0; c < MC_MAX_CAMERAS; c++) {
 		if (c < t->rig.ncams)
 			mc_raytable_free(&t->rays[c]);
+		free(t->rgb[c]);
 		free(t->hsv[c]);
 		free(t->candidates[c]);
 		free(t->samples[c]);
@@ -274,7 +276,7 @@ int mc_tracker_init_from_joints(mc_tracker *t, const char *const *names, const m
 
 /* Box-filters a packed RGB24 view down (or nearest-samples up) to the
  * working resolution, as floats in [0, 1]. */
-void mc_trk_resample_rgb(const mc_frame_view *v, int W, int H, float *out)
+static void resample_rgb(const mc_frame_view *v, int W, int H, float *out)
 {
 	double sx = (double)v->width / W, sy = (double)v->height / H;
 	for (int j = 0; j < H; j++) {
@@ -310,18 +312,19 @@ static bool view_usable(const mc_frame_view *v)
 }
 
 /* Converts the views; returns how many cameras carry a usable, non-blank image. */
-int mc_trk_load_views(mc_tracker *t, const mc_frame_view *views, int nviews, float *rgb_scratch)
+int mc_trk_load_views(mc_tracker *t, const mc_frame_view *views, int nviews)
 {
 	int W = t->s.width, H = t->s.height, present = 0;
 	for (int c = 0; c < t->rig.ncams; c++) {
 		t->present[c] = false;
 		if (c >= nviews || !view_usable(&views[c]))
 			continue;
-		mc_trk_resample_rgb(&views[c], W, H, rgb_scratch);
+		const float *rgb_c = t->rgb[c];
+		resample_rgb(&views[c], W, H, t->rgb[c]);
 		double sum = 0, sum2 = 0;
 		int n = 0;
 		for (int p = 0; p < W * H; p++) {
-			double rgb[3] = {rgb_scratch[3 * p], rgb_scratch[3 * p + 1], rgb_scratch[3 * p + 2]}, hsv[3];
+			double rgb[3] = {rgb_c[3 * p], rgb_c[3 * p + 1], rgb_c[3 * p + 2]}, hsv[3];
 			mc_rgb_to_hsv(rgb, hsv);
 			for (int k = 0; k < 3; k++)
 				t->hsv[c][3 * p + k] = (float)hsv[k];
@@ -692,11 +695,7 @@ int mc_tracker_track(mc_tracker *t, const mc_frame_view *views, int nviews, cons
 	for (int c = 0; c < nviews && c < t->rig.ncams; c++)
 		if (view_usable(&views[c]) && views[c].timestamp_ns > out->timestamp_ns)
 			out->timestamp_ns = views[c].timestamp_ns;
-	float *rgb = malloc(sizeof(float) * 3 * (size_t)t->s.width * t->s.height);
-	if (!rgb)
-		return mc_err_set(err, "tracker: out of memory");
-	int present = mc_trk_load_views(t, views, nviews, rgb);
-	free(rgb);
+	int present = mc_trk_load_views(t, views, nviews);
 
 	double pred[MC_MAX_DOF], pose[MC_MAX_DOF], E = 0, quality = 0;
 	predict(t, pred);

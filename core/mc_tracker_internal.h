@@ -24,6 +24,7 @@ struct mc_tracker {
 	mc_model model;
 	mc_tracker_settings s;
 	mc_raytable rays[MC_MAX_CAMERAS];
+	float *rgb[MC_MAX_CAMERAS]; /* working-resolution RGB of the current views */
 	float *hsv[MC_MAX_CAMERAS];
 	bool present[MC_MAX_CAMERAS];
 	int *candidates[MC_MAX_CAMERAS];
@@ -47,11 +48,9 @@ struct mc_tracker {
 	uint64_t rng;
 };
 
-/* Converts the views to working-resolution HSV (t->hsv); returns how many
- * cameras carry a usable, non-blank image (t->present). */
-int mc_trk_load_views(mc_tracker *t, const mc_frame_view *views, int nviews, float *rgb_scratch);
-/* Box-filters a packed RGB24 view to W x H floats in [0, 1]. */
-void mc_trk_resample_rgb(const mc_frame_view *v, int W, int H, float *out);
+/* Converts the views to working-resolution RGB (t->rgb) and HSV (t->hsv);
+ * returns how many cameras carry a usable, non-blank image (t->present). */
+int mc_trk_load_views(mc_tracker *t, const mc_frame_view *views, int nviews);
 /* The Gaussians at a pose, as the image energy sees them. */
 void mc_trk_make_scene(const mc_tracker *t, const mc_fk *fk, mc_scene *scene);
 /* Candidate pixels (t->candidates) near the body at fk. */
