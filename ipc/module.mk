@@ -15,7 +15,10 @@ IPC_PC := $(BUILD)/lib/pkgconfig/mocap.pc
 IPC_TESTPUB := $(BUILD)/ipc/mocap-testpub
 IPC_EXAMPLES := $(patsubst examples/%.c,$(BUILD)/examples/%,$(wildcard examples/*.c))
 IPC_TESTS := $(patsubst tests/%.c,$(BUILD)/tests/%,$(wildcard tests/test_ipc*.c))
-IPC_LINK := $(IPC_SERVER_LIB) $(IPC_CLIENT_LIB) $(CORE_LIB) $(CORE_LIBS)
+# What every program linked with $(IPC_LINK) must depend on: serial make
+# builds prerequisites in order, so a library missing here is not built yet.
+IPC_LINK_DEPS := $(IPC_SERVER_LIB) $(IPC_CLIENT_LIB) $(CORE_LIB)
+IPC_LINK := $(IPC_LINK_DEPS) $(CORE_LIBS)
 
 LIBS += $(IPC_SERVER_LIB) $(IPC_CLIENT_LIB) $(IPC_SO) $(IPC_PC)
 BINS += $(BUILD)/bin/mocapctl
@@ -51,7 +54,7 @@ $(BUILD)/bin/mocapctl: ipc/mocapctl.c $(IPC_CLIENT_LIB)
 	@mkdir -p $(@D)
 	$(CC) $(CPPFLAGS) $(CFLAGS) -MMD -MP $< -o $@ $(LDFLAGS) $(IPC_CLIENT_LIB) -lm
 
-$(IPC_TESTPUB): ipc/mocap-testpub.c $(IPC_SERVER_LIB) $(CORE_LIB)
+$(IPC_TESTPUB): ipc/mocap-testpub.c $(IPC_LINK_DEPS)
 	@mkdir -p $(@D)
 	$(CC) $(CPPFLAGS) $(CFLAGS) -MMD -MP $< -o $@ $(LDFLAGS) $(IPC_LINK)
 
@@ -63,7 +66,7 @@ $(IPC_EXAMPLES): $(BUILD)/examples/%: examples/%.c $(IPC_SO)
 all: $(IPC_TESTPUB) $(IPC_EXAMPLES)
 
 # The IPC tests link the server and client libraries as well as the core.
-$(IPC_TESTS): $(BUILD)/tests/%: tests/%.c $(IPC_SERVER_LIB) $(IPC_CLIENT_LIB) $(CORE_LIB)
+$(IPC_TESTS): $(BUILD)/tests/%: tests/%.c $(IPC_LINK_DEPS)
 	@mkdir -p $(@D)
 	$(CC) $(CPPFLAGS) $(CFLAGS) -MMD -MP $< -o $@ $(LDFLAGS) $(IPC_LINK)
 
@@ -97,7 +100,7 @@ fuzz-ipc: $(IPC_FUZZ) $(BUILD)/fuzz/fuzz_ipc_seeds
 		|| { tail -n 60 $(BUILD)/fuzz/fuzz_ipc.log; exit 1; }
 	@grep -E '^(Done|stat::number_of_executed_units)' $(BUILD)/fuzz/fuzz_ipc.log || true
 
-$(BUILD)/tests/bench_ipc: tests/bench_ipc.c $(IPC_SERVER_LIB) $(IPC_CLIENT_LIB) $(CORE_LIB)
+$(BUILD)/tests/bench_ipc: tests/bench_ipc.c $(IPC_LINK_DEPS)
 	@mkdir -p $(@D)
 	$(CC) $(CPPFLAGS) $(CFLAGS) -MMD -MP $< -o $@ $(LDFLAGS) $(IPC_LINK)
 
