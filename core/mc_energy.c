@@ -191,6 +191,16 @@ void mc_ray_visibility(const mc_scene *scene, mc_vec3 o, mc_vec3 n, double *vis,
 		*background = ray_set_background(&rs);
 }
 
+double mc_ray_visibility_of(const mc_scene *scene, mc_vec3 o, mc_vec3 n, int q)
+{
+	ray_set rs;
+	ray_project(scene, o, n, NULL, &rs);
+	for (int i = 0; i < rs.n; i++)
+		if (rs.g[i].q == q)
+			return ray_set_visibility(&rs, i);
+	return 0; /* culled on this ray */
+}
+
 double mc_ray_transmittance(const mc_scene *scene, mc_vec3 o, mc_vec3 n, double s)
 {
 	if (s <= 0)

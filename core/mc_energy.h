@@ -46,6 +46,8 @@ double mc_hsv_dissimilarity(const double m_hsv[3], const double i_hsv[3]);
  * this ray), *background = B (eq. 5.5, may be NULL).  vis must hold
  * scene->n doubles. */
 void mc_ray_visibility(const mc_scene *scene, mc_vec3 o, mc_vec3 n, double *vis, double *background);
+/* V_q of one Gaussian q only (cheaper than mc_ray_visibility). */
+double mc_ray_visibility_of(const mc_scene *scene, mc_vec3 o, mc_vec3 n, int q);
 /* Transmittance T(s) along the ray (eq. 4.6); 1 for s <= 0. */
 double mc_ray_transmittance(const mc_scene *scene, mc_vec3 o, mc_vec3 n, double s);
 /* Rendered colour: sum_q V_q albedo_q + B * bg_rgb. */

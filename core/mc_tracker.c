@@ -105,15 +105,12 @@ static int validate_settings(const mc_tracker_settings *s, mc_err *err)
  * therefore left out of the image energy. */
 static void hide_head_gaussians(mc_tracker *t)
 {
-	if (t->model.root_free)
-		return;
-	bool rigid[MC_MAX_JOINTS];
 	for (int j = 0; j < t->model.njoints; j++) {
 		int p = t->model.joints[j].parent;
-		rigid[j] = p < 0 || (rigid[p] && t->model.joints[j].ndof == 0);
+		t->fixed_joint[j] = !t->model.root_free && (p < 0 || (t->fixed_joint[p] && t->model.joints[j].ndof == 0));
 	}
 	for (int q = 0; q < t->model.ngauss; q++)
-		t->hidden[q] = rigid[t->model.gauss[q].joint];
+		t->hidden[q] = t->fixed_joint[t->model.gauss[q].joint];
 }
 
 /* The Gaussians at a pose; hidden ones get zero magnitude, which the energy
@@ -371,6 +368,20 @@ static void to_working(const mc_raytable *rt, double u, double v, double *wu, do
 {
 	*wu = (u + 0.5) / rt->scale_x - 0.5;
 	*wv = (v + 0.5) / rt->scale_y - 0.5;
+}
+
+int mc_trk_working_pixel(const mc_tracker *t, int c, mc_vec3 p_rig)
+{
+	const mc_camera *cam = &t->rig.cams[c];
+	const mc_raytable *rt = &t->rays[c];
+	double u, v, wu, wv;
+	if (!mc_camera_project(cam, mc_xform_apply(mc_xform_inverse(cam->rig_from_cam), p_rig), &u, &v))
+		return -1;
+	to_working(rt, u, v, &wu, &wv);
+	int x = (int)lround(wu), y = (int)lround(wv);
+	if (x < 0 || y < 0 || x >= rt->width || y >= rt->height || !rt->valid[y * rt->width + x])
+		return -1;
+	return y * rt->width + x;
 }
 
 /* Marks the working pixels whose rays pass within 3 sigma + margin of a
@@ -654,22 +665,19 @@ static int optimise(mc_tracker *t, double *pose, const double *pred, const mc_ke
 
 /* ---- tracking ------------------------------------------------------------ */
 
-static void fill_skeleton(const mc_tracker *t, const double *pose, double quality, mc_skeleton *out)
+static void fill_skeleton(const mc_tracker *t, const double *pose, mc_skeleton *out)
 {
 	mc_fk fk;
 	mc_model_fk(&t->model, pose, &fk);
 	out->njoints = t->model.njoints;
-	float conf = (float)fmin(fmax(quality, 0.0), 1.0);
-	if (out->state == MC_TRACK_LOST)
-		conf = 0;
 	for (int j = 0; j < t->model.njoints; j++) {
 		mc_skeleton_joint *sj = &out->joints[j];
 		snprintf(sj->name, sizeof(sj->name), "%s", t->model.joints[j].name);
 		sj->parent = t->model.joints[j].parent;
 		sj->position = fk.rig_from_joint[j].t;
 		sj->orientation = mc_quat_from_m3(fk.rig_from_joint[j].R);
-		sj->confidence = conf;
 	}
+	mc_trk_joint_confidence(t, pose, out);
 }
 
 static mc_track_state state_from_quality(double quality)
@@ -724,7 +732,7 @@ int mc_tracker_track(mc_tracker *t, const mc_frame_view *views, int nviews, cons
 		t->history = 0;
 	}
 	out->energy = E;
-	fill_skeleton(t, t->pose, quality, out);
+	fill_skeleton(t, t->pose, out);
 	out->track_ms = now_ms() - start;
 	return 0;
 }

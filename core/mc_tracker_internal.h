@@ -33,6 +33,9 @@ struct mc_tracker {
 	int nsamples[MC_MAX_CAMERAS];
 	unsigned char *mask;
 	bool hidden[MC_MAX_GAUSSIANS]; /* left out of the image energy */
+	/* joints rigidly attached to a root fixed to the rig (the head on an
+	 * egocentric rig): their position is known without any image */
+	bool fixed_joint[MC_MAX_JOINTS];
 	mc_cl_energy *cl;
 	char device[160];
 
@@ -43,6 +46,9 @@ struct mc_tracker {
 	int nback;
 	mc_vec3 back_mu[BACKDROP_GRID * BACKDROP_GRID];
 	double back_sigma, back_c, back_hsv[3];
+	/* per joint: matched image evidence of its bones at calibration, in
+	 * pixels (mc_trk_joint_evidence); the reference for its confidence */
+	double evidence0[MC_MAX_JOINTS];
 	int history; /* frames of history in prev/prev2 (0..2) */
 	double baseline; /* mean data energy per pixel after calibration (< 0) */
 	uint64_t rng;
@@ -62,5 +68,16 @@ int mc_trk_sample_pixels(mc_tracker *t, double fraction);
  * with respect to the Gaussian centres. */
 int mc_trk_data_term(mc_tracker *t, const mc_scene *scene, int nsampled, double dropout, double *E, mc_vec3 *dmu,
 		     mc_err *err);
+
+/* The valid working pixel of camera c that a rig-frame point projects to,
+ * or -1. */
+int mc_trk_working_pixel(const mc_tracker *t, int c, mc_vec3 p_rig);
+/* Per joint j: the image evidence for the bones that place it (the
+ * Gaussians attached to j and to its parent): sum over those Gaussians and
+ * the cameras of V_q (-d(I, a_q)) at the pixel of the Gaussian's centre. */
+void mc_trk_joint_evidence(const mc_tracker *t, const double *pose, double *evidence);
+/* Fills out->joints[j].confidence for a tracked pose (see docs/TRACKER.md,
+ * "Per-joint confidence"); 0 for every joint when out->state is lost. */
+void mc_trk_joint_confidence(const mc_tracker *t, const double *pose, mc_skeleton *out);
 
 #endif

@@ -22,16 +22,22 @@ typedef struct {
 } synth;
 
 /* Renders the model at `pose` through the working-resolution rays, over a
- * checkerboard floor-like background, into 8-bit RGB images. */
-static void render(synth *s, const double *pose)
+ * checkerboard floor-like background, into 8-bit RGB images.  The Gaussians
+ * of joint `missing` and of everything below it (-1: none) are left out, as
+ * if that limb were hidden. */
+static void render_without(synth *s, const double *pose, int missing)
 {
 	mc_fk fk;
 	mc_scene sc;
 	double albedo[MC_MAX_GAUSSIANS][3];
 	mc_model_fk(&s->model, pose, &fk);
 	mc_scene_from_model(&s->model, &fk, &sc);
-	for (int q = 0; q < s->model.ngauss; q++)
+	for (int q = 0; q < s->model.ngauss; q++) {
 		memcpy(albedo[q], s->model.gauss[q].rgb, sizeof(albedo[q]));
+		for (int j = s->model.gauss[q].joint; missing >= 0 && j >= 0; j = s->model.joints[j].parent)
+			if (j == missing)
+				sc.c[q] = 0;
+	}
 	for (int c = 0; c < 2; c++)
 		for (int p = 0; p < W * H; p++) {
 			double bg[3], rgb[3] = {0, 0, 0};
@@ -44,6 +50,11 @@ static void render(synth *s, const double *pose)
 			for (int k = 0; k < 3; k++)
 				s->img[c][3 * p + k] = (uint8_t)fmin(255, fmax(0, 255 * rgb[k] + 0.5));
 		}
+}
+
+static void render(synth *s, const double *pose)
+{
+	render_without(s, pose, -1);
 }
 
 static void views_of(synth *s, mc_frame_view v[2], int k)
@@ -64,6 +75,37 @@ static double joint_error(const mc_model *truth_model, const double *truth, cons
 		*worst = fmax(*worst, e);
 	}
 	return sum / sk->njoints;
+}
+
+static const char *const upper_body[] = {"neck",	   "spine",	     "left_shoulder", "left_elbow",
+					  "left_wrist", "right_shoulder", "right_elbow",	  "right_wrist"};
+
+static double confidence_of(const mc_skeleton *sk, const char *name)
+{
+	for (int j = 0; j < sk->njoints; j++)
+		if (!strcmp(sk->joints[j].name, name))
+			return sk->joints[j].confidence;
+	return -1;
+}
+
+/* Per-joint confidence on a frame where the right arm is missing from the
+ * images: low for the right arm's joints, high for the left arm's. */
+static void check_hidden_arm(synth *s, mc_tracker *t, const double *truth, int k)
+{
+	mc_frame_view v[2];
+	mc_skeleton sk;
+	mc_err err = {{0}};
+	render_without(s, truth, mc_model_find_joint(&s->model, "right_shoulder"));
+	views_of(s, v, k);
+	CHECK_MSG(mc_tracker_track(t, v, 2, NULL, 0, &sk, &err) == 0, "%s", err.msg);
+	const char *seen[] = {"left_elbow", "left_wrist"}, *hidden[] = {"right_elbow", "right_wrist"};
+	for (int i = 0; i < 2; i++) {
+		double cs = confidence_of(&sk, seen[i]), ch = confidence_of(&sk, hidden[i]);
+		printf("right arm missing: confidence %s %.2f, %s %.2f\n", seen[i], cs, hidden[i], ch);
+		CHECK_MSG(cs > 0.6, "%s confidence %.2f with the arm in view", seen[i], cs);
+		CHECK_MSG(ch < 0.3, "%s confidence %.2f with the arm missing", hidden[i], ch);
+	}
+	CHECK(confidence_of(&sk, "head") == 1); /* fixed to the rig */
 }
 
 static bool skeleton_finite(const mc_skeleton *sk)
@@ -187,6 +229,11 @@ static void test_synthetic(mc_backend backend)
 		       mc_track_state_name(sk.state), 100 * mean, 100 * worst, sk.track_ms);
 		CHECK_MSG(mean < (k <= 4 ? 0.01 : 0.03), "frame %d: mean joint error %.2f cm", k, 100 * mean);
 		CHECK(sk.state == MC_TRACK_OK);
+		/* the upper body is in full view: high confidence (the legs are
+		 * mostly hidden behind it in this egocentric view) */
+		for (size_t i = 0; i < sizeof(upper_body) / sizeof(upper_body[0]); i++)
+			CHECK_MSG(confidence_of(&sk, upper_body[i]) > 0.6, "frame %d: %s confidence %.2f", k,
+				  upper_body[i], confidence_of(&sk, upper_body[i]));
 	}
 	/* Blank, then noise frames: lost, finite, pose kept. */
 	for (int b = 0; b < 4; b++, k++) {
@@ -200,6 +247,7 @@ static void test_synthetic(mc_backend backend)
 		CHECK_MSG(mc_tracker_track(t, v, 2, NULL, 0, &sk, &err) == 0, "%s", err.msg);
 		printf("%s frame: %s\n", b < 2 ? "blank" : "noise", mc_track_state_name(sk.state));
 		CHECK(sk.state == MC_TRACK_LOST);
+		CHECK(confidence_of(&sk, "left_wrist") == 0 && confidence_of(&sk, "head") == 0);
 		CHECK(skeleton_finite(&sk));
 	}
 	/* Real frames return (the actor held still): tracking recovers. The
@@ -224,6 +272,7 @@ static void test_synthetic(mc_backend backend)
 	CHECK(mc_tracker_track(t, v, 2, NULL, 0, &sk, &err) == 0 && sk.iterations == 20 &&
 	      sk.state != MC_TRACK_LOST);
 	CHECK(mc_tracker_set_budget(t, 20, 1.5, 0.1, 0.004, 0.5, &err) < 0 && strstr(err.msg, "pixel_fraction"));
+	check_hidden_arm(&s, t, truth, k + 1);
 	mc_tracker_destroy(t);
 	synth_close(&s);
 }

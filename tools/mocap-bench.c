@@ -78,6 +78,11 @@ typedef struct {
 	int err_n;
 	double still_sum[NEVAL]; /* holding the initial pose for every frame */
 	int states[3];
+	double conf_sum[NEVAL];
+	/* joint estimates binned by their reported confidence (quarters of
+	 * [0, 1]): how many, and their summed error */
+	int conf_n[4];
+	double conf_err[4];
 } run_stats;
 
 static void write_estimate(FILE *out, int k, const mc_skeleton *sk)
@@ -86,6 +91,9 @@ static void write_estimate(FILE *out, int k, const mc_skeleton *sk)
 	for (int j = 0; j < sk->njoints; j++)
 		fprintf(out, "%s\"%s\": [%.5f, %.5f, %.5f]", j ? ", " : "", sk->joints[j].name, sk->joints[j].position.x,
 			sk->joints[j].position.y, sk->joints[j].position.z);
+	fprintf(out, "}, \"confidence\": {");
+	for (int j = 0; j < sk->njoints; j++)
+		fprintf(out, "%s\"%s\": %.3f", j ? ", " : "", sk->joints[j].name, sk->joints[j].confidence);
 	fprintf(out, "}}\n");
 }
 
@@ -142,6 +150,24 @@ static void score(const mc_clip *clip, int k, const mc_skeleton *sk, double err_
 	}
 }
 
+/* Whether the reported per-joint confidence says something: the error of
+ * the joint estimates per confidence quarter. */
+static void score_confidence(const mc_clip *clip, int k, const mc_skeleton *sk, run_stats *st)
+{
+	for (int e = 0; e < NEVAL; e++) {
+		int g = mc_clip_joint(clip, eval_joints[e]);
+		for (int j = 0; j < sk->njoints; j++) {
+			if (g < 0 || strcmp(sk->joints[j].name, eval_joints[e]))
+				continue;
+			double c = sk->joints[j].confidence;
+			int bin = c >= 1 ? 3 : (c > 0 ? (int)(4 * c) : 0);
+			st->conf_sum[e] += c;
+			st->conf_n[bin]++;
+			st->conf_err[bin] += mc_v3_norm(mc_v3_sub(sk->joints[j].position, mc_clip_gt(clip, k, g)));
+		}
+	}
+}
+
 /* The skeleton of the tracker's current pose (before tracking: the
  * initial pose), for the "no tracking" reference figure. */
 static void current_skeleton(const mc_tracker *t, mc_skeleton *sk)
@@ -188,6 +214,7 @@ static int track_clip(const options *o, mc_tracker *t, const mc_clip *clip, int 
 			return -1;
 		st->states[sk.state]++;
 		score(clip, k, &sk, st->err_sum);
+		score_confidence(clip, k, &sk, st);
 		score(clip, k, &still, st->still_sum);
 		st->err_n++;
 		if (out)
@@ -231,7 +258,8 @@ static void print_accuracy(const run_stats *st)
 		printf("  %-6s %6.2f\n", groups[g].name, n ? 100.0 * sum / (n * st->err_n) : 0);
 	}
 	for (int e = 0; e < NEVAL; e++)
-		printf("  %-15s %6.2f\n", eval_joints[e], 100.0 * st->err_sum[e] / st->err_n);
+		printf("  %-15s %6.2f   (mean confidence %.2f)\n", eval_joints[e], 100.0 * st->err_sum[e] / st->err_n,
+		       st->conf_sum[e] / st->err_n);
 	double still = 0;
 	for (int e = 0; e < NEVAL; e++)
 		still += st->still_sum[e];
@@ -239,6 +267,11 @@ static void print_accuracy(const run_stats *st)
 	       st->err_n ? 100.0 * still / (st->err_n * NEVAL) : 0.0);
 	printf("  overall %6.2f over %d frames (states: %d ok, %d uncertain, %d lost)\n", 100.0 * mpjpe_of(st),
 	       st->err_n, st->states[0], st->states[1], st->states[2]);
+	printf("  error by reported joint confidence:");
+	for (int b = 0; b < 4; b++)
+		printf("  %.2f-%.2f: %.2f cm (%d)", b / 4.0, (b + 1) / 4.0,
+		       st->conf_n[b] ? 100.0 * st->conf_err[b] / st->conf_n[b] : 0.0, st->conf_n[b]);
+	printf("\n");
 }
 
 typedef struct {
