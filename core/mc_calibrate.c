@@ -232,7 +232,7 @@ int mc_tracker_calibrate_colors(mc_tracker *t, const mc_frame_view *views, int n
 	}
 	borrow_colours(&t->model, evidence);
 	place_backdrop(t, &background, centroid_dir);
-	mc_trk_joint_evidence(t, t->pose, t->evidence0);
+	mc_trk_gaussian_evidence(t, t->pose, t->evidence0);
 	rc = measure_baseline(t, err);
 out:
 	for (int q = 0; per_gauss && q < MC_MAX_GAUSSIANS; q++)

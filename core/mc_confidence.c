@@ -14,57 +14,67 @@
 
 #include <string.h>
 
-/* Evidence below which a joint counts as unseen at calibration; such a
- * joint is measured against this amount instead (about one probe of one of
+/* Evidence below which a joint counts as unseen at calibration; it
+ * is then measured against this amount instead (about one probe of one of
  * its Gaussians matched in full). */
 #define EVIDENCE_MIN 1.0
 
-static void gaussian_evidence(const mc_tracker *t, const mc_scene *scene, double *per_gauss)
+double mc_trk_probe_gaussian(const mc_tracker *t, const mc_scene *scene, int q)
 {
-	for (int q = 0; q < t->model.ngauss; q++) {
-		per_gauss[q] = 0;
-		if (t->hidden[q])
+	double e = 0;
+	for (int c = 0; c < t->rig.ncams; c++) {
+		int p = t->present[c] ? mc_trk_working_pixel(t, c, scene->mu[q]) : -1;
+		if (p < 0)
 			continue;
-		for (int c = 0; c < t->rig.ncams; c++) {
-			int p = t->present[c] ? mc_trk_working_pixel(t, c, scene->mu[q]) : -1;
-			if (p < 0)
-				continue;
-			const float *px = &t->hsv[c][3 * p];
-			double i_hsv[3] = {px[0], px[1], px[2]};
-			double v = mc_ray_visibility_of(scene, t->rays[c].origin, t->rays[c].dir[p], q);
-			per_gauss[q] -= v * mc_hsv_dissimilarity(scene->hsv[q], i_hsv);
-		}
+		const float *px = &t->hsv[c][3 * p];
+		double i_hsv[3] = {px[0], px[1], px[2]};
+		double v = mc_ray_visibility_of(scene, t->rays[c].origin, t->rays[c].dir[p], q);
+		e -= v * mc_hsv_dissimilarity(scene->hsv[q], i_hsv);
 	}
+	return e;
 }
 
-void mc_trk_joint_evidence(const mc_tracker *t, const double *pose, double *evidence)
+void mc_trk_evidence_scene(const mc_tracker *t, const double *pose, mc_scene *scene)
 {
 	mc_fk fk;
-	mc_scene scene;
-	double per_gauss[MC_MAX_GAUSSIANS];
 	mc_model_fk(&t->model, pose, &fk);
-	mc_trk_make_scene(t, &fk, &scene);
+	mc_trk_make_scene(t, &fk, scene);
 	/* The backdrop occludes nothing of the body and is on every ray: left
 	 * out, it would cost most of the time here. */
-	scene.n = t->model.ngauss;
-	gaussian_evidence(t, &scene, per_gauss);
-	memset(evidence, 0, sizeof(double) * t->model.njoints);
+	scene->n = t->model.ngauss;
+}
+
+void mc_trk_gaussian_evidence(const mc_tracker *t, const double *pose, double *per_gauss)
+{
+	mc_scene scene;
+	mc_trk_evidence_scene(t, pose, &scene);
+	for (int q = 0; q < t->model.ngauss; q++)
+		per_gauss[q] = t->hidden[q] ? 0 : mc_trk_probe_gaussian(t, &scene, q);
+}
+
+/* Per joint: the sum over the Gaussians attached to it and to its parent. */
+static void joint_sums(const mc_tracker *t, const double *per_gauss, double *per_joint)
+{
+	memset(per_joint, 0, sizeof(double) * t->model.njoints);
 	for (int q = 0; q < t->model.ngauss; q++) {
 		int j = t->model.gauss[q].joint;
-		evidence[j] += per_gauss[q];
+		per_joint[j] += per_gauss[q];
 		/* the joint's children are placed by this bone too */
 		for (int k = 0; k < t->model.njoints; k++)
 			if (t->model.joints[k].parent == j)
-				evidence[k] += per_gauss[q];
+				per_joint[k] += per_gauss[q];
 	}
 }
 
 void mc_trk_joint_confidence(const mc_tracker *t, const double *pose, mc_skeleton *out)
 {
-	double evidence[MC_MAX_JOINTS];
+	double per_gauss[MC_MAX_GAUSSIANS], evidence[MC_MAX_JOINTS], reference[MC_MAX_JOINTS];
 	bool lost = out->state == MC_TRACK_LOST;
-	if (!lost)
-		mc_trk_joint_evidence(t, pose, evidence);
+	if (!lost) {
+		mc_trk_gaussian_evidence(t, pose, per_gauss);
+		joint_sums(t, per_gauss, evidence);
+		joint_sums(t, t->evidence0, reference);
+	}
 	for (int j = 0; j < t->model.njoints; j++) {
 		double c;
 		if (lost)
@@ -72,7 +82,7 @@ void mc_trk_joint_confidence(const mc_tracker *t, const double *pose, mc_skeleto
 		else if (t->fixed_joint[j])
 			c = 1; /* rigid with the rig: known without an image */
 		else
-			c = evidence[j] / fmax(t->evidence0[j], EVIDENCE_MIN);
+			c = evidence[j] / fmax(reference[j], EVIDENCE_MIN);
 		out->joints[j].confidence = (float)fmin(fmax(c, 0.0), 1.0);
 	}
 }

@@ -71,15 +71,6 @@ static double now_ms(void)
 	return ts.tv_sec * 1e3 + ts.tv_nsec * 1e-6;
 }
 
-static uint64_t rng_next(uint64_t *s)
-{
-	/* splitmix64: cheap, good enough for pixel sampling */
-	uint64_t z = (*s += 0x9e3779b97f4a7c15ULL);
-	z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
-	z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
-	return z ^ (z >> 31);
-}
-
 static int validate_settings(const mc_tracker_settings *s, mc_err *err)
 {
 	if (s->width < 8 || s->height < 8 || s->width > 2048 || s->height > 2048)
@@ -459,7 +450,7 @@ int mc_trk_sample_pixels(mc_tracker *t, double fraction)
 		int k = (int)ceil(fraction * n);
 		int *cand = t->candidates[c];
 		for (int i = 0; i < k; i++) {
-			int j = i + (int)(rng_next(&t->rng) % (uint64_t)(n - i));
+			int j = i + (int)(mc_trk_rng_next(&t->rng) % (uint64_t)(n - i));
 			int tmp = cand[i];
 			cand[i] = cand[j];
 			cand[j] = tmp;
@@ -485,7 +476,7 @@ static double reference_data_term(mc_tracker *t, const mc_scene *scene, double d
 			double pix[3] = {t->hsv[c][3 * p], t->hsv[c][3 * p + 1], t->hsv[c][3 * p + 2]};
 			for (int q = 0; q < scene->n; q++) {
 				w[q] = mc_hsv_dissimilarity(scene->hsv[q], pix);
-				active[q] = dropout <= 0 || (rng_next(&t->rng) >> 11) * 0x1.0p-53 >= dropout;
+				active[q] = dropout <= 0 || mc_trk_rng_uniform(&t->rng) >= dropout;
 			}
 			E += mc_ray_weighted_visibility(scene, rt->origin, rt->dir[p], w, active, dmu, dsigma);
 		}
@@ -508,7 +499,7 @@ int mc_trk_data_term(mc_tracker *t, const mc_scene *scene, int nsampled, double 
 		const int *pix[MC_MAX_CAMERAS];
 		for (int c = 0; c < t->rig.ncams; c++)
 			pix[c] = t->samples[c];
-		uint32_t seed = (uint32_t)rng_next(&t->rng);
+		uint32_t seed = (uint32_t)mc_trk_rng_next(&t->rng);
 		if (mc_cl_energy_eval(t->cl, scene, pix, t->nsamples, dropout, seed, E, dmu, dsigma, err) < 0)
 			return -1;
 	} else {

@@ -46,13 +46,28 @@ struct mc_tracker {
 	int nback;
 	mc_vec3 back_mu[BACKDROP_GRID * BACKDROP_GRID];
 	double back_sigma, back_c, back_hsv[3];
-	/* per joint: matched image evidence of its bones at calibration, in
-	 * pixels (mc_trk_joint_evidence); the reference for its confidence */
-	double evidence0[MC_MAX_JOINTS];
+	/* per Gaussian: its image evidence at calibration
+	 * (mc_trk_gaussian_evidence), the reference for confidence */
+	double evidence0[MC_MAX_GAUSSIANS];
 	int history; /* frames of history in prev/prev2 (0..2) */
 	double baseline; /* mean data energy per pixel after calibration (< 0) */
 	uint64_t rng;
 };
+
+static inline uint64_t mc_trk_rng_next(uint64_t *s)
+{
+	/* splitmix64: cheap, good enough for pixel sampling */
+	uint64_t z = (*s += 0x9e3779b97f4a7c15ULL);
+	z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
+	z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
+	return z ^ (z >> 31);
+}
+
+/* Uniform in [0, 1). */
+static inline double mc_trk_rng_uniform(uint64_t *s)
+{
+	return (mc_trk_rng_next(s) >> 11) * 0x1.0p-53;
+}
 
 /* Converts the views to working-resolution RGB (t->rgb) and HSV (t->hsv);
  * returns how many cameras carry a usable, non-blank image (t->present). */
@@ -72,10 +87,14 @@ int mc_trk_data_term(mc_tracker *t, const mc_scene *scene, int nsampled, double 
 /* The valid working pixel of camera c that a rig-frame point projects to,
  * or -1. */
 int mc_trk_working_pixel(const mc_tracker *t, int c, mc_vec3 p_rig);
-/* Per joint j: the image evidence for the bones that place it (the
- * Gaussians attached to j and to its parent): sum over those Gaussians and
- * the cameras of V_q (-d(I, a_q)) at the pixel of the Gaussian's centre. */
-void mc_trk_joint_evidence(const mc_tracker *t, const double *pose, double *evidence);
+/* The scene for the evidence probes: the body without the backdrop. */
+void mc_trk_evidence_scene(const mc_tracker *t, const double *pose, mc_scene *scene);
+/* Evidence of Gaussian q: sum over the present cameras of V_q (-d(I, a_q))
+ * at the pixel of its centre. */
+double mc_trk_probe_gaussian(const mc_tracker *t, const mc_scene *scene, int q);
+/* Each visible Gaussian's evidence (mc_trk_probe_gaussian) at a pose; 0
+ * for hidden ones. */
+void mc_trk_gaussian_evidence(const mc_tracker *t, const double *pose, double *per_gauss);
 /* Fills out->joints[j].confidence for a tracked pose (see docs/TRACKER.md,
  * "Per-joint confidence"); 0 for every joint when out->state is lost. */
 void mc_trk_joint_confidence(const mc_tracker *t, const double *pose, mc_skeleton *out);
