@@ -49,6 +49,9 @@ struct mc_cl_energy {
 	cl_uint *pixel_host;  /* = (cl_uint *)(input_host + GAUSS_FLOAT4S) */
 	cl_float4 *image_host; /* one camera */
 	float *partial_host;
+	/* the scene's background colour model, as an albedo record; w = 1
+	 * in bg_weights when there is one */
+	cl_float4 bg_albedo, bg_weights;
 };
 
 static const char *cl_error_name(cl_int rc)
@@ -541,6 +544,25 @@ int mc_cl_energy_set_image(mc_cl_energy *e, int cam, const float *hsv, mc_err *e
 	return 0;
 }
 
+/* An albedo (HSV) as the kernel's record: (h, s, v, w_s) and (w_d, w_g,
+ * 0, 0), the dissimilarity weights of thesis 6.2.1 normalised.  Returns
+ * -1, or the index of the first channel that is not finite. */
+static int albedo_record(const double m[3], cl_float4 *alb, cl_float4 *wdg)
+{
+	float hsv[3];
+	for (int k = 0; k < 3; k++) {
+		if (!isfinite(m[k]))
+			return k;
+		hsv[k] = hsv_channel(m[k], k);
+	}
+	/* Z > 0 always, as w_g = 0.5 where m_s = 0. */
+	double ws = sqrt(hsv[1]), wd = fmax(0, 0.5 - hsv[2]), wg = fmax(0, 0.5 - hsv[1]);
+	double z = ws + wd + wg;
+	*alb = (cl_float4){{hsv[0], hsv[1], hsv[2], (float)(ws / z)}};
+	*wdg = (cl_float4){{(float)(wd / z), (float)(wg / z), 0, 0}};
+	return -1;
+}
+
 /* Gaussian records for the kernel (layout in color_energy.cl). */
 static int pack_scene(mc_cl_energy *e, const mc_scene *scene, mc_err *err)
 {
@@ -561,19 +583,12 @@ static int pack_scene(mc_cl_energy *e, const mc_scene *scene, mc_err *err)
 			return mc_err_set(err, "mc_cl_energy_eval: scene: gaussian %d: sigma = %g, must be positive", q, s);
 		if (!(c >= 0) || !isfinite(c))
 			return mc_err_set(err, "mc_cl_energy_eval: scene: gaussian %d: c = %g, must be >= 0", q, c);
-		float hsv[3];
-		for (int k = 0; k < 3; k++) {
-			if (!isfinite(m[k]))
-				return mc_err_set(err, "mc_cl_energy_eval: scene: gaussian %d: %s is not finite", q,
-						  hsv_names[k]);
-			hsv[k] = hsv_channel(m[k], k);
-		}
+		cl_float4 alb, wdg;
+		int bad = albedo_record(m, &alb, &wdg);
+		if (bad >= 0)
+			return mc_err_set(err, "mc_cl_energy_eval: scene: gaussian %d: %s is not finite", q, hsv_names[bad]);
 		/* c' = c exp(-r2 / (2 sigma^2)) < MC_CULL_MAGNITUDE  <=>  r2 > r2_max */
 		double r2max = c > MC_CULL_MAGNITUDE ? 2 * s * s * log(c / MC_CULL_MAGNITUDE) : -1;
-		/* Dissimilarity weights of the albedo (thesis 6.2.1); Z > 0 always,
-		 * as w_g = 0.5 where m_s = 0. */
-		double ws = sqrt(hsv[1]), wd = fmax(0, 0.5 - hsv[2]), wg = fmax(0, 0.5 - hsv[1]);
-		double z = ws + wd + wg;
 		soa[q] = (float)scene->mu[q].x;
 		soa[MC_MAX_GAUSSIANS + q] = (float)scene->mu[q].y;
 		soa[2 * MC_MAX_GAUSSIANS + q] = (float)scene->mu[q].z;
@@ -581,8 +596,16 @@ static int pack_scene(mc_cl_energy *e, const mc_scene *scene, mc_err *err)
 		cl_float4 *g = &e->input_host[4 * q];
 		*g++ = (cl_float4){{(float)scene->mu[q].x, (float)scene->mu[q].y, (float)scene->mu[q].z, (float)s}};
 		*g++ = (cl_float4){{(float)c, (float)r2max, 0, 0}};
-		*g++ = (cl_float4){{hsv[0], hsv[1], hsv[2], (float)(ws / z)}};
-		*g = (cl_float4){{(float)(wd / z), (float)(wg / z), 0, 0}};
+		*g++ = alb;
+		*g = wdg;
+	}
+	e->bg_albedo = e->bg_weights = (cl_float4){{0, 0, 0, 0}};
+	if (scene->background) {
+		int bad = albedo_record(scene->background_hsv, &e->bg_albedo, &e->bg_weights);
+		if (bad >= 0)
+			return mc_err_set(err, "mc_cl_energy_eval: scene: background colour: %s is not finite",
+					  hsv_names[bad]);
+		e->bg_weights.s[2] = 1;
 	}
 	return 0;
 }
@@ -654,7 +677,7 @@ static int set_fixed_args(mc_cl_energy *e, mc_err *err)
 	rc |= clSetKernelArg(k, 1, sizeof(cl_mem), &e->image);
 	rc |= clSetKernelArg(k, 2, sizeof(cl_mem), &e->origins);
 	rc |= clSetKernelArg(k, 3, sizeof(cl_mem), &e->firsts);
-	rc |= clSetKernelArg(k, 10, sizeof(cl_mem), &e->partial);
+	rc |= clSetKernelArg(k, 12, sizeof(cl_mem), &e->partial);
 	if (rc != CL_SUCCESS)
 		return mc_err_set(err, "OpenCL: clSetKernelArg(color_energy) failed");
 	return 0;
@@ -683,7 +706,9 @@ static int launch(mc_cl_energy *e, int ngauss, size_t npix, uint32_t seed, uint3
 	rc |= clSetKernelArg(k, 6, sizeof(cl_int), &np);
 	rc |= clSetKernelArg(k, 7, sizeof(cl_uint), &sd);
 	rc |= clSetKernelArg(k, 8, sizeof(cl_uint), &thr);
-	rc |= clSetKernelArg(k, 9, row * e->wg, NULL);
+	rc |= clSetKernelArg(k, 9, sizeof(cl_float4), &e->bg_albedo);
+	rc |= clSetKernelArg(k, 10, sizeof(cl_float4), &e->bg_weights);
+	rc |= clSetKernelArg(k, 11, row * e->wg, NULL);
 	if (rc != CL_SUCCESS)
 		return mc_err_set(err, "OpenCL: clSetKernelArg(color_energy) failed");
 	size_t global = groups * e->wg;
@@ -708,7 +733,7 @@ int mc_cl_energy_eval(mc_cl_energy *e, const mc_scene *scene, const int *const *
 	size_t npix = 0;
 	if (gather_pixels(e, pixels, npixels, &npix, err) != 0)
 		return -1;
-	if (npix == 0 || scene->n == 0)
+	if (npix == 0 || (scene->n == 0 && !scene->background))
 		return 0;
 	size_t groups = 0;
 	if (launch(e, scene->n, npix, seed, mc_cl_dropout_threshold(dropout), &groups, err) != 0)

@@ -307,9 +307,26 @@ static void ray_set_scatter(const ray_set *rs, mc_vec3 n, const ray_grad *gr, mc
 	}
 }
 
-/* sum_i w[i] V_i over the ray set (w indexed like rs->g), adding the
- * gradient into dmu/dsigma when either is given. */
-static double ray_set_weighted(const ray_set *rs, const double *w, mc_vec3 n, mc_vec3 *dmu, double *dsigma)
+/* w_bg B, B = T(infinity) = exp(-sum_p A_p(infinity)): the background
+ * term.  Its gradient is that of a visibility sample read at infinite
+ * depth, where erf(u) = 1 and exp(-u^2) = 0. */
+static double background_backprop(const ray_set *rs, double w_bg, ray_grad *gr)
+{
+	double e = w_bg * ray_set_background(rs);
+	for (int p = 0; gr && p < rs->n; p++) {
+		const ray_gauss *g = &rs->g[p];
+		double A = g->a * (1 + g->erf0);
+		gr->gm[p] -= e * g->c * g->ev;                                     /* dA_p/dmu'_p */
+		gr->gs[p] -= e * (A / g->sigma - SQRT_2 * g->c * g->v * g->ev); /* dA_p/dsigma_p */
+		gr->gc[p] -= e * SQRT_PI_2 * g->sigma * (1 + g->erf0);            /* dA_p/dc'_p */
+	}
+	return e;
+}
+
+/* sum_i w[i] V_i + w_bg B over the ray set (w indexed like rs->g), adding
+ * the gradient into dmu/dsigma when either is given. */
+static double ray_set_weighted(const ray_set *rs, const double *w, double w_bg, mc_vec3 n, mc_vec3 *dmu,
+			       double *dsigma)
 {
 	bool want_grad = dmu || dsigma;
 	ray_grad gr;
@@ -334,20 +351,29 @@ static double ray_set_weighted(const ray_set *rs, const double *w, mc_vec3 n, mc
 			sample_backprop(rs, i, sample_k[k], wk, &sp, T, &st, &gr);
 		}
 	}
+	if (w_bg != 0)
+		e += background_backprop(rs, w_bg, want_grad ? &gr : NULL);
 	if (want_grad)
 		ray_set_scatter(rs, n, &gr, dmu, dsigma);
 	return e;
 }
 
-double mc_ray_weighted_visibility(const mc_scene *scene, mc_vec3 o, mc_vec3 n, const double *w,
-				  const unsigned char *active, mc_vec3 *dmu, double *dsigma)
+double mc_ray_weighted_visibility_bg(const mc_scene *scene, mc_vec3 o, mc_vec3 n, const double *w,
+				     double w_background, const unsigned char *active, mc_vec3 *dmu,
+				     double *dsigma)
 {
 	ray_set rs;
 	ray_project(scene, o, n, active, &rs);
 	double wr[MC_MAX_GAUSSIANS];
 	for (int i = 0; i < rs.n; i++)
 		wr[i] = w[rs.g[i].q];
-	return ray_set_weighted(&rs, wr, n, dmu, dsigma);
+	return ray_set_weighted(&rs, wr, w_background, n, dmu, dsigma);
+}
+
+double mc_ray_weighted_visibility(const mc_scene *scene, mc_vec3 o, mc_vec3 n, const double *w,
+				  const unsigned char *active, mc_vec3 *dmu, double *dsigma)
+{
+	return mc_ray_weighted_visibility_bg(scene, o, n, w, 0, active, dmu, dsigma);
 }
 
 /* ---- colour ---- */
@@ -435,6 +461,7 @@ double mc_hsv_dissimilarity(const double m_hsv[3], const double i_hsv[3])
 void mc_scene_from_model(const mc_model *model, const mc_fk *fk, mc_scene *scene)
 {
 	scene->n = model->ngauss;
+	scene->background = false;
 	for (int q = 0; q < model->ngauss; q++) {
 		const mc_gauss_def *g = &model->gauss[q];
 		scene->mu[q] = fk->mu[q];
@@ -444,7 +471,8 @@ void mc_scene_from_model(const mc_model *model, const mc_fk *fk, mc_scene *scene
 	}
 }
 
-/* E_color of one pixel: sum_q d(I, a_q) V_q (eq. 4.13). */
+/* E_color of one pixel: sum_q d(I, a_q) V_q (eq. 4.13), plus
+ * B d(I, background) with a background colour model. */
 static double pixel_color_energy(const mc_scene *scene, mc_vec3 o, mc_vec3 n, const float *pix_hsv,
 				 mc_vec3 *dmu, double *dsigma)
 {
@@ -454,7 +482,8 @@ static double pixel_color_energy(const mc_scene *scene, mc_vec3 o, mc_vec3 n, co
 	double w[MC_MAX_GAUSSIANS]; /* only for the Gaussians on this ray */
 	for (int i = 0; i < rs.n; i++)
 		w[i] = mc_hsv_dissimilarity(scene->hsv[rs.g[i].q], i_hsv);
-	return ray_set_weighted(&rs, w, n, dmu, dsigma);
+	double w_bg = scene->background ? mc_hsv_dissimilarity(scene->background_hsv, i_hsv) : 0;
+	return ray_set_weighted(&rs, w, w_bg, n, dmu, dsigma);
 }
 
 double mc_energy_color(const mc_scene *scene, const mc_view *view, const int *pixels, int npixels,

@@ -31,6 +31,12 @@ typedef struct {
 	double sigma[MC_MAX_GAUSSIANS];
 	double c[MC_MAX_GAUSSIANS];
 	double hsv[MC_MAX_GAUSSIANS][3]; /* albedo, HSV each in [0, 1] */
+	/* Background colour model: when set, the colour energy of a pixel adds
+	 * B d(I, background_hsv), B the ray's background visibility (eq. 5.5),
+	 * so that covering a pixel that looks like the background costs and
+	 * explaining one that does not pays (docs/ENERGY.md, "Background"). */
+	bool background;
+	double background_hsv[3];
 } mc_scene;
 
 /* Fills a scene from a model's Gaussians at a posed fk. */
@@ -59,6 +65,11 @@ void mc_ray_render_rgb(const mc_scene *scene, const double albedo_rgb[][3], mc_v
  * of the sum and of the occlusion (stochastic dropout). */
 double mc_ray_weighted_visibility(const mc_scene *scene, mc_vec3 o, mc_vec3 n, const double *w,
 				  const unsigned char *active, mc_vec3 *dmu, double *dsigma);
+/* The same plus w_background * B, B the background visibility of the ray
+ * (over the active Gaussians), with its gradient. */
+double mc_ray_weighted_visibility_bg(const mc_scene *scene, mc_vec3 o, mc_vec3 n, const double *w,
+				     double w_background, const unsigned char *active, mc_vec3 *dmu,
+				     double *dsigma);
 
 /* One camera's image at the working resolution of its ray table. */
 typedef struct {
@@ -67,7 +78,8 @@ typedef struct {
 } mc_view;
 
 /* E_color over a set of pixels of one view (pixel indices into the ray
- * table; NULL = every valid pixel).  Adds gradients into dmu/dsigma. */
+ * table; NULL = every valid pixel), with the background term when
+ * scene->background is set.  Adds gradients into dmu/dsigma. */
 double mc_energy_color(const mc_scene *scene, const mc_view *view, const int *pixels, int npixels,
 		       mc_vec3 *dmu, double *dsigma);
 

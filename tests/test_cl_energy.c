@@ -20,9 +20,9 @@ typedef struct {
 
 /* E over pixel lists of several views (pixels NULL or pixels[c] NULL: every
  * pixel).  Without dropout this is mc_energy_color(); with dropout the
- * same sum through mc_ray_weighted_visibility() with the backend's dropout
- * decisions as the `active` mask.  *abs_energy = sum |d_q| V_q, the scale
- * of the tolerances. */
+ * same sum through mc_ray_weighted_visibility_bg() with the backend's
+ * dropout decisions as the `active` mask.  *abs_energy = sum |d_q| V_q
+ * (+ |d_bg| B), the scale of the tolerances. */
 static double ref_energy(const mc_scene *sc, const view *v, int nv, int *const *pixels, const int *npixels,
 			 double dropout, uint32_t seed, mc_vec3 *dmu, double *dsigma, double *abs_energy)
 {
@@ -49,9 +49,11 @@ static double ref_energy(const mc_scene *sc, const view *v, int nv, int *const *
 				wabs[q] = fabs(w[q]);
 				keep[q] = !mc_cl_dropped(seed, c, px, q, dropout);
 			}
+			double wbg = sc->background ? mc_hsv_dissimilarity(sc->background_hsv, ihsv) : 0;
 			if (dropout > 0)
-				E += mc_ray_weighted_visibility(sc, t->origin, t->dir[px], w, keep, dmu, dsigma);
-			*abs_energy += mc_ray_weighted_visibility(sc, t->origin, t->dir[px], wabs, keep, NULL, NULL);
+				E += mc_ray_weighted_visibility_bg(sc, t->origin, t->dir[px], w, wbg, keep, dmu, dsigma);
+			*abs_energy += mc_ray_weighted_visibility_bg(sc, t->origin, t->dir[px], wabs, fabs(wbg), keep,
+								     NULL, NULL);
 		}
 	}
 	return E;
@@ -164,6 +166,18 @@ static void test_random_scenes(void)
 		snprintf(what, sizeof(what), "random scene, %d Gaussians", sc.n);
 		check_agree(what, &cl, &ref, sc.n, 1e-3);
 		CHECK(ref.absE > 0);
+		/* with a background colour model (B d(I, background) per pixel),
+		 * without and with dropout */
+		sc.background = true;
+		scene_random_hsv(&rng, sc.background_hsv);
+		eval_cl(e, &sc, NULL, NULL, 0, 0, &cl);
+		eval_ref(&sc, &v, 1, NULL, NULL, 0, 0, &ref);
+		snprintf(what, sizeof(what), "background, %d Gaussians", sc.n);
+		check_agree(what, &cl, &ref, sc.n, 1e-3);
+		eval_cl(e, &sc, NULL, NULL, 0.3, 77 + it, &cl);
+		eval_ref(&sc, &v, 1, NULL, NULL, 0.3, 77 + it, &ref);
+		snprintf(what, sizeof(what), "background, dropout, %d Gaussians", sc.n);
+		check_agree(what, &cl, &ref, sc.n, 1e-3);
 	}
 	/* Gaussians around the camera centre: samples behind the camera are
 	 * dropped, those in the band around it faded (docs/ENERGY.md). */
@@ -198,6 +212,7 @@ static void test_culling_edge(void)
 	mc_scene sc;
 	memset(&sc, 0, sizeof(sc));
 	sc.n = 3;
+	sc.background = false;
 	/* c0 = C at r = sigma sqrt(2 ln(c / C)) = 0.5257 m, 2C at 0.5122 m */
 	sc.mu[0] = mc_v3(0.519, 0, 2.0), sc.sigma[0] = 0.1, sc.c[0] = 10;
 	sc.mu[1] = mc_v3(0.01, 0, 1.5), sc.sigma[1] = 0.3, sc.c[1] = 2;
@@ -438,6 +453,7 @@ static void test_errors(void)
 	CHECK(mc_cl_energy_eval(e, &sc, NULL, NULL, 0, 0, &E, NULL, NULL, &err) == 0);
 	/* An empty scene and an empty pixel list give 0. */
 	sc.n = 0;
+	sc.background = false;
 	CHECK(mc_cl_energy_eval(e, &sc, NULL, NULL, 0, 0, &E, NULL, NULL, &err) == 0 && E == 0);
 	mc_cl_energy_destroy(e);
 	table_free(&v.rays);

@@ -56,6 +56,7 @@ static void random_scene(scene_kind kind, int n, unsigned long long *rng, mc_vec
 {
 	memset(s, 0, sizeof(*s));
 	s->n = n;
+	s->background = false;
 	for (int q = 0; q < n; q++) {
 		double sigma = urand(rng, 0.04, 0.25);
 		/* sigma c between thin (0.2) and very dense (20) */
@@ -170,11 +171,14 @@ typedef struct {
 	mc_vec3 o, n;
 	const double *w;
 	const unsigned char *active;
+	double w_background;
 } ray_ctx;
 
 static double weighted_vis_fn(const mc_scene *s, const void *ctx, mc_vec3 *dmu, double *dsigma)
 {
 	const ray_ctx *r = ctx;
+	if (r->w_background != 0)
+		return mc_ray_weighted_visibility_bg(s, r->o, r->n, r->w, r->w_background, r->active, dmu, dsigma);
 	return mc_ray_weighted_visibility(s, r->o, r->n, r->w, r->active, dmu, dsigma);
 }
 
@@ -220,11 +224,14 @@ static void test_weighted_visibility_gradients(void)
 				active[q] = mc_test_rand(&rng) < 0.8;
 			}
 			char what[64];
-			ray_ctx ctx = {o, n, w, NULL};
+			ray_ctx ctx = {o, n, w, NULL, 0};
 			snprintf(what, sizeof(what), "weighted visibility (%s)", scene_kind_name[kind]);
 			fd_check(what, &s, weighted_vis_fn, &ctx);
 			ctx.active = active;
 			snprintf(what, sizeof(what), "weighted visibility, dropout (%s)", scene_kind_name[kind]);
+			fd_check(what, &s, weighted_vis_fn, &ctx);
+			ctx.w_background = urand(&rng, -1, 1);
+			snprintf(what, sizeof(what), "weighted visibility, background (%s)", scene_kind_name[kind]);
 			fd_check(what, &s, weighted_vis_fn, &ctx);
 		}
 	}
@@ -292,6 +299,25 @@ static void test_color_energy(void)
 		int subset[4] = {0, 3, 5, 11};
 		color_ctx sub = {&view, subset, 4};
 		fd_check("color energy, pixel subset", &s, color_fn, &sub);
+
+		/* With a background colour: each pixel adds B d(I, background). */
+		s.background = true;
+		for (int k = 0; k < 3; k++)
+			s.background_hsv[k] = mc_test_rand(&rng);
+		double with_bg = mc_energy_color(&s, &view, NULL, 0, NULL, NULL), expect = direct;
+		for (int p = 0; p < 12; p++) {
+			if (!sv.valid[p])
+				continue;
+			double vis[MC_MAX_GAUSSIANS], b, ihsv[3] = {sv.hsv[3 * p], sv.hsv[3 * p + 1], sv.hsv[3 * p + 2]};
+			mc_ray_visibility(&s, o, sv.dir[p], vis, &b);
+			expect += b * mc_hsv_dissimilarity(s.background_hsv, ihsv);
+		}
+		CHECK_NEAR(with_bg, expect, 1e-12 * fmax(1, fabs(expect)));
+		/* B d(I, bg) adds about 1 per pixel to the energy, and the finite
+		 * difference's rounding noise with it: a step of 3e-3 sigma
+		 * balances that noise against the truncation error (1e-3 and 1e-2
+		 * each leave one entry just above 1e-4). */
+		fd_check_step("color energy, background", &s, color_fn, &all, 3e-3);
 	}
 }
 
@@ -482,6 +508,7 @@ static void test_visibility_budget(void)
 	mc_scene s;
 	memset(&s, 0, sizeof(s));
 	s.n = 1;
+	s.background = false;
 	s.mu[0] = mc_v3(0, 0, 3);
 	s.sigma[0] = 0.1;
 	/* eq. 5.5's closed form holds for a Gaussian well in front */
@@ -511,6 +538,7 @@ static void test_visibility_budget(void)
 	/* an opaque occluder passes on almost nothing: the Gaussians behind it
 	 * and the background are all but invisible, V_occluder + B ~ 1 */
 	s.n = 2;
+	s.background = false;
 	s.c[0] = 30; /* sigma c' = 3 */
 	s.mu[1] = mc_v3(0, 0, 4);
 	s.sigma[1] = 0.1;
@@ -527,6 +555,7 @@ static void test_occlusion(void)
 	mc_scene s;
 	memset(&s, 0, sizeof(s));
 	s.n = 2;
+	s.background = false;
 	s.mu[0] = mc_v3(0, 0, 2), s.sigma[0] = 0.2, s.c[0] = 50;   /* opaque, in front */
 	s.mu[1] = mc_v3(0, 0, 4), s.sigma[1] = 0.2, s.c[1] = 50;   /* behind it */
 	double both[2], b, alone[2], b_alone;
@@ -569,6 +598,7 @@ static void test_culling_edge(void)
 	mc_scene s;
 	memset(&s, 0, sizeof(s));
 	s.n = 2;
+	s.background = false;
 	s.mu[0] = mc_v3(0, 0, 2), s.sigma[0] = 0.1, s.c[0] = 5;   /* on the ray */
 	s.sigma[1] = 0.1, s.c[1] = 1e4;                         /* in front, sideways */
 	double w[2] = {0.5, 1};
@@ -613,7 +643,7 @@ static void test_culling_edge(void)
 	 * c' changes by 4% per 1e-3 sigma of sigma: smaller steps */
 	for (double r = 1.1; r < 2; r += 0.2) {
 		s.mu[1] = mc_v3(OFFSET_AT(r), 0.01, 1.0);
-		ray_ctx ctx = {o, n, w, NULL};
+		ray_ctx ctx = {o, n, w, NULL, 0};
 		fd_check_step("weighted visibility, culling band", &s, weighted_vis_fn, &ctx, 1e-5);
 	}
 #undef OFFSET_AT

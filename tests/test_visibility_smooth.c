@@ -144,6 +144,7 @@ int main(void)
 	two_spheres sc;
 	memset(&sc, 0, sizeof(sc));
 	sc.scene.n = 2;
+	sc.scene.background = false;
 	sphere(&sc.scene, 0, r_occ, mc_v3(0, -r_occ, 4)); /* its upper edge on the ray */
 	sphere(&sc.scene, 1, r, mc_v3(0, 0, 6));
 	sc.z = 6;

@@ -159,6 +159,18 @@ floatv dissimilarity_v(floatv h, floatv s, floatv v, floatv w_s, floatv w_d, flo
 	return 1.0f - u2 * u2 * (8.0f * x + 2.0f);
 }
 
+/* The same for one albedo record (h, s, v, w_s), (w_d, w_g, ...). */
+float dissimilarity_s(float4 alb, float4 wdg, float3 i)
+{
+	floatv d = dissimilarity_v((floatv)alb.x, (floatv)alb.y, (floatv)alb.z, (floatv)alb.w, (floatv)wdg.x,
+				   (floatv)wdg.y, i);
+#if VW == 1
+	return d;
+#else
+	return d.s0;
+#endif
+}
+
 /* The Gaussians on one pixel's ray that survive culling and dropout,
  * projected onto the ray (eq. 4.4).  Arrays are padded to nv * VW entries
  * with inert lanes (c' = A = 0, sigma = 1, d = 0). */
@@ -174,6 +186,7 @@ typedef struct {
 	float d[MAXG];    /* colour dissimilarity to the pixel */
 	float erf0[MAXG], e0[MAXG]; /* erf(z0), exp(-z0^2), z0 = -mu' / (sqrt2 sigma) */
 	float base;       /* sum_p A_p erf0_p: tau(t) = sum_p A_p erf(z_p(t)) - base */
+	float sumA;       /* sum_p A_p: tau(infinity) = sumA - base */
 } mc_ray_set;
 
 /* The culling test, VW Gaussians at a time (c0 > 1e-5 <=> the squared
@@ -229,7 +242,7 @@ void mc_ray_project(float3 o, float3 n, float3 colour, mc_ray_set *rs, mc_gather
 			g->wg[p] = 0.0f;
 		rs->sg[p] = 1.0f;
 	}
-	floatv basev = 0.0f;
+	floatv basev = 0.0f, sumAv = 0.0f;
 	for (int v = 0; v < rs->nv; v++) {
 		/* r^2 from the perpendicular offset, free of the cancellation in
 		 * the culling test */
@@ -259,8 +272,10 @@ void mc_ray_project(float3 o, float3 n, float3 colour, mc_ray_set *rs, mc_gather
 		VSTORE(ef, v, rs->erf0);
 		VSTORE(e, v, rs->e0);
 		basev += A * ef;
+		sumAv += A;
 	}
 	rs->base = hsum(basev);
+	rs->sumA = hsum(sumAv);
 }
 
 /* The visibility samples s = mu'_q + k sigma_q, k = -4..0, of every ray
@@ -280,7 +295,8 @@ typedef struct {
 	float W[SMAX];   /* the sample's energy d sigma c' exp(-k^2/2) h T */
 	float V[SMAX];   /* W / c' */
 	float gm[SMAX], gs[SMAX]; /* dW/dmu'_q, dW/dsigma_q through the sample's position */
-	float wtot;      /* sum of W */
+	float wtot;      /* sum of W, and of W_bg */
+	float wbg;       /* W_bg = d(I, background) B: the background term */
 } mc_sample_set;
 
 void mc_samples_make(const mc_ray_set *rs, mc_sample_set *ss)
@@ -312,8 +328,11 @@ void mc_samples_make(const mc_ray_set *rs, mc_sample_set *ss)
 /* Forward pass, VW samples at a time: T at each sample (eq. 4.6), its
  * energy W, and W's derivatives through the sample's own depth.  The erf
  * and exp of every (ray Gaussian, sample vector) pair go to erfbuf and
- * ebuf ([p * nv + J]) when `keep`. */
-void mc_samples_forward(const mc_ray_set *rs, mc_sample_set *ss, bool keep, floatv *erfbuf, floatv *ebuf)
+ * ebuf ([p * nv + J]) when `keep`.  d_bg (0: no background model) weighs
+ * the background visibility B = T(infinity), which enters the backward
+ * pass as one more sample, at infinite depth (erf = 1, exp = 0). */
+void mc_samples_forward(const mc_ray_set *rs, mc_sample_set *ss, bool keep, floatv *erfbuf, floatv *ebuf,
+			float d_bg)
 {
 	floatv wtotv = 0.0f;
 	for (int J = 0; J < ss->nv; J++) {
@@ -346,7 +365,8 @@ void mc_samples_forward(const mc_ray_set *rs, mc_sample_set *ss, bool keep, floa
 		VSTORE(dE_dt * sp.dt_dl + preT * sp.dh_dl + VLOAD(J, ss->k) * dE_ds, J, ss->gs);
 		wtotv += W;
 	}
-	ss->wtot = hsum(wtotv);
+	ss->wbg = d_bg != 0.0f ? d_bg * exp(rs->base - rs->sumA) : 0.0f;
+	ss->wtot = hsum(wtotv) + ss->wbg;
 }
 
 /* Backward pass: for every ray Gaussian p, dE/d(mu'_p, sigma_p, c'_p)
@@ -387,7 +407,7 @@ float mc_samples_backward(global const float4 *gauss, float3 o, float3 n, const 
 		}
 		float cp = rs->c[p], s = rs->sg[p], e0 = rs->e0[p];
 		float z0 = -rs->m[p] * rs->inv[p];
-		float dE = hsum(aE) - rs->erf0[p] * wtot;
+		float dE = hsum(aE) + ss->wbg - rs->erf0[p] * wtot;
 		float g_m = gm - cp * (e0 * wtot - hsum(ae));
 		float g_c = gV - s * SQRT_HALF_PI * dE;
 		float g_s = gs + cp * gV / s - cp * SQRT_HALF_PI * dE + SQRT2 * cp * (hsum(aze) - z0 * e0 * wtot);
@@ -407,23 +427,24 @@ float mc_samples_backward(global const float4 *gauss, float3 o, float3 n, const 
 	return energy;
 }
 
-/* E of one pixel; adds its gradient into row[4 q .. 4 q + 3]. */
-float mc_pixel(global const float4 *gauss, int ngauss, float3 o, float3 n, float3 colour, uint seed_mix,
-	       uint cam, uint pixel, uint thr24, local float *row)
+/* E of one pixel; adds its gradient into row[4 q .. 4 q + 3].  d_bg:
+ * the pixel's dissimilarity to the background colour, 0 without one. */
+float mc_pixel(global const float4 *gauss, int ngauss, float3 o, float3 n, float3 colour, float d_bg,
+	       uint seed_mix, uint cam, uint pixel, uint thr24, local float *row)
 {
 	mc_ray_set rs;
 	mc_gathered g;
 	rs.n = mc_ray_cull(gauss, ngauss, o, n, seed_mix, cam, pixel, thr24, &rs, &g);
 	if (rs.n == 0)
-		return 0.0f;
+		return d_bg; /* B = 1 */
 	mc_ray_project(o, n, colour, &rs, &g);
 
 	mc_sample_set ss;
 	mc_samples_make(&rs, &ss);
 	const bool keep = rs.n * ss.nv <= PAIRV_MAX;
 	floatv erfbuf[PAIRV_MAX], ebuf[PAIRV_MAX];
-	mc_samples_forward(&rs, &ss, keep, erfbuf, ebuf);
-	return mc_samples_backward(gauss, o, n, &rs, &ss, keep, erfbuf, ebuf, row);
+	mc_samples_forward(&rs, &ss, keep, erfbuf, ebuf, d_bg);
+	return mc_samples_backward(gauss, o, n, &rs, &ss, keep, erfbuf, ebuf, row) + ss.wbg;
 }
 
 /* rays: one per ray-table pixel of every camera, concatenated: direction
@@ -433,13 +454,15 @@ float mc_pixel(global const float4 *gauss, int ngauss, float3 o, float3 n, float
  * input: the Gaussian records (5 MAXG float4, layout above), then the
  *        npixels ray indices of the sampled pixels;
  * thr24: a Gaussian is dropped when its 24-bit hash < thr24 (0: never);
+ * bg_albedo, bg_weights: the background colour model, as a Gaussian's
+ *     albedo record (h, s, v, w_s) and (w_d, w_g, enabled, unused);
  * acc: local scratch, get_local_size(0) rows of 4 ngauss + 1 floats;
  * partial: per work-group, 4 ngauss gradient sums (dmu xyz, dsigma per
  *          Gaussian) and the energy last. */
 kernel void color_energy(global const float4 *rays, global const float4 *image,
 			 constant float4 *cam_origin, constant uint *cam_first,
 			 global const float4 *input, int ngauss, int npixels, uint seed, uint thr24,
-			 local float *acc, global float *partial)
+			 float4 bg_albedo, float4 bg_weights, local float *acc, global float *partial)
 {
 	const int stride = 4 * ngauss + 1;
 	const int lid = get_local_id(0);
@@ -458,7 +481,8 @@ kernel void color_energy(global const float4 *rays, global const float4 *image,
 		if (ray.w < 0.0f)
 			continue;
 		uint cam = (uint)ray.w;
-		energy += mc_pixel(gauss, ngauss, cam_origin[cam].xyz, ray.xyz, image[r].xyz, seed_mix, cam,
+		float d_bg = bg_weights.z != 0.0f ? dissimilarity_s(bg_albedo, bg_weights, image[r].xyz) : 0.0f;
+		energy += mc_pixel(gauss, ngauss, cam_origin[cam].xyz, ray.xyz, image[r].xyz, d_bg, seed_mix, cam,
 				   r - cam_first[cam], thr24, row);
 	}
 	row[4 * ngauss] = energy;
