@@ -1,6 +1,6 @@
 /* Actor calibration (thesis 5.3.2): each Gaussian's colour from one frame
- * set at a known pose, the backdrop behind the body, and the baseline
- * energy that the tracking quality is measured against. */
+ * set at a known pose, the background colour, and the baseline energy that
+ * the tracking quality is measured against. */
 #include "mc_tracker_internal.h"
 
 #include <stdio.h>
@@ -10,10 +10,8 @@
 /* Visibility summed over the calibration frame's pixels below which a
  * Gaussian's own colour estimate is not trusted (about 3 pixels seen whole). */
 #define MIN_COLOUR_EVIDENCE 3.0
-/* Calibration pixels with background visibility above this are background;
- * those below BODY_MAX_B give the body's direction. */
+/* Calibration pixels with background visibility above this are background. */
 #define BACKGROUND_MIN_B 0.9
-#define BODY_MAX_B 0.5
 
 /* ---- actor colour calibration (thesis 5.3.2) ----------------------------- */
 
@@ -122,12 +120,10 @@ static void borrow_colours(mc_model *m, const double *evidence)
 	}
 }
 
-/* Collects, per Gaussian, the calibration pixels it explains; the pixels no
- * Gaussian explains (the background around the body, for the backdrop
- * colour); and the sum of the ray directions of the pixels the body covers
- * (the body's direction from the cameras). */
-static int collect_colours(mc_tracker *t, int nviews, const mc_scene *scene,
-			   colour_samples *per_gauss, colour_samples *background, mc_vec3 *centroid_dir)
+/* Collects, per Gaussian, the calibration pixels it explains, and the
+ * pixels no Gaussian explains (the background around the body). */
+static int collect_colours(mc_tracker *t, int nviews, const mc_scene *scene, colour_samples *per_gauss,
+			   colour_samples *background)
 {
 	double vis[MC_MAX_GAUSSIANS], B;
 	for (int c = 0; c < t->rig.ncams && c < nviews; c++) {
@@ -143,44 +139,23 @@ static int collect_colours(mc_tracker *t, int nviews, const mc_scene *scene,
 					return -1;
 			if (B > BACKGROUND_MIN_B && push_sample(background, &rgb[3 * p], 1.0) < 0)
 				return -1;
-			if (B < BODY_MAX_B)
-				*centroid_dir = mc_v3_add(*centroid_dir, rt->dir[p]);
 		}
 	}
 	return 0;
 }
 
 
-/* The backdrop: a grid of wide Gaussians far behind the body, in the
- * robust mean colour of the calibration pixels that no body Gaussian
- * explains.  Their visibility on a ray is about the body's background
- * visibility B, so the energy gains the term B d(I, background): covering a
- * pixel that looks like the background costs, and explaining one that does
- * not pays, which the overlap energy alone lacks (docs/TRACKER.md).  They
- * are fixed in the rig frame, centred on the direction of the body seen
- * from the cameras at calibration, and receive no gradient. */
-static void place_backdrop(mc_tracker *t, colour_samples *background, mc_vec3 dir)
+/* The background colour model: the robust mean colour of the calibration
+ * pixels that no body Gaussian explains.  The energy then adds
+ * B d(I, background) per pixel, B the ray's background visibility: covering
+ * a pixel that looks like the background costs, and explaining one that
+ * does not pays, which the overlap energy alone lacks (docs/TRACKER.md). */
+static void calibrate_background(mc_tracker *t, colour_samples *background)
 {
 	double rgb[3];
-	if (!robust_colour(background, rgb) || !(mc_v3_norm(dir) > 0))
-		return;
-	mc_rgb_to_hsv(rgb, t->back_hsv);
-	t->back_sigma = BACKDROP_SIGMA_M;
-	t->back_c = BACKDROP_DEPTH / (BACKDROP_SIGMA_M * sqrt(2 * M_PI));
-	mc_vec3 origin = mc_v3(0, 0, 0);
-	for (int c = 0; c < t->rig.ncams; c++)
-		origin = mc_v3_add(origin, mc_v3_scale(t->rays[c].origin, 1.0 / t->rig.ncams));
-	mc_vec3 d = mc_v3_normalize(dir);
-	mc_vec3 any = fabs(d.x) < 0.9 ? mc_v3(1, 0, 0) : mc_v3(0, 1, 0);
-	mc_vec3 e1 = mc_v3_normalize(mc_v3_cross(d, any)), e2 = mc_v3_cross(d, e1);
-	double h = 0.5 * (BACKDROP_GRID - 1);
-	for (int a = 0; a < BACKDROP_GRID; a++)
-		for (int b = 0; b < BACKDROP_GRID; b++) {
-			mc_vec3 off = mc_v3_add(mc_v3_scale(e1, tan((a - h) * BACKDROP_SPACING_RAD)),
-						mc_v3_scale(e2, tan((b - h) * BACKDROP_SPACING_RAD)));
-			mc_vec3 r = mc_v3_normalize(mc_v3_add(d, off));
-			t->back_mu[t->nback++] = mc_v3_add(origin, mc_v3_scale(r, BACKDROP_DISTANCE_M));
-		}
+	t->has_background = robust_colour(background, rgb);
+	if (t->has_background)
+		mc_rgb_to_hsv(rgb, t->background_hsv);
 }
 
 /* The mean data energy per candidate pixel at the calibration pose, every
@@ -204,9 +179,8 @@ int mc_tracker_calibrate_colors(mc_tracker *t, const mc_frame_view *views, int n
 {
 	colour_samples *per_gauss = calloc(MC_MAX_GAUSSIANS, sizeof(colour_samples));
 	colour_samples background = {0};
-	mc_vec3 centroid_dir = mc_v3(0, 0, 0);
 	int rc = -1;
-	t->nback = 0;
+	t->has_background = false;
 	if (!per_gauss) {
 		mc_err_set(err, "tracker: out of memory");
 		goto out;
@@ -220,7 +194,7 @@ int mc_tracker_calibrate_colors(mc_tracker *t, const mc_frame_view *views, int n
 	mc_model_fk(&t->model, t->pose, &fk);
 	mc_trk_make_scene(t, &fk, &scene);
 	mc_trk_choose_candidates(t, &fk);
-	if (collect_colours(t, nviews, &scene, per_gauss, &background, &centroid_dir) < 0) {
+	if (collect_colours(t, nviews, &scene, per_gauss, &background) < 0) {
 		mc_err_set(err, "tracker: out of memory");
 		goto out;
 	}
@@ -231,7 +205,7 @@ int mc_tracker_calibrate_colors(mc_tracker *t, const mc_frame_view *views, int n
 			robust_colour(&per_gauss[q], t->model.gauss[q].rgb);
 	}
 	borrow_colours(&t->model, evidence);
-	place_backdrop(t, &background, centroid_dir);
+	calibrate_background(t, &background);
 	mc_trk_gaussian_evidence(t, t->pose, t->evidence0);
 	rc = measure_baseline(t, err);
 out:

@@ -34,20 +34,12 @@ double mc_trk_probe_gaussian(const mc_tracker *t, const mc_scene *scene, int q)
 	return e;
 }
 
-void mc_trk_evidence_scene(const mc_tracker *t, const double *pose, mc_scene *scene)
-{
-	mc_fk fk;
-	mc_model_fk(&t->model, pose, &fk);
-	mc_trk_make_scene(t, &fk, scene);
-	/* The backdrop occludes nothing of the body and is on every ray: left
-	 * out, it would cost most of the time here. */
-	scene->n = t->model.ngauss;
-}
-
 void mc_trk_gaussian_evidence(const mc_tracker *t, const double *pose, double *per_gauss)
 {
+	mc_fk fk;
 	mc_scene scene;
-	mc_trk_evidence_scene(t, pose, &scene);
+	mc_model_fk(&t->model, pose, &fk);
+	mc_trk_make_scene(t, &fk, &scene);
 	for (int q = 0; q < t->model.ngauss; q++)
 		per_gauss[q] = t->hidden[q] ? 0 : mc_trk_probe_gaussian(t, &scene, q);
 }

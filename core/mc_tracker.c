@@ -105,22 +105,16 @@ static void hide_head_gaussians(mc_tracker *t)
 }
 
 /* The Gaussians at a pose; hidden ones get zero magnitude, which the energy
- * culls on every ray. */
+ * culls on every ray.  With a calibrated background colour, the energy adds
+ * B d(I, background) per pixel (mc_calibrate.c, calibrate_background). */
 void mc_trk_make_scene(const mc_tracker *t, const mc_fk *fk, mc_scene *scene)
 {
 	mc_scene_from_model(&t->model, fk, scene);
 	for (int q = 0; q < scene->n; q++)
 		if (t->hidden[q])
 			scene->c[q] = 0;
-	/* the backdrop goes after the model's Gaussians: gradients with respect
-	 * to it are computed and ignored */
-	for (int b = 0; b < t->nback && scene->n < MC_MAX_GAUSSIANS; b++) {
-		int q = scene->n++;
-		scene->mu[q] = t->back_mu[b];
-		scene->sigma[q] = t->back_sigma;
-		scene->c[q] = t->back_c;
-		memcpy(scene->hsv[q], t->back_hsv, sizeof(t->back_hsv));
-	}
+	scene->background = t->has_background;
+	memcpy(scene->background_hsv, t->background_hsv, sizeof(t->background_hsv));
 }
 
 

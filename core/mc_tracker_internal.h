@@ -8,17 +8,6 @@
 #include "mc_energy.h"
 #include "mc_tracker.h"
 
-/* Backdrop (see place_backdrop): a GRID x GRID fan of Gaussians spaced by
- * SPACING radians, DISTANCE metres from the cameras, each with standard
- * deviation SIGMA and optical depth DEPTH through its centre.  Far and wide
- * enough to cover the rays around the body evenly and to hide less than
- * about 6% of a body 2 m away. */
-#define BACKDROP_GRID 3
-#define BACKDROP_SPACING_RAD 0.6
-#define BACKDROP_DISTANCE_M 20.0
-#define BACKDROP_SIGMA_M 7.0
-#define BACKDROP_DEPTH 8.0
-
 struct mc_tracker {
 	mc_rig rig;
 	mc_model model;
@@ -42,10 +31,9 @@ struct mc_tracker {
 	double pose[MC_MAX_DOF];
 	double prev[MC_MAX_DOF], prev2[MC_MAX_DOF];
 	double anchor[MC_MAX_DOF]; /* calibration pose, for lambda_anchor */
-	/* backdrop: Gaussians far behind the body in the background colour */
-	int nback;
-	mc_vec3 back_mu[BACKDROP_GRID * BACKDROP_GRID];
-	double back_sigma, back_c, back_hsv[3];
+	/* the background colour model of the energy (calibrate_background) */
+	bool has_background;
+	double background_hsv[3];
 	/* per Gaussian: its image evidence at calibration
 	 * (mc_trk_gaussian_evidence), the reference for confidence */
 	double evidence0[MC_MAX_GAUSSIANS];
@@ -87,8 +75,6 @@ int mc_trk_data_term(mc_tracker *t, const mc_scene *scene, int nsampled, double 
 /* The valid working pixel of camera c that a rig-frame point projects to,
  * or -1. */
 int mc_trk_working_pixel(const mc_tracker *t, int c, mc_vec3 p_rig);
-/* The scene for the evidence probes: the body without the backdrop. */
-void mc_trk_evidence_scene(const mc_tracker *t, const double *pose, mc_scene *scene);
 /* Evidence of Gaussian q: sum over the present cameras of V_q (-d(I, a_q))
  * at the pixel of its centre. */
 double mc_trk_probe_gaussian(const mc_tracker *t, const mc_scene *scene, int q);
