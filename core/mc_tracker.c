@@ -134,7 +134,11 @@ static int alloc_buffers(mc_tracker *t, mc_err *err)
 		max_pixels = n > max_pixels ? n : max_pixels;
 	}
 	t->mask = malloc((size_t)max_pixels);
-	return t->mask ? 0 : mc_err_set(err, "tracker: out of memory");
+	/* Jacobians of the Gaussian centres (levers) or of the joints
+	 * (detections) with respect to every dof */
+	int rows = t->model.ngauss > MC_MAX_JOINTS ? t->model.ngauss : MC_MAX_JOINTS;
+	t->jacobian = malloc(sizeof(mc_vec3) * (size_t)rows * (size_t)(t->model.ndof > 0 ? t->model.ndof : 1));
+	return t->mask && t->jacobian ? 0 : mc_err_set(err, "tracker: out of memory");
 }
 
 mc_tracker *mc_tracker_create(const mc_rig *rig, const mc_model *model, const mc_tracker_settings *s, mc_err *err)
@@ -201,6 +205,7 @@ void mc_tracker_destroy(mc_tracker *t)
 		free(t->samples[c]);
 	}
 	free(t->mask);
+	free(t->jacobian);
 	if (t->cl)
 		mc_cl_energy_destroy(t->cl);
 	free(t);
@@ -506,45 +511,48 @@ int mc_trk_data_term(mc_tracker *t, const mc_scene *scene, int nsampled, double 
 	return 0;
 }
 
-/* E_detection on Gaussians placed at the detected joints; returns the
- * energy and adds its pose gradient. */
+/* E_detection, as a robust distance of each detected joint from its
+ * keypoint's ray: lambda conf (sqrt(1 + (r / tau)^2) - 1) / n, r the
+ * joint's distance from the ray, tau = DETECTION_SCALE_M.  Quadratic near
+ * the ray and a constant pull far from it, so that a detection brings back
+ * a limb from anywhere in view (the thesis' visibility form, kept in
+ * mc_energy_detection, only reaches a few sigma; docs/TRACKER.md).
+ * Returns the energy and adds its pose gradient. */
+#define DETECTION_SCALE_M 0.05
 static double detection_term(mc_tracker *t, const double *pose, const mc_fk *fk, const mc_keypoint *kp, int nkp,
 			     double *grad)
 {
 	if (!kp || nkp <= 0 || t->s.lambda_detection <= 0)
 		return 0;
-	mc_scene det = {0};
-	mc_detection_ray rays[MC_MAX_GAUSSIANS];
-	int joint_of[MC_MAX_GAUSSIANS], nd = 0;
-	for (int i = 0; i < nkp && nd < MC_MAX_GAUSSIANS; i++) {
+	mc_vec3 djoint[MC_MAX_JOINTS] = {{0, 0, 0}};
+	double E = 0;
+	int used = 0;
+	for (int i = 0; i < nkp; i++) {
 		const mc_keypoint *k = &kp[i];
 		mc_vec3 ray;
 		if (k->cam < 0 || k->cam >= t->rig.ncams || k->joint < 0 || k->joint >= t->model.njoints ||
 		    !(k->conf > 0) || !mc_camera_unproject(&t->rig.cams[k->cam], k->u, k->v, &ray))
 			continue;
 		const mc_xform *X = &t->rig.cams[k->cam].rig_from_cam;
-		det.mu[nd] = fk->rig_from_joint[k->joint].t;
-		det.sigma[nd] = 0.05;
-		det.c[nd] = 10.0;
-		joint_of[nd] = k->joint;
-		rays[nd] = (mc_detection_ray){nd, X->t, mc_m3_apply(X->R, ray), fmin(k->conf, 1.0)};
-		nd++;
+		mc_vec3 n = mc_v3_normalize(mc_m3_apply(X->R, ray));
+		mc_vec3 d = mc_v3_sub(fk->rig_from_joint[k->joint].t, X->t);
+		mc_vec3 r = mc_v3_axpy(-mc_v3_dot(d, n), n, d); /* offset from the ray */
+		double dist = mc_v3_norm(r), x = dist / DETECTION_SCALE_M, root = sqrt(1 + x * x);
+		double w = fmin(k->conf, 1.0);
+		E += w * (root - 1);
+		used++;
+		if (dist > 1e-12) /* dE/dp = w x / root / tau * r / |r| */
+			djoint[k->joint] = mc_v3_axpy(w * x / (root * DETECTION_SCALE_M * dist), r, djoint[k->joint]);
 	}
-	if (!nd)
+	if (!used)
 		return 0;
-	det.n = nd;
-	mc_vec3 dmu[MC_MAX_GAUSSIANS] = {{0}};
-	double dsigma[MC_MAX_GAUSSIANS] = {0};
-	double E = mc_energy_detection(&det, rays, nd, t->s.lambda_detection / nd, dmu, dsigma);
-	mc_vec3 *J = malloc(sizeof(mc_vec3) * MC_MAX_JOINTS * t->model.ndof);
-	if (!J)
-		return E;
+	double scale = t->s.lambda_detection / used;
+	mc_vec3 *J = t->jacobian;
 	mc_model_joint_jacobian(&t->model, pose, fk, J);
-	for (int i = 0; i < nd; i++)
+	for (int j = 0; j < t->model.njoints; j++)
 		for (int k = 0; k < t->model.ndof; k++)
-			grad[k] += mc_v3_dot(dmu[i], J[joint_of[i] * t->model.ndof + k]);
-	free(J);
-	return E;
+			grad[k] += scale * mc_v3_dot(djoint[j], J[j * t->model.ndof + k]);
+	return scale * E;
 }
 
 /* ---- optimisation -------------------------------------------------------- */
@@ -566,18 +574,15 @@ typedef struct {
 static void compute_levers(const mc_tracker *t, const double *pose, step_state *st)
 {
 	int nd = t->model.ndof;
-	mc_vec3 *J = malloc(sizeof(mc_vec3) * (size_t)t->model.ngauss * nd);
+	mc_vec3 *J = t->jacobian;
 	mc_fk fk;
 	for (int k = 0; k < nd; k++)
 		st->lever[k] = 1e-4; /* keeps dofs that move nothing finite */
-	if (!J)
-		return;
 	mc_model_fk(&t->model, pose, &fk);
 	mc_model_gauss_jacobian(&t->model, pose, &fk, J);
 	for (int q = 0; q < t->model.ngauss; q++)
 		for (int k = 0; k < nd; k++)
 			st->lever[k] += mc_v3_norm2(J[q * nd + k]);
-	free(J);
 }
 
 static void conditioned_step(const mc_tracker *t, step_state *st, const double *grad, double step, double *pose)

@@ -21,6 +21,7 @@ struct mc_tracker {
 	int *samples[MC_MAX_CAMERAS];
 	int nsamples[MC_MAX_CAMERAS];
 	unsigned char *mask;
+	mc_vec3 *jacobian; /* max(ngauss, MC_MAX_JOINTS) x ndof */
 	bool hidden[MC_MAX_GAUSSIANS]; /* left out of the image energy */
 	/* joints rigidly attached to a root fixed to the rig (the head on an
 	 * egocentric rig): their position is known without any image */

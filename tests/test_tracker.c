@@ -333,11 +333,76 @@ static void test_real_clip(void)
 	mc_clip_close(&clip);
 }
 
+/* Keypoints (the detection term) at the true right elbow and wrist bring
+ * back an arm that tracking starts far from, which the colour term alone
+ * does not. */
+static void test_keypoints(void)
+{
+	synth s;
+	mc_err err = {{0}};
+	double pose0[MC_MAX_DOF], start[MC_MAX_DOF];
+	if (synth_open(&s, pose0, &err) < 0) {
+		fprintf(stderr, "setup: %s\n", err.msg);
+		mc_test_failures++;
+		return;
+	}
+	mc_tracker *t = make_tracker(&s, MC_BACKEND_OPENCL, &err);
+	if (!t) {
+		printf("SKIP keypoints: no tracker: %s\n", err.msg);
+		synth_close(&s);
+		return;
+	}
+	mc_frame_view v[2];
+	render(&s, pose0);
+	views_of(&s, v, 0);
+	mc_tracker_set_pose(t, pose0);
+	CHECK_MSG(mc_tracker_calibrate_colors(t, v, 2, &err) == 0, "%s", err.msg);
+	int shoulder = mc_model_find_joint(&s.model, "right_shoulder");
+	int targets[2] = {mc_model_find_joint(&s.model, "right_elbow"), mc_model_find_joint(&s.model, "right_wrist")};
+	memcpy(start, pose0, sizeof(start));
+	for (int d = 0; d < s.model.joints[shoulder].ndof; d++)
+		start[s.model.joints[shoulder].dof0 + d] += 0.6;
+	mc_model_clamp_pose(&s.model, start);
+
+	mc_fk fk;
+	mc_model_fk(&s.model, pose0, &fk);
+	mc_keypoint kp[4];
+	int nkp = 0;
+	for (int c = 0; c < 2; c++)
+		for (int i = 0; i < 2; i++) {
+			const mc_camera *cam = &s.rig.cams[c];
+			mc_vec3 p = mc_xform_apply(mc_xform_inverse(cam->rig_from_cam), fk.rig_from_joint[targets[i]].t);
+			double u, vv;
+			if (mc_camera_project(cam, p, &u, &vv))
+				kp[nkp++] = (mc_keypoint){c, targets[i], u, vv, 1.0};
+		}
+	CHECK(nkp >= 2);
+	double wrist_error[2];
+	for (int with = 0; with < 2; with++) {
+		mc_skeleton sk;
+		mc_tracker_set_pose(t, start);
+		for (int k = 1; k <= 4; k++) {
+			views_of(&s, v, k);
+			CHECK_MSG(mc_tracker_track(t, v, 2, with ? kp : NULL, with ? nkp : 0, &sk, &err) == 0, "%s",
+				  err.msg);
+		}
+		wrist_error[with] = mc_v3_norm(mc_v3_sub(sk.joints[targets[1]].position, fk.rig_from_joint[targets[1]].t));
+		printf("arm started 0.6 rad off, %s keypoints: right wrist error %.2f cm\n", with ? "with" : "without",
+		       100 * wrist_error[with]);
+	}
+	CHECK_MSG(wrist_error[1] < 0.03, "right wrist %.2f cm off with keypoints", 100 * wrist_error[1]);
+	CHECK(wrist_error[1] < 0.5 * wrist_error[0]);
+	mc_tracker_destroy(t);
+	synth_close(&s);
+}
+
 int main(int argc, char **argv)
 {
 	bool reference = argc > 1 && !strcmp(argv[1], "--reference");
 	test_synthetic(reference ? MC_BACKEND_REFERENCE : MC_BACKEND_OPENCL);
-	if (!reference)
+	if (!reference) {
+		test_keypoints();
 		test_real_clip();
+	}
 	return mc_test_finish("test_tracker");
 }

@@ -45,6 +45,10 @@ typedef struct {
 	int reference_frames;
 	bool use_ocam;
 	bool quiet;
+	/* > = 0: feed keypoints projected from the ground truth with this much
+	 * noise (native pixels): a stand-in for a 2D detector, which is not
+	 * the evaluation protocol */
+	double simulated_detector_px;
 	mc_tracker_settings s;
 } options;
 
@@ -57,6 +61,45 @@ static double now_ms(void)
 }
 
 /* ---- tracking ---------------------------------------------------------- */
+
+static uint64_t splitmix(uint64_t *x)
+{
+	uint64_t z = (*x += 0x9e3779b97f4a7c15ULL);
+	z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
+	z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
+	return z ^ (z >> 31);
+}
+
+static double gaussian_noise(uint64_t *rng)
+{
+	double u1 = ((splitmix(rng) >> 11) + 0.5) * 0x1.0p-53, u2 = (splitmix(rng) >> 11) * 0x1.0p-53;
+	return sqrt(-2 * log(u1)) * cos(2 * M_PI * u2);
+}
+
+/* A simulated 2D detector (--simulated-detector): the evaluated joints of
+ * frame k projected from the ground truth into both cameras, with Gaussian
+ * noise of `noise_px` native pixels per axis, 15% of them missed.  Returns
+ * the number of keypoints. */
+#define SIMULATED_MISS 0.15
+static int simulated_keypoints(const mc_clip *clip, const mc_model *m, int k, double noise_px, uint64_t *rng,
+			       mc_keypoint *kp, int cap)
+{
+	int n = 0;
+	for (int e = 0; e < NEVAL; e++) {
+		int g = mc_clip_joint(clip, eval_joints[e]), j = mc_model_find_joint(m, eval_joints[e]);
+		for (int c = 0; c < 2 && g >= 0 && j >= 0 && n < cap; c++) {
+			const mc_camera *cam = &clip->rig.cams[c];
+			mc_vec3 p = mc_xform_apply(mc_xform_inverse(cam->rig_from_cam), mc_clip_gt(clip, k, g));
+			double u, v;
+			bool seen = mc_camera_project(cam, p, &u, &v);
+			if (!seen || (splitmix(rng) >> 11) * 0x1.0p-53 < SIMULATED_MISS)
+				continue;
+			kp[n++] = (mc_keypoint){c, j, u + noise_px * gaussian_noise(rng), v + noise_px * gaussian_noise(rng),
+						1.0};
+		}
+	}
+	return n;
+}
 
 static mc_tracker *start_tracker(const options *o, const mc_clip *clip, const mc_tracker_settings *s, mc_err *err)
 {
@@ -199,13 +242,18 @@ static int track_clip(const options *o, mc_tracker *t, const mc_clip *clip, int 
 		return mc_err_set(err, "out of memory");
 	mc_skeleton still;
 	current_skeleton(t, &still);
+	uint64_t rng = o->s.seed + 1;
 	for (int k = 0; k < nframes; k++) {
 		mc_frame_view views[2];
 		mc_skeleton sk;
+		mc_keypoint kp[2 * NEVAL];
+		int nkp = o->simulated_detector_px >= 0 ? simulated_keypoints(clip, mc_tracker_model(t), k,
+									     o->simulated_detector_px, &rng, kp, 2 * NEVAL)
+							: 0;
 		if (mc_clip_load_frame(clip, k, views, err) < 0)
 			return -1;
 		double t0 = now_ms();
-		int rc = mc_tracker_track(t, views, 2, NULL, 0, &sk, err);
+		int rc = mc_tracker_track(t, views, 2, kp, nkp, &sk, err);
 		st->ms[k] = now_ms() - t0;
 		if (rc == 0 && o->overlay_dir && k % o->overlay_every == 0)
 			write_overlay(o, clip, k, &views[0], &sk);
@@ -467,7 +515,11 @@ static void usage(FILE *f)
 		   "  --no-thesis           skip the thesis ch. 4 configuration\n"
 		   "  --overlay-dir DIR     write DIR/overlay_K.png: left image, estimate and ground truth\n"
 		   "  --overlay-every N     every Nth frame (default 10)\n"
-		   "  --quiet               no per-frame progress\n");
+		   "  --quiet               no per-frame progress\n"
+		   "  --simulated-detector PX  feed the tracker keypoints projected from the ground truth with PX\n"
+		   "                        pixels of noise (15%% missed), standing in for a 2D detector; NOT the\n"
+		   "                        evaluation protocol, which uses no ground truth after frame 0\n"
+		   "  --lambda-detection L  weight of the keypoint term\n");
 }
 
 static int parse_number(const char *opt, const char *arg, double lo, double hi, double *out)
@@ -484,7 +536,8 @@ static int parse_number(const char *opt, const char *arg, double lo, double hi, 
 
 enum { OPT_MODEL = 256, OPT_OUT, OPT_FRAMES, OPT_BACKEND, OPT_WIDTH, OPT_HEIGHT, OPT_ITER, OPT_FRAC, OPT_DROP,
        OPT_STEP, OPT_MOM, OPT_LSMOOTH, OPT_LPOSE, OPT_LLIMIT, OPT_PLAT, OPT_DEV, OPT_SEED, OPT_OCAM, OPT_REF,
-       OPT_NOTHESIS, OPT_QUIET, OPT_CLIP, OPT_HELP, OPT_OVERLAY, OPT_OVERLAY_EVERY, OPT_LANCHOR };
+       OPT_NOTHESIS, OPT_QUIET, OPT_CLIP, OPT_HELP, OPT_OVERLAY, OPT_OVERLAY_EVERY, OPT_LANCHOR,
+       OPT_SIMDET, OPT_LDET };
 
 static int apply_option(options *o, int c, const char *name, const char *arg, bool *thesis)
 {
@@ -523,6 +576,8 @@ static int apply_option(options *o, int c, const char *name, const char *arg, bo
 	case OPT_LPOSE: s->lambda_pose = v; break;
 	case OPT_LLIMIT: s->lambda_limit = v; break;
 	case OPT_LANCHOR: s->lambda_anchor = v; break;
+	case OPT_LDET: s->lambda_detection = v; break;
+	case OPT_SIMDET: o->simulated_detector_px = v; break;
 	case OPT_PLAT: s->cl_platform = (int)v; break;
 	case OPT_DEV: s->cl_device = (int)v; break;
 	case OPT_SEED: s->seed = (uint64_t)v; break;
@@ -538,7 +593,9 @@ static int parse_options(int argc, char **argv, options *o, bool *thesis)
 		{"height", 1, 0, OPT_HEIGHT}, {"iterations", 1, 0, OPT_ITER}, {"pixel-fraction", 1, 0, OPT_FRAC},
 		{"dropout", 1, 0, OPT_DROP}, {"step", 1, 0, OPT_STEP}, {"momentum", 1, 0, OPT_MOM},
 		{"lambda-smooth", 1, 0, OPT_LSMOOTH}, {"lambda-pose", 1, 0, OPT_LPOSE},
-		{"lambda-limit", 1, 0, OPT_LLIMIT}, {"lambda-anchor", 1, 0, OPT_LANCHOR}, {"platform", 1, 0, OPT_PLAT}, {"device", 1, 0, OPT_DEV},
+		{"lambda-limit", 1, 0, OPT_LLIMIT}, {"lambda-anchor", 1, 0, OPT_LANCHOR},
+		{"lambda-detection", 1, 0, OPT_LDET}, {"simulated-detector", 1, 0, OPT_SIMDET},
+		{"platform", 1, 0, OPT_PLAT}, {"device", 1, 0, OPT_DEV},
 		{"seed", 1, 0, OPT_SEED}, {"ocam", 0, 0, OPT_OCAM}, {"reference-frames", 1, 0, OPT_REF},
 		{"no-thesis", 0, 0, OPT_NOTHESIS}, {"overlay-dir", 1, 0, OPT_OVERLAY},
 		{"overlay-every", 1, 0, OPT_OVERLAY_EVERY}, {"quiet", 0, 0, OPT_QUIET}, {"help", 0, 0, OPT_HELP},
@@ -596,6 +653,10 @@ static int run(const options *o, bool thesis, mc_err *err)
 	}
 	printf("clip: %s (%d frames)\n", clip.name, nframes);
 	print_settings(&o->s, mc_tracker_device_name(t));
+	if (o->simulated_detector_px >= 0)
+		printf("WARNING: simulated detector: keypoints from the ground truth, %.1f px noise, %.0f%% missed. "
+		       "Not the evaluation protocol.\n",
+		       o->simulated_detector_px, 100 * SIMULATED_MISS);
 	run_stats st = {0};
 	int rc = track_clip(o, t, &clip, nframes, out, &st, err);
 	if (out)
@@ -627,6 +688,7 @@ int main(int argc, char **argv)
 	o.model_path = "config/models/default.json";
 	o.reference_frames = 3;
 	o.overlay_every = 10;
+	o.simulated_detector_px = -1;
 	mc_tracker_settings_default(&o.s);
 	if (parse_options(argc, argv, &o, &thesis) < 0)
 		return 2;
