@@ -55,6 +55,12 @@ $(FAULTY_DIR)/bad/mocap-driver-noentry.so: tests/drivers/faulty/faulty.c drivers
 	@mkdir -p $(@D)
 	$(CC) $(CPPFLAGS) $(CFLAGS) -DFAULTY_NO_ENTRY -shared $< -o $@ $(LDFLAGS) $(FAULTY_LIBS)
 
+# The keypoint test is also a client of the socket: it links libmocap
+# (literal path: ipc/module.mk is included after this file).
+$(BUILD)/tests/test_daemon_keypoints: tests/test_daemon_keypoints.c $(DAEMON_LIB) $(CORE_LIB) $(BUILD)/libmocap.a | $(DAEMON_TEST_NEEDS)
+	@mkdir -p $(@D)
+	$(CC) $(CPPFLAGS) -Idaemon $(DAEMON_CFLAGS) $(CFLAGS) -MMD -MP $< -o $@ $(LDFLAGS) $(DAEMON_LIB) $(BUILD)/libmocap.a $(CORE_LIB) $(CORE_LIBS) $(DAEMON_LIBS)
+
 # Daemon tests link the daemon library; the integration tests run mocapd
 # and the fault driver, so those are built first.
 $(BUILD)/tests/test_daemon_%: tests/test_daemon_%.c $(DAEMON_LIB) $(CORE_LIB) | $(DAEMON_TEST_NEEDS) $(FAULTY_SO) $(FAULTY_BAD)

@@ -1,0 +1,156 @@
+/* Keypoints end to end: a client sends 2D keypoints for the right wrist
+ * through the socket (libmocap), mocapd hands them to the tracker with the
+ * frame set they belong to, and the published right wrist moves onto the
+ * keypoint's ray.  The bundled clip plays in a loop through the files
+ * driver at 5 fps, both cameras with one epoch, so that the client knows
+ * the capture time of the next frame set. */
+#include "daemon/harness.h"
+#include "mc_rig.h"
+#include "mocap.h"
+#include "test_util.h"
+
+#include <time.h>
+
+#define RATE 5
+#define PERIOD_NS (1000000000ull / RATE)
+
+static char repo[PATH_MAX];
+
+static uint64_t monotonic_ns(void)
+{
+	struct timespec ts;
+	clock_gettime(CLOCK_MONOTONIC, &ts);
+	return (uint64_t)ts.tv_sec * 1000000000ull + (uint64_t)ts.tv_nsec;
+}
+
+static void write_config(mcd_run *r, uint64_t epoch)
+{
+	char text[8 * PATH_MAX];
+	snprintf(text, sizeof(text),
+		 "[daemon]\nplugin_dir = %s/drivers\n"
+		 "[camera left]\ndriver = files\nrig_camera = left\nloop = true\nrate = %d\nepoch = %llu\n"
+		 "path = %s/tests/data/ego_demo/left\n"
+		 "[camera right]\ndriver = files\nrig_camera = right\nloop = true\nrate = %d\nepoch = %llu\n"
+		 "path = %s/tests/data/ego_demo/right\n"
+		 "[tracker]\nrig = %s/config/rigs/ego_stereo.json\nmodel = %s/config/models/default.json\n"
+		 "init_joints = %s/tests/data/ego_demo/gt.json\n"
+		 "[socket]\npath = @SOCK@\n",
+		 mcd_build_dir, RATE, (unsigned long long)epoch, repo, RATE, (unsigned long long)epoch, repo, repo,
+		 repo, repo);
+	mcd_run_config(r, text);
+}
+
+static mc_vec3 joint_position(const mocap_skeleton_frame *f, int j)
+{
+	return mc_v3(f->joints[j].position[0], f->joints[j].position[1], f->joints[j].position[2]);
+}
+
+/* Distance of p from the ray through pixel (u, v) of camera c. */
+static double ray_distance(const mc_camera *cam, double u, double v, mc_vec3 p)
+{
+	mc_vec3 dir;
+	if (!mc_camera_unproject(cam, u, v, &dir))
+		return 1e9;
+	mc_vec3 n = mc_v3_normalize(mc_m3_apply(cam->rig_from_cam.R, dir));
+	mc_vec3 d = mc_v3_sub(p, cam->rig_from_cam.t);
+	return mc_v3_norm(mc_v3_axpy(-mc_v3_dot(d, n), n, d));
+}
+
+static int find_joint(const mocap_skeleton_def *def, const char *name)
+{
+	for (int j = 0; j < def->njoints; j++)
+		if (!strcmp(def->joints[j].name, name))
+			return j;
+	return -1;
+}
+
+static void run(mcd_run *r, const mc_rig *rig)
+{
+	mocap_client *c = mocap_connect(r->sock, "test_daemon_keypoints");
+	CHECK_MSG(c, "connect: %s", mocap_errmsg());
+	if (!c)
+		return;
+	mocap_skeleton_def *def = calloc(1, sizeof(*def));
+	mocap_skeleton_frame *f = calloc(1, sizeof(*f));
+	int wrist = -1;
+	CHECK(def && f && mocap_subscribe(c, MOCAP_ALL, MOCAP_SPACE_RIG, 0) == 0);
+	CHECK(f && mocap_read_frame(c, f, 30000) == 1);
+	CHECK(def && mocap_get_skeleton(c, def) == 0 && (wrist = find_joint(def, "right_wrist")) >= 0);
+	if (!def || !f || wrist < 0 || mc_test_failures)
+		goto out;
+
+	/* A target 0.2 m from the wrist, across the left camera's line of sight,
+	 * seen by both cameras. */
+	mc_vec3 w0 = joint_position(f, wrist);
+	mc_vec3 sight = mc_v3_normalize(mc_v3_sub(w0, rig->cams[0].rig_from_cam.t));
+	mc_vec3 across = mc_v3_normalize(mc_v3_cross(sight, mc_v3(0, 0, 1)));
+	mc_vec3 target = mc_v3_axpy(0.2, across, w0);
+	mocap_keypoint kp[2];
+	double u[2], v[2];
+	for (int cam = 0; cam < 2; cam++) {
+		mc_vec3 p = mc_xform_apply(mc_xform_inverse(rig->cams[cam].rig_from_cam), target);
+		CHECK(mc_camera_project(&rig->cams[cam], p, &u[cam], &v[cam]));
+		kp[cam] = (mocap_keypoint){wrist, (float)u[cam], (float)v[cam], 1.0f};
+	}
+	double before = ray_distance(&rig->cams[0], u[0], v[0], w0);
+
+	/* Keypoints for the next frame set, after every frame received. */
+	int sent = 0;
+	for (int k = 0; k < 20; k++) {
+		for (int cam = 0; cam < 2; cam++)
+			if (mocap_send_keypoints(c, f->capture_ns + PERIOD_NS, cam, &kp[cam], 1) == 0)
+				sent++;
+		if (mocap_read_frame(c, f, 10000) != 1)
+			break;
+	}
+	double after = ray_distance(&rig->cams[0], u[0], v[0], joint_position(f, wrist));
+	double right = ray_distance(&rig->cams[1], u[1], v[1], joint_position(f, wrist));
+	printf("right wrist from the keypoint ray: %.1f cm before, %.1f cm (left) and %.1f cm (right) after, "
+	       "%d batches sent\n",
+	       100 * before, 100 * after, 100 * right, sent);
+	CHECK(sent == 40);
+	CHECK_MSG(before > 0.15, "the target is only %.1f cm off the wrist", 100 * before);
+	CHECK_MSG(after < 0.05 && right < 0.05, "the wrist stayed %.1f / %.1f cm off the keypoint rays", 100 * after,
+		  100 * right);
+out:
+	free(def);
+	free(f);
+	mocap_close(c);
+}
+
+int main(void)
+{
+	if (!mcd_find_build())
+		TEST_SKIP("mocapd is not built");
+	if (!getcwd(repo, sizeof(repo)) || access("tests/data/ego_demo/gt.json", R_OK) != 0)
+		TEST_SKIP("run from the repository root (tests/data/ego_demo not found)");
+	mc_rig rig;
+	mc_err err = {{0}};
+	if (mc_rig_load("config/rigs/ego_stereo.json", &rig, &err) < 0) {
+		fprintf(stderr, "%s\n", err.msg);
+		return 1;
+	}
+	mcd_run r;
+	CHECK(mcd_run_init(&r));
+	write_config(&r, monotonic_ns() + 3000000000ull);
+	const char *const args[] = {NULL};
+	CHECK(mcd_run_start(&r, args, NULL));
+	if (!mcd_run_wait_notify(&r, "READY=1", 60000)) {
+		char *log = mcd_read_file(r.log);
+		bool no_cl = log && strstr(log, "OpenCL") && strstr(log, "error");
+		free(log);
+		mcd_run_dump(&r, "start");
+		mcd_run_cleanup(&r);
+		if (no_cl)
+			TEST_SKIP("the tracker cannot run here (no usable OpenCL device)");
+		CHECK_MSG(false, "mocapd did not become ready");
+		return mc_test_finish("test_daemon_keypoints");
+	}
+	run(&r, &rig);
+	mcd_run_signal(&r, SIGTERM);
+	CHECK(mcd_run_wait_exit(&r, 20000) == 0);
+	if (mc_test_failures)
+		mcd_run_dump(&r, "keypoints");
+	mcd_run_cleanup(&r);
+	return mc_test_finish("test_daemon_keypoints");
+}
