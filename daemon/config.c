@@ -271,6 +271,8 @@ static const key_def tracker_keys[] = {
 	{"dropout", p_double, F(mcd_tracker_config, dropout), 0, 0.99, 0},
 	{"step", p_positive, F(mcd_tracker_config, step), 0, BIG, 0},
 	{"momentum", p_double, F(mcd_tracker_config, momentum), 0, 0.999, 0},
+	{"lambda_detection", p_double, F(mcd_tracker_config, lambda_detection), 0, 1000, 0},
+	{"lambda_smooth", p_double, F(mcd_tracker_config, lambda_smooth), 0, 1000, 0},
 	{"opencl_platform", p_cl_index, F(mcd_tracker_config, cl_platform), 0, 0, 0},
 	{"opencl_device", p_cl_index, F(mcd_tracker_config, cl_device), 0, 0, 0},
 	{"seed", p_seed, F(mcd_tracker_config, seed), 0, 0, 0},
@@ -312,6 +314,7 @@ void mcd_config_defaults(mcd_config *cfg)
 	t->backend = -1;
 	t->width = t->height = t->iterations = -1;
 	t->pixel_fraction = t->dropout = t->step = t->momentum = NAN;
+	t->lambda_detection = t->lambda_smooth = NAN;
 	t->cl_platform = t->cl_device = -2;
 	t->seed = -1;
 	cfg->socket.enabled = true;

@@ -58,6 +58,7 @@ typedef struct {
 	int backend; /* -1 default, else mc_backend */
 	int width, height, iterations;
 	double pixel_fraction, dropout, step, momentum;
+	double lambda_detection, lambda_smooth; /* NAN: default */
 	int cl_platform, cl_device; /* -2 default, -1 auto, >= 0 index */
 	long long seed;             /* -1 default */
 } mcd_tracker_config;

@@ -19,6 +19,7 @@
 #include <errno.h>
 #include <getopt.h>
 #include <grp.h>
+#include <math.h>
 #include <poll.h>
 #include <signal.h>
 #include <stdio.h>
@@ -324,6 +325,12 @@ static void feed_watchdog(daemon_ctx *d)
 
 /* ---- reload ------------------------------------------------------------------------- */
 
+/* Equal, counting two unset (NAN) values as equal. */
+static bool same_setting(double a, double b)
+{
+	return (isnan(a) && isnan(b)) || a == b;
+}
+
 /* Names what changed in the new config that only a restart applies. */
 static void report_restart_only(const mcd_config *old, const mcd_config *neu)
 {
@@ -350,6 +357,8 @@ static void report_restart_only(const mcd_config *old, const mcd_config *neu)
 	    a->cl_platform != b->cl_platform || a->cl_device != b->cl_device || a->seed != b->seed ||
 	    a->calibrate_colors != b->calibrate_colors)
 		what[n++] = "[tracker] rig, model, init, backend, resolution or device";
+	if (!same_setting(a->lambda_detection, b->lambda_detection) || !same_setting(a->lambda_smooth, b->lambda_smooth))
+		what[n++] = "[tracker] lambda_detection or lambda_smooth";
 	for (int i = 0; i < n; i++)
 		mcd_warn("reload: %s changed; that takes a restart (systemctl restart mocapd)", what[i]);
 }

@@ -28,6 +28,10 @@ void mcd_tracking_settings(const mcd_tracker_config *tc, mc_tracker_settings *s)
 		s->step = tc->step;
 	if (!isnan(tc->momentum))
 		s->momentum = tc->momentum;
+	if (!isnan(tc->lambda_detection))
+		s->lambda_detection = tc->lambda_detection;
+	if (!isnan(tc->lambda_smooth))
+		s->lambda_smooth = tc->lambda_smooth;
 	if (tc->cl_platform >= -1)
 		s->cl_platform = tc->cl_platform;
 	if (tc->cl_device >= -1)

@@ -63,6 +63,7 @@ static void test_full_config(void)
 			   "iterations = 20\n"
 			   "pixel_fraction = 0.25\n"
 			   "dropout = 0.5\n"
+			   "lambda_detection = 2\n"
 			   "backend = reference\n"
 			   "opencl_platform = 0\n"
 			   "opencl_device = auto\n"
@@ -108,6 +109,8 @@ static void test_full_config(void)
 	CHECK_NEAR(cfg.tracker.pixel_fraction, 0.25, 0);
 	CHECK_NEAR(cfg.tracker.dropout, 0.5, 0);
 	CHECK(isnan(cfg.tracker.step));
+	CHECK_NEAR(cfg.tracker.lambda_detection, 2, 0);
+	CHECK(isnan(cfg.tracker.lambda_smooth));
 	CHECK(cfg.tracker.backend == 1);
 	CHECK(cfg.tracker.cl_platform == 0 && cfg.tracker.cl_device == -1);
 	CHECK(cfg.tracker.seed == 42);
@@ -156,6 +159,8 @@ static void test_value_errors(void)
 		     "mocapd.conf:5: [tracker] pixel_fraction: expected a positive number, got '1.5'");
 	expect_error(CAM NOTRACK "pixel_fraction = nan\n",
 		     "mocapd.conf:5: [tracker] pixel_fraction: expected a positive number, got 'nan'");
+	expect_error(CAM NOTRACK "lambda_detection = -1\n",
+		     "mocapd.conf:5: [tracker] lambda_detection: expected a number from 0 to 1000, got '-1'");
 	expect_error(CAM NOTRACK "dropout = -0.1\n",
 		     "mocapd.conf:5: [tracker] dropout: expected a number from 0 to 0.99, got '-0.1'");
 	expect_error(CAM NOTRACK "backend = cuda\n",
