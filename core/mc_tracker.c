@@ -450,10 +450,10 @@ int mc_trk_sample_pixels(mc_tracker *t, double fraction)
 		int *cand = t->candidates[c];
 		for (int i = 0; i < k; i++) {
 			int j = i + (int)(mc_trk_rng_next(&t->rng) % (uint64_t)(n - i));
-			int tmp = cand[i];
-			cand[i] = cand[j];
-			cand[j] = tmp;
-			t->samples[c][i] = tmp;
+			int chosen = cand[j];
+			cand[j] = cand[i];
+			cand[i] = chosen;
+			t->samples[c][i] = chosen;
 		}
 		t->nsamples[c] = k;
 		total += k;
@@ -477,7 +477,8 @@ static double reference_data_term(mc_tracker *t, const mc_scene *scene, double d
 				w[q] = mc_hsv_dissimilarity(scene->hsv[q], pix);
 				active[q] = dropout <= 0 || mc_trk_rng_uniform(&t->rng) >= dropout;
 			}
-			E += mc_ray_weighted_visibility(scene, rt->origin, rt->dir[p], w, active, dmu, dsigma);
+			double w_bg = scene->background ? mc_hsv_dissimilarity(scene->background_hsv, pix) : 0;
+			E += mc_ray_weighted_visibility_bg(scene, rt->origin, rt->dir[p], w, w_bg, active, dmu, dsigma);
 		}
 	}
 	return E;
