@@ -11,6 +11,7 @@
 
 #include <math.h>
 #include <stdbool.h>
+#include <stdint.h>
 
 #ifndef M_PI
 #define M_PI 3.14159265358979323846
@@ -83,5 +84,21 @@ bool mc_la_cholesky_solve(double *A, double *b, int n);
 /* Solves A x = b by LU with partial pivoting; overwrites A and b. Returns
  * false for a (numerically) singular A. */
 bool mc_la_lu_solve(double *A, double *b, int n);
+
+/* splitmix64: a small, fast random generator (state *s, any seed); good
+ * enough for sampling pixels and simulating noise, not for cryptography. */
+static inline uint64_t mc_rng_next(uint64_t *s)
+{
+	uint64_t z = (*s += 0x9e3779b97f4a7c15ULL);
+	z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
+	z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
+	return z ^ (z >> 31);
+}
+
+/* Uniform in [0, 1). */
+static inline double mc_rng_uniform(uint64_t *s)
+{
+	return (mc_rng_next(s) >> 11) * 0x1.0p-53;
+}
 
 #endif

@@ -449,7 +449,7 @@ int mc_trk_sample_pixels(mc_tracker *t, double fraction)
 		int k = (int)ceil(fraction * n);
 		int *cand = t->candidates[c];
 		for (int i = 0; i < k; i++) {
-			int j = i + (int)(mc_trk_rng_next(&t->rng) % (uint64_t)(n - i));
+			int j = i + (int)(mc_rng_next(&t->rng) % (uint64_t)(n - i));
 			int chosen = cand[j];
 			cand[j] = cand[i];
 			cand[i] = chosen;
@@ -475,7 +475,7 @@ static double reference_data_term(mc_tracker *t, const mc_scene *scene, double d
 			double pix[3] = {t->hsv[c][3 * p], t->hsv[c][3 * p + 1], t->hsv[c][3 * p + 2]};
 			for (int q = 0; q < scene->n; q++) {
 				w[q] = mc_hsv_dissimilarity(scene->hsv[q], pix);
-				active[q] = dropout <= 0 || mc_trk_rng_uniform(&t->rng) >= dropout;
+				active[q] = dropout <= 0 || mc_rng_uniform(&t->rng) >= dropout;
 			}
 			double w_bg = scene->background ? mc_hsv_dissimilarity(scene->background_hsv, pix) : 0;
 			E += mc_ray_weighted_visibility_bg(scene, rt->origin, rt->dir[p], w, w_bg, active, dmu, dsigma);
@@ -499,7 +499,7 @@ int mc_trk_data_term(mc_tracker *t, const mc_scene *scene, int nsampled, double 
 		const int *pix[MC_MAX_CAMERAS];
 		for (int c = 0; c < t->rig.ncams; c++)
 			pix[c] = t->samples[c];
-		uint32_t seed = (uint32_t)mc_trk_rng_next(&t->rng);
+		uint32_t seed = (uint32_t)mc_rng_next(&t->rng);
 		if (mc_cl_energy_eval(t->cl, scene, pix, t->nsamples, dropout, seed, E, dmu, dsigma, err) < 0)
 			return -1;
 	} else {

@@ -43,21 +43,6 @@ struct mc_tracker {
 	uint64_t rng;
 };
 
-static inline uint64_t mc_trk_rng_next(uint64_t *s)
-{
-	/* splitmix64: cheap, good enough for pixel sampling */
-	uint64_t z = (*s += 0x9e3779b97f4a7c15ULL);
-	z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
-	z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
-	return z ^ (z >> 31);
-}
-
-/* Uniform in [0, 1). */
-static inline double mc_trk_rng_uniform(uint64_t *s)
-{
-	return (mc_trk_rng_next(s) >> 11) * 0x1.0p-53;
-}
-
 /* Converts the views to working-resolution RGB (t->rgb) and HSV (t->hsv);
  * returns how many cameras carry a usable, non-blank image (t->present). */
 int mc_trk_load_views(mc_tracker *t, const mc_frame_view *views, int nviews);

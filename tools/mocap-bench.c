@@ -62,17 +62,9 @@ static double now_ms(void)
 
 /* ---- tracking ---------------------------------------------------------- */
 
-static uint64_t splitmix(uint64_t *x)
-{
-	uint64_t z = (*x += 0x9e3779b97f4a7c15ULL);
-	z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
-	z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
-	return z ^ (z >> 31);
-}
-
 static double gaussian_noise(uint64_t *rng)
 {
-	double u1 = ((splitmix(rng) >> 11) + 0.5) * 0x1.0p-53, u2 = (splitmix(rng) >> 11) * 0x1.0p-53;
+	double u1 = ((mc_rng_next(rng) >> 11) + 0.5) * 0x1.0p-53, u2 = mc_rng_uniform(rng); /* u1 in (0, 1) */
 	return sqrt(-2 * log(u1)) * cos(2 * M_PI * u2);
 }
 
@@ -92,7 +84,7 @@ static int simulated_keypoints(const mc_clip *clip, const mc_model *m, int k, do
 			mc_vec3 p = mc_xform_apply(mc_xform_inverse(cam->rig_from_cam), mc_clip_gt(clip, k, g));
 			double u, v;
 			bool seen = mc_camera_project(cam, p, &u, &v);
-			if (!seen || (splitmix(rng) >> 11) * 0x1.0p-53 < SIMULATED_MISS)
+			if (!seen || mc_rng_uniform(rng) < SIMULATED_MISS)
 				continue;
 			kp[n++] = (mc_keypoint){c, j, u + noise_px * gaussian_noise(rng), v + noise_px * gaussian_noise(rng),
 						1.0};
