@@ -19,7 +19,9 @@
  * its Gaussians matched in full). */
 #define EVIDENCE_MIN 1.0
 
-double mc_trk_probe_gaussian(const mc_tracker *t, const mc_scene *scene, int q)
+/* Evidence of Gaussian q: sum over the present cameras of V_q (-d(I, a_q))
+ * at the pixel of its centre. */
+static double probe_gaussian(const mc_tracker *t, const mc_scene *scene, int q)
 {
 	double e = 0;
 	for (int c = 0; c < t->rig.ncams; c++) {
@@ -41,7 +43,7 @@ void mc_trk_gaussian_evidence(const mc_tracker *t, const double *pose, double *p
 	mc_model_fk(&t->model, pose, &fk);
 	mc_trk_make_scene(t, &fk, &scene);
 	for (int q = 0; q < t->model.ngauss; q++)
-		per_gauss[q] = t->hidden[q] ? 0 : mc_trk_probe_gaussian(t, &scene, q);
+		per_gauss[q] = t->hidden[q] ? 0 : probe_gaussian(t, &scene, q);
 }
 
 /* Per joint: the sum over the Gaussians attached to it and to its parent. */

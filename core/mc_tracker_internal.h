@@ -61,11 +61,9 @@ int mc_trk_data_term(mc_tracker *t, const mc_scene *scene, int nsampled, double 
 /* The valid working pixel of camera c that a rig-frame point projects to,
  * or -1. */
 int mc_trk_working_pixel(const mc_tracker *t, int c, mc_vec3 p_rig);
-/* Evidence of Gaussian q: sum over the present cameras of V_q (-d(I, a_q))
- * at the pixel of its centre. */
-double mc_trk_probe_gaussian(const mc_tracker *t, const mc_scene *scene, int q);
-/* Each visible Gaussian's evidence (mc_trk_probe_gaussian) at a pose; 0
- * for hidden ones. */
+/* Each visible Gaussian's image evidence at a pose: sum over the present
+ * cameras of V_q (-d(I, a_q)) at the pixel of its centre; 0 for hidden
+ * Gaussians. */
 void mc_trk_gaussian_evidence(const mc_tracker *t, const double *pose, double *per_gauss);
 /* Fills out->joints[j].confidence for a tracked pose (see docs/TRACKER.md,
  * "Per-joint confidence"); 0 for every joint when out->state is lost. */
