@@ -12,10 +12,12 @@
 #include "mc_draw.h"
 #include "mc_tracker.h"
 
+#include <errno.h>
 #include <getopt.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 #include <time.h>
 
 static const char *const eval_joints[] = {
@@ -606,6 +608,12 @@ static int parse_options(int argc, char **argv, options *o, bool *thesis)
 	if (!o->clip) {
 		fprintf(stderr, "mocap-bench: --clip DIR is required\n");
 		usage(stderr);
+		return -1;
+	}
+	/* the overlay directory is made here, so that a bad path fails at once
+	 * rather than once per overlay */
+	if (o->overlay_dir && mkdir(o->overlay_dir, 0755) < 0 && errno != EEXIST) {
+		fprintf(stderr, "mocap-bench: --overlay-dir %s: %s\n", o->overlay_dir, strerror(errno));
 		return -1;
 	}
 	return 0;

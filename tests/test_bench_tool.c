@@ -1,0 +1,165 @@
+/* Runs tools/mocap-bench (built next to this test, in BUILD/bin) on the
+ * bundled clip (tests/data/ego_demo): the RESULT line's format, the --out
+ * estimates scored here independently against the clip's gt.json (they must
+ * give the MPJPE the tool printed), the simulated-detector warning, and bad
+ * command lines. */
+#include "mc_clip.h"
+#include "test_util.h"
+
+#include <jansson.h>
+#include <libgen.h>
+#include <string.h>
+#include <unistd.h>
+
+#define FRAMES 12
+
+static char tool[4096], tmpdir[64];
+
+/* DESIGN.md's evaluated joints, as mocap-bench scores them. */
+static const char *const evaluated[] = {
+	"neck",      "left_shoulder", "left_elbow",     "left_wrist",  "left_hip",    "left_knee",
+	"left_ankle", "left_toe",     "right_shoulder", "right_elbow", "right_wrist", "right_hip",
+	"right_knee", "right_ankle",  "right_toe",
+};
+#define NEVAL ((int)(sizeof(evaluated) / sizeof(evaluated[0])))
+
+/* Runs the tool with `args`; returns its exit status and its output
+ * (stdout and stderr) in out. */
+static int run_tool(const char *args, char *out, size_t cap)
+{
+	char cmd[8192];
+	snprintf(cmd, sizeof(cmd), "%s %s 2>&1", tool, args);
+	FILE *p = popen(cmd, "r");
+	if (!p)
+		return -1;
+	size_t n = fread(out, 1, cap - 1, p);
+	out[n] = 0;
+	int st = pclose(p);
+	return WIFEXITED(st) ? WEXITSTATUS(st) : -1;
+}
+
+/* The last line of the output. */
+static const char *last_line(char *out)
+{
+	size_t n = strlen(out);
+	while (n > 0 && out[n - 1] == '\n')
+		out[--n] = 0;
+	const char *nl = strrchr(out, '\n');
+	return nl ? nl + 1 : out;
+}
+
+/* MPJPE (cm) of the --out file against the clip's ground truth; -1 when a
+ * line is malformed (reported). */
+static double score_estimates(const char *path, const mc_clip *clip, int *lines)
+{
+	FILE *f = fopen(path, "r");
+	char buf[16384];
+	double sum = 0;
+	int n = 0;
+	*lines = 0;
+	while (f && fgets(buf, sizeof(buf), f)) {
+		json_error_t jerr;
+		json_t *root = json_loads(buf, 0, &jerr);
+		json_t *joints = json_object_get(root, "joints"), *conf = json_object_get(root, "confidence");
+		int k = (int)json_integer_value(json_object_get(root, "index"));
+		const char *state = json_string_value(json_object_get(root, "state"));
+		CHECK_MSG(root && json_is_object(joints) && json_is_object(conf) && state && k == *lines,
+			  "%s line %d: %s", path, *lines + 1, buf);
+		for (int e = 0; root && e < NEVAL; e++) {
+			json_t *p = json_object_get(joints, evaluated[e]);
+			double c = json_real_value(json_object_get(conf, evaluated[e]));
+			CHECK_MSG(json_is_array(p) && json_array_size(p) == 3 && c >= 0 && c <= 1, "line %d: %s",
+				  *lines + 1, evaluated[e]);
+			int g = mc_clip_joint(clip, evaluated[e]);
+			if (!json_is_array(p) || json_array_size(p) != 3 || g < 0)
+				continue;
+			mc_vec3 est = mc_v3(json_number_value(json_array_get(p, 0)), json_number_value(json_array_get(p, 1)),
+					    json_number_value(json_array_get(p, 2)));
+			sum += mc_v3_norm(mc_v3_sub(est, mc_clip_gt(clip, k, g)));
+			n++;
+		}
+		json_decref(root);
+		(*lines)++;
+	}
+	if (f)
+		fclose(f);
+	return n ? 100 * sum / n : -1;
+}
+
+static void test_run(void)
+{
+	static char out[1 << 16];
+	char args[512], path[128];
+	mc_err err = {{0}};
+	mc_clip clip;
+	CHECK_MSG(mc_clip_open("tests/data/ego_demo", false, &clip, &err) == 0, "%s", err.msg);
+	snprintf(path, sizeof(path), "%s/estimates.jsonl", tmpdir);
+	snprintf(args, sizeof(args),
+		 "--clip tests/data/ego_demo --frames %d --reference-frames 1 --no-thesis --quiet --out %s", FRAMES, path);
+	int rc = run_tool(args, out, sizeof(out));
+	if (rc == 1 && strstr(out, "OpenCL")) {
+		mc_clip_close(&clip);
+		TEST_SKIP("no usable OpenCL device: %s", out);
+	}
+	CHECK_MSG(rc == 0, "exit %d:\n%s", rc, out);
+	CHECK(strstr(out, "accuracy (MPJPE, cm") && strstr(out, "holding the initial pose instead"));
+	CHECK(strstr(out, "error by reported joint confidence") && strstr(out, "reference backend:"));
+	const char *result = last_line(out);
+	printf("%s\n", result);
+	char name[64], device[256];
+	int frames = 0;
+	double mpjpe = -1, fps = -1, p99 = -1;
+	int fields = sscanf(result, "RESULT clip=%63s frames=%d mpjpe_cm=%lf fps=%lf ms_p99=%lf device=%255s", name,
+			    &frames, &mpjpe, &fps, &p99, device);
+	CHECK_MSG(fields == 6, "RESULT line: '%s'", result);
+	CHECK(!strcmp(name, "ego_demo") && frames == FRAMES && fps > 0 && p99 > 0 && !strchr(device, ' '));
+	int lines;
+	double scored = score_estimates(path, &clip, &lines);
+	printf("MPJPE printed %.2f cm, scored from --out %.4f cm over %d lines\n", mpjpe, scored, lines);
+	CHECK(lines == FRAMES);
+	CHECK_MSG(fabs(scored - mpjpe) <= 0.006, "printed %.2f, scored %.4f", mpjpe, scored);
+	/* a loose bound: the first frames of the clip are tracked */
+	CHECK_MSG(mpjpe > 0 && mpjpe < 10, "MPJPE %.2f cm", mpjpe);
+	mc_clip_close(&clip);
+	unlink(path);
+
+	snprintf(args, sizeof(args), "--clip tests/data/ego_demo --frames 3 --reference-frames 0 --no-thesis --quiet "
+				     "--simulated-detector 2");
+	CHECK(run_tool(args, out, sizeof(out)) == 0);
+	CHECK_MSG(strstr(out, "WARNING: simulated detector") && strstr(out, "Not the evaluation protocol"), "%s", out);
+}
+
+static void test_bad_command_lines(void)
+{
+	static char out[1 << 14];
+	CHECK(run_tool("--frames 3", out, sizeof(out)) != 0 && strstr(out, "--clip DIR is required"));
+	CHECK(run_tool("--clip /nonexistent/clip", out, sizeof(out)) != 0 && strstr(out, "/nonexistent/clip"));
+	CHECK_MSG(run_tool("--clip tests/data/ego_demo --frames many", out, sizeof(out)) != 0 && strstr(out, "frames"),
+		  "%s", out);
+	CHECK(run_tool("--clip tests/data/ego_demo --backend cuda", out, sizeof(out)) != 0 &&
+	      strstr(out, "--backend: expected opencl or reference"));
+	CHECK_MSG(run_tool("--clip tests/data/ego_demo --overlay-dir /nonexistent/x/y", out, sizeof(out)) != 0 &&
+			  strstr(out, "--overlay-dir /nonexistent/x/y"),
+		  "%s", out);
+}
+
+int main(int argc, char **argv)
+{
+	(void)argc;
+	char self[4096];
+	snprintf(self, sizeof(self), "%s", argv[0]);
+	snprintf(tool, sizeof(tool), "%s/../bin/mocap-bench", dirname(self));
+	if (access(tool, X_OK) != 0)
+		TEST_SKIP("%s is not built", tool);
+	if (access("tests/data/ego_demo/gt.json", R_OK) != 0)
+		TEST_SKIP("run from the repository root (tests/data/ego_demo not found)");
+	snprintf(tmpdir, sizeof(tmpdir), "/tmp/mocap-bench-test-XXXXXX");
+	if (!mkdtemp(tmpdir)) {
+		perror("mkdtemp");
+		return 1;
+	}
+	test_bad_command_lines();
+	test_run();
+	rmdir(tmpdir);
+	return mc_test_finish("test_bench_tool");
+}
