@@ -142,10 +142,7 @@ static void test_mocapctl(void)
 	mcd_sleep_ms(1200); /* a status snapshot with rates */
 	char cmd[8400], out[4096] = "";
 	snprintf(cmd, sizeof(cmd), "%s --socket %s status 2>&1", ctl, r.sock);
-	FILE *p = popen(cmd, "r");
-	size_t n = p ? fread(out, 1, sizeof(out) - 1, p) : 0;
-	out[n] = 0;
-	int rc = p ? pclose(p) : -1;
+	int rc = mc_test_run(cmd, out, sizeof(out));
 	CHECK_MSG(rc == 0, "mocapctl status: %d\n%s", rc, out);
 	CHECK_MSG(strstr(out, "cameras:    2") && strstr(out, "64x48"), "%s", out);
 	snprintf(cmd, sizeof(cmd), "%s --socket %s reload >/dev/null 2>&1", ctl, r.sock);

@@ -8,26 +8,11 @@
 static char scratch[64];
 static char srcdir[PATH_MAX]; /* the repository root (the tests run there) */
 
-/* Runs a shell command, captures its output (both streams). */
-static int run(const char *cmd, char *out, size_t cap)
-{
-	FILE *p = popen(cmd, "r");
-	if (!p)
-		return -1;
-	size_t n = fread(out, 1, cap - 1, p);
-	out[n] = 0;
-	char drain[4096]; /* read the rest, so that the tool does not die of SIGPIPE */
-	while (fread(drain, 1, sizeof(drain), p) > 0)
-		;
-	int st = pclose(p);
-	return WIFEXITED(st) ? WEXITSTATUS(st) : -1;
-}
-
 static bool have(const char *tool)
 {
 	char cmd[256], out[256];
 	snprintf(cmd, sizeof(cmd), "command -v %s 2>&1", tool);
-	return run(cmd, out, sizeof(out)) == 0;
+	return mc_test_run(cmd, out, sizeof(out)) == 0;
 }
 
 /* The service as `make install` writes it, pointing at the built mocapd. */
@@ -38,14 +23,14 @@ static void install_units(void)
 		 "sed -e 's|@BINDIR@|%s/bin|g' -e 's|@SYSCONFDIR@|/etc|g' -e 's|@DOCDIR@|/usr/share/doc/mocapd|g' "
 		 "systemd/mocapd.service.in > %s/mocapd.service && cp systemd/mocapd.socket %s/ 2>&1",
 		 mcd_build_dir, scratch, scratch);
-	CHECK_MSG(run(cmd, out, sizeof(out)) == 0, "%s", out);
+	CHECK_MSG(mc_test_run(cmd, out, sizeof(out)) == 0, "%s", out);
 }
 
 static void test_verify(void)
 {
 	char cmd[512], out[8192];
 	snprintf(cmd, sizeof(cmd), "cd %s && systemd-analyze verify ./mocapd.service ./mocapd.socket 2>&1", scratch);
-	int rc = run(cmd, out, sizeof(out));
+	int rc = mc_test_run(cmd, out, sizeof(out));
 	CHECK_MSG(rc == 0, "systemd-analyze verify: exit %d:\n%s", rc, out);
 	/* verify prints warnings with exit 0; ours must have none */
 	CHECK_MSG(!strstr(out, "mocapd.service:") && !strstr(out, "mocapd.socket:"), "warnings:\n%s", out);
@@ -55,7 +40,7 @@ static void test_security_score(void)
 {
 	char cmd[512], out[32768];
 	snprintf(cmd, sizeof(cmd), "cd %s && systemd-analyze security --offline=true ./mocapd.service 2>&1", scratch);
-	int rc = run(cmd, out, sizeof(out));
+	int rc = mc_test_run(cmd, out, sizeof(out));
 	const char *line = strstr(out, "Overall exposure level for mocapd.service:");
 	if (rc != 0 && !line) {
 		printf("systemd-analyze security --offline cannot run here (exit %d); score not checked\n", rc);
@@ -102,7 +87,7 @@ static void test_sysusers_tmpfiles(void)
 	snprintf(cmd, sizeof(cmd),
 		 "mkdir -p %s/root/etc && systemd-sysusers --root=%s/root %.500s/systemd/mocapd.sysusers 2>&1", scratch,
 		 scratch, srcdir);
-	int rc = run(cmd, out, sizeof(out));
+	int rc = mc_test_run(cmd, out, sizeof(out));
 	CHECK_MSG(rc == 0, "systemd-sysusers: exit %d: %s", rc, out);
 	char path[256];
 	snprintf(path, sizeof(path), "%s/root/etc/passwd", scratch);
@@ -116,7 +101,7 @@ static void test_sysusers_tmpfiles(void)
 	free(group);
 	snprintf(cmd, sizeof(cmd), "systemd-tmpfiles --create --root=%s/root %.500s/systemd/mocapd.tmpfiles 2>&1", scratch,
 		 srcdir);
-	rc = run(cmd, out, sizeof(out));
+	rc = mc_test_run(cmd, out, sizeof(out));
 	CHECK_MSG(rc == 0, "systemd-tmpfiles: exit %d: %s", rc, out);
 	snprintf(path, sizeof(path), "%s/root/run/mocapd", scratch);
 	struct stat st;
@@ -143,6 +128,6 @@ int main(void)
 	test_sysusers_tmpfiles();
 	char cmd[128], out[64];
 	snprintf(cmd, sizeof(cmd), "rm -rf %s", scratch);
-	run(cmd, out, sizeof(out));
+	mc_test_run(cmd, out, sizeof(out));
 	return mc_test_finish("test_daemon_units");
 }

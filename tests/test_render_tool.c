@@ -20,13 +20,7 @@ static int run_tool(const char *args, char *out, size_t cap)
 {
 	char cmd[8192];
 	snprintf(cmd, sizeof(cmd), "%s %s 2>&1", tool, args);
-	FILE *p = popen(cmd, "r");
-	if (!p)
-		return -1;
-	size_t n = fread(out, 1, cap - 1, p);
-	out[n] = 0;
-	int st = pclose(p);
-	return WIFEXITED(st) ? WEXITSTATUS(st) : -1;
+	return mc_test_run(cmd, out, cap);
 }
 
 static uint8_t *load_png(const char *path, int *w, int *h)

@@ -10,6 +10,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <sys/stat.h>
+#include <sys/wait.h>
 
 static int mc_test_failures;
 
@@ -78,6 +79,24 @@ static inline double mc_test_rand(unsigned long long *state)
 {
 	*state = *state * 6364136223846793005ULL + 1442695040888963407ULL;
 	return (double)(*state >> 11) * (1.0 / 9007199254740992.0);
+}
+
+/* Runs a shell command and captures its output (as much as fits in out,
+ * NUL-terminated; the rest is read and dropped, so that the command does
+ * not die of SIGPIPE).  Returns its exit status, or -1 when it could not
+ * run or did not exit normally. */
+static inline int mc_test_run(const char *cmd, char *out, size_t cap)
+{
+	FILE *p = popen(cmd, "r");
+	if (!p)
+		return -1;
+	size_t n = fread(out, 1, cap - 1, p);
+	out[n] = 0;
+	char drain[4096];
+	while (fread(drain, 1, sizeof(drain), p) > 0)
+		;
+	int st = pclose(p);
+	return WIFEXITED(st) ? WEXITSTATUS(st) : -1;
 }
 
 #endif
