@@ -171,14 +171,19 @@ static void write_overlay(const options *o, const mc_clip *clip, int k, const mc
 	free(im.rgb);
 }
 
+static int skeleton_joint(const mc_skeleton *sk, const char *name)
+{
+	for (int j = 0; j < sk->njoints; j++)
+		if (!strcmp(sk->joints[j].name, name))
+			return j;
+	return -1;
+}
+
 static void score(const mc_clip *clip, int k, const mc_skeleton *sk, double err_sum[NEVAL])
 {
 	for (int e = 0; e < NEVAL; e++) {
 		int g = mc_clip_joint(clip, eval_joints[e]);
-		int m = -1;
-		for (int j = 0; j < sk->njoints; j++)
-			if (!strcmp(sk->joints[j].name, eval_joints[e]))
-				m = j;
+		int m = skeleton_joint(sk, eval_joints[e]);
 		/* A joint the model lacks counts as an error of the full distance
 		 * to the camera, so that it cannot improve the score. */
 		mc_vec3 est = m >= 0 ? sk->joints[m].position : mc_v3(0, 0, 0);
@@ -192,16 +197,14 @@ static void score(const mc_clip *clip, int k, const mc_skeleton *sk, double err_
 static void score_confidence(const mc_clip *clip, int k, const mc_skeleton *sk, run_stats *st)
 {
 	for (int e = 0; e < NEVAL; e++) {
-		int g = mc_clip_joint(clip, eval_joints[e]);
-		for (int j = 0; j < sk->njoints; j++) {
-			if (g < 0 || strcmp(sk->joints[j].name, eval_joints[e]))
-				continue;
-			double c = sk->joints[j].confidence;
-			int bin = c >= 1 ? 3 : (c > 0 ? (int)(4 * c) : 0);
-			st->conf_sum[e] += c;
-			st->conf_n[bin]++;
-			st->conf_err[bin] += mc_v3_norm(mc_v3_sub(sk->joints[j].position, mc_clip_gt(clip, k, g)));
-		}
+		int g = mc_clip_joint(clip, eval_joints[e]), j = skeleton_joint(sk, eval_joints[e]);
+		if (g < 0 || j < 0)
+			continue;
+		double c = sk->joints[j].confidence;
+		int bin = c >= 1 ? 3 : (c > 0 ? (int)(4 * c) : 0);
+		st->conf_sum[e] += c;
+		st->conf_n[bin]++;
+		st->conf_err[bin] += mc_v3_norm(mc_v3_sub(sk->joints[j].position, mc_clip_gt(clip, k, g)));
 	}
 }
 
