@@ -51,7 +51,7 @@ PLUGINS :=
 CHECKS :=
 BENCHES :=
 
-.PHONY: all check check-unit check-san bench install deps clean
+.PHONY: all check check-unit check-san bench install deps deps-train clean
 all:
 
 -include $(sort $(wildcard */module.mk) $(wildcard drivers/*/module.mk))
@@ -130,11 +130,19 @@ DEB_PACKAGES := build-essential pkg-config xxd clang llvm libclang-rt-14-dev \
 	libjansson-dev libinih-dev libpng-dev libjpeg62-turbo-dev libturbojpeg0-dev \
 	libsystemd-dev systemd ocl-icd-opencl-dev opencl-headers pocl-opencl-icd clinfo \
 	libaravis-dev aravis-tools libusb-1.0-0-dev libcamera-dev libopenni2-dev \
-	qemu-system-x86 linux-image-amd64 busybox-static kmod cpio udev python3
+	qemu-system-x86 linux-image-amd64 busybox-static kmod cpio udev python3 \
+	libopencv-dnn-dev libopencv-imgproc-dev libopencv-core-dev
+
+# Only for generating detector training data and training it (docs/DETECTOR.md).
+DEB_TRAIN_PACKAGES := blender python3-torch python3-numpy python3-pil
 
 deps:
 	apt-get update
 	DEBIAN_FRONTEND=noninteractive apt-get install -y --no-install-recommends $(DEB_PACKAGES)
+
+deps-train:
+	apt-get update
+	DEBIAN_FRONTEND=noninteractive apt-get install -y --no-install-recommends $(DEB_TRAIN_PACKAGES)
 
 clean:
 	rm -rf build build-*
