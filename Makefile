@@ -35,10 +35,10 @@ CXXFLAGS := -std=c++17 -Wall -Wextra -Werror -g $(OPT) -fPIC -pthread $(SANFLAGS
 LDFLAGS := -pthread $(SANFLAGS)
 CORE_LIBS := $(shell $(PKG_CONFIG) --libs $(CORE_PKGS) 2>/dev/null) -lm
 
-CORE_SRC := $(wildcard core/*.c)
+CORE_SRC := $(wildcard core/*/*.c)
 CORE_OBJ := $(CORE_SRC:%.c=$(BUILD)/%.o) $(BUILD)/gen/mc_cl_embed.o
 CORE_LIB := $(BUILD)/libmocapcore.a
-CL_SRC := $(wildcard core/cl/*.cl)
+CL_SRC := $(wildcard core/energy/cl/*.cl)
 
 TEST_SRC := $(wildcard tests/test_*.c)
 TESTS := $(TEST_SRC:tests/%.c=$(BUILD)/tests/%)
@@ -81,11 +81,11 @@ $(BUILD)/%.o: %.cpp
 	@mkdir -p $(@D)
 	$(CXX) $(CPPFLAGS) $(CXXFLAGS) -MMD -MP -c $< -o $@
 
-# OpenCL kernels are embedded in the binary: each core/cl/NAME.cl becomes
+# OpenCL kernels are embedded in the binary: each core/energy/cl/NAME.cl becomes
 # `const unsigned char mc_cl_NAME[]` plus `mc_cl_NAME_len`.
 $(BUILD)/gen/mc_cl_embed.c: $(CL_SRC) Makefile
 	@mkdir -p $(@D)
-	@echo "/* generated from the kernels in core/cl by the Makefile */" > $@.tmp
+	@echo "/* generated from the kernels in core/energy/cl by the Makefile */" > $@.tmp
 	@for f in $(CL_SRC); do n=$$(basename $$f .cl); \
 		xxd -i -n mc_cl_$$n $$f | sed 's/^unsigned/const unsigned/' >> $@.tmp; done
 	@mv $@.tmp $@

@@ -2,7 +2,7 @@
 
 #include "backoff.h"
 #include "log.h"
-#include "mc_image.h"
+#include "image/mc_image.h"
 
 #include <errno.h>
 #include <fcntl.h>
@@ -23,9 +23,9 @@ struct mcd_camera {
 	int index;
 	mcd_camera_config cfg;
 	char config_file[PATH_MAX];
-	const mocap_driver *drv;
+	const mdrv_driver *drv;
 	mcd_camera_sink sink;
-	mocap_host host;
+	mdrv_host host;
 	bool key_read[MCD_MAX_DRIVER_KEYS];
 	char epoch[32]; /* offered as "epoch" on the first opening; "" = none */
 	bool opened_once;
@@ -42,7 +42,7 @@ struct mcd_camera {
 	pthread_cond_t wake;
 	mcd_cam_state state;
 	mcd_cam_counters counters;
-	mocap_format format;
+	mdrv_format format;
 	char last_error[512];
 	double reopen_initial_ms, reopen_max_ms, stall_timeout_ms;
 	bool limits_changed;
@@ -158,23 +158,23 @@ static bool nap(mcd_camera *c, double ms)
 
 /* ---- frames ---------------------------------------------------------------- */
 
-const char *mcd_frame_problem(const mocap_frame *f, size_t capacity, char *kind)
+const char *mcd_frame_problem(const mdrv_frame *f, size_t capacity, char *kind)
 {
-	const mocap_format *fmt = &f->format;
+	const mdrv_format *fmt = &f->format;
 	*kind = 'b';
 	if (f->bytesused > capacity)
 		return "the driver reports more bytes than the slot holds";
-	if (fmt->pixfmt == MOCAP_FMT_NONE || fmt->pixfmt > MOCAP_FMT_DEPTH16)
+	if (fmt->pixfmt == MC_PIXFMT_NONE || fmt->pixfmt > MC_PIXFMT_DEPTH16)
 		return "unknown pixel format";
 	if (fmt->width == 0 || fmt->height == 0 || fmt->width > 16384 || fmt->height > 16384)
 		return "width or height out of range";
 	*kind = 'c';
-	if (f->flags & MOCAP_FRAME_CORRUPT)
+	if (f->flags & MDRV_FRAME_CORRUPT)
 		return "flagged corrupt by the driver";
 	*kind = 's';
-	if (f->flags & MOCAP_FRAME_SHORT)
+	if (f->flags & MDRV_FRAME_SHORT)
 		return "flagged short by the driver";
-	if (fmt->pixfmt == MOCAP_FMT_MJPEG) {
+	if (fmt->pixfmt == MC_PIXFMT_MJPEG) {
 		*kind = 'c';
 		if (f->bytesused < 4 || f->data[0] != 0xFF || f->data[1] != 0xD8)
 			return "not a JPEG (no start-of-image marker)";
@@ -194,7 +194,7 @@ const char *mcd_frame_problem(const mocap_frame *f, size_t capacity, char *kind)
 
 /* The slot size for a format: what the driver promises, or what the format
  * needs when it does not say. */
-static size_t slot_bytes_for(const mocap_format *f)
+static size_t slot_bytes_for(const mdrv_format *f)
 {
 	size_t need = (size_t)f->width * f->height * 3 + 65536; /* MJPEG worst case is below raw RGB */
 	int bpp = mc_image_bytes_per_pixel(f->pixfmt);
@@ -226,7 +226,7 @@ static int ensure_ring(mcd_camera *c, size_t bytes, mc_err *err)
 	return 0;
 }
 
-static void commit_frame(mcd_camera *c, mocap_frame *slot)
+static void commit_frame(mcd_camera *c, mdrv_frame *slot)
 {
 	uint64_t now = now_ns();
 	mc_ring_meta meta = {
@@ -298,16 +298,16 @@ static void *open_device(mcd_camera *c, run_result *result)
 		*result = RUN_REOPEN;
 		return NULL;
 	}
-	mocap_format fmt;
+	mdrv_format fmt;
 	int rc = c->drv->get_format(dev, &fmt, err, sizeof(err));
-	if (rc == MOCAP_OK)
+	if (rc == MDRV_OK)
 		rc = c->drv->start(dev, err, sizeof(err));
 	else
 		snprintf(err + strlen(err), sizeof(err) - strlen(err), " (get_format)");
-	if (rc != MOCAP_OK) {
+	if (rc != MDRV_OK) {
 		set_error(c, "start", err[0] ? err : "failed");
 		c->drv->close(dev);
-		*result = rc == MOCAP_ERR_CONFIG ? RUN_FAILED : RUN_REOPEN;
+		*result = rc == MDRV_ERR_CONFIG ? RUN_FAILED : RUN_REOPEN;
 		return NULL;
 	}
 	if (unknown_keys(c)) {
@@ -329,7 +329,7 @@ static void *open_device(mcd_camera *c, run_result *result)
 	pthread_mutex_unlock(&c->lock);
 	c->opened_once = true;
 	mcd_info("camera %s: opened (%s driver, %s %ux%u, %.4g fps)", c->cfg.name, c->drv->name,
-		 mocap_pixfmt_name(fmt.pixfmt), fmt.width, fmt.height, fmt.fps);
+		 mc_pixfmt_name(fmt.pixfmt), fmt.width, fmt.height, fmt.fps);
 	return dev;
 }
 
@@ -348,10 +348,10 @@ static run_result stream(mcd_camera *c, void *dev, mcd_backoff *backoff)
 			set_error(c, "frame ring", "no slot available");
 			return RUN_REOPEN;
 		}
-		mocap_frame slot = {.data = data, .capacity = cap};
+		mdrv_frame slot = {.data = data, .capacity = cap};
 		err[0] = 0;
 		int rc = c->drv->next_frame(dev, &slot, FRAME_TIMEOUT_MS, err, sizeof(err));
-		if (rc == MOCAP_OK) {
+		if (rc == MDRV_OK) {
 			char kind;
 			const char *why = mcd_frame_problem(&slot, cap, &kind);
 			if (why) {
@@ -378,7 +378,7 @@ static run_result stream(mcd_camera *c, void *dev, mcd_backoff *backoff)
 		}
 		mc_ring_slot_abort(c->ring);
 		switch (rc) {
-		case MOCAP_ERR_TIMEOUT: {
+		case MDRV_ERR_TIMEOUT: {
 			count(c, &c->counters.timeouts);
 			pthread_mutex_lock(&c->lock);
 			double stall_ms = c->stall_timeout_ms;
@@ -399,9 +399,9 @@ static run_result stream(mcd_camera *c, void *dev, mcd_backoff *backoff)
 			}
 			continue;
 		}
-		case MOCAP_ERR_END:
+		case MDRV_ERR_END:
 			return RUN_ENDED;
-		case MOCAP_ERR_NOSPACE: {
+		case MDRV_ERR_NOSPACE: {
 			count(c, &c->counters.nospace);
 			size_t bigger = mc_ring_slot_bytes(c->ring) * 2;
 			mc_err merr;
@@ -413,14 +413,14 @@ static run_result stream(mcd_camera *c, void *dev, mcd_backoff *backoff)
 			}
 			continue;
 		}
-		case MOCAP_ERR_IO:
+		case MDRV_ERR_IO:
 			set_error(c, "next_frame", err[0] ? err : "I/O error");
 			if (++io_errors < IO_ERRORS_BEFORE_REOPEN) {
 				mcd_warn("camera %s: %s (retrying)", c->cfg.name, err);
 				continue;
 			}
 			return RUN_REOPEN;
-		case MOCAP_ERR_CONFIG:
+		case MDRV_ERR_CONFIG:
 			set_error(c, "next_frame", err[0] ? err : "config error");
 			return RUN_FAILED;
 		default: /* NODEV, FORMAT, unknown codes */
@@ -506,7 +506,7 @@ mcd_camera *mcd_camera_create(int index, const mcd_camera_config *cfg, const cha
 	c->drv = plugin->driver;
 	if (sink)
 		c->sink = *sink;
-	c->host = (mocap_host){.ctx = c, .config_get = host_config_get, .log = host_log};
+	c->host = (mdrv_host){.ctx = c, .config_get = host_config_get, .log = host_log};
 	pthread_mutex_init(&c->lock, NULL);
 	pthread_mutex_init(&c->ring_lock, NULL);
 	pthread_condattr_t ca;
@@ -619,10 +619,10 @@ void mcd_camera_counters(const mcd_camera *c, mcd_cam_counters *out)
 	pthread_mutex_unlock((pthread_mutex_t *)&c->lock);
 }
 
-mocap_format mcd_camera_format(const mcd_camera *c)
+mdrv_format mcd_camera_format(const mcd_camera *c)
 {
 	pthread_mutex_lock((pthread_mutex_t *)&c->lock);
-	mocap_format f = c->format;
+	mdrv_format f = c->format;
 	pthread_mutex_unlock((pthread_mutex_t *)&c->lock);
 	return f;
 }

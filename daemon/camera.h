@@ -2,7 +2,7 @@
  *
  * The capture thread opens the device through its driver plugin, starts it
  * and calls next_frame() into the next slot of the camera's frame ring
- * (core/mc_ring.h).  Good frames are committed and reported to the sink;
+ * (core/ring/mc_ring.h).  Good frames are committed and reported to the sink;
  * short, corrupt and malformed frames are dropped and counted.  When the
  * driver fails (open, start, an error mid-stream, the device gone, no frame
  * for stall_timeout) the thread closes the device and reopens it after an
@@ -11,7 +11,7 @@
  * end of a finite stream stops it as ENDED.  Nothing here ever exits the
  * daemon.
  *
- * Driver keys: the driver reads its keys through mocap_host.config_get; a
+ * Driver keys: the driver reads its keys through mdrv_host.config_get; a
  * key of the camera's section it has not read by the time start() returned
  * is reported as unknown ("mocapd.conf:9: [camera left] fsp: unknown key
  * (the files driver does not read it)").  Besides the section's keys, the
@@ -21,9 +21,9 @@
 #define MCD_CAMERA_H
 
 #include "config.h"
-#include "mc_error.h"
-#include "mc_ring.h"
-#include "mocap_driver.h"
+#include "base/mc_error.h"
+#include "ring/mc_ring.h"
+#include "mdrv.h"
 #include "plugin.h"
 
 #include <stdbool.h>
@@ -96,7 +96,7 @@ bool mcd_camera_attempted(const mcd_camera *c);
 uint64_t mcd_camera_heartbeat(const mcd_camera *c);
 void mcd_camera_counters(const mcd_camera *c, mcd_cam_counters *out);
 /* The current format (zeros before the first opening). */
-mocap_format mcd_camera_format(const mcd_camera *c);
+mdrv_format mcd_camera_format(const mcd_camera *c);
 void mcd_camera_last_error(const mcd_camera *c, char *buf, size_t cap);
 
 /* Copies frame `sequence` of ring `generation` into *buf (grown with
@@ -112,6 +112,6 @@ int mcd_camera_ring_dup(mcd_camera *c, uint64_t *size);
 /* Why a frame from a driver is unusable (NULL if it is fine); *kind gets
  * one of the mcd_cam_counters fields it counts towards: 's'hort,
  * 'c'orrupt or 'b'ad. Exposed for tests. */
-const char *mcd_frame_problem(const mocap_frame *f, size_t capacity, char *kind);
+const char *mcd_frame_problem(const mdrv_frame *f, size_t capacity, char *kind);
 
 #endif

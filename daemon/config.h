@@ -5,7 +5,7 @@
  *   "mocapd.conf:12: [tracker] iterations: expected a positive integer, got 'abc'"
  * Unknown keys and sections are errors.  In a camera section the keys the
  * daemon does not know itself are driver keys: they are kept, in order, and
- * handed to the driver through mocap_host.config_get; the camera code then
+ * handed to the driver through mdrv_host.config_get; the camera code then
  * rejects those the driver never asked for (see mcd_camera_config.keys).
  * Relative paths are resolved against the directory of the config file:
  * those of the daemon's own keys and driver keys named "path" or "*_path".
@@ -13,7 +13,7 @@
 #ifndef MCD_CONFIG_H
 #define MCD_CONFIG_H
 
-#include "mc_error.h"
+#include "base/mc_error.h"
 
 #include <limits.h>
 #include <stdbool.h>

@@ -11,7 +11,7 @@
 
 #include <stdbool.h>
 
-/* The same numbers as MOCAP_LOG_* in mocap_driver.h. */
+/* The same numbers as MDRV_LOG_* in mdrv.h. */
 enum { MCD_LOG_ERROR = 0, MCD_LOG_WARN = 1, MCD_LOG_INFO = 2, MCD_LOG_DEBUG = 3 };
 
 /* Decides between plain and journald prefixes (call once, early). */

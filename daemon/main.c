@@ -10,7 +10,7 @@
  * reloads what can change safely (docs/CONFIG.md). */
 #include "config.h"
 #include "log.h"
-#include "mc_server.h"
+#include "server.h"
 #include "notify.h"
 #include "pipeline.h"
 #include "status.h"
@@ -52,7 +52,7 @@ typedef struct {
 typedef struct {
 	options opt;
 	mcd_config *cfg;
-	mc_server *srv;
+	srv_server *srv;
 	mcd_tracking *tracking;
 	mcd_pipeline *pipe;
 	int sigfd;
@@ -144,7 +144,7 @@ static int parse_options(int argc, char **argv, options *o)
 			o->check_only = true;
 			break;
 		case 'V':
-			printf("mocapd %s (driver ABI %u)\n", MOCAPD_VERSION, (unsigned)MOCAP_DRIVER_ABI_VERSION);
+			printf("mocapd %s (driver ABI %u)\n", MOCAPD_VERSION, (unsigned)MDRV_ABI_VERSION);
 			return 0;
 		case 'h':
 			usage(stdout);
@@ -232,8 +232,8 @@ static int start_server(daemon_ctx *d, mc_err *err)
 		mcd_info("socket: disabled in the config");
 		return 0;
 	}
-	mc_server_config sc;
-	mc_server_config_default(&sc);
+	srv_config sc;
+	srv_config_default(&sc);
 	snprintf(sc.path, sizeof(sc.path), "%s", cfg->socket.path);
 	sc.listen_fd = passed_socket(cfg->socket.path, err);
 	if (sc.listen_fd == -2)
@@ -251,7 +251,7 @@ static int start_server(daemon_ctx *d, mc_err *err)
 		}
 		sc.control_gid = gr->gr_gid;
 	}
-	d->srv = mc_server_create(&sc, err);
+	d->srv = srv_create(&sc, err);
 	if (!d->srv)
 		return -1;
 	mcd_info("socket: %s%s", cfg->socket.path, sc.listen_fd >= 0 ? " (from systemd)" : "");
@@ -279,10 +279,10 @@ static int start_tracking(daemon_ctx *d, mc_err *err)
 			return mc_err_prefix(err, "--save-poses");
 	}
 	if (d->srv) {
-		if (mc_server_set_skeleton_def_from_model(d->srv, mc_tracker_model(d->tracking->tracker), err))
+		if (srv_set_skeleton_def_from_model(d->srv, mc_tracker_model(d->tracking->tracker), err))
 			return -1;
 		if (d->tracking->rig_json &&
-		    mc_server_set_rig(d->srv, d->tracking->rig_json, d->tracking->rig.ncams, err))
+		    srv_set_rig(d->srv, d->tracking->rig_json, d->tracking->rig.ncams, err))
 			return -1;
 	}
 	return 0;
@@ -304,10 +304,10 @@ static void refresh_status(daemon_ctx *d, uint64_t now)
 		d->next_stats_log_ns = now + (uint64_t)(d->cfg->stats_log_interval_s * 1e9);
 	}
 	if (d->srv) {
-		mc_server_status ss;
+		srv_status ss;
 		mcd_status_to_server(&st, &d->prev, dt, d->start_ns,
 				     d->tracking ? mc_tracker_device_name(d->tracking->tracker) : "", &ss);
-		mc_server_set_status(d->srv, &ss);
+		srv_set_status(d->srv, &ss);
 	}
 	d->prev = st;
 	d->prev_ns = now;
@@ -418,8 +418,8 @@ static void handle_requests(daemon_ctx *d)
 {
 	if (!d->srv)
 		return;
-	mc_server_control ctl;
-	while (mc_server_poll_control(d->srv, &ctl) == 1) {
+	srv_control ctl;
+	while (srv_poll_control(d->srv, &ctl) == 1) {
 		char msg[600];
 		int rc;
 		if (ctl.command == MC_CONTROL_RELOAD) {
@@ -429,7 +429,7 @@ static void handle_requests(daemon_ctx *d)
 			rc = -1;
 			snprintf(msg, sizeof(msg), "recording is not available in this mocapd");
 		}
-		mc_server_control_done(d->srv, ctl.token, rc, msg);
+		srv_control_done(d->srv, ctl.token, rc, msg);
 	}
 }
 
@@ -469,7 +469,7 @@ static int run(daemon_ctx *d)
 		struct pollfd fds[3] = {
 			{.fd = d->sigfd, .events = POLLIN},
 			{.fd = mcd_pipeline_event_fd(d->pipe), .events = POLLIN},
-			{.fd = d->srv ? mc_server_event_fd(d->srv) : -1, .events = POLLIN},
+			{.fd = d->srv ? srv_event_fd(d->srv) : -1, .events = POLLIN},
 		};
 		uint64_t wake = d->ready ? d->next_status_ns : now + 50000000ull;
 		if (d->watchdog_usec && d->ready && d->next_watchdog_ns < wake)
@@ -499,7 +499,7 @@ static void shutdown_all(daemon_ctx *d)
 		mcd_pipeline_stop(d->pipe, STOP_GRACE_MS);
 		mcd_pipeline_destroy(d->pipe);
 	}
-	mc_server_destroy(d->srv);
+	srv_destroy(d->srv);
 	if (d->tracking) {
 		mcd_tracking_free(d->tracking);
 		free(d->tracking);

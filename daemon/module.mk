@@ -27,7 +27,7 @@ IPC_SERVER_A := $(BUILD)/libmocapipc.a
 
 # mocapd links the tracker (core) and the socket server (ipc); it is built
 # once both are in the tree.
-ifneq ($(and $(wildcard ipc/module.mk),$(wildcard core/mc_tracker.c)),)
+ifneq ($(and $(wildcard ipc/module.mk),$(wildcard core/track/mc_tracker.c)),)
 BINS += $(MOCAPD)
 DAEMON_TEST_NEEDS := $(MOCAPD)
 endif
@@ -43,15 +43,15 @@ $(MOCAPD): $(BUILD)/daemon/main.o $(DAEMON_LIB) $(IPC_SERVER_A) $(CORE_LIB)
 	@mkdir -p $(@D)
 	$(CC) $< -o $@ $(LDFLAGS) $(DAEMON_LIB) $(IPC_SERVER_A) $(CORE_LIB) $(CORE_LIBS) $(DAEMON_LIBS)
 
-$(FAULTY_SO): tests/drivers/faulty/faulty.c drivers/mocap_driver.h
+$(FAULTY_SO): tests/drivers/faulty/faulty.c drivers/mdrv.h
 	@mkdir -p $(@D)
 	$(CC) $(CPPFLAGS) $(CFLAGS) -shared $< -o $@ $(LDFLAGS) $(FAULTY_LIBS)
 
-$(FAULTY_DIR)/bad/mocap-driver-badabi.so: tests/drivers/faulty/faulty.c drivers/mocap_driver.h
+$(FAULTY_DIR)/bad/mocap-driver-badabi.so: tests/drivers/faulty/faulty.c drivers/mdrv.h
 	@mkdir -p $(@D)
 	$(CC) $(CPPFLAGS) $(CFLAGS) -DFAULTY_ABI_VERSION=999 -DFAULTY_NAME='"badabi"' -shared $< -o $@ $(LDFLAGS) $(FAULTY_LIBS)
 
-$(FAULTY_DIR)/bad/mocap-driver-noentry.so: tests/drivers/faulty/faulty.c drivers/mocap_driver.h
+$(FAULTY_DIR)/bad/mocap-driver-noentry.so: tests/drivers/faulty/faulty.c drivers/mdrv.h
 	@mkdir -p $(@D)
 	$(CC) $(CPPFLAGS) $(CFLAGS) -DFAULTY_NO_ENTRY -shared $< -o $@ $(LDFLAGS) $(FAULTY_LIBS)
 

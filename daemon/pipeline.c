@@ -2,7 +2,7 @@
 
 #include "grouper.h"
 #include "log.h"
-#include "mc_image.h"
+#include "image/mc_image.h"
 
 #include <errno.h>
 #include <pthread.h>
@@ -24,7 +24,7 @@ struct mcd_pipeline {
 	mcd_camera *cams[MCD_MAX_CAMERAS];
 	bool joined[MCD_MAX_CAMERAS];
 	mcd_tracking *tracking;
-	mc_server *srv;
+	srv_server *srv;
 	mcd_publisher *pub;
 	bool print;
 	int event_fd;
@@ -51,8 +51,8 @@ struct mcd_pipeline {
 	uint8_t *raw[MCD_MAX_CAMERAS], *rgb[MCD_MAX_CAMERAS];
 	size_t raw_cap[MCD_MAX_CAMERAS], rgb_cap[MCD_MAX_CAMERAS];
 	uint64_t seq;
-	mc_server_keypoints *kp_batch;
-	mc_server_keypoints *kp_latest; /* per rig camera */
+	srv_keypoints *kp_batch;
+	srv_keypoints *kp_latest; /* per rig camera */
 	mc_keypoint *kp;                /* the ones used for one frame set */
 };
 
@@ -135,7 +135,7 @@ static int to_rgb(mcd_pipeline *p, int c, const mc_ring_meta *meta, int *w, int 
 			     .stride = meta->stride, .data = p->raw[c], .bytes = meta->bytesused};
 	*w = (int)meta->width;
 	*h = (int)meta->height;
-	if (meta->pixfmt == 4 /* MOCAP_FMT_MJPEG */ && (*w == 0 || *h == 0)) {
+	if (meta->pixfmt == 4 /* MC_PIXFMT_MJPEG */ && (*w == 0 || *h == 0)) {
 		if (mc_image_jpeg_size(p->conv, p->raw[c], meta->bytesused, w, h, err))
 			return -1;
 	}
@@ -198,7 +198,7 @@ static int collect_keypoints(mcd_pipeline *p, const mc_frame_view *views, int nv
 {
 	if (!p->srv || !p->kp_batch)
 		return 0;
-	while (mc_server_poll_keypoints(p->srv, p->kp_batch) == 1)
+	while (srv_poll_keypoints(p->srv, p->kp_batch) == 1)
 		if (p->kp_batch->cam >= 0 && p->kp_batch->cam < nviews)
 			p->kp_latest[p->kp_batch->cam] = *p->kp_batch;
 	pthread_mutex_lock(&p->lock);
@@ -206,7 +206,7 @@ static int collect_keypoints(mcd_pipeline *p, const mc_frame_view *views, int nv
 	pthread_mutex_unlock(&p->lock);
 	int n = 0;
 	for (int r = 0; r < nviews; r++) {
-		const mc_server_keypoints *b = &p->kp_latest[r];
+		const srv_keypoints *b = &p->kp_latest[r];
 		if (!views[r].rgb || !b->nkeypoints)
 			continue;
 		uint64_t a = b->capture_ns, t = views[r].timestamp_ns;
@@ -349,7 +349,7 @@ static const mcd_plugin *load_plugin(mcd_pipeline *p, const mcd_config *cfg, con
 	return pl;
 }
 
-mcd_pipeline *mcd_pipeline_create(const mcd_config *cfg, mcd_tracking *tracking, mc_server *srv, mc_err *err)
+mcd_pipeline *mcd_pipeline_create(const mcd_config *cfg, mcd_tracking *tracking, srv_server *srv, mc_err *err)
 {
 	mcd_pipeline *p = calloc(1, sizeof(*p));
 	if (!p) {
@@ -382,7 +382,7 @@ mcd_pipeline *mcd_pipeline_create(const mcd_config *cfg, mcd_tracking *tracking,
 	if (srv) {
 		p->kp_batch = calloc(1, sizeof(*p->kp_batch));
 		p->kp_latest = calloc(MC_MAX_CAMERAS, sizeof(*p->kp_latest));
-		p->kp = calloc((size_t)MC_MAX_CAMERAS * MC_SERVER_MAX_KEYPOINTS, sizeof(*p->kp));
+		p->kp = calloc((size_t)MC_MAX_CAMERAS * SRV_MAX_KEYPOINTS, sizeof(*p->kp));
 		if (!p->kp_batch || !p->kp_latest || !p->kp) {
 			mc_err_set(err, "out of memory");
 			mcd_pipeline_destroy(p);
@@ -596,14 +596,14 @@ void mcd_pipeline_share_rings(mcd_pipeline *p)
 {
 	if (!p->srv)
 		return;
-	mc_server_clear_rings(p->srv);
+	srv_clear_rings(p->srv);
 	for (int c = 0; c < p->ncams; c++) {
 		uint64_t size = 0;
 		int fd = mcd_camera_ring_dup(p->cams[c], &size);
 		if (fd < 0)
 			continue;
 		mc_err err;
-		if (mc_server_add_ring(p->srv, mcd_camera_name(p->cams[c]), fd, size, &err) < 0)
+		if (srv_add_ring(p->srv, mcd_camera_name(p->cams[c]), fd, size, &err) < 0)
 			mcd_warn("camera %s: cannot offer its ring to clients: %s", mcd_camera_name(p->cams[c]), err.msg);
 		close(fd);
 	}

@@ -3,7 +3,7 @@
  * Threads: one capture thread per camera (camera.h) writing into that
  * camera's frame ring; one tracking thread that groups the views of one
  * instant (grouper.h), copies them out of the rings, converts them to RGB24
- * (core/mc_image.h) and runs the tracker; one publishing thread
+ * (core/image/mc_image.h) and runs the tracker; one publishing thread
  * (publish.h).  The main thread only starts, watches, reloads and stops.
  *
  * With many frame sets due at once (the tracker is slower than the
@@ -14,7 +14,7 @@
 
 #include "camera.h"
 #include "config.h"
-#include "mc_server.h"
+#include "server.h"
 #include "publish.h"
 #include "tracking.h"
 
@@ -26,7 +26,7 @@ typedef struct {
 	char driver[MCD_NAME_MAX];
 	mcd_cam_state state;
 	mcd_cam_counters counters;
-	mocap_format format;
+	mdrv_format format;
 	uint64_t missing;     /* frame sets emitted without this camera */
 	uint64_t late;        /* frames that came after their frame set */
 	uint64_t overrun;     /* frames overwritten in the ring before use */
@@ -55,7 +55,7 @@ typedef struct mcd_pipeline mcd_pipeline;
  * prepares the cameras; starts nothing.  `tracking` (may be NULL: tracker
  * disabled) and `srv` (may be NULL) stay the caller's and must outlive the
  * pipeline. */
-mcd_pipeline *mcd_pipeline_create(const mcd_config *cfg, mcd_tracking *tracking, mc_server *srv, mc_err *err);
+mcd_pipeline *mcd_pipeline_create(const mcd_config *cfg, mcd_tracking *tracking, srv_server *srv, mc_err *err);
 /* pose_dir: also save every tracked pose there (NULL: no). */
 int mcd_pipeline_start(mcd_pipeline *p, const char *pose_dir, mc_err *err);
 /* Stops every thread; a camera thread stuck in its driver is abandoned

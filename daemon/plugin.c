@@ -103,17 +103,17 @@ static void list_drivers(const char *dir, char *buf, size_t cap)
 	closedir(d);
 }
 
-static int check_descriptor(const mocap_driver *drv, const char *path, mc_err *err)
+static int check_descriptor(const mdrv_driver *drv, const char *path, mc_err *err)
 {
 	if (!drv)
-		return mc_err_set(err, "%s: mocap_driver_entry() returned NULL; refused", path);
+		return mc_err_set(err, "%s: mdrv_entry() returned NULL; refused", path);
 	/* abi_version is the first member in every ABI version, so reading it
 	 * is safe whatever the plugin was built against. */
-	if (drv->abi_version != MOCAP_DRIVER_ABI_VERSION)
+	if (drv->abi_version != MDRV_ABI_VERSION)
 		return mc_err_set(err,
 				  "%s: built for driver ABI version %u, but this mocapd speaks version %u; "
-				  "rebuild the plugin against this mocapd's mocap_driver.h",
-				  path, (unsigned)drv->abi_version, (unsigned)MOCAP_DRIVER_ABI_VERSION);
+				  "rebuild the plugin against this mocapd's mdrv.h",
+				  path, (unsigned)drv->abi_version, (unsigned)MDRV_ABI_VERSION);
 	const char *missing = !drv->name         ? "name"
 			      : !drv->open       ? "open"
 			      : !drv->get_format ? "get_format"
@@ -183,15 +183,15 @@ int mcd_plugin_load(const char *dir, const char *name, uid_t uid, gid_t gid, mcd
 		close(fd);
 		return mc_err_set(err, "%s: cannot load: %s", out->path, why ? why : "unknown dlopen error");
 	}
-	mocap_driver_entry_fn entry;
-	*(void **)&entry = dlsym(handle, MOCAP_DRIVER_ENTRY_SYMBOL);
+	mdrv_entry_fn entry;
+	*(void **)&entry = dlsym(handle, MDRV_ENTRY_SYMBOL);
 	if (!entry) {
 		dlclose(handle);
 		close(fd);
 		return mc_err_set(err, "%s: exports no %s(); not a mocapd driver plugin; refused", out->path,
-				  MOCAP_DRIVER_ENTRY_SYMBOL);
+				  MDRV_ENTRY_SYMBOL);
 	}
-	const mocap_driver *drv = entry();
+	const mdrv_driver *drv = entry();
 	if (check_descriptor(drv, out->path, err)) {
 		dlclose(handle);
 		close(fd);

@@ -18,14 +18,14 @@
  * descriptor and loaded from /proc/self/fd/N, so that the file checked is
  * the file loaded.
  *
- * A plugin must export mocap_driver_entry() returning a descriptor whose
- * abi_version equals MOCAP_DRIVER_ABI_VERSION and whose function pointers
+ * A plugin must export mdrv_entry() returning a descriptor whose
+ * abi_version equals MDRV_ABI_VERSION and whose function pointers
  * are all set; anything else is refused with a message saying why. */
 #ifndef MCD_PLUGIN_H
 #define MCD_PLUGIN_H
 
-#include "mc_error.h"
-#include "mocap_driver.h"
+#include "base/mc_error.h"
+#include "mdrv.h"
 
 #include <stdbool.h>
 #include <sys/stat.h>
@@ -36,7 +36,7 @@ typedef struct {
 	char path[4096];  /* resolved path of the .so */
 	void *handle;     /* dlopen handle */
 	int fd;           /* the descriptor it was loaded from, kept for symbolizers */
-	const mocap_driver *driver;
+	const mdrv_driver *driver;
 } mcd_plugin;
 
 /* Checks one path (file or directory) against the trust rule above for the

@@ -13,7 +13,7 @@
 #define QUEUE_LEN 8
 
 struct mcd_publisher {
-	mc_server *srv;
+	srv_server *srv;
 	FILE *out;
 	pthread_t thread;
 	pthread_mutex_t lock;
@@ -77,7 +77,7 @@ static int handle(mcd_publisher *p, const mcd_output *o, bool print, const char 
 	int failed = 0;
 	if (o->tracked && p->srv) {
 		mc_err err;
-		if (mc_server_publish(p->srv, &o->sk, ++p->server_seq, &err) != 0) {
+		if (srv_publish(p->srv, &o->sk, ++p->server_seq, &err) != 0) {
 			failed = 1;
 			if (++p->logged_errors <= 3)
 				mcd_warn("publish: %s", err.msg);
@@ -136,7 +136,7 @@ static void *publish_main(void *arg)
 	return NULL;
 }
 
-mcd_publisher *mcd_publisher_create(mc_server *srv, FILE *out, bool print, mc_err *err)
+mcd_publisher *mcd_publisher_create(srv_server *srv, FILE *out, bool print, mc_err *err)
 {
 	mcd_publisher *p = calloc(1, sizeof(*p));
 	if (!p) {

@@ -6,9 +6,9 @@
 #ifndef MCD_PUBLISH_H
 #define MCD_PUBLISH_H
 
-#include "mc_error.h"
-#include "mc_server.h"
-#include "mc_tracker.h"
+#include "base/mc_error.h"
+#include "server.h"
+#include "track/mc_tracker.h"
 
 #include <stdbool.h>
 #include <stdint.h>
@@ -34,7 +34,7 @@ typedef struct {
 typedef struct mcd_publisher mcd_publisher;
 
 /* srv may be NULL (no socket); out is where lines go (stdout). */
-mcd_publisher *mcd_publisher_create(mc_server *srv, FILE *out, bool print, mc_err *err);
+mcd_publisher *mcd_publisher_create(srv_server *srv, FILE *out, bool print, mc_err *err);
 void mcd_publisher_destroy(mcd_publisher *p); /* stops the thread after draining */
 void mcd_publisher_push(mcd_publisher *p, const mcd_output *o);
 void mcd_publisher_set_print(mcd_publisher *p, bool print);

@@ -51,7 +51,7 @@ void mcd_status_line(const mcd_pipeline_status *now, const mcd_pipeline_status *
 	}
 }
 
-static mc_server_cam_state server_cam_state(const mcd_cam_status *c)
+static srv_cam_state server_cam_state(const mcd_cam_status *c)
 {
 	switch (c->state) {
 	case MCD_CAM_STREAMING:
@@ -69,11 +69,11 @@ static mc_server_cam_state server_cam_state(const mcd_cam_status *c)
 }
 
 void mcd_status_to_server(const mcd_pipeline_status *now, const mcd_pipeline_status *prev, double dt_s,
-			  uint64_t start_ns, const char *device, mc_server_status *out)
+			  uint64_t start_ns, const char *device, srv_status *out)
 {
 	memset(out, 0, sizeof(*out));
-	out->tracker_state = now->tracking && now->track_state >= 0 ? (mc_server_tracker_state)now->track_state
-								     : MC_SERVER_TRACKER_IDLE;
+	out->tracker_state = now->tracking && now->track_state >= 0 ? (srv_tracker_state)now->track_state
+								     : SRV_TRACKER_IDLE;
 	out->publish_fps = rate(now->publish.published, prev->publish.published, dt_s);
 	out->track_ms_mean = mean_track_ms(now, prev);
 	out->track_ms_max = now->track_ms_max;
@@ -81,10 +81,10 @@ void mcd_status_to_server(const mcd_pipeline_status *now, const mcd_pipeline_sta
 	out->frames_dropped = now->skipped + now->publish.dropped;
 	out->start_ns = start_ns;
 	snprintf(out->device, sizeof(out->device), "%s", device ? device : "");
-	out->ncams = now->ncams < MC_SERVER_STATUS_MAX_CAMS ? now->ncams : MC_SERVER_STATUS_MAX_CAMS;
+	out->ncams = now->ncams < SRV_STATUS_MAX_CAMS ? now->ncams : SRV_STATUS_MAX_CAMS;
 	for (int c = 0; c < out->ncams; c++) {
 		const mcd_cam_status *cn = &now->cams[c];
-		mc_server_cam_status *o = &out->cams[c];
+		srv_cam_status *o = &out->cams[c];
 		snprintf(o->name, sizeof(o->name), "%s", cn->name);
 		o->state = server_cam_state(cn);
 		o->width = (int)cn->format.width;

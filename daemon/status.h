@@ -4,7 +4,7 @@
 #ifndef MCD_STATUS_H
 #define MCD_STATUS_H
 
-#include "mc_server.h"
+#include "server.h"
 #include "pipeline.h"
 
 #include <stddef.h>
@@ -20,6 +20,6 @@ void mcd_status_line(const mcd_pipeline_status *now, const mcd_pipeline_status *
 		     size_t cap);
 
 void mcd_status_to_server(const mcd_pipeline_status *now, const mcd_pipeline_status *prev, double dt_s,
-			  uint64_t start_ns, const char *device, mc_server_status *out);
+			  uint64_t start_ns, const char *device, srv_status *out);
 
 #endif

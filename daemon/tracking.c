@@ -1,7 +1,7 @@
 #include "tracking.h"
 
 #include "log.h"
-#include "mc_json.h"
+#include "base/mc_json.h"
 
 #include <errno.h>
 #include <math.h>

@@ -11,10 +11,10 @@
 #define MCD_TRACKING_H
 
 #include "config.h"
-#include "mc_error.h"
-#include "mc_model.h"
-#include "mc_rig.h"
-#include "mc_tracker.h"
+#include "base/mc_error.h"
+#include "body/mc_model.h"
+#include "geom/mc_rig.h"
+#include "track/mc_tracker.h"
 
 typedef struct {
 	mc_rig rig;

@@ -8,7 +8,7 @@
  * Prints "ready" on stdout once clients can connect.  Stops after N frames
  * (0: never) or on SIGINT/SIGTERM.  Answers control requests itself:
  * reload succeeds, recording fails with a message. */
-#include "mc_server.h"
+#include "server.h"
 
 #include <errno.h>
 #include <math.h>
@@ -77,24 +77,24 @@ static void make_skeleton(mc_skeleton *sk, double t, uint64_t capture_ns)
 	}
 }
 
-static void answer_controls(mc_server *srv)
+static void answer_controls(srv_server *srv)
 {
-	mc_server_control ctl;
-	while (mc_server_poll_control(srv, &ctl) == 1) {
+	srv_control ctl;
+	while (srv_poll_control(srv, &ctl) == 1) {
 		if (ctl.command == MC_CONTROL_RELOAD)
-			mc_server_control_done(srv, ctl.token, 0, "reloaded (test publisher)");
+			srv_control_done(srv, ctl.token, 0, "reloaded (test publisher)");
 		else
-			mc_server_control_done(srv, ctl.token, 1, "recording is not supported by the test publisher");
+			srv_control_done(srv, ctl.token, 1, "recording is not supported by the test publisher");
 	}
-	mc_server_keypoints kp;
-	while (mc_server_poll_keypoints(srv, &kp) == 1) {
+	srv_keypoints kp;
+	while (srv_poll_keypoints(srv, &kp) == 1) {
 	}
 }
 
 int main(int argc, char **argv)
 {
-	mc_server_config cfg;
-	mc_server_config_default(&cfg);
+	srv_config cfg;
+	srv_config_default(&cfg);
 	snprintf(cfg.daemon_version, sizeof(cfg.daemon_version), "mocap-testpub");
 	double rate = 60;
 	long frames = 0;
@@ -116,14 +116,14 @@ int main(int argc, char **argv)
 	}
 	cfg.socket_mode = 0666;
 	mc_err err = {{0}};
-	mc_server *srv = mc_server_create(&cfg, &err);
+	srv_server *srv = srv_create(&cfg, &err);
 	if (!srv) {
 		fprintf(stderr, "mocap-testpub: %s\n", err.msg);
 		return 1;
 	}
 	mc_skeleton *sk = malloc(sizeof(*sk));
 	make_skeleton(sk, 0, now_ns());
-	mc_server_skeleton_def *def = calloc(1, sizeof(*def));
+	srv_skeleton_def *def = calloc(1, sizeof(*def));
 	def->njoints = NJOINTS;
 	def->rig_is_world = true;
 	for (int j = 0; j < NJOINTS; j++) {
@@ -131,7 +131,7 @@ int main(int argc, char **argv)
 		def->parent[j] = joints[j].parent;
 		def->rest_offset[j] = mc_v3(joints[j].x, joints[j].y, joints[j].z);
 	}
-	if (mc_server_set_skeleton_def(srv, def, &err) || mc_server_set_rig(srv, rig_json, 1, &err)) {
+	if (srv_set_skeleton_def(srv, def, &err) || srv_set_rig(srv, rig_json, 1, &err)) {
 		fprintf(stderr, "mocap-testpub: %s\n", err.msg);
 		return 1;
 	}
@@ -141,8 +141,8 @@ int main(int argc, char **argv)
 	printf("ready\n");
 	fflush(stdout);
 
-	mc_server_status st = {0};
-	st.tracker_state = MC_SERVER_TRACKER_OK;
+	srv_status st = {0};
+	st.tracker_state = SRV_TRACKER_OK;
 	st.start_ns = now_ns();
 	snprintf(st.device, sizeof(st.device), "synthetic");
 	st.ncams = 1;
@@ -153,13 +153,13 @@ int main(int argc, char **argv)
 	for (uint64_t seq = 1; !stop && (frames <= 0 || seq <= (uint64_t)frames); seq++) {
 		uint64_t t = now_ns();
 		make_skeleton(sk, (double)(t - t0) * 1e-9, t - 2000000);
-		if (mc_server_publish(srv, sk, seq, &err))
+		if (srv_publish(srv, sk, seq, &err))
 			fprintf(stderr, "mocap-testpub: %s\n", err.msg);
 		st.frames_published = seq;
 		st.publish_fps = rate;
 		st.cams[0].fps = rate;
 		st.cams[0].frames = seq;
-		mc_server_set_status(srv, &st);
+		srv_set_status(srv, &st);
 		/* Sleep until the next frame, answering requests meanwhile. */
 		next += period;
 		for (;;) {
@@ -167,13 +167,13 @@ int main(int argc, char **argv)
 			uint64_t n = now_ns();
 			if (n >= next || stop)
 				break;
-			struct pollfd p = {.fd = mc_server_event_fd(srv), .events = POLLIN};
+			struct pollfd p = {.fd = srv_event_fd(srv), .events = POLLIN};
 			poll(&p, 1, (int)((next - n) / 1000000 + 1 > 100 ? 100 : (next - n) / 1000000 + 1));
 		}
 	}
 	/* Give "all" clients a moment to take the last frames. */
 	usleep(200000);
-	mc_server_destroy(srv);
+	srv_destroy(srv);
 	free(sk);
 	free(def);
 	return 0;

@@ -9,7 +9,7 @@
  * asked, whichever thread happened to read them, and frames read by a
  * request are kept for mocap_read_frame. */
 #include "mocap.h"
-#include "mc_proto.h"
+#include "proto.h"
 
 #include <errno.h>
 #include <fcntl.h>
@@ -58,7 +58,7 @@ struct mocap_client {
 	pthread_cond_t cond;
 	bool reading;         /* a thread is receiving */
 	int dead;             /* 0, or the error every call now returns */
-	char dead_msg[MC_PROTO_TEXT_MAX + 128];
+	char dead_msg[PROTO_TEXT_MAX + 128];
 	int mode;
 	mocap_skeleton_frame **fq;     /* ring of FRAME_QUEUE_MAX partial frames */
 	int fq_head, fq_n;
@@ -67,17 +67,17 @@ struct mocap_client {
 	mocap_skeleton_def *skel; /* newest definition pushed by the daemon */
 	waiter waiters[MAX_WAITERS];
 	int async_code;       /* refusal of a keypoint batch or head pose */
-	char async_msg[MC_PROTO_TEXT_MAX + 1];
+	char async_msg[PROTO_TEXT_MAX + 1];
 
 	/* The reader's own scratch. */
-	uint8_t rx[MC_PROTO_MAX_MESSAGE + 1];
-	mc_proto_msg dec;
+	uint8_t rx[PROTO_MAX_MESSAGE + 1];
+	proto_msg dec;
 };
 
 /* --- Errors: per thread, like errno. --- */
 
 static _Thread_local int tl_code;
-static _Thread_local char tl_msg[MC_PROTO_TEXT_MAX + 256];
+static _Thread_local char tl_msg[PROTO_TEXT_MAX + 256];
 
 static int set_err(int code, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
 static int set_err(int code, const char *fmt, ...)
@@ -127,12 +127,12 @@ const char *mocap_track_state_name(mocap_track_state s)
 static int code_of_server_error(uint32_t code)
 {
 	switch (code) {
-	case MC_PROTO_E_VERSION: return MOCAP_E_VERSION;
-	case MC_PROTO_E_MALFORMED:
-	case MC_PROTO_E_HANDSHAKE: return MOCAP_E_PROTOCOL;
-	case MC_PROTO_E_PERMISSION: return MOCAP_E_PERMISSION;
-	case MC_PROTO_E_UNAVAILABLE: return MOCAP_E_UNAVAILABLE;
-	case MC_PROTO_E_SHUTDOWN: return MOCAP_E_DISCONNECTED;
+	case PROTO_E_VERSION: return MOCAP_E_VERSION;
+	case PROTO_E_MALFORMED:
+	case PROTO_E_HANDSHAKE: return MOCAP_E_PROTOCOL;
+	case PROTO_E_PERMISSION: return MOCAP_E_PERMISSION;
+	case PROTO_E_UNAVAILABLE: return MOCAP_E_UNAVAILABLE;
+	case PROTO_E_SHUTDOWN: return MOCAP_E_DISCONNECTED;
 	}
 	return MOCAP_E_REFUSED;
 }
@@ -278,7 +278,7 @@ static mocap_skeleton_def *convert_skeleton(const mc_msg_skeleton *m)
 }
 
 /* Files one decoded message (lock held).  Takes ownership of fds. */
-static void dispatch(mocap_client *c, const mc_proto_msg *m, size_t len, mocap_skeleton_frame *frame, mocap_skeleton_def *skel,
+static void dispatch(mocap_client *c, const proto_msg *m, size_t len, mocap_skeleton_frame *frame, mocap_skeleton_def *skel,
 		     int *fds, int nfds)
 {
 	uint16_t t = m->h.type;
@@ -368,9 +368,9 @@ static void read_burst(mocap_client *c)
 		pthread_mutex_unlock(&c->lock);
 		char why[256];
 		if ((mh.msg_flags & MSG_TRUNC) ||
-		    mc_proto_decode(c->rx, (size_t)n, MC_PROTO_FROM_SERVER, &c->dec, why, sizeof(why)) != 0) {
+		    proto_decode(c->rx, (size_t)n, PROTO_FROM_SERVER, &c->dec, why, sizeof(why)) != 0) {
 			if (mh.msg_flags & MSG_TRUNC)
-				snprintf(why, sizeof(why), "message longer than %d bytes", MC_PROTO_MAX_MESSAGE);
+				snprintf(why, sizeof(why), "message longer than %d bytes", PROTO_MAX_MESSAGE);
 			close_fds(fds, nfds);
 			pthread_mutex_lock(&c->lock);
 			set_dead(c, MOCAP_E_PROTOCOL, "mocapd sent a malformed message: %s", why);
@@ -413,12 +413,12 @@ static void wait_step(mocap_client *c, uint64_t deadline)
 
 /* --- Sending and requests --- */
 
-static int send_msg(mocap_client *c, const mc_proto_msg *m, uint64_t deadline)
+static int send_msg(mocap_client *c, const proto_msg *m, uint64_t deadline)
 {
 	uint8_t buf[8192];
-	size_t n = mc_proto_encode(m, buf, sizeof(buf));
+	size_t n = proto_encode(m, buf, sizeof(buf));
 	if (!n)
-		return set_err(MOCAP_E_ARG, "%s: a field is out of the protocol's range", mc_proto_type_name(m->h.type));
+		return set_err(MOCAP_E_ARG, "%s: a field is out of the protocol's range", proto_type_name(m->h.type));
 	for (;;) {
 		ssize_t r = send(c->fd, buf, n, MSG_DONTWAIT | MSG_NOSIGNAL);
 		if (r >= 0)
@@ -440,7 +440,7 @@ static int dead_error(mocap_client *c) { return set_err(c->dead, "%s", c->dead_m
 /* Sends `req` and waits for the reply with the same id.  On success the
  * decoded reply is in *reply (and its descriptors in fds); an ERROR reply
  * becomes its error code. */
-static int request_raw(mocap_client *c, mc_proto_msg *req, uint16_t want, mc_proto_msg *reply, int *fds, int *nfds,
+static int request_raw(mocap_client *c, proto_msg *req, uint16_t want, proto_msg *reply, int *fds, int *nfds,
 		       uint8_t **raw)
 {
 	uint64_t deadline = deadline_after(c->timeout_ms);
@@ -473,7 +473,7 @@ static int request_raw(mocap_client *c, mc_proto_msg *req, uint16_t want, mc_pro
 	pthread_mutex_lock(&c->lock);
 	while (rc == 0 && !w->done && !c->dead) {
 		if (mocap_now_ns() >= deadline) {
-			rc = set_err(MOCAP_E_TIMEOUT, "no reply from mocapd to %s within %d ms", mc_proto_type_name(req->h.type),
+			rc = set_err(MOCAP_E_TIMEOUT, "no reply from mocapd to %s within %d ms", proto_type_name(req->h.type),
 				     c->timeout_ms);
 			break;
 		}
@@ -492,14 +492,14 @@ static int request_raw(mocap_client *c, mc_proto_msg *req, uint16_t want, mc_pro
 
 	if (rc == 0) {
 		char why[256];
-		if (mc_proto_decode(data, len, MC_PROTO_FROM_SERVER, reply, why, sizeof(why)) != 0)
+		if (proto_decode(data, len, PROTO_FROM_SERVER, reply, why, sizeof(why)) != 0)
 			rc = set_err(MOCAP_E_PROTOCOL, "mocapd sent a malformed reply: %s", why);
 		else if (reply->h.type == MC_MSG_ERROR)
 			rc = set_err(code_of_server_error(reply->u.error.code), "%s", reply->u.error.message);
 		else if (reply->h.type != want)
 			rc = set_err(MOCAP_E_PROTOCOL, "mocapd answered %s with %s, expected %s",
-				     mc_proto_type_name(req->h.type), mc_proto_type_name(reply->h.type),
-				     mc_proto_type_name(want));
+				     proto_type_name(req->h.type), proto_type_name(reply->h.type),
+				     proto_type_name(want));
 	}
 	if (rc == 0 && raw)
 		*raw = data; /* the reply points into it (RIG's json) */
@@ -514,15 +514,15 @@ static int request_raw(mocap_client *c, mc_proto_msg *req, uint16_t want, mc_pro
 	return rc;
 }
 
-static int request(mocap_client *c, mc_proto_msg *req, uint16_t want, mc_proto_msg *reply, int *fds, int *nfds)
+static int request(mocap_client *c, proto_msg *req, uint16_t want, proto_msg *reply, int *fds, int *nfds)
 {
 	return request_raw(c, req, want, reply, fds, nfds, NULL);
 }
 
 /* A request on a heap message (the union is large for small thread stacks). */
-static mc_proto_msg *new_msg(uint16_t type)
+static proto_msg *new_msg(uint16_t type)
 {
-	mc_proto_msg *m = calloc(1, sizeof(*m));
+	proto_msg *m = calloc(1, sizeof(*m));
 	if (m)
 		m->h.type = type;
 	else
@@ -609,14 +609,14 @@ mocap_client *mocap_connect(const char *path, const char *client_name)
 		set_err(MOCAP_E_SYSTEM, "out of memory");
 		return NULL;
 	}
-	mc_proto_msg *m = new_msg(MC_MSG_HELLO);
+	proto_msg *m = new_msg(MC_MSG_HELLO);
 	if (!m) {
 		mocap_close(c);
 		return NULL;
 	}
-	m->u.hello.magic = MC_PROTO_MAGIC;
-	m->u.hello.min_version = MC_PROTO_VERSION;
-	m->u.hello.max_version = MC_PROTO_VERSION;
+	m->u.hello.magic = PROTO_MAGIC;
+	m->u.hello.min_version = PROTO_VERSION;
+	m->u.hello.max_version = PROTO_VERSION;
 	snprintf(m->u.hello.client_name, sizeof(m->u.hello.client_name), "%s", client_name ? client_name : "");
 	int rc = request(c, m, MC_MSG_WELCOME, m, NULL, NULL);
 	if (rc == 0)
@@ -670,7 +670,7 @@ int mocap_subscribe(mocap_client *c, mocap_mode mode, mocap_space space, unsigne
 		return set_err(MOCAP_E_ARG, "subscribe: mode must be MOCAP_LATEST or MOCAP_ALL");
 	if (space != MOCAP_SPACE_RIG && space != MOCAP_SPACE_WORLD)
 		return set_err(MOCAP_E_ARG, "subscribe: space must be MOCAP_SPACE_RIG or MOCAP_SPACE_WORLD");
-	mc_proto_msg *m = new_msg(MC_MSG_SUBSCRIBE);
+	proto_msg *m = new_msg(MC_MSG_SUBSCRIBE);
 	if (!m)
 		return MOCAP_E_SYSTEM;
 	m->u.subscribe.mode = (uint8_t)mode;
@@ -696,7 +696,7 @@ int mocap_subscribe(mocap_client *c, mocap_mode mode, mocap_space space, unsigne
 
 int mocap_unsubscribe(mocap_client *c)
 {
-	mc_proto_msg *m = new_msg(MC_MSG_UNSUBSCRIBE);
+	proto_msg *m = new_msg(MC_MSG_UNSUBSCRIBE);
 	if (!m)
 		return MOCAP_E_SYSTEM;
 	pthread_mutex_lock(&c->lock);
@@ -751,7 +751,7 @@ int mocap_read_frame(mocap_client *c, mocap_skeleton_frame *f, int timeout_ms)
 
 int mocap_get_skeleton(mocap_client *c, mocap_skeleton_def *s)
 {
-	mc_proto_msg *m = new_msg(MC_MSG_GET_SKELETON);
+	proto_msg *m = new_msg(MC_MSG_GET_SKELETON);
 	if (!m)
 		return MOCAP_E_SYSTEM;
 	int rc = request(c, m, MC_MSG_SKELETON, m, NULL, NULL);
@@ -770,7 +770,7 @@ int mocap_get_skeleton(mocap_client *c, mocap_skeleton_def *s)
 
 int mocap_get_status(mocap_client *c, mocap_daemon_status *st)
 {
-	mc_proto_msg *m = new_msg(MC_MSG_GET_STATUS);
+	proto_msg *m = new_msg(MC_MSG_GET_STATUS);
 	if (!m)
 		return MOCAP_E_SYSTEM;
 	int rc = request(c, m, MC_MSG_STATUS, m, NULL, NULL);
@@ -808,7 +808,7 @@ int mocap_get_status(mocap_client *c, mocap_daemon_status *st)
 int mocap_get_rig(mocap_client *c, char **json, int *ncams)
 {
 	*json = NULL;
-	mc_proto_msg *m = new_msg(MC_MSG_GET_RIG);
+	proto_msg *m = new_msg(MC_MSG_GET_RIG);
 	if (!m)
 		return MOCAP_E_SYSTEM;
 	uint8_t *raw = NULL;
@@ -833,9 +833,9 @@ int mocap_control(mocap_client *c, mocap_command cmd, const char *argument, char
 {
 	if (msg && msglen)
 		msg[0] = 0;
-	if (argument && strlen(argument) > MC_PROTO_ARG_MAX)
-		return set_err(MOCAP_E_ARG, "control: argument longer than %d bytes", MC_PROTO_ARG_MAX);
-	mc_proto_msg *m = new_msg(MC_MSG_CONTROL);
+	if (argument && strlen(argument) > PROTO_ARG_MAX)
+		return set_err(MOCAP_E_ARG, "control: argument longer than %d bytes", PROTO_ARG_MAX);
+	proto_msg *m = new_msg(MC_MSG_CONTROL);
 	if (!m)
 		return MOCAP_E_SYSTEM;
 	m->u.control.command = (uint32_t)cmd;
@@ -855,7 +855,7 @@ int mocap_control(mocap_client *c, mocap_command cmd, const char *argument, char
 
 int mocap_get_rings(mocap_client *c, mocap_ring *rings, int max)
 {
-	mc_proto_msg *m = new_msg(MC_MSG_GET_RINGS);
+	proto_msg *m = new_msg(MC_MSG_GET_RINGS);
 	if (!m)
 		return MOCAP_E_SYSTEM;
 	int fds[MAX_RX_FDS], nfds = 0;
@@ -897,7 +897,7 @@ static int take_async_error(mocap_client *c)
 }
 
 /* Sends an unacknowledged message; reports an earlier refusal first. */
-static int send_oneway(mocap_client *c, mc_proto_msg *m)
+static int send_oneway(mocap_client *c, proto_msg *m)
 {
 	/* Read what has arrived, so that a refusal is seen promptly. */
 	pthread_mutex_lock(&c->lock);
@@ -922,7 +922,7 @@ int mocap_send_keypoints(mocap_client *c, uint64_t capture_ns, int camera, const
 		return set_err(MOCAP_E_ARG, "keypoints: %d in one batch, at most %d", n, MOCAP_MAX_KEYPOINTS);
 	if (camera < 0 || camera > 65535)
 		return set_err(MOCAP_E_ARG, "keypoints: camera %d out of range", camera);
-	mc_proto_msg *m = new_msg(MC_MSG_KEYPOINTS);
+	proto_msg *m = new_msg(MC_MSG_KEYPOINTS);
 	if (!m)
 		return MOCAP_E_SYSTEM;
 	m->u.keypoints.capture_ns = capture_ns;
@@ -957,7 +957,7 @@ int mocap_send_head_pose(mocap_client *c, uint64_t timestamp_ns, const double po
 	if (fabs(sqrt(n2) - 1.0) > 1e-3)
 		return set_err(MOCAP_E_ARG, "head pose: orientation is not a unit quaternion (w, x, y, z): length %g",
 			       sqrt(n2));
-	mc_proto_msg *m = new_msg(MC_MSG_HEAD_POSE);
+	proto_msg *m = new_msg(MC_MSG_HEAD_POSE);
 	if (!m)
 		return MOCAP_E_SYSTEM;
 	m->u.head_pose.timestamp_ns = timestamp_ns;
@@ -970,7 +970,7 @@ int mocap_send_head_pose(mocap_client *c, uint64_t timestamp_ns, const double po
 
 int mocap_ping(mocap_client *c, uint64_t *server_time_ns)
 {
-	mc_proto_msg *m = new_msg(MC_MSG_PING);
+	proto_msg *m = new_msg(MC_MSG_PING);
 	if (!m)
 		return MOCAP_E_SYSTEM;
 	m->u.ping.value = mocap_now_ns();

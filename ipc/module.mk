@@ -1,9 +1,9 @@
-# ipc/: the wire protocol (mc_proto), the server library the daemon links
-# (mc_server), the client library libmocap (shared, with soname and
+# ipc/: the wire protocol (proto), the server library the daemon links
+# (srv_server), the client library libmocap (shared, with soname and
 # pkg-config file), mocapctl, the IPC tests, the fuzzer and the benchmark.
 #
 # For the daemon: link $(BUILD)/libmocapipc.a before $(CORE_LIB)
-# (mc_server uses mc_error and mc_math from the core).  Use the literal path
+# (srv_server uses mc_error and mc_math from the core).  Use the literal path
 # in daemon/module.mk: it is included before this file, so IPC_SERVER_LIB is
 # not defined yet when its prerequisites are read.
 
@@ -25,16 +25,16 @@ BINS += $(BUILD)/bin/mocapctl
 CHECKS += check-ipc-python fuzz-ipc
 BENCHES += bench-ipc
 
-$(IPC_SERVER_LIB): $(BUILD)/ipc/mc_proto.o $(BUILD)/ipc/mc_server.o
+$(IPC_SERVER_LIB): $(BUILD)/ipc/proto.o $(BUILD)/ipc/server.o
 	@rm -f $@
 	ar rcs $@ $^
 
-$(IPC_CLIENT_LIB): $(BUILD)/ipc/mc_proto.o $(BUILD)/ipc/mocap.o
+$(IPC_CLIENT_LIB): $(BUILD)/ipc/proto.o $(BUILD)/ipc/mocap.o
 	@rm -f $@
 	ar rcs $@ $^
 
 # Only the mocap_ symbols are exported (ipc/libmocap.map).
-$(IPC_SO): $(BUILD)/ipc/mc_proto.o $(BUILD)/ipc/mocap.o ipc/libmocap.map
+$(IPC_SO): $(BUILD)/ipc/proto.o $(BUILD)/ipc/mocap.o ipc/libmocap.map
 	@mkdir -p $(@D)
 	$(CC) -shared -Wl,-soname,libmocap.so.1 -Wl,--version-script=ipc/libmocap.map -Wl,--no-undefined \
 		-o $@ $(filter %.o,$^) $(LDFLAGS) -lm
@@ -82,14 +82,14 @@ check-ipc-python: $(IPC_TESTPUB) $(BUILD)/bin/mocapctl $(IPC_EXAMPLES)
 FUZZ_CC ?= clang
 FUZZ_SECONDS ?= 60
 IPC_FUZZ := $(BUILD)/fuzz/fuzz_ipc
-$(IPC_FUZZ): tests/fuzz/fuzz_ipc.c ipc/mc_proto.c ipc/mc_proto.h
+$(IPC_FUZZ): tests/fuzz/fuzz_ipc.c ipc/proto.c ipc/proto.h
 	@mkdir -p $(@D)
 	$(FUZZ_CC) -std=c11 -D_GNU_SOURCE -Iipc -g -O1 -fsanitize=fuzzer,address,undefined \
-		-fno-sanitize-recover=undefined tests/fuzz/fuzz_ipc.c ipc/mc_proto.c -o $@ -lm
+		-fno-sanitize-recover=undefined tests/fuzz/fuzz_ipc.c ipc/proto.c -o $@ -lm
 
-$(BUILD)/fuzz/fuzz_ipc_seeds: tests/fuzz/fuzz_ipc_seeds.c ipc/mc_proto.c ipc/mc_proto.h
+$(BUILD)/fuzz/fuzz_ipc_seeds: tests/fuzz/fuzz_ipc_seeds.c ipc/proto.c ipc/proto.h
 	@mkdir -p $(@D)
-	$(CC) $(CPPFLAGS) $(CFLAGS) tests/fuzz/fuzz_ipc_seeds.c ipc/mc_proto.c -o $@ $(LDFLAGS) -lm
+	$(CC) $(CPPFLAGS) $(CFLAGS) tests/fuzz/fuzz_ipc_seeds.c ipc/proto.c -o $@ $(LDFLAGS) -lm
 
 fuzz-ipc: $(IPC_FUZZ) $(BUILD)/fuzz/fuzz_ipc_seeds
 	@rm -rf $(BUILD)/fuzz/seeds && mkdir -p $(BUILD)/fuzz/seeds $(BUILD)/fuzz/corpus

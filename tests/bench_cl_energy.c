@@ -1,4 +1,4 @@
-/* Benchmark of the OpenCL colour energy (core/mc_cl): evaluations per second
+/* Benchmark of the OpenCL colour energy (core/energy/mc_cl): evaluations per second
  * of energy + gradient for 1000, 3000 and 10000 sampled pixels over the two
  * 128 x 128 fisheye views of a head-mounted rig looking at a person of 68
  * Gaussians, with and without dropout, against the double reference
@@ -7,9 +7,9 @@
  *   bench_cl_energy [platform device [vector_width work_group_size max_groups]]
  *   (defaults: -1 -1 0 0 0, see mc_cl.h) */
 #include "cl_scene.h"
-#include "mc_cl.h"
-#include "mc_model.h"
-#include "mc_rig.h"
+#include "energy/mc_cl.h"
+#include "body/mc_model.h"
+#include "geom/mc_rig.h"
 #include "test_util.h"
 
 #include <stdlib.h>

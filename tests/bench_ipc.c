@@ -1,7 +1,7 @@
-/* bench_ipc: latency from mc_server_publish() to the client library's
+/* bench_ipc: latency from srv_publish() to the client library's
  * receipt of the frame (both CLOCK_MONOTONIC, same machine), at 60 Hz with
  * 1 and with 64 subscribers, each a libmocap client on its own thread.
- * Also the time the publisher spends in mc_server_publish().  Target:
+ * Also the time the publisher spends in srv_publish().  Target:
  * p99 < 1 ms.
  *
  *   bench_ipc [--rt] [SECONDS per run, default 10]
@@ -9,7 +9,7 @@
  * --rt runs every thread (publisher, server, subscribers) with SCHED_FIFO,
  * as a VR deployment might: the figures then show the IPC path without
  * other processes' load on a shared machine (needs CAP_SYS_NICE). */
-#include "mc_server.h"
+#include "server.h"
 #include "mocap.h"
 
 #include <errno.h>
@@ -77,7 +77,7 @@ static void sleep_until(uint64_t t)
 	}
 }
 
-static bool run(mc_server *srv, int nsubs, mocap_mode mode, int frames)
+static bool run(srv_server *srv, int nsubs, mocap_mode mode, int frames)
 {
 	static uint64_t seq = 0;
 	pthread_t th[64];
@@ -107,7 +107,7 @@ static bool run(mc_server *srv, int nsubs, mocap_mode mode, int frames)
 		sk->joints[0].position = mc_v3(i, 0, 0);
 		mc_err err;
 		uint64_t t0 = mocap_now_ns();
-		if (mc_server_publish(srv, sk, ++seq, &err))
+		if (srv_publish(srv, sk, ++seq, &err))
 			fprintf(stderr, "bench_ipc: %s\n", err.msg);
 		pub_us[i] = (double)(mocap_now_ns() - t0) * 1e-3;
 	}
@@ -164,22 +164,22 @@ int main(int argc, char **argv)
 		return 1;
 	}
 	snprintf(path, sizeof(path), "%s/mocapd.sock", dir);
-	mc_server_config cfg;
-	mc_server_config_default(&cfg);
+	srv_config cfg;
+	srv_config_default(&cfg);
 	snprintf(cfg.path, sizeof(cfg.path), "%s", path);
 	mc_err err;
-	mc_server *srv = mc_server_create(&cfg, &err);
+	srv_server *srv = srv_create(&cfg, &err);
 	if (!srv) {
 		fprintf(stderr, "bench_ipc: %s\n", err.msg);
 		return 1;
 	}
-	mc_server_skeleton_def def = {0};
+	srv_skeleton_def def = {0};
 	def.njoints = NJ;
 	for (int j = 0; j < NJ; j++) {
 		snprintf(def.name[j], sizeof(def.name[j]), "joint%d", j);
 		def.parent[j] = j - 1;
 	}
-	mc_server_set_skeleton_def(srv, &def, &err);
+	srv_set_skeleton_def(srv, &def, &err);
 	long ncpu = sysconf(_SC_NPROCESSORS_ONLN);
 	printf("bench_ipc: publish -> client receive latency, 60 Hz, %d joints (%zu-byte frames), %d frames per run, "
 	       "%ld CPUs%s\n", NJ, (size_t)48 + 64 * NJ, frames, ncpu, rt ? ", SCHED_FIFO" : "");
@@ -197,7 +197,7 @@ int main(int argc, char **argv)
 	}
 	printf("bench_ipc: target p99 < 1 ms (and every frame in \"all\" mode): %s; load average %.2f on %ld CPUs\n",
 	       ok ? "met" : "NOT met", load[0], ncpu);
-	mc_server_destroy(srv);
+	srv_destroy(srv);
 	rmdir(dir);
 	return 0;
 }

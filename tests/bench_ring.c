@@ -1,4 +1,4 @@
-/* Benchmark of core/mc_ring: two 1280x1024 YUYV cameras at 60 fps.
+/* Benchmark of core/ring/mc_ring: two 1280x1024 YUYV cameras at 60 fps.
  *
  * Each camera has a producer thread paced at 60 Hz (absolute deadlines) that
  * copies a full frame into a ring slot, as a V4L2 driver copying out of its
@@ -8,7 +8,7 @@
  * copy), frames missed, and CPU time (getrusage) per thread and in total.
  *
  * Usage: bench_ring [seconds] (default 5). */
-#include "mc_ring.h"
+#include "ring/mc_ring.h"
 
 #include <pthread.h>
 #include <stdatomic.h>

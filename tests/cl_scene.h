@@ -5,9 +5,9 @@
 #ifndef MC_CL_SCENE_H
 #define MC_CL_SCENE_H
 
-#include "mc_energy.h"
-#include "mc_math.h"
-#include "mc_rig.h"
+#include "energy/mc_energy.h"
+#include "base/mc_math.h"
+#include "geom/mc_rig.h"
 #include "test_util.h"
 
 #include <stdlib.h>

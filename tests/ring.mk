@@ -1,4 +1,4 @@
-# Frame ring extras (owner: ring):
+# Frame ring extras:
 #   check-ring-tsan  test_ring built and run under ThreadSanitizer (CHECKS)
 #   bench-ring       two 1280x1024 YUYV cameras at 60 fps (BENCHES)
 
@@ -10,10 +10,10 @@ BENCH_RING_SECONDS ?= 5
 
 # Only the ring and its error module: no need to rebuild the whole core
 # with another compiler and sanitizer.
-$(RING_TSAN_TEST): tests/test_ring.c tests/test_util.h core/mc_ring.c core/mc_ring.h core/mc_error.c core/mc_error.h
+$(RING_TSAN_TEST): tests/test_ring.c tests/test_util.h core/ring/mc_ring.c core/ring/mc_ring.h core/base/mc_error.c core/base/mc_error.h
 	@mkdir -p $(@D)
 	$(RING_TSAN_CC) -std=c11 -Wall -Wextra -Werror -D_GNU_SOURCE -Icore -g -O1 -fsanitize=thread -pthread \
-		tests/test_ring.c core/mc_ring.c core/mc_error.c -o $@
+		tests/test_ring.c core/ring/mc_ring.c core/base/mc_error.c -o $@
 
 .PHONY: check-ring-tsan bench-ring
 check-ring-tsan: $(RING_TSAN_TEST)

@@ -3,7 +3,7 @@
  * estimates scored here independently against the clip's gt.json (they must
  * give the MPJPE the tool printed), the simulated-detector warning, and bad
  * command lines. */
-#include "mc_clip.h"
+#include "eval/mc_clip.h"
 #include "test_util.h"
 
 #include <jansson.h>

@@ -1,6 +1,6 @@
-/* Tests of core/mc_bvh: the two CMU files in shared/data/mocap, forward
+/* Tests of core/body/mc_bvh: the two CMU files in shared/data/mocap, forward
  * kinematics, and malformed snippets (errors name the origin and line). */
-#include "mc_bvh.h"
+#include "body/mc_bvh.h"
 #include "test_util.h"
 
 #include <jansson.h>

@@ -1,4 +1,4 @@
-/* Tests of core/mc_camera: the three camera models against independent
+/* Tests of core/geom/mc_camera: the three camera models against independent
  * references, project/unproject as inverses over whole images, and
  * validation messages.
  *
@@ -13,8 +13,8 @@
  * - ocam: OCamCalib's own cam2world/world2cam (ocam_functions.c) evaluated
  *   in the toolbox's conventions on tests/data/ocam/asym_calib_results.txt
  *   by the same script. */
-#include "mc_camera.h"
-#include "mc_rig.h"
+#include "geom/mc_camera.h"
+#include "geom/mc_rig.h"
 #include "test_util.h"
 
 #include <string.h>

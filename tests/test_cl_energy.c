@@ -1,16 +1,16 @@
-/* Tests of core/mc_cl: the OpenCL colour energy and its gradient against the
- * double-precision reference of core/mc_energy.c on random scenes and on a
+/* Tests of core/energy/mc_cl: the OpenCL colour energy and its gradient against the
+ * double-precision reference of core/energy/mc_energy.c on random scenes and on a
  * person seen by a head-mounted fisheye pair, over every pixel, pixel
  * subsets and with dropout; missing cameras, device selection and argument
  * errors.
  * Skips (77) when no OpenCL platform is present. */
 #include "cl_scene.h"
-#include "mc_cl.h"
+#include "energy/mc_cl.h"
 #include "test_util.h"
 
 #include <string.h>
 
-/* ---- reference: core/mc_energy.c in double ---- */
+/* ---- reference: core/energy/mc_energy.c in double ---- */
 
 /* A camera: ray table and image. */
 typedef struct {

@@ -5,7 +5,7 @@
  * driver at 5 fps, both cameras with one epoch, so that the client knows
  * the capture time of the next frame set. */
 #include "daemon/harness.h"
-#include "mc_rig.h"
+#include "geom/mc_rig.h"
 #include "mocap.h"
 #include "test_util.h"
 

@@ -63,7 +63,7 @@ static void expect_loaded(const char *dir, const char *name)
 	CHECK_MSG(rc == 0, "%s", err.msg);
 	if (rc == 0) {
 		CHECK(p.driver && strcmp(p.driver->name, "faulty") == 0);
-		CHECK(p.driver->abi_version == MOCAP_DRIVER_ABI_VERSION);
+		CHECK(p.driver->abi_version == MDRV_ABI_VERSION);
 		mcd_plugin_unload(&p);
 	}
 }
@@ -115,7 +115,7 @@ static void test_build_dir(void)
 	char bad[PATH_MAX + 8];
 	snprintf(bad, sizeof(bad), "%s/bad", drivers_dir);
 	expect_refused(bad, "badabi", "built for driver ABI version 999, but this mocapd speaks version 1");
-	expect_refused(bad, "noentry", "exports no mocap_driver_entry(); not a mocapd driver plugin");
+	expect_refused(bad, "noentry", "exports no mdrv_entry(); not a mocapd driver plugin");
 	expect_refused(drivers_dir, "nosuch", "no mocap-driver-nosuch.so in");
 	expect_refused(drivers_dir, "nosuch", "(drivers there: faulty)");
 	expect_refused(drivers_dir, "../drivers/faulty", "not a valid driver name");

@@ -3,7 +3,7 @@
  * (PoCL) from the initial joints of frame 0, printed and saved; then a
  * looping clip whose tracker budget is changed by SIGHUP while it runs. */
 #include "daemon/harness.h"
-#include "mc_model.h"
+#include "body/mc_model.h"
 #include "test_util.h"
 
 #define CONF(extra_camera_keys, extra_tracker_keys)                  \

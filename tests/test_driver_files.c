@@ -2,8 +2,8 @@
  * daemon loads it, on the bundled demo clip tests/data/ego_demo and on
  * small folders made here.  The host and the plugin's location: see
  * tests/drivers/plugin_host.h. */
-#include "mc_image.h"
-#include "mocap_driver.h"
+#include "image/mc_image.h"
+#include "mdrv.h"
 #include "test_util.h"
 #include "drivers/plugin_host.h"
 
@@ -32,11 +32,11 @@ static int file_equals(const char *path, const uint8_t *data, size_t n)
 
 static void test_entry_and_config(void)
 {
-	CHECK(drv->abi_version == MOCAP_DRIVER_ABI_VERSION);
+	CHECK(drv->abi_version == MDRV_ABI_VERSION);
 	CHECK(strcmp(drv->name, "files") == 0);
 	config c = {0};
-	mocap_host h = host_for(&c);
-	mocap_device_info info[4];
+	mdrv_host h = host_for(&c);
+	mdrv_device_info info[4];
 	CHECK(drv->probe(&h, info, 4, err, sizeof(err)) == 0);
 
 	expect_open_fails(&c, "'path' is required");
@@ -70,36 +70,36 @@ static void test_mjpeg(void)
 	cfg_set(&c, "rate", "0");
 	cfg_set(&c, "start", "3");
 	cfg_set(&c, "count", "5");
-	mocap_host h;
+	mdrv_host h;
 	void *dev = open_start(&c, &h);
 	CHECK_MSG(dev != NULL, "%s", err);
 	if (!dev)
 		return;
-	mocap_format fmt;
-	CHECK(drv->get_format(dev, &fmt, err, sizeof(err)) == MOCAP_OK);
-	CHECK(fmt.pixfmt == MOCAP_FMT_MJPEG && fmt.width == 256 && fmt.height == 256 && fmt.stride == 0);
+	mdrv_format fmt;
+	CHECK(drv->get_format(dev, &fmt, err, sizeof(err)) == MDRV_OK);
+	CHECK(fmt.pixfmt == MC_PIXFMT_MJPEG && fmt.width == 256 && fmt.height == 256 && fmt.stride == 0);
 	CHECK(fmt.max_bytes > 1000 && fmt.max_bytes < 100000);
 	uint8_t *buf = malloc(fmt.max_bytes);
-	mocap_frame f;
+	mdrv_frame f;
 	uint64_t last_ts = 0;
 	for (int k = 0; k < 5; k++) {
 		int rc = pull(dev, &f, buf, fmt.max_bytes, 1000);
-		CHECK_MSG(rc == MOCAP_OK, "frame %d: %s", k, err);
+		CHECK_MSG(rc == MDRV_OK, "frame %d: %s", k, err);
 		char path[256];
 		snprintf(path, sizeof(path), DEMO "/left/%05d.jpg", 3 + k);
 		CHECK_MSG(file_equals(path, buf, f.bytesused), "frame %d is not %s", k, path);
-		CHECK(f.sequence == (uint64_t)k && f.format.pixfmt == MOCAP_FMT_MJPEG && f.format.width == 256);
+		CHECK(f.sequence == (uint64_t)k && f.format.pixfmt == MC_PIXFMT_MJPEG && f.format.width == 256);
 		CHECK(f.timestamp_ns >= last_ts && f.timestamp_ns > 0);
 		last_ts = f.timestamp_ns;
 	}
-	CHECK(pull(dev, &f, buf, fmt.max_bytes, 1000) == MOCAP_ERR_END);
+	CHECK(pull(dev, &f, buf, fmt.max_bytes, 1000) == MDRV_ERR_END);
 	CHECK(strstr(err, "end of"));
-	CHECK(pull(dev, &f, buf, fmt.max_bytes, 1000) == MOCAP_ERR_END);
+	CHECK(pull(dev, &f, buf, fmt.max_bytes, 1000) == MDRV_ERR_END);
 	/* A slot that is too small. */
 	drv->stop(dev);
-	CHECK(pull(dev, &f, buf, fmt.max_bytes, 0) != MOCAP_OK); /* stopped */
-	CHECK(drv->start(dev, err, sizeof(err)) == MOCAP_OK);
-	CHECK(pull(dev, &f, buf, 100, 1000) == MOCAP_ERR_NOSPACE);
+	CHECK(pull(dev, &f, buf, fmt.max_bytes, 0) != MDRV_OK); /* stopped */
+	CHECK(drv->start(dev, err, sizeof(err)) == MDRV_OK);
+	CHECK(pull(dev, &f, buf, 100, 1000) == MDRV_ERR_NOSPACE);
 	CHECK(strstr(err, "00003.jpg"));
 	free(buf);
 	drv->close(dev);
@@ -112,20 +112,20 @@ static void test_rgb24(void)
 	cfg_set(&c, "rate", "0");
 	cfg_set(&c, "count", "2");
 	cfg_set(&c, "format", "rgb24");
-	mocap_host h;
+	mdrv_host h;
 	void *dev = open_start(&c, &h);
 	CHECK_MSG(dev != NULL, "%s", err);
 	if (!dev)
 		return;
-	mocap_format fmt;
+	mdrv_format fmt;
 	drv->get_format(dev, &fmt, err, sizeof(err));
-	CHECK(fmt.pixfmt == MOCAP_FMT_RGB24 && fmt.stride == 256 * 3 && fmt.max_bytes == 256 * 256 * 3);
+	CHECK(fmt.pixfmt == MC_PIXFMT_RGB24 && fmt.stride == 256 * 3 && fmt.max_bytes == 256 * 256 * 3);
 	uint8_t *buf = malloc(fmt.max_bytes);
-	mocap_frame f;
+	mdrv_frame f;
 	mc_err e;
 	mc_image_conv *conv = mc_image_conv_new(&e);
 	for (int k = 0; k < 2; k++) {
-		CHECK(pull(dev, &f, buf, fmt.max_bytes, 1000) == MOCAP_OK);
+		CHECK(pull(dev, &f, buf, fmt.max_bytes, 1000) == MDRV_OK);
 		char path[256];
 		snprintf(path, sizeof(path), DEMO "/right/%05d.jpg", k);
 		uint8_t *want = NULL;
@@ -134,7 +134,7 @@ static void test_rgb24(void)
 		CHECK(f.bytesused == fmt.max_bytes && want && memcmp(want, buf, f.bytesused) == 0);
 		free(want);
 	}
-	CHECK(pull(dev, &f, buf, fmt.max_bytes, 1000) == MOCAP_ERR_END);
+	CHECK(pull(dev, &f, buf, fmt.max_bytes, 1000) == MDRV_ERR_END);
 	mc_image_conv_free(conv);
 	free(buf);
 	drv->close(dev);
@@ -154,7 +154,7 @@ static void test_pacing(void)
 		cfg_set(c, "count", "6");
 		cfg_set(c, "epoch", es);
 	}
-	mocap_host hl, hr;
+	mdrv_host hl, hr;
 	void *l = open_start(&cl, &hl), *r = open_start(&cr, &hr);
 	CHECK(l && r);
 	if (!l || !r) {
@@ -165,12 +165,12 @@ static void test_pacing(void)
 		return;
 	}
 	uint8_t *buf = malloc(1 << 20);
-	mocap_frame fl, fr;
+	mdrv_frame fl, fr;
 	uint64_t first = 0, last = 0;
 	for (int k = 0; k < 6; k++) {
-		CHECK(pull(l, &fl, buf, 1 << 20, 1000) == MOCAP_OK);
+		CHECK(pull(l, &fl, buf, 1 << 20, 1000) == MDRV_OK);
 		uint64_t t = now_ns();
-		CHECK(pull(r, &fr, buf, 1 << 20, 1000) == MOCAP_OK);
+		CHECK(pull(r, &fr, buf, 1 << 20, 1000) == MDRV_OK);
 		CHECK(fl.timestamp_ns == epoch + (uint64_t)k * 20000000ull);
 		CHECK(fl.timestamp_ns == fr.timestamp_ns); /* same frame, same time */
 		CHECK(t >= fl.timestamp_ns);              /* never delivered early */
@@ -189,12 +189,12 @@ static void test_pacing(void)
 	cfg_set(&c, "path", DEMO "/left");
 	cfg_set(&c, "rate", "30");
 	cfg_set(&c, "epoch", es);
-	mocap_host h;
+	mdrv_host h;
 	void *dev = open_start(&c, &h);
 	CHECK(dev != NULL);
 	if (dev) {
 		uint64_t t0 = now_ns();
-		CHECK(pull(dev, &fl, buf, 1 << 20, 30) == MOCAP_ERR_TIMEOUT);
+		CHECK(pull(dev, &fl, buf, 1 << 20, 30) == MDRV_ERR_TIMEOUT);
 		double waited = (double)(now_ns() - t0) * 1e-9;
 		CHECK_MSG(waited > 0.025 && waited < 1.0, "waited %.3f s", waited);
 		drv->close(dev);
@@ -209,15 +209,15 @@ static void test_loop(void)
 	cfg_set(&c, "rate", "0");
 	cfg_set(&c, "count", "3");
 	cfg_set(&c, "loop", "true");
-	mocap_host h;
+	mdrv_host h;
 	void *dev = open_start(&c, &h);
 	CHECK(dev != NULL);
 	if (!dev)
 		return;
 	uint8_t *buf = malloc(1 << 20);
-	mocap_frame f;
+	mdrv_frame f;
 	for (int k = 0; k < 7; k++) {
-		CHECK(pull(dev, &f, buf, 1 << 20, 1000) == MOCAP_OK);
+		CHECK(pull(dev, &f, buf, 1 << 20, 1000) == MDRV_OK);
 		char path[256];
 		snprintf(path, sizeof(path), DEMO "/left/%05d.jpg", k % 3);
 		CHECK_MSG(file_equals(path, buf, f.bytesused), "frame %d is not %s", k, path);
@@ -266,15 +266,15 @@ static void test_other_files(void)
 	cfg_set(&c, "format", "mjpeg");
 	expect_open_fails(&c, "mjpeg needs JPEG files");
 	cfg_set(&c, "format", "rgb24");
-	mocap_host h;
+	mdrv_host h;
 	void *dev = open_start(&c, &h);
 	CHECK_MSG(dev != NULL, "%s", err);
 	uint8_t *buf = malloc(W * H * 3);
-	mocap_frame f;
+	mdrv_frame f;
 	if (dev) {
-		CHECK(pull(dev, &f, buf, W * H * 3, 1000) == MOCAP_OK && buf[0] == 2 && buf[1] == rgb[1]);
-		CHECK(pull(dev, &f, buf, W * H * 3, 1000) == MOCAP_OK && buf[0] == 10);
-		CHECK(pull(dev, &f, buf, W * H * 3, 1000) == MOCAP_ERR_END);
+		CHECK(pull(dev, &f, buf, W * H * 3, 1000) == MDRV_OK && buf[0] == 2 && buf[1] == rgb[1]);
+		CHECK(pull(dev, &f, buf, W * H * 3, 1000) == MDRV_OK && buf[0] == 10);
+		CHECK(pull(dev, &f, buf, W * H * 3, 1000) == MDRV_ERR_END);
 		drv->close(dev);
 	}
 
@@ -296,11 +296,11 @@ static void test_other_files(void)
 	dev = open_start(&cj, &h);
 	CHECK_MSG(dev != NULL, "%s", err);
 	if (dev) {
-		CHECK(pull(dev, &f, buf, W * H * 3, 1000) == MOCAP_OK && f.sequence == 0);
-		CHECK(pull(dev, &f, buf, W * H * 3, 1000) == MOCAP_ERR_IO);
+		CHECK(pull(dev, &f, buf, W * H * 3, 1000) == MDRV_OK && f.sequence == 0);
+		CHECK(pull(dev, &f, buf, W * H * 3, 1000) == MDRV_ERR_IO);
 		CHECK_MSG(strstr(err, "1.jpg") != NULL, "%s", err);
-		CHECK(pull(dev, &f, buf, W * H * 3, 1000) == MOCAP_OK && f.sequence == 2);
-		CHECK(pull(dev, &f, buf, W * H * 3, 1000) == MOCAP_ERR_END);
+		CHECK(pull(dev, &f, buf, W * H * 3, 1000) == MDRV_OK && f.sequence == 2);
+		CHECK(pull(dev, &f, buf, W * H * 3, 1000) == MDRV_ERR_END);
 		drv->close(dev);
 	}
 	/* Default format for all-JPEG folders is mjpeg, bytes as in the file. */
@@ -311,7 +311,7 @@ static void test_other_files(void)
 	CHECK(dev != NULL);
 	if (dev) {
 		uint8_t *jb = malloc(jn);
-		CHECK(pull(dev, &f, jb, jn, 1000) == MOCAP_OK && f.format.pixfmt == MOCAP_FMT_MJPEG);
+		CHECK(pull(dev, &f, jb, jn, 1000) == MDRV_OK && f.format.pixfmt == MC_PIXFMT_MJPEG);
 		CHECK(f.bytesused == jn && memcmp(jb, jpeg, jn) == 0);
 		free(jb);
 		drv->close(dev);

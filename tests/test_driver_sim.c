@@ -8,10 +8,10 @@
  * are black; the image changes with the motion.
  *
  * The host and the plugin's location: see tests/drivers/plugin_host.h. */
-#include "mc_bvh.h"
-#include "mc_model.h"
-#include "mc_rig.h"
-#include "mocap_driver.h"
+#include "body/mc_bvh.h"
+#include "body/mc_model.h"
+#include "geom/mc_rig.h"
+#include "mdrv.h"
 #include "test_util.h"
 #include "drivers/plugin_host.h"
 
@@ -95,14 +95,14 @@ static void test_render(void)
 {
 	config c;
 	base_config(&c);
-	mocap_host h;
+	mdrv_host h;
 	void *dev = open_start(&c, &h);
 	CHECK_MSG(dev != NULL, "%s", err);
 	if (!dev)
 		return;
-	mocap_format fmt;
-	CHECK(drv->get_format(dev, &fmt, err, sizeof(err)) == MOCAP_OK);
-	CHECK(fmt.pixfmt == MOCAP_FMT_RGB24 && fmt.width == W && fmt.height == H && fmt.stride == W * 3);
+	mdrv_format fmt;
+	CHECK(drv->get_format(dev, &fmt, err, sizeof(err)) == MDRV_OK);
+	CHECK(fmt.pixfmt == MC_PIXFMT_RGB24 && fmt.width == W && fmt.height == H && fmt.stride == W * 3);
 	CHECK(fmt.max_bytes == W * H * 3);
 
 	mc_bvh bvh;
@@ -116,16 +116,16 @@ static void test_render(void)
 	double mpu = 1.75 / mc_bvh_rest_height(&bvh);
 
 	static uint8_t img[W * H * 3], first[W * H * 3];
-	mocap_frame f;
+	mdrv_frame f;
 	int on_body = 0, visible = 0;
 	uint64_t t0 = now_ns();
 	/* rate 0: frame k shows motion time k / 30 s = BVH frame 4k. */
 	for (int k = 0; k < 8; k++) {
 		int rc = pull(dev, &f, img, sizeof(img), 5000);
-		CHECK_MSG(rc == MOCAP_OK, "frame %d: %s", k, err);
-		if (rc != MOCAP_OK)
+		CHECK_MSG(rc == MDRV_OK, "frame %d: %s", k, err);
+		if (rc != MDRV_OK)
 			break;
-		CHECK(f.sequence == (uint64_t)k && f.bytesused == sizeof(img) && f.format.pixfmt == MOCAP_FMT_RGB24);
+		CHECK(f.sequence == (uint64_t)k && f.bytesused == sizeof(img) && f.format.pixfmt == MC_PIXFMT_RGB24);
 		if (k == 0)
 			memcpy(first, img, sizeof(img));
 		check_joints_on_body(&bvh, idx, mpu, &model, &rig.cams[0], 4 * k, img, &on_body, &visible);
@@ -146,7 +146,7 @@ static void test_render(void)
 	for (size_t i = 0; i < sizeof(img); i++)
 		changed += img[i] != first[i];
 	CHECK(changed > 100); /* the actor moved */
-	CHECK(pull(dev, &f, img, 100, 1000) == MOCAP_ERR_NOSPACE);
+	CHECK(pull(dev, &f, img, 100, 1000) == MDRV_ERR_NOSPACE);
 	drv->close(dev);
 	mc_bvh_free(&bvh);
 }
@@ -164,21 +164,21 @@ static void test_timing(void)
 	snprintf(es, sizeof(es), "%llu", (unsigned long long)epoch);
 	cfg_set(&c, "epoch", es);
 	cfg_set(&c, "start", "8.2"); /* 131_01 lasts 994 / 120 = 8.28 s */
-	mocap_host h;
+	mdrv_host h;
 	void *dev = open_start(&c, &h);
 	CHECK_MSG(dev != NULL, "%s", err);
 	if (!dev)
 		return;
 	uint8_t img[16 * 16 * 3];
-	mocap_frame f;
+	mdrv_frame f;
 	int n = 0;
 	int rc;
-	while ((rc = pull(dev, &f, img, sizeof(img), 1000)) == MOCAP_OK) {
+	while ((rc = pull(dev, &f, img, sizeof(img), 1000)) == MDRV_OK) {
 		CHECK(f.timestamp_ns == epoch + (uint64_t)n * 25000000ull);
 		CHECK(now_ns() >= f.timestamp_ns);
 		n++;
 	}
-	CHECK_MSG(rc == MOCAP_ERR_END, "rc %d: %s", rc, err);
+	CHECK_MSG(rc == MDRV_ERR_END, "rc %d: %s", rc, err);
 	CHECK_MSG(n == 3 || n == 4, "%d frames before the end", n);
 	drv->close(dev);
 
@@ -189,7 +189,7 @@ static void test_timing(void)
 	CHECK(dev != NULL);
 	if (dev) {
 		for (int k = 0; k < 10; k++)
-			CHECK(pull(dev, &f, img, sizeof(img), 1000) == MOCAP_OK && f.sequence == (uint64_t)k);
+			CHECK(pull(dev, &f, img, sizeof(img), 1000) == MDRV_OK && f.sequence == (uint64_t)k);
 		drv->close(dev);
 	}
 }
@@ -207,7 +207,7 @@ int main(void)
 	CHECK_MSG(drv != NULL, "cannot load mocap-driver-sim.so (set MOCAP_DRIVER_DIR)");
 	if (!drv)
 		return mc_test_finish("test_driver_sim");
-	CHECK(drv->abi_version == MOCAP_DRIVER_ABI_VERSION && strcmp(drv->name, "sim") == 0);
+	CHECK(drv->abi_version == MDRV_ABI_VERSION && strcmp(drv->name, "sim") == 0);
 	test_config_errors();
 	test_render();
 	test_timing();

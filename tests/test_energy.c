@@ -1,8 +1,8 @@
-/* Tests of core/mc_energy: the image formation model (projection to the ray,
+/* Tests of core/energy/mc_energy: the image formation model (projection to the ray,
  * transmittance, Gaussian and background visibility), the HSV dissimilarity
  * and every energy term's analytic gradient against central finite
  * differences, on random scenes with occlusion and disocclusion. */
-#include "mc_energy.h"
+#include "energy/mc_energy.h"
 #include "test_util.h"
 
 #include <string.h>

@@ -4,9 +4,9 @@
  * mc_model_backprop against central finite differences in random poses and
  * in poses with self-occlusion, and E_color's minimum at the pose an image
  * was rendered from. */
-#include "mc_energy.h"
-#include "mc_model.h"
-#include "mc_rig.h"
+#include "energy/mc_energy.h"
+#include "body/mc_model.h"
+#include "geom/mc_rig.h"
 #include "test_util.h"
 
 #include <string.h>

@@ -1,6 +1,6 @@
 /* Inverse kinematics: recovers bone scales, root placement and a pose from
  * the joint positions of a known posed model. */
-#include "mc_ik.h"
+#include "body/mc_ik.h"
 #include "test_util.h"
 
 #include <string.h>

@@ -1,6 +1,6 @@
-/* Tests of core/mc_image: every pixel format to RGB24, bad frames, resize. */
-#include "mc_image.h"
-#include "mocap_driver.h"
+/* Tests of core/image/mc_image: every pixel format to RGB24, bad frames, resize. */
+#include "image/mc_image.h"
+#include "mdrv.h"
 #include "test_util.h"
 
 #include <png.h>
@@ -48,29 +48,29 @@ static void test_rgb_gray(void)
 	for (int y = 0; y < H; y++)
 		for (int x = 0; x < W * 3; x++)
 			src[y * STRIDE + x] = want[y * W * 3 + x] = (uint8_t)(y * 50 + x);
-	CHECK(convert(MOCAP_FMT_RGB24, W, H, STRIDE, src, sizeof(src), out, sizeof(out), &err) == 0);
+	CHECK(convert(MC_PIXFMT_RGB24, W, H, STRIDE, src, sizeof(src), out, sizeof(out), &err) == 0);
 	CHECK(memcmp(out, want, sizeof(out)) == 0);
 	/* The last row needs no padding. */
-	CHECK(convert(MOCAP_FMT_RGB24, W, H, STRIDE, src, STRIDE * 2 + W * 3, out, sizeof(out), &err) == 0);
-	CHECK(convert(MOCAP_FMT_RGB24, W, H, STRIDE, src, STRIDE * 2 + W * 3 - 1, out, sizeof(out), &err) == -1);
+	CHECK(convert(MC_PIXFMT_RGB24, W, H, STRIDE, src, STRIDE * 2 + W * 3, out, sizeof(out), &err) == 0);
+	CHECK(convert(MC_PIXFMT_RGB24, W, H, STRIDE, src, STRIDE * 2 + W * 3 - 1, out, sizeof(out), &err) == -1);
 	CHECK(strstr(err.msg, "RGB24") && strstr(err.msg, "short frame"));
-	CHECK(convert(MOCAP_FMT_RGB24, W, H, 14, src, sizeof(src), out, sizeof(out), &err) == -1);
+	CHECK(convert(MC_PIXFMT_RGB24, W, H, 14, src, sizeof(src), out, sizeof(out), &err) == -1);
 	CHECK(strstr(err.msg, "stride 14"));
-	CHECK(convert(MOCAP_FMT_RGB24, W, H, 0, src, sizeof(src), out, sizeof(out) - 1, &err) == -1);
+	CHECK(convert(MC_PIXFMT_RGB24, W, H, 0, src, sizeof(src), out, sizeof(out) - 1, &err) == -1);
 	CHECK(strstr(err.msg, "buffer holds"));
 
 	uint8_t g[W * H];
 	for (int i = 0; i < W * H; i++)
 		g[i] = (uint8_t)(i * 17);
-	CHECK(convert(MOCAP_FMT_GRAY8, W, H, 0, g, sizeof(g), out, sizeof(out), &err) == 0);
+	CHECK(convert(MC_PIXFMT_GRAY8, W, H, 0, g, sizeof(g), out, sizeof(out), &err) == 0);
 	int ok = 1;
 	for (int i = 0; i < W * H; i++)
 		ok &= out[3 * i] == g[i] && out[3 * i + 1] == g[i] && out[3 * i + 2] == g[i];
 	CHECK(ok);
-	CHECK(convert(MOCAP_FMT_GRAY8, W, H, 0, g, sizeof(g) - 1, out, sizeof(out), &err) == -1);
-	CHECK(convert(MOCAP_FMT_GRAY8, 0, H, 0, g, sizeof(g), out, sizeof(out), &err) == -1);
+	CHECK(convert(MC_PIXFMT_GRAY8, W, H, 0, g, sizeof(g) - 1, out, sizeof(out), &err) == -1);
+	CHECK(convert(MC_PIXFMT_GRAY8, 0, H, 0, g, sizeof(g), out, sizeof(out), &err) == -1);
 	CHECK(strstr(err.msg, "out of range"));
-	CHECK(convert(MOCAP_FMT_GRAY8, W, H, 0, NULL, 0, out, sizeof(out), &err) == -1);
+	CHECK(convert(MC_PIXFMT_GRAY8, W, H, 0, NULL, 0, out, sizeof(out), &err) == -1);
 	CHECK(convert(77, W, H, 0, g, sizeof(g), out, sizeof(out), &err) == -1);
 	CHECK(strstr(err.msg, "77"));
 }
@@ -100,7 +100,7 @@ static void test_yuyv(void)
 		src[4 * i + 2] = (uint8_t)yuv[0];
 		src[4 * i + 3] = (uint8_t)yuv[2];
 	}
-	CHECK(convert(MOCAP_FMT_YUYV, N * 2, 1, 0, src, sizeof(src), out, sizeof(out), &err) == 0);
+	CHECK(convert(MC_PIXFMT_YUYV, N * 2, 1, 0, src, sizeof(src), out, sizeof(out), &err) == 0);
 	for (int i = 0; i < N; i++)
 		for (int p = 0; p < 2; p++)
 			for (int c = 0; c < 3; c++)
@@ -108,11 +108,11 @@ static void test_yuyv(void)
 					  i, c, out[(2 * i + p) * 3 + c], colours[i][c]);
 	/* Y0 and Y1 differ: two greys sharing chroma. */
 	uint8_t pair[4] = {16, 128, 235, 128};
-	CHECK(convert(MOCAP_FMT_YUYV, 2, 1, 0, pair, 4, out, 6, &err) == 0);
+	CHECK(convert(MC_PIXFMT_YUYV, 2, 1, 0, pair, 4, out, 6, &err) == 0);
 	CHECK(out[0] == 0 && out[1] == 0 && out[2] == 0 && out[3] == 255 && out[4] == 255 && out[5] == 255);
-	CHECK(convert(MOCAP_FMT_YUYV, 3, 1, 0, src, sizeof(src), out, sizeof(out), &err) == -1);
+	CHECK(convert(MC_PIXFMT_YUYV, 3, 1, 0, src, sizeof(src), out, sizeof(out), &err) == -1);
 	CHECK(strstr(err.msg, "odd"));
-	CHECK(convert(MOCAP_FMT_YUYV, N * 2, 1, 0, src, sizeof(src) - 1, out, sizeof(out), &err) == -1);
+	CHECK(convert(MC_PIXFMT_YUYV, N * 2, 1, 0, src, sizeof(src) - 1, out, sizeof(out), &err) == -1);
 	CHECK(strstr(err.msg, "YUYV") && strstr(err.msg, "short"));
 }
 
@@ -129,24 +129,24 @@ static void test_mjpeg(void)
 		return;
 	int w = 0, h = 0;
 	CHECK(mc_image_jpeg_size(conv, jpeg, n, &w, &h, &err) == 0 && w == W && h == H);
-	CHECK(convert(MOCAP_FMT_MJPEG, W, H, 0, jpeg, n, out, sizeof(out), &err) == 0);
+	CHECK(convert(MC_PIXFMT_MJPEG, W, H, 0, jpeg, n, out, sizeof(out), &err) == 0);
 	double sum = 0;
 	for (size_t i = 0; i < sizeof(out); i++)
 		sum += abs((int)out[i] - (int)rgb[i]);
 	CHECK_MSG(sum / sizeof(out) < 2.0, "mean JPEG error %.2f", sum / sizeof(out));
 	/* Undeclared size: the JPEG's own is used. */
-	CHECK(convert(MOCAP_FMT_MJPEG, 0, 0, 0, jpeg, n, out, sizeof(out), &err) == 0);
+	CHECK(convert(MC_PIXFMT_MJPEG, 0, 0, 0, jpeg, n, out, sizeof(out), &err) == 0);
 	/* Declared size disagrees. */
-	CHECK(convert(MOCAP_FMT_MJPEG, W, H + 1, 0, jpeg, n, out, sizeof(out), &err) == -1);
+	CHECK(convert(MC_PIXFMT_MJPEG, W, H + 1, 0, jpeg, n, out, sizeof(out), &err) == -1);
 	CHECK(strstr(err.msg, "96x64") && strstr(err.msg, "96x65"));
-	CHECK(convert(MOCAP_FMT_MJPEG, W, H, 0, jpeg, n, out, sizeof(out) - 1, &err) == -1);
+	CHECK(convert(MC_PIXFMT_MJPEG, W, H, 0, jpeg, n, out, sizeof(out) - 1, &err) == -1);
 
 	/* Truncated at many places: always an error, never a crash. */
 	int truncated_ok = 1;
 	for (size_t cut = 0; cut < n; cut += n / 23 + 1) {
 		uint8_t *part = malloc(cut ? cut : 1);
 		memcpy(part, jpeg, cut);
-		int rc = convert(MOCAP_FMT_MJPEG, W, H, 0, part, cut, out, sizeof(out), &err);
+		int rc = convert(MC_PIXFMT_MJPEG, W, H, 0, part, cut, out, sizeof(out), &err);
 		if (rc != -1 || !strstr(err.msg, "MJPEG")) {
 			fprintf(stderr, "cut at %zu: rc %d, '%s'\n", cut, rc, err.msg);
 			truncated_ok = 0;
@@ -159,11 +159,11 @@ static void test_mjpeg(void)
 	unsigned long long rng = 7;
 	for (size_t i = 0; i < sizeof(junk); i++)
 		junk[i] = (uint8_t)(mc_test_rand(&rng) * 256);
-	CHECK(convert(MOCAP_FMT_MJPEG, W, H, 0, junk, sizeof(junk), out, sizeof(out), &err) == -1);
+	CHECK(convert(MC_PIXFMT_MJPEG, W, H, 0, junk, sizeof(junk), out, sizeof(out), &err) == -1);
 	CHECK(strstr(err.msg, "not a JPEG"));
 	junk[0] = 0xFF;
 	junk[1] = 0xD8;
-	CHECK(convert(MOCAP_FMT_MJPEG, W, H, 0, junk, sizeof(junk), out, sizeof(out), &err) == -1);
+	CHECK(convert(MC_PIXFMT_MJPEG, W, H, 0, junk, sizeof(junk), out, sizeof(out), &err) == -1);
 	/* A damaged body (header intact): decodes or fails, but stays in bounds
 	 * (ASan checks that in the SAN build). */
 	uint8_t *bad = malloc(n);
@@ -171,7 +171,7 @@ static void test_mjpeg(void)
 		memcpy(bad, jpeg, n);
 		for (int k = 0; k < 8; k++)
 			bad[n / 3 + (size_t)(mc_test_rand(&rng) * (double)(n - n / 3 - 2))] = (uint8_t)(mc_test_rand(&rng) * 256);
-		convert(MOCAP_FMT_MJPEG, W, H, 0, bad, n, out, sizeof(out), &err);
+		convert(MC_PIXFMT_MJPEG, W, H, 0, bad, n, out, sizeof(out), &err);
 	}
 	free(bad);
 	free(jpeg);
@@ -191,8 +191,8 @@ static void test_bayer(void)
 	mc_err err;
 	enum { W = 40, H = 30 };
 	static uint8_t rgb[W * H * 3], raw[W * H], out[W * H * 3];
-	static const uint32_t fmts[4] = {MOCAP_FMT_BAYER_RGGB8, MOCAP_FMT_BAYER_GRBG8, MOCAP_FMT_BAYER_GBRG8,
-					 MOCAP_FMT_BAYER_BGGR8};
+	static const uint32_t fmts[4] = {MC_PIXFMT_BAYER_RGGB8, MC_PIXFMT_BAYER_GRBG8, MC_PIXFMT_BAYER_GBRG8,
+					 MC_PIXFMT_BAYER_BGGR8};
 	for (int o = 0; o < 4; o++) {
 		/* A flat colour comes back exactly, in every order. */
 		for (int i = 0; i < W * H; i++) {
@@ -259,7 +259,7 @@ static void test_bayer(void)
 	}
 	/* Tiny images: edges everywhere. */
 	uint8_t one = 77;
-	CHECK(convert(MOCAP_FMT_BAYER_RGGB8, 1, 1, 0, &one, 1, out, 3, &err) == 0);
+	CHECK(convert(MC_PIXFMT_BAYER_RGGB8, 1, 1, 0, &one, 1, out, 3, &err) == 0);
 	CHECK(out[0] == 77);
 }
 
@@ -268,16 +268,16 @@ static void test_depth(void)
 	mc_err err;
 	uint16_t d[6] = {0, 1000, 2000, 3000, 1500, 0};
 	uint8_t out[18];
-	CHECK(convert(MOCAP_FMT_DEPTH16, 3, 2, 0, (uint8_t *)d, sizeof(d), out, sizeof(out), &err) == 0);
+	CHECK(convert(MC_PIXFMT_DEPTH16, 3, 2, 0, (uint8_t *)d, sizeof(d), out, sizeof(out), &err) == 0);
 	CHECK(out[0] == 0 && out[15] == 0);                  /* no reading: black */
 	CHECK(out[3] == 255 && out[4] == 255 && out[5] == 255); /* nearest */
 	CHECK(out[9] == 32);                                 /* farthest */
 	CHECK(out[6] < out[3] && out[6] > out[9] && out[12] > out[6]);
-	CHECK(convert(MOCAP_FMT_DEPTH16, 3, 2, 0, (uint8_t *)d, sizeof(d) - 1, out, sizeof(out), &err) == -1);
+	CHECK(convert(MC_PIXFMT_DEPTH16, 3, 2, 0, (uint8_t *)d, sizeof(d) - 1, out, sizeof(out), &err) == -1);
 	CHECK(strstr(err.msg, "DEPTH16"));
 	/* An all-empty frame is all black. */
 	uint16_t z[4] = {0, 0, 0, 0};
-	CHECK(convert(MOCAP_FMT_DEPTH16, 2, 2, 0, (uint8_t *)z, sizeof(z), out, 12, &err) == 0);
+	CHECK(convert(MC_PIXFMT_DEPTH16, 2, 2, 0, (uint8_t *)z, sizeof(z), out, 12, &err) == 0);
 	CHECK(out[0] == 0 && out[11] == 0);
 }
 

@@ -12,10 +12,10 @@
  *   - camera rings are passed read-only;
  *   - the messages a user sees when the daemon is not there.
  * Run with no arguments. */
-#include "mc_ring.h"
-#include "mc_server.h"
+#include "ring/mc_ring.h"
+#include "server.h"
 #include "mocap.h"
-#include "mocap_driver.h" /* both public headers in one unit: no clashes */
+#include "mdrv.h" /* both public headers in one unit: no clashes */
 #include "test_util.h"
 
 #include <errno.h>
@@ -42,27 +42,27 @@ static void sleep_ms(double ms)
 	nanosleep(&ts, NULL);
 }
 
-static mc_server *make_server(int max_clients, int queue_len)
+static srv_server *make_server(int max_clients, int queue_len)
 {
-	mc_server_config cfg;
-	mc_server_config_default(&cfg);
+	srv_config cfg;
+	srv_config_default(&cfg);
 	snprintf(cfg.path, sizeof(cfg.path), "%s", path);
 	cfg.max_clients = max_clients;
 	cfg.queue_len = queue_len;
 	cfg.socket_mode = 0666;
 	mc_err err = {{0}};
-	mc_server *srv = mc_server_create(&cfg, &err);
+	srv_server *srv = srv_create(&cfg, &err);
 	CHECK_MSG(srv != NULL, "%s", err.msg);
 	if (!srv)
 		exit(1);
-	mc_server_skeleton_def def = {0};
+	srv_skeleton_def def = {0};
 	def.njoints = NJ;
 	for (int j = 0; j < NJ; j++) {
 		snprintf(def.name[j], sizeof(def.name[j]), "joint_%d", j);
 		def.parent[j] = j - 1;
 		def.rest_offset[j] = mc_v3(0.01 * j, 0, 0);
 	}
-	CHECK(mc_server_set_skeleton_def(srv, &def, &err) == 0);
+	CHECK(srv_set_skeleton_def(srv, &def, &err) == 0);
 	return srv;
 }
 
@@ -98,12 +98,12 @@ static bool frame_matches(const mocap_skeleton_frame *f)
 /* --- A publisher thread: the daemon's tracking loop. --- */
 
 typedef struct {
-	mc_server *srv;
+	srv_server *srv;
 	int frames;
 	double rate_hz;
 	uint64_t first_seq;
 	atomic_int published;
-	uint64_t max_publish_ns; /* longest mc_server_publish call */
+	uint64_t max_publish_ns; /* longest srv_publish call */
 	pthread_t thread;
 } publisher;
 
@@ -116,7 +116,7 @@ static void *publish_loop(void *arg)
 		make_skeleton(sk, p->first_seq + (uint64_t)i);
 		mc_err err;
 		uint64_t t0 = now_ns();
-		int rc = mc_server_publish(p->srv, sk, p->first_seq + (uint64_t)i, &err);
+		int rc = srv_publish(p->srv, sk, p->first_seq + (uint64_t)i, &err);
 		uint64_t dt = now_ns() - t0;
 		CHECK_MSG(rc == 0, "%s", err.msg);
 		if (dt > p->max_publish_ns)
@@ -131,7 +131,7 @@ static void *publish_loop(void *arg)
 	return NULL;
 }
 
-static void publisher_start(publisher *p, mc_server *srv, int frames, double rate, uint64_t first_seq)
+static void publisher_start(publisher *p, srv_server *srv, int frames, double rate, uint64_t first_seq)
 {
 	memset(p, 0, sizeof(*p));
 	p->srv = srv;
@@ -145,7 +145,7 @@ static void publisher_start(publisher *p, mc_server *srv, int frames, double rat
 
 static void test_receive(void)
 {
-	mc_server *srv = make_server(8, 256);
+	srv_server *srv = make_server(8, 256);
 	mocap_client *c = mocap_connect(path, "test");
 	CHECK_MSG(c != NULL, "%s", mocap_errmsg());
 	CHECK(mocap_is_privileged(c));
@@ -178,13 +178,13 @@ static void test_receive(void)
 	mc_skeleton sk;
 	make_skeleton(&sk, 101);
 	mc_err err;
-	CHECK(mc_server_publish(srv, &sk, 101, &err) == 0);
+	CHECK(srv_publish(srv, &sk, 101, &err) == 0);
 	CHECK(poll(&pf, 1, 2000) == 1);
 	CHECK(mocap_read_frame(c, f, 0) == 1 && f->seq == 101);
 	mocap_close(c);
 	free(s);
 	free(f);
-	mc_server_destroy(srv);
+	srv_destroy(srv);
 }
 
 typedef struct {
@@ -226,7 +226,7 @@ static void *reader_thread(void *arg)
 static void test_64_clients(void)
 {
 	enum { N = 64, FRAMES = 120 };
-	mc_server *srv = make_server(N, 256);
+	srv_server *srv = make_server(N, 256);
 	pthread_t th[N];
 	reader_arg args[N];
 	atomic_int ready = 0;
@@ -236,8 +236,8 @@ static void test_64_clients(void)
 	}
 	while (atomic_load(&ready) < N)
 		sleep_ms(5);
-	mc_server_stats st;
-	mc_server_get_stats(srv, &st);
+	srv_stats st;
+	srv_get_stats(srv, &st);
 	CHECK_MSG(st.clients == N, "%d clients connected", st.clients);
 	publisher p;
 	publisher_start(&p, srv, FRAMES, 120, 1);
@@ -251,7 +251,7 @@ static void test_64_clients(void)
 	CHECK_MSG(complete == N, "%d of %d clients got all %d frames intact and in order", complete, N, FRAMES);
 	printf("64 clients: all %d received %d frames in order; longest publish call %.1f us\n", complete, FRAMES,
 	       (double)p.max_publish_ns * 1e-3);
-	mc_server_destroy(srv);
+	srv_destroy(srv);
 }
 
 /* A client in "all" mode that reads too slowly must get gap messages, and
@@ -286,7 +286,7 @@ static void *slow_reader(void *arg)
 static void test_slow_client(void)
 {
 	enum { FRAMES = 600 };
-	mc_server *srv = make_server(8, 16);
+	srv_server *srv = make_server(8, 16);
 	slow_arg slow = {.last_seq = FRAMES + 1};
 	slow.c = mocap_connect(path, "slow");
 	CHECK(slow.c && mocap_subscribe(slow.c, MOCAP_ALL, MOCAP_SPACE_RIG, 16) == 0);
@@ -323,15 +323,15 @@ static void test_slow_client(void)
 	mc_skeleton sk;
 	make_skeleton(&sk, FRAMES + 1);
 	mc_err err;
-	mc_server_publish(srv, &sk, FRAMES + 1, &err);
+	srv_publish(srv, &sk, FRAMES + 1, &err);
 	pthread_join(st_thread, NULL);
 	CHECK_MSG(slow.gaps >= 1, "the slow client saw %llu gaps", (unsigned long long)slow.gaps);
 	CHECK_MSG(slow.consistent, "a frame's seq does not follow the previous one plus its gap");
 	CHECK_MSG(slow.received + slow.missed == FRAMES + 1, "received %llu + missed %llu != %d",
 		  (unsigned long long)slow.received, (unsigned long long)slow.missed, FRAMES + 1);
 	CHECK(slow.received < FRAMES);
-	mc_server_stats st;
-	mc_server_get_stats(srv, &st);
+	srv_stats st;
+	srv_get_stats(srv, &st);
 	CHECK(st.client_drops > 0);
 	mocap_daemon_status ds;
 	CHECK(mocap_get_status(slow.c, &ds) == 0 && ds.client_drops >= st.client_drops && ds.clients == 2);
@@ -340,19 +340,19 @@ static void test_slow_client(void)
 	       (double)p.max_publish_ns * 1e-3);
 	mocap_close(slow.c);
 	mocap_close(stuck);
-	mc_server_destroy(srv);
+	srv_destroy(srv);
 }
 
 static void test_latest(void)
 {
-	mc_server *srv = make_server(8, 256);
+	srv_server *srv = make_server(8, 256);
 	mocap_client *c = mocap_connect(path, "vr");
 	CHECK(c && mocap_subscribe(c, MOCAP_LATEST, MOCAP_SPACE_RIG, 0) == 0);
 	mc_skeleton sk;
 	mc_err err;
 	for (uint64_t s = 1; s <= 50; s++) {
 		make_skeleton(&sk, s);
-		mc_server_publish(srv, &sk, s, &err);
+		srv_publish(srv, &sk, s, &err);
 	}
 	/* The reply to a ping comes after every frame published before it. */
 	CHECK(mocap_ping(c, NULL) == 0);
@@ -361,7 +361,7 @@ static void test_latest(void)
 	CHECK(mocap_read_frame(c, f, 50) == 0); /* older frames are gone, not queued */
 	free(f);
 	mocap_close(c);
-	mc_server_destroy(srv);
+	srv_destroy(srv);
 }
 
 /* One client, two threads: one reads every frame, the other makes
@@ -393,7 +393,7 @@ static void *requester(void *arg)
 static void test_threads(void)
 {
 	enum { FRAMES = 300 };
-	mc_server *srv = make_server(8, 1024);
+	srv_server *srv = make_server(8, 1024);
 	mocap_client *c = mocap_connect(path, "threads");
 	CHECK(c && mocap_subscribe(c, MOCAP_ALL, MOCAP_SPACE_RIG, 1024) == 0);
 	requester_arg ra = {c, 0, 0};
@@ -415,38 +415,38 @@ static void test_threads(void)
 	CHECK_MSG(ra.ok == 150 && ra.failed == 0, "requester: %d ok, %d failed (%s)", ra.ok, ra.failed, mocap_errmsg());
 	free(f);
 	mocap_close(c);
-	mc_server_destroy(srv);
+	srv_destroy(srv);
 }
 
 /* The daemon's side of control: poll, run, answer. */
 typedef struct {
-	mc_server *srv;
+	srv_server *srv;
 	atomic_bool stop;
 	int handled;
-	mc_server_control last;
+	srv_control last;
 } daemon_arg;
 
 static void *daemon_loop(void *arg)
 {
 	daemon_arg *d = arg;
 	while (!atomic_load(&d->stop)) {
-		struct pollfd pf = {.fd = mc_server_event_fd(d->srv), .events = POLLIN};
+		struct pollfd pf = {.fd = srv_event_fd(d->srv), .events = POLLIN};
 		if (poll(&pf, 1, 20) <= 0)
 			continue;
-		mc_server_control ctl;
-		while (mc_server_poll_control(d->srv, &ctl) == 1) {
+		srv_control ctl;
+		while (srv_poll_control(d->srv, &ctl) == 1) {
 			d->last = ctl;
 			d->handled++;
 			if (ctl.command == MC_CONTROL_RELOAD)
-				mc_server_control_done(d->srv, ctl.token, 0, "reloaded mocapd.conf");
+				srv_control_done(d->srv, ctl.token, 0, "reloaded mocapd.conf");
 			else
-				mc_server_control_done(d->srv, ctl.token, 1, "cannot record: disk full");
+				srv_control_done(d->srv, ctl.token, 1, "cannot record: disk full");
 		}
 		/* The event fd is reset once the queues are empty. */
 		pf.revents = 0;
-		mc_server_keypoints kp;
-		if (poll(&pf, 1, 0) == 1 && mc_server_poll_keypoints(d->srv, &kp) == 0 &&
-		    mc_server_poll_control(d->srv, &ctl) == 0)
+		srv_keypoints kp;
+		if (poll(&pf, 1, 0) == 1 && srv_poll_keypoints(d->srv, &kp) == 0 &&
+		    srv_poll_control(d->srv, &ctl) == 0)
 			CHECK_MSG(poll(&pf, 1, 0) == 0, "event fd readable with empty queues");
 	}
 	return NULL;
@@ -454,7 +454,7 @@ static void *daemon_loop(void *arg)
 
 static void test_control(void)
 {
-	mc_server *srv = make_server(8, 256);
+	srv_server *srv = make_server(8, 256);
 	daemon_arg d = {.srv = srv};
 	pthread_t dt;
 	pthread_create(&dt, NULL, daemon_loop, &d);
@@ -472,7 +472,7 @@ static void test_control(void)
 	mocap_set_timeout(c, 200);
 	CHECK(mocap_control(c, MOCAP_CMD_RELOAD, NULL, NULL, 0) == MOCAP_E_TIMEOUT);
 	mocap_close(c);
-	mc_server_destroy(srv);
+	srv_destroy(srv);
 }
 
 /* Run as another user (re-executed by test_permissions). */
@@ -510,7 +510,7 @@ static void test_permissions(const char *self)
 		printf("permission test not run: needs root to run a client as another user\n");
 		return;
 	}
-	mc_server *srv = make_server(8, 256);
+	srv_server *srv = make_server(8, 256);
 	chmod(dir, 0755);
 	pid_t pid = fork();
 	if (pid == 0) {
@@ -523,25 +523,25 @@ static void test_permissions(const char *self)
 	waitpid(pid, &status, 0);
 	CHECK_MSG(WIFEXITED(status) && WEXITSTATUS(status) == 0, "unprivileged client: exit %d",
 		  WIFEXITED(status) ? WEXITSTATUS(status) : -1);
-	mc_server_destroy(srv);
+	srv_destroy(srv);
 }
 
 static void test_inputs_and_world(void)
 {
-	mc_server *srv = make_server(8, 256);
+	srv_server *srv = make_server(8, 256);
 	mc_err err;
-	CHECK(mc_server_set_rig(srv, "{}", 2, &err) == 0);
+	CHECK(srv_set_rig(srv, "{}", 2, &err) == 0);
 	mocap_client *c = mocap_connect(path, "vr-runtime");
 	/* Keypoints reach the daemon. */
 	mocap_keypoint kp[3] = {{0, 10, 20, 0.9f}, {5, 30, 40, 0.5f}, {17, 50, 60, 1.0f}};
 	CHECK(mocap_send_keypoints(c, 12345, 1, kp, 3) == 0);
 	CHECK(mocap_ping(c, NULL) == 0); /* the server has handled it by now */
-	mc_server_keypoints got;
-	CHECK(mc_server_poll_keypoints(srv, &got) == 1);
+	srv_keypoints got;
+	CHECK(srv_poll_keypoints(srv, &got) == 1);
 	CHECK(got.capture_ns == 12345 && got.cam == 1 && got.nkeypoints == 3 && got.pid == getpid());
 	CHECK(got.keypoints[1].joint == 5 && got.keypoints[1].u == 30 && got.keypoints[1].v == 40 &&
 	      fabs(got.keypoints[1].conf - 0.5) < 1e-7 && got.keypoints[2].cam == 1);
-	CHECK(mc_server_poll_keypoints(srv, &got) == 0);
+	CHECK(srv_poll_keypoints(srv, &got) == 0);
 	/* A bad camera is refused; the next send says so. */
 	CHECK(mocap_send_keypoints(c, 1, 2, kp, 1) == 0);
 	mocap_ping(c, NULL);
@@ -561,7 +561,7 @@ static void test_inputs_and_world(void)
 	make_skeleton(&sk, 1);
 	sk.timestamp_ns = 1000000000;
 	/* No head pose yet: sent in rig space, and marked so. */
-	mc_server_publish(srv, &sk, 1, &err);
+	srv_publish(srv, &sk, 1, &err);
 	CHECK(mocap_read_frame(w, f, 2000) == 1 && f->space == MOCAP_SPACE_RIG && f->joints[2].position[0] == 1.0);
 	double q90[4] = {cos(M_PI / 4), 0, 0, sin(M_PI / 4)}; /* 90 degrees about z */
 	double pa[3] = {1, 2, 3}, pb[3] = {1.2, 2, 3};
@@ -570,11 +570,11 @@ static void test_inputs_and_world(void)
 	double bad_q[4] = {1, 1, 0, 0};
 	CHECK(mocap_send_head_pose(w, 1005000000, pb, bad_q) == MOCAP_E_ARG);
 	mocap_ping(w, NULL);
-	mc_server_head_pose hp;
-	CHECK(mc_server_latest_head_pose(srv, &hp) == 1 && hp.timestamp_ns == 1005000000);
+	srv_head_pose hp;
+	CHECK(srv_latest_head_pose(srv, &hp) == 1 && hp.timestamp_ns == 1005000000);
 	make_skeleton(&sk, 2);
 	sk.timestamp_ns = 1000000000;
-	mc_server_publish(srv, &sk, 2, &err);
+	srv_publish(srv, &sk, 2, &err);
 	CHECK(mocap_read_frame(w, f, 2000) == 1 && f->seq == 2 && f->space == MOCAP_SPACE_WORLD);
 	/* Joint 2 in rig space: (2, 0.2, -1); rotated 90 deg about z:
 	 * (-0.2, 2, -1); plus the interpolated translation (1.1, 2, 3). */
@@ -587,33 +587,33 @@ static void test_inputs_and_world(void)
 	CHECK_NEAR(f->joints[2].orientation[3], qj.z, 1e-9);
 	/* A frame long after the last head pose: not in world space. */
 	sk.timestamp_ns = 2000000000;
-	mc_server_publish(srv, &sk, 3, &err);
+	srv_publish(srv, &sk, 3, &err);
 	CHECK(mocap_read_frame(w, f, 2000) == 1 && f->space == MOCAP_SPACE_RIG);
 	free(f);
 	mocap_close(w);
 	mocap_close(c);
-	mc_server_destroy(srv);
+	srv_destroy(srv);
 }
 
 static void test_rings(void)
 {
-	mc_server *srv = make_server(8, 256);
+	srv_server *srv = make_server(8, 256);
 	mc_err err;
 	mc_ring *ring = mc_ring_create("left", 4, 4096, &err);
 	CHECK_MSG(ring != NULL, "%s", err.msg);
 	if (!ring) {
-		mc_server_destroy(srv);
+		srv_destroy(srv);
 		return;
 	}
 	size_t cap;
 	uint8_t *slot = mc_ring_slot_begin(ring, &cap);
 	memset(slot, 0xab, 100);
-	mc_ring_meta meta = {.timestamp_ns = 77, .bytesused = 100, .width = 10, .height = 10, .pixfmt = MOCAP_FMT_GRAY8,
+	mc_ring_meta meta = {.timestamp_ns = 77, .bytesused = 100, .width = 10, .height = 10, .pixfmt = MC_PIXFMT_GRAY8,
 			     .stride = 10};
 	CHECK(mc_ring_slot_commit(ring, &meta, &err) == 0);
 	struct stat stt;
 	fstat(mc_ring_fd(ring), &stt);
-	CHECK(mc_server_add_ring(srv, "left", mc_ring_fd(ring), (uint64_t)stt.st_size, &err) == 0);
+	CHECK(srv_add_ring(srv, "left", mc_ring_fd(ring), (uint64_t)stt.st_size, &err) == 0);
 
 	mocap_client *c = mocap_connect(path, "preview");
 	mocap_ring rings[4];
@@ -636,11 +636,11 @@ static void test_rings(void)
 		close(rings[0].fd);
 	}
 	/* Clearing withdraws them. */
-	mc_server_clear_rings(srv);
+	srv_clear_rings(srv);
 	CHECK(mocap_get_rings(c, rings, 4) == 0);
 	mocap_close(c);
 	mc_ring_close(ring);
-	mc_server_destroy(srv);
+	srv_destroy(srv);
 }
 
 static void test_errors(void)
@@ -651,14 +651,14 @@ static void test_errors(void)
 	/* MOCAP_SOCKET is used when no path is given. */
 	setenv("MOCAP_SOCKET", path, 1);
 	CHECK(strcmp(mocap_default_socket(), path) == 0);
-	mc_server *srv = make_server(8, 256);
+	srv_server *srv = make_server(8, 256);
 	mocap_client *c = mocap_connect(NULL, "env");
 	CHECK(c != NULL);
 	unsetenv("MOCAP_SOCKET");
 	CHECK(strcmp(mocap_default_socket(), MOCAP_DEFAULT_SOCKET) == 0);
 	/* The daemon stops: calls fail with "disconnected", nothing hangs. */
 	CHECK(mocap_subscribe(c, MOCAP_ALL, MOCAP_SPACE_RIG, 0) == 0);
-	mc_server_destroy(srv);
+	srv_destroy(srv);
 	mocap_skeleton_frame *f = malloc(sizeof(*f));
 	CHECK(mocap_read_frame(c, f, 2000) == MOCAP_E_DISCONNECTED && strstr(mocap_errmsg(), "stopping"));
 	mocap_daemon_status st;

@@ -4,8 +4,8 @@
  * message or of a stream, the client limit, the socket file (stale socket
  * removal, refusal to replace a live one or a regular file), socket
  * activation, and the status, rig and skeleton requests. */
-#include "mc_proto.h"
-#include "mc_server.h"
+#include "proto.h"
+#include "server.h"
 #include "test_util.h"
 
 #include <errno.h>
@@ -19,7 +19,7 @@
 #include <unistd.h>
 
 static char dir[48], path[96];
-static mc_proto_msg rx;
+static proto_msg rx;
 
 static int raw_connect(const char *p)
 {
@@ -33,17 +33,17 @@ static int raw_connect(const char *p)
 	return fd;
 }
 
-static int raw_send(int fd, const mc_proto_msg *m)
+static int raw_send(int fd, const proto_msg *m)
 {
 	uint8_t buf[8192];
-	size_t n = mc_proto_encode(m, buf, sizeof(buf));
+	size_t n = proto_encode(m, buf, sizeof(buf));
 	return n && send(fd, buf, n, MSG_NOSIGNAL) == (ssize_t)n ? 0 : -1;
 }
 
 /* 1 and rx filled, 0 timeout, -1 end of stream. */
 static int raw_recv(int fd, int timeout_ms)
 {
-	static uint8_t buf[MC_PROTO_MAX_MESSAGE];
+	static uint8_t buf[PROTO_MAX_MESSAGE];
 	struct pollfd p = {.fd = fd, .events = POLLIN};
 	if (poll(&p, 1, timeout_ms) <= 0)
 		return 0;
@@ -51,7 +51,7 @@ static int raw_recv(int fd, int timeout_ms)
 	if (n <= 0)
 		return -1;
 	char why[256];
-	int rc = mc_proto_decode(buf, (size_t)n, MC_PROTO_FROM_SERVER, &rx, why, sizeof(why));
+	int rc = proto_decode(buf, (size_t)n, PROTO_FROM_SERVER, &rx, why, sizeof(why));
 	CHECK_MSG(rc == 0, "server sent a malformed message: %s", why);
 	return rc == 0 ? 1 : -1;
 }
@@ -71,7 +71,7 @@ static bool raw_expect(int fd, uint16_t type)
 	return false;
 }
 
-static mc_proto_msg tx;
+static proto_msg tx;
 
 static void sleep_ms_local(int ms)
 {
@@ -84,7 +84,7 @@ static void send_hello(int fd, uint16_t lo, uint16_t hi)
 	memset(&tx, 0, sizeof(tx));
 	tx.h.type = MC_MSG_HELLO;
 	tx.h.request_id = 1;
-	tx.u.hello.magic = MC_PROTO_MAGIC;
+	tx.u.hello.magic = PROTO_MAGIC;
 	tx.u.hello.min_version = lo;
 	tx.u.hello.max_version = hi;
 	strcpy(tx.u.hello.client_name, "raw");
@@ -124,22 +124,22 @@ static bool closed_by_server(int fd)
 	return false;
 }
 
-static mc_server *make_server(int max_clients, int listen_fd)
+static srv_server *make_server(int max_clients, int listen_fd)
 {
-	mc_server_config cfg;
-	mc_server_config_default(&cfg);
+	srv_config cfg;
+	srv_config_default(&cfg);
 	snprintf(cfg.path, sizeof(cfg.path), "%s", path);
 	cfg.max_clients = max_clients;
 	cfg.listen_fd = listen_fd;
 	mc_err err = {{0}};
-	mc_server *srv = mc_server_create(&cfg, &err);
+	srv_server *srv = srv_create(&cfg, &err);
 	CHECK_MSG(srv != NULL, "%s", err.msg);
 	return srv;
 }
 
-static void set_def(mc_server *srv, int njoints)
+static void set_def(srv_server *srv, int njoints)
 {
-	mc_server_skeleton_def def = {0};
+	srv_skeleton_def def = {0};
 	def.njoints = njoints;
 	for (int j = 0; j < njoints; j++) {
 		snprintf(def.name[j], sizeof(def.name[j]), "j%d", j);
@@ -147,10 +147,10 @@ static void set_def(mc_server *srv, int njoints)
 		def.rest_offset[j] = mc_v3(0, 0.1 * j, 0);
 	}
 	mc_err err;
-	CHECK(mc_server_set_skeleton_def(srv, &def, &err) == 0);
+	CHECK(srv_set_skeleton_def(srv, &def, &err) == 0);
 }
 
-static void publish(mc_server *srv, uint64_t seq, int njoints)
+static void publish(srv_server *srv, uint64_t seq, int njoints)
 {
 	mc_skeleton sk;
 	memset(&sk, 0, sizeof(sk));
@@ -162,18 +162,18 @@ static void publish(mc_server *srv, uint64_t seq, int njoints)
 		sk.joints[j].confidence = 1;
 	}
 	mc_err err;
-	CHECK(mc_server_publish(srv, &sk, seq, &err) == 0);
+	CHECK(srv_publish(srv, &sk, seq, &err) == 0);
 }
 
 static void test_handshake(void)
 {
-	mc_server *srv = make_server(8, -1);
+	srv_server *srv = make_server(8, -1);
 	/* A client speaking only newer versions is refused with a message
 	 * saying which versions each side speaks, then disconnected. */
 	int fd = raw_connect(path);
 	send_hello(fd, 2, 3);
 	CHECK(raw_recv(fd, 2000) == 1 && rx.h.type == MC_MSG_ERROR);
-	CHECK(rx.u.error.code == MC_PROTO_E_VERSION && rx.u.error.fatal == 1);
+	CHECK(rx.u.error.code == PROTO_E_VERSION && rx.u.error.fatal == 1);
 	CHECK_MSG(strstr(rx.u.error.message, "client speaks versions 2..3") &&
 			  strstr(rx.u.error.message, "this mocapd speaks 1..1"),
 		  "%s", rx.u.error.message);
@@ -186,13 +186,13 @@ static void test_handshake(void)
 	CHECK(rx.u.welcome.flags & MC_WELCOME_PRIVILEGED); /* same user as the server */
 	/* A second HELLO is a protocol error. */
 	send_hello(fd, 1, 1);
-	CHECK(raw_recv(fd, 2000) == 1 && rx.h.type == MC_MSG_ERROR && rx.u.error.code == MC_PROTO_E_HANDSHAKE);
+	CHECK(raw_recv(fd, 2000) == 1 && rx.h.type == MC_MSG_ERROR && rx.u.error.code == PROTO_E_HANDSHAKE);
 	CHECK(closed_by_server(fd));
 	close(fd);
 	/* A request before HELLO. */
 	fd = raw_connect(path);
 	simple_request(fd, MC_MSG_GET_STATUS, 5);
-	CHECK(raw_recv(fd, 2000) == 1 && rx.h.type == MC_MSG_ERROR && rx.u.error.code == MC_PROTO_E_HANDSHAKE &&
+	CHECK(raw_recv(fd, 2000) == 1 && rx.h.type == MC_MSG_ERROR && rx.u.error.code == PROTO_E_HANDSHAKE &&
 	      rx.h.request_id == 5);
 	CHECK(closed_by_server(fd));
 	close(fd);
@@ -201,15 +201,15 @@ static void test_handshake(void)
 	simple_request(fd, MC_MSG_PING, 9);
 	CHECK(raw_expect(fd, MC_MSG_PONG) && rx.h.request_id == 9);
 	close(fd);
-	mc_server_stats st;
-	mc_server_get_stats(srv, &st);
+	srv_stats st;
+	srv_get_stats(srv, &st);
 	CHECK(st.refused == 1);
-	mc_server_destroy(srv);
+	srv_destroy(srv);
 }
 
 static void test_malformed(void)
 {
-	mc_server *srv = make_server(8, -1);
+	srv_server *srv = make_server(8, -1);
 	set_def(srv, 3);
 	int good = hello_client();
 	memset(&tx, 0, sizeof(tx));
@@ -236,7 +236,7 @@ static void test_malformed(void)
 		int fd = hello_client();
 		CHECK(send(fd, cases[i].bytes, cases[i].len, MSG_NOSIGNAL) == (ssize_t)cases[i].len);
 		int r = raw_recv(fd, 2000);
-		CHECK_MSG(r == 1 && rx.h.type == MC_MSG_ERROR && rx.u.error.code == MC_PROTO_E_MALFORMED &&
+		CHECK_MSG(r == 1 && rx.h.type == MC_MSG_ERROR && rx.u.error.code == PROTO_E_MALFORMED &&
 				  rx.u.error.fatal,
 			  "case %s: no fatal MALFORMED error", cases[i].what);
 		CHECK_MSG(strstr(rx.u.error.message, cases[i].reason), "case %s: '%s'", cases[i].what,
@@ -246,7 +246,7 @@ static void test_malformed(void)
 	}
 	/* An oversized datagram. */
 	int fd = hello_client();
-	static uint8_t big[MC_PROTO_MAX_MESSAGE + 100];
+	static uint8_t big[PROTO_MAX_MESSAGE + 100];
 	memset(big, 0, sizeof(big));
 	CHECK(send(fd, big, sizeof(big), MSG_NOSIGNAL) == (ssize_t)sizeof(big));
 	CHECK(raw_recv(fd, 2000) == 1 && rx.h.type == MC_MSG_ERROR && strstr(rx.u.error.message, "longer than"));
@@ -276,18 +276,18 @@ static void test_malformed(void)
 	/* The well-behaved client was never disturbed and still gets frames. */
 	publish(srv, 1, 3);
 	CHECK(raw_expect(good, MC_MSG_FRAME) && rx.u.frame.seq == 1 && rx.u.frame.njoints == 3);
-	mc_server_stats st;
-	mc_server_get_stats(srv, &st);
+	srv_stats st;
+	srv_get_stats(srv, &st);
 	CHECK(st.protocol_errors == 8);
 	close(good);
-	mc_server_destroy(srv);
+	srv_destroy(srv);
 }
 
 /* Clients that leave at awkward moments: after half a handshake, with a
  * request in flight, with a backlog of frames queued for them. */
 static void test_disconnects(void)
 {
-	mc_server *srv = make_server(16, -1);
+	srv_server *srv = make_server(16, -1);
 	set_def(srv, 20);
 	int watcher = hello_client();
 	memset(&tx, 0, sizeof(tx));
@@ -331,18 +331,18 @@ static void test_disconnects(void)
 	CHECK(expect == 201);
 	struct timespec ts = {0, 50000000};
 	nanosleep(&ts, NULL);
-	mc_server_stats st;
-	mc_server_get_stats(srv, &st);
+	srv_stats st;
+	srv_get_stats(srv, &st);
 	CHECK_MSG(st.clients == 1, "%d clients left", st.clients);
 	close(watcher);
-	mc_server_destroy(srv);
+	srv_destroy(srv);
 }
 
 /* A client that asks and asks but never reads its replies is cut off once
  * its socket buffer and its reply budget are full; nobody else notices. */
 static void test_flood(void)
 {
-	mc_server *srv = make_server(8, -1);
+	srv_server *srv = make_server(8, -1);
 	int other = hello_client();
 	int fd = hello_client();
 	int flags = fcntl(fd, F_GETFL);
@@ -379,19 +379,19 @@ static void test_flood(void)
 	CHECK(raw_expect(other, MC_MSG_PONG) && rx.h.request_id == 77);
 	close(fd);
 	close(other);
-	mc_server_destroy(srv);
+	srv_destroy(srv);
 }
 
 static void test_client_limit(void)
 {
-	mc_server *srv = make_server(4, -1);
+	srv_server *srv = make_server(4, -1);
 	int fds[4];
 	for (int i = 0; i < 4; i++)
 		fds[i] = hello_client();
 	int extra = raw_connect(path);
 	CHECK(extra >= 0);
 	CHECK(raw_recv(extra, 2000) == 1 && rx.h.type == MC_MSG_ERROR &&
-	      rx.u.error.code == MC_PROTO_E_TOO_MANY_CLIENTS && strstr(rx.u.error.message, "at most 4"));
+	      rx.u.error.code == PROTO_E_TOO_MANY_CLIENTS && strstr(rx.u.error.message, "at most 4"));
 	CHECK(closed_by_server(extra));
 	close(extra);
 	close(fds[0]);
@@ -411,13 +411,13 @@ static void test_client_limit(void)
 	close(again);
 	for (int i = 1; i < 4; i++)
 		close(fds[i]);
-	mc_server_destroy(srv);
+	srv_destroy(srv);
 }
 
 static void test_socket_file(void)
 {
-	mc_server_config cfg;
-	mc_server_config_default(&cfg);
+	srv_config cfg;
+	srv_config_default(&cfg);
 	snprintf(cfg.path, sizeof(cfg.path), "%s", path);
 	mc_err err = {{0}};
 
@@ -427,25 +427,25 @@ static void test_socket_file(void)
 	snprintf(a.sun_path, sizeof(a.sun_path), "%s", path);
 	CHECK(bind(s, (struct sockaddr *)&a, sizeof(a)) == 0);
 	close(s);
-	mc_server *srv = mc_server_create(&cfg, &err);
+	srv_server *srv = srv_create(&cfg, &err);
 	CHECK_MSG(srv != NULL, "stale socket not replaced: %s", err.msg);
 	struct stat st;
 	CHECK(stat(path, &st) == 0 && S_ISSOCK(st.st_mode) && (st.st_mode & 0777) == 0660);
 
 	/* A live daemon at the path is left alone. */
-	mc_server *second = mc_server_create(&cfg, &err);
+	srv_server *second = srv_create(&cfg, &err);
 	CHECK(second == NULL && strstr(err.msg, "another mocapd is listening"));
 	int fd = hello_client();
 	CHECK(fd >= 0);
 	close(fd);
-	mc_server_destroy(srv);
+	srv_destroy(srv);
 	CHECK(stat(path, &st) != 0 && errno == ENOENT); /* removed on exit */
 
 	/* A regular file is never removed. */
 	FILE *f = fopen(path, "w");
 	fputs("precious", f);
 	fclose(f);
-	srv = mc_server_create(&cfg, &err);
+	srv = srv_create(&cfg, &err);
 	CHECK(srv == NULL && strstr(err.msg, "not a socket"));
 	CHECK(stat(path, &st) == 0 && S_ISREG(st.st_mode));
 	unlink(path);
@@ -453,7 +453,7 @@ static void test_socket_file(void)
 	/* A path that cannot fit in sockaddr_un. */
 	memset(cfg.path, 'x', 200);
 	cfg.path[200] = 0;
-	srv = mc_server_create(&cfg, &err);
+	srv = srv_create(&cfg, &err);
 	CHECK(srv == NULL && strstr(err.msg, "too long"));
 }
 
@@ -467,10 +467,10 @@ static void test_socket_activation(void)
 	int early = raw_connect(path);
 	CHECK(early >= 0);
 	send_hello(early, 1, 1);
-	mc_server *srv = make_server(8, ls);
+	srv_server *srv = make_server(8, ls);
 	CHECK(raw_recv(early, 2000) == 1 && rx.h.type == MC_MSG_WELCOME);
 	close(early);
-	mc_server_destroy(srv);
+	srv_destroy(srv);
 	struct stat st;
 	CHECK(stat(path, &st) == 0); /* systemd's socket file stays */
 	unlink(path);
@@ -478,31 +478,31 @@ static void test_socket_activation(void)
 	/* A stream socket is not what the protocol needs. */
 	int stream = socket(AF_UNIX, SOCK_STREAM, 0);
 	CHECK(bind(stream, (struct sockaddr *)&a, sizeof(a)) == 0 && listen(stream, 8) == 0);
-	mc_server_config cfg;
-	mc_server_config_default(&cfg);
+	srv_config cfg;
+	srv_config_default(&cfg);
 	cfg.listen_fd = stream;
 	mc_err err;
-	CHECK(mc_server_create(&cfg, &err) == NULL && strstr(err.msg, "SOCK_SEQPACKET"));
+	CHECK(srv_create(&cfg, &err) == NULL && strstr(err.msg, "SOCK_SEQPACKET"));
 	close(stream);
 	unlink(path);
 }
 
 static void test_requests(void)
 {
-	mc_server *srv = make_server(8, -1);
+	srv_server *srv = make_server(8, -1);
 	int fd = hello_client();
 	/* Nothing loaded yet. */
 	simple_request(fd, MC_MSG_GET_SKELETON, 10);
-	CHECK(raw_expect(fd, MC_MSG_ERROR) && rx.u.error.code == MC_PROTO_E_UNAVAILABLE && !rx.u.error.fatal &&
+	CHECK(raw_expect(fd, MC_MSG_ERROR) && rx.u.error.code == PROTO_E_UNAVAILABLE && !rx.u.error.fatal &&
 	      rx.h.request_id == 10);
 	simple_request(fd, MC_MSG_GET_RIG, 11);
-	CHECK(raw_expect(fd, MC_MSG_ERROR) && rx.u.error.code == MC_PROTO_E_UNAVAILABLE);
+	CHECK(raw_expect(fd, MC_MSG_ERROR) && rx.u.error.code == PROTO_E_UNAVAILABLE);
 
 	set_def(srv, 5);
 	mc_err err;
-	CHECK(mc_server_set_rig(srv, "{\"cameras\": [1, 2]}", 2, &err) == 0);
-	mc_server_status st = {0};
-	st.tracker_state = MC_SERVER_TRACKER_UNCERTAIN;
+	CHECK(srv_set_rig(srv, "{\"cameras\": [1, 2]}", 2, &err) == 0);
+	srv_status st = {0};
+	st.tracker_state = SRV_TRACKER_UNCERTAIN;
 	st.publish_fps = 29.97;
 	st.track_ms_mean = 12.5;
 	st.frames_published = 1234;
@@ -511,7 +511,7 @@ static void test_requests(void)
 	st.cams[1].drops = 17;
 	st.cams[1].state = MC_CAM_STATE_STALLED;
 	snprintf(st.device, sizeof(st.device), "pocl: cpu");
-	mc_server_set_status(srv, &st);
+	srv_set_status(srv, &st);
 
 	simple_request(fd, MC_MSG_GET_SKELETON, 12);
 	CHECK(raw_expect(fd, MC_MSG_SKELETON) && rx.h.request_id == 12 && rx.u.skeleton.njoints == 5);
@@ -531,14 +531,14 @@ static void test_requests(void)
 	mc_skeleton sk;
 	memset(&sk, 0, sizeof(sk));
 	sk.njoints = 4;
-	CHECK(mc_server_publish(srv, &sk, 1, &err) == -1 && strstr(err.msg, "4 joints, the definition 5"));
-	mc_server_skeleton_def bad = {0};
+	CHECK(srv_publish(srv, &sk, 1, &err) == -1 && strstr(err.msg, "4 joints, the definition 5"));
+	srv_skeleton_def bad = {0};
 	bad.njoints = 2;
 	strcpy(bad.name[0], "a");
 	strcpy(bad.name[1], "b");
 	bad.parent[0] = -1;
 	bad.parent[1] = 1;
-	CHECK(mc_server_set_skeleton_def(srv, &bad, &err) == -1 && strstr(err.msg, "parent 1"));
+	CHECK(srv_set_skeleton_def(srv, &bad, &err) == -1 && strstr(err.msg, "parent 1"));
 
 	/* A subscriber gets the definition first, then frames; a new
 	 * definition reaches it before the frames that follow it. */
@@ -570,7 +570,7 @@ static void test_requests(void)
 	simple_request(fd, MC_MSG_PING, 17);
 	CHECK(raw_recv(fd, 2000) == 1 && rx.h.type == MC_MSG_PONG);
 	close(fd);
-	mc_server_destroy(srv);
+	srv_destroy(srv);
 }
 
 int main(void)

@@ -1,5 +1,5 @@
-/* Tests of core/mc_math: rotations, transforms and the small solvers. */
-#include "mc_math.h"
+/* Tests of core/base/mc_math: rotations, transforms and the small solvers. */
+#include "base/mc_math.h"
 #include "test_util.h"
 
 static double mat_diff(mc_mat3 a, mc_mat3 b)

@@ -1,11 +1,11 @@
-/* Tests of core/mc_model: forward kinematics, Jacobians and the chain rule
+/* Tests of core/body/mc_model: forward kinematics, Jacobians and the chain rule
  * against central finite differences (fixed and free roots), joint limits,
  * bone scaling, the sphere-to-Gaussian conversion of thesis 4.3, the JSON
  * format (round trip and every bad-input fixture in tests/data/models), and
  * the default human model's proportions (against the evaluation data's
  * frame 0 when ../shared/data is present). */
-#include "mc_json.h"
-#include "mc_model.h"
+#include "base/mc_json.h"
+#include "body/mc_model.h"
 #include "test_util.h"
 
 #include <stdio.h>

@@ -1,10 +1,10 @@
 /* Runs tools/mocap-render (built next to this test, in BUILD/bin) on the
  * shipped rig and model: renders, an overlay, and bad command lines.  The
  * images are read back and checked against the geometry computed here. */
-#include "mc_camera.h"
-#include "mc_image.h"
-#include "mc_model.h"
-#include "mc_rig.h"
+#include "geom/mc_camera.h"
+#include "image/mc_image.h"
+#include "body/mc_model.h"
+#include "geom/mc_rig.h"
 #include "test_util.h"
 
 #include <libgen.h>

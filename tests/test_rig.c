@@ -1,8 +1,8 @@
-/* Tests of core/mc_rig and core/mc_json: the rig file format (parse, save,
+/* Tests of core/geom/mc_rig and core/base/mc_json: the rig file format (parse, save,
  * round trip), the shipped rigs, the calib.json and OCamCalib importers, ray
  * tables, and bad input naming the file and the field. */
-#include "mc_json.h"
-#include "mc_rig.h"
+#include "base/mc_json.h"
+#include "geom/mc_rig.h"
 #include "test_util.h"
 
 #include <stdlib.h>

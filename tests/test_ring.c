@@ -1,9 +1,9 @@
-/* Tests of core/mc_ring: the seqlocked shared-memory frame ring.
+/* Tests of core/ring/mc_ring: the seqlocked shared-memory frame ring.
  *
  * Every frame is filled with a pattern derived from its sequence number, so
  * that a reader can tell a frame that mixes two writes from a good one.
  * The concurrent part also runs under ThreadSanitizer (tests/ring.mk). */
-#include "mc_ring.h"
+#include "ring/mc_ring.h"
 #include "test_util.h"
 
 #include <errno.h>

@@ -2,10 +2,10 @@
  * under 1 cm; blank and noise frames give "lost" without NaN and tracking
  * recovers; a missing camera is handled; and, with ../shared/data, the first
  * 30 frames of a real clip stay under a loose error bound. */
-#include "mc_clip.h"
-#include "mc_energy.h"
-#include "mc_ik.h"
-#include "mc_tracker.h"
+#include "eval/mc_clip.h"
+#include "energy/mc_energy.h"
+#include "body/mc_ik.h"
+#include "track/mc_tracker.h"
 #include "test_util.h"
 
 #include <stdlib.h>

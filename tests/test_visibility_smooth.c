@@ -11,8 +11,8 @@
  * derivative has no jumps: its largest change between neighbouring samples
  * shrinks in proportion to the sample spacing (bounded second derivative),
  * a test that a kink fails (checked on partial-coverage visibility). */
-#include "mc_energy.h"
-#include "mc_model.h"
+#include "energy/mc_energy.h"
+#include "body/mc_model.h"
 #include "test_util.h"
 
 #include <string.h>

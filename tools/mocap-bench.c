@@ -6,11 +6,11 @@
  * MPJPE in cm over the evaluated joints, in the left camera frame, with no
  * alignment.  The last line is machine-readable:
  *   RESULT clip=NAME frames=N mpjpe_cm=X fps=Y ms_p99=Z device=DEV */
-#include "mc_energy.h"
-#include "mc_cl.h"
-#include "mc_clip.h"
-#include "mc_draw.h"
-#include "mc_tracker.h"
+#include "energy/mc_energy.h"
+#include "energy/mc_cl.h"
+#include "eval/mc_clip.h"
+#include "image/mc_draw.h"
+#include "track/mc_tracker.h"
 
 #include <errno.h>
 #include <getopt.h>

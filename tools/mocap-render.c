@@ -11,13 +11,13 @@
  * the model's image formation (mc_ray_render_rgb) at the working resolution.
  * The second writes PREFIX_<cam>_overlay.png: IMAGE with the posed model's
  * skeleton, and optionally a ground-truth skeleton, projected on it. */
-#include "mc_camera.h"
-#include "mc_draw.h"
-#include "mc_energy.h"
-#include "mc_image.h"
-#include "mc_json.h"
-#include "mc_model.h"
-#include "mc_rig.h"
+#include "geom/mc_camera.h"
+#include "image/mc_draw.h"
+#include "energy/mc_energy.h"
+#include "image/mc_image.h"
+#include "base/mc_json.h"
+#include "body/mc_model.h"
+#include "geom/mc_rig.h"
 
 #include <errno.h>
 #include <getopt.h>

@@ -1,7 +1,7 @@
 /* mocap-driver-aravis: GigE Vision (and USB3 Vision) cameras through Aravis 0.8.
  *
  * Frames are delivered in the camera's own pixel format: Mono8 as GRAY8,
- * RGB8 as RGB24 and 8-bit Bayer as MOCAP_FMT_BAYER_* (the host demosaics;
+ * RGB8 as RGB24 and 8-bit Bayer as MC_PIXFMT_BAYER_* (the host demosaics;
  * the driver does not, so that recordings keep the raw sensor data).
  *
  * Timestamps: Aravis stamps each buffer with the host clock when the frame's
@@ -11,7 +11,7 @@
  *
  * Unplug: the device's "control-lost" signal (heartbeat failures), and a
  * register read when no frame has come for a while, turn into
- * MOCAP_ERR_NODEV.  Config keys are listed in docs/DRIVERS.md. */
+ * MDRV_ERR_NODEV.  Config keys are listed in docs/DRIVERS.md. */
 #include <arv.h>
 #include <math.h>
 #include <pthread.h>
@@ -23,7 +23,7 @@
 #include <strings.h>
 
 #include "drv_common.h"
-#include "mocap_driver.h"
+#include "mdrv.h"
 
 #define DRV "aravis"
 
@@ -36,17 +36,17 @@ enum trigger_mode { TRIGGER_NONE, TRIGGER_SOFTWARE, TRIGGER_LINE };
 typedef struct {
 	const char *name; /* GenICam PixelFormat entry */
 	ArvPixelFormat arv;
-	mocap_pixfmt fmt;
+	mc_pixfmt fmt;
 	unsigned bytes_per_pixel;
 } pixfmt_map;
 
 static const pixfmt_map pixfmts[] = {
-	{"Mono8", ARV_PIXEL_FORMAT_MONO_8, MOCAP_FMT_GRAY8, 1},
-	{"BayerRG8", ARV_PIXEL_FORMAT_BAYER_RG_8, MOCAP_FMT_BAYER_RGGB8, 1},
-	{"BayerGR8", ARV_PIXEL_FORMAT_BAYER_GR_8, MOCAP_FMT_BAYER_GRBG8, 1},
-	{"BayerGB8", ARV_PIXEL_FORMAT_BAYER_GB_8, MOCAP_FMT_BAYER_GBRG8, 1},
-	{"BayerBG8", ARV_PIXEL_FORMAT_BAYER_BG_8, MOCAP_FMT_BAYER_BGGR8, 1},
-	{"RGB8", ARV_PIXEL_FORMAT_RGB_8_PACKED, MOCAP_FMT_RGB24, 3},
+	{"Mono8", ARV_PIXEL_FORMAT_MONO_8, MC_PIXFMT_GRAY8, 1},
+	{"BayerRG8", ARV_PIXEL_FORMAT_BAYER_RG_8, MC_PIXFMT_BAYER_RGGB8, 1},
+	{"BayerGR8", ARV_PIXEL_FORMAT_BAYER_GR_8, MC_PIXFMT_BAYER_GRBG8, 1},
+	{"BayerGB8", ARV_PIXEL_FORMAT_BAYER_GB_8, MC_PIXFMT_BAYER_GBRG8, 1},
+	{"BayerBG8", ARV_PIXEL_FORMAT_BAYER_BG_8, MC_PIXFMT_BAYER_BGGR8, 1},
+	{"RGB8", ARV_PIXEL_FORMAT_RGB_8_PACKED, MC_PIXFMT_RGB24, 3},
 };
 #define N_PIXFMTS (int)(sizeof pixfmts / sizeof pixfmts[0])
 
@@ -65,7 +65,7 @@ typedef struct {
 } arv_config;
 
 typedef struct {
-	mocap_host host;
+	mdrv_host host;
 	arv_config cfg;
 	char id[128];
 	ArvCamera *camera;
@@ -73,7 +73,7 @@ typedef struct {
 	gulong lost_handler;
 	atomic_bool control_lost;
 	ArvStream *stream;
-	mocap_format fmt;
+	mdrv_format fmt;
 	bool trigger_pending;
 	bool have_frame_id;
 	guint64 last_frame_id;
@@ -83,24 +83,24 @@ typedef struct {
 	unsigned corrupt_frames;
 } arv_dev;
 
-/* Maps an Aravis error to a mocap_status: a camera that does not answer is
+/* Maps an Aravis error to a mdrv_status: a camera that does not answer is
  * gone; a refused value is a config problem; anything else is I/O. */
 static int status_of(const GError *e)
 {
 	if (!e || e->domain != ARV_DEVICE_ERROR)
-		return MOCAP_ERR_IO;
+		return MDRV_ERR_IO;
 	switch (e->code) {
 	case ARV_DEVICE_ERROR_TIMEOUT:
 	case ARV_DEVICE_ERROR_NOT_CONNECTED:
 	case ARV_DEVICE_ERROR_NOT_FOUND:
-		return MOCAP_ERR_NODEV;
+		return MDRV_ERR_NODEV;
 	case ARV_DEVICE_ERROR_INVALID_PARAMETER:
 	case ARV_DEVICE_ERROR_PROTOCOL_ERROR_INVALID_PARAMETER:
 	case ARV_DEVICE_ERROR_FEATURE_NOT_FOUND:
 	case ARV_DEVICE_ERROR_WRONG_FEATURE:
-		return MOCAP_ERR_CONFIG;
+		return MDRV_ERR_CONFIG;
 	default:
-		return MOCAP_ERR_IO;
+		return MDRV_ERR_IO;
 	}
 }
 
@@ -113,7 +113,7 @@ static int take_error(GError **e, const char *id, const char *what, char *err, s
 	return st;
 }
 
-static int parse_config(const mocap_host *host, arv_config *c, char *err, size_t errlen)
+static int parse_config(const mdrv_host *host, arv_config *c, char *err, size_t errlen)
 {
 	memset(c, 0, sizeof *c);
 	c->pixfmt = -1;
@@ -121,7 +121,7 @@ static int parse_config(const mocap_host *host, arv_config *c, char *err, size_t
 	c->device = drv_cfg_str(host, "device");
 	c->serial = drv_cfg_str(host, "serial");
 	if (!c->device && !c->serial)
-		return drv_errf(err, errlen, MOCAP_ERR_CONFIG,
+		return drv_errf(err, errlen, MDRV_ERR_CONFIG,
 				DRV ": config needs 'device' (an Aravis device id or IP address) or 'serial'");
 	const char *names[N_PIXFMTS];
 	for (int i = 0; i < N_PIXFMTS; i++)
@@ -139,7 +139,7 @@ static int parse_config(const mocap_host *host, arv_config *c, char *err, size_t
 	    (st = drv_cfg_uint(host, DRV, "buffers", 2, 64, &c->buffers, err, errlen)))
 		return st;
 	if ((c->width == 0) != (c->height == 0))
-		return drv_errf(err, errlen, MOCAP_ERR_CONFIG, DRV ": config keys 'width' and 'height' go together");
+		return drv_errf(err, errlen, MDRV_ERR_CONFIG, DRV ": config keys 'width' and 'height' go together");
 	const char *ps = drv_cfg_str(host, "packet_size");
 	if (ps && strcasecmp(ps, "auto") &&
 	    (st = drv_cfg_uint(host, DRV, "packet_size", 576, 16384, &c->packet_size, err, errlen)))
@@ -153,7 +153,7 @@ static int parse_config(const mocap_host *host, arv_config *c, char *err, size_t
 		c->trigger = TRIGGER_LINE; /* a hardware input such as Line0 or Line1 */
 		c->trigger_line = trig;
 	}
-	return MOCAP_OK;
+	return MDRV_OK;
 }
 
 /* Finds the Aravis id of the camera with serial number `serial`. */
@@ -177,9 +177,9 @@ static int find_by_serial(const char *serial, char *id, size_t idlen, char *err,
 	}
 	pthread_mutex_unlock(&arv_list_lock);
 	if (!found)
-		return drv_errf(err, errlen, MOCAP_ERR_NODEV, DRV ": no camera with serial '%s' found (found: %s)",
+		return drv_errf(err, errlen, MDRV_ERR_NODEV, DRV ": no camera with serial '%s' found (found: %s)",
 				serial, n ? seen : "none");
-	return MOCAP_OK;
+	return MDRV_OK;
 }
 
 static int apply_pixel_format(arv_dev *d, char *err, size_t errlen)
@@ -199,7 +199,7 @@ static int apply_pixel_format(arv_dev *d, char *err, size_t errlen)
 		}
 		g_free(avail);
 		if (!ok)
-			return drv_errf(err, errlen, MOCAP_ERR_FORMAT,
+			return drv_errf(err, errlen, MDRV_ERR_FORMAT,
 					DRV ": camera '%s': pixel_format %s not offered (it offers %s)", d->id,
 					pixfmts[d->cfg.pixfmt].name, list);
 		arv_camera_set_pixel_format(d->camera, pixfmts[d->cfg.pixfmt].arv, &e);
@@ -213,10 +213,10 @@ static int apply_pixel_format(arv_dev *d, char *err, size_t errlen)
 		if (pixfmts[i].arv == cur) {
 			d->fmt.pixfmt = pixfmts[i].fmt;
 			d->fmt.stride = pixfmts[i].bytes_per_pixel; /* times width, below */
-			return MOCAP_OK;
+			return MDRV_OK;
 		}
 	}
-	return drv_errf(err, errlen, MOCAP_ERR_FORMAT,
+	return drv_errf(err, errlen, MDRV_ERR_FORMAT,
 			DRV ": camera '%s': its pixel format 0x%08x is not supported; set pixel_format to one of "
 			    "Mono8, BayerRG8, BayerGR8, BayerGB8, BayerBG8, RGB8",
 			d->id, (unsigned)cur);
@@ -236,12 +236,12 @@ static int apply_region(arv_dev *d, char *err, size_t errlen)
 	if (e)
 		return take_error(&e, d->id, "reading the image region", err, errlen);
 	if (d->cfg.width && ((unsigned)w != d->cfg.width || (unsigned)h != d->cfg.height))
-		return drv_errf(err, errlen, MOCAP_ERR_FORMAT,
+		return drv_errf(err, errlen, MDRV_ERR_FORMAT,
 				DRV ": camera '%s': asked for %ux%u, the camera gives %dx%d", d->id, d->cfg.width,
 				d->cfg.height, w, h);
 	d->fmt.width = (uint32_t)w;
 	d->fmt.height = (uint32_t)h;
-	return MOCAP_OK;
+	return MDRV_OK;
 }
 
 static int apply_trigger(arv_dev *d, char *err, size_t errlen)
@@ -251,7 +251,7 @@ static int apply_trigger(arv_dev *d, char *err, size_t errlen)
 		arv_camera_clear_triggers(d->camera, &e);
 		if (e) /* cameras without trigger features are free-running anyway */
 			g_clear_error(&e);
-		return MOCAP_OK;
+		return MDRV_OK;
 	}
 	const char *source = d->cfg.trigger == TRIGGER_SOFTWARE ? "Software" : d->cfg.trigger_line;
 	guint n = 0;
@@ -267,13 +267,13 @@ static int apply_trigger(arv_dev *d, char *err, size_t errlen)
 	}
 	g_free(avail);
 	if (!ok)
-		return drv_errf(err, errlen, MOCAP_ERR_CONFIG,
+		return drv_errf(err, errlen, MDRV_ERR_CONFIG,
 				DRV ": camera '%s': config key 'trigger': source '%s' not offered (it offers %s)",
 				d->id, source, n ? list : "none");
 	arv_camera_set_trigger(d->camera, source, &e);
 	if (e)
 		return take_error(&e, d->id, "setting the trigger", err, errlen);
-	return MOCAP_OK;
+	return MDRV_OK;
 }
 
 static int apply_frame_rate(arv_dev *d, char *err, size_t errlen)
@@ -285,7 +285,7 @@ static int apply_frame_rate(arv_dev *d, char *err, size_t errlen)
 		if (e)
 			return take_error(&e, d->id, "reading the frame rate range", err, errlen);
 		if (d->cfg.fps < lo || d->cfg.fps > hi)
-			return drv_errf(err, errlen, MOCAP_ERR_CONFIG,
+			return drv_errf(err, errlen, MDRV_ERR_CONFIG,
 					DRV ": camera '%s': config key 'fps': %g outside the camera's range [%g, %g]",
 					d->id, d->cfg.fps, lo, hi);
 		arv_camera_set_frame_rate(d->camera, d->cfg.fps, &e);
@@ -299,7 +299,7 @@ static int apply_frame_rate(arv_dev *d, char *err, size_t errlen)
 	}
 	/* A triggered camera runs at the rate of its trigger. */
 	d->fmt.fps = d->cfg.trigger == TRIGGER_NONE ? fps : 0;
-	return MOCAP_OK;
+	return MDRV_OK;
 }
 
 /* Exposure (seconds in the config, microseconds in GenICam) and gain (dB). */
@@ -313,7 +313,7 @@ static int apply_exposure_gain(arv_dev *d, char *err, size_t errlen)
 			double lo = 0, hi = 0, us = d->cfg.exposure.value * 1e6;
 			arv_camera_get_exposure_time_bounds(d->camera, &lo, &hi, &e);
 			if (!e && (us < lo || us > hi))
-				return drv_errf(err, errlen, MOCAP_ERR_CONFIG,
+				return drv_errf(err, errlen, MDRV_ERR_CONFIG,
 						DRV ": camera '%s': config key 'exposure': %g s outside the camera's "
 						    "range [%g, %g] s",
 						d->id, d->cfg.exposure.value, lo * 1e-6, hi * 1e-6);
@@ -330,7 +330,7 @@ static int apply_exposure_gain(arv_dev *d, char *err, size_t errlen)
 			double lo = 0, hi = 0;
 			arv_camera_get_gain_bounds(d->camera, &lo, &hi, &e);
 			if (!e && (d->cfg.gain.value < lo || d->cfg.gain.value > hi))
-				return drv_errf(err, errlen, MOCAP_ERR_CONFIG,
+				return drv_errf(err, errlen, MDRV_ERR_CONFIG,
 						DRV ": camera '%s': config key 'gain': %g dB outside the camera's range "
 						    "[%g, %g] dB",
 						d->id, d->cfg.gain.value, lo, hi);
@@ -340,7 +340,7 @@ static int apply_exposure_gain(arv_dev *d, char *err, size_t errlen)
 		if (e)
 			return take_error(&e, d->id, "setting 'gain'", err, errlen);
 	}
-	return MOCAP_OK;
+	return MDRV_OK;
 }
 
 /* GigE Vision transport: packet size (jumbo frames need it raised) and the
@@ -348,7 +348,7 @@ static int apply_exposure_gain(arv_dev *d, char *err, size_t errlen)
 static int apply_gige_transport(arv_dev *d, char *err, size_t errlen)
 {
 	if (!arv_camera_is_gv_device(d->camera))
-		return MOCAP_OK;
+		return MDRV_OK;
 	GError *e = NULL;
 	if (d->cfg.packet_size) {
 		arv_camera_gv_set_packet_size(d->camera, (gint)d->cfg.packet_size, &e);
@@ -358,7 +358,7 @@ static int apply_gige_transport(arv_dev *d, char *err, size_t errlen)
 		if (e)
 			return take_error(&e, d->id, "reading the packet size", err, errlen);
 		if (got != d->cfg.packet_size)
-			return drv_errf(err, errlen, MOCAP_ERR_CONFIG,
+			return drv_errf(err, errlen, MDRV_ERR_CONFIG,
 					DRV ": camera '%s': config key 'packet_size': asked for %u bytes, the camera "
 					    "took %u",
 					d->id, d->cfg.packet_size, got);
@@ -374,8 +374,8 @@ static int apply_gige_transport(arv_dev *d, char *err, size_t errlen)
 	}
 	guint ps = arv_camera_gv_get_packet_size(d->camera, &e);
 	g_clear_error(&e);
-	drv_logf(&d->host, MOCAP_LOG_INFO, DRV ": camera '%s': GigE Vision packet size %u bytes", d->id, ps);
-	return MOCAP_OK;
+	drv_logf(&d->host, MDRV_LOG_INFO, DRV ": camera '%s': GigE Vision packet size %u bytes", d->id, ps);
+	return MDRV_OK;
 }
 
 static void on_control_lost(ArvDevice *device, gpointer user)
@@ -401,24 +401,24 @@ static int configure(arv_dev *d, char *err, size_t errlen)
 		return take_error(&e, d->id, "reading the payload size", err, errlen);
 	size_t image = (size_t)d->fmt.stride * d->fmt.height;
 	d->fmt.max_bytes = payload > image ? payload : image;
-	return MOCAP_OK;
+	return MDRV_OK;
 }
 
 static void drv_close(void *dev);
 
-static void *drv_open(const mocap_host *host, char *err, size_t errlen)
+static void *drv_open(const mdrv_host *host, char *err, size_t errlen)
 {
 	arv_dev *d = calloc(1, sizeof *d);
 	if (!d) {
-		drv_errf(err, errlen, MOCAP_ERR_IO, DRV ": out of memory");
+		drv_errf(err, errlen, MDRV_ERR_IO, DRV ": out of memory");
 		return NULL;
 	}
 	d->host = *host;
-	if (parse_config(host, &d->cfg, err, errlen) != MOCAP_OK)
+	if (parse_config(host, &d->cfg, err, errlen) != MDRV_OK)
 		goto fail;
 	if (d->cfg.device)
 		drv_strlcpy(d->id, d->cfg.device, sizeof d->id);
-	else if (find_by_serial(d->cfg.serial, d->id, sizeof d->id, err, errlen) != MOCAP_OK)
+	else if (find_by_serial(d->cfg.serial, d->id, sizeof d->id, err, errlen) != MDRV_OK)
 		goto fail;
 
 	GError *e = NULL;
@@ -426,7 +426,7 @@ static void *drv_open(const mocap_host *host, char *err, size_t errlen)
 	d->camera = arv_camera_new(d->id, &e);
 	pthread_mutex_unlock(&arv_list_lock);
 	if (!d->camera) {
-		drv_errf(err, errlen, MOCAP_ERR_NODEV, DRV ": cannot open camera '%s': %s", d->id,
+		drv_errf(err, errlen, MDRV_ERR_NODEV, DRV ": cannot open camera '%s': %s", d->id,
 			 e ? e->message : "not found");
 		g_clear_error(&e);
 		goto fail;
@@ -435,7 +435,7 @@ static void *drv_open(const mocap_host *host, char *err, size_t errlen)
 	if (d->cfg.device && d->cfg.serial) { /* both given: they must agree */
 		const char *s = arv_camera_get_device_serial_number(d->camera, &e);
 		if (e || !s || strcmp(s, d->cfg.serial)) {
-			drv_errf(err, errlen, MOCAP_ERR_CONFIG,
+			drv_errf(err, errlen, MDRV_ERR_CONFIG,
 				 DRV ": camera '%s' has serial '%s', the config asks for '%s'", d->id,
 				 s ? s : "?", d->cfg.serial);
 			g_clear_error(&e);
@@ -443,10 +443,10 @@ static void *drv_open(const mocap_host *host, char *err, size_t errlen)
 		}
 	}
 	d->lost_handler = g_signal_connect(d->device, "control-lost", G_CALLBACK(on_control_lost), d);
-	if (configure(d, err, errlen) != MOCAP_OK)
+	if (configure(d, err, errlen) != MDRV_OK)
 		goto fail;
-	drv_logf(host, MOCAP_LOG_INFO, DRV ": opened '%s': %s %ux%u, %.3g fps%s", d->id,
-		 mocap_pixfmt_name(d->fmt.pixfmt), d->fmt.width, d->fmt.height, d->fmt.fps,
+	drv_logf(host, MDRV_LOG_INFO, DRV ": opened '%s': %s %ux%u, %.3g fps%s", d->id,
+		 mc_pixfmt_name(d->fmt.pixfmt), d->fmt.width, d->fmt.height, d->fmt.fps,
 		 d->cfg.trigger == TRIGGER_NONE ? "" : ", triggered");
 	return d;
 fail:
@@ -454,19 +454,19 @@ fail:
 	return NULL;
 }
 
-static int drv_get_format(void *dev, mocap_format *fmt, char *err, size_t errlen)
+static int drv_get_format(void *dev, mdrv_format *fmt, char *err, size_t errlen)
 {
 	(void)err;
 	(void)errlen;
 	*fmt = ((arv_dev *)dev)->fmt;
-	return MOCAP_OK;
+	return MDRV_OK;
 }
 
 static int drv_start(void *dev, char *err, size_t errlen)
 {
 	arv_dev *d = dev;
 	if (d->stream)
-		return MOCAP_OK;
+		return MDRV_OK;
 	GError *e = NULL;
 	d->stream = arv_camera_create_stream(d->camera, NULL, NULL, &e);
 	if (!d->stream)
@@ -483,13 +483,13 @@ static int drv_start(void *dev, char *err, size_t errlen)
 	}
 	d->have_frame_id = false;
 	d->trigger_pending = false;
-	d->last_frame_ns = d->last_liveness_ns = drv_monotonic_ns();
-	return MOCAP_OK;
+	d->last_frame_ns = d->last_liveness_ns = mc_now_ns();
+	return MDRV_OK;
 }
 
 static int lost_error(arv_dev *d, char *err, size_t errlen)
 {
-	return drv_errf(err, errlen, MOCAP_ERR_NODEV,
+	return drv_errf(err, errlen, MDRV_ERR_NODEV,
 			DRV ": camera '%s' stopped answering (control lost): unplugged, powered off or its link "
 			    "is down",
 			d->id);
@@ -499,30 +499,30 @@ static int lost_error(arv_dev *d, char *err, size_t errlen)
  * that does not answer is gone, even before the heartbeat notices. */
 static int check_alive(arv_dev *d, char *err, size_t errlen)
 {
-	uint64_t now = drv_monotonic_ns();
+	uint64_t now = mc_now_ns();
 	uint64_t quiet = d->fmt.fps > 0 ? (uint64_t)(3e9 / d->fmt.fps) : 0;
 	if (quiet < 1000000000u)
 		quiet = 1000000000u;
 	if (now - d->last_frame_ns < quiet || now - d->last_liveness_ns < 1000000000u)
-		return MOCAP_ERR_TIMEOUT;
+		return MDRV_ERR_TIMEOUT;
 	d->last_liveness_ns = now;
 	guint32 value;
 	GError *e = NULL;
 	if (!arv_device_read_register(d->device, 0, &value, &e)) {
-		drv_logf(&d->host, MOCAP_LOG_WARN, DRV ": camera '%s' does not answer: %s", d->id,
+		drv_logf(&d->host, MDRV_LOG_WARN, DRV ": camera '%s' does not answer: %s", d->id,
 			 e ? e->message : "?");
 		g_clear_error(&e);
 		atomic_store(&d->control_lost, true);
 		return lost_error(d, err, errlen);
 	}
-	return MOCAP_ERR_TIMEOUT;
+	return MDRV_ERR_TIMEOUT;
 }
 
 /* Aravis stamps buffers with the wall clock; moves that to CLOCK_MONOTONIC.
  * A stamp that is already monotonic (closer to that clock) is kept. */
 static uint64_t to_monotonic(uint64_t stamp)
 {
-	uint64_t mono = drv_monotonic_ns(), real = drv_realtime_ns();
+	uint64_t mono = mc_now_ns(), real = mc_realtime_ns();
 	if (!stamp)
 		return mono;
 	uint64_t d_real = stamp > real ? stamp - real : real - stamp;
@@ -550,11 +550,11 @@ static void advance_sequence(arv_dev *d, guint64 id)
 	d->last_frame_id = id;
 }
 
-static int drv_next_frame(void *dev, mocap_frame *slot, int timeout_ms, char *err, size_t errlen)
+static int drv_next_frame(void *dev, mdrv_frame *slot, int timeout_ms, char *err, size_t errlen)
 {
 	arv_dev *d = dev;
 	if (!d->stream)
-		return drv_errf(err, errlen, MOCAP_ERR_IO, DRV ": camera '%s': next_frame before start", d->id);
+		return drv_errf(err, errlen, MDRV_ERR_IO, DRV ": camera '%s': next_frame before start", d->id);
 	if (atomic_load(&d->control_lost))
 		return lost_error(d, err, errlen);
 	GError *e = NULL;
@@ -573,7 +573,7 @@ static int drv_next_frame(void *dev, mocap_frame *slot, int timeout_ms, char *er
 		if (atomic_load(&d->control_lost))
 			return lost_error(d, err, errlen);
 		int st = check_alive(d, err, errlen);
-		if (st == MOCAP_ERR_TIMEOUT)
+		if (st == MDRV_ERR_TIMEOUT)
 			drv_errf(err, errlen, st, DRV ": camera '%s': no frame within %d ms", d->id, timeout_ms);
 		return st;
 	}
@@ -582,7 +582,7 @@ static int drv_next_frame(void *dev, mocap_frame *slot, int timeout_ms, char *er
 	ArvBufferStatus status = arv_buffer_get_status(buf);
 	if (size > slot->capacity) {
 		arv_stream_push_buffer(d->stream, buf);
-		return drv_errf(err, errlen, MOCAP_ERR_NOSPACE, DRV ": camera '%s': frame of %zu bytes, slot holds %zu",
+		return drv_errf(err, errlen, MDRV_ERR_NOSPACE, DRV ": camera '%s': frame of %zu bytes, slot holds %zu",
 				d->id, size, slot->capacity);
 	}
 	if (data && size)
@@ -593,20 +593,20 @@ static int drv_next_frame(void *dev, mocap_frame *slot, int timeout_ms, char *er
 	if (status != ARV_BUFFER_STATUS_SUCCESS) {
 		/* missing packets, a size mismatch or a timeout: the data is
 		 * there but damaged; the host decides whether to use it */
-		slot->flags |= MOCAP_FRAME_CORRUPT;
+		slot->flags |= MDRV_FRAME_CORRUPT;
 		if (d->corrupt_frames++ % 100 == 0)
-			drv_logf(&d->host, MOCAP_LOG_WARN, DRV ": camera '%s': damaged frame (Aravis buffer status %d)",
+			drv_logf(&d->host, MDRV_LOG_WARN, DRV ": camera '%s': damaged frame (Aravis buffer status %d)",
 				 d->id, (int)status);
 	}
 	if (size < (size_t)d->fmt.stride * d->fmt.height)
-		slot->flags |= MOCAP_FRAME_SHORT;
+		slot->flags |= MDRV_FRAME_SHORT;
 	slot->timestamp_ns = to_monotonic(arv_buffer_get_system_timestamp(buf));
 	advance_sequence(d, arv_buffer_get_frame_id(buf));
 	slot->sequence = d->sequence;
 	arv_stream_push_buffer(d->stream, buf);
 	d->trigger_pending = false;
-	d->last_frame_ns = drv_monotonic_ns();
-	return MOCAP_OK;
+	d->last_frame_ns = mc_now_ns();
+	return MDRV_OK;
 }
 
 static void drv_stop(void *dev)
@@ -618,7 +618,7 @@ static void drv_stop(void *dev)
 	if (!atomic_load(&d->control_lost)) /* else each write would time out */
 		arv_camera_stop_acquisition(d->camera, &e);
 	if (e) {
-		drv_logf(&d->host, MOCAP_LOG_WARN, DRV ": camera '%s': stopping acquisition: %s", d->id, e->message);
+		drv_logf(&d->host, MDRV_LOG_WARN, DRV ": camera '%s': stopping acquisition: %s", d->id, e->message);
 		g_clear_error(&e);
 	}
 	g_clear_object(&d->stream);
@@ -641,7 +641,7 @@ static const char *or_empty(const char *s)
 	return s ? s : "";
 }
 
-static int drv_probe(const mocap_host *host, mocap_device_info *out, int max, char *err, size_t errlen)
+static int drv_probe(const mdrv_host *host, mdrv_device_info *out, int max, char *err, size_t errlen)
 {
 	(void)host;
 	(void)err;
@@ -650,7 +650,7 @@ static int drv_probe(const mocap_host *host, mocap_device_info *out, int max, ch
 	arv_update_device_list();
 	int n = (int)arv_get_n_devices();
 	for (int i = 0; i < n && i < max; i++) {
-		mocap_device_info *o = &out[i];
+		mdrv_device_info *o = &out[i];
 		memset(o, 0, sizeof *o);
 		drv_strlcpy(o->id, arv_get_device_id((unsigned)i), sizeof o->id);
 		snprintf(o->name, sizeof o->name, "%s %s", or_empty(arv_get_device_vendor((unsigned)i)),
@@ -663,8 +663,8 @@ static int drv_probe(const mocap_host *host, mocap_device_info *out, int max, ch
 	return n < max ? n : max;
 }
 
-static const mocap_driver aravis_driver = {
-	.abi_version = MOCAP_DRIVER_ABI_VERSION,
+static const mdrv_driver aravis_driver = {
+	.abi_version = MDRV_ABI_VERSION,
 	.name = "aravis",
 	.description = "GigE Vision / USB3 Vision cameras through Aravis 0.8",
 	.probe = drv_probe,
@@ -676,7 +676,7 @@ static const mocap_driver aravis_driver = {
 	.close = drv_close,
 };
 
-__attribute__((visibility("default"))) const mocap_driver *mocap_driver_entry(void)
+__attribute__((visibility("default"))) const mdrv_driver *mdrv_entry(void)
 {
 	return &aravis_driver;
 }

@@ -1,12 +1,12 @@
 # drivers/aravis: GigE Vision / USB3 Vision plugin (Aravis 0.8), tested in
 # `make check-aravis` against arv-fake-gv-camera-0.8 on loopback.
-include drivers/v4l2/common.mk
+include drivers/common/common.mk
 
 ARAVIS_PKG := aravis-0.8
 ARAVIS_PLUGIN := $(BUILD)/drivers/mocap-driver-aravis.so
 ARAVIS_OBJ := $(BUILD)/drivers/aravis/aravis_plugin.o $(HWDRV_COMMON_OBJ)
 
-$(BUILD)/drivers/aravis/%.o: CPPFLAGS += -Idrivers/v4l2 $(shell $(PKG_CONFIG) --cflags $(ARAVIS_PKG))
+$(BUILD)/drivers/aravis/%.o: CPPFLAGS += -Idrivers/common $(shell $(PKG_CONFIG) --cflags $(ARAVIS_PKG))
 
 $(ARAVIS_PLUGIN): $(ARAVIS_OBJ)
 	@mkdir -p $(@D)

@@ -24,10 +24,10 @@
  * the same `epoch`.  With rate 0 the timestamp is the delivery time.
  *
  * probe() lists nothing (files are not hardware).  next_frame() returns
- * MOCAP_ERR_END after the last frame unless loop is set. */
+ * MDRV_ERR_END after the last frame unless loop is set. */
 #include "drv_common.h"
-#include "mc_image.h"
-#include "mocap_driver.h"
+#include "image/mc_image.h"
+#include "mdrv.h"
 
 #include <ctype.h>
 #include <dirent.h>
@@ -50,7 +50,7 @@ typedef struct {
 } frame_file;
 
 typedef struct {
-	const mocap_host *host;
+	const mdrv_host *host;
 	char dir[PATH_MAX];
 	frame_file *files;
 	int nfiles;
@@ -59,7 +59,7 @@ typedef struct {
 	bool rgb24; /* decode; else deliver JPEG bytes */
 	bool epoch_given;
 	uint64_t epoch_ns;
-	mocap_format fmt;
+	mdrv_format fmt;
 	mc_image_conv *conv;
 	uint8_t *buf; /* file bytes, for decoding */
 	size_t bufcap;
@@ -118,7 +118,7 @@ static int scan_folder(files_dev *d, unsigned start, unsigned count, char *err, 
 {
 	DIR *dir = opendir(d->dir);
 	if (!dir)
-		return drv_errf(err, errlen, MOCAP_ERR_CONFIG, "%s: config key 'path': '%s': %s", DRV, d->dir,
+		return drv_errf(err, errlen, MDRV_ERR_CONFIG, "%s: config key 'path': '%s': %s", DRV, d->dir,
 				strerror(errno));
 	int cap = 0;
 	struct dirent *e;
@@ -137,7 +137,7 @@ static int scan_folder(files_dev *d, unsigned start, unsigned count, char *err, 
 			frame_file *grown = realloc(d->files, sizeof(frame_file) * (size_t)cap);
 			if (!grown) {
 				closedir(dir);
-				return drv_errf(err, errlen, MOCAP_ERR_IO, "%s: out of memory listing '%s'", DRV, d->dir);
+				return drv_errf(err, errlen, MDRV_ERR_IO, "%s: out of memory listing '%s'", DRV, d->dir);
 			}
 			d->files = grown;
 		}
@@ -147,20 +147,20 @@ static int scan_folder(files_dev *d, unsigned start, unsigned count, char *err, 
 	}
 	closedir(dir);
 	if (d->nfiles == 0)
-		return drv_errf(err, errlen, MOCAP_ERR_CONFIG,
+		return drv_errf(err, errlen, MDRV_ERR_CONFIG,
 				"%s: config key 'path': no numbered JPEG/PNG/PPM files in '%s' from frame %u", DRV, d->dir,
 				start);
 	qsort(d->files, (size_t)d->nfiles, sizeof(frame_file), cmp_files);
 	for (int i = 1; i < d->nfiles; i++)
 		if (d->files[i].number == d->files[i - 1].number)
-			return drv_errf(err, errlen, MOCAP_ERR_CONFIG, "%s: '%s' and '%s' have the same frame number %llu",
+			return drv_errf(err, errlen, MDRV_ERR_CONFIG, "%s: '%s' and '%s' have the same frame number %llu",
 					DRV, d->files[i - 1].path, d->files[i].path, d->files[i].number);
 	if (count && (unsigned)d->nfiles > count) {
 		for (int i = (int)count; i < d->nfiles; i++)
 			free(d->files[i].path);
 		d->nfiles = (int)count;
 	}
-	return MOCAP_OK;
+	return MDRV_OK;
 }
 
 /* Reads a file into d->buf. */
@@ -168,18 +168,18 @@ static int read_file(files_dev *d, const char *path, size_t *bytes, char *err, s
 {
 	FILE *f = fopen(path, "rb");
 	if (!f)
-		return drv_errf(err, errlen, MOCAP_ERR_IO, "%s: '%s': %s", DRV, path, strerror(errno));
+		return drv_errf(err, errlen, MDRV_ERR_IO, "%s: '%s': %s", DRV, path, strerror(errno));
 	struct stat st;
 	if (fstat(fileno(f), &st) != 0) {
 		fclose(f);
-		return drv_errf(err, errlen, MOCAP_ERR_IO, "%s: '%s': %s", DRV, path, strerror(errno));
+		return drv_errf(err, errlen, MDRV_ERR_IO, "%s: '%s': %s", DRV, path, strerror(errno));
 	}
 	size_t n = (size_t)st.st_size;
 	if (n > d->bufcap) {
 		uint8_t *grown = realloc(d->buf, n);
 		if (!grown) {
 			fclose(f);
-			return drv_errf(err, errlen, MOCAP_ERR_IO, "%s: '%s': out of memory", DRV, path);
+			return drv_errf(err, errlen, MDRV_ERR_IO, "%s: '%s': out of memory", DRV, path);
 		}
 		d->buf = grown;
 		d->bufcap = n;
@@ -187,9 +187,9 @@ static int read_file(files_dev *d, const char *path, size_t *bytes, char *err, s
 	size_t got = fread(d->buf, 1, n, f);
 	fclose(f);
 	if (got != n)
-		return drv_errf(err, errlen, MOCAP_ERR_IO, "%s: '%s': short read (%zu of %zu bytes)", DRV, path, got, n);
+		return drv_errf(err, errlen, MDRV_ERR_IO, "%s: '%s': short read (%zu of %zu bytes)", DRV, path, got, n);
 	*bytes = n;
-	return MOCAP_OK;
+	return MDRV_OK;
 }
 
 /* The format comes from the first file. */
@@ -198,60 +198,60 @@ static int probe_first_file(files_dev *d, char *err, size_t errlen)
 	size_t n;
 	const char *path = d->files[0].path;
 	int rc = read_file(d, path, &n, err, errlen);
-	if (rc != MOCAP_OK)
+	if (rc != MDRV_OK)
 		return rc;
 	uint8_t *rgb = NULL;
 	int w, h;
 	mc_err e;
 	if (mc_image_decode(d->conv, d->buf, n, path, &rgb, &w, &h, &e) != 0)
-		return drv_errf(err, errlen, MOCAP_ERR_FORMAT, "%s: %s", DRV, e.msg);
+		return drv_errf(err, errlen, MDRV_ERR_FORMAT, "%s: %s", DRV, e.msg);
 	free(rgb);
 	d->fmt.width = (uint32_t)w;
 	d->fmt.height = (uint32_t)h;
 	d->fmt.fps = d->rate;
 	if (d->rgb24) {
-		d->fmt.pixfmt = MOCAP_FMT_RGB24;
+		d->fmt.pixfmt = MC_PIXFMT_RGB24;
 		d->fmt.stride = (uint32_t)w * 3;
 		d->fmt.max_bytes = (size_t)w * (size_t)h * 3;
 	} else {
-		d->fmt.pixfmt = MOCAP_FMT_MJPEG;
+		d->fmt.pixfmt = MC_PIXFMT_MJPEG;
 		d->fmt.stride = 0;
 		d->fmt.max_bytes = 0;
 		for (int i = 0; i < d->nfiles; i++)
 			if (d->files[i].bytes > d->fmt.max_bytes)
 				d->fmt.max_bytes = d->files[i].bytes;
 	}
-	return MOCAP_OK;
+	return MDRV_OK;
 }
 
 /* ---- config ---- */
 
 static int parse_config(files_dev *d, unsigned *start, unsigned *count, int *format, char *err, size_t errlen)
 {
-	const mocap_host *h = d->host;
+	const mdrv_host *h = d->host;
 	const char *path = drv_cfg_str(h, "path");
 	if (!path)
-		return drv_errf(err, errlen, MOCAP_ERR_CONFIG,
+		return drv_errf(err, errlen, MDRV_ERR_CONFIG,
 				"%s: config key 'path' is required (a folder of numbered JPEG/PNG/PPM files)", DRV);
 	if (strlen(path) >= sizeof(d->dir))
-		return drv_errf(err, errlen, MOCAP_ERR_CONFIG, "%s: config key 'path': too long", DRV);
+		return drv_errf(err, errlen, MDRV_ERR_CONFIG, "%s: config key 'path': too long", DRV);
 	drv_strlcpy(d->dir, path, sizeof(d->dir));
 	d->rate = 30;
 	static const char *const formats[] = {"mjpeg", "rgb24"};
 	int rc;
-	if ((rc = drv_cfg_double(h, DRV, "rate", 0, 10000, &d->rate, err, errlen)) != MOCAP_OK ||
-	    (rc = drv_cfg_bool(h, DRV, "loop", &d->loop, err, errlen)) != MOCAP_OK ||
-	    (rc = drv_cfg_choice(h, DRV, "format", formats, 2, format, err, errlen)) != MOCAP_OK ||
-	    (rc = drv_cfg_uint(h, DRV, "start", 0, UINT_MAX, start, err, errlen)) != MOCAP_OK ||
-	    (rc = drv_cfg_uint(h, DRV, "count", 0, UINT_MAX, count, err, errlen)) != MOCAP_OK ||
-	    (rc = drv_cfg_monotonic_ns(h, DRV, "epoch", &d->epoch_ns, &d->epoch_given, err, errlen)) != MOCAP_OK)
+	if ((rc = drv_cfg_double(h, DRV, "rate", 0, 10000, &d->rate, err, errlen)) != MDRV_OK ||
+	    (rc = drv_cfg_bool(h, DRV, "loop", &d->loop, err, errlen)) != MDRV_OK ||
+	    (rc = drv_cfg_choice(h, DRV, "format", formats, 2, format, err, errlen)) != MDRV_OK ||
+	    (rc = drv_cfg_uint(h, DRV, "start", 0, UINT_MAX, start, err, errlen)) != MDRV_OK ||
+	    (rc = drv_cfg_uint(h, DRV, "count", 0, UINT_MAX, count, err, errlen)) != MDRV_OK ||
+	    (rc = drv_cfg_monotonic_ns(h, DRV, "epoch", &d->epoch_ns, &d->epoch_given, err, errlen)) != MDRV_OK)
 		return rc;
-	return MOCAP_OK;
+	return MDRV_OK;
 }
 
 /* ---- the ABI ---- */
 
-static int files_probe(const mocap_host *host, mocap_device_info *out, int max, char *err, size_t errlen)
+static int files_probe(const mdrv_host *host, mdrv_device_info *out, int max, char *err, size_t errlen)
 {
 	(void)host, (void)out, (void)max, (void)err, (void)errlen;
 	return 0;
@@ -268,48 +268,48 @@ static void files_close(void *dev)
 	free(d);
 }
 
-static void *files_open(const mocap_host *host, char *err, size_t errlen)
+static void *files_open(const mdrv_host *host, char *err, size_t errlen)
 {
 	files_dev *d = calloc(1, sizeof(*d));
 	if (!d) {
-		drv_errf(err, errlen, MOCAP_ERR_IO, "%s: out of memory", DRV);
+		drv_errf(err, errlen, MDRV_ERR_IO, "%s: out of memory", DRV);
 		return NULL;
 	}
 	d->host = host;
 	unsigned start = 0, count = 0;
 	int format = -1;
 	mc_err e;
-	if (parse_config(d, &start, &count, &format, err, errlen) != MOCAP_OK ||
-	    scan_folder(d, start, count, err, errlen) != MOCAP_OK)
+	if (parse_config(d, &start, &count, &format, err, errlen) != MDRV_OK ||
+	    scan_folder(d, start, count, err, errlen) != MDRV_OK)
 		goto fail;
 	bool all_jpeg = true;
 	for (int i = 0; i < d->nfiles; i++)
 		all_jpeg &= d->files[i].jpeg;
 	if (format == 0 && !all_jpeg) {
-		drv_errf(err, errlen, MOCAP_ERR_CONFIG,
+		drv_errf(err, errlen, MDRV_ERR_CONFIG,
 			 "%s: config key 'format': mjpeg needs JPEG files, '%s' holds others (use rgb24)", DRV, d->dir);
 		goto fail;
 	}
 	d->rgb24 = format == 1 || !all_jpeg;
 	if (!(d->conv = mc_image_conv_new(&e))) {
-		drv_errf(err, errlen, MOCAP_ERR_IO, "%s: %s", DRV, e.msg);
+		drv_errf(err, errlen, MDRV_ERR_IO, "%s: %s", DRV, e.msg);
 		goto fail;
 	}
-	if (probe_first_file(d, err, errlen) != MOCAP_OK)
+	if (probe_first_file(d, err, errlen) != MDRV_OK)
 		goto fail;
-	drv_logf(host, MOCAP_LOG_INFO, "%s: %d frames from %s (%ux%u %s, %g fps%s)", DRV, d->nfiles, d->dir,
-		 d->fmt.width, d->fmt.height, mocap_pixfmt_name(d->fmt.pixfmt), d->rate, d->loop ? ", looping" : "");
+	drv_logf(host, MDRV_LOG_INFO, "%s: %d frames from %s (%ux%u %s, %g fps%s)", DRV, d->nfiles, d->dir,
+		 d->fmt.width, d->fmt.height, mc_pixfmt_name(d->fmt.pixfmt), d->rate, d->loop ? ", looping" : "");
 	return d;
 fail:
 	files_close(d);
 	return NULL;
 }
 
-static int files_get_format(void *dev, mocap_format *fmt, char *err, size_t errlen)
+static int files_get_format(void *dev, mdrv_format *fmt, char *err, size_t errlen)
 {
 	(void)err, (void)errlen;
 	*fmt = ((files_dev *)dev)->fmt;
-	return MOCAP_OK;
+	return MDRV_OK;
 }
 
 static int files_start(void *dev, char *err, size_t errlen)
@@ -317,97 +317,97 @@ static int files_start(void *dev, char *err, size_t errlen)
 	(void)err, (void)errlen;
 	files_dev *d = dev;
 	if (!d->epoch_given)
-		d->epoch_ns = drv_monotonic_ns();
+		d->epoch_ns = mc_now_ns();
 	d->delivered = 0;
 	d->next = 0;
 	d->started = true;
-	return MOCAP_OK;
+	return MDRV_OK;
 }
 
 static void files_stop(void *dev) { ((files_dev *)dev)->started = false; }
 
 /* Copies or decodes file `f` into the slot. */
-static int fill_slot(files_dev *d, const frame_file *f, mocap_frame *slot, char *err, size_t errlen)
+static int fill_slot(files_dev *d, const frame_file *f, mdrv_frame *slot, char *err, size_t errlen)
 {
 	if (!d->rgb24) {
 		if (f->bytes > slot->capacity)
-			return drv_errf(err, errlen, MOCAP_ERR_NOSPACE, "%s: '%s' has %zu bytes, the slot holds %zu", DRV,
+			return drv_errf(err, errlen, MDRV_ERR_NOSPACE, "%s: '%s' has %zu bytes, the slot holds %zu", DRV,
 					f->path, f->bytes, slot->capacity);
 		size_t n;
 		int rc = read_file(d, f->path, &n, err, errlen);
-		if (rc != MOCAP_OK)
+		if (rc != MDRV_OK)
 			return rc;
 		if (n > slot->capacity) /* grew since the folder was listed */
-			return drv_errf(err, errlen, MOCAP_ERR_NOSPACE, "%s: '%s' has %zu bytes, the slot holds %zu",
+			return drv_errf(err, errlen, MDRV_ERR_NOSPACE, "%s: '%s' has %zu bytes, the slot holds %zu",
 					DRV, f->path, n, slot->capacity);
 		memcpy(slot->data, d->buf, n);
 		slot->bytesused = n;
-		return MOCAP_OK;
+		return MDRV_OK;
 	}
 	size_t need = d->fmt.max_bytes, n;
 	if (need > slot->capacity)
-		return drv_errf(err, errlen, MOCAP_ERR_NOSPACE, "%s: a %ux%u RGB frame needs %zu bytes, the slot holds %zu",
+		return drv_errf(err, errlen, MDRV_ERR_NOSPACE, "%s: a %ux%u RGB frame needs %zu bytes, the slot holds %zu",
 				DRV, d->fmt.width, d->fmt.height, need, slot->capacity);
 	int rc = read_file(d, f->path, &n, err, errlen);
-	if (rc != MOCAP_OK)
+	if (rc != MDRV_OK)
 		return rc;
 	uint8_t *rgb = NULL;
 	int w, h;
 	mc_err e;
 	if (mc_image_decode(d->conv, d->buf, n, f->path, &rgb, &w, &h, &e) != 0)
-		return drv_errf(err, errlen, MOCAP_ERR_IO, "%s: %s", DRV, e.msg);
+		return drv_errf(err, errlen, MDRV_ERR_IO, "%s: %s", DRV, e.msg);
 	if ((uint32_t)w != d->fmt.width || (uint32_t)h != d->fmt.height) {
 		free(rgb);
-		return drv_errf(err, errlen, MOCAP_ERR_FORMAT, "%s: '%s' is %dx%d, the stream is %ux%u", DRV, f->path, w,
+		return drv_errf(err, errlen, MDRV_ERR_FORMAT, "%s: '%s' is %dx%d, the stream is %ux%u", DRV, f->path, w,
 				h, d->fmt.width, d->fmt.height);
 	}
 	memcpy(slot->data, rgb, need);
 	free(rgb);
 	slot->bytesused = need;
-	return MOCAP_OK;
+	return MDRV_OK;
 }
 
-static int files_next_frame(void *dev, mocap_frame *slot, int timeout_ms, char *err, size_t errlen)
+static int files_next_frame(void *dev, mdrv_frame *slot, int timeout_ms, char *err, size_t errlen)
 {
 	files_dev *d = dev;
 	if (!d->started)
-		return drv_errf(err, errlen, MOCAP_ERR_IO, "%s: next_frame before start", DRV);
+		return drv_errf(err, errlen, MDRV_ERR_IO, "%s: next_frame before start", DRV);
 	if (d->next >= d->nfiles) {
 		if (!d->loop)
-			return drv_errf(err, errlen, MOCAP_ERR_END, "%s: end of '%s' (%d frames)", DRV, d->dir, d->nfiles);
+			return drv_errf(err, errlen, MDRV_ERR_END, "%s: end of '%s' (%d frames)", DRV, d->dir, d->nfiles);
 		d->next = 0;
 	}
 	uint64_t ts;
 	if (d->rate > 0) {
 		ts = d->epoch_ns + (uint64_t)((double)d->delivered * 1e9 / d->rate + 0.5);
-		uint64_t now = drv_monotonic_ns();
+		uint64_t now = mc_now_ns();
 		if (ts > now) {
 			if (timeout_ms >= 0 && ts - now > (uint64_t)timeout_ms * 1000000ull) {
-				drv_sleep_until_ns(now + (uint64_t)timeout_ms * 1000000ull);
-				return drv_errf(err, errlen, MOCAP_ERR_TIMEOUT, "%s: next frame due in %.1f ms", DRV,
+				mc_sleep_until_ns(now + (uint64_t)timeout_ms * 1000000ull);
+				return drv_errf(err, errlen, MDRV_ERR_TIMEOUT, "%s: next frame due in %.1f ms", DRV,
 						(double)(ts - now) * 1e-6 - timeout_ms);
 			}
-			drv_sleep_until_ns(ts);
+			mc_sleep_until_ns(ts);
 		}
 	} else {
-		ts = drv_monotonic_ns();
+		ts = mc_now_ns();
 	}
 	const frame_file *f = &d->files[d->next];
 	/* An unreadable file is skipped: it keeps its place in time. */
 	uint64_t seq = d->delivered++;
 	d->next++;
 	int rc = fill_slot(d, f, slot, err, errlen);
-	if (rc != MOCAP_OK)
+	if (rc != MDRV_OK)
 		return rc;
 	slot->timestamp_ns = ts;
 	slot->sequence = seq;
 	slot->flags = 0;
 	slot->format = d->fmt;
-	return MOCAP_OK;
+	return MDRV_OK;
 }
 
-static const mocap_driver files_driver = {
-	.abi_version = MOCAP_DRIVER_ABI_VERSION,
+static const mdrv_driver files_driver = {
+	.abi_version = MDRV_ABI_VERSION,
 	.name = DRV,
 	.description = "plays a folder of numbered JPEG/PNG/PPM files as a camera",
 	.probe = files_probe,
@@ -419,4 +419,4 @@ static const mocap_driver files_driver = {
 	.close = files_close,
 };
 
-const mocap_driver *mocap_driver_entry(void) { return &files_driver; }
+const mdrv_driver *mdrv_entry(void) { return &files_driver; }

@@ -1,12 +1,12 @@
-# drivers/files: plays folders of numbered image files as cameras (owner: ring).
+# drivers/files: plays folders of numbered image files as cameras.
 # Links the core statically (only mc_image and mc_error are pulled in) and
-# exports only mocap_driver_entry (drivers/v4l2/plugin.map).
-include drivers/v4l2/common.mk
+# exports only mdrv_entry (drivers/common/plugin.map).
+include drivers/common/common.mk
 
 FILES_PLUGIN := $(BUILD)/drivers/mocap-driver-files.so
 FILES_OBJ := $(BUILD)/drivers/files/files.o
 
-$(BUILD)/drivers/files/%.o: CPPFLAGS += -Idrivers/v4l2
+$(BUILD)/drivers/files/%.o: CPPFLAGS += -Idrivers/common
 
 $(FILES_PLUGIN): $(FILES_OBJ) $(HWDRV_COMMON_OBJ) $(CORE_LIB)
 	@mkdir -p $(@D)

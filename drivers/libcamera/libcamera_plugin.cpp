@@ -9,7 +9,7 @@
  *
  * Timestamps are FrameMetadata::timestamp, which libcamera copies from the
  * V4L2 buffer: CLOCK_MONOTONIC.  A camera that is unplugged emits
- * Camera::disconnected; next_frame() then returns MOCAP_ERR_NODEV.
+ * Camera::disconnected; next_frame() then returns MDRV_ERR_NODEV.
  * Config keys are listed in docs/DRIVERS.md. */
 #include <libcamera/libcamera.h>
 #include <sys/mman.h>
@@ -30,7 +30,7 @@
 
 extern "C" {
 #include "drv_common.h"
-#include "mocap_driver.h"
+#include "mdrv.h"
 }
 
 using namespace libcamera;
@@ -91,7 +91,7 @@ CameraManager *acquire_manager(char *err, size_t errlen)
 		auto m = std::make_unique<CameraManager>();
 		int r = m->start();
 		if (r < 0) {
-			drv_errf(err, errlen, MOCAP_ERR_IO, DRV ": cannot start the camera manager: %s", strerror(-r));
+			drv_errf(err, errlen, MDRV_ERR_IO, DRV ": cannot start the camera manager: %s", strerror(-r));
 			return nullptr;
 		}
 		manager = std::move(m);
@@ -114,16 +114,16 @@ void release_manager()
 struct FormatMap {
 	const char *name;
 	PixelFormat pixel_format;
-	mocap_pixfmt fmt;
+	mc_pixfmt fmt;
 	unsigned bytes_per_pixel; /* 0 = compressed */
 };
 
 const FormatMap format_map[] = {
-	{"YUYV", formats::YUYV, MOCAP_FMT_YUYV, 2},
-	{"MJPEG", formats::MJPEG, MOCAP_FMT_MJPEG, 0},
-	{"GREY", formats::R8, MOCAP_FMT_GRAY8, 1},
+	{"YUYV", formats::YUYV, MC_PIXFMT_YUYV, 2},
+	{"MJPEG", formats::MJPEG, MC_PIXFMT_MJPEG, 0},
+	{"GREY", formats::R8, MC_PIXFMT_GRAY8, 1},
 	/* DRM's BGR888 is R, G, B bytes in memory: mocapd's RGB24 */
-	{"RGB24", formats::BGR888, MOCAP_FMT_RGB24, 3},
+	{"RGB24", formats::BGR888, MC_PIXFMT_RGB24, 3},
 };
 
 const FormatMap *find_format(const PixelFormat &pf)
@@ -161,7 +161,7 @@ struct MappedBuffer {
 class Device
 {
 public:
-	mocap_host host{};
+	mdrv_host host{};
 	Settings cfg;
 	CameraManager *cm = nullptr;
 	std::shared_ptr<Camera> camera;
@@ -171,7 +171,7 @@ public:
 	std::unique_ptr<FrameBufferAllocator> allocator;
 	std::vector<std::unique_ptr<Request>> requests;
 	std::map<const FrameBuffer *, MappedBuffer> maps;
-	mocap_format fmt{};
+	mdrv_format fmt{};
 	bool running = false;
 
 	std::mutex lock; /* guards done and disconnected */
@@ -233,7 +233,7 @@ public:
 	}
 };
 
-int read_settings(const mocap_host *host, Settings &s, char *err, size_t errlen)
+int read_settings(const mdrv_host *host, Settings &s, char *err, size_t errlen)
 {
 	const char *const names[] = {"YUYV", "MJPEG", "GREY", "RGB24"};
 	int st;
@@ -250,8 +250,8 @@ int read_settings(const mocap_host *host, Settings &s, char *err, size_t errlen)
 	    (st = drv_cfg_auto_double(host, DRV, "white_balance", 1000, 20000, &s.white_balance, err, errlen)))
 		return st;
 	if ((s.width == 0) != (s.height == 0))
-		return drv_errf(err, errlen, MOCAP_ERR_CONFIG, DRV ": config keys 'width' and 'height' go together");
-	return MOCAP_OK;
+		return drv_errf(err, errlen, MDRV_ERR_CONFIG, DRV ": config keys 'width' and 'height' go together");
+	return MDRV_OK;
 }
 
 int select_camera(Device &d, char *err, size_t errlen)
@@ -259,7 +259,7 @@ int select_camera(Device &d, char *err, size_t errlen)
 	auto cams = d.cm->cameras();
 	if (d.cfg.id.empty()) {
 		if (cams.size() != 1)
-			return drv_errf(err, errlen, cams.empty() ? MOCAP_ERR_NODEV : MOCAP_ERR_CONFIG,
+			return drv_errf(err, errlen, cams.empty() ? MDRV_ERR_NODEV : MDRV_ERR_CONFIG,
 					DRV ": %s; set 'device' to one of: %s",
 					cams.empty() ? "no camera found" : "several cameras found",
 					list_cameras(d.cm).c_str());
@@ -267,14 +267,14 @@ int select_camera(Device &d, char *err, size_t errlen)
 	} else {
 		d.camera = d.cm->get(d.cfg.id);
 		if (!d.camera)
-			return drv_errf(err, errlen, MOCAP_ERR_NODEV, DRV ": no camera '%s' (found: %s)",
+			return drv_errf(err, errlen, MDRV_ERR_NODEV, DRV ": no camera '%s' (found: %s)",
 					d.cfg.id.c_str(), list_cameras(d.cm).c_str());
 	}
 	if (d.camera->acquire() < 0)
-		return drv_errf(err, errlen, MOCAP_ERR_IO, DRV ": camera '%s' is in use by another program",
+		return drv_errf(err, errlen, MDRV_ERR_IO, DRV ": camera '%s' is in use by another program",
 				d.camera->id().c_str());
 	d.acquired = true;
-	return MOCAP_OK;
+	return MDRV_OK;
 }
 
 int configure(Device &d, char *err, size_t errlen)
@@ -282,7 +282,7 @@ int configure(Device &d, char *err, size_t errlen)
 	const char *id = d.camera->id().c_str();
 	d.config = d.camera->generateConfiguration({StreamRole::VideoRecording});
 	if (!d.config || d.config->empty())
-		return drv_errf(err, errlen, MOCAP_ERR_FORMAT, DRV ": camera '%s' offers no video stream", id);
+		return drv_errf(err, errlen, MDRV_ERR_FORMAT, DRV ": camera '%s' offers no video stream", id);
 	StreamConfiguration &sc = d.config->at(0);
 	if (d.cfg.format >= 0)
 		sc.pixelFormat = format_map[d.cfg.format].pixel_format;
@@ -291,7 +291,7 @@ int configure(Device &d, char *err, size_t errlen)
 	sc.bufferCount = d.cfg.buffers;
 	CameraConfiguration::Status status = d.config->validate();
 	if (status == CameraConfiguration::Invalid)
-		return drv_errf(err, errlen, MOCAP_ERR_FORMAT, DRV ": camera '%s' rejects %s", id,
+		return drv_errf(err, errlen, MDRV_ERR_FORMAT, DRV ": camera '%s' rejects %s", id,
 				sc.toString().c_str());
 	const FormatMap *fm = find_format(sc.pixelFormat);
 	bool wrong_format = !fm || (d.cfg.format >= 0 && fm != &format_map[d.cfg.format]);
@@ -303,11 +303,11 @@ int configure(Device &d, char *err, size_t errlen)
 			for (const Size &sz : sc.formats().sizes(pf))
 				offered += " " + sz.toString();
 		}
-		return drv_errf(err, errlen, MOCAP_ERR_FORMAT, DRV ": camera '%s' gives %s instead; it offers %s", id,
+		return drv_errf(err, errlen, MDRV_ERR_FORMAT, DRV ": camera '%s' gives %s instead; it offers %s", id,
 				sc.toString().c_str(), offered.c_str());
 	}
 	if (d.camera->configure(d.config.get()) < 0)
-		return drv_errf(err, errlen, MOCAP_ERR_IO, DRV ": camera '%s': configure failed", id);
+		return drv_errf(err, errlen, MDRV_ERR_IO, DRV ": camera '%s': configure failed", id);
 	d.stream = sc.stream();
 	d.fmt.pixfmt = fm->fmt;
 	d.fmt.width = sc.size.width;
@@ -315,7 +315,7 @@ int configure(Device &d, char *err, size_t errlen)
 	d.fmt.stride = fm->bytes_per_pixel ? sc.stride : 0;
 	d.fmt.max_bytes = sc.frameSize ? sc.frameSize : (size_t)sc.stride * sc.size.height;
 	d.fmt.fps = d.cfg.fps;
-	return MOCAP_OK;
+	return MDRV_OK;
 }
 
 /* The controls the config asks for, applied when streaming starts. */
@@ -324,8 +324,8 @@ int start_controls(Device &d, ControlList &c, char *err, size_t errlen)
 	const ControlInfoMap &info = d.camera->controls();
 	auto need = [&](const ControlId &id, const char *key) -> int {
 		if (info.find(&id) != info.end())
-			return MOCAP_OK;
-		return drv_errf(err, errlen, MOCAP_ERR_CONFIG, DRV ": camera '%s': config key '%s': not supported",
+			return MDRV_OK;
+		return drv_errf(err, errlen, MDRV_ERR_CONFIG, DRV ": camera '%s': config key '%s': not supported",
 				d.camera->id().c_str(), key);
 	};
 	int st;
@@ -346,7 +346,7 @@ int start_controls(Device &d, ControlList &c, char *err, size_t errlen)
 	}
 	if (d.cfg.white_balance.present) {
 		if (!d.cfg.white_balance.is_auto)
-			return drv_errf(err, errlen, MOCAP_ERR_CONFIG,
+			return drv_errf(err, errlen, MDRV_ERR_CONFIG,
 					DRV ": config key 'white_balance': only 'auto' is supported by this driver");
 		if ((st = need(controls::AwbEnable, "white_balance")))
 			return st;
@@ -359,7 +359,7 @@ int start_controls(Device &d, ControlList &c, char *err, size_t errlen)
 		int64_t limits[2] = {us, us};
 		c.set(controls::FrameDurationLimits, Span<const int64_t, 2>(limits));
 	}
-	return MOCAP_OK;
+	return MDRV_OK;
 }
 
 /* Maps every buffer's planes (one dmabuf, possibly at an offset). */
@@ -376,40 +376,40 @@ int map_buffers(Device &d, char *err, size_t errlen)
 		m.offset = p0.offset;
 		m.addr = mmap(nullptr, end, PROT_READ, MAP_SHARED, p0.fd.get(), 0);
 		if (m.addr == MAP_FAILED)
-			return drv_errf(err, errlen, MOCAP_ERR_IO, DRV ": mapping a frame buffer: %s", strerror(errno));
+			return drv_errf(err, errlen, MDRV_ERR_IO, DRV ": mapping a frame buffer: %s", strerror(errno));
 		d.maps[buf.get()] = m;
 	}
-	return MOCAP_OK;
+	return MDRV_OK;
 }
 
 int start(Device &d, char *err, size_t errlen)
 {
 	if (d.running)
-		return MOCAP_OK;
+		return MDRV_OK;
 	d.allocator = std::make_unique<FrameBufferAllocator>(d.camera);
 	if (d.allocator->allocate(d.stream) < 0)
-		return drv_errf(err, errlen, MOCAP_ERR_IO, DRV ": cannot allocate frame buffers");
+		return drv_errf(err, errlen, MDRV_ERR_IO, DRV ": cannot allocate frame buffers");
 	int st = map_buffers(d, err, errlen);
 	if (st)
 		return st;
 	for (const auto &buf : d.allocator->buffers(d.stream)) {
 		std::unique_ptr<Request> r = d.camera->createRequest();
 		if (!r || r->addBuffer(d.stream, buf.get()) < 0)
-			return drv_errf(err, errlen, MOCAP_ERR_IO, DRV ": cannot create a capture request");
+			return drv_errf(err, errlen, MDRV_ERR_IO, DRV ": cannot create a capture request");
 		d.requests.push_back(std::move(r));
 	}
 	ControlList ctrls(controls::controls);
 	if ((st = start_controls(d, ctrls, err, errlen)))
 		return st;
 	if (d.camera->start(&ctrls) < 0)
-		return drv_errf(err, errlen, MOCAP_ERR_IO, DRV ": camera '%s' does not start", d.camera->id().c_str());
+		return drv_errf(err, errlen, MDRV_ERR_IO, DRV ": camera '%s' does not start", d.camera->id().c_str());
 	d.running = true;
 	for (auto &r : d.requests)
 		d.camera->queueRequest(r.get());
-	return MOCAP_OK;
+	return MDRV_OK;
 }
 
-int next_frame(Device &d, mocap_frame *slot, int timeout_ms, char *err, size_t errlen)
+int next_frame(Device &d, mdrv_frame *slot, int timeout_ms, char *err, size_t errlen)
 {
 	Request *r = nullptr;
 	{
@@ -417,16 +417,16 @@ int next_frame(Device &d, mocap_frame *slot, int timeout_ms, char *err, size_t e
 		d.cv.wait_for(g, std::chrono::milliseconds(timeout_ms > 0 ? timeout_ms : 0),
 			      [&] { return !d.done.empty() || d.disconnected; });
 		if (d.disconnected)
-			return drv_errf(err, errlen, MOCAP_ERR_NODEV, DRV ": camera '%s' was unplugged",
+			return drv_errf(err, errlen, MDRV_ERR_NODEV, DRV ": camera '%s' was unplugged",
 					d.camera->id().c_str());
 		if (d.done.empty())
-			return drv_errf(err, errlen, MOCAP_ERR_TIMEOUT, DRV ": no frame within %d ms", timeout_ms);
+			return drv_errf(err, errlen, MDRV_ERR_TIMEOUT, DRV ": no frame within %d ms", timeout_ms);
 		r = d.done.front();
 		d.done.pop_front();
 	}
-	int status = MOCAP_OK;
+	int status = MDRV_OK;
 	if (r->status() == Request::RequestCancelled) {
-		status = drv_errf(err, errlen, MOCAP_ERR_IO, DRV ": capture request cancelled");
+		status = drv_errf(err, errlen, MDRV_ERR_IO, DRV ": capture request cancelled");
 	} else {
 		FrameBuffer *buf = r->buffers().begin()->second;
 		const FrameMetadata &md = buf->metadata();
@@ -436,16 +436,16 @@ int next_frame(Device &d, mocap_frame *slot, int timeout_ms, char *err, size_t e
 			used += p.bytesused;
 		used = std::min(used, m.length - m.offset);
 		if (used > slot->capacity) {
-			status = drv_errf(err, errlen, MOCAP_ERR_NOSPACE, DRV ": frame of %zu bytes, slot holds %zu",
+			status = drv_errf(err, errlen, MDRV_ERR_NOSPACE, DRV ": frame of %zu bytes, slot holds %zu",
 					  used, slot->capacity);
 		} else {
 			memcpy(slot->data, (const uint8_t *)m.addr + m.offset, used);
 			slot->bytesused = used;
 			slot->format = d.fmt;
-			slot->flags = md.status == FrameMetadata::FrameSuccess ? 0 : MOCAP_FRAME_CORRUPT;
+			slot->flags = md.status == FrameMetadata::FrameSuccess ? 0 : MDRV_FRAME_CORRUPT;
 			if (d.fmt.stride && used < (size_t)d.fmt.stride * d.fmt.height)
-				slot->flags |= MOCAP_FRAME_SHORT;
-			slot->timestamp_ns = md.timestamp ? md.timestamp : drv_monotonic_ns();
+				slot->flags |= MDRV_FRAME_SHORT;
+			slot->timestamp_ns = md.timestamp ? md.timestamp : mc_now_ns();
 			slot->sequence = md.sequence;
 		}
 	}
@@ -457,18 +457,18 @@ int next_frame(Device &d, mocap_frame *slot, int timeout_ms, char *err, size_t e
 
 /* ---- the C ABI ---- */
 
-int drv_probe(const mocap_host *host, mocap_device_info *out, int max, char *err, size_t errlen)
+int drv_probe(const mdrv_host *host, mdrv_device_info *out, int max, char *err, size_t errlen)
 {
 	(void)host;
 	try {
 		CameraManager *cm = acquire_manager(err, errlen);
 		if (!cm)
-			return MOCAP_ERR_IO;
+			return MDRV_ERR_IO;
 		int n = 0;
 		for (const auto &cam : cm->cameras()) {
 			if (n >= max)
 				break;
-			mocap_device_info &o = out[n++];
+			mdrv_device_info &o = out[n++];
 			memset(&o, 0, sizeof o);
 			drv_strlcpy(o.id, cam->id().c_str(), sizeof o.id);
 			const auto model = cam->properties().get(properties::Model);
@@ -478,11 +478,11 @@ int drv_probe(const mocap_host *host, mocap_device_info *out, int max, char *err
 		release_manager();
 		return n;
 	} catch (const std::exception &e) {
-		return drv_errf(err, errlen, MOCAP_ERR_IO, DRV ": %s", e.what());
+		return drv_errf(err, errlen, MDRV_ERR_IO, DRV ": %s", e.what());
 	}
 }
 
-void *drv_open(const mocap_host *host, char *err, size_t errlen)
+void *drv_open(const mdrv_host *host, char *err, size_t errlen)
 {
 	try {
 		auto d = std::make_unique<Device>();
@@ -494,19 +494,19 @@ void *drv_open(const mocap_host *host, char *err, size_t errlen)
 			return nullptr;
 		d->camera->requestCompleted.connect(d.get(), &Device::on_request_completed);
 		d->camera->disconnected.connect(d.get(), &Device::on_disconnected);
-		drv_logf(host, MOCAP_LOG_INFO, DRV ": opened '%s': %s", d->camera->id().c_str(),
+		drv_logf(host, MDRV_LOG_INFO, DRV ": opened '%s': %s", d->camera->id().c_str(),
 			 d->config->at(0).toString().c_str());
 		return d.release();
 	} catch (const std::exception &e) {
-		drv_errf(err, errlen, MOCAP_ERR_IO, DRV ": %s", e.what());
+		drv_errf(err, errlen, MDRV_ERR_IO, DRV ": %s", e.what());
 		return nullptr;
 	}
 }
 
-int drv_get_format(void *dev, mocap_format *fmt, char *, size_t)
+int drv_get_format(void *dev, mdrv_format *fmt, char *, size_t)
 {
 	*fmt = static_cast<Device *>(dev)->fmt;
-	return MOCAP_OK;
+	return MDRV_OK;
 }
 
 int drv_start(void *dev, char *err, size_t errlen)
@@ -519,19 +519,19 @@ int drv_start(void *dev, char *err, size_t errlen)
 		return st;
 	} catch (const std::exception &e) {
 		d.stop_stream();
-		return drv_errf(err, errlen, MOCAP_ERR_IO, DRV ": %s", e.what());
+		return drv_errf(err, errlen, MDRV_ERR_IO, DRV ": %s", e.what());
 	}
 }
 
-int drv_next_frame(void *dev, mocap_frame *slot, int timeout_ms, char *err, size_t errlen)
+int drv_next_frame(void *dev, mdrv_frame *slot, int timeout_ms, char *err, size_t errlen)
 {
 	try {
 		Device &d = *static_cast<Device *>(dev);
 		if (!d.running)
-			return drv_errf(err, errlen, MOCAP_ERR_IO, DRV ": next_frame before start");
+			return drv_errf(err, errlen, MDRV_ERR_IO, DRV ": next_frame before start");
 		return next_frame(d, slot, timeout_ms, err, errlen);
 	} catch (const std::exception &e) {
-		return drv_errf(err, errlen, MOCAP_ERR_IO, DRV ": %s", e.what());
+		return drv_errf(err, errlen, MDRV_ERR_IO, DRV ": %s", e.what());
 	}
 }
 
@@ -551,8 +551,8 @@ void drv_close(void *dev)
 	}
 }
 
-const mocap_driver libcamera_driver = {
-	MOCAP_DRIVER_ABI_VERSION,
+const mdrv_driver libcamera_driver = {
+	MDRV_ABI_VERSION,
 	"libcamera",
 	"cameras through libcamera (UVC, Raspberry Pi, IPU3, RkISP1, simple pipelines)",
 	drv_probe,
@@ -566,7 +566,7 @@ const mocap_driver libcamera_driver = {
 
 } /* namespace */
 
-extern "C" const mocap_driver *mocap_driver_entry(void)
+extern "C" const mdrv_driver *mdrv_entry(void)
 {
 	return &libcamera_driver;
 }

@@ -1,13 +1,13 @@
 # drivers/libcamera: cameras through libcamera (C++17 inside, C ABI outside).
 # `make check-libcamera` checks that it loads, probes, and explains a missing
 # camera; no camera that libcamera drives exists here (see docs/DRIVERS.md).
-include drivers/v4l2/common.mk
+include drivers/common/common.mk
 
 LIBCAMERA_PKG := libcamera
 LIBCAMERA_PLUGIN := $(BUILD)/drivers/mocap-driver-libcamera.so
 LIBCAMERA_OBJ := $(BUILD)/drivers/libcamera/libcamera_plugin.o $(HWDRV_COMMON_OBJ)
 
-$(BUILD)/drivers/libcamera/%.o: CPPFLAGS += -Idrivers/v4l2 $(shell $(PKG_CONFIG) --cflags $(LIBCAMERA_PKG))
+$(BUILD)/drivers/libcamera/%.o: CPPFLAGS += -Idrivers/common $(shell $(PKG_CONFIG) --cflags $(LIBCAMERA_PKG))
 
 $(LIBCAMERA_PLUGIN): $(LIBCAMERA_OBJ)
 	@mkdir -p $(@D)

@@ -1,13 +1,13 @@
 # drivers/openni2: OpenNI2 depth cameras (C++ API inside, C ABI outside).
 # `make check-openni2` streams from OpenNI2's own DummyDevice driver (synthetic
 # depth and colour through the real OpenNI2 runtime) and checks the errors.
-include drivers/v4l2/common.mk
+include drivers/common/common.mk
 
 OPENNI2_PKG := libopenni2
 OPENNI2_PLUGIN := $(BUILD)/drivers/mocap-driver-openni2.so
 OPENNI2_OBJ := $(BUILD)/drivers/openni2/openni2_plugin.o $(HWDRV_COMMON_OBJ)
 
-$(BUILD)/drivers/openni2/%.o: CPPFLAGS += -Idrivers/v4l2 $(shell $(PKG_CONFIG) --cflags $(OPENNI2_PKG))
+$(BUILD)/drivers/openni2/%.o: CPPFLAGS += -Idrivers/common $(shell $(PKG_CONFIG) --cflags $(OPENNI2_PKG))
 
 $(OPENNI2_PLUGIN): $(OPENNI2_OBJ)
 	@mkdir -p $(@D)

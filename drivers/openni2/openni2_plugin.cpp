@@ -7,7 +7,7 @@
  * openni::Device here, because OpenNI2 drivers hand out one device object
  * per URI and closing it twice crashes them.
  *
- * Depth frames are MOCAP_FMT_DEPTH16 (uint16 millimetres, 0 = no reading).
+ * Depth frames are MC_PIXFMT_DEPTH16 (uint16 millimetres, 0 = no reading).
  * Timestamps: OpenNI2 stamps frames with the device's microsecond clock; it
  * is mapped to CLOCK_MONOTONIC by the smallest arrival delay seen (the
  * least-delayed frame defines the offset), allowing 100 ppm of clock drift.
@@ -24,7 +24,7 @@
 
 extern "C" {
 #include "drv_common.h"
-#include "mocap_driver.h"
+#include "mdrv.h"
 }
 
 #define DRV "openni2"
@@ -63,11 +63,11 @@ int start_runtime(char *err, size_t errlen)
 {
 	std::lock_guard<std::mutex> g(runtime_lock);
 	if (runtime_started)
-		return MOCAP_OK;
+		return MDRV_OK;
 	if (OpenNI::initialize() != STATUS_OK)
-		return drv_errf(err, errlen, MOCAP_ERR_IO, DRV ": cannot start OpenNI2: %s", oni_error().c_str());
+		return drv_errf(err, errlen, MDRV_ERR_IO, DRV ": cannot start OpenNI2: %s", oni_error().c_str());
 	runtime_started = true;
-	return MOCAP_OK;
+	return MDRV_OK;
 }
 
 /* ---- devices shared between streams ---- */
@@ -88,7 +88,7 @@ SharedDevice *acquire_device(const std::string &uri, char *err, size_t errlen)
 	if (it == devices.end()) {
 		auto d = std::make_unique<SharedDevice>();
 		if (d->device.open(uri.c_str()) != STATUS_OK) {
-			drv_errf(err, errlen, MOCAP_ERR_NODEV, DRV ": cannot open device '%s': %s", uri.c_str(),
+			drv_errf(err, errlen, MDRV_ERR_NODEV, DRV ": cannot open device '%s': %s", uri.c_str(),
 				 oni_error().c_str());
 			return nullptr;
 		}
@@ -128,14 +128,14 @@ const char *oni_format_name(PixelFormat f)
 }
 
 /* The mocapd format for an OpenNI2 one, NONE if not taken. */
-mocap_pixfmt to_mocap(PixelFormat f, unsigned *bpp)
+mc_pixfmt to_mocap(PixelFormat f, unsigned *bpp)
 {
 	switch (f) {
-	case PIXEL_FORMAT_DEPTH_1_MM: *bpp = 2; return MOCAP_FMT_DEPTH16;
-	case PIXEL_FORMAT_RGB888: *bpp = 3; return MOCAP_FMT_RGB24;
-	case PIXEL_FORMAT_YUYV: *bpp = 2; return MOCAP_FMT_YUYV;
-	case PIXEL_FORMAT_GRAY8: *bpp = 1; return MOCAP_FMT_GRAY8;
-	default: *bpp = 0; return MOCAP_FMT_NONE;
+	case PIXEL_FORMAT_DEPTH_1_MM: *bpp = 2; return MC_PIXFMT_DEPTH16;
+	case PIXEL_FORMAT_RGB888: *bpp = 3; return MC_PIXFMT_RGB24;
+	case PIXEL_FORMAT_YUYV: *bpp = 2; return MC_PIXFMT_YUYV;
+	case PIXEL_FORMAT_GRAY8: *bpp = 1; return MC_PIXFMT_GRAY8;
+	default: *bpp = 0; return MC_PIXFMT_NONE;
 	}
 }
 
@@ -157,12 +157,12 @@ struct Settings {
 class Disconnects;
 
 struct Camera {
-	mocap_host host{};
+	mdrv_host host{};
 	Settings cfg;
 	SharedDevice *shared = nullptr;
 	VideoStream stream;
 	bool created = false, running = false;
-	mocap_format fmt{};
+	mdrv_format fmt{};
 	bool playback = false;
 	int n_frames = 0; /* frames in a recording, 0 = live */
 	bool ended = false;
@@ -208,7 +208,7 @@ Camera::~Camera()
 		release_device(cfg.uri);
 }
 
-int read_settings(const mocap_host *host, Settings &s, char *err, size_t errlen)
+int read_settings(const mdrv_host *host, Settings &s, char *err, size_t errlen)
 {
 	const char *uri = drv_cfg_str(host, "device");
 	if (uri)
@@ -232,27 +232,27 @@ int read_settings(const mocap_host *host, Settings &s, char *err, size_t errlen)
 	s.mirror_set = drv_cfg_str(host, "mirror") != nullptr;
 	s.speed_set = drv_cfg_str(host, "speed") != nullptr;
 	if ((s.width == 0) != (s.height == 0))
-		return drv_errf(err, errlen, MOCAP_ERR_CONFIG, DRV ": config keys 'width' and 'height' go together");
-	return MOCAP_OK;
+		return drv_errf(err, errlen, MDRV_ERR_CONFIG, DRV ": config keys 'width' and 'height' go together");
+	return MDRV_OK;
 }
 
 /* Without a `device` key: the only device there is. */
 int default_uri(Settings &s, char *err, size_t errlen)
 {
 	if (!s.uri.empty())
-		return MOCAP_OK;
+		return MDRV_OK;
 	Array<DeviceInfo> list;
 	OpenNI::enumerateDevices(&list);
 	if (list.getSize() == 0)
-		return drv_errf(err, errlen, MOCAP_ERR_NODEV,
+		return drv_errf(err, errlen, MDRV_ERR_NODEV,
 				DRV ": no OpenNI2 device found (is it plugged in, and readable by this user?); set "
 				    "'device' to a device URI or an .oni recording");
 	if (list.getSize() > 1)
-		return drv_errf(err, errlen, MOCAP_ERR_CONFIG,
+		return drv_errf(err, errlen, MDRV_ERR_CONFIG,
 				DRV ": %d OpenNI2 devices found; set 'device' to one of their URIs (mocapd probe)",
 				list.getSize());
 	s.uri = list[0].getUri();
-	return MOCAP_OK;
+	return MDRV_OK;
 }
 
 /* Picks the sensor's video mode that matches the config, preferring the
@@ -263,19 +263,19 @@ int choose_mode(Camera &c, const SensorInfo &info, VideoMode &out, char *err, si
 	VideoMode current = c.stream.getVideoMode();
 	auto matches = [&](const VideoMode &m) {
 		unsigned bpp;
-		return to_mocap(m.getPixelFormat(), &bpp) != MOCAP_FMT_NONE &&
+		return to_mocap(m.getPixelFormat(), &bpp) != MC_PIXFMT_NONE &&
 		       (!c.cfg.width || ((unsigned)m.getResolutionX() == c.cfg.width &&
 					 (unsigned)m.getResolutionY() == c.cfg.height)) &&
 		       (c.cfg.fps <= 0 || std::abs(m.getFps() - c.cfg.fps) < 0.5);
 	};
 	if (matches(current)) {
 		out = current;
-		return MOCAP_OK;
+		return MDRV_OK;
 	}
 	for (int i = 0; i < modes.getSize(); i++) {
 		if (matches(modes[i])) {
 			out = modes[i];
-			return MOCAP_OK;
+			return MDRV_OK;
 		}
 	}
 	std::string list;
@@ -285,7 +285,7 @@ int choose_mode(Camera &c, const SensorInfo &info, VideoMode &out, char *err, si
 			 modes[i].getResolutionY(), modes[i].getFps(), oni_format_name(modes[i].getPixelFormat()));
 		list += m;
 	}
-	return drv_errf(err, errlen, MOCAP_ERR_FORMAT,
+	return drv_errf(err, errlen, MDRV_ERR_FORMAT,
 			DRV ": '%s' %s: no mode matches%s%s (modes: %s; mocapd takes DEPTH_1_MM, RGB888, YUYV, "
 			    "GRAY8)",
 			c.cfg.uri.c_str(), c.cfg.sensor_name, c.cfg.width ? " the configured size" : "",
@@ -298,14 +298,14 @@ int setup_playback(Camera &c, char *err, size_t errlen)
 	c.playback = pc != nullptr;
 	if (!c.playback) {
 		if (c.cfg.speed_set || c.cfg.loop)
-			return drv_errf(err, errlen, MOCAP_ERR_CONFIG,
+			return drv_errf(err, errlen, MDRV_ERR_CONFIG,
 					DRV ": config keys 'speed' and 'loop' apply to .oni recordings only");
-		return MOCAP_OK;
+		return MDRV_OK;
 	}
 	pc->setRepeatEnabled(c.cfg.loop);
 	pc->setSpeed(c.cfg.speed > 0 ? (float)c.cfg.speed : 0.0f); /* 0: as fast as it reads */
 	c.n_frames = pc->getNumberOfFrames(c.stream);
-	return MOCAP_OK;
+	return MDRV_OK;
 }
 
 int open_stream(Camera &c, char *err, size_t errlen)
@@ -313,10 +313,10 @@ int open_stream(Camera &c, char *err, size_t errlen)
 	const char *uri = c.cfg.uri.c_str();
 	Device &dev = c.shared->device;
 	if (!dev.hasSensor(c.cfg.sensor))
-		return drv_errf(err, errlen, MOCAP_ERR_CONFIG, DRV ": device '%s' has no %s sensor", uri,
+		return drv_errf(err, errlen, MDRV_ERR_CONFIG, DRV ": device '%s' has no %s sensor", uri,
 				c.cfg.sensor_name);
 	if (c.stream.create(dev, c.cfg.sensor) != STATUS_OK)
-		return drv_errf(err, errlen, MOCAP_ERR_IO, DRV ": '%s': cannot create the %s stream: %s", uri,
+		return drv_errf(err, errlen, MDRV_ERR_IO, DRV ": '%s': cannot create the %s stream: %s", uri,
 				c.cfg.sensor_name, oni_error().c_str());
 	c.created = true;
 	VideoMode mode;
@@ -327,15 +327,15 @@ int open_stream(Camera &c, char *err, size_t errlen)
 	bool same = cur.getPixelFormat() == mode.getPixelFormat() && cur.getResolutionX() == mode.getResolutionX() &&
 		    cur.getResolutionY() == mode.getResolutionY() && cur.getFps() == mode.getFps();
 	if (!same && c.stream.setVideoMode(mode) != STATUS_OK)
-		return drv_errf(err, errlen, MOCAP_ERR_FORMAT, DRV ": '%s' %s: cannot set %dx%d@%d: %s", uri,
+		return drv_errf(err, errlen, MDRV_ERR_FORMAT, DRV ": '%s' %s: cannot set %dx%d@%d: %s", uri,
 				c.cfg.sensor_name, mode.getResolutionX(), mode.getResolutionY(), mode.getFps(),
 				oni_error().c_str());
 	if (c.cfg.mirror_set && c.stream.setMirroringEnabled(c.cfg.mirror) != STATUS_OK)
-		return drv_errf(err, errlen, MOCAP_ERR_CONFIG, DRV ": '%s' %s: config key 'mirror': not supported: %s",
+		return drv_errf(err, errlen, MDRV_ERR_CONFIG, DRV ": '%s' %s: config key 'mirror': not supported: %s",
 				uri, c.cfg.sensor_name, oni_error().c_str());
 	if (c.cfg.registration &&
 	    dev.setImageRegistrationMode(IMAGE_REGISTRATION_DEPTH_TO_COLOR) != STATUS_OK)
-		return drv_errf(err, errlen, MOCAP_ERR_CONFIG,
+		return drv_errf(err, errlen, MDRV_ERR_CONFIG,
 				DRV ": '%s': config key 'registration': the device cannot align depth to colour", uri);
 	if ((st = setup_playback(c, err, errlen)))
 		return st;
@@ -346,13 +346,13 @@ int open_stream(Camera &c, char *err, size_t errlen)
 	c.fmt.stride = c.fmt.width * bpp;
 	c.fmt.fps = mode.getFps();
 	c.fmt.max_bytes = (size_t)c.fmt.stride * c.fmt.height;
-	return MOCAP_OK;
+	return MDRV_OK;
 }
 
 /* Device microseconds -> CLOCK_MONOTONIC nanoseconds (see the top). */
 uint64_t map_timestamp(Camera &c, uint64_t device_us)
 {
-	uint64_t arrival = drv_monotonic_ns();
+	uint64_t arrival = mc_now_ns();
 	int64_t delay_offset = (int64_t)arrival - (int64_t)(device_us * 1000);
 	/* a clock that went back (stream restarted, recording looped) starts
 	 * a new mapping */
@@ -369,30 +369,30 @@ uint64_t map_timestamp(Camera &c, uint64_t device_us)
 	return t > 0 ? (uint64_t)t : arrival;
 }
 
-int next_frame(Camera &c, mocap_frame *slot, int timeout_ms, char *err, size_t errlen)
+int next_frame(Camera &c, mdrv_frame *slot, int timeout_ms, char *err, size_t errlen)
 {
 	if (c.gone)
-		return drv_errf(err, errlen, MOCAP_ERR_NODEV, DRV ": device '%s' was unplugged", c.cfg.uri.c_str());
+		return drv_errf(err, errlen, MDRV_ERR_NODEV, DRV ": device '%s' was unplugged", c.cfg.uri.c_str());
 	if (c.ended)
-		return drv_errf(err, errlen, MOCAP_ERR_END, DRV ": end of recording '%s'", c.cfg.uri.c_str());
+		return drv_errf(err, errlen, MDRV_ERR_END, DRV ": end of recording '%s'", c.cfg.uri.c_str());
 	VideoStream *streams[1] = {&c.stream};
 	int ready = -1;
 	Status s = OpenNI::waitForAnyStream(streams, 1, &ready, timeout_ms > 0 ? timeout_ms : 0);
 	if (s == STATUS_TIME_OUT)
-		return drv_errf(err, errlen, MOCAP_ERR_TIMEOUT, DRV ": no frame within %d ms", timeout_ms);
+		return drv_errf(err, errlen, MDRV_ERR_TIMEOUT, DRV ": no frame within %d ms", timeout_ms);
 	if (s != STATUS_OK)
-		return drv_errf(err, errlen, c.gone ? MOCAP_ERR_NODEV : MOCAP_ERR_IO, DRV ": waiting for a frame: %s",
+		return drv_errf(err, errlen, c.gone ? MDRV_ERR_NODEV : MDRV_ERR_IO, DRV ": waiting for a frame: %s",
 				oni_error().c_str());
 	VideoFrameRef f;
 	if (c.stream.readFrame(&f) != STATUS_OK || !f.isValid())
-		return drv_errf(err, errlen, c.gone ? MOCAP_ERR_NODEV : MOCAP_ERR_IO, DRV ": reading a frame: %s",
+		return drv_errf(err, errlen, c.gone ? MDRV_ERR_NODEV : MDRV_ERR_IO, DRV ": reading a frame: %s",
 				oni_error().c_str());
 	size_t size = (size_t)f.getDataSize();
 	if (size > slot->capacity)
-		return drv_errf(err, errlen, MOCAP_ERR_NOSPACE, DRV ": frame of %zu bytes, slot holds %zu", size,
+		return drv_errf(err, errlen, MDRV_ERR_NOSPACE, DRV ": frame of %zu bytes, slot holds %zu", size,
 				slot->capacity);
 	unsigned bpp;
-	mocap_pixfmt pf = to_mocap(f.getVideoMode().getPixelFormat(), &bpp);
+	mc_pixfmt pf = to_mocap(f.getVideoMode().getPixelFormat(), &bpp);
 	memcpy(slot->data, f.getData(), size);
 	slot->bytesused = size;
 	slot->format = c.fmt;
@@ -400,17 +400,17 @@ int next_frame(Camera &c, mocap_frame *slot, int timeout_ms, char *err, size_t e
 	slot->format.width = (uint32_t)f.getWidth();
 	slot->format.height = (uint32_t)f.getHeight();
 	slot->format.stride = (uint32_t)f.getStrideInBytes();
-	slot->flags = size < (size_t)slot->format.stride * slot->format.height ? MOCAP_FRAME_SHORT : 0;
+	slot->flags = size < (size_t)slot->format.stride * slot->format.height ? MDRV_FRAME_SHORT : 0;
 	slot->timestamp_ns = map_timestamp(c, f.getTimestamp());
 	slot->sequence = (uint64_t)f.getFrameIndex();
 	if (c.playback && !c.cfg.loop && c.n_frames > 0 && f.getFrameIndex() >= c.n_frames)
 		c.ended = true;
-	return MOCAP_OK;
+	return MDRV_OK;
 }
 
 /* ---- the C ABI ---- */
 
-int drv_probe(const mocap_host *host, mocap_device_info *out, int max, char *err, size_t errlen)
+int drv_probe(const mdrv_host *host, mdrv_device_info *out, int max, char *err, size_t errlen)
 {
 	(void)host;
 	try {
@@ -433,11 +433,11 @@ int drv_probe(const mocap_host *host, mocap_device_info *out, int max, char *err
 		}
 		return n;
 	} catch (const std::exception &e) {
-		return drv_errf(err, errlen, MOCAP_ERR_IO, DRV ": %s", e.what());
+		return drv_errf(err, errlen, MDRV_ERR_IO, DRV ": %s", e.what());
 	}
 }
 
-void *drv_open(const mocap_host *host, char *err, size_t errlen)
+void *drv_open(const mdrv_host *host, char *err, size_t errlen)
 {
 	try {
 		auto c = std::make_unique<Camera>();
@@ -451,44 +451,44 @@ void *drv_open(const mocap_host *host, char *err, size_t errlen)
 			return nullptr;
 		c->listener = std::make_unique<Disconnects>(c.get());
 		OpenNI::addDeviceDisconnectedListener(c->listener.get());
-		drv_logf(host, MOCAP_LOG_INFO, DRV ": opened '%s' %s: %s %ux%u, %g fps%s", c->cfg.uri.c_str(),
-			 c->cfg.sensor_name, mocap_pixfmt_name(c->fmt.pixfmt), c->fmt.width, c->fmt.height,
+		drv_logf(host, MDRV_LOG_INFO, DRV ": opened '%s' %s: %s %ux%u, %g fps%s", c->cfg.uri.c_str(),
+			 c->cfg.sensor_name, mc_pixfmt_name(c->fmt.pixfmt), c->fmt.width, c->fmt.height,
 			 c->fmt.fps, c->playback ? " (recording)" : "");
 		return c.release();
 	} catch (const std::exception &e) {
-		drv_errf(err, errlen, MOCAP_ERR_IO, DRV ": %s", e.what());
+		drv_errf(err, errlen, MDRV_ERR_IO, DRV ": %s", e.what());
 		return nullptr;
 	}
 }
 
-int drv_get_format(void *dev, mocap_format *fmt, char *, size_t)
+int drv_get_format(void *dev, mdrv_format *fmt, char *, size_t)
 {
 	*fmt = static_cast<Camera *>(dev)->fmt;
-	return MOCAP_OK;
+	return MDRV_OK;
 }
 
 int drv_start(void *dev, char *err, size_t errlen)
 {
 	Camera &c = *static_cast<Camera *>(dev);
 	if (c.running)
-		return MOCAP_OK;
+		return MDRV_OK;
 	if (c.stream.start() != STATUS_OK)
-		return drv_errf(err, errlen, c.gone ? MOCAP_ERR_NODEV : MOCAP_ERR_IO, DRV ": '%s': cannot start: %s",
+		return drv_errf(err, errlen, c.gone ? MDRV_ERR_NODEV : MDRV_ERR_IO, DRV ": '%s': cannot start: %s",
 				c.cfg.uri.c_str(), oni_error().c_str());
 	c.running = true;
 	c.have_offset = false; /* the device clock may restart with the stream */
-	return MOCAP_OK;
+	return MDRV_OK;
 }
 
-int drv_next_frame(void *dev, mocap_frame *slot, int timeout_ms, char *err, size_t errlen)
+int drv_next_frame(void *dev, mdrv_frame *slot, int timeout_ms, char *err, size_t errlen)
 {
 	Camera &c = *static_cast<Camera *>(dev);
 	if (!c.running)
-		return drv_errf(err, errlen, MOCAP_ERR_IO, DRV ": next_frame before start");
+		return drv_errf(err, errlen, MDRV_ERR_IO, DRV ": next_frame before start");
 	try {
 		return next_frame(c, slot, timeout_ms, err, errlen);
 	} catch (const std::exception &e) {
-		return drv_errf(err, errlen, MOCAP_ERR_IO, DRV ": %s", e.what());
+		return drv_errf(err, errlen, MDRV_ERR_IO, DRV ": %s", e.what());
 	}
 }
 
@@ -510,8 +510,8 @@ void drv_close(void *dev)
 	}
 }
 
-const mocap_driver openni2_driver = {
-	MOCAP_DRIVER_ABI_VERSION,
+const mdrv_driver openni2_driver = {
+	MDRV_ABI_VERSION,
 	"openni2",
 	"OpenNI2 depth cameras (depth as DEPTH16 millimetres, colour, IR) and .oni recordings",
 	drv_probe,
@@ -525,7 +525,7 @@ const mocap_driver openni2_driver = {
 
 } /* namespace */
 
-extern "C" const mocap_driver *mocap_driver_entry(void)
+extern "C" const mdrv_driver *mdrv_entry(void)
 {
 	return &openni2_driver;
 }

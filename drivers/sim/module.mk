@@ -1,11 +1,11 @@
-# drivers/sim: renders the body model driven by a BVH file (owner: ring).
-# Links the core statically and exports only mocap_driver_entry.
-include drivers/v4l2/common.mk
+# drivers/sim: renders the body model driven by a BVH file.
+# Links the core statically and exports only mdrv_entry.
+include drivers/common/common.mk
 
 SIM_PLUGIN := $(BUILD)/drivers/mocap-driver-sim.so
 SIM_OBJ := $(BUILD)/drivers/sim/sim.o
 
-$(BUILD)/drivers/sim/%.o: CPPFLAGS += -Idrivers/v4l2
+$(BUILD)/drivers/sim/%.o: CPPFLAGS += -Idrivers/common
 
 $(SIM_PLUGIN): $(SIM_OBJ) $(HWDRV_COMMON_OBJ) $(CORE_LIB)
 	@mkdir -p $(@D)

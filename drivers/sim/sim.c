@@ -2,11 +2,11 @@
  * by motion capture, through a calibrated rig camera.
  *
  * Each frame: the BVH skeleton's pose at the frame's motion time gives the
- * positions of the DESIGN.md joints (core/mc_bvh.h documents the mapping of
+ * positions of the DESIGN.md joints (core/body/mc_bvh.h documents the mapping of
  * both CMU namings), scaled to the actor's height and expressed relative to
  * the BVH Head joint.  The egocentric model's root (the head) is fixed to
  * the rig at model->rig_from_root, so those positions are carried into the
- * rig frame through it; inverse kinematics (core/mc_ik.h) poses the model on
+ * rig frame through it; inverse kinematics (core/body/mc_ik.h) poses the model on
  * them, with bone lengths fitted once from the BVH rest pose; the image is
  * the model's image formation (mc_ray_render_rgb, thesis eq. 4.10 and 5.5)
  * along every pixel's ray, over a uniform background.  Pixels outside the
@@ -38,12 +38,12 @@
  * renderer is the reference CPU model: at 256x256 a frame takes on the order
  * of a second, so for live rates ask for a smaller width and height. */
 #include "drv_common.h"
-#include "mc_bvh.h"
-#include "mc_energy.h"
-#include "mc_ik.h"
-#include "mc_model.h"
-#include "mc_rig.h"
-#include "mocap_driver.h"
+#include "body/mc_bvh.h"
+#include "energy/mc_energy.h"
+#include "body/mc_ik.h"
+#include "body/mc_model.h"
+#include "geom/mc_rig.h"
+#include "mdrv.h"
 
 #include <math.h>
 #include <stdio.h>
@@ -54,7 +54,7 @@
 #define DEFAULT_MODEL "config/models/default.json"
 
 typedef struct {
-	const mocap_host *host;
+	const mdrv_host *host;
 	mc_bvh bvh;
 	int bvh_index[MC_BVH_CMU_JOINTS];
 	double metres_per_unit;
@@ -69,7 +69,7 @@ typedef struct {
 	double rate, start_s;
 	bool loop, epoch_given;
 	uint64_t epoch_ns;
-	mocap_format fmt;
+	mdrv_format fmt;
 	bool started;
 	uint64_t k; /* frames delivered since start() */
 } sim_dev;
@@ -90,43 +90,43 @@ static int parse_colour(const char *s, double rgb[3])
 
 static int load_inputs(sim_dev *d, char *err, size_t errlen)
 {
-	const mocap_host *h = d->host;
+	const mdrv_host *h = d->host;
 	mc_err e;
 	const char *bvh = drv_cfg_str(h, "bvh"), *rig = drv_cfg_str(h, "rig"), *model = drv_cfg_str(h, "model");
 	if (!bvh)
-		return drv_errf(err, errlen, MOCAP_ERR_CONFIG, "%s: config key 'bvh' is required (a CMU BVH file)", DRV);
+		return drv_errf(err, errlen, MDRV_ERR_CONFIG, "%s: config key 'bvh' is required (a CMU BVH file)", DRV);
 	if (!rig)
-		return drv_errf(err, errlen, MOCAP_ERR_CONFIG, "%s: config key 'rig' is required (a rig JSON file)", DRV);
+		return drv_errf(err, errlen, MDRV_ERR_CONFIG, "%s: config key 'rig' is required (a rig JSON file)", DRV);
 	if (!model)
 		model = DEFAULT_MODEL;
 	if (mc_bvh_load(bvh, &d->bvh, &e) != 0)
-		return drv_errf(err, errlen, MOCAP_ERR_CONFIG, "%s: config key 'bvh': %s", DRV, e.msg);
+		return drv_errf(err, errlen, MDRV_ERR_CONFIG, "%s: config key 'bvh': %s", DRV, e.msg);
 	if (d->bvh.nframes == 0)
-		return drv_errf(err, errlen, MOCAP_ERR_CONFIG, "%s: config key 'bvh': %s has no frames", DRV, bvh);
+		return drv_errf(err, errlen, MDRV_ERR_CONFIG, "%s: config key 'bvh': %s has no frames", DRV, bvh);
 	if (mc_bvh_map_cmu(&d->bvh, d->bvh_index, &e) != 0)
-		return drv_errf(err, errlen, MOCAP_ERR_CONFIG, "%s: config key 'bvh': %s: %s", DRV, bvh, e.msg);
+		return drv_errf(err, errlen, MDRV_ERR_CONFIG, "%s: config key 'bvh': %s: %s", DRV, bvh, e.msg);
 	if (mc_rig_load(rig, &d->rig, &e) != 0)
-		return drv_errf(err, errlen, MOCAP_ERR_CONFIG, "%s: config key 'rig': %s", DRV, e.msg);
+		return drv_errf(err, errlen, MDRV_ERR_CONFIG, "%s: config key 'rig': %s", DRV, e.msg);
 	if (d->rig.kind != MC_RIG_EGOCENTRIC)
-		return drv_errf(err, errlen, MOCAP_ERR_CONFIG,
+		return drv_errf(err, errlen, MDRV_ERR_CONFIG,
 				"%s: config key 'rig': %s is outside-in; the sim driver renders egocentric rigs only", DRV,
 				rig);
 	if (mc_model_load(model, &d->model, &e) != 0)
-		return drv_errf(err, errlen, MOCAP_ERR_CONFIG, "%s: config key 'model': %s", DRV, e.msg);
+		return drv_errf(err, errlen, MDRV_ERR_CONFIG, "%s: config key 'model': %s", DRV, e.msg);
 	if (d->model.root_free)
-		return drv_errf(err, errlen, MOCAP_ERR_CONFIG,
+		return drv_errf(err, errlen, MDRV_ERR_CONFIG,
 				"%s: config key 'model': %s has a free root; an egocentric rig needs a fixed one", DRV, model);
 	const char *cam = drv_cfg_str(h, "camera");
 	d->cam = cam ? mc_rig_find(&d->rig, cam) : 0;
 	if (d->cam < 0)
-		return drv_errf(err, errlen, MOCAP_ERR_CONFIG, "%s: config key 'camera': rig %s has no camera '%s'", DRV,
+		return drv_errf(err, errlen, MDRV_ERR_CONFIG, "%s: config key 'camera': rig %s has no camera '%s'", DRV,
 				rig, cam);
-	return MOCAP_OK;
+	return MDRV_OK;
 }
 
 static int parse_options(sim_dev *d, unsigned *width, unsigned *height, double *height_m, char *err, size_t errlen)
 {
-	const mocap_host *h = d->host;
+	const mdrv_host *h = d->host;
 	const mc_camera *cam = &d->rig.cams[d->cam];
 	*width = (unsigned)cam->width;
 	*height = (unsigned)cam->height;
@@ -134,21 +134,21 @@ static int parse_options(sim_dev *d, unsigned *width, unsigned *height, double *
 	d->rate = 30;
 	d->hide_head = true;
 	int rc;
-	if ((rc = drv_cfg_uint(h, DRV, "width", 1, 8192, width, err, errlen)) != MOCAP_OK ||
-	    (rc = drv_cfg_uint(h, DRV, "height", 1, 8192, height, err, errlen)) != MOCAP_OK ||
-	    (rc = drv_cfg_double(h, DRV, "rate", 0, 1000, &d->rate, err, errlen)) != MOCAP_OK ||
-	    (rc = drv_cfg_bool(h, DRV, "loop", &d->loop, err, errlen)) != MOCAP_OK ||
-	    (rc = drv_cfg_double(h, DRV, "height_m", 0.5, 2.5, height_m, err, errlen)) != MOCAP_OK ||
-	    (rc = drv_cfg_double(h, DRV, "start", 0, 1e6, &d->start_s, err, errlen)) != MOCAP_OK ||
-	    (rc = drv_cfg_bool(h, DRV, "hide_head", &d->hide_head, err, errlen)) != MOCAP_OK ||
-	    (rc = drv_cfg_monotonic_ns(h, DRV, "epoch", &d->epoch_ns, &d->epoch_given, err, errlen)) != MOCAP_OK)
+	if ((rc = drv_cfg_uint(h, DRV, "width", 1, 8192, width, err, errlen)) != MDRV_OK ||
+	    (rc = drv_cfg_uint(h, DRV, "height", 1, 8192, height, err, errlen)) != MDRV_OK ||
+	    (rc = drv_cfg_double(h, DRV, "rate", 0, 1000, &d->rate, err, errlen)) != MDRV_OK ||
+	    (rc = drv_cfg_bool(h, DRV, "loop", &d->loop, err, errlen)) != MDRV_OK ||
+	    (rc = drv_cfg_double(h, DRV, "height_m", 0.5, 2.5, height_m, err, errlen)) != MDRV_OK ||
+	    (rc = drv_cfg_double(h, DRV, "start", 0, 1e6, &d->start_s, err, errlen)) != MDRV_OK ||
+	    (rc = drv_cfg_bool(h, DRV, "hide_head", &d->hide_head, err, errlen)) != MDRV_OK ||
+	    (rc = drv_cfg_monotonic_ns(h, DRV, "epoch", &d->epoch_ns, &d->epoch_given, err, errlen)) != MDRV_OK)
 		return rc;
 	const char *bg = drv_cfg_str(h, "background");
 	d->background[0] = d->background[1] = d->background[2] = 0.5;
 	if (bg && parse_colour(bg, d->background) != 0)
-		return drv_errf(err, errlen, MOCAP_ERR_CONFIG, "%s: config key 'background': expected #rrggbb, got '%s'",
+		return drv_errf(err, errlen, MDRV_ERR_CONFIG, "%s: config key 'background': expected #rrggbb, got '%s'",
 				DRV, bg);
-	return MOCAP_OK;
+	return MDRV_OK;
 }
 
 /* ---- motion ---- */
@@ -171,7 +171,7 @@ static int fit_actor(sim_dev *d, double height_m, char *err, size_t errlen)
 {
 	double rest = mc_bvh_rest_height(&d->bvh);
 	if (!(rest > 0))
-		return drv_errf(err, errlen, MOCAP_ERR_CONFIG, "%s: config key 'bvh': the skeleton has no height", DRV);
+		return drv_errf(err, errlen, MDRV_ERR_CONFIG, "%s: config key 'bvh': the skeleton has no height", DRV);
 	d->metres_per_unit = height_m / rest;
 	for (int i = 0; i < MC_BVH_CMU_JOINTS; i++)
 		d->ik_joint[i] = mc_model_find_joint(&d->model, mc_bvh_cmu_joint_name(i));
@@ -181,10 +181,10 @@ static int fit_actor(sim_dev *d, double height_m, char *err, size_t errlen)
 	int n;
 	targets_at(d, &rest_pose, 0, t, &n);
 	if (n < 8)
-		return drv_errf(err, errlen, MOCAP_ERR_CONFIG, "%s: the model has only %d of the mapped joints", DRV, n);
+		return drv_errf(err, errlen, MDRV_ERR_CONFIG, "%s: the model has only %d of the mapped joints", DRV, n);
 	mc_ik_fit_bone_scale(&d->model, t, n);
 	mc_model_rest_pose(&d->model, d->pose);
-	return MOCAP_OK;
+	return MDRV_OK;
 }
 
 /* Poses the model on BVH frame f (warm-started from the previous frame). */
@@ -200,8 +200,8 @@ static int pose_at(sim_dev *d, int f, char *err, size_t errlen)
 	o.iterations = 30;
 	mc_err e;
 	if (mc_ik_solve(&d->model, d->pose, t, n, &o, &e) < 0)
-		return drv_errf(err, errlen, MOCAP_ERR_IO, "%s: inverse kinematics at BVH frame %d: %s", DRV, f, e.msg);
-	return MOCAP_OK;
+		return drv_errf(err, errlen, MDRV_ERR_IO, "%s: inverse kinematics at BVH frame %d: %s", DRV, f, e.msg);
+	return MDRV_OK;
 }
 
 static void render(const sim_dev *d, uint8_t *rgb)
@@ -240,7 +240,7 @@ static void render(const sim_dev *d, uint8_t *rgb)
 
 /* ---- the ABI ---- */
 
-static int sim_probe(const mocap_host *host, mocap_device_info *out, int max, char *err, size_t errlen)
+static int sim_probe(const mdrv_host *host, mdrv_device_info *out, int max, char *err, size_t errlen)
 {
 	(void)host, (void)out, (void)max, (void)err, (void)errlen;
 	return 0;
@@ -256,28 +256,28 @@ static void sim_close(void *dev)
 	free(d);
 }
 
-static void *sim_open(const mocap_host *host, char *err, size_t errlen)
+static void *sim_open(const mdrv_host *host, char *err, size_t errlen)
 {
 	sim_dev *d = calloc(1, sizeof(*d));
 	if (!d) {
-		drv_errf(err, errlen, MOCAP_ERR_IO, "%s: out of memory", DRV);
+		drv_errf(err, errlen, MDRV_ERR_IO, "%s: out of memory", DRV);
 		return NULL;
 	}
 	d->host = host;
 	unsigned w, h;
 	double height_m;
 	mc_err e;
-	if (load_inputs(d, err, errlen) != MOCAP_OK || parse_options(d, &w, &h, &height_m, err, errlen) != MOCAP_OK ||
-	    fit_actor(d, height_m, err, errlen) != MOCAP_OK)
+	if (load_inputs(d, err, errlen) != MDRV_OK || parse_options(d, &w, &h, &height_m, err, errlen) != MDRV_OK ||
+	    fit_actor(d, height_m, err, errlen) != MDRV_OK)
 		goto fail;
 	if (mc_raytable_build(&d->rig.cams[d->cam], (int)w, (int)h, &d->rays, &e) != 0) {
-		drv_errf(err, errlen, MOCAP_ERR_CONFIG, "%s: camera '%s' at %ux%u: %s", DRV, d->rig.cams[d->cam].name, w,
+		drv_errf(err, errlen, MDRV_ERR_CONFIG, "%s: camera '%s' at %ux%u: %s", DRV, d->rig.cams[d->cam].name, w,
 			 h, e.msg);
 		goto fail;
 	}
-	d->fmt = (mocap_format){.pixfmt = MOCAP_FMT_RGB24, .width = w, .height = h, .stride = w * 3, .fps = d->rate,
+	d->fmt = (mdrv_format){.pixfmt = MC_PIXFMT_RGB24, .width = w, .height = h, .stride = w * 3, .fps = d->rate,
 				.max_bytes = (size_t)w * h * 3};
-	drv_logf(host, MOCAP_LOG_INFO, "%s: %d BVH frames at %.0f Hz, camera '%s' at %ux%u, %g fps%s", DRV,
+	drv_logf(host, MDRV_LOG_INFO, "%s: %d BVH frames at %.0f Hz, camera '%s' at %ux%u, %g fps%s", DRV,
 		 d->bvh.nframes, 1.0 / d->bvh.frame_time, d->rig.cams[d->cam].name, w, h, d->rate,
 		 d->loop ? ", looping" : "");
 	return d;
@@ -286,11 +286,11 @@ fail:
 	return NULL;
 }
 
-static int sim_get_format(void *dev, mocap_format *fmt, char *err, size_t errlen)
+static int sim_get_format(void *dev, mdrv_format *fmt, char *err, size_t errlen)
 {
 	(void)err, (void)errlen;
 	*fmt = ((sim_dev *)dev)->fmt;
-	return MOCAP_OK;
+	return MDRV_OK;
 }
 
 static int sim_start(void *dev, char *err, size_t errlen)
@@ -298,57 +298,57 @@ static int sim_start(void *dev, char *err, size_t errlen)
 	(void)err, (void)errlen;
 	sim_dev *d = dev;
 	if (!d->epoch_given)
-		d->epoch_ns = drv_monotonic_ns();
+		d->epoch_ns = mc_now_ns();
 	d->k = 0;
 	d->started = true;
-	return MOCAP_OK;
+	return MDRV_OK;
 }
 
 static void sim_stop(void *dev) { ((sim_dev *)dev)->started = false; }
 
-static int sim_next_frame(void *dev, mocap_frame *slot, int timeout_ms, char *err, size_t errlen)
+static int sim_next_frame(void *dev, mdrv_frame *slot, int timeout_ms, char *err, size_t errlen)
 {
 	sim_dev *d = dev;
 	if (!d->started)
-		return drv_errf(err, errlen, MOCAP_ERR_IO, "%s: next_frame before start", DRV);
+		return drv_errf(err, errlen, MDRV_ERR_IO, "%s: next_frame before start", DRV);
 	double period = d->rate > 0 ? 1.0 / d->rate : 1.0 / 30;
 	double duration = d->bvh.nframes * d->bvh.frame_time;
 	double t = d->start_s + (double)d->k * period;
 	if (d->loop)
 		t = fmod(t, duration);
 	else if (t > duration - d->bvh.frame_time * 0.5)
-		return drv_errf(err, errlen, MOCAP_ERR_END, "%s: end of the motion (%.2f s)", DRV, duration);
+		return drv_errf(err, errlen, MDRV_ERR_END, "%s: end of the motion (%.2f s)", DRV, duration);
 	if (slot->capacity < d->fmt.max_bytes)
-		return drv_errf(err, errlen, MOCAP_ERR_NOSPACE, "%s: a %ux%u RGB frame needs %zu bytes, the slot holds %zu",
+		return drv_errf(err, errlen, MDRV_ERR_NOSPACE, "%s: a %ux%u RGB frame needs %zu bytes, the slot holds %zu",
 				DRV, d->fmt.width, d->fmt.height, d->fmt.max_bytes, slot->capacity);
 	uint64_t ts = 0;
 	if (d->rate > 0) {
 		ts = d->epoch_ns + (uint64_t)((double)d->k * 1e9 / d->rate + 0.5);
-		uint64_t now = drv_monotonic_ns();
+		uint64_t now = mc_now_ns();
 		if (ts > now && timeout_ms >= 0 && ts - now > (uint64_t)timeout_ms * 1000000ull) {
-			drv_sleep_until_ns(now + (uint64_t)timeout_ms * 1000000ull);
-			return drv_errf(err, errlen, MOCAP_ERR_TIMEOUT, "%s: next frame due later", DRV);
+			mc_sleep_until_ns(now + (uint64_t)timeout_ms * 1000000ull);
+			return drv_errf(err, errlen, MDRV_ERR_TIMEOUT, "%s: next frame due later", DRV);
 		}
 	}
 	int f = (int)lround(t / d->bvh.frame_time);
 	int rc = pose_at(d, f, err, errlen);
-	if (rc != MOCAP_OK)
+	if (rc != MDRV_OK)
 		return rc;
 	render(d, slot->data);
 	if (d->rate > 0)
-		drv_sleep_until_ns(ts); /* rendered ahead of time: wait for the frame's moment */
+		mc_sleep_until_ns(ts); /* rendered ahead of time: wait for the frame's moment */
 	else
-		ts = drv_monotonic_ns();
+		ts = mc_now_ns();
 	slot->bytesused = d->fmt.max_bytes;
 	slot->timestamp_ns = ts;
 	slot->sequence = d->k++;
 	slot->flags = 0;
 	slot->format = d->fmt;
-	return MOCAP_OK;
+	return MDRV_OK;
 }
 
-static const mocap_driver sim_driver = {
-	.abi_version = MOCAP_DRIVER_ABI_VERSION,
+static const mdrv_driver sim_driver = {
+	.abi_version = MDRV_ABI_VERSION,
 	.name = DRV,
 	.description = "renders the body model driven by a BVH file through a rig camera",
 	.probe = sim_probe,
@@ -360,4 +360,4 @@ static const mocap_driver sim_driver = {
 	.close = sim_close,
 };
 
-const mocap_driver *mocap_driver_entry(void) { return &sim_driver; }
+const mdrv_driver *mdrv_entry(void) { return &sim_driver; }

@@ -1,14 +1,14 @@
 # drivers/usb: USB cameras by vendor/product/serial with hotplug (libusb),
 # delegating to the V4L2 code of drivers/v4l2.  `make check-usb` tests the
 # sysfs mapping on a fake sysfs tree and the plugin with no camera present.
-include drivers/v4l2/common.mk
+include drivers/common/common.mk
 
 USB_PKG := libusb-1.0
 USB_PLUGIN := $(BUILD)/drivers/mocap-driver-usb.so
 USB_OBJ := $(BUILD)/drivers/usb/usb_plugin.o $(BUILD)/drivers/v4l2/drv_v4l2.o $(BUILD)/drivers/v4l2/drv_sysfs.o \
 	$(HWDRV_COMMON_OBJ)
 
-$(BUILD)/drivers/usb/%.o: CPPFLAGS += -Idrivers/v4l2 $(shell $(PKG_CONFIG) --cflags $(USB_PKG))
+$(BUILD)/drivers/usb/%.o: CPPFLAGS += -Idrivers/common -Idrivers/v4l2 $(shell $(PKG_CONFIG) --cflags $(USB_PKG))
 
 $(USB_PLUGIN): $(USB_OBJ)
 	@mkdir -p $(@D)

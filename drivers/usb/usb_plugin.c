@@ -10,7 +10,7 @@
  * and delegates formats, controls and frames to the V4L2 code.  open()
  * succeeds whether or not the camera is there; while it is absent,
  * next_frame() waits up to its timeout for it to arrive and then returns
- * MOCAP_ERR_NODEV, so a host that keeps calling gets frames as soon as the
+ * MDRV_ERR_NODEV, so a host that keeps calling gets frames as soon as the
  * camera is back, and a host that closes and reopens on NODEV works too.
  *
  * The USB device is never opened through libusb (the kernel's uvcvideo
@@ -28,7 +28,7 @@
 #include "drv_common.h"
 #include "drv_sysfs.h"
 #include "drv_v4l2.h"
-#include "mocap_driver.h"
+#include "mdrv.h"
 
 #define DRV "usb"
 #define SYSFS "/sys"
@@ -43,7 +43,7 @@
 #define MAX_USB_DEVICES 128
 
 typedef struct {
-	mocap_host host;
+	mdrv_host host;
 	uint16_t vendor, product;
 	char serial[64]; /* "" = any */
 	char port[64];   /* "" = any */
@@ -79,7 +79,7 @@ static int parse_device_key(usb_dev *u, const char *v, char *err, size_t errlen)
 	unsigned vid, pid;
 	int used = 0;
 	if (sscanf(v, "%4x:%4x%n", &vid, &pid, &used) != 2 || (v[used] && v[used] != ':'))
-		return drv_errf(err, errlen, MOCAP_ERR_CONFIG,
+		return drv_errf(err, errlen, MDRV_ERR_CONFIG,
 				DRV ": config key 'device': expected VENDOR:PRODUCT[:SERIAL] in hex, e.g. 046d:0825, "
 				    "got '%s'",
 				v);
@@ -87,10 +87,10 @@ static int parse_device_key(usb_dev *u, const char *v, char *err, size_t errlen)
 	u->product = (uint16_t)pid;
 	if (v[used] == ':')
 		drv_strlcpy(u->serial, v + used + 1, sizeof u->serial);
-	return MOCAP_OK;
+	return MDRV_OK;
 }
 
-static int parse_config(usb_dev *u, const mocap_host *host, char *err, size_t errlen)
+static int parse_config(usb_dev *u, const mdrv_host *host, char *err, size_t errlen)
 {
 	bool has_vendor = false, has_product = false;
 	int st;
@@ -101,7 +101,7 @@ static int parse_config(usb_dev *u, const mocap_host *host, char *err, size_t er
 	    (st = drv_cfg_hex16(host, DRV, "product", &u->product, &has_product, err, errlen)))
 		return st;
 	if (!device && (!has_vendor || !has_product))
-		return drv_errf(err, errlen, MOCAP_ERR_CONFIG,
+		return drv_errf(err, errlen, MDRV_ERR_CONFIG,
 				DRV ": config needs 'vendor' and 'product' (USB ids in hex, e.g. 046d and 0825; "
 				    "see lsusb), or 'device' = VENDOR:PRODUCT[:SERIAL]");
 	const char *serial = drv_cfg_str(host, "serial");
@@ -112,7 +112,7 @@ static int parse_config(usb_dev *u, const mocap_host *host, char *err, size_t er
 		return st;
 	snprintf(u->what, sizeof u->what, "USB camera %04x:%04x%s%s%s%s", u->vendor, u->product,
 		 u->serial[0] ? " serial " : "", u->serial, u->port[0] ? " on port " : "", u->port);
-	return MOCAP_OK;
+	return MDRV_OK;
 }
 
 /* Looks for the configured camera in sysfs (libusb's own device list only
@@ -146,55 +146,55 @@ static void detach(usb_dev *u, const char *why)
 		return;
 	drv_v4l2_close(u->cam);
 	u->cam = NULL;
-	drv_logf(&u->host, MOCAP_LOG_WARN, DRV ": %s %s", u->what, why);
+	drv_logf(&u->host, MDRV_LOG_WARN, DRV ": %s %s", u->what, why);
 }
 
-/* Opens the camera's V4L2 node if the camera is there.  MOCAP_OK when it is
- * open, MOCAP_ERR_NODEV when absent, or the V4L2 code's error. */
+/* Opens the camera's V4L2 node if the camera is there.  MDRV_OK when it is
+ * open, MDRV_ERR_NODEV when absent, or the V4L2 code's error. */
 static int try_attach(usb_dev *u, char *err, size_t errlen)
 {
 	if (u->cam)
-		return MOCAP_OK;
-	uint64_t now = drv_monotonic_ns();
+		return MDRV_OK;
+	uint64_t now = mc_now_ns();
 	uint64_t interval = u->hotplug ? SCAN_INTERVAL_HOTPLUG_NS : SCAN_INTERVAL_NS;
 	if (!u->bus_changed && u->last_scan_ns && now - u->last_scan_ns < interval)
-		return MOCAP_ERR_NODEV; /* nothing announced, looked recently */
+		return MDRV_ERR_NODEV; /* nothing announced, looked recently */
 	u->bus_changed = false;
 	u->last_scan_ns = now;
 	char node[32], path[64];
 	int where = find_camera(u, node, sizeof node);
 	if (where == 1) {
-		drv_logf(&u->host, MOCAP_LOG_DEBUG, DRV ": %s is on the bus without a video node (yet)", u->what);
+		drv_logf(&u->host, MDRV_LOG_DEBUG, DRV ": %s is on the bus without a video node (yet)", u->what);
 		u->last_scan_ns = now - interval + SCAN_PENDING_NS;
 	}
 	if (where != 0)
-		return MOCAP_ERR_NODEV;
+		return MDRV_ERR_NODEV;
 	snprintf(path, sizeof path, "/dev/%s", node);
 	int st;
 	u->cam = drv_v4l2_open(path, &u->settings, &u->host, DRV, &st, err, errlen);
 	if (!u->cam) {
 		/* udev may still be setting the node's permissions: look again */
-		if (st == MOCAP_ERR_NODEV || st == MOCAP_ERR_IO)
+		if (st == MDRV_ERR_NODEV || st == MDRV_ERR_IO)
 			u->bus_changed = true;
 		return st;
 	}
-	drv_logf(&u->host, MOCAP_LOG_INFO, DRV ": %s arrived as %s (bus %u device %u)", u->what, path, u->busnum,
+	drv_logf(&u->host, MDRV_LOG_INFO, DRV ": %s arrived as %s (bus %u device %u)", u->what, path, u->busnum,
 		 u->devnum);
-	if (u->started && (st = drv_v4l2_start(u->cam, err, errlen)) != MOCAP_OK) {
+	if (u->started && (st = drv_v4l2_start(u->cam, err, errlen)) != MDRV_OK) {
 		detach(u, "could not start streaming");
 		return st;
 	}
 	/* Sequence numbers go on across replugs, leaving out as many numbers
 	 * as frames were missed while the camera was away (at least one). */
 	if (u->delivered) {
-		mocap_format fmt;
+		mdrv_format fmt;
 		drv_v4l2_get_format(u->cam, &fmt);
-		double away_s = (double)(drv_monotonic_ns() - u->last_frame_ns) * 1e-9;
+		double away_s = (double)(mc_now_ns() - u->last_frame_ns) * 1e-9;
 		uint64_t missed = fmt.fps > 0 ? (uint64_t)(away_s * fmt.fps) : 1;
 		u->sequence_base = u->last_sequence + 1 + (missed ? missed : 1);
 	}
 	u->have_base = false;
-	return MOCAP_OK;
+	return MDRV_OK;
 }
 
 /* Lets libusb deliver hotplug callbacks, waiting at most `wait_ms`. */
@@ -211,19 +211,19 @@ static void pump_events(usb_dev *u, int wait_ms)
 
 static void drv_close(void *dev);
 
-static void *drv_open(const mocap_host *host, char *err, size_t errlen)
+static void *drv_open(const mdrv_host *host, char *err, size_t errlen)
 {
 	usb_dev *u = calloc(1, sizeof *u);
 	if (!u) {
-		drv_errf(err, errlen, MOCAP_ERR_IO, DRV ": out of memory");
+		drv_errf(err, errlen, MDRV_ERR_IO, DRV ": out of memory");
 		return NULL;
 	}
 	u->host = *host;
-	if (parse_config(u, host, err, errlen) != MOCAP_OK)
+	if (parse_config(u, host, err, errlen) != MDRV_OK)
 		goto fail;
 	int r = libusb_init(&u->usb);
 	if (r != 0) {
-		drv_errf(err, errlen, MOCAP_ERR_IO, DRV ": cannot start libusb: %s", libusb_strerror(r));
+		drv_errf(err, errlen, MDRV_ERR_IO, DRV ": cannot start libusb: %s", libusb_strerror(r));
 		u->usb = NULL;
 		goto fail;
 	}
@@ -235,9 +235,9 @@ static void *drv_open(const mocap_host *host, char *err, size_t errlen)
 		u->hotplug = r == LIBUSB_SUCCESS;
 	}
 	if (!u->hotplug)
-		drv_logf(host, MOCAP_LOG_INFO, DRV ": no USB hotplug events here; listing the bus twice a second");
+		drv_logf(host, MDRV_LOG_INFO, DRV ": no USB hotplug events here; listing the bus twice a second");
 	int st = try_attach(u, err, errlen);
-	if (st != MOCAP_OK && st != MOCAP_ERR_NODEV)
+	if (st != MDRV_OK && st != MDRV_ERR_NODEV)
 		goto fail; /* there, but its format or controls are wrong */
 	if (!u->cam) {
 		/* The ctrl.NAME keys are read when the camera's controls are
@@ -245,7 +245,7 @@ static void *drv_open(const mocap_host *host, char *err, size_t errlen)
 		 * for unread keys to count every ctrl.* key as read (a host
 		 * without that convention answers NULL; see docs/DRIVERS.md). */
 		drv_cfg_str(host, "ctrl.*");
-		drv_logf(host, MOCAP_LOG_INFO, DRV ": waiting for %s to be plugged in", u->what);
+		drv_logf(host, MDRV_LOG_INFO, DRV ": waiting for %s to be plugged in", u->what);
 	}
 	return u;
 fail:
@@ -254,11 +254,11 @@ fail:
 }
 
 /* The format from the config alone, for when the camera is not there. */
-static int configured_format(usb_dev *u, mocap_format *fmt, char *err, size_t errlen)
+static int configured_format(usb_dev *u, mdrv_format *fmt, char *err, size_t errlen)
 {
 	const drv_v4l2_settings *s = &u->settings;
 	if (!s->fourcc || !s->width)
-		return drv_errf(err, errlen, MOCAP_ERR_NODEV,
+		return drv_errf(err, errlen, MDRV_ERR_NODEV,
 				DRV ": %s is not plugged in, and without it the format is unknown: give "
 				    "pixel_format, width and height in the config",
 				u->what);
@@ -267,23 +267,23 @@ static int configured_format(usb_dev *u, mocap_format *fmt, char *err, size_t er
 	fmt->height = s->height;
 	fmt->fps = s->fps;
 	if (s->fourcc == V4L2_PIX_FMT_MJPEG) {
-		fmt->pixfmt = MOCAP_FMT_MJPEG;
+		fmt->pixfmt = MC_PIXFMT_MJPEG;
 		fmt->max_bytes = (size_t)s->width * s->height * 2; /* what UVC cameras announce */
 	} else {
 		bool yuyv = s->fourcc == V4L2_PIX_FMT_YUYV;
-		fmt->pixfmt = yuyv ? MOCAP_FMT_YUYV : MOCAP_FMT_GRAY8;
+		fmt->pixfmt = yuyv ? MC_PIXFMT_YUYV : MC_PIXFMT_GRAY8;
 		fmt->stride = s->width * (yuyv ? 2 : 1);
 		fmt->max_bytes = (size_t)fmt->stride * s->height;
 	}
-	return MOCAP_OK;
+	return MDRV_OK;
 }
 
-static int drv_get_format(void *dev, mocap_format *fmt, char *err, size_t errlen)
+static int drv_get_format(void *dev, mdrv_format *fmt, char *err, size_t errlen)
 {
 	usb_dev *u = dev;
 	if (u->cam) {
 		drv_v4l2_get_format(u->cam, fmt);
-		return MOCAP_OK;
+		return MDRV_OK;
 	}
 	return configured_format(u, fmt, err, errlen);
 }
@@ -293,47 +293,47 @@ static int drv_start(void *dev, char *err, size_t errlen)
 	usb_dev *u = dev;
 	u->started = true;
 	if (!u->cam)
-		return MOCAP_OK; /* streams from when it arrives */
+		return MDRV_OK; /* streams from when it arrives */
 	int st = drv_v4l2_start(u->cam, err, errlen);
-	if (st == MOCAP_ERR_NODEV)
+	if (st == MDRV_ERR_NODEV)
 		detach(u, "was unplugged");
 	return st;
 }
 
 static int absent_error(usb_dev *u, char *err, size_t errlen)
 {
-	return drv_errf(err, errlen, MOCAP_ERR_NODEV, DRV ": %s is not plugged in", u->what);
+	return drv_errf(err, errlen, MDRV_ERR_NODEV, DRV ": %s is not plugged in", u->what);
 }
 
-static int drv_next_frame(void *dev, mocap_frame *slot, int timeout_ms, char *err, size_t errlen)
+static int drv_next_frame(void *dev, mdrv_frame *slot, int timeout_ms, char *err, size_t errlen)
 {
 	usb_dev *u = dev;
 	if (!u->started)
-		return drv_errf(err, errlen, MOCAP_ERR_IO, DRV ": next_frame before start");
-	uint64_t deadline = drv_monotonic_ns() + (uint64_t)(timeout_ms > 0 ? timeout_ms : 0) * 1000000u;
+		return drv_errf(err, errlen, MDRV_ERR_IO, DRV ": next_frame before start");
+	uint64_t deadline = mc_now_ns() + (uint64_t)(timeout_ms > 0 ? timeout_ms : 0) * 1000000u;
 	pump_events(u, 0);
 	/* wait for the camera to arrive, within the timeout */
 	while (!u->cam) {
 		int st = try_attach(u, err, errlen);
-		if (st != MOCAP_OK && st != MOCAP_ERR_NODEV)
+		if (st != MDRV_OK && st != MDRV_ERR_NODEV)
 			return st;
 		if (u->cam)
 			break;
-		uint64_t now = drv_monotonic_ns();
+		uint64_t now = mc_now_ns();
 		if (now >= deadline)
 			return absent_error(u, err, errlen);
 		uint64_t left_ms = (deadline - now) / 1000000u;
 		pump_events(u, (int)(left_ms < 100 ? left_ms : 100));
 	}
-	uint64_t now = drv_monotonic_ns();
+	uint64_t now = mc_now_ns();
 	int left_ms = now >= deadline ? 0 : (int)((deadline - now) / 1000000u);
 	int st = drv_v4l2_next_frame(u->cam, slot, left_ms, err, errlen);
-	if (st == MOCAP_ERR_NODEV) {
+	if (st == MDRV_ERR_NODEV) {
 		detach(u, "was unplugged");
 		u->bus_changed = true; /* it may come back on another node */
-		return drv_errf(err, errlen, MOCAP_ERR_NODEV, DRV ": %s was unplugged", u->what);
+		return drv_errf(err, errlen, MDRV_ERR_NODEV, DRV ": %s was unplugged", u->what);
 	}
-	if (st == MOCAP_OK) {
+	if (st == MDRV_OK) {
 		/* count from the first frame of this attach, after the base */
 		if (!u->have_base) {
 			u->have_base = true;
@@ -341,7 +341,7 @@ static int drv_next_frame(void *dev, mocap_frame *slot, int timeout_ms, char *er
 		}
 		slot->sequence = u->sequence_base + (slot->sequence - u->first_v4l2_seq);
 		u->last_sequence = slot->sequence;
-		u->last_frame_ns = drv_monotonic_ns();
+		u->last_frame_ns = mc_now_ns();
 		u->delivered = true;
 	}
 	return st;
@@ -370,7 +370,7 @@ static void drv_close(void *dev)
 }
 
 /* Lists USB devices that have a V4L2 node: id is VENDOR:PRODUCT[:SERIAL]. */
-static int drv_probe(const mocap_host *host, mocap_device_info *out, int max, char *err, size_t errlen)
+static int drv_probe(const mdrv_host *host, mdrv_device_info *out, int max, char *err, size_t errlen)
 {
 	(void)host;
 	(void)err;
@@ -383,7 +383,7 @@ static int drv_probe(const mocap_host *host, mocap_device_info *out, int max, ch
 		char node[32];
 		if (drv_sysfs_find_usb_video(SYSFS, d->busnum, d->devnum, node, sizeof node) != 0)
 			continue;
-		mocap_device_info *o = &out[n++];
+		mdrv_device_info *o = &out[n++];
 		memset(o, 0, sizeof *o);
 		snprintf(o->id, sizeof o->id, "%04x:%04x%s%s", d->vendor, d->product, d->serial[0] ? ":" : "",
 			 d->serial);
@@ -394,8 +394,8 @@ static int drv_probe(const mocap_host *host, mocap_device_info *out, int max, ch
 	return n;
 }
 
-static const mocap_driver usb_driver = {
-	.abi_version = MOCAP_DRIVER_ABI_VERSION,
+static const mdrv_driver usb_driver = {
+	.abi_version = MDRV_ABI_VERSION,
 	.name = "usb",
 	.description = "USB cameras by vendor/product/serial, opened on plug-in (libusb hotplug + V4L2)",
 	.probe = drv_probe,
@@ -407,7 +407,7 @@ static const mocap_driver usb_driver = {
 	.close = drv_close,
 };
 
-const mocap_driver *mocap_driver_entry(void)
+const mdrv_driver *mdrv_entry(void)
 {
 	return &usb_driver;
 }

@@ -6,7 +6,7 @@
  * rare driver with another clock gets the dequeue time instead.
  *
  * Unplug: once the kernel unregisters the node, poll() reports POLLERR and
- * POLLHUP and every ioctl fails with ENODEV; both become MOCAP_ERR_NODEV. */
+ * POLLHUP and every ioctl fails with ENODEV; both become MDRV_ERR_NODEV. */
 #include "drv_v4l2.h"
 
 #include <ctype.h>
@@ -40,7 +40,7 @@ struct drv_v4l2 {
 	char path[64];
 	char card[64];
 	const char *drv; /* name for messages */
-	mocap_format fmt;
+	mdrv_format fmt;
 	uint32_t fourcc;
 	unsigned n_requested;
 	mapped_buffer bufs[MAX_BUFFERS];
@@ -51,19 +51,19 @@ struct drv_v4l2 {
 	uint32_t last_seq32;
 	uint64_t seq;
 	unsigned corrupt_frames;
-	mocap_host host;
+	mdrv_host host;
 };
 
 /* The pixel formats this driver delivers, with their config names. */
 static const struct {
 	const char *name;
 	uint32_t fourcc;
-	mocap_pixfmt fmt;
+	mc_pixfmt fmt;
 } formats[] = {
-	{"YUYV", V4L2_PIX_FMT_YUYV, MOCAP_FMT_YUYV},
-	{"MJPEG", V4L2_PIX_FMT_MJPEG, MOCAP_FMT_MJPEG},
-	{"GREY", V4L2_PIX_FMT_GREY, MOCAP_FMT_GRAY8},
-	{"JPEG", V4L2_PIX_FMT_JPEG, MOCAP_FMT_MJPEG}, /* some webcams call MJPEG this */
+	{"YUYV", V4L2_PIX_FMT_YUYV, MC_PIXFMT_YUYV},
+	{"MJPEG", V4L2_PIX_FMT_MJPEG, MC_PIXFMT_MJPEG},
+	{"GREY", V4L2_PIX_FMT_GREY, MC_PIXFMT_GRAY8},
+	{"JPEG", V4L2_PIX_FMT_JPEG, MC_PIXFMT_MJPEG}, /* some webcams call MJPEG this */
 };
 #define N_FORMATS (int)(sizeof formats / sizeof formats[0])
 
@@ -97,12 +97,12 @@ static int xioctl(int fd, unsigned long req, void *arg)
 /* The status for a failed system call: a vanished device is NODEV. */
 static int errno_status(int e)
 {
-	return e == ENODEV || e == ENXIO || e == ENOENT ? MOCAP_ERR_NODEV : MOCAP_ERR_IO;
+	return e == ENODEV || e == ENXIO || e == ENOENT ? MDRV_ERR_NODEV : MDRV_ERR_IO;
 }
 
 /* ---- settings from the config ---- */
 
-int drv_v4l2_read_settings(const mocap_host *host, const char *drv, drv_v4l2_settings *s, char *err,
+int drv_v4l2_read_settings(const mdrv_host *host, const char *drv, drv_v4l2_settings *s, char *err,
 			   size_t errlen)
 {
 	memset(s, 0, sizeof *s);
@@ -123,9 +123,9 @@ int drv_v4l2_read_settings(const mocap_host *host, const char *drv, drv_v4l2_set
 	if (choice >= 0)
 		s->fourcc = fourccs[choice];
 	if ((s->width == 0) != (s->height == 0))
-		return drv_errf(err, errlen, MOCAP_ERR_CONFIG, "%s: config keys 'width' and 'height' go together",
+		return drv_errf(err, errlen, MDRV_ERR_CONFIG, "%s: config keys 'width' and 'height' go together",
 				drv);
-	return MOCAP_OK;
+	return MDRV_OK;
 }
 
 /* ---- describing modes ---- */
@@ -235,18 +235,18 @@ static int choose_fourcc(drv_v4l2 *v, const drv_v4l2_settings *s, uint32_t curre
 			char what[96], cc[5];
 			fourcc_str(s->fourcc, cc);
 			snprintf(what, sizeof what, "pixel_format %s is not offered", cc);
-			return mode_error(v, MOCAP_ERR_FORMAT, err, errlen, what);
+			return mode_error(v, MDRV_ERR_FORMAT, err, errlen, what);
 		}
-		return MOCAP_OK;
+		return MDRV_OK;
 	}
 	if (format_index(current) >= 0) {
 		*out = current;
-		return MOCAP_OK;
+		return MDRV_OK;
 	}
 	if (!first_supported)
-		return mode_error(v, MOCAP_ERR_FORMAT, err, errlen, "no pixel format mocapd can take (YUYV, MJPEG, GREY)");
+		return mode_error(v, MDRV_ERR_FORMAT, err, errlen, "no pixel format mocapd can take (YUYV, MJPEG, GREY)");
 	*out = first_supported;
-	return MOCAP_OK;
+	return MDRV_OK;
 }
 
 static int negotiate_format(drv_v4l2 *v, const drv_v4l2_settings *s, char *err, size_t errlen)
@@ -270,7 +270,7 @@ static int negotiate_format(drv_v4l2 *v, const drv_v4l2_settings *s, char *err, 
 	f.fmt.pix.bytesperline = 0;
 	if (xioctl(v->fd, VIDIOC_S_FMT, &f) < 0) {
 		if (errno == EBUSY)
-			return drv_errf(err, errlen, MOCAP_ERR_IO,
+			return drv_errf(err, errlen, MDRV_ERR_IO,
 					"%s: %s: the device is busy (another program is streaming from it)", v->drv,
 					v->path);
 		return drv_errf(err, errlen, errno_status(errno), "%s: %s: VIDIOC_S_FMT: %s", v->drv, v->path,
@@ -280,19 +280,19 @@ static int negotiate_format(drv_v4l2 *v, const drv_v4l2_settings *s, char *err, 
 		char what[128];
 		snprintf(what, sizeof what, "asked for %ux%u, the device gives %ux%u", want_w, want_h,
 			 f.fmt.pix.width, f.fmt.pix.height);
-		return mode_error(v, MOCAP_ERR_FORMAT, err, errlen, what);
+		return mode_error(v, MDRV_ERR_FORMAT, err, errlen, what);
 	}
 	v->fourcc = fourcc;
 	v->fmt.pixfmt = formats[format_index(fourcc)].fmt;
 	v->fmt.width = f.fmt.pix.width;
 	v->fmt.height = f.fmt.pix.height;
-	bool compressed = v->fmt.pixfmt == MOCAP_FMT_MJPEG;
-	unsigned bpp = v->fmt.pixfmt == MOCAP_FMT_YUYV ? 2 : 1;
+	bool compressed = v->fmt.pixfmt == MC_PIXFMT_MJPEG;
+	unsigned bpp = v->fmt.pixfmt == MC_PIXFMT_YUYV ? 2 : 1;
 	v->fmt.stride = compressed ? 0 : (f.fmt.pix.bytesperline ? f.fmt.pix.bytesperline : v->fmt.width * bpp);
 	v->fmt.max_bytes = f.fmt.pix.sizeimage;
 	if (!compressed && v->fmt.max_bytes < (size_t)v->fmt.stride * v->fmt.height)
 		v->fmt.max_bytes = (size_t)v->fmt.stride * v->fmt.height;
-	return MOCAP_OK;
+	return MDRV_OK;
 }
 
 static int negotiate_frame_rate(drv_v4l2 *v, const drv_v4l2_settings *s, char *err, size_t errlen)
@@ -303,7 +303,7 @@ static int negotiate_frame_rate(drv_v4l2 *v, const drv_v4l2_settings *s, char *e
 	bool can_set = xioctl(v->fd, VIDIOC_G_PARM, &p) == 0 && (p.parm.capture.capability & V4L2_CAP_TIMEPERFRAME);
 	if (s->fps > 0) {
 		if (!can_set)
-			return drv_errf(err, errlen, MOCAP_ERR_CONFIG,
+			return drv_errf(err, errlen, MDRV_ERR_CONFIG,
 					"%s: %s (%s): config key 'fps': the device's frame rate cannot be set", v->drv,
 					v->path, v->card);
 		memset(&p, 0, sizeof p);
@@ -319,14 +319,14 @@ static int negotiate_frame_rate(drv_v4l2 *v, const drv_v4l2_settings *s, char *e
 			char what[128];
 			snprintf(what, sizeof what, "asked for %g fps at %ux%u, the device gives %g", s->fps,
 				 v->fmt.width, v->fmt.height, got);
-			return mode_error(v, MOCAP_ERR_FORMAT, err, errlen, what);
+			return mode_error(v, MDRV_ERR_FORMAT, err, errlen, what);
 		}
 	}
 	memset(&p, 0, sizeof p);
 	p.type = V4L2_BUF_TYPE_VIDEO_CAPTURE;
 	if (xioctl(v->fd, VIDIOC_G_PARM, &p) == 0 && p.parm.capture.timeperframe.numerator)
 		v->fmt.fps = (double)p.parm.capture.timeperframe.denominator / p.parm.capture.timeperframe.numerator;
-	return MOCAP_OK;
+	return MDRV_OK;
 }
 
 /* ---- controls ---- */
@@ -345,15 +345,15 @@ static int set_ctrl(drv_v4l2 *v, const struct v4l2_queryctrl *q, int64_t value, 
 		    size_t errlen)
 {
 	if (value < q->minimum || value > q->maximum)
-		return drv_errf(err, errlen, MOCAP_ERR_CONFIG,
+		return drv_errf(err, errlen, MDRV_ERR_CONFIG,
 				"%s: %s (%s): config key '%s': %lld outside the control's range [%d, %d]", v->drv,
 				v->path, v->card, key, (long long)value, q->minimum, q->maximum);
 	struct v4l2_control c = {.id = q->id, .value = (int32_t)value};
 	if (xioctl(v->fd, VIDIOC_S_CTRL, &c) < 0)
-		return drv_errf(err, errlen, errno == EACCES || errno == EBUSY ? MOCAP_ERR_CONFIG : errno_status(errno),
+		return drv_errf(err, errlen, errno == EACCES || errno == EBUSY ? MDRV_ERR_CONFIG : errno_status(errno),
 				"%s: %s (%s): config key '%s': setting control '%s' to %lld: %s", v->drv, v->path,
 				v->card, key, (const char *)q->name, (long long)value, strerror(errno));
-	return MOCAP_OK;
+	return MDRV_OK;
 }
 
 /* Sets control `id` if the device has it; missing and required is an error. */
@@ -363,8 +363,8 @@ static int set_ctrl_id(drv_v4l2 *v, uint32_t id, int64_t value, bool required, c
 	struct v4l2_queryctrl q;
 	if (query_ctrl(v->fd, id, &q) != 0) {
 		if (!required)
-			return MOCAP_OK;
-		return drv_errf(err, errlen, MOCAP_ERR_CONFIG, "%s: %s (%s): config key '%s': the device has no %s control",
+			return MDRV_OK;
+		return drv_errf(err, errlen, MDRV_ERR_CONFIG, "%s: %s (%s): config key '%s': the device has no %s control",
 				v->drv, v->path, v->card, key, what);
 	}
 	return set_ctrl(v, &q, value, key, err, errlen);
@@ -383,7 +383,7 @@ static bool menu_has(int fd, uint32_t id, int value)
 static int apply_exposure(drv_v4l2 *v, const drv_auto_value *e, char *err, size_t errlen)
 {
 	if (!e->present)
-		return MOCAP_OK;
+		return MDRV_OK;
 	if (e->is_auto) {
 		/* webcams usually offer aperture priority as their "auto" */
 		int mode = menu_has(v->fd, V4L2_CID_EXPOSURE_AUTO, V4L2_EXPOSURE_APERTURE_PRIORITY)
@@ -402,7 +402,7 @@ static int apply_exposure(drv_v4l2 *v, const drv_auto_value *e, char *err, size_
 static int apply_gain(drv_v4l2 *v, const drv_auto_value *g, char *err, size_t errlen)
 {
 	if (!g->present)
-		return MOCAP_OK;
+		return MDRV_OK;
 	if (g->is_auto)
 		return set_ctrl_id(v, V4L2_CID_AUTOGAIN, 1, true, "gain", "automatic gain", err, errlen);
 	int st = set_ctrl_id(v, V4L2_CID_AUTOGAIN, 0, false, "gain", "", err, errlen);
@@ -412,7 +412,7 @@ static int apply_gain(drv_v4l2 *v, const drv_auto_value *g, char *err, size_t er
 static int apply_white_balance(drv_v4l2 *v, const drv_auto_value *w, char *err, size_t errlen)
 {
 	if (!w->present)
-		return MOCAP_OK;
+		return MDRV_OK;
 	if (w->is_auto)
 		return set_ctrl_id(v, V4L2_CID_AUTO_WHITE_BALANCE, 1, true, "white_balance", "automatic white balance",
 				   err, errlen);
@@ -451,16 +451,16 @@ static int parse_control_value(drv_v4l2 *v, const struct v4l2_queryctrl *q, cons
 	long long n = strtoll(val, &end, 0);
 	if (!errno && end != val && !*end) {
 		*out = n;
-		return MOCAP_OK;
+		return MDRV_OK;
 	}
 	if (q->type == V4L2_CTRL_TYPE_BOOLEAN) {
 		if (!strcasecmp(val, "true") || !strcasecmp(val, "on") || !strcasecmp(val, "yes")) {
 			*out = 1;
-			return MOCAP_OK;
+			return MDRV_OK;
 		}
 		if (!strcasecmp(val, "false") || !strcasecmp(val, "off") || !strcasecmp(val, "no")) {
 			*out = 0;
-			return MOCAP_OK;
+			return MDRV_OK;
 		}
 	}
 	if (q->type == V4L2_CTRL_TYPE_MENU) {
@@ -471,11 +471,11 @@ static int parse_control_value(drv_v4l2 *v, const struct v4l2_queryctrl *q, cons
 			m.index = (uint32_t)i;
 			if (xioctl(v->fd, VIDIOC_QUERYMENU, &m) == 0 && !strcasecmp((const char *)m.name, val)) {
 				*out = i;
-				return MOCAP_OK;
+				return MDRV_OK;
 			}
 		}
 	}
-	return drv_errf(err, errlen, MOCAP_ERR_CONFIG,
+	return drv_errf(err, errlen, MDRV_ERR_CONFIG,
 			"%s: %s (%s): config key '%s': '%s' is not a value of control '%s'", v->drv, v->path, v->card,
 			key, val, (const char *)q->name);
 }
@@ -499,24 +499,24 @@ static int apply_named_controls(drv_v4l2 *v, char *err, size_t errlen)
 				int st = parse_control_value(v, &q, key, val, &value, err, errlen);
 				if (st || (st = set_ctrl(v, &q, value, key, err, errlen)))
 					return st;
-				drv_logf(&v->host, MOCAP_LOG_DEBUG, "%s: %s: %s = %lld", v->drv, v->path, key,
+				drv_logf(&v->host, MDRV_LOG_DEBUG, "%s: %s: %s = %lld", v->drv, v->path, key,
 					 (long long)value);
 			}
 		}
 		memset(&q, 0, sizeof q);
 		q.id = id | V4L2_CTRL_FLAG_NEXT_CTRL;
 	}
-	return MOCAP_OK;
+	return MDRV_OK;
 }
 
 /* ---- open / stream / close ---- */
 
-drv_v4l2 *drv_v4l2_open(const char *path, const drv_v4l2_settings *s, const mocap_host *host, const char *drv,
+drv_v4l2 *drv_v4l2_open(const char *path, const drv_v4l2_settings *s, const mdrv_host *host, const char *drv,
 			int *status, char *err, size_t errlen)
 {
 	drv_v4l2 *v = calloc(1, sizeof *v);
 	if (!v) {
-		*status = drv_errf(err, errlen, MOCAP_ERR_IO, "%s: out of memory", drv);
+		*status = drv_errf(err, errlen, MDRV_ERR_IO, "%s: out of memory", drv);
 		return NULL;
 	}
 	v->drv = drv;
@@ -534,14 +534,14 @@ drv_v4l2 *drv_v4l2_open(const char *path, const drv_v4l2_settings *s, const moca
 	struct v4l2_capability cap;
 	memset(&cap, 0, sizeof cap);
 	if (xioctl(v->fd, VIDIOC_QUERYCAP, &cap) < 0) {
-		*status = drv_errf(err, errlen, errno == ENOTTY ? MOCAP_ERR_CONFIG : errno_status(errno),
+		*status = drv_errf(err, errlen, errno == ENOTTY ? MDRV_ERR_CONFIG : errno_status(errno),
 				   "%s: %s is not a V4L2 device: %s", drv, path, strerror(errno));
 		goto fail;
 	}
 	drv_strlcpy(v->card, (const char *)cap.card, sizeof v->card);
 	uint32_t caps = (cap.capabilities & V4L2_CAP_DEVICE_CAPS) ? cap.device_caps : cap.capabilities;
 	if (!(caps & V4L2_CAP_VIDEO_CAPTURE) || !(caps & V4L2_CAP_STREAMING)) {
-		*status = drv_errf(err, errlen, MOCAP_ERR_CONFIG,
+		*status = drv_errf(err, errlen, MDRV_ERR_CONFIG,
 				   "%s: %s (%s) is not a video capture node with streaming (capabilities 0x%08x)",
 				   drv, path, v->card, caps);
 		goto fail;
@@ -554,11 +554,11 @@ drv_v4l2 *drv_v4l2_open(const char *path, const drv_v4l2_settings *s, const moca
 		goto fail;
 	char modes[1024];
 	drv_v4l2_describe_modes(v->fd, modes, sizeof modes);
-	drv_logf(host, MOCAP_LOG_DEBUG, "%s: %s (%s, %s) offers %s", drv, path, v->card, (const char *)cap.bus_info,
+	drv_logf(host, MDRV_LOG_DEBUG, "%s: %s (%s, %s) offers %s", drv, path, v->card, (const char *)cap.bus_info,
 		 modes);
-	drv_logf(host, MOCAP_LOG_INFO, "%s: opened %s (%s): %s %ux%u, %.4g fps", drv, path, v->card,
-		 mocap_pixfmt_name(v->fmt.pixfmt), v->fmt.width, v->fmt.height, v->fmt.fps);
-	*status = MOCAP_OK;
+	drv_logf(host, MDRV_LOG_INFO, "%s: opened %s (%s): %s %ux%u, %.4g fps", drv, path, v->card,
+		 mc_pixfmt_name(v->fmt.pixfmt), v->fmt.width, v->fmt.height, v->fmt.fps);
+	*status = MDRV_OK;
 	return v;
 fail:
 	close(v->fd);
@@ -566,7 +566,7 @@ fail:
 	return NULL;
 }
 
-void drv_v4l2_get_format(const drv_v4l2 *v, mocap_format *fmt)
+void drv_v4l2_get_format(const drv_v4l2 *v, mdrv_format *fmt)
 {
 	*fmt = v->fmt;
 }
@@ -591,16 +591,16 @@ static void unmap_buffers(drv_v4l2 *v)
 int drv_v4l2_start(drv_v4l2 *v, char *err, size_t errlen)
 {
 	if (v->streaming)
-		return MOCAP_OK;
+		return MDRV_OK;
 	if (v->gone)
-		return drv_errf(err, errlen, MOCAP_ERR_NODEV, "%s: %s (%s) was unplugged", v->drv, v->path, v->card);
+		return drv_errf(err, errlen, MDRV_ERR_NODEV, "%s: %s (%s) was unplugged", v->drv, v->path, v->card);
 	struct v4l2_requestbuffers rb = {.count = v->n_requested, .type = V4L2_BUF_TYPE_VIDEO_CAPTURE,
 					 .memory = V4L2_MEMORY_MMAP};
 	if (xioctl(v->fd, VIDIOC_REQBUFS, &rb) < 0)
 		return drv_errf(err, errlen, errno_status(errno), "%s: %s: VIDIOC_REQBUFS: %s", v->drv, v->path,
 				strerror(errno));
 	if (rb.count < 2 || rb.count > MAX_BUFFERS)
-		return drv_errf(err, errlen, MOCAP_ERR_IO, "%s: %s: the driver granted %u buffers", v->drv, v->path,
+		return drv_errf(err, errlen, MDRV_ERR_IO, "%s: %s: the driver granted %u buffers", v->drv, v->path,
 				rb.count);
 	for (unsigned i = 0; i < rb.count; i++) {
 		struct v4l2_buffer b = {.index = i, .type = V4L2_BUF_TYPE_VIDEO_CAPTURE, .memory = V4L2_MEMORY_MMAP};
@@ -619,7 +619,7 @@ int drv_v4l2_start(drv_v4l2 *v, char *err, size_t errlen)
 		goto io_error;
 	v->streaming = true;
 	v->have_seq = false;
-	return MOCAP_OK;
+	return MDRV_OK;
 io_error:;
 	int e = errno;
 	unmap_buffers(v);
@@ -629,7 +629,7 @@ io_error:;
 static int gone_error(drv_v4l2 *v, char *err, size_t errlen)
 {
 	v->gone = true;
-	return drv_errf(err, errlen, MOCAP_ERR_NODEV, "%s: %s (%s) was unplugged", v->drv, v->path, v->card);
+	return drv_errf(err, errlen, MDRV_ERR_NODEV, "%s: %s (%s) was unplugged", v->drv, v->path, v->card);
 }
 
 /* Extends the driver's 32-bit frame counter to 64 bits, strictly
@@ -649,24 +649,24 @@ static uint64_t extend_sequence(drv_v4l2 *v, uint32_t seq32)
 	return v->seq;
 }
 
-int drv_v4l2_next_frame(drv_v4l2 *v, mocap_frame *slot, int timeout_ms, char *err, size_t errlen)
+int drv_v4l2_next_frame(drv_v4l2 *v, mdrv_frame *slot, int timeout_ms, char *err, size_t errlen)
 {
 	if (v->gone)
 		return gone_error(v, err, errlen);
 	if (!v->streaming)
-		return drv_errf(err, errlen, MOCAP_ERR_IO, "%s: %s: next_frame before start", v->drv, v->path);
+		return drv_errf(err, errlen, MDRV_ERR_IO, "%s: %s: next_frame before start", v->drv, v->path);
 	struct pollfd p = {.fd = v->fd, .events = POLLIN};
-	uint64_t deadline = drv_monotonic_ns() + (uint64_t)(timeout_ms > 0 ? timeout_ms : 0) * 1000000u;
+	uint64_t deadline = mc_now_ns() + (uint64_t)(timeout_ms > 0 ? timeout_ms : 0) * 1000000u;
 	for (;;) {
-		uint64_t now = drv_monotonic_ns();
+		uint64_t now = mc_now_ns();
 		int wait_ms = now >= deadline ? 0 : (int)((deadline - now + 999999) / 1000000);
 		int r = poll(&p, 1, wait_ms);
 		if (r < 0 && errno == EINTR)
 			continue;
 		if (r < 0)
-			return drv_errf(err, errlen, MOCAP_ERR_IO, "%s: %s: poll: %s", v->drv, v->path, strerror(errno));
+			return drv_errf(err, errlen, MDRV_ERR_IO, "%s: %s: poll: %s", v->drv, v->path, strerror(errno));
 		if (r == 0)
-			return drv_errf(err, errlen, MOCAP_ERR_TIMEOUT, "%s: %s: no frame within %d ms", v->drv, v->path,
+			return drv_errf(err, errlen, MDRV_ERR_TIMEOUT, "%s: %s: no frame within %d ms", v->drv, v->path,
 					timeout_ms);
 		if (p.revents & POLLHUP)
 			return gone_error(v, err, errlen);
@@ -676,19 +676,19 @@ int drv_v4l2_next_frame(drv_v4l2 *v, mocap_frame *slot, int timeout_ms, char *er
 	if (xioctl(v->fd, VIDIOC_DQBUF, &b) < 0) {
 		int e = errno;
 		if (e == EAGAIN)
-			return drv_errf(err, errlen, MOCAP_ERR_TIMEOUT, "%s: %s: no frame ready", v->drv, v->path);
+			return drv_errf(err, errlen, MDRV_ERR_TIMEOUT, "%s: %s: no frame ready", v->drv, v->path);
 		if (e == ENODEV || e == ENXIO)
 			return gone_error(v, err, errlen);
-		return drv_errf(err, errlen, MOCAP_ERR_IO, "%s: %s: VIDIOC_DQBUF: %s", v->drv, v->path, strerror(e));
+		return drv_errf(err, errlen, MDRV_ERR_IO, "%s: %s: VIDIOC_DQBUF: %s", v->drv, v->path, strerror(e));
 	}
-	uint64_t dequeued_ns = drv_monotonic_ns();
-	int status = MOCAP_OK;
+	uint64_t dequeued_ns = mc_now_ns();
+	int status = MDRV_OK;
 	size_t used = b.bytesused ? b.bytesused : (b.index < v->n_bufs ? v->bufs[b.index].length : 0);
 	if (b.index >= v->n_bufs || used > v->bufs[b.index].length) {
-		status = drv_errf(err, errlen, MOCAP_ERR_IO, "%s: %s: the driver returned a bad buffer", v->drv,
+		status = drv_errf(err, errlen, MDRV_ERR_IO, "%s: %s: the driver returned a bad buffer", v->drv,
 				  v->path);
 	} else if (used > slot->capacity) {
-		status = drv_errf(err, errlen, MOCAP_ERR_NOSPACE, "%s: %s: frame of %zu bytes, slot holds %zu", v->drv,
+		status = drv_errf(err, errlen, MDRV_ERR_NOSPACE, "%s: %s: frame of %zu bytes, slot holds %zu", v->drv,
 				  v->path, used, slot->capacity);
 	} else {
 		memcpy(slot->data, v->bufs[b.index].start, used);
@@ -696,13 +696,13 @@ int drv_v4l2_next_frame(drv_v4l2 *v, mocap_frame *slot, int timeout_ms, char *er
 		slot->format = v->fmt;
 		slot->flags = 0;
 		if (b.flags & V4L2_BUF_FLAG_ERROR) {
-			slot->flags |= MOCAP_FRAME_CORRUPT;
+			slot->flags |= MDRV_FRAME_CORRUPT;
 			if (v->corrupt_frames++ % 100 == 0)
-				drv_logf(&v->host, MOCAP_LOG_WARN, "%s: %s: the driver flagged a damaged frame", v->drv,
+				drv_logf(&v->host, MDRV_LOG_WARN, "%s: %s: the driver flagged a damaged frame", v->drv,
 					 v->path);
 		}
 		if (v->fmt.stride && used < (size_t)v->fmt.stride * v->fmt.height)
-			slot->flags |= MOCAP_FRAME_SHORT;
+			slot->flags |= MDRV_FRAME_SHORT;
 		if ((b.flags & V4L2_BUF_FLAG_TIMESTAMP_MASK) == V4L2_BUF_FLAG_TIMESTAMP_MONOTONIC)
 			slot->timestamp_ns = (uint64_t)b.timestamp.tv_sec * 1000000000u +
 					     (uint64_t)b.timestamp.tv_usec * 1000u;
@@ -710,12 +710,12 @@ int drv_v4l2_next_frame(drv_v4l2 *v, mocap_frame *slot, int timeout_ms, char *er
 			slot->timestamp_ns = dequeued_ns;
 		slot->sequence = extend_sequence(v, b.sequence);
 	}
-	if (xioctl(v->fd, VIDIOC_QBUF, &b) < 0 && status == MOCAP_OK) {
+	if (xioctl(v->fd, VIDIOC_QBUF, &b) < 0 && status == MDRV_OK) {
 		int e = errno;
 		if (e == ENODEV || e == ENXIO)
 			return gone_error(v, err, errlen);
 		/* the frame is good; the lost buffer shows up later as a stall */
-		drv_logf(&v->host, MOCAP_LOG_WARN, "%s: %s: VIDIOC_QBUF: %s", v->drv, v->path, strerror(e));
+		drv_logf(&v->host, MDRV_LOG_WARN, "%s: %s: VIDIOC_QBUF: %s", v->drv, v->path, strerror(e));
 	}
 	return status;
 }

@@ -10,7 +10,7 @@
 #include <stdint.h>
 
 #include "drv_common.h"
-#include "mocap_driver.h"
+#include "mdrv.h"
 
 typedef struct drv_v4l2 drv_v4l2;
 
@@ -27,7 +27,7 @@ typedef struct {
 
 /* Reads pixel_format, width, height, fps, buffers, exposure, gain and
  * white_balance from the config.  Error messages start with `drv`. */
-int drv_v4l2_read_settings(const mocap_host *host, const char *drv, drv_v4l2_settings *s, char *err,
+int drv_v4l2_read_settings(const mdrv_host *host, const char *drv, drv_v4l2_settings *s, char *err,
 			   size_t errlen);
 
 /* Opens `path`, negotiates the format and applies the controls, including
@@ -35,12 +35,12 @@ int drv_v4l2_read_settings(const mocap_host *host, const char *drv, drv_v4l2_set
  * control's name in lower case with '_' for other characters, e.g.
  * ctrl.brightness, ctrl.power_line_frequency).  NULL with *status and err
  * on failure. */
-drv_v4l2 *drv_v4l2_open(const char *path, const drv_v4l2_settings *s, const mocap_host *host, const char *drv,
+drv_v4l2 *drv_v4l2_open(const char *path, const drv_v4l2_settings *s, const mdrv_host *host, const char *drv,
 			int *status, char *err, size_t errlen);
-void drv_v4l2_get_format(const drv_v4l2 *v, mocap_format *fmt);
+void drv_v4l2_get_format(const drv_v4l2 *v, mdrv_format *fmt);
 int drv_v4l2_start(drv_v4l2 *v, char *err, size_t errlen);
-/* MOCAP_OK, MOCAP_ERR_TIMEOUT, MOCAP_ERR_NODEV (unplugged), or another error. */
-int drv_v4l2_next_frame(drv_v4l2 *v, mocap_frame *slot, int timeout_ms, char *err, size_t errlen);
+/* MDRV_OK, MDRV_ERR_TIMEOUT, MDRV_ERR_NODEV (unplugged), or another error. */
+int drv_v4l2_next_frame(drv_v4l2 *v, mdrv_frame *slot, int timeout_ms, char *err, size_t errlen);
 void drv_v4l2_stop(drv_v4l2 *v);
 void drv_v4l2_close(drv_v4l2 *v);
 /* The pollable descriptor (readable when a frame is ready). */

@@ -12,7 +12,7 @@
 
 #include "drv_common.h"
 #include "drv_v4l2.h"
-#include "mocap_driver.h"
+#include "mdrv.h"
 
 #define DRV "v4l2"
 #define MAX_NODES 64
@@ -26,21 +26,21 @@ static bool same_node(const char *a, const char *b)
 }
 
 /* Picks the node the config's device / bus_info / serial keys select. */
-static int select_node(const mocap_host *host, char *path, size_t n, char *err, size_t errlen)
+static int select_node(const mdrv_host *host, char *path, size_t n, char *err, size_t errlen)
 {
 	const char *device = drv_cfg_str(host, "device");
 	const char *bus_info = drv_cfg_str(host, "bus_info");
 	const char *serial = drv_cfg_str(host, "serial");
 	if (!device && !bus_info && !serial)
-		return drv_errf(err, errlen, MOCAP_ERR_CONFIG,
+		return drv_errf(err, errlen, MDRV_ERR_CONFIG,
 				DRV ": config needs 'device' (e.g. /dev/video0), 'bus_info' or 'serial' to pick a camera");
 	if (device && !bus_info && !serial) {
 		drv_strlcpy(path, device, n);
-		return MOCAP_OK;
+		return MDRV_OK;
 	}
 	drv_v4l2_node *nodes = calloc(MAX_NODES, sizeof *nodes);
 	if (!nodes)
-		return drv_errf(err, errlen, MOCAP_ERR_IO, DRV ": out of memory");
+		return drv_errf(err, errlen, MDRV_ERR_IO, DRV ": out of memory");
 	int count = drv_v4l2_list("/dev", "/sys", nodes, MAX_NODES);
 	int match = -1, n_match = 0;
 	char seen[768] = "";
@@ -54,14 +54,14 @@ static int select_node(const mocap_host *host, char *path, size_t n, char *err, 
 		if (n_match++ == 0)
 			match = i;
 	}
-	int st = MOCAP_OK;
+	int st = MDRV_OK;
 	if (n_match == 0)
-		st = drv_errf(err, errlen, MOCAP_ERR_NODEV,
+		st = drv_errf(err, errlen, MDRV_ERR_NODEV,
 			      DRV ": no capture device matches%s%s%s%s%s%s (found: %s)", device ? " device=" : "",
 			      device ? device : "", bus_info ? " bus_info=" : "", bus_info ? bus_info : "",
 			      serial ? " serial=" : "", serial ? serial : "", count ? seen : "none");
 	else if (n_match > 1)
-		st = drv_errf(err, errlen, MOCAP_ERR_CONFIG,
+		st = drv_errf(err, errlen, MDRV_ERR_CONFIG,
 			      DRV ": %d capture devices match; add 'bus_info' or 'device' to pick one (found: %s)",
 			      n_match, seen);
 	else
@@ -70,7 +70,7 @@ static int select_node(const mocap_host *host, char *path, size_t n, char *err, 
 	return st;
 }
 
-static int drv_probe(const mocap_host *host, mocap_device_info *out, int max, char *err, size_t errlen)
+static int drv_probe(const mdrv_host *host, mdrv_device_info *out, int max, char *err, size_t errlen)
 {
 	(void)host;
 	(void)err;
@@ -87,23 +87,23 @@ static int drv_probe(const mocap_host *host, mocap_device_info *out, int max, ch
 	return n;
 }
 
-static void *drv_open(const mocap_host *host, char *err, size_t errlen)
+static void *drv_open(const mdrv_host *host, char *err, size_t errlen)
 {
 	drv_v4l2_settings s;
 	char path[PATH_MAX];
 	int status;
-	if (drv_v4l2_read_settings(host, DRV, &s, err, errlen) != MOCAP_OK ||
-	    select_node(host, path, sizeof path, err, errlen) != MOCAP_OK)
+	if (drv_v4l2_read_settings(host, DRV, &s, err, errlen) != MDRV_OK ||
+	    select_node(host, path, sizeof path, err, errlen) != MDRV_OK)
 		return NULL;
 	return drv_v4l2_open(path, &s, host, DRV, &status, err, errlen);
 }
 
-static int drv_get_format(void *dev, mocap_format *fmt, char *err, size_t errlen)
+static int drv_get_format(void *dev, mdrv_format *fmt, char *err, size_t errlen)
 {
 	(void)err;
 	(void)errlen;
 	drv_v4l2_get_format(dev, fmt);
-	return MOCAP_OK;
+	return MDRV_OK;
 }
 
 static int drv_start(void *dev, char *err, size_t errlen)
@@ -111,7 +111,7 @@ static int drv_start(void *dev, char *err, size_t errlen)
 	return drv_v4l2_start(dev, err, errlen);
 }
 
-static int drv_next_frame(void *dev, mocap_frame *slot, int timeout_ms, char *err, size_t errlen)
+static int drv_next_frame(void *dev, mdrv_frame *slot, int timeout_ms, char *err, size_t errlen)
 {
 	return drv_v4l2_next_frame(dev, slot, timeout_ms, err, errlen);
 }
@@ -126,8 +126,8 @@ static void drv_close(void *dev)
 	drv_v4l2_close(dev);
 }
 
-static const mocap_driver v4l2_driver = {
-	.abi_version = MOCAP_DRIVER_ABI_VERSION,
+static const mdrv_driver v4l2_driver = {
+	.abi_version = MDRV_ABI_VERSION,
 	.name = "v4l2",
 	.description = "V4L2 capture devices (USB UVC cameras): YUYV, MJPEG, GREY",
 	.probe = drv_probe,
@@ -139,7 +139,7 @@ static const mocap_driver v4l2_driver = {
 	.close = drv_close,
 };
 
-const mocap_driver *mocap_driver_entry(void)
+const mdrv_driver *mdrv_entry(void)
 {
 	return &v4l2_driver;
 }

@@ -65,15 +65,15 @@ int drv_harness_load(drv_harness *h, const char *name, char *err, size_t errlen)
 		snprintf(err, errlen, "dlopen %s: %s", path, dlerror());
 		return -1;
 	}
-	mocap_driver_entry_fn entry = (mocap_driver_entry_fn)(uintptr_t)dlsym(h->dl, MOCAP_DRIVER_ENTRY_SYMBOL);
+	mdrv_entry_fn entry = (mdrv_entry_fn)(uintptr_t)dlsym(h->dl, MDRV_ENTRY_SYMBOL);
 	if (!entry) {
-		snprintf(err, errlen, "%s: no symbol %s", path, MOCAP_DRIVER_ENTRY_SYMBOL);
+		snprintf(err, errlen, "%s: no symbol %s", path, MDRV_ENTRY_SYMBOL);
 		dlclose(h->dl);
 		h->dl = NULL;
 		return -1;
 	}
 	h->drv = entry();
-	if (!h->drv || h->drv->abi_version != MOCAP_DRIVER_ABI_VERSION) {
+	if (!h->drv || h->drv->abi_version != MDRV_ABI_VERSION) {
 		snprintf(err, errlen, "%s: ABI version mismatch", path);
 		dlclose(h->dl);
 		h->dl = NULL;
@@ -130,14 +130,14 @@ void *drv_harness_open_start(drv_harness *h, char *err, size_t errlen)
 	void *dev = h->drv->open(&h->host, err, errlen);
 	if (!dev)
 		return NULL;
-	if (h->drv->start(dev, err, errlen) != MOCAP_OK) {
+	if (h->drv->start(dev, err, errlen) != MDRV_OK) {
 		h->drv->close(dev);
 		return NULL;
 	}
 	return dev;
 }
 
-int drv_harness_frame(drv_harness *h, void *dev, mocap_frame *f, void *buf, size_t cap, int timeout_ms, char *err,
+int drv_harness_frame(drv_harness *h, void *dev, mdrv_frame *f, void *buf, size_t cap, int timeout_ms, char *err,
 		      size_t errlen)
 {
 	memset(f, 0, sizeof *f);

@@ -11,7 +11,7 @@
 #include <pthread.h>
 #include <stddef.h>
 
-#include "mocap_driver.h"
+#include "mdrv.h"
 
 #ifdef __cplusplus
 extern "C" {
@@ -21,8 +21,8 @@ extern "C" {
 
 typedef struct {
 	void *dl;
-	const mocap_driver *drv;
-	mocap_host host;
+	const mdrv_driver *drv;
+	mdrv_host host;
 	char keys[DRV_HARNESS_MAX_KEYS][64];
 	char vals[DRV_HARNESS_MAX_KEYS][512];
 	int n_keys;
@@ -46,7 +46,7 @@ int drv_harness_logged(drv_harness *h, const char *needle);
 void *drv_harness_open_start(drv_harness *h, char *err, size_t errlen);
 
 /* Pulls one frame into a buffer of `cap` bytes; returns the status. */
-int drv_harness_frame(drv_harness *h, void *dev, mocap_frame *f, void *buf, size_t cap, int timeout_ms, char *err,
+int drv_harness_frame(drv_harness *h, void *dev, mdrv_frame *f, void *buf, size_t cap, int timeout_ms, char *err,
 		      size_t errlen);
 
 /* The time of CLOCK_MONOTONIC now, in ns. */

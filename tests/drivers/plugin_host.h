@@ -21,7 +21,7 @@
 #include <time.h>
 #include <unistd.h>
 
-#include "mocap_driver.h"
+#include "mdrv.h"
 
 typedef struct {
 	const char *keys[16];
@@ -29,7 +29,7 @@ typedef struct {
 	int n;
 } config;
 
-static const mocap_driver *drv; /* the plugin under test */
+static const mdrv_driver *drv; /* the plugin under test */
 static char err[512];           /* the driver's last message */
 
 static inline const char *cfg_get(void *ctx, const char *key)
@@ -59,7 +59,7 @@ static inline void cfg_set(config *c, const char *key, const char *val)
 	snprintf(c->vals[c->n++], sizeof(c->vals[0]), "%s", val);
 }
 
-static inline mocap_host host_for(config *c) { return (mocap_host){.ctx = c, .config_get = cfg_get, .log = cfg_log}; }
+static inline mdrv_host host_for(config *c) { return (mdrv_host){.ctx = c, .config_get = cfg_get, .log = cfg_log}; }
 
 static inline uint64_t now_ns(void)
 {
@@ -69,7 +69,7 @@ static inline uint64_t now_ns(void)
 }
 
 /* Loads mocap-driver-NAME.so; NULL when it cannot be loaded. */
-static inline const mocap_driver *load_plugin(const char *name, void **dl)
+static inline const mdrv_driver *load_plugin(const char *name, void **dl)
 {
 	char dir[PATH_MAX], path[PATH_MAX + 64];
 	const char *env = getenv("MOCAP_DRIVER_DIR");
@@ -89,16 +89,16 @@ static inline const mocap_driver *load_plugin(const char *name, void **dl)
 		fprintf(stderr, "dlopen: %s\n", dlerror());
 		return NULL;
 	}
-	mocap_driver_entry_fn entry = (mocap_driver_entry_fn)dlsym(*dl, MOCAP_DRIVER_ENTRY_SYMBOL);
+	mdrv_entry_fn entry = (mdrv_entry_fn)dlsym(*dl, MDRV_ENTRY_SYMBOL);
 	return entry ? entry() : NULL;
 }
 
 /* Opens and starts with host *h for config c; NULL (err set) on failure. */
-static inline void *open_start(config *c, mocap_host *h)
+static inline void *open_start(config *c, mdrv_host *h)
 {
 	*h = host_for(c);
 	void *dev = drv->open(h, err, sizeof(err));
-	if (dev && drv->start(dev, err, sizeof(err)) != MOCAP_OK) {
+	if (dev && drv->start(dev, err, sizeof(err)) != MDRV_OK) {
 		drv->close(dev);
 		return NULL;
 	}
@@ -106,7 +106,7 @@ static inline void *open_start(config *c, mocap_host *h)
 }
 
 /* Pulls one frame into buf (cap bytes); returns the driver's status. */
-static inline int pull(void *dev, mocap_frame *f, uint8_t *buf, size_t cap, int timeout_ms)
+static inline int pull(void *dev, mdrv_frame *f, uint8_t *buf, size_t cap, int timeout_ms)
 {
 	memset(f, 0, sizeof(*f));
 	f->data = buf;
@@ -117,7 +117,7 @@ static inline int pull(void *dev, mocap_frame *f, uint8_t *buf, size_t cap, int 
 /* Opening with config c must fail with a message containing needle. */
 static inline void expect_open_fails(config *c, const char *needle)
 {
-	mocap_host h = host_for(c);
+	mdrv_host h = host_for(c);
 	void *dev = drv->open(&h, err, sizeof(err));
 	CHECK_MSG(dev == NULL, "open succeeded, expected '%s'", needle);
 	CHECK_MSG(strstr(err, needle) != NULL, "'%s' lacks '%s'", err, needle);

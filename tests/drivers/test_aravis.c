@@ -113,7 +113,7 @@ static void on_exit_kill(void)
 /* Waits until discovery lists the fake camera; 1 if it did. */
 static int wait_for_camera(double seconds)
 {
-	mocap_device_info info[16];
+	mdrv_device_info info[16];
 	char err[512];
 	unsigned long long end = drv_harness_now_ns() + (unsigned long long)(seconds * 1e9);
 	while (drv_harness_now_ns() < end) {
@@ -142,7 +142,7 @@ static void expect_open_error(int status, const char *needle)
 
 static void test_probe(void)
 {
-	mocap_device_info info[16];
+	mdrv_device_info info[16];
 	char err[512];
 	int n = H.drv->probe(&H.host, info, 16, err, sizeof err);
 	CHECK_MSG(n >= 1, "probe found %d cameras (%s)", n, err);
@@ -161,44 +161,44 @@ static void test_probe(void)
 static void test_config_errors(void)
 {
 	drv_harness_clear(&H);
-	expect_open_error(MOCAP_ERR_CONFIG, "'device'");
+	expect_open_error(MDRV_ERR_CONFIG, "'device'");
 	base_config();
 	drv_harness_set(&H, "pixel_format", "YUV9");
-	expect_open_error(MOCAP_ERR_CONFIG, "Mono8");
+	expect_open_error(MDRV_ERR_CONFIG, "Mono8");
 	base_config();
 	drv_harness_set(&H, "fps", "5000");
-	expect_open_error(MOCAP_ERR_CONFIG, "'fps'");
+	expect_open_error(MDRV_ERR_CONFIG, "'fps'");
 	base_config();
 	drv_harness_set(&H, "packet_size", "100");
-	expect_open_error(MOCAP_ERR_CONFIG, "'packet_size'");
+	expect_open_error(MDRV_ERR_CONFIG, "'packet_size'");
 	base_config();
 	drv_harness_set(&H, "trigger", "Line7");
-	expect_open_error(MOCAP_ERR_CONFIG, "Line0");
+	expect_open_error(MDRV_ERR_CONFIG, "Line0");
 	base_config();
 	drv_harness_set(&H, "width", "320");
-	expect_open_error(MOCAP_ERR_CONFIG, "'height'");
+	expect_open_error(MDRV_ERR_CONFIG, "'height'");
 	base_config();
 	drv_harness_set(&H, "exposure", "fast");
-	expect_open_error(MOCAP_ERR_CONFIG, "'exposure'");
+	expect_open_error(MDRV_ERR_CONFIG, "'exposure'");
 	drv_harness_clear(&H);
 	drv_harness_set(&H, "serial", "NOPE42");
-	expect_open_error(MOCAP_ERR_NODEV, "NOPE42");
+	expect_open_error(MDRV_ERR_NODEV, "NOPE42");
 	drv_harness_clear(&H);
 	drv_harness_set(&H, "device", "Aravis-Fake-NOPE42");
-	expect_open_error(MOCAP_ERR_NODEV, "NOPE42");
+	expect_open_error(MDRV_ERR_NODEV, "NOPE42");
 }
 
 /* Pulls `n` frames, checking size and flags; fills timestamps and sequences. */
-static int pull(void *dev, int n, unsigned long long *ts, unsigned long long *seq, const mocap_format *fmt)
+static int pull(void *dev, int n, unsigned long long *ts, unsigned long long *seq, const mdrv_format *fmt)
 {
 	char err[512];
 	int got = 0;
 	for (int i = 0; i < n; i++) {
-		mocap_frame f;
+		mdrv_frame f;
 		int st = drv_harness_frame(&H, dev, &f, frame_buf, sizeof frame_buf, 2000, err, sizeof err);
 		unsigned long long now = drv_harness_now_ns();
-		CHECK_MSG(st == MOCAP_OK, "frame %d: status %d: %s", i, st, err);
-		if (st != MOCAP_OK)
+		CHECK_MSG(st == MDRV_OK, "frame %d: status %d: %s", i, st, err);
+		if (st != MDRV_OK)
 			break;
 		CHECK_MSG(f.bytesused == (size_t)fmt->stride * fmt->height, "bytesused %zu", f.bytesused);
 		CHECK_MSG(f.flags == 0, "flags 0x%x", f.flags);
@@ -227,8 +227,8 @@ static void test_format(const char *name, uint32_t pixfmt, unsigned bpp)
 	CHECK_MSG(dev != NULL, "%s: %s", name, err);
 	if (!dev)
 		return;
-	mocap_format fmt;
-	CHECK(H.drv->get_format(dev, &fmt, err, sizeof err) == MOCAP_OK);
+	mdrv_format fmt;
+	CHECK(H.drv->get_format(dev, &fmt, err, sizeof err) == MDRV_OK);
 	CHECK_MSG(fmt.pixfmt == pixfmt, "%s: pixfmt %u", name, fmt.pixfmt);
 	CHECK(fmt.width == 320 && fmt.height == 240);
 	CHECK(fmt.stride == 320 * bpp);
@@ -263,7 +263,7 @@ static void test_frame_rate(double fps)
 	CHECK_MSG(dev != NULL, "fps %g: %s", fps, err);
 	if (!dev)
 		return;
-	mocap_format fmt;
+	mdrv_format fmt;
 	H.drv->get_format(dev, &fmt, err, sizeof err);
 	CHECK_NEAR(fmt.fps, fps, fps * 0.01);
 	enum { N = 12 };
@@ -296,7 +296,7 @@ static void test_packet_size(const char *size, const char *expect_log)
 	if (!dev)
 		return;
 	CHECK_MSG(drv_harness_logged(&H, expect_log), "log should contain '%s'", expect_log);
-	mocap_format fmt;
+	mdrv_format fmt;
 	H.drv->get_format(dev, &fmt, err, sizeof err);
 	CHECK(pull(dev, 3, NULL, NULL, &fmt) == 3);
 	H.drv->stop(dev);
@@ -316,7 +316,7 @@ static void test_triggers(void)
 	void *dev = drv_harness_open_start(&H, err, sizeof err);
 	CHECK_MSG(dev != NULL, "software trigger: %s", err);
 	if (dev) {
-		mocap_format fmt;
+		mdrv_format fmt;
 		H.drv->get_format(dev, &fmt, err, sizeof err);
 		CHECK(fmt.fps == 0); /* paced by the trigger */
 		unsigned long long prev_seq = 0;
@@ -343,10 +343,10 @@ static void test_triggers(void)
 	if (dev) {
 		int timeouts = 0;
 		for (int i = 0; i < 6; i++) {
-			mocap_frame f;
+			mdrv_frame f;
 			int st = drv_harness_frame(&H, dev, &f, frame_buf, sizeof frame_buf, 300, err, sizeof err);
-			CHECK_MSG(st == MOCAP_ERR_TIMEOUT, "Line0: status %d (%s)", st, err);
-			timeouts += st == MOCAP_ERR_TIMEOUT;
+			CHECK_MSG(st == MDRV_ERR_TIMEOUT, "Line0: status %d (%s)", st, err);
+			timeouts += st == MDRV_ERR_TIMEOUT;
 		}
 		CHECK(timeouts == 6);
 		H.drv->stop(dev);
@@ -363,11 +363,11 @@ static void test_stop_start(void)
 	CHECK_MSG(dev != NULL, "%s", err);
 	if (!dev)
 		return;
-	mocap_format fmt;
+	mdrv_format fmt;
 	H.drv->get_format(dev, &fmt, err, sizeof err);
 	CHECK(pull(dev, 2, NULL, NULL, &fmt) == 2);
 	H.drv->stop(dev);
-	CHECK(H.drv->start(dev, err, sizeof err) == MOCAP_OK);
+	CHECK(H.drv->start(dev, err, sizeof err) == MDRV_OK);
 	CHECK(pull(dev, 2, NULL, NULL, &fmt) == 2);
 	H.drv->stop(dev);
 	H.drv->close(dev);
@@ -378,11 +378,11 @@ static void test_stop_start(void)
 static int pull_until_error(void *dev, double limit_s, double *took, char *err, size_t errlen)
 {
 	unsigned long long t0 = drv_harness_now_ns();
-	int st = MOCAP_OK;
+	int st = MDRV_OK;
 	while ((double)(drv_harness_now_ns() - t0) * 1e-9 < limit_s) {
-		mocap_frame f;
+		mdrv_frame f;
 		st = drv_harness_frame(&H, dev, &f, frame_buf, sizeof frame_buf, 200, err, errlen);
-		if (st != MOCAP_OK && st != MOCAP_ERR_TIMEOUT)
+		if (st != MDRV_OK && st != MDRV_ERR_TIMEOUT)
 			break;
 	}
 	*took = (double)(drv_harness_now_ns() - t0) * 1e-9;
@@ -400,14 +400,14 @@ static void test_camera_stops_answering(void)
 	CHECK_MSG(dev != NULL, "%s", err);
 	if (!dev)
 		return;
-	mocap_format fmt;
+	mdrv_format fmt;
 	H.drv->get_format(dev, &fmt, err, sizeof err);
 	CHECK(pull(dev, 2, NULL, NULL, &fmt) == 2);
 	kill(fake_pid, SIGSTOP);
 	double took;
 	int st = pull_until_error(dev, 15, &took, err, sizeof err);
 	printf("camera frozen: status %d after %.2f s: %s\n", st, took, err);
-	CHECK_MSG(st == MOCAP_ERR_NODEV, "status %d: %s", st, err);
+	CHECK_MSG(st == MDRV_ERR_NODEV, "status %d: %s", st, err);
 	CHECK(strstr(err, ID) != NULL);
 	H.drv->stop(dev);
 	H.drv->close(dev);
@@ -428,19 +428,19 @@ static void test_restart(void)
 	CHECK_MSG(dev != NULL, "%s", err);
 	if (!dev)
 		return;
-	mocap_format fmt;
+	mdrv_format fmt;
 	H.drv->get_format(dev, &fmt, err, sizeof err);
 	CHECK(pull(dev, 2, NULL, NULL, &fmt) == 2);
 	kill_fake();
 	double took;
 	int st = pull_until_error(dev, 15, &took, err, sizeof err);
 	printf("camera killed: status %d after %.2f s: %s\n", st, took, err);
-	CHECK_MSG(st == MOCAP_ERR_NODEV, "status %d: %s", st, err);
+	CHECK_MSG(st == MDRV_ERR_NODEV, "status %d: %s", st, err);
 	H.drv->stop(dev);
 	H.drv->close(dev);
 
 	/* opening while it is away fails cleanly */
-	expect_open_error(MOCAP_ERR_NODEV, ID);
+	expect_open_error(MDRV_ERR_NODEV, ID);
 
 	start_fake();
 	CHECK_MSG(wait_for_camera(10), "fake camera did not come back");
@@ -488,10 +488,10 @@ int main(void)
 	}
 	TIMED(test_probe());
 	TIMED(test_config_errors());
-	TIMED(test_format("Mono8", MOCAP_FMT_GRAY8, 1));
-	TIMED(test_format("BayerRG8", MOCAP_FMT_BAYER_RGGB8, 1));
-	TIMED(test_format("BayerBG8", MOCAP_FMT_BAYER_BGGR8, 1));
-	TIMED(test_format("RGB8", MOCAP_FMT_RGB24, 3));
+	TIMED(test_format("Mono8", MC_PIXFMT_GRAY8, 1));
+	TIMED(test_format("BayerRG8", MC_PIXFMT_BAYER_RGGB8, 1));
+	TIMED(test_format("BayerBG8", MC_PIXFMT_BAYER_BGGR8, 1));
+	TIMED(test_format("RGB8", MC_PIXFMT_RGB24, 3));
 	TIMED(test_frame_rate(10));
 	TIMED(test_frame_rate(40));
 	TIMED(test_packet_size("576", "packet size 576 bytes"));

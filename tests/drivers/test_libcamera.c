@@ -20,7 +20,7 @@ int main(void)
 		return 1;
 	}
 	CHECK(!strcmp(H.drv->name, "libcamera"));
-	mocap_device_info info[8];
+	mdrv_device_info info[8];
 	int n = H.drv->probe(&H.host, info, 8, err, sizeof err);
 	CHECK_MSG(n >= 0, "probe: %s", err);
 	printf("probe: %d cameras\n", n);

@@ -39,13 +39,13 @@ static void check_depth_frames(void *dev, int n)
 	unsigned long long ts[32], dt[32], seq[32];
 	int got = 0;
 	for (int i = 0; i < n && i < 32; i++) {
-		mocap_frame f;
+		mdrv_frame f;
 		int st = drv_harness_frame(&H, dev, &f, buf, sizeof buf, 1000, err, sizeof err);
 		unsigned long long now = drv_harness_now_ns();
-		CHECK_MSG(st == MOCAP_OK, "depth frame %d: %d %s", i, st, err);
-		if (st != MOCAP_OK)
+		CHECK_MSG(st == MDRV_OK, "depth frame %d: %d %s", i, st, err);
+		if (st != MDRV_OK)
 			return;
-		CHECK(f.format.pixfmt == MOCAP_FMT_DEPTH16 && f.format.width == 320 && f.format.height == 240);
+		CHECK(f.format.pixfmt == MC_PIXFMT_DEPTH16 && f.format.width == 320 && f.format.height == 240);
 		CHECK(f.bytesused == 320 * 240 * 2 && f.flags == 0);
 		const uint16_t *mm = (const uint16_t *)buf;
 		int row0 = 1, disc = 0;
@@ -81,9 +81,9 @@ static void test_streams(void)
 	CHECK_MSG(depth != NULL, "depth: %s", err);
 	if (!depth)
 		return;
-	mocap_format fmt;
-	CHECK(H.drv->get_format(depth, &fmt, err, sizeof err) == MOCAP_OK);
-	CHECK(fmt.pixfmt == MOCAP_FMT_DEPTH16 && fmt.width == 320 && fmt.height == 240 && fmt.stride == 640);
+	mdrv_format fmt;
+	CHECK(H.drv->get_format(depth, &fmt, err, sizeof err) == MDRV_OK);
+	CHECK(fmt.pixfmt == MC_PIXFMT_DEPTH16 && fmt.width == 320 && fmt.height == 240 && fmt.stride == 640);
 	CHECK(fmt.max_bytes == 320 * 240 * 2 && fmt.fps == 30);
 	check_depth_frames(depth, 10);
 
@@ -93,11 +93,11 @@ static void test_streams(void)
 	CHECK_MSG(color != NULL, "color: %s", err);
 	if (color) {
 		H.drv->get_format(color, &fmt, err, sizeof err);
-		CHECK(fmt.pixfmt == MOCAP_FMT_RGB24 && fmt.stride == 960);
+		CHECK(fmt.pixfmt == MC_PIXFMT_RGB24 && fmt.stride == 960);
 		for (int i = 0; i < 3; i++) {
-			mocap_frame f;
+			mdrv_frame f;
 			int st = drv_harness_frame(&H, color, &f, buf, sizeof buf, 1000, err, sizeof err);
-			CHECK_MSG(st == MOCAP_OK, "color frame: %s", err);
+			CHECK_MSG(st == MDRV_OK, "color frame: %s", err);
 			CHECK(f.bytesused == 320 * 240 * 3);
 			CHECK_MSG(buf[2] == 255, "the first pixel's blue byte is %u", buf[2]); /* DummyDevice's marker */
 		}
@@ -108,7 +108,7 @@ static void test_streams(void)
 	/* the shared device stays open for the depth stream */
 	check_depth_frames(depth, 3);
 	H.drv->stop(depth);
-	CHECK(H.drv->start(depth, err, sizeof err) == MOCAP_OK);
+	CHECK(H.drv->start(depth, err, sizeof err) == MDRV_OK);
 	check_depth_frames(depth, 3);
 	H.drv->stop(depth);
 	H.drv->close(depth);
@@ -131,7 +131,7 @@ int main(void)
 		fprintf(stderr, "%s\n", err);
 		return 1;
 	}
-	mocap_device_info info[8];
+	mdrv_device_info info[8];
 	int n = H.drv->probe(&H.host, info, 8, err, sizeof err);
 	CHECK_MSG(n >= 0, "probe: %s", err);
 	printf("probe: %d devices\n", n);

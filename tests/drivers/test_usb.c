@@ -167,7 +167,7 @@ static void test_plugin(void)
 		mc_test_failures++;
 		return;
 	}
-	mocap_device_info info[16];
+	mdrv_device_info info[16];
 	int n = H.drv->probe(&H.host, info, 16, err, sizeof err);
 	CHECK_MSG(n >= 0, "probe: %s", err);
 	printf("probe: %d USB cameras here\n", n);
@@ -196,17 +196,17 @@ static void test_plugin(void)
 	if (!dev)
 		return;
 	CHECK(drv_harness_logged(&H, "waiting for USB camera f00d:beef serial NOTHERE"));
-	mocap_format fmt;
-	CHECK(H.drv->get_format(dev, &fmt, err, sizeof err) == MOCAP_ERR_NODEV);
+	mdrv_format fmt;
+	CHECK(H.drv->get_format(dev, &fmt, err, sizeof err) == MDRV_ERR_NODEV);
 	CHECK_MSG(strstr(err, "pixel_format, width and height") != NULL, "%s", err);
-	CHECK(H.drv->start(dev, err, sizeof err) == MOCAP_OK);
+	CHECK(H.drv->start(dev, err, sizeof err) == MDRV_OK);
 	static uint8_t buf[1 << 16];
-	mocap_frame f;
+	mdrv_frame f;
 	unsigned long long t0 = drv_harness_now_ns();
 	int st = drv_harness_frame(&H, dev, &f, buf, sizeof buf, 300, err, sizeof err);
 	double took = (double)(drv_harness_now_ns() - t0) * 1e-9;
 	printf("absent camera: status %d after %.2f s: %s\n", st, took, err);
-	CHECK(st == MOCAP_ERR_NODEV);
+	CHECK(st == MDRV_ERR_NODEV);
 	CHECK(strstr(err, "f00d:beef serial NOTHERE is not plugged in") != NULL);
 	/* it waited for the camera, without spinning past its timeout */
 	CHECK_MSG(took > 0.25 && took < 1.0, "took %.2f s", took);
@@ -223,8 +223,8 @@ static void test_plugin(void)
 	dev = H.drv->open(&H.host, err, sizeof err);
 	CHECK_MSG(dev != NULL, "%s", err);
 	if (dev) {
-		CHECK(H.drv->get_format(dev, &fmt, err, sizeof err) == MOCAP_OK);
-		CHECK(fmt.pixfmt == MOCAP_FMT_YUYV && fmt.width == 640 && fmt.height == 480 && fmt.stride == 1280);
+		CHECK(H.drv->get_format(dev, &fmt, err, sizeof err) == MDRV_OK);
+		CHECK(fmt.pixfmt == MC_PIXFMT_YUYV && fmt.width == 640 && fmt.height == 480 && fmt.stride == 1280);
 		CHECK(fmt.max_bytes == 640u * 480 * 2 && fmt.fps == 30);
 		H.drv->close(dev);
 	}

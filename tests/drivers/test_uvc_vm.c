@@ -126,18 +126,18 @@ static int pull(drv_harness *h, void *dev, int n, uint32_t pixfmt)
 	int good = 0, last_k = -1;
 	unsigned long long last_ts = 0;
 	for (int i = 0; i < n; i++) {
-		mocap_frame f;
+		mdrv_frame f;
 		int st = drv_harness_frame(h, dev, &f, buf, sizeof buf, 3000, err, sizeof err);
 		unsigned long long now = drv_harness_now_ns();
-		CHECK_MSG(st == MOCAP_OK, "frame %d: status %d: %s", i, st, err);
-		if (st != MOCAP_OK)
+		CHECK_MSG(st == MDRV_OK, "frame %d: status %d: %s", i, st, err);
+		if (st != MDRV_OK)
 			break;
 		CHECK(f.format.pixfmt == pixfmt && f.format.width == 320 && f.format.height == 240);
 		CHECK_MSG(f.timestamp_ns <= now && f.timestamp_ns + 2000000000ull > now, "timestamp %llu, now %llu",
 			  (unsigned long long)f.timestamp_ns, now);
 		CHECK(f.timestamp_ns > last_ts);
 		last_ts = f.timestamp_ns;
-		if (pixfmt == MOCAP_FMT_YUYV) {
+		if (pixfmt == MC_PIXFMT_YUYV) {
 			CHECK_MSG(f.bytesused == 320 * 240 * 2 && f.flags == 0, "bytesused %zu flags %x", f.bytesused,
 				  f.flags);
 			int k = yuyv_pattern(buf);
@@ -159,7 +159,7 @@ static int pull(drv_harness *h, void *dev, int n, uint32_t pixfmt)
 static void test_v4l2(drv_harness *h, const char *node)
 {
 	char err[1024];
-	mocap_device_info info[8];
+	mdrv_device_info info[8];
 	int n = h->drv->probe(&h->host, info, 8, err, sizeof err);
 	int found = 0;
 	for (int i = 0; i < n; i++) {
@@ -183,7 +183,7 @@ static void test_v4l2(drv_harness *h, const char *node)
 	void *dev = drv_harness_open_start(h, err, sizeof err);
 	CHECK_MSG(dev != NULL, "v4l2 YUYV: %s", err);
 	if (dev) {
-		CHECK(pull(h, dev, 8, MOCAP_FMT_YUYV) == 8);
+		CHECK(pull(h, dev, 8, MC_PIXFMT_YUYV) == 8);
 		h->drv->stop(dev);
 		h->drv->close(dev);
 	}
@@ -193,10 +193,10 @@ static void test_v4l2(drv_harness *h, const char *node)
 	dev = drv_harness_open_start(h, err, sizeof err);
 	CHECK_MSG(dev != NULL, "v4l2 MJPEG: %s", err);
 	if (dev) {
-		mocap_format fmt;
+		mdrv_format fmt;
 		h->drv->get_format(dev, &fmt, err, sizeof err);
-		CHECK(fmt.pixfmt == MOCAP_FMT_MJPEG && fmt.stride == 0 && fmt.fps == 15);
-		CHECK(pull(h, dev, 5, MOCAP_FMT_MJPEG) == 5);
+		CHECK(fmt.pixfmt == MC_PIXFMT_MJPEG && fmt.stride == 0 && fmt.fps == 15);
+		CHECK(pull(h, dev, 5, MC_PIXFMT_MJPEG) == 5);
 		h->drv->stop(dev);
 		h->drv->close(dev);
 	}
@@ -221,15 +221,15 @@ static void test_v4l2_unplug(drv_harness *h)
 	CHECK_MSG(dev != NULL, "v4l2: %s", err);
 	if (!dev)
 		return;
-	CHECK(pull(h, dev, 2, MOCAP_FMT_YUYV) == 2);
+	CHECK(pull(h, dev, 2, MC_PIXFMT_YUYV) == 2);
 	kill(gadget, SIGUSR1);
-	int st = MOCAP_OK;
-	for (int i = 0; i < 30 && (st == MOCAP_OK || st == MOCAP_ERR_TIMEOUT); i++) {
-		mocap_frame f;
+	int st = MDRV_OK;
+	for (int i = 0; i < 30 && (st == MDRV_OK || st == MDRV_ERR_TIMEOUT); i++) {
+		mdrv_frame f;
 		st = drv_harness_frame(h, dev, &f, buf, sizeof buf, 300, err, sizeof err);
 	}
 	printf("v4l2 after unplug: %d %s\n", st, err);
-	CHECK_MSG(st == MOCAP_ERR_NODEV, "status %d: %s", st, err);
+	CHECK_MSG(st == MDRV_ERR_NODEV, "status %d: %s", st, err);
 	h->drv->stop(dev);
 	h->drv->close(dev);
 	CHECK(node_gone(5));
@@ -255,36 +255,36 @@ static void test_usb(drv_harness *h)
 	CHECK_MSG(dev != NULL, "usb: %s", err);
 	if (!dev)
 		return;
-	CHECK(h->drv->start(dev, err, sizeof err) == MOCAP_OK);
+	CHECK(h->drv->start(dev, err, sizeof err) == MDRV_OK);
 	/* the camera may still be coming back from the previous test */
-	mocap_frame f;
-	int st = MOCAP_ERR_NODEV;
-	for (int i = 0; i < 40 && st != MOCAP_OK; i++)
+	mdrv_frame f;
+	int st = MDRV_ERR_NODEV;
+	for (int i = 0; i < 40 && st != MDRV_OK; i++)
 		st = drv_harness_frame(h, dev, &f, buf, sizeof buf, 500, err, sizeof err);
-	CHECK_MSG(st == MOCAP_OK, "usb: no frame: %s", err);
+	CHECK_MSG(st == MDRV_OK, "usb: no frame: %s", err);
 	CHECK(drv_harness_logged(h, "arrived as /dev/video"));
-	CHECK(pull(h, dev, 4, MOCAP_FMT_YUYV) == 4);
+	CHECK(pull(h, dev, 4, MC_PIXFMT_YUYV) == 4);
 	unsigned long long seq_before = 0;
-	if (drv_harness_frame(h, dev, &f, buf, sizeof buf, 3000, err, sizeof err) == MOCAP_OK)
+	if (drv_harness_frame(h, dev, &f, buf, sizeof buf, 3000, err, sizeof err) == MDRV_OK)
 		seq_before = f.sequence;
 
 	kill(gadget, SIGUSR1);
-	st = MOCAP_OK;
-	for (int i = 0; i < 30 && (st == MOCAP_OK || st == MOCAP_ERR_TIMEOUT); i++)
+	st = MDRV_OK;
+	for (int i = 0; i < 30 && (st == MDRV_OK || st == MDRV_ERR_TIMEOUT); i++)
 		st = drv_harness_frame(h, dev, &f, buf, sizeof buf, 300, err, sizeof err);
 	printf("usb after unplug: %d %s\n", st, err);
-	CHECK_MSG(st == MOCAP_ERR_NODEV && strstr(err, "was unplugged"), "status %d: %s", st, err);
+	CHECK_MSG(st == MDRV_ERR_NODEV && strstr(err, "was unplugged"), "status %d: %s", st, err);
 	st = drv_harness_frame(h, dev, &f, buf, sizeof buf, 500, err, sizeof err);
-	CHECK_MSG(st == MOCAP_ERR_NODEV && strstr(err, "is not plugged in"), "status %d: %s", st, err);
+	CHECK_MSG(st == MDRV_ERR_NODEV && strstr(err, "is not plugged in"), "status %d: %s", st, err);
 
 	kill(gadget, SIGUSR2);
 	unsigned long long t0 = drv_harness_now_ns();
-	st = MOCAP_ERR_NODEV;
-	for (int i = 0; i < 40 && st != MOCAP_OK; i++)
+	st = MDRV_ERR_NODEV;
+	for (int i = 0; i < 40 && st != MDRV_OK; i++)
 		st = drv_harness_frame(h, dev, &f, buf, sizeof buf, 500, err, sizeof err);
 	printf("usb: replugged camera streams again after %.1f s\n", (double)(drv_harness_now_ns() - t0) * 1e-9);
-	CHECK_MSG(st == MOCAP_OK, "usb after replug: %s", err);
-	if (st == MOCAP_OK) {
+	CHECK_MSG(st == MDRV_OK, "usb after replug: %s", err);
+	if (st == MDRV_OK) {
 		CHECK_MSG(f.sequence > seq_before + 1, "sequence %llu after %llu: a gap marks the replug",
 			  (unsigned long long)f.sequence, seq_before);
 		CHECK(yuyv_pattern(buf) >= 0);

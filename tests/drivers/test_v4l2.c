@@ -29,7 +29,7 @@ int main(void)
 	}
 	CHECK(!strcmp(H.drv->name, "v4l2"));
 
-	mocap_device_info info[16];
+	mdrv_device_info info[16];
 	int n = H.drv->probe(&H.host, info, 16, err, sizeof err);
 	CHECK_MSG(n >= 0, "probe: %s", err);
 	printf("probe: %d capture devices here\n", n);

@@ -63,18 +63,18 @@ static int cmp_ull(const void *a, const void *b)
 
 /* Pulls n frames and checks sizes, timestamps and sequence numbers; returns
  * the median frame interval in seconds (0 if frames were missing). */
-static double pull_frames(void *dev, int n, const mocap_format *fmt)
+static double pull_frames(void *dev, int n, const mdrv_format *fmt)
 {
 	char err[512];
 	unsigned long long ts[64], dt[64];
 	int got = 0, gaps = 0;
 	unsigned long long last_seq = 0;
 	for (int i = 0; i < n && i < 64; i++) {
-		mocap_frame f;
+		mdrv_frame f;
 		int st = drv_harness_frame(&H, dev, &f, frame_buf, sizeof frame_buf, 3000, err, sizeof err);
 		unsigned long long now = drv_harness_now_ns();
-		CHECK_MSG(st == MOCAP_OK, "frame %d: status %d: %s", i, st, err);
-		if (st != MOCAP_OK)
+		CHECK_MSG(st == MDRV_OK, "frame %d: status %d: %s", i, st, err);
+		if (st != MDRV_OK)
 			return 0;
 		CHECK_MSG(f.bytesused == (size_t)fmt->stride * fmt->height, "bytesused %zu, expected %u", f.bytesused,
 			  fmt->stride * fmt->height);
@@ -103,7 +103,7 @@ static double pull_frames(void *dev, int n, const mocap_format *fmt)
 
 static void test_probe(int expect)
 {
-	mocap_device_info info[8];
+	mdrv_device_info info[8];
 	char err[256];
 	int n = H.drv->probe(&H.host, info, 8, err, sizeof err);
 	CHECK_MSG(n == expect, "probe found %d devices, expected %d", n, expect);
@@ -134,8 +134,8 @@ static void test_mode(const char *pixfmt, const char *w, const char *h, const ch
 	CHECK_MSG(dev != NULL, "%s %sx%s@%s: %s", pixfmt, w, h, fps, err);
 	if (!dev)
 		return;
-	mocap_format fmt;
-	CHECK(H.drv->get_format(dev, &fmt, err, sizeof err) == MOCAP_OK);
+	mdrv_format fmt;
+	CHECK(H.drv->get_format(dev, &fmt, err, sizeof err) == MDRV_OK);
 	CHECK_MSG(fmt.pixfmt == expect_fmt, "pixfmt %u", fmt.pixfmt);
 	CHECK(fmt.width == (uint32_t)atoi(w) && fmt.height == (uint32_t)atoi(h));
 	CHECK(fmt.stride == fmt.width * bpp);
@@ -153,7 +153,7 @@ static void test_mode(const char *pixfmt, const char *w, const char *h, const ch
 	CHECK_MSG(distinct >= 4, "%zu distinct byte values", distinct);
 	/* stop and start again on the same handle */
 	H.drv->stop(dev);
-	CHECK(H.drv->start(dev, err, sizeof err) == MOCAP_OK);
+	CHECK(H.drv->start(dev, err, sizeof err) == MDRV_OK);
 	CHECK(pull_frames(dev, 3, &fmt) > 0);
 	H.drv->stop(dev);
 	H.drv->close(dev);
@@ -164,16 +164,16 @@ static void test_bad_modes(void)
 	drv_harness_clear(&H);
 	drv_harness_set(&H, "device", "/dev/video0");
 	drv_harness_set(&H, "pixel_format", "MJPEG");
-	expect_open_error(MOCAP_ERR_FORMAT, "not offered");
-	expect_open_error(MOCAP_ERR_FORMAT, "YUYV 320x180@");
+	expect_open_error(MDRV_ERR_FORMAT, "not offered");
+	expect_open_error(MDRV_ERR_FORMAT, "YUYV 320x180@");
 	drv_harness_set(&H, "pixel_format", "YUYV");
 	drv_harness_set(&H, "width", "333");
 	drv_harness_set(&H, "height", "222");
-	expect_open_error(MOCAP_ERR_FORMAT, "asked for 333x222");
+	expect_open_error(MDRV_ERR_FORMAT, "asked for 333x222");
 	drv_harness_set(&H, "width", "320");
 	drv_harness_set(&H, "height", "180");
 	drv_harness_set(&H, "fps", "1000");
-	expect_open_error(MOCAP_ERR_FORMAT, "asked for 1000 fps");
+	expect_open_error(MDRV_ERR_FORMAT, "asked for 1000 fps");
 }
 
 static void test_controls(void)
@@ -206,22 +206,22 @@ static void test_controls(void)
 	drv_harness_clear(&H);
 	drv_harness_set(&H, "device", "/dev/video0");
 	drv_harness_set(&H, "ctrl.brightness", "999");
-	expect_open_error(MOCAP_ERR_CONFIG, "outside the control's range");
+	expect_open_error(MDRV_ERR_CONFIG, "outside the control's range");
 	drv_harness_set(&H, "ctrl.brightness", "bright");
-	expect_open_error(MOCAP_ERR_CONFIG, "'ctrl.brightness'");
+	expect_open_error(MDRV_ERR_CONFIG, "'ctrl.brightness'");
 	drv_harness_clear(&H);
 	drv_harness_set(&H, "device", "/dev/video0");
 	drv_harness_set(&H, "gain", "1000");
-	expect_open_error(MOCAP_ERR_CONFIG, "'gain'");
+	expect_open_error(MDRV_ERR_CONFIG, "'gain'");
 	/* vivid has neither exposure nor white balance controls */
 	drv_harness_clear(&H);
 	drv_harness_set(&H, "device", "/dev/video0");
 	drv_harness_set(&H, "exposure", "0.01");
-	expect_open_error(MOCAP_ERR_CONFIG, "no absolute exposure control");
+	expect_open_error(MDRV_ERR_CONFIG, "no absolute exposure control");
 	drv_harness_clear(&H);
 	drv_harness_set(&H, "device", "/dev/video0");
 	drv_harness_set(&H, "white_balance", "auto");
-	expect_open_error(MOCAP_ERR_CONFIG, "no automatic white balance control");
+	expect_open_error(MDRV_ERR_CONFIG, "no automatic white balance control");
 }
 
 static void test_selection(void)
@@ -236,17 +236,17 @@ static void test_selection(void)
 		H.drv->close(dev);
 	}
 	drv_harness_set(&H, "bus_info", "usb-0000:00:14.0-9");
-	expect_open_error(MOCAP_ERR_NODEV, "platform:vivid-000");
+	expect_open_error(MDRV_ERR_NODEV, "platform:vivid-000");
 	drv_harness_clear(&H);
 	drv_harness_set(&H, "serial", "SN1234");
-	expect_open_error(MOCAP_ERR_NODEV, "serial=SN1234");
+	expect_open_error(MDRV_ERR_NODEV, "serial=SN1234");
 	drv_harness_clear(&H);
 	drv_harness_set(&H, "device", "/dev/video0");
 	drv_harness_set(&H, "bus_info", "platform:vivid-001");
-	expect_open_error(MOCAP_ERR_NODEV, "no capture device matches");
+	expect_open_error(MDRV_ERR_NODEV, "no capture device matches");
 	drv_harness_clear(&H);
 	drv_harness_set(&H, "device", "/dev/video7");
-	expect_open_error(MOCAP_ERR_NODEV, "/dev/video7");
+	expect_open_error(MDRV_ERR_NODEV, "/dev/video7");
 }
 
 /* Unbinding the vivid platform device is what a USB unplug looks like to a
@@ -264,22 +264,22 @@ static void test_unplug(void)
 	CHECK_MSG(dev != NULL, "unplug: %s", err);
 	if (!dev)
 		return;
-	mocap_format fmt;
+	mdrv_format fmt;
 	H.drv->get_format(dev, &fmt, err, sizeof err);
 	CHECK(pull_frames(dev, 2, &fmt) > 0);
 	CHECK(write_sysfs(VIVID_SYSFS "/unbind", "vivid.0") == 0);
-	int st = MOCAP_OK;
-	for (int i = 0; i < 20 && (st == MOCAP_OK || st == MOCAP_ERR_TIMEOUT); i++) {
-		mocap_frame f;
+	int st = MDRV_OK;
+	for (int i = 0; i < 20 && (st == MDRV_OK || st == MDRV_ERR_TIMEOUT); i++) {
+		mdrv_frame f;
 		st = drv_harness_frame(&H, dev, &f, frame_buf, sizeof frame_buf, 500, err, sizeof err);
 	}
 	printf("after unbind: status %d: %s\n", st, err);
-	CHECK_MSG(st == MOCAP_ERR_NODEV, "status %d: %s", st, err);
+	CHECK_MSG(st == MDRV_ERR_NODEV, "status %d: %s", st, err);
 	CHECK(strstr(err, "unplugged") != NULL);
 	H.drv->stop(dev);
 	H.drv->close(dev);
 	test_probe(0); /* one platform device carries both vivid instances */
-	expect_open_error(MOCAP_ERR_NODEV, "no capture device matches");
+	expect_open_error(MDRV_ERR_NODEV, "no capture device matches");
 
 	CHECK(write_sysfs(VIVID_SYSFS "/bind", "vivid.0") == 0);
 	dev = NULL;
@@ -309,8 +309,8 @@ int main(void)
 		return 1;
 	}
 	test_probe(2);
-	test_mode("YUYV", "320", "180", "30", MOCAP_FMT_YUYV, 2);
-	test_mode("GREY", "640", "360", "15", MOCAP_FMT_GRAY8, 1);
+	test_mode("YUYV", "320", "180", "30", MC_PIXFMT_YUYV, 2);
+	test_mode("GREY", "640", "360", "15", MC_PIXFMT_GRAY8, 1);
 	test_bad_modes();
 	test_controls();
 	test_selection();

@@ -8,15 +8,15 @@
  *   - an accepted input re-encodes to a message of the same size, and that
  *     encoding decodes and re-encodes to identical bytes (the encoder and
  *     the decoder agree on every field's offset). */
-#include "mc_proto.h"
+#include "proto.h"
 
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
-static mc_proto_msg msg, msg2;
-static uint8_t enc[MC_PROTO_MAX_MESSAGE], enc2[MC_PROTO_MAX_MESSAGE];
+static proto_msg msg, msg2;
+static uint8_t enc[PROTO_MAX_MESSAGE], enc2[PROTO_MAX_MESSAGE];
 
 static void fail(const char *what, size_t size)
 {
@@ -30,17 +30,17 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 	for (int dir = 0; dir < 2; dir++) {
 		char why[256];
 		why[0] = 0;
-		if (mc_proto_decode(data, size, (mc_proto_direction)dir, &msg, why, sizeof(why)) != 0) {
+		if (proto_decode(data, size, (proto_direction)dir, &msg, why, sizeof(why)) != 0) {
 			if (!why[0])
 				fail("refused without a reason", size);
 			continue;
 		}
-		size_t n = mc_proto_encode(&msg, enc, sizeof(enc));
+		size_t n = proto_encode(&msg, enc, sizeof(enc));
 		if (n != size)
 			fail("re-encoded size differs from the input's", size);
-		if (mc_proto_decode(enc, n, (mc_proto_direction)dir, &msg2, why, sizeof(why)) != 0)
+		if (proto_decode(enc, n, (proto_direction)dir, &msg2, why, sizeof(why)) != 0)
 			fail("re-encoded message does not decode", size);
-		size_t n2 = mc_proto_encode(&msg2, enc2, sizeof(enc2));
+		size_t n2 = proto_encode(&msg2, enc2, sizeof(enc2));
 		if (n2 != n || memcmp(enc, enc2, n) != 0)
 			fail("encoding is not stable", size);
 	}

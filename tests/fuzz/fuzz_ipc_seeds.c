@@ -1,17 +1,17 @@
 /* Writes one valid message of every type into DIR, as the fuzzer's seed
  * corpus (generated at build time, so no binary files live in git). */
-#include "mc_proto.h"
+#include "proto.h"
 
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
-static mc_proto_msg m;
-static unsigned char buf[MC_PROTO_MAX_MESSAGE];
+static proto_msg m;
+static unsigned char buf[PROTO_MAX_MESSAGE];
 
 static int write_seed(const char *dir, const char *name)
 {
-	size_t n = mc_proto_encode(&m, buf, sizeof(buf));
+	size_t n = proto_encode(&m, buf, sizeof(buf));
 	if (!n) {
 		fprintf(stderr, "fuzz_ipc_seeds: cannot encode %s\n", name);
 		return 1;
@@ -42,7 +42,7 @@ int main(int argc, char **argv)
 	const char *d = argv[1];
 	int bad = 0;
 	start(MC_MSG_HELLO);
-	m.u.hello.magic = MC_PROTO_MAGIC;
+	m.u.hello.magic = PROTO_MAGIC;
 	m.u.hello.min_version = m.u.hello.max_version = 1;
 	strcpy(m.u.hello.client_name, "seed");
 	bad |= write_seed(d, "hello");
@@ -54,7 +54,7 @@ int main(int argc, char **argv)
 					 MC_MSG_GET_RINGS};
 	for (size_t i = 0; i < sizeof(empty) / sizeof(empty[0]); i++) {
 		start(empty[i]);
-		bad |= write_seed(d, mc_proto_type_name(empty[i]));
+		bad |= write_seed(d, proto_type_name(empty[i]));
 	}
 	start(MC_MSG_CONTROL);
 	m.u.control.command = 2;
@@ -92,7 +92,7 @@ int main(int argc, char **argv)
 	strcpy(m.u.status.device, "cpu");
 	bad |= write_seed(d, "status");
 	start(MC_MSG_ERROR);
-	m.u.error.code = MC_PROTO_E_VERSION;
+	m.u.error.code = PROTO_E_VERSION;
 	strcpy(m.u.error.message, "version mismatch");
 	bad |= write_seed(d, "error");
 	start(MC_MSG_RIG);

@@ -11,7 +11,7 @@
  *   format = rgb24|gray8|yuyv|mjpeg     (rgb24)
  *   width = W, height = H    (64 x 48)
  *   fps = F                  (30)
- *   fail_open = true         every open fails (MOCAP_ERR_IO)
+ *   fail_open = true         every open fails (MDRV_ERR_IO)
  *   fail_open_count = N      the first N opens fail
  *   open_error = io|nodev|config|format  the status of failed opens (io)
  *   open_delay_ms = T        open takes T ms
@@ -22,19 +22,19 @@
  *   short_every = N          every Nth frame is short (half its bytes), not flagged
  *   corrupt_every = N        every Nth frame is damaged: for mjpeg a broken
  *                            JPEG (not flagged), for raw formats flagged
- *                            MOCAP_FRAME_CORRUPT
+ *                            MDRV_FRAME_CORRUPT
  *   drop_every = N           every Nth frame is never delivered
  *   disappear_after = N      after N frames (counted over the device's
  *                            life) the device is gone: next_frame and
- *                            open fail with MOCAP_ERR_NODEV ...
+ *                            open fail with MDRV_ERR_NODEV ...
  *   return_after_ms = T      ... until T ms later (default: never)
- *   end_after = N            the stream ends (MOCAP_ERR_END) after N frames
+ *   end_after = N            the stream ends (MDRV_ERR_END) after N frames
  *   hang_after = N           after N frames next_frame blocks, ignoring its
  *   hang_ms = T              timeout, for T ms (10000), as a stuck driver would
  *   timestamp_offset_ms = T  added to every timestamp (may be negative)
  *
  * Every key is read in open(), as mocapd requires of drivers. */
-#include "mocap_driver.h"
+#include "mdrv.h"
 
 #include <errno.h>
 #include <pthread.h>
@@ -46,7 +46,7 @@
 #include <turbojpeg.h>
 
 #ifndef FAULTY_ABI_VERSION
-#define FAULTY_ABI_VERSION MOCAP_DRIVER_ABI_VERSION
+#define FAULTY_ABI_VERSION MDRV_ABI_VERSION
 #endif
 #ifndef FAULTY_NAME
 #define FAULTY_NAME "faulty"
@@ -68,9 +68,9 @@ static device_memory memory[16];
 static int nmemory;
 
 typedef struct {
-	const mocap_host *host;
+	const mdrv_host *host;
 	device_memory *mem;
-	mocap_format fmt;
+	mdrv_format fmt;
 	long fail_open_count, error_after, short_every, corrupt_every, drop_every;
 	long disappear_after, return_after_ms, end_after, hang_after, hang_ms;
 	long long offset_ns;
@@ -115,7 +115,7 @@ static device_memory *remember(const char *id)
 }
 
 /* Reads an integer key; returns def when absent, -2 (with err) when bad. */
-static int get_long(const mocap_host *h, const char *key, long def, long *out, char *err, size_t errlen)
+static int get_long(const mdrv_host *h, const char *key, long def, long *out, char *err, size_t errlen)
 {
 	const char *v = h->config_get(h->ctx, key);
 	if (!v) {
@@ -133,7 +133,7 @@ static int get_long(const mocap_host *h, const char *key, long def, long *out, c
 	return 0;
 }
 
-static bool get_bool(const mocap_host *h, const char *key)
+static bool get_bool(const mdrv_host *h, const char *key)
 {
 	const char *v = h->config_get(h->ctx, key);
 	return v && (strcmp(v, "true") == 0 || strcmp(v, "1") == 0 || strcmp(v, "yes") == 0);
@@ -144,19 +144,19 @@ static int parse_status(const char *v, int def)
 	if (!v)
 		return def;
 	if (strcmp(v, "io") == 0)
-		return MOCAP_ERR_IO;
+		return MDRV_ERR_IO;
 	if (strcmp(v, "nodev") == 0)
-		return MOCAP_ERR_NODEV;
+		return MDRV_ERR_NODEV;
 	if (strcmp(v, "config") == 0)
-		return MOCAP_ERR_CONFIG;
+		return MDRV_ERR_CONFIG;
 	if (strcmp(v, "format") == 0)
-		return MOCAP_ERR_FORMAT;
+		return MDRV_ERR_FORMAT;
 	if (strcmp(v, "nospace") == 0)
-		return MOCAP_ERR_NOSPACE;
+		return MDRV_ERR_NOSPACE;
 	return 1; /* unknown */
 }
 
-static int drv_probe(const mocap_host *host, mocap_device_info *out, int max, char *err, size_t errlen)
+static int drv_probe(const mdrv_host *host, mdrv_device_info *out, int max, char *err, size_t errlen)
 {
 	(void)host, (void)err, (void)errlen;
 	if (max < 1)
@@ -202,7 +202,7 @@ static int encode_jpeg(faulty_dev *d, char *err, size_t errlen)
 	return 0;
 }
 
-static int read_keys(faulty_dev *d, const mocap_host *h, char *err, size_t errlen)
+static int read_keys(faulty_dev *d, const mdrv_host *h, char *err, size_t errlen)
 {
 	long w, hh, fps, delay, offset_ms;
 	if (get_long(h, "width", 64, &w, err, errlen) || get_long(h, "height", 48, &hh, err, errlen) ||
@@ -218,38 +218,38 @@ static int read_keys(faulty_dev *d, const mocap_host *h, char *err, size_t errle
 	    get_long(h, "hang_ms", 10000, &d->hang_ms, err, errlen) ||
 	    get_long(h, "open_delay_ms", 0, &delay, err, errlen) ||
 	    get_long(h, "timestamp_offset_ms", 0, &offset_ms, err, errlen))
-		return MOCAP_ERR_CONFIG;
+		return MDRV_ERR_CONFIG;
 	if (w < 8 || hh < 8 || w > 4096 || hh > 4096 || fps < 1 || fps > 1000) {
 		snprintf(err, errlen, "width/height must be 8..4096 and fps 1..1000");
-		return MOCAP_ERR_CONFIG;
+		return MDRV_ERR_CONFIG;
 	}
-	d->error_code = parse_status(h->config_get(h->ctx, "error_code"), MOCAP_ERR_IO);
+	d->error_code = parse_status(h->config_get(h->ctx, "error_code"), MDRV_ERR_IO);
 	if (d->error_code > 0) {
 		snprintf(err, errlen, "error_code: expected io, nodev, format, config or nospace");
-		return MOCAP_ERR_CONFIG;
+		return MDRV_ERR_CONFIG;
 	}
 	d->error_once = get_bool(h, "error_once");
 	d->offset_ns = (long long)offset_ms * 1000000ll;
 	d->period_ns = 1000000000ull / (uint64_t)fps;
 	const char *f = h->config_get(h->ctx, "format");
-	uint32_t pixfmt = MOCAP_FMT_RGB24, bpp = 3;
+	uint32_t pixfmt = MC_PIXFMT_RGB24, bpp = 3;
 	if (!f || strcmp(f, "rgb24") == 0)
 		;
 	else if (strcmp(f, "gray8") == 0)
-		pixfmt = MOCAP_FMT_GRAY8, bpp = 1;
+		pixfmt = MC_PIXFMT_GRAY8, bpp = 1;
 	else if (strcmp(f, "yuyv") == 0)
-		pixfmt = MOCAP_FMT_YUYV, bpp = 2;
+		pixfmt = MC_PIXFMT_YUYV, bpp = 2;
 	else if (strcmp(f, "mjpeg") == 0)
-		pixfmt = MOCAP_FMT_MJPEG, bpp = 0;
+		pixfmt = MC_PIXFMT_MJPEG, bpp = 0;
 	else {
 		snprintf(err, errlen, "format: expected rgb24, gray8, yuyv or mjpeg, got '%s'", f);
-		return MOCAP_ERR_CONFIG;
+		return MDRV_ERR_CONFIG;
 	}
-	if (pixfmt == MOCAP_FMT_YUYV && (w % 2)) {
+	if (pixfmt == MC_PIXFMT_YUYV && (w % 2)) {
 		snprintf(err, errlen, "width must be even for yuyv");
-		return MOCAP_ERR_CONFIG;
+		return MDRV_ERR_CONFIG;
 	}
-	d->fmt = (mocap_format){.pixfmt = pixfmt, .width = (uint32_t)w, .height = (uint32_t)hh,
+	d->fmt = (mdrv_format){.pixfmt = pixfmt, .width = (uint32_t)w, .height = (uint32_t)hh,
 				.stride = (uint32_t)w * bpp, .fps = (double)fps};
 	d->fmt.max_bytes = bpp ? (size_t)d->fmt.stride * (size_t)hh : (size_t)w * (size_t)hh * 3 + 4096;
 	/* Read for the host's unknown-key check even when unused below. */
@@ -258,10 +258,10 @@ static int read_keys(faulty_dev *d, const mocap_host *h, char *err, size_t errle
 	(void)h->config_get(h->ctx, "extra.*");
 	if (delay > 0)
 		sleep_until(now_ns() + (uint64_t)delay * 1000000ull);
-	return MOCAP_OK;
+	return MDRV_OK;
 }
 
-static void *drv_open(const mocap_host *host, char *err, size_t errlen)
+static void *drv_open(const mdrv_host *host, char *err, size_t errlen)
 {
 	const char *id = host->config_get(host->ctx, "device");
 	device_memory *mem = remember(id ? id : "faulty0");
@@ -274,13 +274,13 @@ static void *drv_open(const mocap_host *host, char *err, size_t errlen)
 	d->host = host;
 	d->mem = mem;
 	int rc = read_keys(d, host, err, errlen);
-	int open_error = parse_status(host->config_get(host->ctx, "open_error"), MOCAP_ERR_IO);
+	int open_error = parse_status(host->config_get(host->ctx, "open_error"), MDRV_ERR_IO);
 	bool fail_open = get_bool(host, "fail_open");
-	if (rc == MOCAP_OK && open_error > 0) {
+	if (rc == MDRV_OK && open_error > 0) {
 		snprintf(err, errlen, "open_error: expected io, nodev, format, config or nospace");
-		rc = MOCAP_ERR_CONFIG;
+		rc = MDRV_ERR_CONFIG;
 	}
-	if (rc != MOCAP_OK) {
+	if (rc != MDRV_OK) {
 		free(d);
 		return NULL;
 	}
@@ -302,18 +302,18 @@ static void *drv_open(const mocap_host *host, char *err, size_t errlen)
 		free(d);
 		return NULL;
 	}
-	if (d->fmt.pixfmt == MOCAP_FMT_MJPEG && encode_jpeg(d, err, errlen)) {
+	if (d->fmt.pixfmt == MC_PIXFMT_MJPEG && encode_jpeg(d, err, errlen)) {
 		free(d);
 		return NULL;
 	}
 	return d;
 }
 
-static int drv_get_format(void *dev, mocap_format *fmt, char *err, size_t errlen)
+static int drv_get_format(void *dev, mdrv_format *fmt, char *err, size_t errlen)
 {
 	(void)err, (void)errlen;
 	*fmt = ((faulty_dev *)dev)->fmt;
-	return MOCAP_OK;
+	return MDRV_OK;
 }
 
 static int drv_start(void *dev, char *err, size_t errlen)
@@ -322,7 +322,7 @@ static int drv_start(void *dev, char *err, size_t errlen)
 	faulty_dev *d = dev;
 	d->frames = d->produced = 0;
 	d->next_ns = (now_ns() / d->period_ns + 1) * d->period_ns;
-	return MOCAP_OK;
+	return MDRV_OK;
 }
 
 static bool every(long n, uint64_t k)
@@ -330,11 +330,11 @@ static bool every(long n, uint64_t k)
 	return n > 0 && (k + 1) % (uint64_t)n == 0;
 }
 
-static void write_frame(faulty_dev *d, mocap_frame *slot, uint64_t k)
+static void write_frame(faulty_dev *d, mdrv_frame *slot, uint64_t k)
 {
-	const mocap_format *f = &d->fmt;
+	const mdrv_format *f = &d->fmt;
 	size_t full;
-	if (f->pixfmt == MOCAP_FMT_MJPEG) {
+	if (f->pixfmt == MC_PIXFMT_MJPEG) {
 		full = d->jpeg_size;
 		memcpy(slot->data, d->jpeg, full);
 		if (every(d->corrupt_every, k)) {
@@ -347,23 +347,23 @@ static void write_frame(faulty_dev *d, mocap_frame *slot, uint64_t k)
 		}
 	} else {
 		full = (size_t)f->stride * f->height;
-		if (f->pixfmt == MOCAP_FMT_RGB24)
+		if (f->pixfmt == MC_PIXFMT_RGB24)
 			fill_pattern(slot->data, (int)f->width, (int)f->height, k);
 		else
 			for (size_t i = 0; i < full; i++)
 				slot->data[i] = (uint8_t)(i + k);
 		if (every(d->corrupt_every, k))
-			slot->flags |= MOCAP_FRAME_CORRUPT;
+			slot->flags |= MDRV_FRAME_CORRUPT;
 	}
 	slot->bytesused = every(d->short_every, k) ? full / 2 : full;
 }
 
-static int drv_next_frame(void *dev, mocap_frame *slot, int timeout_ms, char *err, size_t errlen)
+static int drv_next_frame(void *dev, mdrv_frame *slot, int timeout_ms, char *err, size_t errlen)
 {
 	faulty_dev *d = dev;
 	device_memory *m = d->mem;
 	if (d->end_after >= 0 && d->frames >= (uint64_t)d->end_after)
-		return MOCAP_ERR_END;
+		return MDRV_ERR_END;
 	if (d->disappear_after >= 0 && m->frames_total >= (uint64_t)d->disappear_after) {
 		pthread_mutex_lock(&memory_lock);
 		if (!m->gone && !m->disappeared) {
@@ -375,7 +375,7 @@ static int drv_next_frame(void *dev, mocap_frame *slot, int timeout_ms, char *er
 		pthread_mutex_unlock(&memory_lock);
 		if (gone) {
 			snprintf(err, errlen, "faulty camera %s: device disappeared (injected)", m->id);
-			return MOCAP_ERR_NODEV;
+			return MDRV_ERR_NODEV;
 		}
 	}
 	if (d->error_after >= 0 && d->frames >= (uint64_t)d->error_after) {
@@ -401,7 +401,7 @@ static int drv_next_frame(void *dev, mocap_frame *slot, int timeout_ms, char *er
 	for (;;) {
 		if (d->next_ns > deadline) {
 			sleep_until(deadline);
-			return MOCAP_ERR_TIMEOUT;
+			return MDRV_ERR_TIMEOUT;
 		}
 		sleep_until(d->next_ns);
 		uint64_t k = d->produced++;
@@ -412,7 +412,7 @@ static int drv_next_frame(void *dev, mocap_frame *slot, int timeout_ms, char *er
 		if (slot->capacity < d->fmt.max_bytes) {
 			snprintf(err, errlen, "slot of %zu bytes, frames need up to %zu", slot->capacity,
 				 d->fmt.max_bytes);
-			return MOCAP_ERR_NOSPACE;
+			return MDRV_ERR_NOSPACE;
 		}
 		slot->flags = 0;
 		slot->format = d->fmt;
@@ -423,7 +423,7 @@ static int drv_next_frame(void *dev, mocap_frame *slot, int timeout_ms, char *er
 		pthread_mutex_lock(&memory_lock);
 		m->frames_total++;
 		pthread_mutex_unlock(&memory_lock);
-		return MOCAP_OK;
+		return MDRV_OK;
 	}
 }
 
@@ -440,7 +440,7 @@ static void drv_close(void *dev)
 	free(d);
 }
 
-static const mocap_driver faulty_driver = {
+static const mdrv_driver faulty_driver = {
 	.abi_version = FAULTY_ABI_VERSION,
 	.name = FAULTY_NAME,
 	.description = "fault-injection test camera (tests only)",
@@ -454,12 +454,12 @@ static const mocap_driver faulty_driver = {
 };
 
 #ifndef FAULTY_NO_ENTRY
-__attribute__((visibility("default"))) const mocap_driver *mocap_driver_entry(void)
+__attribute__((visibility("default"))) const mdrv_driver *mdrv_entry(void)
 {
 	return &faulty_driver;
 }
 #else
-__attribute__((visibility("default"))) const mocap_driver *not_the_entry(void)
+__attribute__((visibility("default"))) const mdrv_driver *not_the_entry(void)
 {
 	return &faulty_driver;
 }

@@ -1,0 +1,39 @@
+/* mc_ik: fitting a model's skeleton to 3D joint positions.
+ *
+ * Used to initialise tracking from the ground truth of frame 0 (evaluation
+ * protocol) or from any 3D joint estimate, and by the sim driver to retarget
+ * motion capture onto the body model. */
+#ifndef MC_IK_H
+#define MC_IK_H
+
+#include "base/mc_error.h"
+#include "body/mc_model.h"
+
+/* One target: a model joint and where it should be, in the rig frame. */
+typedef struct {
+	int joint;
+	mc_vec3 position;
+	double weight;
+} mc_ik_target;
+
+typedef struct {
+	int iterations;       /* Levenberg-Marquardt iterations */
+	double pose_prior;    /* Tikhonov weight pulling joint dofs to 0 */
+	bool fit_bone_scale;  /* set bone_scale from target bone lengths first */
+	bool fit_root;        /* also solve for the root placement */
+} mc_ik_options;
+
+void mc_ik_options_default(mc_ik_options *o);
+
+/* Sets bone_scale[j] from the distances between targets of joint j and of
+ * its parent where both are given; other joints get the median scale. */
+void mc_ik_fit_bone_scale(mc_model *model, const mc_ik_target *targets, int n);
+
+/* Solves for pose (model->ndof values, in/out: the start value is used) and,
+ * with fit_root, for the root placement: model->rig_from_root for fixed
+ * roots, pose[0..5] for free roots.  Returns the RMS residual in metres, or
+ * a negative value with err set. */
+double mc_ik_solve(mc_model *model, double *pose, const mc_ik_target *targets, int n, const mc_ik_options *o,
+		   mc_err *err);
+
+#endif

@@ -1,0 +1,48 @@
+/* mc_clip: reading a recorded head-mounted stereo clip in the layout of
+ * ../shared/data/ego/<clip>: calib.json, gt.json, left/%05d.jpg and
+ * right/%05d.jpg.  Used by the benchmark and the tests. */
+#ifndef MC_CLIP_H
+#define MC_CLIP_H
+
+#include "base/mc_error.h"
+#include "body/mc_model.h"
+#include "geom/mc_rig.h"
+#include "track/mc_tracker.h"
+
+#define MC_CLIP_MAX_JOINTS 32
+
+typedef struct {
+	char dir[1024];
+	char name[256];
+	mc_rig rig;          /* rig frame = left camera frame */
+	double fps;
+	int nframes;         /* frames in gt.json */
+	int njoints;
+	char joint_names[MC_CLIP_MAX_JOINTS][MC_JOINT_NAME_MAX];
+	mc_vec3 *joints;     /* nframes * njoints ground-truth positions, left camera frame */
+} mc_clip;
+
+/* Opens a clip: reads calib.json (use_ocam: the fitted OCam polynomial
+ * instead of the equidistant model) and gt.json. */
+int mc_clip_open(const char *dir, bool use_ocam, mc_clip *clip, mc_err *err);
+void mc_clip_close(mc_clip *clip);
+
+/* Index of a ground-truth joint by name, or -1. */
+int mc_clip_joint(const mc_clip *clip, const char *name);
+/* Ground truth of frame k, joint j. */
+static inline mc_vec3 mc_clip_gt(const mc_clip *clip, int k, int j)
+{
+	return clip->joints[k * clip->njoints + j];
+}
+
+/* Decodes frame k of every camera into views (RGB24, buffers malloc'ed;
+ * release with mc_clip_free_frame). */
+int mc_clip_load_frame(const mc_clip *clip, int k, mc_frame_view views[2], mc_err *err);
+void mc_clip_free_frame(mc_frame_view views[2]);
+
+/* Initialises a tracker as the evaluation protocol allows: bone lengths,
+ * root placement and pose from the ground truth of frame 0, and the actor's
+ * colours from the images of frame 0. */
+int mc_clip_init_tracker(const mc_clip *clip, mc_tracker *t, mc_err *err);
+
+#endif

@@ -1,0 +1,565 @@
+/* Rigs: the JSON rig format (docs/RIG_FORMAT.md), importers for the
+ * evaluation data's calib.json and OCamCalib's calib_results.txt, and ray
+ * tables. */
+#include "geom/mc_rig.h"
+#include "base/mc_json.h"
+
+#include <errno.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#define DEG (M_PI / 180.0)
+
+static const char *const kind_names[] = {"egocentric", "outside-in"};
+
+int mc_rig_find(const mc_rig *rig, const char *name)
+{
+	for (int i = 0; i < rig->ncams; i++)
+		if (strcmp(rig->cams[i].name, name) == 0)
+			return i;
+	return -1;
+}
+
+/* Re-labels a camera-level error ("fx: must be positive") with its place in
+ * the file ("rig.json: cameras[0].fx: must be positive"). */
+static int camera_error(mc_err *err, const char *where)
+{
+	if (!err)
+		return -1;
+	char msg[sizeof(err->msg)];
+	memcpy(msg, err->msg, sizeof(msg));
+	return mc_err_set(err, "%s.%s", where, msg);
+}
+
+/* ---- parsing ------------------------------------------------------------ */
+
+/* rig_from_cam: a 4x4 matrix, or {"rotation": 3x3, "translation": [3]}. */
+static int parse_pose(const json_t *jc, const char *where, mc_xform *pose, mc_err *err)
+{
+	json_t *v = json_object_get(jc, "rig_from_cam");
+	char p[384];
+	mc_json_path(p, sizeof(p), where, "rig_from_cam");
+	if (json_is_object(v)) {
+		static const char *const keys[] = {"rotation", "translation", NULL};
+		if (mc_json_check_keys(v, p, keys, err) || mc_json_mat3(v, "rotation", p, &pose->R, true, err) ||
+		    mc_json_vec3(v, "translation", p, &pose->t, true, err))
+			return -1;
+		return 0;
+	}
+	double m[4][4];
+	if (!v || json_is_null(v))
+		return mc_err_set(err, "%s: missing", p);
+	if (!json_is_array(v))
+		return mc_err_set(err, "%s: expected a 4x4 matrix or {\"rotation\", \"translation\"}", p);
+	if (mc_json_mat4(jc, "rig_from_cam", where, m, true, err))
+		return -1;
+	if (m[3][0] != 0 || m[3][1] != 0 || m[3][2] != 0 || m[3][3] != 1)
+		return mc_err_set(err, "%s[3]: last row of a rigid transform must be [0, 0, 0, 1]", p);
+	*pose = mc_xform_from_4x4((const double(*)[4])m);
+	return 0;
+}
+
+/* max_theta_deg, or fov_deg (the full angle); exactly one of them. */
+static int parse_field_of_view(const json_t *jc, const char *where, double *max_theta, mc_err *err)
+{
+	double deg;
+	int r1 = mc_json_number_range(jc, "max_theta_deg", where, 1e-6, 180, &deg, false, err);
+	if (r1 < 0)
+		return -1;
+	double fov;
+	int r2 = mc_json_number_range(jc, "fov_deg", where, 2e-6, 360, &fov, false, err);
+	if (r2 < 0)
+		return -1;
+	char p[384];
+	if (r1 == 0 && r2 == 0)
+		return mc_err_set(err, "%s: give max_theta_deg or fov_deg, not both",
+				  mc_json_path(p, sizeof(p), where, "fov_deg"));
+	if (r1 == 1 && r2 == 1)
+		return mc_err_set(err, "%s: missing (or fov_deg)", mc_json_path(p, sizeof(p), where, "max_theta_deg"));
+	*max_theta = (r1 == 0 ? deg : fov / 2) * DEG;
+	return 0;
+}
+
+/* fx and fy, or f for both. */
+static int parse_focal(const json_t *jc, const char *where, mc_camera *cam, mc_err *err)
+{
+	double f;
+	int r = mc_json_positive(jc, "f", where, &f, false, err);
+	if (r < 0)
+		return -1;
+	char p[384];
+	if (r == 0) {
+		if (json_object_get(jc, "fx") || json_object_get(jc, "fy"))
+			return mc_err_set(err, "%s: give f or fx and fy, not both", mc_json_path(p, sizeof(p), where, "f"));
+		cam->fx = cam->fy = f;
+		return 0;
+	}
+	if (mc_json_positive(jc, "fx", where, &cam->fx, true, err) ||
+	    mc_json_positive(jc, "fy", where, &cam->fy, true, err))
+		return -1;
+	return 0;
+}
+
+static int parse_distortion(const json_t *jc, const char *where, mc_camera *cam, mc_err *err)
+{
+	if (cam->model == MC_CAM_EQUIDISTANT)
+		return mc_json_numbers(jc, "k", where, cam->k, 4, false, err) < 0 ? -1 : 0;
+	/* pinhole: k1 k2 p1 p2 [k3], OpenCV's order */
+	size_t n = 0;
+	int r = mc_json_numbers_var(jc, "k", where, cam->k, 5, &n, false, err);
+	char p[384];
+	if (r < 0)
+		return -1;
+	if (r == 0 && n < 4)
+		return mc_err_set(err, "%s: expected 4 or 5 numbers (k1 k2 p1 p2 [k3]), got %zu",
+				  mc_json_path(p, sizeof(p), where, "k"), n);
+	return 0;
+}
+
+static int parse_ocam(const json_t *jc, const char *where, mc_camera *cam, mc_err *err)
+{
+	size_t n = 0;
+	if (mc_json_numbers_var(jc, "pol", where, cam->ocam_pol, MC_OCAM_POLY_MAX, &n, true, err))
+		return -1;
+	cam->ocam_pol_len = (int)n;
+	n = 0;
+	if (mc_json_numbers_var(jc, "invpol", where, cam->ocam_invpol, MC_OCAM_POLY_MAX * 2, &n, false, err) < 0)
+		return -1;
+	cam->ocam_invpol_len = (int)n;
+	cam->ocam_c = 1, cam->ocam_d = 0, cam->ocam_e = 0;
+	if (mc_json_number(jc, "xc", where, &cam->ocam_xc, true, err) ||
+	    mc_json_number(jc, "yc", where, &cam->ocam_yc, true, err) ||
+	    mc_json_number(jc, "c", where, &cam->ocam_c, false, err) < 0 ||
+	    mc_json_number(jc, "d", where, &cam->ocam_d, false, err) < 0 ||
+	    mc_json_number(jc, "e", where, &cam->ocam_e, false, err) < 0)
+		return -1;
+	return 0;
+}
+
+static const char *const pinhole_keys[] = {"name", "model", "width", "height", "f", "fx", "fy", "cx", "cy", "k",
+					   "max_theta_deg", "fov_deg", "rig_from_cam", "note", NULL};
+static const char *const ocam_keys[] = {"name", "model", "width", "height", "pol", "invpol", "xc", "yc", "c", "d",
+					"e", "max_theta_deg", "fov_deg", "rig_from_cam", "note", NULL};
+
+static int parse_camera(const json_t *jc, const char *where, mc_camera *cam, mc_err *err)
+{
+	char model[32], p[384];
+	memset(cam, 0, sizeof(*cam));
+	if (!json_is_object(jc))
+		return mc_err_set(err, "%s: expected an object", where);
+	if (mc_json_string(jc, "name", where, cam->name, sizeof(cam->name), true, err) ||
+	    mc_json_string(jc, "model", where, model, sizeof(model), true, err))
+		return -1;
+	if (cam->name[0] == 0)
+		return mc_err_set(err, "%s: must not be empty", mc_json_path(p, sizeof(p), where, "name"));
+	if (mc_camera_model_parse(model, &cam->model))
+		return mc_err_set(err, "%s: unknown camera model '%s' (pinhole, equidistant or ocam)",
+				  mc_json_path(p, sizeof(p), where, "model"), model);
+	if (mc_json_check_keys(jc, where, cam->model == MC_CAM_OCAM ? ocam_keys : pinhole_keys, err) ||
+	    mc_json_int(jc, "width", where, 1, MC_CAMERA_SIZE_MAX, &cam->width, true, err) ||
+	    mc_json_int(jc, "height", where, 1, MC_CAMERA_SIZE_MAX, &cam->height, true, err) ||
+	    parse_field_of_view(jc, where, &cam->max_theta, err) || parse_pose(jc, where, &cam->rig_from_cam, err))
+		return -1;
+	if (cam->model == MC_CAM_OCAM) {
+		if (parse_ocam(jc, where, cam, err))
+			return -1;
+	} else if (parse_focal(jc, where, cam, err) || mc_json_number(jc, "cx", where, &cam->cx, true, err) ||
+		   mc_json_number(jc, "cy", where, &cam->cy, true, err) || parse_distortion(jc, where, cam, err)) {
+		return -1;
+	}
+	if (mc_camera_validate(cam, err))
+		return camera_error(err, where);
+	return 0;
+}
+
+static int rig_from_json(const json_t *root, const char *origin, mc_rig *rig, mc_err *err)
+{
+	static const char *const keys[] = {"name", "kind", "cameras", "note", NULL};
+	char kind[32];
+	json_t *cams;
+	memset(rig, 0, sizeof(*rig));
+	if (!json_is_object(root))
+		return mc_err_set(err, "%s: expected a JSON object at the top level", origin);
+	if (mc_json_check_keys(root, origin, keys, err) ||
+	    mc_json_string(root, "name", origin, rig->name, sizeof(rig->name), true, err) ||
+	    mc_json_string(root, "kind", origin, kind, sizeof(kind), true, err))
+		return -1;
+	if (strcmp(kind, kind_names[0]) == 0)
+		rig->kind = MC_RIG_EGOCENTRIC;
+	else if (strcmp(kind, kind_names[1]) == 0)
+		rig->kind = MC_RIG_OUTSIDE_IN;
+	else
+		return mc_err_set(err, "%s: kind: unknown rig kind '%s' (egocentric or outside-in)", origin, kind);
+	if (mc_json_array(root, "cameras", origin, 1, MC_MAX_CAMERAS, &cams, true, err))
+		return -1;
+	for (size_t i = 0; i < json_array_size(cams); i++) {
+		char where[384];
+		mc_json_path_index(where, sizeof(where), origin, "cameras", i);
+		if (parse_camera(json_array_get(cams, i), where, &rig->cams[i], err))
+			return -1;
+		if (mc_rig_find(rig, rig->cams[i].name) >= 0)
+			return mc_err_set(err, "%s.name: camera name '%s' is used twice", where, rig->cams[i].name);
+		rig->ncams = (int)i + 1;
+	}
+	return 0;
+}
+
+int mc_rig_parse(const char *json_text, const char *origin, mc_rig *rig, mc_err *err)
+{
+	json_t *root;
+	if (mc_json_load_text(json_text, origin, &root, err))
+		return -1;
+	int r = rig_from_json(root, origin, rig, err);
+	json_decref(root);
+	return r;
+}
+
+int mc_rig_load(const char *path, mc_rig *rig, mc_err *err)
+{
+	json_t *root;
+	if (mc_json_load_file(path, &root, err))
+		return -1;
+	int r = rig_from_json(root, path, rig, err);
+	json_decref(root);
+	return r;
+}
+
+/* ---- saving ------------------------------------------------------------- */
+
+static json_t *json_numbers(const double *a, int n)
+{
+	json_t *arr = json_array();
+	for (int i = 0; i < n; i++)
+		json_array_append_new(arr, json_real(a[i]));
+	return arr;
+}
+
+static json_t *pose_to_json(const mc_xform *x)
+{
+	json_t *rot = json_array();
+	for (int i = 0; i < 3; i++)
+		json_array_append_new(rot, json_numbers(x->R.m[i], 3));
+	double t[3] = {x->t.x, x->t.y, x->t.z};
+	json_t *o = json_object();
+	json_object_set_new(o, "rotation", rot);
+	json_object_set_new(o, "translation", json_numbers(t, 3));
+	return o;
+}
+
+static json_t *camera_to_json(const mc_camera *cam)
+{
+	json_t *o = json_object();
+	json_object_set_new(o, "name", json_string(cam->name));
+	json_object_set_new(o, "model", json_string(mc_camera_model_name(cam->model)));
+	json_object_set_new(o, "width", json_integer(cam->width));
+	json_object_set_new(o, "height", json_integer(cam->height));
+	if (cam->model == MC_CAM_OCAM) {
+		json_object_set_new(o, "pol", json_numbers(cam->ocam_pol, cam->ocam_pol_len));
+		if (cam->ocam_invpol_len > 0)
+			json_object_set_new(o, "invpol", json_numbers(cam->ocam_invpol, cam->ocam_invpol_len));
+		json_object_set_new(o, "xc", json_real(cam->ocam_xc));
+		json_object_set_new(o, "yc", json_real(cam->ocam_yc));
+		json_object_set_new(o, "c", json_real(cam->ocam_c));
+		json_object_set_new(o, "d", json_real(cam->ocam_d));
+		json_object_set_new(o, "e", json_real(cam->ocam_e));
+	} else {
+		json_object_set_new(o, "fx", json_real(cam->fx));
+		json_object_set_new(o, "fy", json_real(cam->fy));
+		json_object_set_new(o, "cx", json_real(cam->cx));
+		json_object_set_new(o, "cy", json_real(cam->cy));
+		json_object_set_new(o, "k", json_numbers(cam->k, cam->model == MC_CAM_PINHOLE ? 5 : 4));
+	}
+	json_object_set_new(o, "max_theta_deg", json_real(cam->max_theta / DEG));
+	json_object_set_new(o, "rig_from_cam", pose_to_json(&cam->rig_from_cam));
+	return o;
+}
+
+static json_t *rig_to_json(const mc_rig *rig)
+{
+	json_t *root = json_object();
+	json_object_set_new(root, "name", json_string(rig->name));
+	json_object_set_new(root, "kind", json_string(kind_names[rig->kind == MC_RIG_OUTSIDE_IN]));
+	json_t *cams = json_array();
+	for (int i = 0; i < rig->ncams; i++)
+		json_array_append_new(cams, camera_to_json(&rig->cams[i]));
+	json_object_set_new(root, "cameras", cams);
+	return root;
+}
+
+int mc_rig_save(const mc_rig *rig, const char *path, mc_err *err)
+{
+	json_t *root = rig_to_json(rig);
+	int r = mc_json_save_file(root, path, err);
+	json_decref(root);
+	return r;
+}
+
+char *mc_rig_to_json(const mc_rig *rig, mc_err *err)
+{
+	json_t *root = rig_to_json(rig);
+	char *text = json_dumps(root, JSON_INDENT(1) | JSON_PRESERVE_ORDER | JSON_REAL_PRECISION(17));
+	json_decref(root);
+	if (!text)
+		mc_err_set(err, "rig '%s': out of memory writing JSON", rig->name);
+	return text;
+}
+
+/* ---- import: the evaluation data's calib.json --------------------------- */
+
+static int ego_lens(const json_t *root, const char *path, bool use_ocam, mc_camera *cam, mc_err *err)
+{
+	double f, fov;
+	memset(cam, 0, sizeof(*cam));
+	if (mc_json_int(root, "width", path, 1, MC_CAMERA_SIZE_MAX, &cam->width, true, err) ||
+	    mc_json_int(root, "height", path, 1, MC_CAMERA_SIZE_MAX, &cam->height, true, err) ||
+	    mc_json_positive(root, "f", path, &f, true, err) || mc_json_number(root, "cx", path, &cam->cx, true, err) ||
+	    mc_json_number(root, "cy", path, &cam->cy, true, err) ||
+	    mc_json_number_range(root, "fov_deg", path, 1e-6, 360, &fov, true, err))
+		return -1;
+	cam->max_theta = fov / 2 * DEG;
+	if (!use_ocam) {
+		cam->model = MC_CAM_EQUIDISTANT;
+		cam->fx = cam->fy = f;
+		return 0;
+	}
+	/* w(rho) = a0 + a2 rho^2 + a3 rho^3 + a4 rho^4, already in OpenCV axes. */
+	json_t *poly;
+	char where[384];
+	if (mc_json_object(root, "ocam_poly", path, &poly, true, err))
+		return -1;
+	mc_json_path(where, sizeof(where), path, "ocam_poly");
+	static const char *const names[] = {"a0", "a1", "a2", "a3", "a4"};
+	for (int i = 0; i < 5; i++)
+		if (mc_json_number(poly, names[i], where, &cam->ocam_pol[i], i != 1, err) < 0)
+			return -1;
+	cam->model = MC_CAM_OCAM;
+	cam->ocam_pol_len = 5;
+	cam->ocam_xc = cam->cx, cam->ocam_yc = cam->cy;
+	cam->ocam_c = 1, cam->ocam_d = 0, cam->ocam_e = 0;
+	cam->cx = cam->cy = 0;
+	return 0;
+}
+
+int mc_rig_import_ego_calib(const char *path, bool use_ocam, mc_rig *rig, mc_err *err)
+{
+	json_t *root;
+	double m[4][4];
+	memset(rig, 0, sizeof(*rig));
+	if (mc_json_load_file(path, &root, err))
+		return -1;
+	int r = -1;
+	mc_camera lens;
+	if (ego_lens(root, path, use_ocam, &lens, err) || mc_json_mat4(root, "right_from_left", path, m, true, err))
+		goto out;
+	snprintf(rig->name, sizeof(rig->name), "ego_stereo%s", use_ocam ? "_ocam" : "");
+	rig->kind = MC_RIG_EGOCENTRIC;
+	rig->ncams = 2;
+	rig->cams[0] = rig->cams[1] = lens;
+	snprintf(rig->cams[0].name, sizeof(rig->cams[0].name), "left");
+	snprintf(rig->cams[1].name, sizeof(rig->cams[1].name), "right");
+	rig->cams[0].rig_from_cam = mc_xform_identity();
+	/* The rig frame is the left camera's: the right camera's pose in it is
+	 * the inverse of right_from_left. */
+	rig->cams[1].rig_from_cam = mc_xform_inverse(mc_xform_from_4x4((const double(*)[4])m));
+	if (mc_camera_validate(&rig->cams[0], err)) {
+		mc_err_prefix(err, "%s", path);
+		goto out;
+	}
+	if (mc_camera_validate(&rig->cams[1], err)) {
+		/* Only the pose differs between the two cameras. */
+		mc_err_set(err, "%s: right_from_left: not a rigid transform", path);
+		goto out;
+	}
+	/* The file stores single-precision rotations: make them exact. */
+	rig->cams[1].rig_from_cam.R = mc_m3_orthonormalize(rig->cams[1].rig_from_cam.R);
+	r = 0;
+out:
+	json_decref(root);
+	return r;
+}
+
+/* ---- import: OCamCalib calib_results.txt -------------------------------- */
+
+/* Numbers of the file in order, with the line each came from; '#' lines are
+ * comments, as in the toolbox's own reader. */
+typedef struct {
+	double *val;
+	int *line;
+	char (*text)[32];
+	size_t n, cap, next;
+	const char *path;
+} token_list;
+
+static int tokens_read(const char *path, token_list *tl, mc_err *err)
+{
+	FILE *f = fopen(path, "r");
+	if (!f)
+		return mc_err_set(err, "%s: cannot open: %s", path, strerror(errno));
+	char buf[8192];
+	int lineno = 0, r = 0;
+	while (r == 0 && fgets(buf, sizeof(buf), f)) {
+		lineno++;
+		char *s = buf + strspn(buf, " \t\r\n");
+		if (*s == '#')
+			continue;
+		for (char *tok = strtok(s, " \t\r\n"); tok && r == 0; tok = strtok(NULL, " \t\r\n")) {
+			if (tl->n == tl->cap) {
+				size_t cap = tl->cap ? tl->cap * 2 : 64;
+				double *val = realloc(tl->val, cap * sizeof(*val));
+				if (val)
+					tl->val = val;
+				int *line = realloc(tl->line, cap * sizeof(*line));
+				if (line)
+					tl->line = line;
+				char(*text)[32] = realloc(tl->text, cap * sizeof(*text));
+				if (text)
+					tl->text = text;
+				if (!val || !line || !text) {
+					r = mc_err_set(err, "%s: out of memory", path);
+					break;
+				}
+				tl->cap = cap;
+			}
+			char *end;
+			errno = 0;
+			double x = strtod(tok, &end);
+			if (*end || end == tok || errno == ERANGE || !isfinite(x))
+				r = mc_err_set(err, "%s:%d: '%.40s' is not a finite number", path, lineno, tok);
+			tl->val[tl->n] = x;
+			tl->line[tl->n] = lineno;
+			snprintf(tl->text[tl->n], sizeof(tl->text[0]), "%s", tok);
+			tl->n++;
+		}
+	}
+	fclose(f);
+	return r;
+}
+
+static void tokens_free(token_list *tl)
+{
+	free(tl->val);
+	free(tl->line);
+	free(tl->text);
+}
+
+/* The next number, named `what` in errors. */
+static int token_next(token_list *tl, const char *what, double *out, mc_err *err)
+{
+	if (tl->next >= tl->n)
+		return mc_err_set(err, "%s: file ends before %s", tl->path, what);
+	*out = tl->val[tl->next++];
+	return 0;
+}
+
+static int token_count(token_list *tl, const char *what, int max, int min, int *out, mc_err *err)
+{
+	double x = 0;
+	if (token_next(tl, what, &x, err))
+		return -1;
+	if (x != floor(x) || x < min || x > max)
+		return mc_err_set(err, "%s:%d: %s: expected an integer %d..%d, got '%s'", tl->path,
+				  tl->line[tl->next - 1], what, min, max, tl->text[tl->next - 1]);
+	*out = (int)x;
+	return 0;
+}
+
+int mc_rig_import_ocamcalib(const char *path, double max_theta, mc_camera *cam, mc_err *err)
+{
+	token_list tl = {.path = path};
+	memset(cam, 0, sizeof(*cam));
+	int r = tokens_read(path, &tl, err);
+	int npol = 0, ninv = 0, h = 0, w = 0;
+	double pol[MC_OCAM_POLY_MAX], inv[MC_OCAM_POLY_MAX * 2], row_c = 0, col_c = 0, c = 0, d = 0, e = 0;
+	if (r == 0)
+		r = token_count(&tl, "length of the direct polynomial", MC_OCAM_POLY_MAX, 1, &npol, err);
+	for (int i = 0; r == 0 && i < npol; i++)
+		r = token_next(&tl, "the direct polynomial's coefficients", &pol[i], err);
+	if (r == 0)
+		r = token_count(&tl, "length of the inverse polynomial", MC_OCAM_POLY_MAX * 2, 0, &ninv, err);
+	for (int i = 0; r == 0 && i < ninv; i++)
+		r = token_next(&tl, "the inverse polynomial's coefficients", &inv[i], err);
+	if (r == 0)
+		r = token_next(&tl, "the centre (row)", &row_c, err);
+	if (r == 0)
+		r = token_next(&tl, "the centre (column)", &col_c, err);
+	if (r == 0)
+		r = token_next(&tl, "affine parameter c", &c, err);
+	if (r == 0)
+		r = token_next(&tl, "affine parameter d", &d, err);
+	if (r == 0)
+		r = token_next(&tl, "affine parameter e", &e, err);
+	if (r == 0)
+		r = token_count(&tl, "image height", MC_CAMERA_SIZE_MAX, 1, &h, err);
+	if (r == 0)
+		r = token_count(&tl, "image width", MC_CAMERA_SIZE_MAX, 1, &w, err);
+	tokens_free(&tl);
+	if (r)
+		return -1;
+	if (!(fabs(c) > 1e-6))
+		return mc_err_set(err, "%s: affine parameter c must not be 0", path);
+	/* The toolbox's pixels are (row, column) and its axes are (down, right,
+	 * backward) in OpenCV terms. Swapping the image axes turns [c d; e 1]
+	 * into [1 e; d c]; dividing by c restores the [c' d'; e' 1] form and
+	 * scales the undistorted plane by c, hence the polynomial's rescaling.
+	 * docs/RIG_FORMAT.md derives it. */
+	cam->model = MC_CAM_OCAM;
+	cam->width = w, cam->height = h;
+	cam->ocam_xc = col_c, cam->ocam_yc = row_c;
+	cam->ocam_c = 1 / c, cam->ocam_d = e / c, cam->ocam_e = d / c;
+	cam->ocam_pol_len = npol;
+	double scale = c; /* c^(1 - i) for i = 0 */
+	for (int i = 0; i < npol; i++, scale /= c)
+		cam->ocam_pol[i] = -pol[i] * scale;
+	cam->ocam_invpol_len = ninv;
+	for (int i = 0; i < ninv; i++)
+		cam->ocam_invpol[i] = c * inv[i];
+	cam->max_theta = max_theta;
+	cam->rig_from_cam = mc_xform_identity();
+	snprintf(cam->name, sizeof(cam->name), "ocam");
+	if (mc_camera_validate(cam, err))
+		return mc_err_prefix(err, "%s", path);
+	return 0;
+}
+
+/* ---- ray tables ----------------------------------------------------------- */
+
+int mc_raytable_build(const mc_camera *cam, int width, int height, mc_raytable *rt, mc_err *err)
+{
+	memset(rt, 0, sizeof(*rt));
+	if (mc_camera_validate(cam, err))
+		return mc_err_prefix(err, "camera '%s'", cam->name);
+	if (width < 1 || height < 1 || width > MC_CAMERA_SIZE_MAX || height > MC_CAMERA_SIZE_MAX)
+		return mc_err_set(err, "camera '%s': ray table size %dx%d out of range", cam->name, width, height);
+	size_t n = (size_t)width * height;
+	rt->dir = calloc(n, sizeof(*rt->dir));
+	rt->valid = calloc(n, 1);
+	if (!rt->dir || !rt->valid) {
+		mc_raytable_free(rt);
+		return mc_err_set(err, "camera '%s': out of memory for a %dx%d ray table", cam->name, width, height);
+	}
+	rt->width = width, rt->height = height;
+	rt->scale_x = (double)cam->width / width;
+	rt->scale_y = (double)cam->height / height;
+	rt->origin = cam->rig_from_cam.t;
+	for (int j = 0; j < height; j++) {
+		for (int i = 0; i < width; i++) {
+			double u = (i + 0.5) * rt->scale_x - 0.5, v = (j + 0.5) * rt->scale_y - 0.5;
+			mc_vec3 ray;
+			size_t k = (size_t)j * width + i;
+			if (!mc_camera_unproject(cam, u, v, &ray))
+				continue;
+			rt->dir[k] = mc_v3_normalize(mc_m3_apply(cam->rig_from_cam.R, ray));
+			rt->valid[k] = 1;
+			rt->nvalid++;
+		}
+	}
+	return 0;
+}
+
+void mc_raytable_free(mc_raytable *rt)
+{
+	free(rt->dir);
+	free(rt->valid);
+	memset(rt, 0, sizeof(*rt));
+}

@@ -1,0 +1,729 @@
+/* mc_tracker: per-frame stochastic gradient tracking (thesis ch. 6.2.3).
+ *
+ * Per frame: convert the views to HSV at the working resolution, predict the
+ * pose from the last two, choose candidate pixels near the predicted body,
+ * then run a fixed budget of gradient iterations.  Each iteration samples a
+ * random subset of the candidate pixels per camera; the data term and its
+ * gradient with respect to the Gaussians come from the OpenCL backend (or
+ * the reference implementation); the host does kinematics, the chain rule
+ * and the priors, and takes a step conditioned per parameter by how far it
+ * moves the Gaussians, with momentum (docs/TRACKER.md).  The actor
+ * calibration is in mc_calibrate.c. */
+#include "track/mc_tracker.h"
+
+#include "body/mc_ik.h"
+#include "track/mc_tracker_internal.h"
+
+#include <float.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+/* Extra angular margin (metres at the Gaussian) around each Gaussian when
+ * choosing candidate pixels: covers the motion within one frame. */
+#define CANDIDATE_MARGIN_M 0.06
+/* A camera whose value channel varies less than this is blank. */
+#define BLANK_STDDEV 0.02
+/* Tracking quality (data energy relative to the calibrated baseline) below
+ * which the state is uncertain, and lost. */
+#define QUALITY_UNCERTAIN 0.6
+#define QUALITY_LOST 0.3
+
+void mc_tracker_settings_default(mc_tracker_settings *s)
+{
+	memset(s, 0, sizeof(*s));
+	s->backend = MC_BACKEND_OPENCL;
+	s->width = 128;
+	s->height = 128;
+	s->iterations = 50;
+	s->pixel_fraction = 0.07;
+	s->dropout = 0.2;
+	s->step = 0.004;
+	s->momentum = 0.7;
+	s->lambda_detection = 1.0 / 3.0;
+	s->lambda_limit = 0.1;
+	s->lambda_pose = 1e-4;
+	s->lambda_smooth = 0.1;
+	s->lambda_anchor = 0; /* off: it biases real motion (docs/TRACKER.md) */
+	s->cl_platform = -1;
+	s->cl_device = -1;
+	s->seed = 1;
+}
+
+const char *mc_track_state_name(mc_track_state s)
+{
+	switch (s) {
+	case MC_TRACK_OK:
+		return "ok";
+	case MC_TRACK_UNCERTAIN:
+		return "uncertain";
+	case MC_TRACK_LOST:
+		return "lost";
+	}
+	return "unknown";
+}
+
+static double now_ms(void)
+{
+	struct timespec ts;
+	clock_gettime(CLOCK_MONOTONIC, &ts);
+	return ts.tv_sec * 1e3 + ts.tv_nsec * 1e-6;
+}
+
+static int validate_settings(const mc_tracker_settings *s, mc_err *err)
+{
+	if (s->width < 8 || s->height < 8 || s->width > 2048 || s->height > 2048)
+		return mc_err_set(err, "tracker: width and height must be in 8..2048, got %dx%d", s->width, s->height);
+	if (s->iterations < 1 || s->iterations > 100000)
+		return mc_err_set(err, "tracker: iterations must be in 1..100000, got %d", s->iterations);
+	if (!(s->pixel_fraction > 0 && s->pixel_fraction <= 1))
+		return mc_err_set(err, "tracker: pixel_fraction must be in (0, 1], got %g", s->pixel_fraction);
+	if (!(s->dropout >= 0 && s->dropout < 1))
+		return mc_err_set(err, "tracker: dropout must be in [0, 1), got %g", s->dropout);
+	if (!(s->step > 0 && s->step < 1))
+		return mc_err_set(err, "tracker: step must be in (0, 1), got %g", s->step);
+	if (!(s->momentum >= 0 && s->momentum < 1))
+		return mc_err_set(err, "tracker: momentum must be in [0, 1), got %g", s->momentum);
+	if (!(s->lambda_anchor >= 0 && s->lambda_anchor < 1e6))
+		return mc_err_set(err, "tracker: lambda_anchor must be in [0, 1e6), got %g", s->lambda_anchor);
+	return 0;
+}
+
+/* On an egocentric rig the cameras sit in front of the wearer's face and
+ * look down: the head itself is behind them or at the very edge of the
+ * image.  Gaussians rigidly attached to the root (no dof in between) are
+ * therefore left out of the image energy. */
+static void hide_head_gaussians(mc_tracker *t)
+{
+	for (int j = 0; j < t->model.njoints; j++) {
+		int p = t->model.joints[j].parent;
+		t->fixed_joint[j] = !t->model.root_free && (p < 0 || (t->fixed_joint[p] && t->model.joints[j].ndof == 0));
+	}
+	for (int q = 0; q < t->model.ngauss; q++)
+		t->hidden[q] = t->fixed_joint[t->model.gauss[q].joint];
+}
+
+/* The Gaussians at a pose; hidden ones get zero magnitude, which the energy
+ * culls on every ray.  With a calibrated background colour, the energy adds
+ * B d(I, background) per pixel (mc_calibrate.c, calibrate_background). */
+void mc_trk_make_scene(const mc_tracker *t, const mc_fk *fk, mc_scene *scene)
+{
+	mc_scene_from_model(&t->model, fk, scene);
+	for (int q = 0; q < scene->n; q++)
+		if (t->hidden[q])
+			scene->c[q] = 0;
+	scene->background = t->has_background;
+	memcpy(scene->background_hsv, t->background_hsv, sizeof(t->background_hsv));
+}
+
+
+static int alloc_buffers(mc_tracker *t, mc_err *err)
+{
+	int max_pixels = 0;
+	for (int c = 0; c < t->rig.ncams; c++) {
+		if (mc_raytable_build(&t->rig.cams[c], t->s.width, t->s.height, &t->rays[c], err) < 0)
+			return mc_err_prefix(err, "camera '%s'", t->rig.cams[c].name);
+		int n = t->s.width * t->s.height;
+		t->rgb[c] = calloc((size_t)n * 3, sizeof(float));
+		t->hsv[c] = calloc((size_t)n * 3, sizeof(float));
+		t->candidates[c] = malloc(sizeof(int) * n);
+		t->samples[c] = malloc(sizeof(int) * n);
+		if (!t->rgb[c] || !t->hsv[c] || !t->candidates[c] || !t->samples[c])
+			return mc_err_set(err, "tracker: out of memory");
+		max_pixels = n > max_pixels ? n : max_pixels;
+	}
+	t->mask = malloc((size_t)max_pixels);
+	/* Jacobians of the Gaussian centres (levers) or of the joints
+	 * (detections) with respect to every dof */
+	int rows = t->model.ngauss > MC_MAX_JOINTS ? t->model.ngauss : MC_MAX_JOINTS;
+	t->jacobian = malloc(sizeof(mc_vec3) * (size_t)rows * (size_t)(t->model.ndof > 0 ? t->model.ndof : 1));
+	return t->mask && t->jacobian ? 0 : mc_err_set(err, "tracker: out of memory");
+}
+
+mc_tracker *mc_tracker_create(const mc_rig *rig, const mc_model *model, const mc_tracker_settings *s, mc_err *err)
+{
+	if (validate_settings(s, err) < 0)
+		return NULL;
+	if (rig->ncams < 1 || rig->ncams > MC_MAX_CAMERAS) {
+		mc_err_set(err, "tracker: the rig has %d cameras", rig->ncams);
+		return NULL;
+	}
+	mc_tracker *t = calloc(1, sizeof(*t));
+	if (!t) {
+		mc_err_set(err, "tracker: out of memory");
+		return NULL;
+	}
+	t->rig = *rig;
+	t->model = *model;
+	t->s = *s;
+	t->rng = s->seed ? s->seed : 1;
+	hide_head_gaussians(t);
+	if (alloc_buffers(t, err) < 0)
+		goto fail;
+	if (s->backend == MC_BACKEND_OPENCL) {
+		t->cl = mc_cl_energy_create(s->cl_platform, s->cl_device, t->rays, rig->ncams, err);
+		if (!t->cl)
+			goto fail;
+		snprintf(t->device, sizeof(t->device), "%s", mc_cl_energy_device(t->cl));
+	} else {
+		snprintf(t->device, sizeof(t->device), "reference (C, double, 1 thread)");
+	}
+	mc_model_rest_pose(&t->model, t->pose);
+	mc_tracker_set_pose(t, t->pose);
+	return t;
+fail:
+	mc_tracker_destroy(t);
+	return NULL;
+}
+
+int mc_tracker_set_budget(mc_tracker *t, int iterations, double pixel_fraction, double dropout, double step,
+			  double momentum, mc_err *err)
+{
+	mc_tracker_settings s = t->s;
+	s.iterations = iterations;
+	s.pixel_fraction = pixel_fraction;
+	s.dropout = dropout;
+	s.step = step;
+	s.momentum = momentum;
+	if (validate_settings(&s, err) < 0)
+		return -1;
+	t->s = s;
+	return 0;
+}
+
+void mc_tracker_destroy(mc_tracker *t)
+{
+	if (!t)
+		return;
+	for (int c = 0; c < MC_MAX_CAMERAS; c++) {
+		if (c < t->rig.ncams)
+			mc_raytable_free(&t->rays[c]);
+		free(t->rgb[c]);
+		free(t->hsv[c]);
+		free(t->candidates[c]);
+		free(t->samples[c]);
+	}
+	free(t->mask);
+	free(t->jacobian);
+	if (t->cl)
+		mc_cl_energy_destroy(t->cl);
+	free(t);
+}
+
+void mc_tracker_set_pose(mc_tracker *t, const double *pose)
+{
+	memcpy(t->pose, pose, sizeof(double) * t->model.ndof);
+	mc_model_clamp_pose(&t->model, t->pose);
+	memcpy(t->prev, t->pose, sizeof(t->prev));
+	memcpy(t->prev2, t->pose, sizeof(t->prev2));
+	memcpy(t->anchor, t->pose, sizeof(t->anchor));
+	t->history = 0;
+}
+
+const double *mc_tracker_pose(const mc_tracker *t)
+{
+	return t->pose;
+}
+
+const mc_model *mc_tracker_model(const mc_tracker *t)
+{
+	return &t->model;
+}
+
+const char *mc_tracker_device_name(const mc_tracker *t)
+{
+	return t->device;
+}
+
+int mc_tracker_init_from_joints(mc_tracker *t, const char *const *names, const mc_vec3 *positions, int n,
+				mc_err *err)
+{
+	mc_ik_target targets[MC_MAX_JOINTS];
+	int nt = 0;
+	for (int i = 0; i < n && nt < MC_MAX_JOINTS; i++) {
+		int j = mc_model_find_joint(&t->model, names[i]);
+		if (j < 0)
+			continue;
+		targets[nt++] = (mc_ik_target){j, positions[i], 1.0};
+	}
+	mc_ik_options o;
+	mc_ik_options_default(&o);
+	o.iterations = 200;
+	double pose[MC_MAX_DOF] = {0};
+	mc_model_rest_pose(&t->model, pose);
+	double rms = mc_ik_solve(&t->model, pose, targets, nt, &o, err);
+	if (rms < 0)
+		return -1;
+	mc_tracker_set_pose(t, pose);
+	return 0;
+}
+
+/* ---- images ---------------------------------------------------------- */
+
+/* Box-filters a packed RGB24 view down (or nearest-samples up) to the
+ * working resolution, as floats in [0, 1]. */
+static void resample_rgb(const mc_frame_view *v, int W, int H, float *out)
+{
+	double sx = (double)v->width / W, sy = (double)v->height / H;
+	for (int j = 0; j < H; j++) {
+		int y0 = (int)(j * sy), y1 = (int)((j + 1) * sy);
+		if (y1 <= y0)
+			y1 = y0 + 1;
+		if (y1 > v->height)
+			y1 = v->height;
+		for (int i = 0; i < W; i++) {
+			int x0 = (int)(i * sx), x1 = (int)((i + 1) * sx);
+			if (x1 <= x0)
+				x1 = x0 + 1;
+			if (x1 > v->width)
+				x1 = v->width;
+			double acc[3] = {0, 0, 0};
+			int n = 0;
+			for (int y = y0; y < y1; y++) {
+				const uint8_t *row = v->rgb + (size_t)y * v->stride;
+				for (int x = x0; x < x1; x++, n++)
+					for (int k = 0; k < 3; k++)
+						acc[k] += row[3 * x + k];
+			}
+			float *o = out + 3 * ((size_t)j * W + i);
+			for (int k = 0; k < 3; k++)
+				o[k] = (float)(n ? acc[k] / (255.0 * n) : 0.0);
+		}
+	}
+}
+
+static bool view_usable(const mc_frame_view *v)
+{
+	return v && v->rgb && v->width > 0 && v->height > 0 && v->stride >= 3 * v->width;
+}
+
+/* Converts the views; returns how many cameras carry a usable, non-blank image. */
+int mc_trk_load_views(mc_tracker *t, const mc_frame_view *views, int nviews)
+{
+	int W = t->s.width, H = t->s.height, present = 0;
+	for (int c = 0; c < t->rig.ncams; c++) {
+		t->present[c] = false;
+		if (c >= nviews || !view_usable(&views[c]))
+			continue;
+		const float *rgb_c = t->rgb[c];
+		resample_rgb(&views[c], W, H, t->rgb[c]);
+		double sum = 0, sum2 = 0;
+		int n = 0;
+		for (int p = 0; p < W * H; p++) {
+			double rgb[3] = {rgb_c[3 * p], rgb_c[3 * p + 1], rgb_c[3 * p + 2]}, hsv[3];
+			mc_rgb_to_hsv(rgb, hsv);
+			for (int k = 0; k < 3; k++)
+				t->hsv[c][3 * p + k] = (float)hsv[k];
+			if (t->rays[c].valid[p]) {
+				sum += hsv[2];
+				sum2 += hsv[2] * hsv[2];
+				n++;
+			}
+		}
+		double var = n ? sum2 / n - (sum / n) * (sum / n) : 0;
+		if (!(sqrt(fmax(var, 0)) > BLANK_STDDEV))
+			continue; /* blank or constant: no evidence */
+		t->present[c] = true;
+		present++;
+		if (t->cl) {
+			mc_err err;
+			if (mc_cl_energy_set_image(t->cl, c, t->hsv[c], &err) < 0) {
+				t->present[c] = false;
+				present--;
+			}
+		}
+	}
+	return present;
+}
+
+/* ---- candidate pixels -------------------------------------------------- */
+
+static void rasterize_disc(unsigned char *mask, int W, int H, double cu, double cv, double r)
+{
+	int i0 = (int)floor(cu - r), i1 = (int)ceil(cu + r);
+	int j0 = (int)floor(cv - r), j1 = (int)ceil(cv + r);
+	i0 = i0 < 0 ? 0 : i0;
+	j0 = j0 < 0 ? 0 : j0;
+	i1 = i1 >= W ? W - 1 : i1;
+	j1 = j1 >= H ? H - 1 : j1;
+	for (int j = j0; j <= j1; j++)
+		for (int i = i0; i <= i1; i++)
+			if ((i - cu) * (i - cu) + (j - cv) * (j - cv) <= r * r)
+				mask[j * W + i] = 1;
+}
+
+/* Native pixel -> working pixel coordinates (see mc_raytable). */
+static void to_working(const mc_raytable *rt, double u, double v, double *wu, double *wv)
+{
+	*wu = (u + 0.5) / rt->scale_x - 0.5;
+	*wv = (v + 0.5) / rt->scale_y - 0.5;
+}
+
+int mc_trk_working_pixel(const mc_tracker *t, int c, mc_vec3 p_rig)
+{
+	const mc_camera *cam = &t->rig.cams[c];
+	const mc_raytable *rt = &t->rays[c];
+	double u, v, wu, wv;
+	if (!mc_camera_project(cam, mc_xform_apply(mc_xform_inverse(cam->rig_from_cam), p_rig), &u, &v))
+		return -1;
+	to_working(rt, u, v, &wu, &wv);
+	int x = (int)lround(wu), y = (int)lround(wv);
+	if (x < 0 || y < 0 || x >= rt->width || y >= rt->height || !rt->valid[y * rt->width + x])
+		return -1;
+	return y * rt->width + x;
+}
+
+/* Marks the working pixels whose rays pass within 3 sigma + margin of a
+ * Gaussian: only they can see the body, so only they are sampled. */
+static void mark_gaussian(const mc_camera *cam, const mc_raytable *rt, mc_vec3 p, double radius, unsigned char *mask)
+{
+	double dist = mc_v3_norm(p);
+	if (dist < 1e-6)
+		return;
+	if (radius >= dist) { /* the camera is inside the Gaussian */
+		memset(mask, 1, (size_t)rt->width * rt->height);
+		return;
+	}
+	double alpha = asin(radius / dist);
+	mc_vec3 d = mc_v3_scale(p, 1.0 / dist);
+	mc_vec3 any = fabs(d.x) < 0.9 ? mc_v3(1, 0, 0) : mc_v3(0, 1, 0);
+	mc_vec3 e1 = mc_v3_normalize(mc_v3_cross(d, any)), e2 = mc_v3_cross(d, e1);
+	double u, v, cu, cv, r = 0;
+	bool centre = mc_camera_project(cam, d, &u, &v);
+	if (centre)
+		to_working(rt, u, v, &cu, &cv);
+	double ex[4][2] = {{1, 0}, {-1, 0}, {0, 1}, {0, -1}};
+	double pu[4], pv[4];
+	int np = 0;
+	for (int k = 0; k < 4; k++) {
+		mc_vec3 e = mc_v3_add(mc_v3_scale(e1, ex[k][0]), mc_v3_scale(e2, ex[k][1]));
+		mc_vec3 q = mc_v3_add(mc_v3_scale(d, cos(alpha)), mc_v3_scale(e, sin(alpha)));
+		if (mc_camera_project(cam, q, &u, &v)) {
+			to_working(rt, u, v, &pu[np], &pv[np]);
+			np++;
+		}
+	}
+	if (!np)
+		return;
+	if (!centre) { /* centre outside the field of view: use the edge points */
+		cu = cv = 0;
+		for (int k = 0; k < np; k++) {
+			cu += pu[k] / np;
+			cv += pv[k] / np;
+		}
+	}
+	for (int k = 0; k < np; k++)
+		r = fmax(r, hypot(pu[k] - cu, pv[k] - cv));
+	rasterize_disc(mask, rt->width, rt->height, cu, cv, r + 1.5);
+}
+
+void mc_trk_choose_candidates(mc_tracker *t, const mc_fk *fk)
+{
+	for (int c = 0; c < t->rig.ncams; c++) {
+		const mc_camera *cam = &t->rig.cams[c];
+		const mc_raytable *rt = &t->rays[c];
+		int n = rt->width * rt->height;
+		memset(t->mask, 0, (size_t)n);
+		mc_xform cam_from_rig = mc_xform_inverse(cam->rig_from_cam);
+		for (int q = 0; q < t->model.ngauss; q++) {
+			if (t->hidden[q])
+				continue;
+			mc_vec3 p = mc_xform_apply(cam_from_rig, fk->mu[q]);
+			mark_gaussian(cam, rt, p, 3 * t->model.gauss[q].sigma + CANDIDATE_MARGIN_M, t->mask);
+		}
+		t->ncandidates[c] = 0;
+		for (int p = 0; p < n; p++)
+			if (t->mask[p] && rt->valid[p])
+				t->candidates[c][t->ncandidates[c]++] = p;
+	}
+}
+
+/* Draws this iteration's pixels: a partial Fisher-Yates shuffle of each
+ * camera's candidates, so that no pixel is drawn twice. */
+int mc_trk_sample_pixels(mc_tracker *t, double fraction)
+{
+	int total = 0;
+	for (int c = 0; c < t->rig.ncams; c++) {
+		int n = t->present[c] ? t->ncandidates[c] : 0;
+		int k = (int)ceil(fraction * n);
+		int *cand = t->candidates[c];
+		for (int i = 0; i < k; i++) {
+			int j = i + (int)(mc_rng_next(&t->rng) % (uint64_t)(n - i));
+			int chosen = cand[j];
+			cand[j] = cand[i];
+			cand[i] = chosen;
+			t->samples[c][i] = chosen;
+		}
+		t->nsamples[c] = k;
+		total += k;
+	}
+	return total;
+}
+
+/* ---- energy ------------------------------------------------------------ */
+
+static double reference_data_term(mc_tracker *t, const mc_scene *scene, double dropout, mc_vec3 *dmu,
+				  double *dsigma)
+{
+	double E = 0, w[MC_MAX_GAUSSIANS];
+	unsigned char active[MC_MAX_GAUSSIANS];
+	for (int c = 0; c < t->rig.ncams; c++) {
+		const mc_raytable *rt = &t->rays[c];
+		for (int i = 0; i < t->nsamples[c]; i++) {
+			int p = t->samples[c][i];
+			double pix[3] = {t->hsv[c][3 * p], t->hsv[c][3 * p + 1], t->hsv[c][3 * p + 2]};
+			for (int q = 0; q < scene->n; q++) {
+				w[q] = mc_hsv_dissimilarity(scene->hsv[q], pix);
+				active[q] = dropout <= 0 || mc_rng_uniform(&t->rng) >= dropout;
+			}
+			double w_bg = scene->background ? mc_hsv_dissimilarity(scene->background_hsv, pix) : 0;
+			E += mc_ray_weighted_visibility_bg(scene, rt->origin, rt->dir[p], w, w_bg, active, dmu, dsigma);
+		}
+	}
+	return E;
+}
+
+/* E_color over this iteration's samples, as a mean per sampled pixel, and
+ * its gradient with respect to the Gaussian centres. */
+int mc_trk_data_term(mc_tracker *t, const mc_scene *scene, int nsampled, double dropout, double *E, mc_vec3 *dmu,
+		     mc_err *err)
+{
+	double dsigma[MC_MAX_GAUSSIANS];
+	memset(dmu, 0, sizeof(mc_vec3) * scene->n);
+	memset(dsigma, 0, sizeof(double) * scene->n);
+	*E = 0;
+	if (nsampled == 0)
+		return 0;
+	if (t->cl) {
+		const int *pix[MC_MAX_CAMERAS];
+		for (int c = 0; c < t->rig.ncams; c++)
+			pix[c] = t->samples[c];
+		uint32_t seed = (uint32_t)mc_rng_next(&t->rng);
+		if (mc_cl_energy_eval(t->cl, scene, pix, t->nsamples, dropout, seed, E, dmu, dsigma, err) < 0)
+			return -1;
+	} else {
+		*E = reference_data_term(t, scene, dropout, dmu, dsigma);
+	}
+	double inv = 1.0 / nsampled;
+	*E *= inv;
+	for (int q = 0; q < scene->n; q++)
+		dmu[q] = mc_v3_scale(dmu[q], inv);
+	return 0;
+}
+
+/* E_detection, as a robust distance of each detected joint from its
+ * keypoint's ray: lambda conf (sqrt(1 + (r / tau)^2) - 1) / n, r the
+ * joint's distance from the ray, tau = DETECTION_SCALE_M.  Quadratic near
+ * the ray and a constant pull far from it, so that a detection brings back
+ * a limb from anywhere in view (the thesis' visibility form, kept in
+ * mc_energy_detection, only reaches a few sigma; docs/TRACKER.md).
+ * Returns the energy and adds its pose gradient. */
+#define DETECTION_SCALE_M 0.05
+static double detection_term(mc_tracker *t, const double *pose, const mc_fk *fk, const mc_keypoint *kp, int nkp,
+			     double *grad)
+{
+	if (!kp || nkp <= 0 || t->s.lambda_detection <= 0)
+		return 0;
+	mc_vec3 djoint[MC_MAX_JOINTS] = {{0, 0, 0}};
+	double E = 0;
+	int used = 0;
+	for (int i = 0; i < nkp; i++) {
+		const mc_keypoint *k = &kp[i];
+		mc_vec3 ray;
+		if (k->cam < 0 || k->cam >= t->rig.ncams || k->joint < 0 || k->joint >= t->model.njoints ||
+		    !(k->conf > 0) || !mc_camera_unproject(&t->rig.cams[k->cam], k->u, k->v, &ray))
+			continue;
+		const mc_xform *X = &t->rig.cams[k->cam].rig_from_cam;
+		mc_vec3 n = mc_v3_normalize(mc_m3_apply(X->R, ray));
+		mc_vec3 d = mc_v3_sub(fk->rig_from_joint[k->joint].t, X->t);
+		mc_vec3 r = mc_v3_axpy(-mc_v3_dot(d, n), n, d); /* offset from the ray */
+		double dist = mc_v3_norm(r), x = dist / DETECTION_SCALE_M, root = sqrt(1 + x * x);
+		double w = fmin(k->conf, 1.0);
+		E += w * (root - 1);
+		used++;
+		if (dist > 1e-12) /* dE/dp = w x / root / tau * r / |r| */
+			djoint[k->joint] = mc_v3_axpy(w * x / (root * DETECTION_SCALE_M * dist), r, djoint[k->joint]);
+	}
+	if (!used)
+		return 0;
+	double scale = t->s.lambda_detection / used;
+	mc_vec3 *J = t->jacobian;
+	mc_model_joint_jacobian(&t->model, pose, fk, J);
+	for (int j = 0; j < t->model.njoints; j++)
+		for (int k = 0; k < t->model.ndof; k++)
+			grad[k] += scale * mc_v3_dot(djoint[j], J[j * t->model.ndof + k]);
+	return scale * E;
+}
+
+/* ---- optimisation -------------------------------------------------------- */
+
+/* Per-parameter step conditioning: each dof k gets a lever L_k = sum_q
+ * |d mu_q / d p_k|^2, the squared motion of the Gaussians it moves.  The
+ * gradient per unit of Gaussian motion, r_k = g_k / sqrt(L_k), is divided by
+ * its running RMS over all dofs, so that one iteration moves the Gaussians
+ * by about `step` metres whatever the energy's scale, and a dof with a weak
+ * (noisy) gradient moves less than one with a strong gradient.  Momentum
+ * smooths the stochastic gradients. */
+typedef struct {
+	double lever[MC_MAX_DOF];
+	double velocity[MC_MAX_DOF];
+	double mean_sq; /* running mean of r_k^2 */
+	int steps;
+} step_state;
+
+static void compute_levers(const mc_tracker *t, const double *pose, step_state *st)
+{
+	int nd = t->model.ndof;
+	mc_vec3 *J = t->jacobian;
+	mc_fk fk;
+	for (int k = 0; k < nd; k++)
+		st->lever[k] = 1e-4; /* keeps dofs that move nothing finite */
+	mc_model_fk(&t->model, pose, &fk);
+	mc_model_gauss_jacobian(&t->model, pose, &fk, J);
+	for (int q = 0; q < t->model.ngauss; q++)
+		for (int k = 0; k < nd; k++)
+			st->lever[k] += mc_v3_norm2(J[q * nd + k]);
+}
+
+static void conditioned_step(const mc_tracker *t, step_state *st, const double *grad, double step, double *pose)
+{
+	const double beta = 0.9;
+	int nd = t->model.ndof;
+	double r[MC_MAX_DOF], sq = 0;
+	for (int k = 0; k < nd; k++) {
+		r[k] = grad[k] / sqrt(st->lever[k]);
+		sq += r[k] * r[k];
+	}
+	st->steps++;
+	st->mean_sq = beta * st->mean_sq + (1 - beta) * sq / nd;
+	double rms = sqrt(st->mean_sq / (1 - pow(beta, st->steps)));
+	if (!(rms > 0))
+		return;
+	for (int k = 0; k < nd; k++) {
+		double d = -step * r[k] / rms / sqrt(st->lever[k]);
+		st->velocity[k] = t->s.momentum * st->velocity[k] + d;
+		pose[k] += st->velocity[k];
+	}
+	mc_model_clamp_pose(&t->model, pose);
+}
+
+static void predict(const mc_tracker *t, double *pred)
+{
+	for (int k = 0; k < t->model.ndof; k++)
+		pred[k] = t->history >= 2 ? t->prev[k] + 0.25 * (t->prev[k] - t->prev2[k]) : t->prev[k];
+	mc_model_clamp_pose(&t->model, pred);
+}
+
+/* Runs the iteration budget from `pose` (in/out). Returns the mean data
+ * energy per pixel over the last quarter of the iterations. */
+static int optimise(mc_tracker *t, double *pose, const double *pred, const mc_keypoint *kp, int nkp, double *final_E,
+		    mc_err *err)
+{
+	step_state st;
+	memset(&st, 0, sizeof(st));
+	compute_levers(t, pose, &st);
+	int iters = t->s.iterations, tail = iters / 4 > 0 ? iters / 4 : 1, ntail = 0;
+	double Etail = 0;
+	mc_vec3 dmu[MC_MAX_GAUSSIANS];
+	for (int it = 0; it < iters; it++) {
+		mc_fk fk;
+		mc_scene scene;
+		double grad[MC_MAX_DOF] = {0}, E;
+		mc_model_fk(&t->model, pose, &fk);
+		mc_trk_make_scene(t, &fk, &scene);
+		int ns = mc_trk_sample_pixels(t, t->s.pixel_fraction);
+		if (mc_trk_data_term(t, &scene, ns, t->s.dropout, &E, dmu, err) < 0)
+			return -1;
+		mc_model_backprop(&t->model, pose, &fk, dmu, grad);
+		mc_energy_pose(&t->model, pose, t->s.lambda_limit, t->s.lambda_pose, grad);
+		mc_energy_smooth(t->model.ndof, pose, pred, t->s.lambda_smooth, grad);
+		/* the same pseudo-Huber pull, toward the calibration pose */
+		if (t->s.lambda_anchor > 0)
+			mc_energy_smooth(t->model.ndof, pose, t->anchor, t->s.lambda_anchor, grad);
+		detection_term(t, pose, &fk, kp, nkp, grad);
+		if (it >= iters - tail) {
+			Etail += E;
+			ntail++;
+		}
+		/* The step shrinks linearly to a fifth over the budget. */
+		double step = t->s.step * (1.0 - 0.8 * it / (double)iters);
+		conditioned_step(t, &st, grad, step, pose);
+	}
+	*final_E = ntail ? Etail / ntail : 0;
+	return 0;
+}
+
+/* ---- tracking ------------------------------------------------------------ */
+
+static void fill_skeleton(const mc_tracker *t, const double *pose, mc_skeleton *out)
+{
+	mc_fk fk;
+	mc_model_fk(&t->model, pose, &fk);
+	out->njoints = t->model.njoints;
+	for (int j = 0; j < t->model.njoints; j++) {
+		mc_skeleton_joint *sj = &out->joints[j];
+		snprintf(sj->name, sizeof(sj->name), "%s", t->model.joints[j].name);
+		sj->parent = t->model.joints[j].parent;
+		sj->position = fk.rig_from_joint[j].t;
+		sj->orientation = mc_quat_from_m3(fk.rig_from_joint[j].R);
+	}
+	mc_trk_joint_confidence(t, pose, out);
+}
+
+static mc_track_state state_from_quality(double quality)
+{
+	if (!(quality >= QUALITY_LOST))
+		return MC_TRACK_LOST;
+	return quality >= QUALITY_UNCERTAIN ? MC_TRACK_OK : MC_TRACK_UNCERTAIN;
+}
+
+static bool pose_finite(const double *p, int n)
+{
+	for (int k = 0; k < n; k++)
+		if (!isfinite(p[k]))
+			return false;
+	return true;
+}
+
+int mc_tracker_track(mc_tracker *t, const mc_frame_view *views, int nviews, const mc_keypoint *kp, int nkp,
+		     mc_skeleton *out, mc_err *err)
+{
+	double start = now_ms();
+	memset(out, 0, sizeof(*out));
+	for (int c = 0; c < nviews && c < t->rig.ncams; c++)
+		if (view_usable(&views[c]) && views[c].timestamp_ns > out->timestamp_ns)
+			out->timestamp_ns = views[c].timestamp_ns;
+	int present = mc_trk_load_views(t, views, nviews);
+
+	double pred[MC_MAX_DOF], pose[MC_MAX_DOF], E = 0, quality = 0;
+	predict(t, pred);
+	memcpy(pose, pred, sizeof(pose));
+	if (present > 0) {
+		mc_fk fk;
+		mc_model_fk(&t->model, pred, &fk);
+		mc_trk_choose_candidates(t, &fk);
+		if (optimise(t, pose, pred, kp, nkp, &E, err) < 0)
+			return -1;
+		quality = E / t->baseline;
+		out->iterations = t->s.iterations;
+	}
+	out->state = state_from_quality(quality);
+	if (!pose_finite(pose, t->model.ndof))
+		out->state = MC_TRACK_LOST;
+	if (out->state != MC_TRACK_LOST) {
+		memcpy(t->prev2, t->prev, sizeof(t->prev2));
+		memcpy(t->prev, pose, sizeof(t->prev));
+		memcpy(t->pose, pose, sizeof(t->pose));
+		t->history = t->history < 2 ? t->history + 1 : 2;
+	} else {
+		/* Keep the last good pose and forget the velocity, so that real
+		 * frames restart from where the body was last seen. */
+		memcpy(t->prev2, t->prev, sizeof(t->prev2));
+		t->history = 0;
+	}
+	out->energy = E;
+	fill_skeleton(t, t->pose, out);
+	out->track_ms = now_ms() - start;
+	return 0;
+}

@@ -1,0 +1,117 @@
+/* mc_tracker: per-frame pose tracking, the API the daemon and the benchmark use.
+ *
+ * Create a tracker from a rig, a model and settings; initialise it with a
+ * pose (and optionally calibrate the actor's colours); then feed one
+ * multi-view frame set per instant and read back the skeleton. */
+#ifndef MC_TRACKER_H
+#define MC_TRACKER_H
+
+#include "base/mc_error.h"
+#include "body/mc_model.h"
+#include "geom/mc_rig.h"
+
+#include <stdint.h>
+
+typedef enum {
+	MC_BACKEND_OPENCL = 0, /* the runtime default */
+	MC_BACKEND_REFERENCE = 1,
+} mc_backend;
+
+typedef enum {
+	MC_TRACK_OK = 0,
+	MC_TRACK_UNCERTAIN = 1,
+	MC_TRACK_LOST = 2,
+} mc_track_state;
+
+typedef struct {
+	mc_backend backend;
+	int width, height;       /* working resolution per camera */
+	int iterations;          /* gradient iterations per frame */
+	double pixel_fraction;   /* share of valid pixels sampled per iteration */
+	double dropout;          /* probability of dropping a Gaussian per pixel */
+	double step;             /* base step size */
+	double momentum;         /* 0..1 */
+	double lambda_detection, lambda_limit, lambda_pose, lambda_smooth;
+	/* Pull toward the pose set by mc_tracker_set_pose / init_from_joints
+	 * (the calibration pose), same pseudo-Huber form as lambda_smooth:
+	 * keeps weakly observed dofs from random-walking (docs/TRACKER.md). */
+	double lambda_anchor;
+	int cl_platform, cl_device; /* -1: first GPU, else first CPU */
+	uint64_t seed;
+} mc_tracker_settings;
+
+void mc_tracker_settings_default(mc_tracker_settings *s);
+const char *mc_track_state_name(mc_track_state s);
+
+/* One camera's image: packed RGB24, any resolution (scaled to the working
+ * resolution). rgb == NULL means the camera is missing from this frame set. */
+typedef struct {
+	int width, height, stride;
+	const uint8_t *rgb;
+	uint64_t timestamp_ns;
+} mc_frame_view;
+
+/* Optional external 2D keypoints for one frame set. */
+typedef struct {
+	int cam;           /* rig camera index */
+	int joint;         /* model joint index */
+	double u, v;       /* native pixels */
+	double conf;       /* 0..1 */
+} mc_keypoint;
+
+typedef struct {
+	char name[MC_JOINT_NAME_MAX];
+	int parent;
+	mc_vec3 position;   /* rig frame, metres */
+	mc_quat orientation; /* rig_from_joint rotation */
+	float confidence;   /* 0..1 */
+} mc_skeleton_joint;
+
+typedef struct {
+	uint64_t timestamp_ns;
+	mc_track_state state;
+	int njoints;
+	mc_skeleton_joint joints[MC_MAX_JOINTS];
+	double energy;      /* final data energy per sampled pixel */
+	double track_ms;    /* time spent in mc_tracker_track */
+	int iterations;
+} mc_skeleton;
+
+typedef struct mc_tracker mc_tracker;
+
+mc_tracker *mc_tracker_create(const mc_rig *rig, const mc_model *model, const mc_tracker_settings *s,
+			      mc_err *err);
+void mc_tracker_destroy(mc_tracker *t);
+
+/* Changes the per-frame budget of a running tracker (e.g. on a config
+ * reload), checked like mc_tracker_create's settings.  The actor, its
+ * calibration, the pose and the device are kept. */
+int mc_tracker_set_budget(mc_tracker *t, int iterations, double pixel_fraction, double dropout, double step,
+			  double momentum, mc_err *err);
+
+/* Sets the current pose (and history) to `pose` (model->ndof values). */
+void mc_tracker_set_pose(mc_tracker *t, const double *pose);
+const double *mc_tracker_pose(const mc_tracker *t);
+const mc_model *mc_tracker_model(const mc_tracker *t);
+
+/* Initialises from 3D joint positions (rig frame, metres), e.g. the ground
+ * truth of frame 0 or a detector's output: a small inverse-kinematics solve
+ * for the bone-length scales, the root placement (rig_from_root for fixed
+ * roots) and the pose.  names[i] is a model joint name; unknown names are
+ * ignored.  Resets the pose history. */
+int mc_tracker_init_from_joints(mc_tracker *t, const char *const *names, const mc_vec3 *positions, int n,
+				mc_err *err);
+
+/* Estimates each Gaussian's colour from one frame set at the current pose:
+ * visibility-weighted mean of its pixels, the worst 50% dropped (thesis 5.3.2). */
+int mc_tracker_calibrate_colors(mc_tracker *t, const mc_frame_view *views, int nviews, mc_err *err);
+
+/* Tracks one frame set (nviews == rig->ncams; a view with rgb == NULL is a
+ * missing camera). Keypoints may be NULL. */
+int mc_tracker_track(mc_tracker *t, const mc_frame_view *views, int nviews, const mc_keypoint *kp, int nkp,
+		     mc_skeleton *out, mc_err *err);
+
+/* Name of the compute device in use, e.g. "pocl: pthread-skylake". */
+const char *mc_tracker_device_name(const mc_tracker *t);
+
+#endif

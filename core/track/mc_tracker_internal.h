@@ -1,0 +1,72 @@
+/* mc_tracker_internal: the tracker's state and the helpers that the
+ * tracking loop (mc_tracker.c) and the actor calibration (mc_calibrate.c)
+ * share.  Not part of the public API. */
+#ifndef MC_TRACKER_INTERNAL_H
+#define MC_TRACKER_INTERNAL_H
+
+#include "energy/mc_cl.h"
+#include "energy/mc_energy.h"
+#include "track/mc_tracker.h"
+
+struct mc_tracker {
+	mc_rig rig;
+	mc_model model;
+	mc_tracker_settings s;
+	mc_raytable rays[MC_MAX_CAMERAS];
+	float *rgb[MC_MAX_CAMERAS]; /* working-resolution RGB of the current views */
+	float *hsv[MC_MAX_CAMERAS];
+	bool present[MC_MAX_CAMERAS];
+	int *candidates[MC_MAX_CAMERAS];
+	int ncandidates[MC_MAX_CAMERAS];
+	int *samples[MC_MAX_CAMERAS];
+	int nsamples[MC_MAX_CAMERAS];
+	unsigned char *mask;
+	mc_vec3 *jacobian; /* max(ngauss, MC_MAX_JOINTS) x ndof */
+	bool hidden[MC_MAX_GAUSSIANS]; /* left out of the image energy */
+	/* joints rigidly attached to a root fixed to the rig (the head on an
+	 * egocentric rig): their position is known without any image */
+	bool fixed_joint[MC_MAX_JOINTS];
+	mc_cl_energy *cl;
+	char device[160];
+
+	double pose[MC_MAX_DOF];
+	double prev[MC_MAX_DOF], prev2[MC_MAX_DOF];
+	double anchor[MC_MAX_DOF]; /* calibration pose, for lambda_anchor */
+	/* the background colour model of the energy (calibrate_background) */
+	bool has_background;
+	double background_hsv[3];
+	/* per Gaussian: its image evidence at calibration
+	 * (mc_trk_gaussian_evidence), the reference for confidence */
+	double evidence0[MC_MAX_GAUSSIANS];
+	int history; /* frames of history in prev/prev2 (0..2) */
+	double baseline; /* mean data energy per pixel after calibration (< 0) */
+	uint64_t rng;
+};
+
+/* Converts the views to working-resolution RGB (t->rgb) and HSV (t->hsv);
+ * returns how many cameras carry a usable, non-blank image (t->present). */
+int mc_trk_load_views(mc_tracker *t, const mc_frame_view *views, int nviews);
+/* The Gaussians at a pose, as the image energy sees them. */
+void mc_trk_make_scene(const mc_tracker *t, const mc_fk *fk, mc_scene *scene);
+/* Candidate pixels (t->candidates) near the body at fk. */
+void mc_trk_choose_candidates(mc_tracker *t, const mc_fk *fk);
+/* Draws a share of each present camera's candidates into t->samples;
+ * returns how many in all. */
+int mc_trk_sample_pixels(mc_tracker *t, double fraction);
+/* E_color over t->samples as a mean per sampled pixel, and its gradient
+ * with respect to the Gaussian centres. */
+int mc_trk_data_term(mc_tracker *t, const mc_scene *scene, int nsampled, double dropout, double *E, mc_vec3 *dmu,
+		     mc_err *err);
+
+/* The valid working pixel of camera c that a rig-frame point projects to,
+ * or -1. */
+int mc_trk_working_pixel(const mc_tracker *t, int c, mc_vec3 p_rig);
+/* Each visible Gaussian's image evidence at a pose: sum over the present
+ * cameras of V_q (-d(I, a_q)) at the pixel of its centre; 0 for hidden
+ * Gaussians. */
+void mc_trk_gaussian_evidence(const mc_tracker *t, const double *pose, double *per_gauss);
+/* Fills out->joints[j].confidence for a tracked pose (see docs/TRACKER.md,
+ * "Per-joint confidence"); 0 for every joint when out->state is lost. */
+void mc_trk_joint_confidence(const mc_tracker *t, const double *pose, mc_skeleton *out);
+
+#endif

@@ -1,0 +1,112 @@
+/* mdrv.h: the one ABI between mocapd and its camera driver plugins.
+ *
+ * A plugin is a shared object `mocap-driver-NAME.so` that exports
+ *
+ *     const mdrv_driver *mdrv_entry(void);
+ *
+ * The host checks `abi_version` against MDRV_ABI_VERSION and refuses
+ * a mismatch.  The host owns the threads: for each opened camera it calls
+ * next_frame() in a loop on a capture thread of its own, giving the driver a
+ * slot (memory in the camera's frame ring) to fill.  Drivers never allocate
+ * frame memory the host must free, never call exit(), and report every
+ * failure as a negative mdrv_status with a message in `err`.
+ *
+ * Any change to a struct or function here bumps MDRV_ABI_VERSION. */
+#ifndef MDRV_H
+#define MDRV_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "image/mc_pixfmt.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+#define MDRV_ABI_VERSION 1u
+#define MDRV_ENTRY_SYMBOL "mdrv_entry"
+
+typedef enum {
+	MDRV_OK = 0,
+	MDRV_ERR_IO = -1,      /* transient or unknown I/O error; the host may retry */
+	MDRV_ERR_NODEV = -2,   /* the device is gone (unplugged); reopen later */
+	MDRV_ERR_TIMEOUT = -3, /* no frame within timeout_ms; not an error by itself */
+	MDRV_ERR_CONFIG = -4,  /* bad or missing config key; will not succeed on retry */
+	MDRV_ERR_FORMAT = -5,  /* unsupported format or size */
+	MDRV_ERR_NOSPACE = -6, /* the frame does not fit the slot's capacity */
+	MDRV_ERR_END = -7,     /* end of a finite stream (e.g. files without loop) */
+} mdrv_status;
+
+typedef struct {
+	uint32_t pixfmt;  /* mc_pixfmt */
+	uint32_t width, height;
+	uint32_t stride;  /* bytes per row; 0 for compressed formats */
+	double fps;       /* nominal; 0 if unknown or free-running */
+	size_t max_bytes; /* the largest frame the driver can deliver */
+} mdrv_format;
+
+enum {
+	MDRV_FRAME_CORRUPT = 1u << 0, /* the driver knows the data is damaged */
+	MDRV_FRAME_SHORT = 1u << 1,   /* fewer bytes than the format needs */
+};
+
+/* A slot the host gives to next_frame(). The driver writes into data (at most
+ * capacity bytes) and fills the other fields. */
+typedef struct {
+	uint8_t *data;
+	size_t capacity;
+	size_t bytesused;
+	uint64_t timestamp_ns; /* CLOCK_MONOTONIC, as close to exposure as possible */
+	uint64_t sequence;     /* the driver's own frame counter */
+	uint32_t flags;        /* MDRV_FRAME_* */
+	mdrv_format format;   /* of this frame */
+} mdrv_frame;
+
+enum { MDRV_LOG_ERROR = 0, MDRV_LOG_WARN = 1, MDRV_LOG_INFO = 2, MDRV_LOG_DEBUG = 3 };
+
+/* What the host offers a driver. */
+typedef struct {
+	void *ctx;
+	/* The value of `key` in this camera's config section, or NULL.  The
+	 * host reports keys no driver call asked for as config errors; asking
+	 * for "prefix.*" (returns NULL) claims every key starting with
+	 * "prefix." as read, for keys the driver uses later. */
+	const char *(*config_get)(void *ctx, const char *key);
+	void (*log)(void *ctx, int level, const char *msg);
+} mdrv_host;
+
+typedef struct {
+	char id[128];       /* what the config's `device` key takes to select it */
+	char name[128];     /* human-readable model name */
+	char bus_info[128]; /* stable physical location, e.g. usb-0000:00:14.0-2 */
+	char serial[64];    /* empty if unknown */
+} mdrv_device_info;
+
+typedef struct mdrv_driver {
+	uint32_t abi_version; /* MDRV_ABI_VERSION */
+	const char *name;     /* "v4l2", "files", ... */
+	const char *description;
+
+	/* Lists up to `max` devices; returns how many were found (>= 0) or a
+	 * negative mdrv_status with a message. */
+	int (*probe)(const mdrv_host *host, mdrv_device_info *out, int max, char *err, size_t errlen);
+	/* Opens the device selected by the config section. NULL on error. */
+	void *(*open)(const mdrv_host *host, char *err, size_t errlen);
+	/* The format frames will have after start(). */
+	int (*get_format)(void *dev, mdrv_format *fmt, char *err, size_t errlen);
+	int (*start)(void *dev, char *err, size_t errlen);
+	/* Waits up to timeout_ms for the next frame and copies it into slot.
+	 * Returns MDRV_OK, MDRV_ERR_TIMEOUT, MDRV_ERR_END or an error. */
+	int (*next_frame)(void *dev, mdrv_frame *slot, int timeout_ms, char *err, size_t errlen);
+	void (*stop)(void *dev);
+	void (*close)(void *dev);
+} mdrv_driver;
+
+typedef const mdrv_driver *(*mdrv_entry_fn)(void);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif

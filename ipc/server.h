@@ -1,0 +1,250 @@
+/* srv_server: the daemon's side of the client socket (docs/PROTOCOL.md).
+ *
+ * The server owns one thread that runs an epoll loop over a SOCK_SEQPACKET
+ * Unix socket and its clients.  The daemon talks to it only through the
+ * functions below; none of them waits for a client:
+ *
+ *   - srv_publish() hands a skeleton to the server thread through a
+ *     briefly locked mailbox and an eventfd wake-up.  It never blocks on a
+ *     socket.  A slow or stuck client never delays the tracker or any other
+ *     client: each client has its own bounded queue ("all" mode) or a single
+ *     newest-frame slot ("latest" mode), and its socket is non-blocking.
+ *   - Requests that need the daemon (control: reload, recording) and inputs
+ *     from clients (2D keypoints, VR head poses) are queued inside the
+ *     server; the daemon polls them (srv_poll_*), e.g. when
+ *     srv_event_fd() becomes readable.
+ *   - Status replies are answered by the server thread from the last
+ *     snapshot given with srv_set_status().
+ *
+ * Every function is thread-safe unless it says otherwise.  Typical use:
+ *
+ *     srv_config cfg;
+ *     srv_config_default(&cfg);          // path /run/mocapd/mocapd.sock
+ *     cfg.listen_fd = sd_listen_fds(0) == 1 ? SD_LISTEN_FDS_START : -1;
+ *     srv_server *srv = srv_create(&cfg, &err);
+ *     srv_set_skeleton_def_from_model(srv, model, &err);
+ *     srv_set_rig(srv, rig_json_text, rig->ncams, &err);
+ *     ... per frame, on the publish thread:
+ *     srv_publish(srv, &skeleton, seq, &err);
+ *     ... on the main loop, when srv_event_fd(srv) is readable:
+ *     srv_control ctl;
+ *     while (srv_poll_control(srv, &ctl) == 1) {
+ *             int rc = do_reload(...);
+ *             srv_control_done(srv, ctl.token, rc, rc ? "why" : "reloaded");
+ *     }
+ *     srv_destroy(srv);
+ */
+#ifndef SRV_H
+#define SRV_H
+
+#include "base/mc_error.h"
+#include "body/mc_model.h"
+#include "track/mc_tracker.h"
+
+#include <stdbool.h>
+#include <stdint.h>
+#include <sys/types.h>
+
+#define SRV_DEFAULT_PATH "/run/mocapd/mocapd.sock"
+#define SRV_ARG_MAX 256      /* control argument, bytes incl. NUL */
+#define SRV_MAX_KEYPOINTS 256 /* per keypoint batch (one camera, one frame) */
+#define SRV_MAX_RINGS 16
+
+typedef struct {
+	/* Socket path.  With listen_fd < 0 the server creates it: a stale
+	 * socket file (a socket nobody listens on, e.g. after SIGKILL) is
+	 * removed; anything else at the path (a live daemon, a regular file)
+	 * is an error.  With listen_fd >= 0 it is only used in messages. */
+	char path[4096];
+	/* An already listening SOCK_SEQPACKET Unix socket (systemd socket
+	 * activation: sd_listen_fds), or -1.  The server takes ownership. */
+	int listen_fd;
+	int max_clients;        /* further connections get an error and are closed */
+	int queue_len;          /* frames queued per "all" client (default; clients may ask for less) */
+	int max_queue_len;      /* the most a client may ask for */
+	unsigned socket_mode;   /* permission bits of a created socket file, e.g. 0660 */
+	/* Group whose members may control the daemon, map camera rings and send
+	 * keypoints and head poses, besides the daemon's own user and root.
+	 * (gid_t)-1: the daemon's effective group.  A created socket file is
+	 * given this group. */
+	gid_t control_gid;
+	/* A head pose is used for a frame when it lies within this many
+	 * nanoseconds of the frame's capture time (or brackets it). */
+	uint64_t head_pose_max_age_ns;
+	char daemon_version[64]; /* reported in the handshake */
+} srv_config;
+
+void srv_config_default(srv_config *cfg);
+
+typedef struct srv_server srv_server;
+
+/* Creates the socket (or adopts cfg->listen_fd) and starts the server
+ * thread.  NULL with err set on failure, e.g.
+ *   "/run/mocapd/mocapd.sock: another mocapd is listening there". */
+srv_server *srv_create(const srv_config *cfg, mc_err *err);
+/* Stops the thread, closes every client and the socket, removes the socket
+ * file if the server created it. NULL is allowed. */
+void srv_destroy(srv_server *srv);
+
+/* --- What the daemon publishes ----------------------------------------- */
+
+/* The skeleton definition sent to subscribers (joint names, parents, rest
+ * offsets in the parent frame, metres).  Every call gives the definition a
+ * new id; subscribers receive it before the next frame.  Frames published
+ * afterwards must have the same joints in the same order. */
+typedef struct {
+	int njoints;
+	char name[MC_MAX_JOINTS][MC_JOINT_NAME_MAX];
+	int parent[MC_MAX_JOINTS];      /* -1 for the root */
+	mc_vec3 rest_offset[MC_MAX_JOINTS];
+	/* true when the rig frame already is the world frame (outside-in rigs):
+	 * frames for world subscribers are then sent as they are. */
+	bool rig_is_world;
+} srv_skeleton_def;
+
+int srv_set_skeleton_def(srv_server *srv, const srv_skeleton_def *def, mc_err *err);
+/* The same from a model: names, parents, offsets scaled by bone_scale;
+ * rig_is_world = model->root_free. */
+int srv_set_skeleton_def_from_model(srv_server *srv, const mc_model *model, mc_err *err);
+
+/* The rig in use, as JSON text (sent as is to `mocapctl rig`), and its
+ * number of cameras (keypoints naming a camera >= ncams are refused). */
+int srv_set_rig(srv_server *srv, const char *rig_json, int ncams, mc_err *err);
+
+/* Publishes one skeleton; `seq` is the daemon's publish counter and should
+ * grow by one per call: a jump is reported to "all" subscribers as a gap.
+ * sk->timestamp_ns is the capture time.  Never blocks.  Returns -1 (err
+ * set) when no skeleton definition was set or sk->njoints differs from it,
+ * or when the server thread has fallen so far behind that its mailbox is
+ * full (the frame is then dropped and counted, and "all" subscribers get a
+ * gap message). */
+int srv_publish(srv_server *srv, const mc_skeleton *sk, uint64_t seq, mc_err *err);
+
+/* --- Status ----------------------------------------------------------- */
+
+#define SRV_STATUS_MAX_CAMS 8
+#define SRV_NAME_MAX 64
+
+typedef enum {
+	MC_CAM_STATE_OK = 0,
+	MC_CAM_STATE_STALLED = 1, /* no frame for a while */
+	MC_CAM_STATE_ERROR = 2,   /* driver error, being reopened */
+	MC_CAM_STATE_OFF = 3,     /* not opened */
+} srv_cam_state;
+
+typedef enum {
+	SRV_TRACKER_OK = MC_TRACK_OK,
+	SRV_TRACKER_UNCERTAIN = MC_TRACK_UNCERTAIN,
+	SRV_TRACKER_LOST = MC_TRACK_LOST,
+	SRV_TRACKER_IDLE = 3, /* not tracking (disabled, initialising, no frames) */
+} srv_tracker_state;
+
+typedef struct {
+	char name[SRV_NAME_MAX];
+	srv_cam_state state;
+	int width, height;
+	double fps;          /* frames per second received, recent average */
+	uint64_t frames;     /* received since start */
+	uint64_t drops;      /* lost or overwritten before use */
+} srv_cam_status;
+
+typedef struct {
+	srv_tracker_state tracker_state;
+	bool recording;
+	double publish_fps;     /* skeletons per second, recent average */
+	double track_ms_mean;   /* time per tracked frame, recent mean */
+	double track_ms_max;    /* recent maximum */
+	uint64_t frames_published;
+	uint64_t frames_dropped; /* frame sets the tracker skipped */
+	uint64_t start_ns;       /* CLOCK_MONOTONIC at daemon start */
+	char device[SRV_NAME_MAX]; /* compute device, e.g. "pocl: cpu" */
+	int ncams;
+	srv_cam_status cams[SRV_STATUS_MAX_CAMS];
+} srv_status;
+
+/* Replaces the snapshot that status requests are answered from (copied).
+ * The server adds its own figures (clients, their drops). */
+void srv_set_status(srv_server *srv, const srv_status *st);
+
+/* Figures of the server itself, e.g. for the daemon's log. */
+typedef struct {
+	int clients;              /* connected now */
+	uint64_t accepted;        /* connections accepted since start */
+	uint64_t refused;         /* refused: too many clients, bad handshake */
+	uint64_t protocol_errors; /* clients disconnected for malformed messages */
+	uint64_t frames_published;
+	uint64_t mailbox_drops;   /* frames dropped because the server thread lagged */
+	uint64_t client_drops;    /* frames dropped from "all" queues (sent as gaps) */
+	uint64_t keypoint_drops;  /* keypoint batches the daemon did not poll in time */
+} srv_stats;
+
+void srv_get_stats(srv_server *srv, srv_stats *st);
+
+/* --- What clients send to the daemon ----------------------------------- */
+
+/* An fd (eventfd) that is readable exactly while control requests or
+ * keypoint batches are waiting to be polled; the poll functions reset it
+ * when both queues are empty.  Add it to the daemon's poll set. */
+int srv_event_fd(srv_server *srv);
+
+typedef enum {
+	MC_CONTROL_RELOAD = 1,          /* reload configuration, rig and model */
+	MC_CONTROL_RECORD_START = 2,    /* argument: output path ("" = default) */
+	MC_CONTROL_RECORD_STOP = 3,
+} mc_control_command;
+
+typedef struct {
+	uint64_t token;          /* pass to srv_control_done */
+	mc_control_command command;
+	char argument[SRV_ARG_MAX];
+	pid_t pid;               /* requesting process (SO_PEERCRED) */
+	uid_t uid;
+	gid_t gid;
+} srv_control;
+
+/* 1 and fills *out if a control request is waiting, else 0.  Only
+ * privileged clients' requests get here; the others were already refused. */
+int srv_poll_control(srv_server *srv, srv_control *out);
+/* Answers a polled request: result 0 = done, else failed; message is shown
+ * to the user (e.g. "mocapd.conf:12: [tracker] iterations: ...").  A client
+ * that left meanwhile is skipped. */
+void srv_control_done(srv_server *srv, uint64_t token, int result, const char *message);
+
+/* External 2D detections for one camera image (thesis 6.2.2). */
+typedef struct {
+	uint64_t capture_ns;     /* timestamp of the camera frame they belong to */
+	int cam;                 /* rig camera index */
+	int nkeypoints;
+	mc_keypoint keypoints[SRV_MAX_KEYPOINTS]; /* .cam = cam; .joint = skeleton joint index */
+	pid_t pid;               /* sending process */
+} srv_keypoints;
+
+/* 1 and fills *out (oldest first) if a batch is waiting, else 0.  The
+ * server keeps a bounded number of batches; older ones are dropped and
+ * counted (srv_stats.keypoint_drops). */
+int srv_poll_keypoints(srv_server *srv, srv_keypoints *out);
+
+/* The pose of the rig in a VR runtime's world frame at one instant. */
+typedef struct {
+	uint64_t timestamp_ns;   /* CLOCK_MONOTONIC */
+	mc_vec3 position;        /* world_from_rig translation, metres */
+	mc_quat orientation;     /* world_from_rig rotation */
+} srv_head_pose;
+
+/* 1 and the newest head pose received, else 0 (none yet).  The server itself
+ * uses the head poses to send world-frame skeletons to clients that ask. */
+int srv_latest_head_pose(srv_server *srv, srv_head_pose *out);
+
+/* --- Camera rings ------------------------------------------------------ */
+
+/* Offers a camera's frame ring (a memfd) to privileged clients, read-only:
+ * the server keeps its own O_RDONLY descriptor of it (the caller keeps
+ * `fd`).  `size` is the number of bytes a client maps.  Returns the ring's
+ * index or -1.  Rings made by mc_ring_create are sealed with
+ * F_SEAL_FUTURE_WRITE once the writer has mapped them, so the mapping stays
+ * read-only even against a client that reopens /proc/self/fd. */
+int srv_add_ring(srv_server *srv, const char *camera_name, int fd, uint64_t size, mc_err *err);
+/* Withdraws every ring (e.g. before a reload); clients keep what they have. */
+void srv_clear_rings(srv_server *srv);
+
+#endif
