@@ -1,0 +1,106 @@
+/* mc_detector: heatmap decoding and the mapping of detections to the
+ * tracker's keypoints (plain C, no OpenCV: see mc_detector.h). */
+#include "mc_detector.h"
+
+#include <string.h>
+
+int mc_detector_decode(const float *heatmaps, int njoints, int height, int width, int in_w, int in_h, int native_w,
+		       int native_h, float threshold, mc_detection *out, int max)
+{
+	if (!heatmaps || njoints <= 0 || height <= 0 || width <= 0 || in_w <= 0 || in_h <= 0 || !out)
+		return 0;
+	int n = 0;
+	const size_t plane = (size_t)width * (size_t)height;
+	for (int j = 0; j < njoints && n < max; j++) {
+		const float *h = heatmaps + (size_t)j * plane;
+		size_t best = 0;
+		for (size_t i = 1; i < plane; i++)
+			if (h[i] > h[best])
+				best = i;
+		float conf = h[best];
+		/* NaN never passes; confidences outside [0, 1] (a model that
+		 * breaks the contract) are clamped. */
+		if (!(conf >= threshold))
+			continue;
+		int bx = (int)(best % (size_t)width), by = (int)(best / (size_t)width);
+		double sw = 0, sx = 0, sy = 0;
+		for (int y = by - 1; y <= by + 1; y++)
+			for (int x = bx - 1; x <= bx + 1; x++) {
+				if (x < 0 || y < 0 || x >= width || y >= height)
+					continue;
+				double w = h[(size_t)y * (size_t)width + (size_t)x];
+				if (!(w > 0))
+					continue;
+				sw += w;
+				sx += w * x;
+				sy += w * y;
+			}
+		double xc = sw > 0 ? sx / sw : bx, yc = sw > 0 ? sy / sw : by;
+		double u_in = (xc + 0.5) * in_w / width - 0.5, v_in = (yc + 0.5) * in_h / height - 0.5;
+		double u = (u_in + 0.5) * native_w / in_w - 0.5, v = (v_in + 0.5) * native_h / in_h - 0.5;
+		out[n++] = (mc_detection){.joint = j,
+					  .u = (float)u,
+					  .v = (float)v,
+					  .confidence = conf > 1.0f ? 1.0f : conf < 0.0f ? 0.0f : conf};
+	}
+	return n;
+}
+
+int mc_detector_map_names(const mc_detector *d, const char *const *names, int nnames, int *map)
+{
+	int found = 0;
+	for (int j = 0; j < mc_detector_njoints(d); j++) {
+		map[j] = -1;
+		const char *name = mc_detector_joint_name(d, j);
+		for (int k = 0; names && k < nnames; k++)
+			if (names[k] && !strcmp(names[k], name)) {
+				map[j] = k;
+				found++;
+				break;
+			}
+	}
+	return found;
+}
+
+int mc_detector_map_model(const mc_detector *d, const mc_model *model, int *map)
+{
+	const char *names[MC_MAX_JOINTS];
+	int n = model ? model->njoints : 0;
+	for (int k = 0; k < n; k++)
+		names[k] = model->joints[k].name;
+	return mc_detector_map_names(d, names, n, map);
+}
+
+int mc_detections_to_keypoints(const mc_detection *det, int ndet, int cam, const int *map, mc_keypoint *out,
+			       int max)
+{
+	int n = 0;
+	for (int i = 0; i < ndet && n < max; i++) {
+		int joint = det[i].joint >= 0 ? map[det[i].joint] : -1;
+		if (joint < 0)
+			continue;
+		out[n++] = (mc_keypoint){.cam = cam,
+					 .joint = joint,
+					 .u = det[i].u,
+					 .v = det[i].v,
+					 .conf = det[i].confidence};
+	}
+	return n;
+}
+
+int mc_detector_detect_views(mc_detector *d, const mc_frame_view *views, int nviews, const int *map,
+			     mc_keypoint *out, int max, mc_err *err)
+{
+	mc_detection det[MC_DETECTOR_MAX_JOINTS];
+	int n = 0;
+	for (int c = 0; c < nviews; c++) {
+		if (!views[c].rgb)
+			continue;
+		int nd = mc_detector_detect(d, views[c].rgb, views[c].width, views[c].height, views[c].stride, det,
+					    MC_DETECTOR_MAX_JOINTS, err);
+		if (nd < 0)
+			return mc_err_prefix(err, "camera %d", c);
+		n += mc_detections_to_keypoints(det, nd, c, map, out + n, max - n);
+	}
+	return n;
+}
