@@ -1,0 +1,549 @@
+/* mocap-detect: runs a 2D joint detector on the camera images of a running
+ * mocapd and sends the keypoints back to it.
+ *
+ *     mocap-detect [--socket PATH] [--model MODEL.onnx] [--rate HZ] [--threads N] [--cameras A,B]
+ *
+ * This program is also the worked example for anyone who wants to plug in a
+ * detector of their own (another network, another runtime, a marker
+ * finder): everything it does goes through the public client library
+ * (ipc/mocap.h) and the frame ring reader (core/ring/mc_ring.h), and only
+ * the function detect_view() below knows about our detector.  The steps:
+ *
+ *   1. connect to the daemon's socket (mocap_connect) as a privileged client:
+ *      the daemon's user or group may map rings and send keypoints;
+ *   2. ask for the skeleton (mocap_get_skeleton): keypoints name joints by
+ *      their index in it, so map your detector's joint names to it;
+ *   3. ask for the rig (mocap_get_rig): keypoints name cameras by their
+ *      index in the rig's "cameras" array;
+ *   4. ask for the camera rings (mocap_get_rings): one read-only memfd per
+ *      camera; map each with mc_ring_map() (or mmap it yourself, layout in
+ *      core/ring/mc_ring.h);
+ *   5. loop: copy the newest frame of each ring (mc_ring_read_latest),
+ *      convert it to RGB (mc_image_to_rgb24: drivers deliver YUYV, MJPEG,
+ *      Bayer, ...), detect, and send the keypoints with the frame's capture
+ *      timestamp (mocap_send_keypoints).  The daemon matches each batch to
+ *      the frame set of that capture time (within its grouping tolerance),
+ *      so the batch must carry the timestamp of the image it came from, not
+ *      the time it was sent.
+ *
+ * Keypoints are in the camera's native pixels (origin at the centre of the
+ * top-left pixel) with a confidence in [0, 1]; send only joints the
+ * detector found.  A detector slower than the cameras is fine: it skips to
+ * the newest frame each time, and the tracker uses keypoints for the frame
+ * sets they arrive in time for.
+ *
+ * Exit status: 0 after SIGINT or SIGTERM, 1 on an error (no daemon, no
+ * permission, a bad model, the daemon went away), 2 for a bad command line. */
+#include "base/mc_time.h"
+#include "image/mc_image.h"
+#include "mc_detector.h"
+#include "mocap.h"
+#include "ring/mc_ring.h"
+
+#include <errno.h>
+#include <getopt.h>
+#include <glob.h>
+#include <jansson.h>
+#include <signal.h>
+#include <stdarg.h>
+#include <stdbool.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+#define VERSION "0.1"
+
+#ifndef MOCAP_DETECT_MODEL_DIR
+#define MOCAP_DETECT_MODEL_DIR "/usr/local/share/mocapd/models"
+#endif
+
+/* If no frame arrives for this long, the rings are asked for again (the
+ * daemon gives a camera a new ring when it reopens it). */
+#define RING_STALE_NS 3000000000ull
+
+typedef struct {
+	char name[MOCAP_NAME_MAX];
+	int rig_index;            /* camera index for KEYPOINTS */
+	mc_ring *ring;
+	mc_ring_cursor cursor;
+	uint8_t *buf, *rgb;       /* a copy of the slot; the frame as RGB24 */
+	size_t buf_cap, rgb_cap;
+	uint64_t last_frame_ns;
+	/* statistics */
+	uint64_t views, keypoints, batches, skipped, errors;
+	double ms_total, ms_max;
+} camera;
+
+static volatile sig_atomic_t stop;
+
+static void on_signal(int sig)
+{
+	(void)sig;
+	stop = 1;
+}
+
+static void usage(FILE *f)
+{
+	fprintf(f,
+		"usage: mocap-detect [options]\n"
+		"Runs the 2D joint detector on the camera images of a running mocapd and\n"
+		"sends the keypoints back to it (docs/DETECT_RUNTIME.md).\n"
+		"\n"
+		"  --socket PATH    the daemon's socket (default: $MOCAP_SOCKET, else %s)\n"
+		"  --model PATH     the detector, an ONNX file (default: the one *ego*.onnx in\n"
+		"                   %s, else in config/models)\n"
+		"  --rate HZ        at most this many detections per camera per second\n"
+		"                   (default 0: every frame, as fast as the detector goes)\n"
+		"  --threads N      OpenCV threads for the network (default 1)\n"
+		"  --cameras A,B    only these cameras (the daemon's camera names; default all)\n"
+		"  --quiet          no progress lines, only errors and the statistics at exit\n"
+		"  -h, --help       this text\n"
+		"  -V, --version    the version\n",
+		MOCAP_DEFAULT_SOCKET, MOCAP_DETECT_MODEL_DIR);
+}
+
+static void fail(const char *fmt, ...) __attribute__((format(printf, 1, 2), noreturn));
+static void fail(const char *fmt, ...)
+{
+	va_list ap;
+	va_start(ap, fmt);
+	fputs("mocap-detect: ", stderr);
+	vfprintf(stderr, fmt, ap);
+	fputc('\n', stderr);
+	va_end(ap);
+	exit(1);
+}
+
+/* The shipped model: the one file matching *ego*.onnx in a models folder. */
+static bool find_model(char *path, size_t cap)
+{
+	const char *dirs[] = {MOCAP_DETECT_MODEL_DIR, "config/models"};
+	for (size_t i = 0; i < sizeof(dirs) / sizeof(dirs[0]); i++) {
+		char pattern[4096];
+		snprintf(pattern, sizeof(pattern), "%s/*ego*.onnx", dirs[i]);
+		glob_t g;
+		if (glob(pattern, 0, NULL, &g) == 0 && g.gl_pathc > 0) {
+			if (g.gl_pathc > 1)
+				fprintf(stderr, "mocap-detect: %zu models match %s; using %s (choose with --model)\n",
+					g.gl_pathc, pattern, g.gl_pathv[0]);
+			snprintf(path, cap, "%s", g.gl_pathv[0]);
+			globfree(&g);
+			return true;
+		}
+		globfree(&g);
+	}
+	return false;
+}
+
+/* Camera names in rig order, from the rig JSON the daemon sends. */
+static int rig_cameras(mocap_client *c, char names[][MOCAP_NAME_MAX], int max)
+{
+	char *json = NULL;
+	int ncams = 0;
+	int rc = mocap_get_rig(c, &json, &ncams);
+	if (rc < 0)
+		fail("cannot get the rig from mocapd: %s", mocap_errmsg());
+	json_error_t jerr;
+	json_t *root = json_loads(json, 0, &jerr);
+	free(json);
+	json_t *cams = root ? json_object_get(root, "cameras") : NULL;
+	if (!json_is_array(cams))
+		fail("the rig mocapd sent has no \"cameras\" array%s%s", root ? "" : ": ", root ? "" : jerr.text);
+	int n = 0;
+	for (size_t i = 0; i < json_array_size(cams) && n < max; i++) {
+		const char *s = json_string_value(json_object_get(json_array_get(cams, i), "name"));
+		snprintf(names[n++], MOCAP_NAME_MAX, "%s", s ? s : "");
+	}
+	json_decref(root);
+	return n;
+}
+
+static bool wanted(const char *list, const char *name)
+{
+	if (!list)
+		return true;
+	size_t n = strlen(name);
+	for (const char *p = list; *p;) {
+		const char *e = strchr(p, ',');
+		size_t len = e ? (size_t)(e - p) : strlen(p);
+		if (len == n && !strncmp(p, name, n))
+			return true;
+		p += len + (e ? 1 : 0);
+	}
+	return false;
+}
+
+static void close_rings(camera *cams, int ncams)
+{
+	for (int i = 0; i < ncams; i++) {
+		mc_ring_close(cams[i].ring);
+		cams[i].ring = NULL;
+	}
+}
+
+/* Maps the daemon's rings (read-only) and gives each its rig camera index.
+ * The daemon names a ring after its camera; the rig names its cameras the
+ * same way in the usual configs (`[camera left]` with `rig_camera = left`).
+ * Where no rig camera has the ring's name, ring i is taken to be rig camera
+ * i.  Returns the number of cameras. */
+static int open_rings(mocap_client *c, camera *cams, int old_n, const char *only, bool verbose)
+{
+	/* Statistics survive a reopening, matched by name; buffers do not. */
+	camera old[MOCAP_MAX_RINGS];
+	memcpy(old, cams, sizeof(camera) * (size_t)old_n);
+	close_rings(cams, old_n);
+	for (int k = 0; k < old_n; k++) {
+		free(old[k].buf);
+		free(old[k].rgb);
+	}
+	char rig[MOCAP_MAX_CAMERAS][MOCAP_NAME_MAX];
+	int nrig = rig_cameras(c, rig, MOCAP_MAX_CAMERAS);
+	mocap_ring rings[MOCAP_MAX_RINGS];
+	int nr = mocap_get_rings(c, rings, MOCAP_MAX_RINGS);
+	if (nr < 0)
+		fail("cannot get the camera rings from mocapd: %s", mocap_errmsg());
+	int n = 0;
+	for (int i = 0; i < nr; i++) {
+		mc_err err = {{0}};
+		camera *cam = &cams[n];
+		if (!wanted(only, rings[i].camera)) {
+			close(rings[i].fd);
+			continue;
+		}
+		memset(cam, 0, sizeof(*cam));
+		for (int k = 0; k < old_n; k++)
+			if (!strcmp(old[k].name, rings[i].camera)) {
+				cam->views = old[k].views;
+				cam->keypoints = old[k].keypoints;
+				cam->batches = old[k].batches;
+				cam->skipped = old[k].skipped;
+				cam->errors = old[k].errors;
+				cam->ms_total = old[k].ms_total;
+				cam->ms_max = old[k].ms_max;
+			}
+		snprintf(cam->name, sizeof(cam->name), "%s", rings[i].camera);
+		cam->ring = mc_ring_map(rings[i].fd, &err);
+		close(rings[i].fd); /* the mapping stays */
+		if (!cam->ring)
+			fail("camera %s: cannot map its ring: %s", cam->name, err.msg);
+		cam->rig_index = -1;
+		for (int k = 0; k < nrig; k++)
+			if (!strcmp(rig[k], cam->name))
+				cam->rig_index = k;
+		if (cam->rig_index < 0) {
+			cam->rig_index = i < nrig ? i : -1;
+			if (cam->rig_index < 0)
+				fail("camera %s: no camera of that name in the rig, and ring %d has no rig camera %d",
+				     cam->name, i, i);
+			fprintf(stderr, "mocap-detect: camera %s: no rig camera of that name, taking rig camera %d (%s)\n",
+				cam->name, i, rig[i]);
+		}
+		cam->cursor = mc_ring_cursor_now(cam->ring);
+		cam->last_frame_ns = mc_now_ns();
+		cam->buf_cap = mc_ring_slot_bytes(cam->ring);
+		cam->buf = malloc(cam->buf_cap);
+		if (!cam->buf)
+			fail("out of memory");
+		if (verbose)
+			printf("mocap-detect: camera %s (rig camera %d)\n", cam->name, cam->rig_index);
+		n++;
+	}
+	if (n == 0)
+		fail(only ? "none of the cameras %s is offered by mocapd" : "mocapd offers no camera rings%s",
+		     only ? only : "");
+	return n;
+}
+
+/* ---- The detector.  Replace this part to plug in your own: in, one RGB
+ * image; out, keypoints in the daemon's skeleton joint indices. */
+
+typedef struct {
+	mc_detector *det;
+	int map[MC_DETECTOR_MAX_JOINTS]; /* detector joint -> skeleton joint, -1: none */
+} detector;
+
+static void detector_open(detector *d, const char *model, int threads, mocap_client *c, bool verbose)
+{
+	mc_err err = {{0}};
+	d->det = mc_detector_load(model, &err);
+	if (!d->det)
+		fail("%s", err.msg);
+	mc_detector_set_threads(threads);
+	/* The daemon's skeleton: retried for a while, it is there once the
+	 * daemon loaded its model. */
+	mocap_skeleton_def *def = calloc(1, sizeof(*def));
+	int rc = MOCAP_E_UNAVAILABLE;
+	for (int i = 0; def && i < 50 && !stop && (rc = mocap_get_skeleton(c, def)) == MOCAP_E_UNAVAILABLE; i++)
+		usleep(100000);
+	if (!def || rc < 0)
+		fail("cannot get the skeleton from mocapd: %s", def ? mocap_errmsg() : "out of memory");
+	const char *names[MOCAP_MAX_JOINTS];
+	for (int j = 0; j < def->njoints; j++)
+		names[j] = def->joints[j].name;
+	int found = mc_detector_map_names(d->det, names, def->njoints, d->map);
+	if (found == 0)
+		fail("%s: none of its %d joints is in the daemon's skeleton", model, mc_detector_njoints(d->det));
+	if (verbose) {
+		printf("mocap-detect: %s: %d of its %d joints are in the daemon's skeleton", model, found,
+		       mc_detector_njoints(d->det));
+		const char *sep = " (not: ";
+		for (int j = 0; j < mc_detector_njoints(d->det); j++)
+			if (d->map[j] < 0) {
+				printf("%s%s", sep, mc_detector_joint_name(d->det, j));
+				sep = ", ";
+			}
+		printf("%s\n", strcmp(sep, ", ") ? "" : ")");
+	}
+	free(def);
+}
+
+/* Returns the keypoint count, or -1 with err. */
+static int detect_view(detector *d, const uint8_t *rgb, int width, int height, mocap_keypoint *kp, int max,
+		       mc_err *err)
+{
+	mc_detection det[MC_DETECTOR_MAX_JOINTS];
+	int nd = mc_detector_detect(d->det, rgb, width, height, 0, det, MC_DETECTOR_MAX_JOINTS, err);
+	if (nd < 0)
+		return -1;
+	int n = 0;
+	for (int i = 0; i < nd && n < max; i++) {
+		int joint = d->map[det[i].joint];
+		if (joint >= 0)
+			kp[n++] = (mocap_keypoint){.joint = joint, .u = det[i].u, .v = det[i].v, .confidence = det[i].confidence};
+	}
+	return n;
+}
+
+/* ---- The loop. */
+
+/* The newest frame of a camera, as RGB in cam->rgb.  1: a new frame (meta
+ * filled), 0: none, -1: error (printed). */
+static int newest_rgb(camera *cam, mc_image_conv *conv, mc_ring_meta *meta)
+{
+	mc_err err = {{0}};
+	uint64_t before = cam->cursor.missed;
+	int rc = mc_ring_read_latest(cam->ring, &cam->cursor, cam->buf, cam->buf_cap, meta, &err);
+	if (rc == MC_RING_NONE)
+		return 0;
+	if (rc != MC_RING_FRAME) {
+		fprintf(stderr, "mocap-detect: camera %s: %s\n", cam->name, err.msg);
+		return -1;
+	}
+	if (cam->views > 0)
+		cam->skipped += cam->cursor.missed - before;
+	size_t need = (size_t)meta->width * meta->height * 3;
+	if (need > cam->rgb_cap) {
+		free(cam->rgb);
+		cam->rgb = malloc(need);
+		cam->rgb_cap = cam->rgb ? need : 0;
+		if (!cam->rgb)
+			fail("out of memory");
+	}
+	mc_image_frame f = {.pixfmt = meta->pixfmt,
+			    .width = meta->width,
+			    .height = meta->height,
+			    .stride = meta->stride,
+			    .data = cam->buf,
+			    .bytes = (size_t)meta->bytesused};
+	if (mc_image_to_rgb24(conv, &f, cam->rgb, cam->rgb_cap, &err) < 0) {
+		fprintf(stderr, "mocap-detect: camera %s: %s\n", cam->name, err.msg);
+		return -1;
+	}
+	return 1;
+}
+
+/* Sleeps until t_ns or a signal. */
+static void sleep_until(uint64_t t_ns)
+{
+	while (!stop) {
+		uint64_t now = mc_now_ns();
+		if (now >= t_ns)
+			return;
+		uint64_t d = t_ns - now > 50000000ull ? 50000000ull : t_ns - now;
+		struct timespec ts = mc_ns_timespec(d);
+		nanosleep(&ts, NULL);
+	}
+}
+
+int main(int argc, char **argv)
+{
+	const char *socket_path = NULL, *model = NULL, *only = NULL;
+	double rate = 0;
+	int threads = 1;
+	bool verbose = true;
+	enum { OPT_SOCKET = 256, OPT_MODEL, OPT_RATE, OPT_THREADS, OPT_CAMERAS, OPT_QUIET };
+	static const struct option opts[] = {
+		{"socket", required_argument, NULL, OPT_SOCKET},   {"model", required_argument, NULL, OPT_MODEL},
+		{"rate", required_argument, NULL, OPT_RATE},       {"threads", required_argument, NULL, OPT_THREADS},
+		{"cameras", required_argument, NULL, OPT_CAMERAS}, {"quiet", no_argument, NULL, OPT_QUIET},
+		{"help", no_argument, NULL, 'h'},                  {"version", no_argument, NULL, 'V'},
+		{NULL, 0, NULL, 0},
+	};
+	int o;
+	while ((o = getopt_long(argc, argv, "hV", opts, NULL)) != -1) {
+		char *end = NULL;
+		switch (o) {
+		case OPT_SOCKET: socket_path = optarg; break;
+		case OPT_MODEL: model = optarg; break;
+		case OPT_CAMERAS: only = optarg; break;
+		case OPT_QUIET: verbose = false; break;
+		case OPT_RATE:
+			rate = strtod(optarg, &end);
+			if (!*optarg || *end || !(rate >= 0 && rate <= 1000)) {
+				fprintf(stderr, "mocap-detect: --rate %s: expected detections per second, 0..1000 (0: every frame)\n",
+					optarg);
+				return 2;
+			}
+			break;
+		case OPT_THREADS: {
+			long t = strtol(optarg, &end, 10);
+			if (!*optarg || *end || t < 1 || t > 64) {
+				fprintf(stderr, "mocap-detect: --threads %s: expected a thread count, 1..64\n", optarg);
+				return 2;
+			}
+			threads = (int)t;
+			break;
+		}
+		case 'h': usage(stdout); return 0;
+		case 'V': printf("mocap-detect %s (libmocap %s)\n", VERSION, MOCAP_LIB_VERSION); return 0;
+		default: usage(stderr); return 2;
+		}
+	}
+	if (optind < argc) {
+		fprintf(stderr, "mocap-detect: unexpected argument '%s'\n", argv[optind]);
+		usage(stderr);
+		return 2;
+	}
+	char found_model[4096];
+	if (!model) {
+		if (!find_model(found_model, sizeof(found_model)))
+			fail("no detector model: none matches %s/*ego*.onnx or config/models/*ego*.onnx; give one with --model",
+			     MOCAP_DETECT_MODEL_DIR);
+		model = found_model;
+	}
+	setvbuf(stdout, NULL, _IOLBF, 0);
+	struct sigaction sa = {.sa_handler = on_signal};
+	sigemptyset(&sa.sa_mask);
+	sigaction(SIGINT, &sa, NULL);
+	sigaction(SIGTERM, &sa, NULL);
+	signal(SIGPIPE, SIG_IGN);
+
+	/* 1. Connect (privileged: rings and keypoints need it). */
+	mocap_client *c = mocap_connect(socket_path, "mocap-detect");
+	if (!c)
+		fail("%s", mocap_errmsg());
+	if (!mocap_is_privileged(c))
+		fail("mocapd at %s does not let this user map camera rings or send keypoints: run as the daemon's "
+		     "user or a member of its group",
+		     socket_path ? socket_path : mocap_default_socket());
+	/* 2. The detector and its joints in the daemon's skeleton. */
+	detector det = {0};
+	detector_open(&det, model, threads, c, verbose);
+	/* 3, 4. The rig and the rings. */
+	camera cams[MOCAP_MAX_RINGS];
+	memset(cams, 0, sizeof(cams));
+	int ncams = open_rings(c, cams, 0, only, verbose);
+	mc_err err = {{0}};
+	mc_image_conv *conv = mc_image_conv_new(&err);
+	if (!conv)
+		fail("%s", err.msg);
+
+	/* 5. Detect on the newest frame of each camera, send, repeat. */
+	const uint64_t period_ns = rate > 0 ? (uint64_t)(1e9 / rate) : 0;
+	uint64_t refused = 0, start_ns = mc_now_ns();
+	int exit_code = 0;
+	while (!stop) {
+		uint64_t round_ns = mc_now_ns();
+		int fresh = 0;
+		for (int i = 0; i < ncams && !stop; i++) {
+			camera *cam = &cams[i];
+			mc_ring_meta meta;
+			int rc = newest_rgb(cam, conv, &meta);
+			if (rc <= 0) {
+				cam->errors += rc < 0;
+				continue;
+			}
+			fresh++;
+			cam->last_frame_ns = mc_now_ns();
+			mocap_keypoint kp[MOCAP_MAX_KEYPOINTS];
+			uint64_t t0 = mc_now_ns();
+			int n = detect_view(&det, cam->rgb, (int)meta.width, (int)meta.height, kp, MOCAP_MAX_KEYPOINTS,
+					    &err);
+			double ms = mc_ms_since(t0);
+			if (n < 0) {
+				fprintf(stderr, "mocap-detect: camera %s: %s\n", cam->name, err.msg);
+				cam->errors++;
+				continue;
+			}
+			cam->views++;
+			cam->ms_total += ms;
+			if (ms > cam->ms_max)
+				cam->ms_max = ms;
+			if (n == 0)
+				continue;
+			/* The capture time of the image, not now. */
+			rc = mocap_send_keypoints(c, meta.timestamp_ns, cam->rig_index, kp, n);
+			if (rc == MOCAP_E_REFUSED || rc == MOCAP_E_PERMISSION) {
+				/* An earlier batch was refused; this one was sent. */
+				if (refused++ < 5)
+					fprintf(stderr, "mocap-detect: mocapd refused keypoints: %s\n", mocap_errmsg());
+				rc = 0;
+			}
+			if (rc < 0) {
+				fprintf(stderr, "mocap-detect: cannot send keypoints: %s\n", mocap_errmsg());
+				exit_code = 1;
+				stop = 1;
+				break;
+			}
+			cam->batches++;
+			cam->keypoints += (uint64_t)n;
+		}
+		if (stop)
+			break;
+		if (fresh == 0) {
+			/* Nothing new: wait for the first camera's next frame.  A
+			 * camera silent for long may have a new ring. */
+			bool stale = true;
+			for (int i = 0; i < ncams; i++)
+				stale = stale && mc_now_ns() - cams[i].last_frame_ns > RING_STALE_NS;
+			if (stale) {
+				if (mocap_ping(c, NULL) < 0) {
+					fprintf(stderr, "mocap-detect: lost mocapd: %s\n", mocap_errmsg());
+					exit_code = 1;
+					break;
+				}
+				ncams = open_rings(c, cams, ncams, only, false);
+				continue;
+			}
+			if (mc_ring_wait(cams[0].ring, &cams[0].cursor, 20, &err) < 0)
+				sleep_until(mc_now_ns() + 5000000ull);
+			continue;
+		}
+		if (period_ns)
+			sleep_until(round_ns + period_ns);
+	}
+
+	/* Statistics. */
+	double secs = mc_ms_since(start_ns) / 1e3;
+	printf("mocap-detect: %.1f s, model %s\n", secs, model);
+	for (int i = 0; i < ncams; i++) {
+		const camera *cam = &cams[i];
+		printf("mocap-detect: camera %s: %llu views (%.1f per s), %.2f ms per view (max %.2f), %llu keypoints "
+		       "in %llu batches, %llu frames skipped, %llu errors\n",
+		       cam->name, (unsigned long long)cam->views, secs > 0 ? (double)cam->views / secs : 0.0,
+		       cam->views ? cam->ms_total / (double)cam->views : 0.0, cam->ms_max,
+		       (unsigned long long)cam->keypoints, (unsigned long long)cam->batches,
+		       (unsigned long long)cam->skipped, (unsigned long long)cam->errors);
+	}
+	printf("mocap-detect: %llu refusals from mocapd\n", (unsigned long long)refused);
+	close_rings(cams, ncams);
+	for (int i = 0; i < ncams; i++) {
+		free(cams[i].buf);
+		free(cams[i].rgb);
+	}
+	mc_image_conv_free(conv);
+	mc_detector_free(det.det);
+	mocap_close(c);
+	return exit_code;
+}
