@@ -1,0 +1,44 @@
+# tools/: the 2D joint detector's data generator (tools/synth/, Blender) and
+# trainer (tools/train/, PyTorch).  Not part of `make all`: these need
+# `make deps-train` and take an hour or more.  See docs/DETECTOR.md.
+#
+#   make detector-data      render DETECTOR_FRAMES stereo pairs (resumes)
+#   make detector-train     train (resumes from $(DETECTOR_DIR)/ckpt.pt)
+#   make detector-export    export the best checkpoint to config/models/ego_detector.onnx
+#   make detector-report    2D error report on ../shared/data/ego/*
+#
+# Long jobs: run them under nohup (they resume where they stopped).
+
+DETECTOR_DIR ?= $(BUILD)/detector
+DETECTOR_SEED ?= 1
+DETECTOR_FRAMES ?= 12000
+DETECTOR_SHARDS ?= 2
+DETECTOR_EPOCHS ?= 80
+BLENDER ?= blender
+TRAIN_PYTHON ?= /usr/bin/python3
+MOCAP_TRAIN_DIR ?= $(or $(MOCAP_DATA_DIR),../shared/data)/mocap-train
+MOCAP_EGO_DIR ?= $(or $(MOCAP_DATA_DIR),../shared/data)/ego
+
+.PHONY: detector-data detector-train detector-export detector-report
+
+# DETECTOR_SHARDS Blender processes, one thread each, frames split evenly.
+detector-data:
+	mkdir -p $(DETECTOR_DIR)/data $(DETECTOR_DIR)/logs
+	n=$$(( $(DETECTOR_FRAMES) / $(DETECTOR_SHARDS) )); \
+	for s in $$(seq 0 $$(( $(DETECTOR_SHARDS) - 1 ))); do \
+	  nice -n 10 $(BLENDER) -b --factory-startup --python tools/synth/render.py -- \
+	    --out $(DETECTOR_DIR)/data --mocap $(MOCAP_TRAIN_DIR) --seed $(DETECTOR_SEED) \
+	    --first $$(( s * n )) --count $$n > $(DETECTOR_DIR)/logs/render_$$(( s * n )).log 2>&1 & \
+	done; wait; grep -h 'synth:' $(DETECTOR_DIR)/logs/render_*.log | tail -n $(DETECTOR_SHARDS)
+
+detector-train:
+	nice -n 10 $(TRAIN_PYTHON) tools/train/train.py --data $(DETECTOR_DIR)/data \
+	  --ckpt $(DETECTOR_DIR)/ckpt.pt --seed $(DETECTOR_SEED) --epochs $(DETECTOR_EPOCHS) --resume
+
+detector-export:
+	$(TRAIN_PYTHON) tools/train/train.py --data $(DETECTOR_DIR)/data --seed $(DETECTOR_SEED) \
+	  --weights $(DETECTOR_DIR)/best.pt --export config/models/ego_detector.onnx
+
+detector-report:
+	$(TRAIN_PYTHON) tools/train/train.py --weights $(DETECTOR_DIR)/best.pt --ego $(MOCAP_EGO_DIR) \
+	  --report --report-out $(DETECTOR_DIR)/report.json

@@ -1,0 +1,108 @@
+"""Shared pieces of the 2D joint detector: joint list, network, heatmap decoding,
+fisheye projection.  The decoding here is the one the C runtime implements."""
+import json
+import math
+
+import numpy as np
+
+JOINTS = ["head_top", "neck", "spine", "pelvis",
+          "left_shoulder", "left_elbow", "left_wrist", "left_hip", "left_knee", "left_ankle", "left_toe",
+          "right_shoulder", "right_elbow", "right_wrist", "right_hip", "right_knee", "right_ankle",
+          "right_toe"]
+GROUPS = {
+    "torso": ["head_top", "neck", "spine", "pelvis", "left_shoulder", "right_shoulder", "left_hip", "right_hip"],
+    "arms": ["left_elbow", "left_wrist", "right_elbow", "right_wrist"],
+    "legs": ["left_knee", "left_ankle", "left_toe", "right_knee", "right_ankle", "right_toe"],
+}
+EVALUATED = [j for j in JOINTS if j not in ("head_top", "spine", "pelvis")]
+IN = 128
+HM = 32
+THRESHOLD = 0.3
+
+
+def build_model():
+    import torch.nn as nn
+
+    def cbr(i, o, s=1, k=3):
+        return [nn.Conv2d(i, o, k, s, k // 2, bias=False), nn.BatchNorm2d(o), nn.ReLU(inplace=True)]
+
+    class Net(nn.Module):
+        """128x128x3 -> 18x32x32.  Conv/BN/ReLU, MaxPool, nearest Upsample, Add, Sigmoid."""
+
+        def __init__(self):
+            super().__init__()
+            self.s32 = nn.Sequential(*cbr(3, 12, 2), *cbr(12, 24, 2), *cbr(24, 24))          # 32x32
+            self.s16 = nn.Sequential(nn.MaxPool2d(2), *cbr(24, 40), *cbr(40, 40))           # 16x16
+            self.s8 = nn.Sequential(nn.MaxPool2d(2), *cbr(40, 56), *cbr(56, 56))            # 8x8
+            self.up8 = nn.Sequential(nn.Upsample(scale_factor=2, mode="nearest"), *cbr(56, 40, k=1))
+            self.m16 = nn.Sequential(*cbr(40, 40))
+            self.up16 = nn.Sequential(nn.Upsample(scale_factor=2, mode="nearest"), *cbr(40, 24, k=1))
+            self.m32 = nn.Sequential(*cbr(24, 24))
+            self.head = nn.Conv2d(24, len(JOINTS), 1)
+
+        def forward(self, x):  # returns logits
+            a = self.s32(x)
+            b = self.s16(a)
+            c = self.s8(b)
+            b = self.m16(b + self.up8(c))
+            a = self.m32(a + self.up16(b))
+            return self.head(a)
+
+    return Net()
+
+
+def decode(hm):
+    """hm: (J, H, W) array of values in [0, 1].  Returns (J, 3): u, v (input
+    pixels at 128x128), confidence.  Argmax cell, confidence = value there,
+    sub-cell position = weighted centroid of the 3x3 window (clipped at the
+    borders), u = (x_c + 0.5) * 128 / W - 0.5."""
+    J, H, W = hm.shape
+    out = np.zeros((J, 3))
+    for j in range(J):
+        k = int(np.argmax(hm[j]))
+        y, x = divmod(k, W)
+        y0, y1, x0, x1 = max(0, y - 1), min(H, y + 2), max(0, x - 1), min(W, x + 2)
+        win = hm[j, y0:y1, x0:x1].astype(np.float64)
+        s = win.sum()
+        if s > 0:
+            yy, xx = np.mgrid[y0:y1, x0:x1]
+            xc, yc = (win * xx).sum() / s, (win * yy).sum() / s
+        else:
+            xc, yc = float(x), float(y)
+        out[j] = ((xc + 0.5) * IN / W - 0.5, (yc + 0.5) * IN / H - 0.5, hm[j, y, x])
+    return out
+
+
+def load_rig(path, res=IN):
+    rig = json.load(open(path))
+    cams = {}
+    for c in rig["cameras"]:
+        s = res / c["width"]
+        T = c["rig_from_cam"]
+        if isinstance(T, dict):
+            M = np.eye(4)
+            M[:3, :3] = np.array(T["rotation"])
+            M[:3, 3] = np.array(T["translation"])
+        else:
+            M = np.array(T, dtype=float)
+        cams[c["name"]] = {"f": c["f"] * s, "cx": (c["cx"] + 0.5) * s - 0.5, "cy": (c["cy"] + 0.5) * s - 0.5,
+                           "k": c.get("k", [0, 0, 0, 0]), "fov": math.radians(c.get("fov_deg", 180.0)),
+                           "rig_from_cam": M}
+    return cams
+
+
+def project(cam, P_rig):
+    """P_rig (N,3) in the rig (= left camera) frame -> u, v, inside (N,) bool."""
+    T = np.linalg.inv(cam["rig_from_cam"])
+    P = P_rig @ T[:3, :3].T + T[:3, 3]
+    x, y, z = P[:, 0], P[:, 1], P[:, 2]
+    rho = np.sqrt(x * x + y * y)
+    th = np.arctan2(rho, z)
+    k = cam["k"]
+    thd = th * (1 + k[0] * th ** 2 + k[1] * th ** 4 + k[2] * th ** 6 + k[3] * th ** 8)
+    r = cam["f"] * thd
+    rs = np.where(rho > 1e-12, rho, 1.0)
+    u = cam["cx"] + r * x / rs
+    v = cam["cy"] + r * y / rs
+    inside = (th <= cam["fov"] / 2) & (u >= -0.5) & (u <= IN - 0.5) & (v >= -0.5) & (v <= IN - 0.5)
+    return u, v, inside

@@ -1,0 +1,432 @@
+#!/usr/bin/python3
+"""Train, export and evaluate the 2D joint detector (docs/DETECTOR.md).
+
+    /usr/bin/python3 tools/train/train.py --data build/detector/data --resume       # train
+    /usr/bin/python3 tools/train/train.py --export config/models/ego_detector.onnx  # export
+    /usr/bin/python3 tools/train/train.py --report                                  # 2D report
+
+Checkpoints go to --ckpt (build/detector/ckpt.pt) every --ckpt-minutes and at
+each epoch end; --resume continues from there (model, optimiser, epoch and
+step, RNG).  An "epoch" is a fixed number of steps (--steps-per-epoch), and the
+label files are re-read at each epoch start, so training can start while the
+renderer is still adding frames.  Validation uses the generator's held-out
+motion segments (split "val").  The evaluation clips' gt.json is read only by
+--report, never for training or model selection.
+"""
+import argparse
+import glob
+import json
+import math
+import os
+import sys
+import time
+
+import numpy as np
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+ROOT = os.path.dirname(os.path.dirname(HERE))
+sys.path.insert(0, HERE)
+from common import EVALUATED, GROUPS, HM, IN, JOINTS, THRESHOLD, build_model, decode, load_rig, project  # noqa
+
+import torch  # noqa: E402
+import torch.nn.functional as Fn  # noqa: E402
+
+SIGMA = 1.0  # target Gaussian sigma in heatmap cells (4 input pixels)
+
+
+def log(*a):
+    print(*a, file=sys.stderr, flush=True)
+
+
+# ------------------------------------------------------------------ data
+class Data:
+    """All views of a split, images cached as uint8 in memory."""
+
+    def __init__(self, root, split):
+        self.root, self.split = root, split
+        self.keys, self.uv, self.st = [], [], []
+        self.img = np.zeros((0, IN, IN, 3), np.uint8)
+        self.seen = set()
+
+    def refresh(self):
+        from PIL import Image
+        new_keys, new_uv, new_st, new_img = [], [], [], []
+        for fn in sorted(glob.glob(os.path.join(self.root, "labels*.jsonl"))):
+            for line in open(fn):
+                try:
+                    r = json.loads(line)
+                except ValueError:
+                    continue  # partial last line of a running renderer
+                if r["split"] != self.split:
+                    continue
+                for cam, v in r["views"].items():
+                    key = (r["id"], cam)
+                    if key in self.seen:
+                        continue
+                    path = os.path.join(self.root, r["images"][cam])
+                    try:
+                        im = Image.open(path).convert("RGB")
+                        if im.size != (IN, IN):
+                            im = im.resize((IN, IN), Image.BILINEAR)
+                        a = np.asarray(im)
+                    except OSError:
+                        continue
+                    self.seen.add(key)
+                    new_keys.append(key)
+                    new_uv.append(v["uv"])
+                    new_st.append(v["state"])
+                    new_img.append(a)
+        if new_keys:
+            self.keys += new_keys
+            self.uv = np.concatenate([np.asarray(self.uv).reshape(-1, len(JOINTS), 2), np.array(new_uv)], 0)
+            self.st = np.concatenate([np.asarray(self.st, dtype=np.int64).reshape(-1, len(JOINTS)),
+                                      np.array(new_st, dtype=np.int64)], 0)
+            self.img = np.concatenate([self.img, np.stack(new_img)], 0)
+        return len(new_keys)
+
+    def __len__(self):
+        return len(self.keys)
+
+
+def targets(uv, st, W=HM):
+    """uv (B,J,2) input pixels, st (B,J) states -> (B,J,W,W) Gaussian targets."""
+    B, J = st.shape
+    xc = (uv[..., 0] + 0.5) * W / IN - 0.5
+    yc = (uv[..., 1] + 0.5) * W / IN - 0.5
+    g = torch.arange(W, dtype=torch.float32)
+    gx = torch.exp(-(g.view(1, 1, W) - xc.unsqueeze(-1)) ** 2 / (2 * SIGMA ** 2))
+    gy = torch.exp(-(g.view(1, 1, W) - yc.unsqueeze(-1)) ** 2 / (2 * SIGMA ** 2))
+    peak = torch.where(st == 0, 1.0, torch.where(st == 1, 0.5, 0.0)).float()
+    return gy.unsqueeze(-1) * gx.unsqueeze(-2) * peak.view(B, J, 1, 1)
+
+
+def batch(data, idx, rng, augment):
+    x = torch.from_numpy(data.img[idx]).permute(0, 3, 1, 2).float() / 255.0
+    uv = torch.from_numpy(data.uv[idx]).float()
+    st = torch.from_numpy(data.st[idx]).clone()
+    B = x.shape[0]
+    if augment:
+        # roll about the image centre (a camera roll: consistent with the lens),
+        # small zoom and shift
+        ang = torch.from_numpy(rng.uniform(-0.2, 0.2, B)).float()
+        sc = torch.from_numpy(rng.uniform(0.92, 1.08, B)).float()
+        sh = torch.from_numpy(rng.uniform(-3, 3, (B, 2))).float()
+        c = (IN - 1) / 2.0
+        ca, sa = torch.cos(ang), torch.sin(ang)
+        # output pixel p -> input pixel q = c + R^T (p - c - sh) / sc
+        A = torch.zeros(B, 2, 3)
+        A[:, 0, 0], A[:, 0, 1] = ca / sc, sa / sc
+        A[:, 1, 0], A[:, 1, 1] = -sa / sc, ca / sc
+        # affine_grid works in normalised coords with align_corners=False: n = (p + 0.5) / IN * 2 - 1
+        # p - c is proportional to n with factor IN/2, so the linear part is unchanged
+        t = -(A[:, :, :2] @ sh.unsqueeze(-1)).squeeze(-1) * 2 / IN
+        A[:, :, 2] = t
+        grid = Fn.affine_grid(A, x.shape, align_corners=False)
+        x = Fn.grid_sample(x, grid, mode="bilinear", padding_mode="zeros", align_corners=False)
+        # labels: forward map p = c + sh + sc R (q - c)
+        d = uv - c
+        R = torch.stack([torch.stack([ca, -sa], -1), torch.stack([sa, ca], -1)], -2)  # (B,2,2)
+        uv = c + sh.unsqueeze(1) + sc.view(B, 1, 1) * torch.einsum("bij,bkj->bki", R, d)
+        out = (uv < -0.5).any(-1) | (uv > IN - 0.5).any(-1)
+        st[out] = 2
+        # photometric
+        gain = torch.from_numpy(rng.uniform(0.7, 1.3, (B, 1, 1, 1))).float()
+        ch = torch.from_numpy(rng.uniform(0.85, 1.15, (B, 3, 1, 1))).float()
+        mean = x.mean(dim=(1, 2, 3), keepdim=True)
+        con = torch.from_numpy(rng.uniform(0.7, 1.3, (B, 1, 1, 1))).float()
+        gray = x.mean(1, keepdim=True)
+        sat = torch.from_numpy(rng.uniform(0.5, 1.4, (B, 1, 1, 1))).float()
+        x = gray + (x - gray) * sat
+        x = ((x - mean) * con + mean) * gain * ch
+        x = x + torch.randn_like(x) * torch.from_numpy(rng.uniform(0, 0.04, (B, 1, 1, 1))).float()
+        perm = rng.random(B) < 0.3  # channel swap: colours of clothes are not a cue
+        if perm.any():
+            p = rng.permutation(3)
+            x[torch.from_numpy(perm)] = x[torch.from_numpy(perm)][:, p]
+        x = x.clamp(0, 1)
+    return x, uv, st
+
+
+def loss_fn(logits, tgt):
+    p = torch.sigmoid(logits)
+    w = 1.0 + 30.0 * tgt
+    return ((p - tgt) ** 2 * w).mean() * 10.0
+
+
+# ------------------------------------------------------------------ metrics
+def score(pred, uv, st):
+    """pred (N,J,3) decoded; uv, st ground truth. Returns dict of metrics."""
+    det = pred[..., 2] >= THRESHOLD
+    err = np.linalg.norm(pred[..., :2] - uv, axis=-1)
+    inside = st < 2
+    res = {}
+    for g, names in GROUPS.items():
+        ji = [JOINTS.index(n) for n in names]
+        m = det[:, ji] & inside[:, ji]
+        e = err[:, ji][m]
+        res[g] = (float(np.median(e)) if len(e) else float("nan"),
+                  float(np.percentile(e, 90)) if len(e) else float("nan"))
+    vis = st == 0
+    res["miss_visible"] = float((~det & vis).sum() / max(1, vis.sum()))
+    res["miss_occluded"] = float((~det & (st == 1)).sum() / max(1, (st == 1).sum()))
+    res["false"] = float((det & ((st == 2) | (err > 10))).sum() / max(1, det.sum()))
+    res["false_outside"] = int((det & (st == 2)).sum())
+    res["n_detected"] = int(det.sum())
+    return res
+
+
+def predict(model, x, bs=64):
+    out = []
+    model.eval()
+    with torch.no_grad():
+        for i in range(0, len(x), bs):
+            hm = torch.sigmoid(model(x[i:i + bs])).numpy()
+            out += [decode(h) for h in hm]
+    return np.array(out)
+
+
+def validate(model, val):
+    if len(val) == 0:
+        return None
+    idx = np.arange(len(val))
+    x, uv, st = batch(val, idx, None, False)
+    pred = predict(model, x)
+    r = score(pred, uv.numpy(), st.numpy())
+    tgt = targets(uv, st)
+    with torch.no_grad():
+        r["loss"] = float(loss_fn(model(x), tgt))
+    return r
+
+
+def fmt(r):
+    return ("loss %.4f  torso %.2f/%.2f  arms %.2f/%.2f  legs %.2f/%.2f px (median/p90)  "
+            "missed vis %.1f%% occl %.1f%%  false %.1f%%" % (
+                r.get("loss", float("nan")), *r["torso"], *r["arms"], *r["legs"],
+                100 * r["miss_visible"], 100 * r["miss_occluded"], 100 * r["false"]))
+
+
+# ------------------------------------------------------------------ train
+def train(a):
+    torch.set_num_threads(a.threads)
+    dev = torch.device("cuda" if torch.cuda.is_available() else "cpu")
+    torch.manual_seed(a.seed)
+    model = build_model().to(dev)
+    opt = torch.optim.AdamW(model.parameters(), lr=a.lr, weight_decay=1e-4)
+    total = a.epochs * a.steps_per_epoch
+    state = {"epoch": 0, "step": 0, "best": None, "history": [], "train_s": 0.0}
+    rng = np.random.default_rng(a.seed)
+    if a.resume and os.path.exists(a.ckpt):
+        ck = torch.load(a.ckpt, map_location="cpu")
+        model.load_state_dict(ck["model"])
+        opt.load_state_dict(ck["opt"])
+        state = ck["state"]
+        rng.bit_generator.state = ck["rng"]
+        log("resumed from %s: epoch %d step %d" % (a.ckpt, state["epoch"], state["step"]))
+    nparam = sum(p.numel() for p in model.parameters())
+    log("model: %d parameters, device %s, %d epochs x %d steps x batch %d" % (
+        nparam, dev, a.epochs, a.steps_per_epoch, a.batch))
+    tr, va = Data(a.data, "train"), Data(a.data, "val")
+
+    def save(path):
+        tmp = path + ".tmp"
+        torch.save({"model": model.state_dict(), "opt": opt.state_dict(), "state": state,
+                    "rng": rng.bit_generator.state, "args": vars(a), "params": nparam}, tmp)
+        os.replace(tmp, path)
+
+    last_ck = time.time()
+    while state["epoch"] < a.epochs:
+        n1, n2 = tr.refresh(), va.refresh()
+        log("epoch %d: %d train views (+%d), %d val views (+%d)" % (state["epoch"] + 1, len(tr), n1, len(va), n2))
+        if len(tr) < a.batch:
+            log("not enough data yet; waiting 60 s")
+            time.sleep(60)
+            continue
+        model.train()
+        t0 = time.time()
+        ep_start_step = state["step"] - state["epoch"] * a.steps_per_epoch
+        run = 0.0
+        for s in range(ep_start_step, a.steps_per_epoch):
+            lr = a.lr * 0.5 * (1 + math.cos(math.pi * min(1.0, state["step"] / total)))
+            warm = min(1.0, (state["step"] + 1) / 200)
+            for gp in opt.param_groups:
+                gp["lr"] = lr * warm
+            idx = rng.integers(0, len(tr), a.batch)
+            x, uv, st = batch(tr, idx, rng, True)
+            tgt = targets(uv, st)
+            loss = loss_fn(model(x.to(dev)), tgt.to(dev))
+            opt.zero_grad()
+            loss.backward()
+            opt.step()
+            state["step"] += 1
+            run = 0.98 * run + 0.02 * float(loss) if s > ep_start_step else float(loss)
+            el = time.time() - t0
+            done = s + 1 - ep_start_step
+            if done % 10 == 0 or s + 1 == a.steps_per_epoch:
+                ips = done * a.batch / el
+                left = (total - state["step"]) * a.batch / ips
+                sys.stderr.write("\r  epoch %d/%d step %d/%d loss %.4f lr %.2e %.0f img/s ETA epoch %.0fs, all %.0f min " % (
+                    state["epoch"] + 1, a.epochs, s + 1, a.steps_per_epoch, run, lr * warm, ips,
+                    (a.steps_per_epoch - s - 1) * a.batch / ips, left / 60))
+                sys.stderr.flush()
+            if time.time() - last_ck > a.ckpt_minutes * 60:
+                state["train_s"] += time.time() - last_ck
+                save(a.ckpt)
+                last_ck = time.time()
+        sys.stderr.write("\n")
+        state["epoch"] += 1
+        r = validate(model, va)
+        if r is not None:
+            log("  val: " + fmt(r))
+            state["history"].append({"epoch": state["epoch"], "step": state["step"], "val": r,
+                                     "train_views": len(tr)})
+            key = r["loss"]
+            if state["best"] is None or key < state["best"]:
+                state["best"] = key
+                torch.save({"model": model.state_dict(), "state": dict(state), "params": nparam},
+                           os.path.join(os.path.dirname(a.ckpt), "best.pt"))
+        state["train_s"] += time.time() - last_ck
+        last_ck = time.time()
+        save(a.ckpt)
+    log("training done: %d steps, %.1f min" % (state["step"], state["train_s"] / 60))
+
+
+# ------------------------------------------------------------------ export / report
+class Exported(torch.nn.Module):
+    def __init__(self, m):
+        super().__init__()
+        self.m = m
+
+    def forward(self, image):
+        return torch.sigmoid(self.m(image))
+
+
+def load_model(path):
+    ck = torch.load(path, map_location="cpu")
+    m = build_model()
+    m.load_state_dict(ck["model"])
+    m.eval()
+    return m, ck
+
+
+def export(a):
+    path = a.weights or a.ckpt
+    m, ck = load_model(path)
+    net = Exported(m).eval()
+    x = torch.rand(1, 3, IN, IN)
+    torch.onnx.export(net, x, a.export, opset_version=11, input_names=["image"], output_names=["heatmaps"],
+                      do_constant_folding=True)
+    st = ck.get("state", {})
+    side = {"input": [IN, IN], "joints": JOINTS, "threshold": THRESHOLD, "heatmap": [HM, HM],
+            "trained_on": "synthetic head-mounted stereo fisheye frames rendered by tools/synth/render.py "
+                          "from build/detector/data (%s, seed %d), motions /work/shared/data/mocap-train only; "
+                          "%s after epoch %d, step %d" % (
+                              os.path.basename(a.data), a.seed, os.path.basename(path), st.get("epoch", -1),
+                              st.get("step", -1)),
+            "seed": a.seed,
+            "parameters": ck.get("params"),
+            "input_format": "float32 NCHW 1x3x128x128, RGB, [0,1]; output heatmaps float32 1x18x32x32 in [0,1]"}
+    side_path = os.path.splitext(a.export)[0] + ".json"
+    with open(side_path, "w") as f:
+        json.dump(side, f, indent=1)
+        f.write("\n")
+    log("exported %s (%d bytes) and %s" % (a.export, os.path.getsize(a.export), side_path))
+    # check: the exported graph through OpenCV DNN if present
+    try:
+        import cv2
+        cv2.setNumThreads(1)
+        net_cv = cv2.dnn.readNetFromONNX(a.export)
+        blob = x.numpy()
+        net_cv.setInput(blob, "image")
+        y = net_cv.forward("heatmaps")
+        with torch.no_grad():
+            yt = net(x).numpy()
+        t = time.time()
+        for _ in range(50):
+            net_cv.setInput(blob, "image")
+            net_cv.forward("heatmaps")
+        ms = (time.time() - t) / 50 * 1000
+        log("OpenCV %s: output %s, max |cv - torch| = %.2e, %.2f ms per view (1 thread)" % (
+            cv2.__version__, y.shape, float(np.abs(y - yt).max()), ms))
+    except ImportError:
+        log("python3-opencv not installed: OpenCV check skipped")
+
+
+def report(a):
+    from PIL import Image
+    path = a.weights or a.ckpt
+    m, ck = load_model(path)
+    torch.set_num_threads(a.threads)
+    cams = load_rig(a.rig)
+    out = {}
+    for clip in sorted(glob.glob(os.path.join(a.ego, "*", "gt.json"))):
+        d = os.path.dirname(clip)
+        name = os.path.basename(d)
+        gt = json.load(open(clip))
+        names = gt["joint_names"]
+        order = [names.index(j) for j in JOINTS]
+        allp, alluv, allst = [], [], []
+        for cam in ("left", "right"):
+            xs, uvs, sts = [], [], []
+            for k, fr in enumerate(gt["frames"]):
+                P = np.array([fr["joints_left_cam"][n] for n in names])[order]
+                u, v, inside = project(cams[cam], P)
+                im = Image.open(os.path.join(d, cam, "%05d.jpg" % k)).convert("RGB").resize((IN, IN), Image.BILINEAR)
+                xs.append(np.asarray(im))
+                uvs.append(np.stack([u, v], -1))
+                sts.append(np.where(inside, 0, 2))
+            x = torch.from_numpy(np.stack(xs)).permute(0, 3, 1, 2).float() / 255.0
+            allp.append(predict(m, x))
+            alluv.append(np.stack(uvs))
+            allst.append(np.stack(sts))
+        pred, uv, st = np.concatenate(allp), np.concatenate(alluv), np.concatenate(allst)
+        r = score(pred, uv, st)
+        # per-joint median error for detected in-image joints
+        det = pred[..., 2] >= THRESHOLD
+        err = np.linalg.norm(pred[..., :2] - uv, axis=-1)
+        r["per_joint_median_px"] = {j: (round(float(np.median(err[:, i][det[:, i] & (st[:, i] < 2)])), 2)
+                                        if (det[:, i] & (st[:, i] < 2)).any() else None)
+                                    for i, j in enumerate(JOINTS)}
+        r["views"] = int(len(pred))
+        r["in_image"] = int((st < 2).sum())
+        out[name] = r
+        log("%s (%d views): torso %.2f/%.2f  arms %.2f/%.2f  legs %.2f/%.2f px (median/p90); "
+            "missed %.1f%% of in-image joints; false %.1f%% of detections (%d outside)" % (
+                name, len(pred), *r["torso"], *r["arms"], *r["legs"], 100 * r["miss_visible"], 100 * r["false"],
+                r["false_outside"]))
+    if a.report_out:
+        with open(a.report_out, "w") as f:
+            json.dump(out, f, indent=1)
+    return out
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--data", default=os.path.join(ROOT, "build/detector/data"))
+    ap.add_argument("--ckpt", default=os.path.join(ROOT, "build/detector/ckpt.pt"))
+    ap.add_argument("--weights", help="checkpoint for --export/--report (default --ckpt)")
+    ap.add_argument("--resume", action="store_true")
+    ap.add_argument("--epochs", type=int, default=30)
+    ap.add_argument("--steps-per-epoch", type=int, default=250)
+    ap.add_argument("--batch", type=int, default=32)
+    ap.add_argument("--lr", type=float, default=3e-3)
+    ap.add_argument("--seed", type=int, default=1)
+    ap.add_argument("--threads", type=int, default=2)
+    ap.add_argument("--ckpt-minutes", type=float, default=3.0)
+    ap.add_argument("--export", metavar="ONNX")
+    ap.add_argument("--report", action="store_true")
+    ap.add_argument("--report-out", default=os.path.join(ROOT, "build/detector/report.json"))
+    ap.add_argument("--rig", default=os.path.join(ROOT, "config/rigs/ego_stereo.json"))
+    ap.add_argument("--ego", default="/work/shared/data/ego")
+    a = ap.parse_args()
+    os.makedirs(os.path.dirname(a.ckpt), exist_ok=True)
+    if a.export or a.report:
+        if a.export:
+            export(a)
+        if a.report:
+            report(a)
+        return
+    train(a)
+
+
+if __name__ == "__main__":
+    main()
