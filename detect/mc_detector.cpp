@@ -240,6 +240,7 @@ struct mc_detector {
 	std::vector<std::string> joints;
 	float threshold = MC_DETECTOR_DEFAULT_THRESHOLD;
 	bool sidecar_joints = false; // the joints come from the sidecar
+	std::string sidecar;
 	cv::Mat blob;              // 1x3xHinxWin
 	cv::Mat resized;           // Hin x Win RGB
 	std::vector<float> heatmaps; // J x H x W of the last call
@@ -272,6 +273,7 @@ int read_sidecar(mc_detector *d, const std::string &json_path, int *expect_hm_w,
 					MC_DETECTOR_MAX_JOINTS);
 		d->joints.clear();
 		d->sidecar_joints = true;
+		d->sidecar = json_path;
 		for (size_t i = 0; !rc && i < json_array_size(joints); i++) {
 			const char *s = json_string_value(json_array_get(joints, i));
 			if (!s || !*s || strlen(s) >= MC_DETECTOR_NAME_MAX)
@@ -380,9 +382,10 @@ int check_output(mc_detector *d, int expect_hm_w, int expect_hm_h, mc_err *err)
 		return mc_err_set(err, "%s: output `%s` has rank %d (%s), expected 4 (1x%dxHxW heatmaps)", p,
 				  d->output_name.c_str(), out.dims, shape.c_str(), J);
 	if (out.size[0] != 1 || out.size[1] != J)
-		return mc_err_set(err, "%s: output `%s` is %s: %d heatmap channels, expected 1x%dxHxW (one per joint%s)",
+		return mc_err_set(err, "%s: output `%s` is %s: %d heatmap channels, expected 1x%dxHxW (one per joint%s%s)",
 				  p, d->output_name.c_str(), shape.c_str(), out.size[1], J,
-				  d->sidecar_joints ? " of the sidecar" : ", the 18 default joints");
+				  d->sidecar_joints ? " listed in " : " of the 18 default joints",
+				  d->sidecar_joints ? d->sidecar.c_str() : "");
 	if (out.size[2] < 2 || out.size[3] < 2)
 		return mc_err_set(err, "%s: output `%s` is %s: heatmaps smaller than 2x2", p, d->output_name.c_str(),
 				  shape.c_str());
