@@ -1,0 +1,152 @@
+/* The shipped detector (the one file in config/models that matches
+ * *ego*.onnx, or $MOCAP_DETECT_MODEL) on real frames of the bundled demo clip
+ * (tests/data/ego_demo): the ground-truth joints of gt.json
+ * (joints_left_cam) projected through calib.json (equidistant, r = f theta
+ * about (cx, cy); the right camera through right_from_left, by mc_clip)
+ * against the detections.
+ *
+ * The check: on left/00000.jpg (256x256) the median pixel error over the
+ * detected joints is at most BOUND_PX, and at least MIN_FOUND of the 18
+ * joints are detected.  Frames 0, 15, 30, 45 of both cameras are measured
+ * and printed as well (median and 90th percentile, misses).  Skips (77)
+ * when no model is there. */
+#include "eval/mc_clip.h"
+#include "geom/mc_camera.h"
+#include "mc_detector.h"
+#include "test_util.h"
+
+#include <glob.h>
+#include <stdlib.h>
+#include <string.h>
+
+/* What the model must achieve on frame 0 of the left camera (see
+ * docs/DETECT_RUNTIME.md for what it achieves). */
+#define BOUND_PX 8.0
+#define MIN_FOUND 12
+
+static int cmp_double(const void *a, const void *b)
+{
+	double x = *(const double *)a, y = *(const double *)b;
+	return x < y ? -1 : x > y;
+}
+
+static double percentile(double *v, int n, double q)
+{
+	if (n == 0)
+		return 0;
+	qsort(v, (size_t)n, sizeof(double), cmp_double);
+	int i = (int)(q * (n - 1) + 0.5);
+	return v[i];
+}
+
+/* Detects on view `cam` of frame k; appends the pixel errors of detected
+ * joints to err_px, returns the number detected; *missed counts the joints
+ * not detected. */
+static int measure(mc_detector *d, const mc_clip *clip, const mc_frame_view *view, int k, int cam, double *err_px,
+		   int *nerr, int *missed, bool print)
+{
+	mc_detection det[MC_DETECTOR_MAX_JOINTS];
+	mc_err err = {{0}};
+	int n = mc_detector_detect(d, view->rgb, view->width, view->height, view->stride, det, MC_DETECTOR_MAX_JOINTS,
+				   &err);
+	CHECK_MSG(n >= 0, "%s", err.msg);
+	if (n < 0)
+		return 0;
+	bool seen[MC_DETECTOR_MAX_JOINTS] = {false};
+	const mc_camera *c = &clip->rig.cams[cam];
+	mc_xform cam_from_rig = mc_xform_inverse(c->rig_from_cam);
+	for (int i = 0; i < n; i++) {
+		const char *name = mc_detector_joint_name(d, det[i].joint);
+		int g = mc_clip_joint(clip, name);
+		if (g < 0)
+			continue;
+		seen[det[i].joint] = true;
+		double u, v;
+		if (!mc_camera_project(c, mc_xform_apply(cam_from_rig, mc_clip_gt(clip, k, g)), &u, &v))
+			continue;
+		double e = hypot(det[i].u - u, det[i].v - v);
+		err_px[(*nerr)++] = e;
+		if (print)
+			printf("  %-15s detected (%6.1f, %6.1f) conf %.2f, truth (%6.1f, %6.1f): %5.1f px\n", name,
+			       det[i].u, det[i].v, det[i].confidence, u, v, e);
+	}
+	for (int j = 0; j < mc_detector_njoints(d); j++)
+		if (!seen[j] && mc_clip_joint(clip, mc_detector_joint_name(d, j)) >= 0) {
+			(*missed)++;
+			if (print)
+				printf("  %-15s not detected\n", mc_detector_joint_name(d, j));
+		}
+	return n;
+}
+
+int main(void)
+{
+	char model[4096] = "";
+	const char *env = getenv("MOCAP_DETECT_MODEL");
+	if (env && *env)
+		snprintf(model, sizeof(model), "%s", env);
+	else {
+		glob_t g;
+		if (glob("config/models/*ego*.onnx", 0, NULL, &g) == 0 && g.gl_pathc > 0)
+			snprintf(model, sizeof(model), "%s", g.gl_pathv[0]);
+		globfree(&g);
+	}
+	if (!*model)
+		TEST_SKIP("no shipped detector model (config/models/*ego*.onnx) yet; set MOCAP_DETECT_MODEL to test another");
+	mc_clip *clip = calloc(1, sizeof(*clip));
+	mc_err err = {{0}};
+	if (!clip || mc_clip_open("tests/data/ego_demo", false, clip, &err) < 0)
+		TEST_SKIP("run from the repository root (tests/data/ego_demo: %s)", err.msg);
+	mc_detector *d = mc_detector_load(model, &err);
+	CHECK_MSG(d, "%s", err.msg);
+	if (!d)
+		return mc_test_finish("test_detector_shipped");
+	int hw, hh;
+	mc_detector_heatmap_size(d, &hw, &hh);
+	printf("%s: %d joints, heatmaps %dx%d, threshold %.2f\n", model, mc_detector_njoints(d), hw, hh,
+	       mc_detector_threshold(d));
+	CHECK(mc_detector_njoints(d) == MC_DETECTOR_DEFAULT_NJOINTS);
+	for (int j = 0; j < mc_detector_njoints(d) && j < MC_DETECTOR_DEFAULT_NJOINTS; j++)
+		CHECK_MSG(!strcmp(mc_detector_joint_name(d, j), mc_detector_default_joint_name(j)),
+			  "joint %d is %s, the contract says %s", j, mc_detector_joint_name(d, j),
+			  mc_detector_default_joint_name(j));
+
+	static double errs[4 * 2 * MC_DETECTOR_MAX_JOINTS];
+	const int frames[] = {0, 15, 30, 45};
+	int nall = 0, missed_all = 0;
+	for (size_t f = 0; f < sizeof(frames) / sizeof(frames[0]); f++) {
+		mc_frame_view views[2];
+		CHECK_MSG(mc_clip_load_frame(clip, frames[f], views, &err) == 0, "%s", err.msg);
+		for (int cam = 0; cam < 2; cam++) {
+			double e[MC_DETECTOR_MAX_JOINTS];
+			int ne = 0, missed = 0;
+			bool first = f == 0 && cam == 0;
+			if (first)
+				printf("frame 0, left camera:\n");
+			int found = measure(d, clip, &views[cam], frames[f], cam, e, &ne, &missed, first);
+			memcpy(errs + nall, e, sizeof(double) * (size_t)ne);
+			nall += ne;
+			missed_all += missed;
+			double med = percentile(e, ne, 0.5), p90 = percentile(e, ne, 0.9);
+			printf("frame %2d %-5s: %2d joints detected, %d missed, median %.1f px, p90 %.1f px\n", frames[f],
+			       cam ? "right" : "left", found, missed, med, p90);
+			if (first) {
+				CHECK_MSG(found >= MIN_FOUND, "only %d joints detected on left/00000.jpg (at least %d expected)",
+					  found, MIN_FOUND);
+				CHECK_MSG(ne > 0 && med <= BOUND_PX, "median error %.1f px on left/00000.jpg (bound %.1f px)",
+					  med, BOUND_PX);
+			}
+		}
+		mc_clip_free_frame(views);
+	}
+	double med = percentile(errs, nall, 0.5), p90 = percentile(errs, nall, 0.9);
+	printf("frames 0, 15, 30, 45, both cameras: %d detections, %d missed, median %.1f px, p90 %.1f px\n", nall,
+	       missed_all, med, p90);
+	mc_detector_timing t;
+	mc_detector_get_timing(d, &t);
+	printf("%.2f ms per 256x256 view (mean of %llu)\n", t.mean_ms, (unsigned long long)t.calls);
+	mc_detector_free(d);
+	mc_clip_close(clip);
+	free(clip);
+	return mc_test_finish("test_detector_shipped");
+}
