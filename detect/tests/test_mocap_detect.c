@@ -1,0 +1,312 @@
+/* mocap-detect end to end through the socket: mocapd plays the bundled clip
+ * (files driver, in a loop, 5 fps) on a private socket; mocap-detect maps
+ * its camera rings read-only, runs a detector and sends KEYPOINTS back.
+ *
+ * The detector is detect/tests/data/fixed_wrist.onnx, whose only keypoint
+ * is the right wrist at pixel (139.5, 75.5) whatever the image, run on the
+ * left camera only.  From the daemon's side: the published right wrist,
+ * about 0.5 m off that pixel's ray at the start, must end up on it (within
+ * 5 cm), which only happens if the keypoints reached the tracker with the
+ * right capture times, camera and joint.  mocap-detect must exit 0 on
+ * SIGTERM with its statistics (views, batches, no refusals).  With the
+ * shipped model present, it also runs on both cameras for a few seconds.
+ * And the errors: a bad model, no daemon. */
+#include "daemon/harness.h"
+#include "geom/mc_camera.h"
+#include "geom/mc_rig.h"
+#include "mocap.h"
+#include "test_util.h"
+
+#include <glob.h>
+
+#define RATE 5
+
+static char repo[PATH_MAX];
+static char mocap_detect[PATH_MAX + 32];
+
+/* mocapd, the drivers and mocap-detect, from this program's path
+ * (<build>/detect/tests/test_mocap_detect). */
+static bool find_build(void)
+{
+	char exe[PATH_MAX];
+	ssize_t n = readlink("/proc/self/exe", exe, sizeof(exe) - 1);
+	if (n <= 0)
+		return false;
+	exe[n] = 0;
+	for (int up = 0; up < 3; up++) {
+		char *slash = strrchr(exe, '/');
+		if (!slash)
+			return false;
+		*slash = 0;
+	}
+	snprintf(mcd_build_dir, sizeof(mcd_build_dir), "%s", exe);
+	snprintf(mcd_mocapd, sizeof(mcd_mocapd), "%s/bin/mocapd", mcd_build_dir);
+	snprintf(mcd_faulty_dir, sizeof(mcd_faulty_dir), "%s/tests/faulty", mcd_build_dir);
+	snprintf(mocap_detect, sizeof(mocap_detect), "%s/bin/mocap-detect", mcd_build_dir);
+	return true;
+}
+
+static void write_config(mcd_run *r)
+{
+	char text[8 * PATH_MAX];
+	snprintf(text, sizeof(text),
+		 "[daemon]\nplugin_dir = %s/drivers\n"
+		 "[camera left]\ndriver = files\nrig_camera = left\nloop = true\nrate = %d\n"
+		 "path = %s/tests/data/ego_demo/left\n"
+		 "[camera right]\ndriver = files\nrig_camera = right\nloop = true\nrate = %d\n"
+		 "path = %s/tests/data/ego_demo/right\n"
+		 "[tracker]\nrig = %s/config/rigs/ego_stereo.json\nmodel = %s/config/models/default.json\n"
+		 "init_joints = %s/tests/data/ego_demo/gt.json\n"
+		 "[socket]\npath = @SOCK@\n",
+		 mcd_build_dir, RATE, repo, RATE, repo, repo, repo, repo);
+	mcd_run_config(r, text);
+}
+
+/* Runs mocap-detect with args (NULL-terminated) and its output in out. */
+static pid_t start_detect(const char *const *args, const char *out)
+{
+	pid_t pid = fork();
+	if (pid == 0) {
+		int fd = open(out, O_WRONLY | O_CREAT | O_TRUNC, 0644);
+		if (fd < 0)
+			_exit(126);
+		dup2(fd, 1);
+		dup2(fd, 2);
+		const char *argv[16] = {mocap_detect};
+		int n = 1;
+		for (int i = 0; args[i] && n < 15; i++)
+			argv[n++] = args[i];
+		argv[n] = NULL;
+		execv(mocap_detect, (char *const *)argv);
+		_exit(127);
+	}
+	return pid;
+}
+
+/* Waits for pid; its exit status, 128+signal, or -1 after timeout_ms (then
+ * it is killed). */
+static int wait_detect(pid_t pid, int timeout_ms)
+{
+	uint64_t end = mcd_now_ms() + (uint64_t)timeout_ms;
+	int st;
+	for (;;) {
+		pid_t w = waitpid(pid, &st, WNOHANG);
+		if (w == pid)
+			return WIFEXITED(st) ? WEXITSTATUS(st) : 128 + WTERMSIG(st);
+		if (mcd_now_ms() >= end) {
+			kill(pid, SIGKILL);
+			waitpid(pid, &st, 0);
+			return -1;
+		}
+		mcd_sleep_ms(10);
+	}
+}
+
+static void dump(const char *what, const char *path)
+{
+	char *s = mcd_read_file(path);
+	fprintf(stderr, "---- %s (%s) ----\n%s---- end ----\n", what, path, s ? s : "");
+	free(s);
+}
+
+static int find_joint(const mocap_skeleton_def *def, const char *name)
+{
+	for (int j = 0; j < def->njoints; j++)
+		if (!strcmp(def->joints[j].name, name))
+			return j;
+	return -1;
+}
+
+/* Distance of p (rig frame) from the ray through pixel (u, v) of camera c. */
+static double ray_distance(const mc_camera *cam, double u, double v, const double p[3])
+{
+	mc_vec3 dir;
+	if (!mc_camera_unproject(cam, u, v, &dir))
+		return 1e9;
+	mc_vec3 n = mc_v3_normalize(mc_m3_apply(cam->rig_from_cam.R, dir));
+	mc_vec3 d = mc_v3_sub(mc_v3(p[0], p[1], p[2]), cam->rig_from_cam.t);
+	return mc_v3_norm(mc_v3_axpy(-mc_v3_dot(d, n), n, d));
+}
+
+/* The fixed model's right wrist on the left camera: the wrist moves onto
+ * the keypoint's ray. */
+static void test_fixed(mcd_run *r, const mc_rig *rig)
+{
+	const double ku = 139.5, kv = 75.5; /* fixed_wrist.onnx on a 256x256 view */
+	mocap_client *c = mocap_connect(r->sock, "test_mocap_detect");
+	CHECK_MSG(c, "connect: %s", mocap_errmsg());
+	if (!c)
+		return;
+	mocap_skeleton_def *def = calloc(1, sizeof(*def));
+	mocap_skeleton_frame *f = calloc(1, sizeof(*f));
+	int wrist = -1;
+	CHECK(def && f && mocap_subscribe(c, MOCAP_LATEST, MOCAP_SPACE_RIG, 0) == 0);
+	CHECK(f && mocap_read_frame(c, f, 30000) == 1);
+	CHECK(def && mocap_get_skeleton(c, def) == 0 && (wrist = find_joint(def, "right_wrist")) >= 0);
+	if (mc_test_failures) {
+		free(def);
+		free(f);
+		mocap_close(c);
+		return;
+	}
+	double before = ray_distance(&rig->cams[0], ku, kv, f->joints[wrist].position);
+
+	char out[256];
+	snprintf(out, sizeof(out), "%s/detect.txt", r->dir);
+	char model[PATH_MAX + 64];
+	snprintf(model, sizeof(model), "%s/detect/tests/data/fixed_wrist.onnx", repo);
+	const char *const args[] = {"--socket", r->sock, "--model", model, "--cameras", "left", NULL};
+	pid_t pid = start_detect(args, out);
+	CHECK(pid > 0);
+	/* 5 s of frames (25 frame sets at 5 fps). */
+	uint64_t end = mcd_now_ms() + 5000;
+	double after = before, closest = before;
+	int frames = 0;
+	while (mcd_now_ms() < end && mocap_read_frame(c, f, 2000) == 1) {
+		frames++;
+		after = ray_distance(&rig->cams[0], ku, kv, f->joints[wrist].position);
+		if (after < closest)
+			closest = after;
+	}
+	mocap_daemon_status *st = calloc(1, sizeof(*st));
+	CHECK(st && mocap_get_status(c, st) == 0);
+	kill(pid, SIGTERM);
+	int rc = wait_detect(pid, 10000);
+	char *log = mcd_read_file(out);
+	printf("right wrist from the keypoint ray: %.1f cm before mocap-detect, %.1f cm after %d frames "
+	       "(closest %.1f cm); daemon: %llu skeletons published\n",
+	       100 * before, 100 * after, frames, 100 * closest, st ? (unsigned long long)st->frames_published : 0ull);
+	printf("mocap-detect said:\n%s", log ? log : "");
+	CHECK_MSG(rc == 0, "mocap-detect exited with %d after SIGTERM", rc);
+	CHECK(frames >= 10);
+	CHECK_MSG(before > 0.15, "the keypoint is only %.1f cm off the wrist at the start", 100 * before);
+	CHECK_MSG(after < 0.05, "the wrist stayed %.1f cm off the keypoint's ray", 100 * after);
+	unsigned long long views = 0, kps = 0, batches = 0;
+	const char *line = log ? strstr(log, "camera left: ") : NULL;
+	CHECK_MSG(line && sscanf(line, "camera left: %llu views", &views) == 1 && views >= 10,
+		  "mocap-detect ran on %llu views of the left camera", views);
+	const char *in = line ? strstr(line, " keypoints in ") : NULL;
+	while (in && in > line && in[-1] != ' ')
+		in--;
+	CHECK(in && sscanf(in - 1, " %llu keypoints in %llu batches", &kps, &batches) == 2 && batches >= 10 &&
+	      kps == batches);
+	CHECK_MSG(log && strstr(log, "0 refusals from mocapd"), "mocapd refused keypoints");
+	CHECK_MSG(log && !strstr(log, "camera right:"), "--cameras left ran on the right camera too");
+	if (mc_test_failures)
+		dump("mocap-detect", out);
+	free(log);
+	unlink(out);
+	free(st);
+	free(def);
+	free(f);
+	mocap_close(c);
+}
+
+/* The shipped model on both cameras: it runs and mocapd takes its keypoints. */
+static void test_shipped(mcd_run *r)
+{
+	glob_t g;
+	char model[PATH_MAX + 64] = "";
+	char pattern[PATH_MAX + 64];
+	snprintf(pattern, sizeof(pattern), "%s/config/models/*ego*.onnx", repo);
+	if (glob(pattern, 0, NULL, &g) == 0 && g.gl_pathc > 0)
+		snprintf(model, sizeof(model), "%s", g.gl_pathv[0]);
+	globfree(&g);
+	if (!*model) {
+		printf("no shipped model (config/models/*ego*.onnx): only the fixed test model was run\n");
+		return;
+	}
+	char out[256];
+	snprintf(out, sizeof(out), "%s/detect-shipped.txt", r->dir);
+	const char *const args[] = {"--socket", r->sock, "--model", model, "--rate", "5", NULL};
+	pid_t pid = start_detect(args, out);
+	mcd_sleep_ms(4000);
+	kill(pid, SIGINT);
+	int rc = wait_detect(pid, 10000);
+	char *log = mcd_read_file(out);
+	printf("mocap-detect with %s:\n%s", model, log ? log : "");
+	CHECK_MSG(rc == 0, "mocap-detect exited with %d after SIGINT", rc);
+	unsigned long long views[2] = {0, 0};
+	const char *names[2] = {"camera left: ", "camera right: "};
+	for (int i = 0; i < 2; i++) {
+		const char *line = log ? strstr(log, names[i]) : NULL;
+		char fmt[64];
+		snprintf(fmt, sizeof(fmt), "%s%%llu views", names[i]);
+		CHECK_MSG(line && sscanf(line, fmt, &views[i]) == 1 && views[i] >= 5, "%s%llu views", names[i], views[i]);
+	}
+	CHECK_MSG(log && strstr(log, "0 refusals from mocapd"), "mocapd refused keypoints");
+	free(log);
+	unlink(out);
+}
+
+/* Errors: a bad model, no daemon, a bad option. */
+static void test_errors(mcd_run *r)
+{
+	char out[256];
+	snprintf(out, sizeof(out), "%s/detect-err.txt", r->dir);
+	char model[PATH_MAX + 64];
+	snprintf(model, sizeof(model), "%s/detect/tests/data/bad_channels.onnx", repo);
+	char good[PATH_MAX + 64];
+	snprintf(good, sizeof(good), "%s/detect/tests/data/fixed_wrist.onnx", repo);
+	const struct {
+		const char *args[8];
+		int rc;
+		const char *says[2];
+	} cases[] = {
+		{{"--socket", r->sock, "--model", model, NULL}, 1, {"bad_channels.onnx", "17 heatmap channels"}},
+		{{"--socket", "/tmp/no-such-mocapd.sock", "--model", model, NULL}, 1, {"/tmp/no-such-mocapd.sock", "not running"}},
+		{{"--rate", "-3", NULL}, 2, {"--rate -3", "detections per second"}},
+		{{"--cameras", "nosuch", "--socket", r->sock, "--model", good, NULL}, 1, {"nosuch", "offered by mocapd"}},
+	};
+	for (size_t i = 0; i < sizeof(cases) / sizeof(cases[0]); i++) {
+		pid_t pid = start_detect(cases[i].args, out);
+		int rc = wait_detect(pid, 20000);
+		char *log = mcd_read_file(out);
+		printf("mocap-detect %s %s ... -> exit %d: %s", cases[i].args[0], cases[i].args[1], rc, log ? log : "\n");
+		CHECK_MSG(rc == cases[i].rc, "exit %d, expected %d", rc, cases[i].rc);
+		for (int k = 0; k < 2; k++)
+			CHECK_MSG(log && strstr(log, cases[i].says[k]), "the message does not say \"%s\"", cases[i].says[k]);
+		free(log);
+	}
+	unlink(out);
+}
+
+int main(void)
+{
+	if (!find_build() || access(mcd_mocapd, X_OK) != 0 || access(mocap_detect, X_OK) != 0)
+		TEST_SKIP("mocapd or mocap-detect is not built (%s, %s)", mcd_mocapd, mocap_detect);
+	if (!getcwd(repo, sizeof(repo)) || access("tests/data/ego_demo/gt.json", R_OK) != 0 ||
+	    access("detect/tests/data/fixed_wrist.onnx", R_OK) != 0)
+		TEST_SKIP("run from the repository root (tests/data/ego_demo or detect/tests/data not found)");
+	mc_rig rig;
+	mc_err err = {{0}};
+	if (mc_rig_load("config/rigs/ego_stereo.json", &rig, &err) < 0) {
+		fprintf(stderr, "%s\n", err.msg);
+		return 1;
+	}
+	mcd_run r;
+	CHECK(mcd_run_init(&r));
+	write_config(&r);
+	const char *const args[] = {NULL};
+	CHECK(mcd_run_start(&r, args, NULL));
+	if (!mcd_run_wait_notify(&r, "READY=1", 60000)) {
+		char *log = mcd_read_file(r.log);
+		bool no_cl = log && strstr(log, "OpenCL") && strstr(log, "error");
+		free(log);
+		mcd_run_dump(&r, "start");
+		mcd_run_cleanup(&r);
+		if (no_cl)
+			TEST_SKIP("the tracker cannot run here (no usable OpenCL device)");
+		CHECK_MSG(false, "mocapd did not become ready");
+		return mc_test_finish("test_mocap_detect");
+	}
+	test_fixed(&r, &rig);
+	test_shipped(&r);
+	test_errors(&r);
+	mcd_run_signal(&r, SIGTERM);
+	CHECK(mcd_run_wait_exit(&r, 20000) == 0);
+	if (mc_test_failures)
+		mcd_run_dump(&r, "mocap-detect test");
+	mcd_run_cleanup(&r);
+	return mc_test_finish("test_mocap_detect");
+}
