@@ -27,6 +27,7 @@ DETECT_LINK_DEPS := $(DETECT_LIB) $(BUILD)/libmocap.a $(CORE_LIB)
 # installed models, then config/models of the working directory.
 DETECT_MODEL_DIR ?= $(PREFIX)/share/mocapd/models
 DETECT_UNITDIR ?= $(PREFIX)/lib/systemd/system
+DETECT_DOCDIR ?= $(PREFIX)/share/doc/mocapd
 
 LIBS += $(DETECT_LIB)
 BINS += $(if $(wildcard detect/mocap-detect.c),$(MOCAP_DETECT))
@@ -80,9 +81,10 @@ bench-detect: $(DETECT_BENCH)
 # sidecar.  mocap-detect itself is in BINS.
 install: install-detect
 install-detect:
-	install -d $(DESTDIR)$(DETECT_UNITDIR) $(DESTDIR)$(DETECT_MODEL_DIR)
-	sed -e 's|@BINDIR@|$(PREFIX)/bin|g' -e 's|@MODELDIR@|$(DETECT_MODEL_DIR)|g' systemd/mocap-detect.service \
+	install -d $(DESTDIR)$(DETECT_UNITDIR) $(DESTDIR)$(DETECT_MODEL_DIR) $(DESTDIR)$(DETECT_DOCDIR)
+	sed -e 's|@BINDIR@|$(PREFIX)/bin|g' -e 's|@DOCDIR@|$(DETECT_DOCDIR)|g' systemd/mocap-detect.service \
 		> $(DESTDIR)$(DETECT_UNITDIR)/mocap-detect.service
 	chmod 644 $(DESTDIR)$(DETECT_UNITDIR)/mocap-detect.service
+	install -m 644 docs/DETECT_RUNTIME.md $(DESTDIR)$(DETECT_DOCDIR)/
 	for m in config/models/*ego*.onnx; do [ -e "$$m" ] || continue; \
 		install -m 644 "$$m" $(DESTDIR)$(DETECT_MODEL_DIR)/; done
