@@ -25,7 +25,12 @@ BINS += $(BUILD)/bin/mocapctl
 CHECKS += check-ipc-python fuzz-ipc
 BENCHES += bench-ipc
 
-$(IPC_SERVER_LIB): $(BUILD)/ipc/proto.o $(BUILD)/ipc/server.o
+# The server is ipc/server/*.c (ipc/server/internal.h says which file does
+# what), the client library ipc/client/*.c; both share the protocol codec.
+IPC_SERVER_OBJ := $(patsubst %.c,$(BUILD)/%.o,$(wildcard ipc/server/*.c))
+IPC_CLIENT_OBJ := $(patsubst %.c,$(BUILD)/%.o,$(wildcard ipc/client/*.c))
+
+$(IPC_SERVER_LIB): $(BUILD)/ipc/proto.o $(IPC_SERVER_OBJ)
 	@rm -f $@
 	ar rcs $@ $^
 

@@ -10,13 +10,16 @@
  *     client: each client has its own bounded queue ("all" mode) or a single
  *     newest-frame slot ("latest" mode), and its socket is non-blocking.
  *   - Requests that need the daemon (control: reload, recording) and inputs
- *     from clients (2D keypoints, VR head poses) are queued inside the
- *     server; the daemon polls them (srv_poll_*), e.g. when
- *     srv_event_fd() becomes readable.
+ *     from clients (2D keypoints, VR head poses) wait in inboxes inside the
+ *     server; the daemon takes them (srv_poll_control on the main loop when
+ *     srv_event_fd() becomes readable; srv_inbox_pop_keypoints on the
+ *     tracking thread, from the inbox srv_keypoints_inbox() returns).
  *   - Status replies are answered by the server thread from the last
  *     snapshot given with srv_set_status().
  *
- * Every function is thread-safe unless it says otherwise.  Typical use:
+ * The implementation is in ipc/server/ (ipc/server/internal.h lists its
+ * files).  Every function is thread-safe unless it says otherwise.
+ * Typical use:
  *
  *     srv_config cfg;
  *     srv_config_default(&cfg);          // path /run/mocapd/mocapd.sock
@@ -32,13 +35,19 @@
  *             int rc = do_reload(...);
  *             srv_control_done(srv, ctl.token, rc, rc ? "why" : "reloaded");
  *     }
+ *     ... per frame set, on the tracking thread:
+ *     srv_keypoints kp;
+ *     while (srv_inbox_pop_keypoints(inbox, &kp) == 1)   // inbox = srv_keypoints_inbox(srv)
+ *             use(&kp);
  *     srv_destroy(srv);
  */
 #ifndef SRV_H
 #define SRV_H
 
 #include "base/mc_error.h"
+#include "base/mc_limits.h"
 #include "body/mc_model.h"
+#include "geom/mc_pose.h"
 #include "track/mc_tracker.h"
 
 #include <stdbool.h>
@@ -122,7 +131,9 @@ int srv_publish(srv_server *srv, const mc_skeleton *sk, uint64_t seq, mc_err *er
 
 /* --- Status ----------------------------------------------------------- */
 
-#define SRV_STATUS_MAX_CAMS 8
+/* Cameras in a status report: the core's limit.  SRV_STATUS_MAX_CAMS is its
+ * old name, kept until the daemon uses MC_MAX_CAMERAS. */
+#define SRV_STATUS_MAX_CAMS MC_MAX_CAMERAS
 #define SRV_NAME_MAX 64
 
 typedef enum {
@@ -159,7 +170,7 @@ typedef struct {
 	uint64_t start_ns;       /* CLOCK_MONOTONIC at daemon start */
 	char device[SRV_NAME_MAX]; /* compute device, e.g. "pocl: cpu" */
 	int ncams;
-	srv_cam_status cams[SRV_STATUS_MAX_CAMS];
+	srv_cam_status cams[MC_MAX_CAMERAS];
 } srv_status;
 
 /* Replaces the snapshot that status requests are answered from (copied).
@@ -175,7 +186,7 @@ typedef struct {
 	uint64_t frames_published;
 	uint64_t mailbox_drops;   /* frames dropped because the server thread lagged */
 	uint64_t client_drops;    /* frames dropped from "all" queues (sent as gaps) */
-	uint64_t keypoint_drops;  /* keypoint batches the daemon did not poll in time */
+	uint64_t keypoint_drops;  /* keypoint batches the daemon did not take in time (oldest dropped) */
 } srv_stats;
 
 void srv_get_stats(srv_server *srv, srv_stats *st);
@@ -183,8 +194,9 @@ void srv_get_stats(srv_server *srv, srv_stats *st);
 /* --- What clients send to the daemon ----------------------------------- */
 
 /* An fd (eventfd) that is readable exactly while control requests or
- * keypoint batches are waiting to be polled; the poll functions reset it
- * when both queues are empty.  Add it to the daemon's poll set. */
+ * keypoint batches are waiting to be taken; srv_poll_control and
+ * srv_inbox_pop_keypoints reset it when both are empty.  Add it to the
+ * daemon's poll set. */
 int srv_event_fd(srv_server *srv);
 
 typedef enum {
@@ -219,17 +231,27 @@ typedef struct {
 	pid_t pid;               /* sending process */
 } srv_keypoints;
 
-/* 1 and fills *out (oldest first) if a batch is waiting, else 0.  The
- * server keeps a bounded number of batches; older ones are dropped and
- * counted (srv_stats.keypoint_drops). */
+/* The keypoint inbox: the batches clients sent, oldest first, for the
+ * daemon's tracking thread to take directly (it needs no other access to
+ * the server).  Bounded (64 batches): when a batch arrives at a full inbox
+ * the oldest one is dropped and counted in srv_stats.keypoint_drops.
+ * Thread-safe: any thread may pop while the server thread pushes. */
+typedef struct srv_keypoint_inbox srv_keypoint_inbox;
+
+/* The server's keypoint inbox; valid as long as the server. */
+srv_keypoint_inbox *srv_keypoints_inbox(srv_server *srv);
+/* 1 and fills *out with the oldest waiting batch, removing it; 0 when
+ * none waits.  Never blocks for long (a short lock, no socket). */
+int srv_inbox_pop_keypoints(srv_keypoint_inbox *inbox, srv_keypoints *out);
+
+/* The same as srv_inbox_pop_keypoints(srv_keypoints_inbox(srv), out); kept
+ * until the daemon takes keypoints from the inbox. */
 int srv_poll_keypoints(srv_server *srv, srv_keypoints *out);
 
-/* The pose of the rig in a VR runtime's world frame at one instant. */
-typedef struct {
-	uint64_t timestamp_ns;   /* CLOCK_MONOTONIC */
-	mc_vec3 position;        /* world_from_rig translation, metres */
-	mc_quat orientation;     /* world_from_rig rotation */
-} srv_head_pose;
+/* The pose of the rig in a VR runtime's world frame at one instant
+ * (world_from_rig: timestamp_ns CLOCK_MONOTONIC, position in metres,
+ * orientation a unit quaternion); see core/geom/mc_pose.h. */
+typedef mc_pose srv_head_pose;
 
 /* 1 and the newest head pose received, else 0 (none yet).  The server itself
  * uses the head poses to send world-frame skeletons to clients that ask. */

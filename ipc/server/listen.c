@@ -1,0 +1,196 @@
+/* The listening socket: created at the configured path (replacing only a
+ * stale socket file) or adopted from systemd, connections accepted up to
+ * the client limit, and the socket file removed at the end if it is still
+ * the one this server made. */
+#include "server/internal.h"
+
+#include <errno.h>
+#include <fcntl.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <sys/epoll.h>
+#include <sys/socket.h>
+#include <sys/stat.h>
+#include <sys/un.h>
+#include <unistd.h>
+
+/* Removes a socket file nobody listens on (left by a killed daemon).  Any
+ * other file, or a live listener, is left alone and reported. */
+static int remove_stale_socket(const char *path, mc_err *err)
+{
+	struct stat st;
+	if (lstat(path, &st) != 0) {
+		if (errno == ENOENT)
+			return 0;
+		return mc_err_set(err, "%s: %s", path, strerror(errno));
+	}
+	if (!S_ISSOCK(st.st_mode))
+		return mc_err_set(err, "%s: exists and is not a socket; not removing it", path);
+	int probe = socket(AF_UNIX, SOCK_SEQPACKET | SOCK_CLOEXEC, 0);
+	if (probe < 0)
+		return mc_err_set(err, "socket: %s", strerror(errno));
+	struct sockaddr_un a = {.sun_family = AF_UNIX};
+	srv_str_copy(a.sun_path, sizeof(a.sun_path), path);
+	int rc = connect(probe, (struct sockaddr *)&a, sizeof(a));
+	int e = errno;
+	close(probe);
+	if (rc == 0)
+		return mc_err_set(err, "%s: another mocapd is listening there", path);
+	if (e == EPROTOTYPE)
+		return mc_err_set(err, "%s: another program is listening there (not a SOCK_SEQPACKET socket)", path);
+	if (e != ECONNREFUSED)
+		return mc_err_set(err, "%s: cannot tell whether the socket is in use: %s", path, strerror(e));
+	if (unlink(path) != 0 && errno != ENOENT)
+		return mc_err_set(err, "%s: cannot remove the stale socket: %s", path, strerror(errno));
+	return 0;
+}
+
+static int adopt_listen_fd(srv_server *srv, mc_err *err)
+{
+	int fd = srv->cfg.listen_fd, type = 0, domain = 0, listening = 0;
+	socklen_t l = sizeof(int);
+	if (getsockopt(fd, SOL_SOCKET, SO_TYPE, &type, &l) != 0)
+		return mc_err_set(err, "listen fd %d: %s", fd, strerror(errno));
+	l = sizeof(int);
+	getsockopt(fd, SOL_SOCKET, SO_DOMAIN, &domain, &l);
+	l = sizeof(int);
+	getsockopt(fd, SOL_SOCKET, SO_ACCEPTCONN, &listening, &l);
+	if (domain != AF_UNIX || type != SOCK_SEQPACKET || !listening)
+		return mc_err_set(err, "listen fd %d: expected a listening AF_UNIX SOCK_SEQPACKET socket "
+				       "(ListenSequentialPacket= in mocapd.socket)", fd);
+	int fl = fcntl(fd, F_GETFL);
+	fcntl(fd, F_SETFL, fl | O_NONBLOCK);
+	fcntl(fd, F_SETFD, FD_CLOEXEC);
+	srv->listen_fd = fd;
+	return 0;
+}
+
+static int create_listen_socket(srv_server *srv, mc_err *err)
+{
+	const char *path = srv->cfg.path;
+	struct sockaddr_un a = {.sun_family = AF_UNIX};
+	if (!path[0])
+		return mc_err_set(err, "socket path is empty");
+	if (strlen(path) >= sizeof(a.sun_path))
+		return mc_err_set(err, "%s: socket path too long (at most %zu bytes)", path, sizeof(a.sun_path) - 1);
+	memcpy(a.sun_path, path, strlen(path) + 1);
+	if (remove_stale_socket(path, err) < 0)
+		return -1;
+	int fd = socket(AF_UNIX, SOCK_SEQPACKET | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
+	if (fd < 0)
+		return mc_err_set(err, "socket: %s", strerror(errno));
+	/* bind, then fix mode and group, then listen: nobody can connect
+	 * before listen(), so there is no window with the wrong permissions. */
+	if (bind(fd, (struct sockaddr *)&a, sizeof(a)) != 0) {
+		mc_err_set(err, "%s: cannot create the socket: %s", path, strerror(errno));
+		close(fd);
+		return -1;
+	}
+	srv->created_path = true;
+	struct stat st;
+	if (stat(path, &st) == 0) {
+		srv->path_dev = st.st_dev;
+		srv->path_ino = st.st_ino;
+	}
+	srv->listen_fd = fd;
+	if (chmod(path, srv->cfg.socket_mode & 07777) != 0)
+		return mc_err_set(err, "%s: chmod %o: %s", path, srv->cfg.socket_mode, strerror(errno));
+	if (srv->cfg.control_gid != (gid_t)-1 && chown(path, (uid_t)-1, srv->cfg.control_gid) != 0)
+		return mc_err_set(err, "%s: cannot give the socket to group %u: %s", path,
+				  (unsigned)srv->cfg.control_gid, strerror(errno));
+	if (listen(fd, 64) != 0)
+		return mc_err_set(err, "%s: listen: %s", path, strerror(errno));
+	return 0;
+}
+
+int srv_listen_open(srv_server *srv, mc_err *err)
+{
+	return srv->cfg.listen_fd >= 0 ? adopt_listen_fd(srv, err) : create_listen_socket(srv, err);
+}
+
+void srv_listen_close(srv_server *srv)
+{
+	if (srv->listen_fd >= 0)
+		close(srv->listen_fd);
+	srv->listen_fd = -1;
+	/* Remove the socket file only if it still is the one we made: a new
+	 * daemon may already have replaced it. */
+	struct stat st;
+	if (srv->created_path && stat(srv->cfg.path, &st) == 0 && st.st_dev == srv->path_dev &&
+	    st.st_ino == srv->path_ino)
+		unlink(srv->cfg.path);
+}
+
+/* --- Accepting --- */
+
+static void refuse_connection(srv_server *srv, int fd, const char *why)
+{
+	proto_msg *m = &srv->out;
+	memset(m, 0, sizeof(*m));
+	m->h.type = MC_MSG_ERROR;
+	m->u.error.code = PROTO_E_TOO_MANY_CLIENTS;
+	m->u.error.fatal = 1;
+	srv_str_copy(m->u.error.message, sizeof(m->u.error.message), why);
+	size_t n = proto_encode(m, srv->txbuf, sizeof(srv->txbuf));
+	if (n)
+		send(fd, srv->txbuf, n, MSG_DONTWAIT | MSG_NOSIGNAL);
+	close(fd);
+	pthread_mutex_lock(&srv->lock);
+	srv->stats.refused++;
+	pthread_mutex_unlock(&srv->lock);
+}
+
+static bool grow_clients(srv_server *srv)
+{
+	int cap = srv->clients_cap ? 2 * srv->clients_cap : 16;
+	client **nc = realloc(srv->clients, (size_t)cap * sizeof(*nc));
+	if (!nc)
+		return false;
+	srv->clients = nc;
+	srv->clients_cap = cap;
+	return true;
+}
+
+void srv_accept_clients(srv_server *srv)
+{
+	for (;;) {
+		int fd = accept4(srv->listen_fd, NULL, NULL, SOCK_NONBLOCK | SOCK_CLOEXEC);
+		if (fd < 0)
+			return; /* EAGAIN, or a transient error: epoll tells us again */
+		if (srv_live_clients(srv) >= srv->cfg.max_clients) {
+			char why[128];
+			snprintf(why, sizeof(why), "too many clients: mocapd accepts at most %d at once",
+				 srv->cfg.max_clients);
+			refuse_connection(srv, fd, why);
+			continue;
+		}
+		client *c = calloc(1, sizeof(*c));
+		if (!c || !srv_peer_identify(srv, fd, c) || !srv_q_reshape(c, 0, true)) {
+			free(c);
+			close(fd);
+			continue;
+		}
+		c->fd = fd;
+		c->serial = ++srv->next_serial;
+		c->accepted_ns = mc_now_ns();
+		struct epoll_event ev = {.events = EPOLLIN, .data.ptr = c};
+		if (epoll_ctl(srv->epfd, EPOLL_CTL_ADD, fd, &ev) != 0) {
+			free(c->q);
+			free(c);
+			close(fd);
+			continue;
+		}
+		if (srv->nclients == srv->clients_cap && !grow_clients(srv)) {
+			epoll_ctl(srv->epfd, EPOLL_CTL_DEL, fd, NULL);
+			free(c->q);
+			free(c);
+			close(fd);
+			continue;
+		}
+		srv->clients[srv->nclients++] = c;
+		pthread_mutex_lock(&srv->lock);
+		srv->stats.accepted++;
+		srv->stats.clients = srv_live_clients(srv);
+		pthread_mutex_unlock(&srv->lock);
+	}
+}
