@@ -59,6 +59,11 @@ $(BUILD)/detect/tests/test_detector $(BUILD)/detect/tests/test_detector_shipped:
 	@mkdir -p $(@D)
 	$(CC) $(CPPFLAGS) -Idetect -Itests $(CFLAGS) -MMD -MP $< -o $@ $(LDFLAGS) $(DETECT_LIB) $(CORE_LIB) $(CORE_LIBS) $(DETECT_LIBS)
 
+# The unit's test runs systemd-analyze verify on it (ExecStart must exist).
+$(BUILD)/detect/tests/test_detect_unit: detect/tests/test_detect_unit.c | $(MOCAP_DETECT)
+	@mkdir -p $(@D)
+	$(CC) $(CPPFLAGS) -Itests $(CFLAGS) -MMD -MP $< -o $@ $(LDFLAGS)
+
 # The end-to-end test runs mocapd (files driver) and mocap-detect.
 $(BUILD)/detect/tests/test_mocap_detect: detect/tests/test_mocap_detect.c $(DETECT_LINK_DEPS) \
 		| $(MOCAP_DETECT) $(BUILD)/bin/mocapd $(BUILD)/drivers/mocap-driver-files.so
