@@ -116,6 +116,7 @@ static void test_bad_models(void)
 	expect_load_error(DATA "not_onnx.onnx", "not an ONNX model", NULL);
 	expect_load_error(DATA "bad_input.onnx", "input `image` is 1x1x96x96", "expected 1x3x128x128");
 	expect_load_error(DATA "bad_channels.onnx", "17 heatmap channels", "expected 1x18xHxW");
+	expect_load_error(DATA "bad_rank.onnx", "has rank 2 (1x18432)", "expected 4");
 	/* An empty file. */
 	char dir[] = "/tmp/mc-detector-test-XXXXXX";
 	CHECK(mkdtemp(dir));

@@ -10,6 +10,8 @@ no torch); run this again only to change them:
                      1x18x32x32: the runtime must refuse it for its input.
   bad_channels.onnx  input 1x3x128x128, output 1x17x32x32 (17 heatmaps, not
                      18): refused for its output channels.
+  bad_rank.onnx      input 1x3x128x128, output 1x18432 (the heatmaps
+                     flattened): refused for its output rank.
   fixed_wrist.onnx   input 1x3x128x128, output 1x18x32x32 that ignores the
                      image: every heatmap is 0 except right_wrist (channel 13),
                      which peaks at cell (X, Y) below.  The mocap-detect end
@@ -48,6 +50,11 @@ class Tiny(nn.Module):
 
     def forward(self, x):
         return torch.sigmoid(self.conv(x))
+
+
+class Flat(Tiny):
+    def forward(self, x):
+        return torch.flatten(torch.sigmoid(self.conv(x)), 1)
 
 
 class Fixed(nn.Module):
@@ -89,6 +96,7 @@ def main():
     out = sys.argv[1] if len(sys.argv) > 1 else os.path.dirname(os.path.abspath(__file__))
     export(Tiny(1, 18), (1, 1, 96, 96), os.path.join(out, 'bad_input.onnx'))
     export(Tiny(3, 17), (1, 3, 128, 128), os.path.join(out, 'bad_channels.onnx'))
+    export(Flat(3, 18), (1, 3, 128, 128), os.path.join(out, 'bad_rank.onnx'))
     export(Fixed(), (1, 3, 128, 128), os.path.join(out, 'fixed_wrist.onnx'))
 
 
