@@ -5,21 +5,28 @@
  *   "mocapd.conf:12: [tracker] iterations: expected a positive integer, got 'abc'"
  * Unknown keys and sections are errors.  In a camera section the keys the
  * daemon does not know itself are driver keys: they are kept, in order, and
- * handed to the driver through mdrv_host.config_get; the camera code then
+ * handed to the driver through mdrv_host.config_get; the capture thread then
  * rejects those the driver never asked for (see mcd_camera_config.keys).
  * Relative paths are resolved against the directory of the config file:
  * those of the daemon's own keys and driver keys named "path" or "*_path".
- * Every key is documented in docs/CONFIG.md. */
+ *
+ * The daemon's own keys are one table (mcd_config_keys): each key's
+ * section, type, field, range, default and whether a reload applies it.
+ * The table drives parsing and validation (config.c), the defaults, and
+ * the reload (mcd_config_take_reloadable); tests/test_daemon_config_doc.c
+ * checks docs/CONFIG.md against it. */
 #ifndef MCD_CONFIG_H
 #define MCD_CONFIG_H
 
 #include "base/mc_error.h"
+#include "base/mc_limits.h"
+#include "track/mc_tracker.h"
 
 #include <limits.h>
 #include <stdbool.h>
+#include <stddef.h>
 #include <stdint.h>
 
-#define MCD_MAX_CAMERAS 8
 #define MCD_MAX_DRIVER_KEYS 32
 #define MCD_NAME_MAX 64
 #define MCD_VALUE_MAX 256
@@ -44,8 +51,9 @@ typedef struct {
 
 typedef enum { MCD_RIG_JSON = 0, MCD_RIG_EGO_CALIB = 1 } mcd_rig_format;
 
-/* The tracker section.  Numeric settings at -1 (or NaN for reals) keep the
- * tracker's own default (mc_tracker_settings_default). */
+/* The tracker section.  The tracker's own settings are read straight into
+ * `settings`, which starts from mc_tracker_settings_default: a key left
+ * out keeps the tracker's default. */
 typedef struct {
 	bool enabled;
 	int line; /* of the section header, 0 if absent */
@@ -55,12 +63,7 @@ typedef struct {
 	char model[PATH_MAX];
 	char init_joints[PATH_MAX]; /* gt.json whose frame 0 gives the joints; "" = rest pose */
 	bool calibrate_colors;
-	int backend; /* -1 default, else mc_backend */
-	int width, height, iterations;
-	double pixel_fraction, dropout, step, momentum;
-	double lambda_detection, lambda_smooth; /* NAN: default */
-	int cl_platform, cl_device; /* -2 default, -1 auto, >= 0 index */
-	long long seed;             /* -1 default */
+	mc_tracker_settings settings;
 } mcd_tracker_config;
 
 typedef struct {
@@ -88,7 +91,7 @@ typedef struct {
 	double stats_log_interval_s;
 
 	int ncams;
-	mcd_camera_config cams[MCD_MAX_CAMERAS];
+	mcd_camera_config cams[MC_MAX_CAMERAS];
 	mcd_tracker_config tracker;
 	mcd_socket_config socket;
 
@@ -102,7 +105,8 @@ typedef struct {
 	} where[160];
 } mcd_config;
 
-/* Fills defaults (compiled-in plugin directory, socket /run/mocapd/mocapd.sock). */
+/* Fills the defaults of the key table (compiled-in plugin directory,
+ * socket /run/mocapd/mocapd.sock, the tracker's own settings). */
 void mcd_config_defaults(mcd_config *cfg);
 /* Loads and checks a file.  cfg is heap-sized; allocate it with calloc. */
 int mcd_config_load(const char *path, mcd_config *cfg, mc_err *err);
@@ -117,5 +121,67 @@ const char *mcd_config_where(const mcd_config *cfg, const char *section, const c
 
 /* The value of a driver key of a camera, or NULL. */
 const mcd_kv *mcd_camera_config_find(const mcd_camera_config *cam, const char *key);
+
+/* ---- the key table ------------------------------------------------------ */
+
+typedef enum { MCD_SEC_DAEMON, MCD_SEC_CAMERA, MCD_SEC_TRACKER, MCD_SEC_SOCKET } mcd_section;
+
+typedef enum {
+	MCD_KEY_BOOL,     /* true/false, yes/no, on/off, 1/0 */
+	MCD_KEY_INT,      /* int in [lo, hi] */
+	MCD_KEY_U64,      /* uint64_t, any non-negative integer */
+	MCD_KEY_REAL,     /* double in [lo, hi] */
+	MCD_KEY_POSITIVE, /* double in (0, hi] */
+	MCD_KEY_STRING,   /* non-empty text */
+	MCD_KEY_NAME,     /* letters, digits, '_' and '-' */
+	MCD_KEY_PATH,     /* relative to the config file's directory */
+	MCD_KEY_ENUM,     /* one of `choices`, stored as an int */
+	MCD_KEY_CL_INDEX, /* "auto" (-1) or an index 0..63 */
+	MCD_KEY_MODE,     /* octal permission bits, with the leading 0 */
+} mcd_key_type;
+
+typedef struct {
+	const char *name;
+	int value;
+	bool alias; /* accepted, but not listed in messages nor printed */
+} mcd_key_choice;
+
+typedef struct {
+	mcd_section section;
+	const char *key;
+	mcd_key_type type;
+	/* The field: in mcd_config, or in mcd_camera_config for camera keys. */
+	size_t offset, size;
+	double lo, hi;                 /* INT, REAL, POSITIVE: the range; PATH: hi > 0 caps
+					* the length at hi - 1 bytes (sun_path) */
+	const mcd_key_choice *choices; /* ENUM, ended by a NULL name */
+	/* The default as it would be written in the file; NULL: none (the key
+	 * is required or optional), or, for the keys in mcd_tracker_config's
+	 * settings, the tracker's own default. */
+	const char *def;
+	bool reload; /* a reload applies a new value; else it takes a restart */
+} mcd_config_key;
+
+/* The table, in documentation order; *n gets its length. */
+const mcd_config_key *mcd_config_keys(size_t *n);
+/* The entry for `key` in a section, or NULL. */
+const mcd_config_key *mcd_config_key_find(mcd_section section, const char *key);
+/* "daemon", "camera", "tracker" or "socket". */
+const char *mcd_section_name(mcd_section section);
+/* Parses `value` into the key's field of `base` (an mcd_config, or an
+ * mcd_camera_config for camera keys).  On error returns -1 with why (no
+ * file, line or key: the caller adds them). */
+int mcd_config_key_parse(const mcd_config_key *k, const char *value, void *base, const char *base_dir, char *why,
+			 size_t whylen);
+/* The key's value in `base` as it would be written in the file ("" for an
+ * empty string). Returns buf. */
+const char *mcd_config_key_format(const mcd_config_key *k, const void *base, char *buf, size_t cap);
+/* Sets the table's defaults of camera keys in a new camera section. */
+void mcd_camera_config_defaults(mcd_camera_config *cam);
+
+/* Reload: copies from `neu` into `cur` the value of every key the table
+ * marks reloadable, and logs each other key (and the cameras) that
+ * changed, as taking a restart.  Returns how many changes were refused. */
+int mcd_config_take_reloadable(mcd_config *cur, const mcd_config *neu);
 
 #endif

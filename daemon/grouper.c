@@ -5,7 +5,7 @@
 void mcd_grouper_init(mcd_grouper *g, int ncams, uint64_t tolerance_ns, uint64_t deadline_ns)
 {
 	memset(g, 0, sizeof(*g));
-	g->ncams = ncams < MCD_GROUP_MAX_CAMS ? ncams : MCD_GROUP_MAX_CAMS;
+	g->ncams = ncams < MC_MAX_CAMERAS ? ncams : MC_MAX_CAMERAS;
 	mcd_grouper_set_limits(g, tolerance_ns, deadline_ns);
 }
 
@@ -75,7 +75,7 @@ bool mcd_grouper_pop(mcd_grouper *g, uint64_t now, uint32_t expect, mcd_group *o
 	int anchor = anchor_cam(g);
 	if (anchor < 0)
 		return false;
-	bool has[MCD_GROUP_MAX_CAMS];
+	bool has[MC_MAX_CAMERAS];
 	uint64_t first_arrival;
 	gather(g, anchor, has, &first_arrival);
 	bool waiting = false; /* for an expected camera that may still deliver */
@@ -118,7 +118,7 @@ uint64_t mcd_grouper_due(const mcd_grouper *g)
 	int anchor = anchor_cam(g);
 	if (anchor < 0)
 		return UINT64_MAX;
-	bool has[MCD_GROUP_MAX_CAMS];
+	bool has[MC_MAX_CAMERAS];
 	uint64_t first_arrival;
 	gather(g, anchor, has, &first_arrival);
 	return first_arrival + g->deadline_ns;

@@ -20,10 +20,11 @@
 #ifndef MCD_GROUPER_H
 #define MCD_GROUPER_H
 
+#include "base/mc_limits.h"
+
 #include <stdbool.h>
 #include <stdint.h>
 
-#define MCD_GROUP_MAX_CAMS 8
 #define MCD_GROUP_QUEUE 32 /* pending frames per camera; older ones are dropped */
 
 typedef struct {
@@ -36,15 +37,15 @@ typedef struct {
 typedef struct {
 	uint64_t timestamp_ns; /* the anchor's: the oldest member */
 	int present;
-	bool has[MCD_GROUP_MAX_CAMS];
-	mcd_frame_ref frame[MCD_GROUP_MAX_CAMS];
+	bool has[MC_MAX_CAMERAS];
+	mcd_frame_ref frame[MC_MAX_CAMERAS];
 } mcd_group;
 
 typedef struct {
 	uint64_t groups, complete, partial;
-	uint64_t missing[MCD_GROUP_MAX_CAMS]; /* groups emitted without this camera */
-	uint64_t late[MCD_GROUP_MAX_CAMS];    /* frames too late for their group */
-	uint64_t overflow[MCD_GROUP_MAX_CAMS];/* frames dropped because the queue was full */
+	uint64_t missing[MC_MAX_CAMERAS]; /* groups emitted without this camera */
+	uint64_t late[MC_MAX_CAMERAS];    /* frames too late for their group */
+	uint64_t overflow[MC_MAX_CAMERAS];/* frames dropped because the queue was full */
 } mcd_grouper_stats;
 
 typedef struct {
@@ -53,7 +54,7 @@ typedef struct {
 	struct {
 		mcd_frame_ref q[MCD_GROUP_QUEUE];
 		int head, count;
-	} cam[MCD_GROUP_MAX_CAMS];
+	} cam[MC_MAX_CAMERAS];
 	bool emitted_any;
 	uint64_t last_ts; /* timestamp of the last emitted group */
 	mcd_grouper_stats stats;

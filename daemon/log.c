@@ -27,11 +27,6 @@ void mcd_log_init(void)
 	atomic_store(&log_journal, journal);
 }
 
-void mcd_log_set_journal(bool on)
-{
-	atomic_store(&log_journal, on);
-}
-
 void mcd_log_set_level(int level)
 {
 	if (level < MCD_LOG_ERROR)
@@ -39,11 +34,6 @@ void mcd_log_set_level(int level)
 	if (level > MCD_LOG_DEBUG)
 		level = MCD_LOG_DEBUG;
 	atomic_store(&log_level, level);
-}
-
-int mcd_log_level(void)
-{
-	return atomic_load(&log_level);
 }
 
 bool mcd_log_enabled(int level)

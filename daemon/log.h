@@ -16,10 +16,7 @@ enum { MCD_LOG_ERROR = 0, MCD_LOG_WARN = 1, MCD_LOG_INFO = 2, MCD_LOG_DEBUG = 3 
 
 /* Decides between plain and journald prefixes (call once, early). */
 void mcd_log_init(void);
-/* Forces journald-style prefixes on or off (tests, --log-prefix). */
-void mcd_log_set_journal(bool on);
 void mcd_log_set_level(int level);
-int mcd_log_level(void);
 bool mcd_log_enabled(int level);
 /* "error", "warn", "info", "debug" -> level, or -1. */
 int mcd_log_parse_level(const char *name);

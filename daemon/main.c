@@ -14,12 +14,12 @@
 #include "notify.h"
 #include "pipeline.h"
 #include "status.h"
-#include "tracking.h"
+#include "tracker_setup.h"
+#include "base/mc_time.h"
 
 #include <errno.h>
 #include <getopt.h>
 #include <grp.h>
-#include <math.h>
 #include <poll.h>
 #include <signal.h>
 #include <stdio.h>
@@ -28,7 +28,6 @@
 #include <sys/signalfd.h>
 #include <sys/socket.h>
 #include <systemd/sd-daemon.h>
-#include <time.h>
 #include <unistd.h>
 
 #ifndef MOCAPD_VERSION
@@ -64,13 +63,6 @@ typedef struct {
 	uint64_t watchdog_usec;
 	unsigned watchdog_misses;
 } daemon_ctx;
-
-static uint64_t now_ns(void)
-{
-	struct timespec ts;
-	clock_gettime(CLOCK_MONOTONIC, &ts);
-	return (uint64_t)ts.tv_sec * 1000000000ull + (uint64_t)ts.tv_nsec;
-}
 
 static void usage(FILE *f)
 {
@@ -325,44 +317,6 @@ static void feed_watchdog(daemon_ctx *d)
 
 /* ---- reload ------------------------------------------------------------------------- */
 
-/* Equal, counting two unset (NAN) values as equal. */
-static bool same_setting(double a, double b)
-{
-	return (isnan(a) && isnan(b)) || a == b;
-}
-
-/* Names what changed in the new config that only a restart applies. */
-static void report_restart_only(const mcd_config *old, const mcd_config *neu)
-{
-	const mcd_tracker_config *a = &old->tracker, *b = &neu->tracker;
-	bool cams = old->ncams != neu->ncams;
-	for (int c = 0; !cams && c < old->ncams; c++) {
-		const mcd_camera_config *x = &old->cams[c], *y = &neu->cams[c];
-		cams = strcmp(x->name, y->name) || strcmp(x->driver, y->driver) || strcmp(x->rig_camera, y->rig_camera) ||
-		       x->ring_slots != y->ring_slots || x->nkeys != y->nkeys;
-		for (int k = 0; !cams && k < x->nkeys; k++)
-			cams = strcmp(x->keys[k].key, y->keys[k].key) || strcmp(x->keys[k].value, y->keys[k].value);
-	}
-	const char *what[8];
-	int n = 0;
-	if (cams)
-		what[n++] = "cameras";
-	if (strcmp(old->plugin_dir, neu->plugin_dir))
-		what[n++] = "[daemon] plugin_dir";
-	if (memcmp(&old->socket, &neu->socket, sizeof(old->socket)))
-		what[n++] = "[socket]";
-	if (a->enabled != b->enabled || strcmp(a->rig, b->rig) || a->rig_format != b->rig_format ||
-	    a->rig_ocam != b->rig_ocam || strcmp(a->model, b->model) || strcmp(a->init_joints, b->init_joints) ||
-	    a->backend != b->backend || a->width != b->width || a->height != b->height ||
-	    a->cl_platform != b->cl_platform || a->cl_device != b->cl_device || a->seed != b->seed ||
-	    a->calibrate_colors != b->calibrate_colors)
-		what[n++] = "[tracker] rig, model, init, backend, resolution or device";
-	if (!same_setting(a->lambda_detection, b->lambda_detection) || !same_setting(a->lambda_smooth, b->lambda_smooth))
-		what[n++] = "[tracker] lambda_detection or lambda_smooth";
-	for (int i = 0; i < n; i++)
-		mcd_warn("reload: %s changed; that takes a restart (systemctl restart mocapd)", what[i]);
-}
-
 static int reload(daemon_ctx *d, char *msg, size_t cap)
 {
 	mcd_notify_reloading();
@@ -374,19 +328,11 @@ static int reload(daemon_ctx *d, char *msg, size_t cap)
 		snprintf(msg, cap, "%s", err.msg);
 		rc = -1;
 	} else {
-		report_restart_only(d->cfg, neu);
-		mcd_log_set_level(neu->log_level);
-		mcd_pipeline_reload(d->pipe, neu);
-		/* Keep what was not applied; take what was. */
-		d->cfg->log_level = neu->log_level;
-		d->cfg->print = neu->print;
-		d->cfg->group_tolerance_ms = neu->group_tolerance_ms;
-		d->cfg->group_deadline_ms = neu->group_deadline_ms;
-		d->cfg->reopen_initial_ms = neu->reopen_initial_ms;
-		d->cfg->reopen_max_ms = neu->reopen_max_ms;
-		d->cfg->stall_timeout_ms = neu->stall_timeout_ms;
-		d->cfg->status_interval_s = neu->status_interval_s;
-		d->cfg->stats_log_interval_s = neu->stats_log_interval_s;
+		/* Take what a reload can change (the config table says which);
+		 * keep, and name, what takes a restart. */
+		mcd_config_take_reloadable(d->cfg, neu);
+		mcd_log_set_level(d->cfg->log_level);
+		mcd_pipeline_reload(d->pipe, d->cfg);
 		mcd_info("reload: %s applied (log level %s)", d->opt.config_path, mcd_log_level_name(neu->log_level));
 		snprintf(msg, cap, "reloaded %s", d->opt.config_path);
 		free(neu);
@@ -452,7 +398,7 @@ static void maybe_ready(daemon_ctx *d, uint64_t now)
 static int run(daemon_ctx *d)
 {
 	for (;;) {
-		uint64_t now = now_ns();
+		uint64_t now = mc_now_ns();
 		maybe_ready(d, now);
 		if (d->ready && now >= d->next_status_ns) {
 			refresh_status(d, now);
@@ -546,7 +492,7 @@ int main(int argc, char **argv)
 		return 1;
 	}
 	mcd_log_set_level(d.cfg->log_level);
-	d.start_ns = now_ns();
+	d.start_ns = mc_now_ns();
 	if (d.opt.check_only) {
 		/* The rig, the model, the initial joints and the plugins are the
 		 * parts of start-up that can be checked without touching devices

@@ -4,7 +4,7 @@
 
 #include <stdio.h>
 #include <systemd/sd-daemon.h>
-#include <time.h>
+#include "base/mc_time.h"
 
 static void notify_send(const char *msg)
 {
@@ -31,11 +31,8 @@ void mcd_notify_reloading(void)
 {
 	/* MONOTONIC_USEC lets systemd >= 253 (Type=notify-reload) match the
 	 * READY=1 that ends the reload; older versions ignore it. */
-	struct timespec ts;
-	clock_gettime(CLOCK_MONOTONIC, &ts);
 	char msg[128];
-	snprintf(msg, sizeof(msg), "RELOADING=1\nMONOTONIC_USEC=%llu",
-		 (unsigned long long)ts.tv_sec * 1000000ull + (unsigned long long)ts.tv_nsec / 1000);
+	snprintf(msg, sizeof(msg), "RELOADING=1\nMONOTONIC_USEC=%llu", (unsigned long long)(mc_now_ns() / 1000));
 	notify_send(msg);
 }
 

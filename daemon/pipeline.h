@@ -1,22 +1,20 @@
-/* pipeline: capture -> group -> track -> publish.
+/* pipeline: the wiring of capture -> group and track -> publish.
  *
- * Threads: one capture thread per camera (camera.h) writing into that
- * camera's frame ring; one tracking thread that groups the views of one
- * instant (grouper.h), copies them out of the rings, converts them to RGB24
- * (core/image/mc_image.h) and runs the tracker; one publishing thread
- * (publish.h).  The main thread only starts, watches, reloads and stops.
- *
- * With many frame sets due at once (the tracker is slower than the
- * cameras), only the newest is tracked and the older ones are counted as
- * skipped: a live pose is worth more than a complete but late one. */
+ * Threads: one capture thread per camera (capture.h) writing into that
+ * camera's frame ring; one tracking thread (tracking_thread.h) that groups
+ * the views of one instant, reads them out of the rings and runs the
+ * tracker; one publishing thread (publish.h).  The pipeline creates them,
+ * connects each capture thread's reports to the tracking thread, and
+ * answers the main thread, which only starts, watches, reloads and stops. */
 #ifndef MCD_PIPELINE_H
 #define MCD_PIPELINE_H
 
-#include "camera.h"
+#include "base/mc_limits.h"
+#include "capture.h"
 #include "config.h"
-#include "server.h"
 #include "publish.h"
-#include "tracking.h"
+#include "server.h"
+#include "tracker_setup.h"
 
 #include <stdbool.h>
 #include <stdint.h>
@@ -36,7 +34,7 @@ typedef struct {
 
 typedef struct {
 	int ncams;
-	mcd_cam_status cams[MCD_MAX_CAMERAS];
+	mcd_cam_status cams[MC_MAX_CAMERAS];
 	bool tracking;          /* a tracker is configured */
 	uint64_t sets;          /* frame sets emitted by the grouper */
 	uint64_t complete_sets; /* with every camera */
@@ -44,7 +42,7 @@ typedef struct {
 	uint64_t skipped;       /* frame sets skipped because newer ones were due */
 	uint64_t track_errors;
 	double track_ms_total;  /* sum over all tracked sets */
-	double track_ms_max;    /* since the last mcd_pipeline_status(.., reset_max) */
+	double track_ms_max;    /* since the last mcd_pipeline_get_status(.., reset_max) */
 	int track_state;        /* mc_track_state of the last tracked set, -1 none */
 	mcd_publish_stats publish;
 } mcd_pipeline_status;

@@ -216,3 +216,30 @@ void mcd_plugin_unload(mcd_plugin *p)
 	p->fd = -1;
 	p->driver = NULL;
 }
+
+const mcd_plugin *mcd_plugin_set_get(mcd_plugin_set *s, const mcd_config *cfg, const mcd_camera_config *cam,
+				     mc_err *err)
+{
+	for (int i = 0; i < s->n; i++)
+		if (strcmp(s->plugins[i].name, cam->driver) == 0)
+			return &s->plugins[i];
+	if (s->n >= MC_MAX_CAMERAS) {
+		mc_err_set(err, "%s:%d: [camera %s] driver: too many drivers", cfg->file, cam->driver_line, cam->name);
+		return NULL;
+	}
+	mcd_plugin *pl = &s->plugins[s->n];
+	if (mcd_plugin_load(cfg->plugin_dir, cam->driver, geteuid(), getegid(), pl, err)) {
+		mc_err_prefix(err, "%s:%d: [camera %s] driver", cfg->file, cam->driver_line, cam->name);
+		return NULL;
+	}
+	s->n++;
+	mcd_info("driver %s: %s (%s)", cam->driver, pl->driver->description ? pl->driver->description : "", pl->path);
+	return pl;
+}
+
+void mcd_plugin_set_unload(mcd_plugin_set *s)
+{
+	for (int i = 0; i < s->n; i++)
+		mcd_plugin_unload(&s->plugins[i]);
+	s->n = 0;
+}

@@ -25,6 +25,8 @@
 #define MCD_PLUGIN_H
 
 #include "base/mc_error.h"
+#include "base/mc_limits.h"
+#include "config.h"
 #include "mdrv.h"
 
 #include <stdbool.h>
@@ -52,5 +54,19 @@ int mcd_dir_trusted(const char *dir, uid_t uid, gid_t gid, mc_err *err);
  * (normally geteuid(), getegid()). Returns 0 or -1 with err. */
 int mcd_plugin_load(const char *dir, const char *name, uid_t uid, gid_t gid, mcd_plugin *out, mc_err *err);
 void mcd_plugin_unload(mcd_plugin *p);
+
+/* The plugins of a daemon's cameras: each driver loaded once, however
+ * many cameras use it. */
+typedef struct {
+	int n;
+	mcd_plugin plugins[MC_MAX_CAMERAS];
+} mcd_plugin_set;
+
+/* The plugin of a camera's driver from cfg->plugin_dir, loaded for the
+ * daemon's effective user and group on first use (and logged).  Errors
+ * name the config line: "mocapd.conf:10: [camera a] driver: ...". */
+const mcd_plugin *mcd_plugin_set_get(mcd_plugin_set *s, const mcd_config *cfg, const mcd_camera_config *cam,
+				     mc_err *err);
+void mcd_plugin_set_unload(mcd_plugin_set *s);
 
 #endif

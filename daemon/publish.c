@@ -2,15 +2,16 @@
 
 #include "log.h"
 #include "textbuf.h"
+#include "base/mc_thread.h"
 
 #include <errno.h>
 #include <pthread.h>
 #include <stdatomic.h>
 #include <stdlib.h>
 #include <string.h>
-#include <time.h>
 
 #define QUEUE_LEN 8
+#define IDLE_WAKE_NS (100 * MC_NS_PER_MS) /* how often an idle thread looks up */
 
 struct mcd_publisher {
 	srv_server *srv;
@@ -102,13 +103,7 @@ static void *publish_main(void *arg)
 	pthread_mutex_lock(&p->lock);
 	for (;;) {
 		while (!p->count && !p->stop) {
-			struct timespec ts;
-			clock_gettime(CLOCK_MONOTONIC, &ts);
-			ts.tv_nsec += 100000000L;
-			if (ts.tv_nsec >= 1000000000L) {
-				ts.tv_sec++;
-				ts.tv_nsec -= 1000000000L;
-			}
+			struct timespec ts = mc_cond_deadline(IDLE_WAKE_NS);
 			pthread_cond_timedwait(&p->cond, &p->lock, &ts);
 			atomic_fetch_add(&p->heartbeat, 1);
 		}
@@ -147,11 +142,7 @@ mcd_publisher *mcd_publisher_create(srv_server *srv, FILE *out, bool print, mc_e
 	p->out = out ? out : stdout;
 	p->print = print;
 	pthread_mutex_init(&p->lock, NULL);
-	pthread_condattr_t ca;
-	pthread_condattr_init(&ca);
-	pthread_condattr_setclock(&ca, CLOCK_MONOTONIC);
-	pthread_cond_init(&p->cond, &ca);
-	pthread_condattr_destroy(&ca);
+	mc_cond_init_monotonic(&p->cond);
 	int rc = pthread_create(&p->thread, NULL, publish_main, p);
 	if (rc) {
 		mc_err_set(err, "publisher: cannot start its thread: %s", strerror(rc));

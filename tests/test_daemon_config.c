@@ -105,15 +105,18 @@ static void test_full_config(void)
 	CHECK(cfg.tracker.rig_format == MCD_RIG_EGO_CALIB);
 	CHECK(strcmp(cfg.tracker.model, "/usr/share/mocapd/models/human.json") == 0);
 	CHECK(strcmp(cfg.tracker.init_joints, "/etc/mocapd/gt.json") == 0);
-	CHECK(cfg.tracker.width == 64 && cfg.tracker.height == 48 && cfg.tracker.iterations == 20);
-	CHECK_NEAR(cfg.tracker.pixel_fraction, 0.25, 0);
-	CHECK_NEAR(cfg.tracker.dropout, 0.5, 0);
-	CHECK(isnan(cfg.tracker.step));
-	CHECK_NEAR(cfg.tracker.lambda_detection, 2, 0);
-	CHECK(isnan(cfg.tracker.lambda_smooth));
-	CHECK(cfg.tracker.backend == 1);
-	CHECK(cfg.tracker.cl_platform == 0 && cfg.tracker.cl_device == -1);
-	CHECK(cfg.tracker.seed == 42);
+	const mc_tracker_settings *ts = &cfg.tracker.settings;
+	mc_tracker_settings def;
+	mc_tracker_settings_default(&def);
+	CHECK(ts->width == 64 && ts->height == 48 && ts->iterations == 20);
+	CHECK_NEAR(ts->pixel_fraction, 0.25, 0);
+	CHECK_NEAR(ts->dropout, 0.5, 0);
+	CHECK(ts->step == def.step); /* not given: the tracker's default */
+	CHECK_NEAR(ts->lambda_detection, 2, 0);
+	CHECK(ts->lambda_smooth == def.lambda_smooth);
+	CHECK(ts->backend == MC_BACKEND_REFERENCE);
+	CHECK(ts->cl_platform == 0 && ts->cl_device == -1);
+	CHECK(ts->seed == 42);
 	CHECK(strcmp(cfg.socket.path, "/run/mocapd/test.sock") == 0);
 	CHECK(strcmp(cfg.socket.group, "video") == 0);
 	CHECK(cfg.socket.mode == 0666 && cfg.socket.max_clients == 4);
@@ -137,7 +140,9 @@ static void test_defaults(void)
 	CHECK(cfg.reopen_initial_ms > 0 && cfg.reopen_max_ms >= cfg.reopen_initial_ms);
 	CHECK(cfg.group_deadline_ms > 0);
 	CHECK(!cfg.tracker.enabled);
-	CHECK(cfg.tracker.iterations == -1);
+	mc_tracker_settings def;
+	mc_tracker_settings_default(&def);
+	CHECK(memcmp(&cfg.tracker.settings, &def, sizeof(def)) == 0); /* the tracker's defaults */
 	/* CRLF line ends are fine. */
 	CHECK_MSG(parse("[camera a]\r\ndriver = x\r\n[tracker]\r\nenabled = off\r\n", &err) == 0, "%s", err.msg);
 	CHECK(strcmp(cfg.cams[0].driver, "x") == 0);

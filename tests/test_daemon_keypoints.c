@@ -9,19 +9,11 @@
 #include "mocap.h"
 #include "test_util.h"
 
-#include <time.h>
 
 #define RATE 5
 #define PERIOD_NS (1000000000ull / RATE)
 
 static char repo[PATH_MAX];
-
-static uint64_t monotonic_ns(void)
-{
-	struct timespec ts;
-	clock_gettime(CLOCK_MONOTONIC, &ts);
-	return (uint64_t)ts.tv_sec * 1000000000ull + (uint64_t)ts.tv_nsec;
-}
 
 static void write_config(mcd_run *r, uint64_t epoch)
 {
@@ -132,7 +124,7 @@ int main(void)
 	}
 	mcd_run r;
 	CHECK(mcd_run_init(&r));
-	write_config(&r, monotonic_ns() + 3000000000ull);
+	write_config(&r, mc_now_ns() + 3000000000ull);
 	const char *const args[] = {NULL};
 	CHECK(mcd_run_start(&r, args, NULL));
 	if (!mcd_run_wait_notify(&r, "READY=1", 60000)) {

@@ -8,6 +8,8 @@
 #ifndef MCD_TEST_HARNESS_H
 #define MCD_TEST_HARNESS_H
 
+#include "base/mc_time.h"
+
 #include <errno.h>
 #include <fcntl.h>
 #include <limits.h>
@@ -42,16 +44,12 @@ static char mcd_faulty_dir[PATH_MAX + 32];
 
 static inline uint64_t mcd_now_ms(void)
 {
-	struct timespec ts;
-	clock_gettime(CLOCK_MONOTONIC, &ts);
-	return (uint64_t)ts.tv_sec * 1000u + (uint64_t)ts.tv_nsec / 1000000u;
+	return mc_now_ns() / MC_NS_PER_MS;
 }
 
 static inline void mcd_sleep_ms(int ms)
 {
-	struct timespec ts = {.tv_sec = ms / 1000, .tv_nsec = (long)(ms % 1000) * 1000000L};
-	while (nanosleep(&ts, &ts) == -1 && errno == EINTR)
-		;
+	mc_sleep_until_ns(mc_now_ns() + (uint64_t)ms * MC_NS_PER_MS);
 }
 
 /* Finds mocapd and the fault driver; false (with a reason printed) if

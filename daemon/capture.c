@@ -1,7 +1,10 @@
-#include "camera.h"
+#include "capture.h"
 
 #include "backoff.h"
 #include "log.h"
+#include "base/mc_thread.h"
+#include "base/mc_throttle.h"
+#include "base/mc_time.h"
 #include "image/mc_image.h"
 
 #include <errno.h>
@@ -12,12 +15,12 @@
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
-#include <time.h>
 #include <unistd.h>
 
 #define FRAME_TIMEOUT_MS 200 /* how often the capture loop looks up */
 #define IO_ERRORS_BEFORE_REOPEN 3
 #define MAX_SLOT_BYTES (256u << 20)
+#define NAP_STEP_NS (100 * MC_NS_PER_MS) /* a napping thread's heartbeat */
 
 struct mcd_camera {
 	int index;
@@ -57,13 +60,6 @@ const char *mcd_cam_state_name(mcd_cam_state s)
 {
 	static const char *const names[] = {"off", "opening", "streaming", "stalled", "retrying", "failed", "ended"};
 	return (unsigned)s < sizeof(names) / sizeof(names[0]) ? names[s] : "?";
-}
-
-static uint64_t now_ns(void)
-{
-	struct timespec ts;
-	clock_gettime(CLOCK_MONOTONIC, &ts);
-	return (uint64_t)ts.tv_sec * 1000000000ull + (uint64_t)ts.tv_nsec;
 }
 
 /* ---- the host side of the driver ABI ------------------------------------ */
@@ -136,19 +132,15 @@ static void count(mcd_camera *c, uint64_t *field)
 /* Sleeps up to ms, waking early on stop.  Returns false when stopping. */
 static bool nap(mcd_camera *c, double ms)
 {
-	uint64_t until = now_ns() + (uint64_t)(ms * 1e6);
+	uint64_t until = mc_now_ns() + (uint64_t)(ms * 1e6);
 	pthread_mutex_lock(&c->lock);
 	while (!atomic_load(&c->stop)) {
-		uint64_t now = now_ns();
+		uint64_t now = mc_now_ns();
 		if (now >= until)
 			break;
 		/* Wake at least every 100 ms so that the heartbeat keeps going. */
-		uint64_t step = until - now < 100000000ull ? until - now : 100000000ull;
-		struct timespec ts;
-		clock_gettime(CLOCK_MONOTONIC, &ts);
-		uint64_t t = (uint64_t)ts.tv_sec * 1000000000ull + (uint64_t)ts.tv_nsec + step;
-		ts.tv_sec = (time_t)(t / 1000000000ull);
-		ts.tv_nsec = (long)(t % 1000000000ull);
+		uint64_t step = until - now < NAP_STEP_NS ? until - now : NAP_STEP_NS;
+		struct timespec ts = mc_cond_deadline(step);
 		pthread_cond_timedwait(&c->wake, &c->lock, &ts);
 		atomic_fetch_add(&c->heartbeat, 1);
 	}
@@ -158,7 +150,10 @@ static bool nap(mcd_camera *c, double ms)
 
 /* ---- frames ---------------------------------------------------------------- */
 
-const char *mcd_frame_problem(const mdrv_frame *f, size_t capacity, char *kind)
+/* Why a frame from a driver is unusable (NULL if it is fine); *kind gets
+ * one of the mcd_cam_counters fields it counts towards: 's'hort,
+ * 'c'orrupt or 'b'ad. */
+static const char *frame_problem(const mdrv_frame *f, size_t capacity, char *kind)
 {
 	const mdrv_format *fmt = &f->format;
 	*kind = 'b';
@@ -228,7 +223,7 @@ static int ensure_ring(mcd_camera *c, size_t bytes, mc_err *err)
 
 static void commit_frame(mcd_camera *c, mdrv_frame *slot)
 {
-	uint64_t now = now_ns();
+	uint64_t now = mc_now_ns();
 	mc_ring_meta meta = {
 		.timestamp_ns = slot->timestamp_ns ? slot->timestamp_ns : now,
 		.driver_sequence = slot->sequence,
@@ -261,7 +256,7 @@ static void note_bad_frame(mcd_camera *c, const char *why, uint64_t *field)
 	uint64_t n = ++(*field);
 	snprintf(c->last_error, sizeof(c->last_error), "frame dropped: %s", why);
 	pthread_mutex_unlock(&c->lock);
-	int level = n <= 3 || (n & (n - 1)) == 0 ? MCD_LOG_WARN : MCD_LOG_DEBUG;
+	int level = mc_throttle_should_log(n) ? MCD_LOG_WARN : MCD_LOG_DEBUG;
 	mcd_log(level, "camera %s: frame dropped (%s); %llu so far", c->cfg.name, why, (unsigned long long)n);
 }
 
@@ -333,13 +328,116 @@ static void *open_device(mcd_camera *c, run_result *result)
 	return dev;
 }
 
+/* What the capture loop keeps about the stream of one opening. */
+typedef struct {
+	mcd_backoff *backoff;
+	int io_errors;      /* in a row */
+	bool first;         /* no good frame yet */
+	bool streaming;     /* in state STREAMING */
+	uint64_t last_good; /* when the last good frame came */
+} stream_state;
+
+#define RUN_ON -1 /* keep streaming */
+
+/* A frame the driver delivered into the slot: dropped and counted, or
+ * committed. */
+static void handle_frame(mcd_camera *c, stream_state *s, mdrv_frame *slot, size_t cap)
+{
+	char kind;
+	const char *why = frame_problem(slot, cap, &kind);
+	if (why) {
+		mc_ring_slot_abort(c->ring);
+		note_bad_frame(c, why,
+			       kind == 's'   ? &c->counters.short_frames
+			       : kind == 'c' ? &c->counters.corrupt_frames
+					     : &c->counters.bad_frames);
+		return;
+	}
+	commit_frame(c, slot);
+	s->io_errors = 0;
+	s->last_good = mc_now_ns();
+	if (s->first) {
+		/* Only a good frame proves the device works again. */
+		s->first = false;
+		mcd_backoff_reset(s->backoff);
+	}
+	if (!s->streaming) {
+		s->streaming = true;
+		set_state(c, MCD_CAM_STREAMING);
+	}
+}
+
+/* No frame within FRAME_TIMEOUT_MS: stalled after half the stall limit,
+ * reopened after all of it. */
+static int handle_timeout(mcd_camera *c, stream_state *s)
+{
+	count(c, &c->counters.timeouts);
+	pthread_mutex_lock(&c->lock);
+	double stall_ms = c->stall_timeout_ms;
+	pthread_mutex_unlock(&c->lock);
+	double quiet_ms = (double)(mc_now_ns() - s->last_good) / 1e6;
+	if (quiet_ms >= stall_ms) {
+		char msg[128];
+		snprintf(msg, sizeof(msg), "no frame for %.0f ms", quiet_ms);
+		set_error(c, "stalled", msg);
+		mcd_warn("camera %s: stalled: %s; reopening", c->cfg.name, msg);
+		set_state(c, MCD_CAM_STALLED);
+		return RUN_REOPEN;
+	}
+	if (s->streaming && quiet_ms >= stall_ms / 2) {
+		/* Not expected in groups any more until frames return. */
+		s->streaming = false;
+		set_state(c, MCD_CAM_STALLED);
+	}
+	return RUN_ON;
+}
+
+/* The frame did not fit its slot: doubles the slots. */
+static int handle_nospace(mcd_camera *c, const char *err)
+{
+	count(c, &c->counters.nospace);
+	size_t bigger = mc_ring_slot_bytes(c->ring) * 2;
+	mc_err merr;
+	mcd_warn("camera %s: frame larger than the slot (%s); growing the ring to %zu-byte slots", c->cfg.name, err,
+		 bigger);
+	if (ensure_ring(c, bigger, &merr)) {
+		set_error(c, "frame ring", merr.msg);
+		return RUN_REOPEN;
+	}
+	return RUN_ON;
+}
+
+/* What next_frame's error code means for the stream. */
+static int handle_error(mcd_camera *c, stream_state *s, int rc, const char *err)
+{
+	switch (rc) {
+	case MDRV_ERR_TIMEOUT:
+		return handle_timeout(c, s);
+	case MDRV_ERR_END:
+		return RUN_ENDED;
+	case MDRV_ERR_NOSPACE:
+		return handle_nospace(c, err);
+	case MDRV_ERR_IO:
+		set_error(c, "next_frame", err[0] ? err : "I/O error");
+		if (++s->io_errors < IO_ERRORS_BEFORE_REOPEN) {
+			mcd_warn("camera %s: %s (retrying)", c->cfg.name, err);
+			return RUN_ON;
+		}
+		return RUN_REOPEN;
+	case MDRV_ERR_CONFIG:
+		set_error(c, "next_frame", err[0] ? err : "config error");
+		return RUN_FAILED;
+	default: /* NODEV, FORMAT, unknown codes */
+		set_error(c, "next_frame", err[0] ? err : "driver error");
+		return RUN_REOPEN;
+	}
+}
+
 /* Reads frames until the device fails, ends or we are asked to stop. */
 static run_result stream(mcd_camera *c, void *dev, mcd_backoff *backoff)
 {
 	char err[512];
-	int io_errors = 0;
-	bool first = true, streaming = false;
-	uint64_t last_good = now_ns();
+	stream_state s = {.backoff = backoff, .first = true, .last_good = mc_now_ns()};
 	while (!atomic_load(&c->stop)) {
 		atomic_fetch_add(&c->heartbeat, 1);
 		size_t cap;
@@ -352,83 +450,64 @@ static run_result stream(mcd_camera *c, void *dev, mcd_backoff *backoff)
 		err[0] = 0;
 		int rc = c->drv->next_frame(dev, &slot, FRAME_TIMEOUT_MS, err, sizeof(err));
 		if (rc == MDRV_OK) {
-			char kind;
-			const char *why = mcd_frame_problem(&slot, cap, &kind);
-			if (why) {
-				mc_ring_slot_abort(c->ring);
-				note_bad_frame(c, why,
-					       kind == 's'   ? &c->counters.short_frames
-					       : kind == 'c' ? &c->counters.corrupt_frames
-							     : &c->counters.bad_frames);
-				continue;
-			}
-			commit_frame(c, &slot);
-			io_errors = 0;
-			last_good = now_ns();
-			if (first) {
-				/* Only a good frame proves the device works again. */
-				first = false;
-				mcd_backoff_reset(backoff);
-			}
-			if (!streaming) {
-				streaming = true;
-				set_state(c, MCD_CAM_STREAMING);
-			}
+			handle_frame(c, &s, &slot, cap);
 			continue;
 		}
 		mc_ring_slot_abort(c->ring);
-		switch (rc) {
-		case MDRV_ERR_TIMEOUT: {
-			count(c, &c->counters.timeouts);
-			pthread_mutex_lock(&c->lock);
-			double stall_ms = c->stall_timeout_ms;
-			pthread_mutex_unlock(&c->lock);
-			double quiet_ms = (double)(now_ns() - last_good) / 1e6;
-			if (quiet_ms >= stall_ms) {
-				char msg[128];
-				snprintf(msg, sizeof(msg), "no frame for %.0f ms", quiet_ms);
-				set_error(c, "stalled", msg);
-				mcd_warn("camera %s: stalled: %s; reopening", c->cfg.name, msg);
-				set_state(c, MCD_CAM_STALLED);
-				return RUN_REOPEN;
-			}
-			if (streaming && quiet_ms >= stall_ms / 2) {
-				/* Not expected in groups any more until frames return. */
-				streaming = false;
-				set_state(c, MCD_CAM_STALLED);
-			}
-			continue;
-		}
-		case MDRV_ERR_END:
-			return RUN_ENDED;
-		case MDRV_ERR_NOSPACE: {
-			count(c, &c->counters.nospace);
-			size_t bigger = mc_ring_slot_bytes(c->ring) * 2;
-			mc_err merr;
-			mcd_warn("camera %s: frame larger than the slot (%s); growing the ring to %zu-byte slots",
-				 c->cfg.name, err, bigger);
-			if (ensure_ring(c, bigger, &merr)) {
-				set_error(c, "frame ring", merr.msg);
-				return RUN_REOPEN;
-			}
-			continue;
-		}
-		case MDRV_ERR_IO:
-			set_error(c, "next_frame", err[0] ? err : "I/O error");
-			if (++io_errors < IO_ERRORS_BEFORE_REOPEN) {
-				mcd_warn("camera %s: %s (retrying)", c->cfg.name, err);
-				continue;
-			}
-			return RUN_REOPEN;
-		case MDRV_ERR_CONFIG:
-			set_error(c, "next_frame", err[0] ? err : "config error");
-			return RUN_FAILED;
-		default: /* NODEV, FORMAT, unknown codes */
-			set_error(c, "next_frame", err[0] ? err : "driver error");
-			return RUN_REOPEN;
-		}
+		int next = handle_error(c, &s, rc, err);
+		if (next != RUN_ON)
+			return (run_result)next;
 	}
 	return RUN_STOP;
+}
+
+/* One opening: open, stream until it ends, close. */
+static run_result open_and_stream(mcd_camera *c, mcd_backoff *backoff, bool *opened_before)
+{
+	run_result result = RUN_REOPEN;
+	void *dev = open_device(c, &result);
+	atomic_store(&c->attempted, true);
+	if (!dev)
+		return result;
+	if (*opened_before)
+		count(c, &c->counters.reopens);
+	*opened_before = true;
+	result = stream(c, dev, backoff);
+	c->drv->stop(dev);
+	c->drv->close(dev);
+	return result;
+}
+
+/* For good (true) after a stop, the end of the stream or a config error. */
+static bool is_final(mcd_camera *c, run_result result, const char *last)
+{
+	if (result == RUN_ENDED) {
+		mcd_info("camera %s: end of stream", c->cfg.name);
+		set_state(c, MCD_CAM_ENDED);
+	} else if (result == RUN_FAILED) {
+		mcd_error("camera %s: %s; giving up on this camera (fix the config and restart)", c->cfg.name, last);
+		set_state(c, MCD_CAM_FAILED);
+	}
+	return result != RUN_REOPEN;
+}
+
+/* Waits out the backoff before the next opening; false when stopping. */
+static bool wait_to_reopen(mcd_camera *c, mcd_backoff *backoff, const char *last)
+{
+	pthread_mutex_lock(&c->lock);
+	if (c->limits_changed) {
+		mcd_backoff_set_limits(backoff, c->reopen_initial_ms, c->reopen_max_ms);
+		c->limits_changed = false;
+	}
+	pthread_mutex_unlock(&c->lock);
+	double wait_ms = mcd_backoff_next(backoff);
+	/* A camera that stays away is reported at attempts 1, 2, 3, 4, 8,
+	 * 16, ... so that the journal is not flooded. */
+	unsigned n = backoff->failures;
+	mcd_log(mc_throttle_should_log(n) ? MCD_LOG_WARN : MCD_LOG_DEBUG,
+		"camera %s: %s; reopening in %.0f ms (attempt %u)", c->cfg.name, last, wait_ms, n);
+	set_state(c, MCD_CAM_RETRYING);
+	return nap(c, wait_ms);
 }
 
 static void *capture_main(void *arg)
@@ -441,46 +520,10 @@ static void *capture_main(void *arg)
 	bool opened_before = false;
 	while (!atomic_load(&c->stop)) {
 		atomic_fetch_add(&c->heartbeat, 1);
-		run_result result = RUN_REOPEN;
-		void *dev = open_device(c, &result);
-		atomic_store(&c->attempted, true);
-		if (dev) {
-			if (opened_before)
-				count(c, &c->counters.reopens);
-			opened_before = true;
-			result = stream(c, dev, &backoff);
-			c->drv->stop(dev);
-			c->drv->close(dev);
-		}
+		run_result result = open_and_stream(c, &backoff, &opened_before);
 		char last[512];
 		mcd_camera_last_error(c, last, sizeof(last));
-		if (result == RUN_STOP)
-			break;
-		if (result == RUN_ENDED) {
-			mcd_info("camera %s: end of stream", c->cfg.name);
-			set_state(c, MCD_CAM_ENDED);
-			break;
-		}
-		if (result == RUN_FAILED) {
-			mcd_error("camera %s: %s; giving up on this camera (fix the config and restart)", c->cfg.name,
-				  last);
-			set_state(c, MCD_CAM_FAILED);
-			break;
-		}
-		pthread_mutex_lock(&c->lock);
-		if (c->limits_changed) {
-			mcd_backoff_set_limits(&backoff, c->reopen_initial_ms, c->reopen_max_ms);
-			c->limits_changed = false;
-		}
-		pthread_mutex_unlock(&c->lock);
-		double wait_ms = mcd_backoff_next(&backoff);
-		/* A camera that stays away is reported at attempts 1, 2, 3, 4, 8,
-		 * 16, ... so that the journal is not flooded. */
-		unsigned n = backoff.failures;
-		mcd_log(n <= 4 || (n & (n - 1)) == 0 ? MCD_LOG_WARN : MCD_LOG_DEBUG,
-			"camera %s: %s; reopening in %.0f ms (attempt %u)", c->cfg.name, last, wait_ms, n);
-		set_state(c, MCD_CAM_RETRYING);
-		if (!nap(c, wait_ms))
+		if (is_final(c, result, last) || !wait_to_reopen(c, &backoff, last))
 			break;
 	}
 	atomic_store(&c->attempted, true);
@@ -509,11 +552,7 @@ mcd_camera *mcd_camera_create(int index, const mcd_camera_config *cfg, const cha
 	c->host = (mdrv_host){.ctx = c, .config_get = host_config_get, .log = host_log};
 	pthread_mutex_init(&c->lock, NULL);
 	pthread_mutex_init(&c->ring_lock, NULL);
-	pthread_condattr_t ca;
-	pthread_condattr_init(&ca);
-	pthread_condattr_setclock(&ca, CLOCK_MONOTONIC);
-	pthread_cond_init(&c->wake, &ca);
-	pthread_condattr_destroy(&ca);
+	mc_cond_init_monotonic(&c->wake);
 	c->reopen_initial_ms = 250;
 	c->reopen_max_ms = 10000;
 	c->stall_timeout_ms = 3000;
@@ -541,14 +580,8 @@ int mcd_camera_join(mcd_camera *c, int timeout_ms)
 {
 	if (!c->thread_started)
 		return 0;
-	struct timespec ts;
-	clock_gettime(CLOCK_REALTIME, &ts); /* pthread_timedjoin_np uses CLOCK_REALTIME */
-	ts.tv_sec += timeout_ms / 1000;
-	ts.tv_nsec += (long)(timeout_ms % 1000) * 1000000L;
-	if (ts.tv_nsec >= 1000000000L) {
-		ts.tv_sec++;
-		ts.tv_nsec -= 1000000000L;
-	}
+	/* pthread_timedjoin_np takes a CLOCK_REALTIME deadline */
+	struct timespec ts = mc_ns_timespec(mc_realtime_ns() + (uint64_t)timeout_ms * MC_NS_PER_MS);
 	if (pthread_timedjoin_np(c->thread, NULL, &ts) != 0)
 		return -1;
 	c->thread_started = false;
@@ -589,6 +622,11 @@ void mcd_camera_set_limits(mcd_camera *c, double reopen_initial_ms, double reope
 const char *mcd_camera_name(const mcd_camera *c)
 {
 	return c->cfg.name;
+}
+
+const char *mcd_camera_driver(const mcd_camera *c)
+{
+	return c->cfg.driver;
 }
 
 mcd_cam_state mcd_camera_state(const mcd_camera *c)

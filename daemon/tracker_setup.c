@@ -1,4 +1,4 @@
-#include "tracking.h"
+#include "tracker_setup.h"
 
 #include "log.h"
 #include "base/mc_json.h"
@@ -8,38 +8,6 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-
-void mcd_tracking_settings(const mcd_tracker_config *tc, mc_tracker_settings *s)
-{
-	mc_tracker_settings_default(s);
-	if (tc->backend >= 0)
-		s->backend = (mc_backend)tc->backend;
-	if (tc->width > 0)
-		s->width = tc->width;
-	if (tc->height > 0)
-		s->height = tc->height;
-	if (tc->iterations > 0)
-		s->iterations = tc->iterations;
-	if (!isnan(tc->pixel_fraction))
-		s->pixel_fraction = tc->pixel_fraction;
-	if (!isnan(tc->dropout))
-		s->dropout = tc->dropout;
-	if (!isnan(tc->step))
-		s->step = tc->step;
-	if (!isnan(tc->momentum))
-		s->momentum = tc->momentum;
-	if (!isnan(tc->lambda_detection))
-		s->lambda_detection = tc->lambda_detection;
-	if (!isnan(tc->lambda_smooth))
-		s->lambda_smooth = tc->lambda_smooth;
-	if (tc->cl_platform >= -1)
-		s->cl_platform = tc->cl_platform;
-	if (tc->cl_device >= -1)
-		s->cl_device = tc->cl_device;
-	if (tc->seed >= 0)
-		s->seed = (uint64_t)tc->seed;
-}
-
 
 int mcd_read_init_joints(const char *path, char ***names_out, mc_vec3 **pos_out, int *n_out, mc_err *err)
 {
@@ -202,7 +170,7 @@ int mcd_tracking_setup(const mcd_config *cfg, mcd_tracking *t, mc_err *err)
 		mc_err_prefix(err, "%s", mcd_config_where(cfg, "tracker", "model", where, sizeof(where)));
 		goto fail;
 	}
-	mcd_tracking_settings(&cfg->tracker, &t->settings);
+	t->settings = cfg->tracker.settings;
 	t->tracker = mc_tracker_create(&t->rig, &t->model, &t->settings, err);
 	if (!t->tracker) {
 		mc_err_prefix(err, "%s:%d: [tracker]", cfg->file, cfg->tracker.line);
@@ -220,16 +188,14 @@ fail:
 	return -1;
 }
 
-int mcd_tracking_reload(mcd_tracking *t, const mcd_tracker_config *tc, mc_err *err)
+int mcd_tracking_reload(mcd_tracking *t, const mc_tracker_settings *want, mc_err *err)
 {
 	mc_tracker_settings s = t->settings;
-	mc_tracker_settings want;
-	mcd_tracking_settings(tc, &want);
-	s.iterations = want.iterations;
-	s.pixel_fraction = want.pixel_fraction;
-	s.dropout = want.dropout;
-	s.step = want.step;
-	s.momentum = want.momentum;
+	s.iterations = want->iterations;
+	s.pixel_fraction = want->pixel_fraction;
+	s.dropout = want->dropout;
+	s.step = want->step;
+	s.momentum = want->momentum;
 	if (memcmp(&s, &t->settings, sizeof(s)) == 0)
 		return 0;
 	if (mc_tracker_set_budget(t->tracker, s.iterations, s.pixel_fraction, s.dropout, s.step, s.momentum, err) < 0)

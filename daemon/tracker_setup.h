@@ -1,4 +1,4 @@
-/* tracking: the [tracker] section made real: the rig, the body model, the
+/* tracker_setup: the [tracker] section made real: the rig, the body model, the
  * tracker with its settings, its initial pose, and the map from configured
  * cameras to rig cameras.
  *
@@ -7,8 +7,8 @@
  * lengths through mc_tracker_init_from_joints; otherwise the model's rest
  * pose.  Errors name the config key they come from, e.g.
  *   "mocapd.conf:24: [tracker] rig: rigs/x.json: cameras[0].f: ..." */
-#ifndef MCD_TRACKING_H
-#define MCD_TRACKING_H
+#ifndef MCD_TRACKER_SETUP_H
+#define MCD_TRACKER_SETUP_H
 
 #include "config.h"
 #include "base/mc_error.h"
@@ -21,7 +21,7 @@ typedef struct {
 	mc_model model;
 	mc_tracker *tracker;
 	mc_tracker_settings settings;
-	int cam_to_rig[MCD_MAX_CAMERAS]; /* configured camera -> rig camera index */
+	int cam_to_rig[MC_MAX_CAMERAS]; /* configured camera -> rig camera index */
 	char *rig_json;                  /* the rig as JSON text, for clients; NULL if unknown */
 	bool calibrate_pending;          /* calibrate colours on the first complete frame set */
 } mcd_tracking;
@@ -34,14 +34,11 @@ int mcd_tracking_check(const mcd_config *cfg, mc_err *err);
 int mcd_tracking_setup(const mcd_config *cfg, mcd_tracking *t, mc_err *err);
 void mcd_tracking_free(mcd_tracking *t);
 
-/* The tracker settings a config asks for (the tracker's defaults where the
- * config is silent). */
-void mcd_tracking_settings(const mcd_tracker_config *tc, mc_tracker_settings *s);
-
-/* Applies the budget keys of a reloaded config (iterations, pixel_fraction,
- * dropout, step, momentum) by rebuilding the tracker around the current
- * pose and actor.  Call on the tracking thread, between frames. */
-int mcd_tracking_reload(mcd_tracking *t, const mcd_tracker_config *tc, mc_err *err);
+/* Applies the budget of reloaded settings (iterations, pixel_fraction,
+ * dropout, step, momentum: the [tracker] keys the config table marks
+ * reloadable) through mc_tracker_set_budget, keeping the actor, the pose
+ * and the device.  Call on the tracking thread, between frames. */
+int mcd_tracking_reload(mcd_tracking *t, const mc_tracker_settings *want, mc_err *err);
 
 /* Reads frame 0's joints from a gt.json (the ego data's format).  *names and
  * *pos are malloc'ed arrays of n entries; free both with mcd_joints_free. */

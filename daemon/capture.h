@@ -1,4 +1,4 @@
-/* camera: one configured camera, its driver instance and its capture thread.
+/* capture: one configured camera, its driver instance and its capture thread.
  *
  * The capture thread opens the device through its driver plugin, starts it
  * and calls next_frame() into the next slot of the camera's frame ring
@@ -17,8 +17,8 @@
  * (the files driver does not read it)").  Besides the section's keys, the
  * host answers "epoch" (see mcd_camera_set_epoch), "driver" and
  * "rig_camera". */
-#ifndef MCD_CAMERA_H
-#define MCD_CAMERA_H
+#ifndef MCD_CAPTURE_H
+#define MCD_CAPTURE_H
 
 #include "config.h"
 #include "base/mc_error.h"
@@ -88,6 +88,7 @@ void mcd_camera_set_epoch(mcd_camera *c, uint64_t epoch_ns);
 void mcd_camera_set_limits(mcd_camera *c, double reopen_initial_ms, double reopen_max_ms, double stall_timeout_ms);
 
 const char *mcd_camera_name(const mcd_camera *c);
+const char *mcd_camera_driver(const mcd_camera *c);
 mcd_cam_state mcd_camera_state(const mcd_camera *c);
 /* True once the first attempt to open the camera has finished, either way. */
 bool mcd_camera_attempted(const mcd_camera *c);
@@ -108,10 +109,5 @@ int mcd_camera_read(mcd_camera *c, uint64_t generation, uint64_t sequence, uint8
 /* The ring's memfd (dup'ed: the caller closes it) and size, for clients;
  * -1 if there is no ring yet. */
 int mcd_camera_ring_dup(mcd_camera *c, uint64_t *size);
-
-/* Why a frame from a driver is unusable (NULL if it is fine); *kind gets
- * one of the mcd_cam_counters fields it counts towards: 's'hort,
- * 'c'orrupt or 'b'ad. Exposed for tests. */
-const char *mcd_frame_problem(const mdrv_frame *f, size_t capacity, char *kind);
 
 #endif

@@ -1,0 +1,452 @@
+#include "tracking_thread.h"
+
+#include "grouper.h"
+#include "log.h"
+#include "base/mc_thread.h"
+#include "base/mc_throttle.h"
+#include "base/mc_time.h"
+#include "image/mc_image.h"
+#include "image/mc_pixfmt.h"
+
+#include <pthread.h>
+#include <stdatomic.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#define IDLE_WAKE_NS (100 * MC_NS_PER_MS) /* how often an idle thread looks up */
+
+struct mcd_tracking_thread {
+	int ncams;
+	mcd_camera *cams[MC_MAX_CAMERAS];
+	mcd_tracking *tracking;
+	srv_server *srv;
+	mcd_publisher *pub;
+	void (*on_finished)(void *ctx);
+	void *ctx;
+
+	/* Guards everything below, shared with the capture threads and the
+	 * main thread. */
+	pthread_mutex_t lock;
+	pthread_cond_t cond;
+	mcd_grouper grouper;
+	bool stop, started, finished;
+	bool reload_pending;
+	mc_tracker_settings reload_budget;
+	mcd_track_stats st;
+
+	pthread_t thread;
+	atomic_uint_fast64_t heartbeat;
+
+	/* The tracking thread's own. */
+	mc_image_conv *conv;
+	uint8_t *raw[MC_MAX_CAMERAS], *rgb[MC_MAX_CAMERAS];
+	size_t raw_cap[MC_MAX_CAMERAS], rgb_cap[MC_MAX_CAMERAS];
+	uint64_t seq;
+	srv_keypoints *kp_batch;
+	srv_keypoints *kp_latest; /* per rig camera */
+	mc_keypoint *kp;          /* the ones used for one frame set */
+};
+
+/* ---- one frame set ---------------------------------------------------------------- */
+
+/* Converts camera c's frame (raw[c]) to RGB24 in rgb[c]. */
+static int to_rgb(mcd_tracking_thread *t, int c, const mc_ring_meta *meta, int *w, int *h, mc_err *err)
+{
+	mc_image_frame fr = {.pixfmt = meta->pixfmt, .width = meta->width, .height = meta->height,
+			     .stride = meta->stride, .data = t->raw[c], .bytes = meta->bytesused};
+	*w = (int)meta->width;
+	*h = (int)meta->height;
+	if (meta->pixfmt == MC_PIXFMT_MJPEG && (*w == 0 || *h == 0)) {
+		if (mc_image_jpeg_size(t->conv, t->raw[c], meta->bytesused, w, h, err))
+			return -1;
+	}
+	size_t need = (size_t)*w * (size_t)*h * 3;
+	if (t->rgb_cap[c] < need) {
+		uint8_t *grown = realloc(t->rgb[c], need);
+		if (!grown)
+			return mc_err_set(err, "out of memory");
+		t->rgb[c] = grown;
+		t->rgb_cap[c] = need;
+	}
+	return mc_image_to_rgb24(t->conv, &fr, t->rgb[c], need, err);
+}
+
+static void note_overrun(mcd_tracking_thread *t, int c, uint64_t sequence, int rc, const mc_err *err)
+{
+	pthread_mutex_lock(&t->lock);
+	uint64_t n = ++t->st.cams[c].overrun;
+	pthread_mutex_unlock(&t->lock);
+	if (mc_throttle_should_log(n))
+		mcd_warn("camera %s: frame %llu was overwritten before it could be tracked (%llu so far)%s%s",
+			 mcd_camera_name(t->cams[c]), (unsigned long long)sequence, (unsigned long long)n,
+			 rc < 0 ? ": " : "", rc < 0 ? err->msg : "");
+}
+
+static void note_undecodable(mcd_tracking_thread *t, int c, const mc_err *err)
+{
+	pthread_mutex_lock(&t->lock);
+	uint64_t n = ++t->st.cams[c].undecodable;
+	snprintf(t->st.cams[c].last_error, sizeof(t->st.cams[c].last_error), "frame dropped: %.220s", err->msg);
+	pthread_mutex_unlock(&t->lock);
+	if (mc_throttle_should_log(n))
+		mcd_warn("camera %s: frame dropped: %s (%llu so far)", mcd_camera_name(t->cams[c]), err->msg,
+			 (unsigned long long)n);
+}
+
+/* Copies out and converts the frames of a group; fills views (by rig
+ * camera when tracking, else by camera).  Returns how many are usable. */
+static int gather_views(mcd_tracking_thread *t, const mcd_group *g, mc_frame_view *views, uint64_t *frame)
+{
+	int present = 0;
+	for (int c = 0; c < t->ncams; c++) {
+		if (!g->has[c])
+			continue;
+		mc_err err = {{0}};
+		mc_ring_meta meta;
+		int rc = mcd_camera_read(t->cams[c], g->frame[c].generation, g->frame[c].sequence, &t->raw[c],
+					 &t->raw_cap[c], &meta, &err);
+		if (rc != MC_RING_FRAME) {
+			note_overrun(t, c, g->frame[c].sequence, rc, &err);
+			continue;
+		}
+		int w, h;
+		if (to_rgb(t, c, &meta, &w, &h, &err)) {
+			note_undecodable(t, c, &err);
+			continue;
+		}
+		int slot = t->tracking ? t->tracking->cam_to_rig[c] : c;
+		views[slot] = (mc_frame_view){.width = w, .height = h, .stride = w * 3, .rgb = t->rgb[c],
+					      .timestamp_ns = meta.timestamp_ns};
+		if (!present++)
+			*frame = meta.driver_sequence;
+	}
+	return present;
+}
+
+/* Keypoints sent by clients for the frames of this set: the newest batch
+ * of each rig camera, if its capture time is that of the camera's view. */
+static int collect_keypoints(mcd_tracking_thread *t, const mc_frame_view *views, int nviews)
+{
+	if (!t->srv || !t->kp_batch)
+		return 0;
+	while (srv_poll_keypoints(t->srv, t->kp_batch) == 1)
+		if (t->kp_batch->cam >= 0 && t->kp_batch->cam < nviews)
+			t->kp_latest[t->kp_batch->cam] = *t->kp_batch;
+	pthread_mutex_lock(&t->lock);
+	uint64_t tol = t->grouper.tolerance_ns;
+	pthread_mutex_unlock(&t->lock);
+	int n = 0;
+	for (int r = 0; r < nviews; r++) {
+		const srv_keypoints *b = &t->kp_latest[r];
+		if (!views[r].rgb || !b->nkeypoints)
+			continue;
+		uint64_t a = b->capture_ns, ts = views[r].timestamp_ns;
+		if ((a > ts ? a - ts : ts - a) > tol)
+			continue;
+		for (int k = 0; k < b->nkeypoints; k++) {
+			t->kp[n] = b->keypoints[k];
+			t->kp[n++].cam = r;
+		}
+	}
+	return n;
+}
+
+/* On the first frame set with every camera, when the config asks for it. */
+static void calibrate_once(mcd_tracking_thread *t, const mc_frame_view *views, int present)
+{
+	mcd_tracking *tr = t->tracking;
+	if (!tr->calibrate_pending || present != t->ncams)
+		return;
+	tr->calibrate_pending = false;
+	mc_err err = {{0}};
+	if (mc_tracker_calibrate_colors(tr->tracker, views, tr->rig.ncams, &err))
+		mcd_warn("tracker: colour calibration failed: %s; keeping the model's colours", err.msg);
+	else
+		mcd_info("tracker: actor colours calibrated on the first complete frame set");
+}
+
+/* Counts a tracked frame set (rc == 0) or a failure; returns the failures so far. */
+static uint64_t count_tracked(mcd_tracking_thread *t, int rc, const mcd_output *o)
+{
+	pthread_mutex_lock(&t->lock);
+	if (rc == 0) {
+		t->st.tracked++;
+		t->st.track_ms_total += o->sk.track_ms;
+		if (o->sk.track_ms > t->st.track_ms_max)
+			t->st.track_ms_max = o->sk.track_ms;
+		t->st.track_state = (int)o->sk.state;
+	} else
+		t->st.track_errors++;
+	uint64_t errors = t->st.track_errors;
+	pthread_mutex_unlock(&t->lock);
+	return errors;
+}
+
+static void track(mcd_tracking_thread *t, const mc_frame_view *views, int present, mcd_output *o)
+{
+	mcd_tracking *tr = t->tracking;
+	int nviews = tr->rig.ncams;
+	calibrate_once(t, views, present);
+	int nkp = collect_keypoints(t, views, nviews);
+	mc_err err = {{0}};
+	int rc = mc_tracker_track(tr->tracker, views, nviews, nkp ? t->kp : NULL, nkp, &o->sk, &err);
+	if (rc == 0) {
+		o->tracked = true;
+		o->ndof = mc_tracker_model(tr->tracker)->ndof;
+		memcpy(o->pose, mc_tracker_pose(tr->tracker), sizeof(double) * (size_t)o->ndof);
+	}
+	uint64_t errors = count_tracked(t, rc, o);
+	if (rc != 0 && mc_throttle_should_log(errors))
+		mcd_warn("tracker: %s (%llu failures so far)", err.msg, (unsigned long long)errors);
+}
+
+static void process(mcd_tracking_thread *t, const mcd_group *g)
+{
+	mc_frame_view views[MC_MAX_CAMERAS];
+	memset(views, 0, sizeof(views));
+	mcd_output *o = calloc(1, sizeof(*o));
+	if (!o)
+		return;
+	int present = gather_views(t, g, views, &o->frame);
+	o->seq = ++t->seq;
+	o->timestamp_ns = g->timestamp_ns;
+	o->present = present;
+	o->ncams = t->ncams;
+	if (t->tracking && present > 0)
+		track(t, views, present, o);
+	if (o->tracked)
+		o->sk.timestamp_ns = g->timestamp_ns;
+	mcd_publisher_push(t->pub, o);
+	free(o);
+}
+
+/* ---- the loop (called with the lock held) ------------------------------------------ */
+
+/* Cameras a frame set waits for (up to the deadline): those streaming, and
+ * those opening, whose first frame may be on its way. */
+static uint32_t expected_cameras(mcd_tracking_thread *t)
+{
+	uint32_t mask = 0;
+	for (int c = 0; c < t->ncams; c++) {
+		mcd_cam_state s = mcd_camera_state(t->cams[c]);
+		if (s == MCD_CAM_STREAMING || s == MCD_CAM_OPENING)
+			mask |= 1u << c;
+	}
+	return mask;
+}
+
+/* Every camera has stopped for good and at least one reached its end. */
+static bool streams_over(mcd_tracking_thread *t)
+{
+	bool ended = false;
+	for (int c = 0; c < t->ncams; c++) {
+		mcd_cam_state s = mcd_camera_state(t->cams[c]);
+		if (s != MCD_CAM_ENDED && s != MCD_CAM_FAILED)
+			return false;
+		ended |= s == MCD_CAM_ENDED;
+	}
+	return ended;
+}
+
+static void apply_reload(mcd_tracking_thread *t)
+{
+	mc_tracker_settings budget = t->reload_budget;
+	t->reload_pending = false;
+	pthread_mutex_unlock(&t->lock);
+	mc_err err = {{0}};
+	if (mcd_tracking_reload(t->tracking, &budget, &err))
+		mcd_error("reload: tracker: %s; keeping the previous tracker", err.msg);
+	pthread_mutex_lock(&t->lock);
+}
+
+/* Pops every frame set due now and tracks the newest; false if none was due. */
+static bool track_due(mcd_tracking_thread *t, uint64_t now)
+{
+	/* Camera states take their own locks; never the other way round. */
+	uint32_t expect = expected_cameras(t);
+	mcd_group g, newest = {0};
+	int due = 0;
+	while (mcd_grouper_pop(&t->grouper, now, expect, &g)) {
+		if (due++)
+			t->st.skipped++;
+		newest = g;
+	}
+	if (!due)
+		return false;
+	pthread_mutex_unlock(&t->lock);
+	process(t, &newest);
+	pthread_mutex_lock(&t->lock);
+	return true;
+}
+
+static void check_finished(mcd_tracking_thread *t)
+{
+	if (t->finished || mcd_grouper_pending(&t->grouper) != 0 || !streams_over(t) || !mcd_publisher_idle(t->pub))
+		return;
+	t->finished = true;
+	if (t->on_finished)
+		t->on_finished(t->ctx);
+}
+
+static void *tracking_main(void *arg)
+{
+	mcd_tracking_thread *t = arg;
+	pthread_mutex_lock(&t->lock);
+	while (!t->stop) {
+		atomic_fetch_add(&t->heartbeat, 1);
+		if (t->reload_pending) {
+			apply_reload(t);
+			continue;
+		}
+		uint64_t now = mc_now_ns();
+		if (track_due(t, now))
+			continue;
+		check_finished(t);
+		uint64_t wake = now + IDLE_WAKE_NS;
+		uint64_t deadline = mcd_grouper_due(&t->grouper);
+		struct timespec ts = mc_ns_timespec(deadline < wake ? deadline : wake);
+		pthread_cond_timedwait(&t->cond, &t->lock, &ts);
+	}
+	pthread_mutex_unlock(&t->lock);
+	return NULL;
+}
+
+/* ---- lifetime ------------------------------------------------------------------------ */
+
+static int alloc_keypoints(mcd_tracking_thread *t, mc_err *err)
+{
+	t->kp_batch = calloc(1, sizeof(*t->kp_batch));
+	t->kp_latest = calloc(MC_MAX_CAMERAS, sizeof(*t->kp_latest));
+	t->kp = calloc((size_t)MC_MAX_CAMERAS * SRV_MAX_KEYPOINTS, sizeof(*t->kp));
+	if (!t->kp_batch || !t->kp_latest || !t->kp)
+		return mc_err_set(err, "out of memory");
+	return 0;
+}
+
+mcd_tracking_thread *mcd_tracking_thread_create(const mcd_tracking_thread_config *cfg, mc_err *err)
+{
+	mcd_tracking_thread *t = calloc(1, sizeof(*t));
+	if (!t) {
+		mc_err_set(err, "out of memory");
+		return NULL;
+	}
+	t->ncams = cfg->ncams < MC_MAX_CAMERAS ? cfg->ncams : MC_MAX_CAMERAS;
+	memcpy(t->cams, cfg->cams, sizeof(t->cams[0]) * (size_t)t->ncams);
+	t->tracking = cfg->tracking;
+	t->srv = cfg->srv;
+	t->on_finished = cfg->on_finished;
+	t->ctx = cfg->ctx;
+	t->st.track_state = -1;
+	pthread_mutex_init(&t->lock, NULL);
+	mc_cond_init_monotonic(&t->cond);
+	mcd_grouper_init(&t->grouper, t->ncams, (uint64_t)(cfg->group_tolerance_ms * 1e6),
+			 (uint64_t)(cfg->group_deadline_ms * 1e6));
+	t->conv = mc_image_conv_new(err);
+	if (!t->conv || (t->srv && alloc_keypoints(t, err))) {
+		mcd_tracking_thread_destroy(t);
+		return NULL;
+	}
+	return t;
+}
+
+int mcd_tracking_thread_start(mcd_tracking_thread *t, mcd_publisher *pub, mc_err *err)
+{
+	t->pub = pub;
+	int rc = pthread_create(&t->thread, NULL, tracking_main, t);
+	if (rc)
+		return mc_err_set(err, "cannot start the tracking thread: %s", strerror(rc));
+	t->started = true;
+	return 0;
+}
+
+void mcd_tracking_thread_stop(mcd_tracking_thread *t)
+{
+	if (!t || !t->started)
+		return;
+	pthread_mutex_lock(&t->lock);
+	t->stop = true;
+	pthread_cond_signal(&t->cond);
+	pthread_mutex_unlock(&t->lock);
+	pthread_join(t->thread, NULL);
+	t->started = false;
+}
+
+void mcd_tracking_thread_destroy(mcd_tracking_thread *t)
+{
+	if (!t)
+		return;
+	mcd_tracking_thread_stop(t);
+	for (int c = 0; c < MC_MAX_CAMERAS; c++) {
+		free(t->raw[c]);
+		free(t->rgb[c]);
+	}
+	free(t->kp_batch);
+	free(t->kp_latest);
+	free(t->kp);
+	mc_image_conv_free(t->conv);
+	pthread_mutex_destroy(&t->lock);
+	pthread_cond_destroy(&t->cond);
+	free(t);
+}
+
+/* ---- from the other threads ------------------------------------------------------------- */
+
+void mcd_tracking_thread_push(mcd_tracking_thread *t, int cam, uint64_t generation, const mc_ring_meta *meta)
+{
+	mcd_frame_ref ref = {.generation = generation, .sequence = meta->sequence,
+			     .timestamp_ns = meta->timestamp_ns, .arrival_ns = meta->commit_ns ? meta->commit_ns : mc_now_ns()};
+	pthread_mutex_lock(&t->lock);
+	mcd_grouper_push(&t->grouper, cam, &ref);
+	pthread_cond_signal(&t->cond);
+	pthread_mutex_unlock(&t->lock);
+}
+
+void mcd_tracking_thread_wake(mcd_tracking_thread *t)
+{
+	pthread_mutex_lock(&t->lock);
+	pthread_cond_signal(&t->cond);
+	pthread_mutex_unlock(&t->lock);
+}
+
+void mcd_tracking_thread_reload(mcd_tracking_thread *t, double group_tolerance_ms, double group_deadline_ms,
+				const mc_tracker_settings *budget)
+{
+	pthread_mutex_lock(&t->lock);
+	mcd_grouper_set_limits(&t->grouper, (uint64_t)(group_tolerance_ms * 1e6), (uint64_t)(group_deadline_ms * 1e6));
+	if (budget && t->tracking) {
+		t->reload_budget = *budget;
+		t->reload_pending = true;
+	}
+	pthread_cond_signal(&t->cond);
+	pthread_mutex_unlock(&t->lock);
+}
+
+bool mcd_tracking_thread_finished(mcd_tracking_thread *t)
+{
+	pthread_mutex_lock(&t->lock);
+	bool done = t->finished;
+	pthread_mutex_unlock(&t->lock);
+	return done;
+}
+
+uint64_t mcd_tracking_thread_heartbeat(mcd_tracking_thread *t)
+{
+	return atomic_load(&t->heartbeat);
+}
+
+void mcd_tracking_thread_stats(mcd_tracking_thread *t, mcd_track_stats *st, bool reset_max)
+{
+	pthread_mutex_lock(&t->lock);
+	*st = t->st;
+	const mcd_grouper_stats *gs = &t->grouper.stats;
+	st->sets = gs->groups;
+	st->complete_sets = gs->complete;
+	for (int c = 0; c < t->ncams; c++) {
+		st->cams[c].missing = gs->missing[c];
+		st->cams[c].late = gs->late[c] + gs->overflow[c];
+	}
+	if (reset_max)
+		t->st.track_ms_max = 0;
+	pthread_mutex_unlock(&t->lock);
+}

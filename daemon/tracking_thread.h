@@ -1,0 +1,84 @@
+/* tracking_thread: the thread that turns camera frames into skeletons.
+ *
+ * Each capture thread hands it every frame it committed to its camera's
+ * ring (mcd_tracking_thread_push, on the capture thread).  The tracking
+ * thread groups them by instant (grouper.h); for the frame set that is due
+ * it copies the views out of the rings, converts them to RGB24
+ * (core/image/mc_image.h), takes the keypoints clients sent for them,
+ * runs the tracker (tracker_setup.h) and hands the result to the
+ * publishing thread (publish.h).  With the tracker disabled, frame sets
+ * are still grouped and handed on, untracked.
+ *
+ * With many frame sets due at once (the tracker is slower than the
+ * cameras), only the newest is tracked and the older ones are counted as
+ * skipped: a live pose is worth more than a complete but late one. */
+#ifndef MCD_TRACKING_THREAD_H
+#define MCD_TRACKING_THREAD_H
+
+#include "base/mc_error.h"
+#include "base/mc_limits.h"
+#include "capture.h"
+#include "publish.h"
+#include "server.h"
+#include "tracker_setup.h"
+
+#include <stdbool.h>
+#include <stdint.h>
+
+/* Counters of the tracking thread and its grouper. */
+typedef struct {
+	uint64_t sets;          /* frame sets emitted by the grouper */
+	uint64_t complete_sets; /* with every camera */
+	uint64_t tracked;       /* frame sets tracked */
+	uint64_t skipped;       /* frame sets skipped because newer ones were due */
+	uint64_t track_errors;
+	double track_ms_total;  /* sum over all tracked sets */
+	double track_ms_max;    /* since the last mcd_tracking_thread_stats(.., reset_max) */
+	int track_state;        /* mc_track_state of the last tracked set, -1 none */
+	struct {
+		uint64_t missing;     /* frame sets emitted without this camera */
+		uint64_t late;        /* frames that came after their frame set */
+		uint64_t overrun;     /* frames overwritten in the ring before use */
+		uint64_t undecodable; /* frames that failed conversion to RGB */
+		char last_error[256]; /* of the last undecodable frame */
+	} cams[MC_MAX_CAMERAS];
+} mcd_track_stats;
+
+typedef struct {
+	int ncams;
+	mcd_camera *const *cams; /* the cameras, by index; they outlive the thread */
+	mcd_tracking *tracking;  /* NULL: the tracker is disabled */
+	srv_server *srv;         /* NULL: no socket, so no keypoints */
+	double group_tolerance_ms, group_deadline_ms;
+	/* Called (on the tracking thread) once every stream has ended and
+	 * every frame set was handed on. */
+	void (*on_finished)(void *ctx);
+	void *ctx;
+} mcd_tracking_thread_config;
+
+typedef struct mcd_tracking_thread mcd_tracking_thread;
+
+mcd_tracking_thread *mcd_tracking_thread_create(const mcd_tracking_thread_config *cfg, mc_err *err);
+/* Starts the thread; its results go to `pub`, which must outlive it. */
+int mcd_tracking_thread_start(mcd_tracking_thread *t, mcd_publisher *pub, mc_err *err);
+/* Stops and joins the thread (nothing if it is not running). */
+void mcd_tracking_thread_stop(mcd_tracking_thread *t);
+void mcd_tracking_thread_destroy(mcd_tracking_thread *t);
+
+/* A frame of camera `cam` was committed to ring `generation` (a capture
+ * thread's mcd_camera_sink.on_frame). */
+void mcd_tracking_thread_push(mcd_tracking_thread *t, int cam, uint64_t generation, const mc_ring_meta *meta);
+/* A camera changed state: look again at which cameras a frame set waits for. */
+void mcd_tracking_thread_wake(mcd_tracking_thread *t);
+/* Reload: new grouping limits now; the tracker's budget (`budget`, may be
+ * NULL) between two frame sets. */
+void mcd_tracking_thread_reload(mcd_tracking_thread *t, double group_tolerance_ms, double group_deadline_ms,
+				const mc_tracker_settings *budget);
+
+/* True once every stream ended and every frame set was handed on. */
+bool mcd_tracking_thread_finished(mcd_tracking_thread *t);
+/* Counts the loop's iterations (the watchdog's evidence). */
+uint64_t mcd_tracking_thread_heartbeat(mcd_tracking_thread *t);
+void mcd_tracking_thread_stats(mcd_tracking_thread *t, mcd_track_stats *st, bool reset_max);
+
+#endif
