@@ -8,6 +8,7 @@
  * Prints "ready" on stdout once clients can connect.  Stops after N frames
  * (0: never) or on SIGINT/SIGTERM.  Answers control requests itself:
  * reload succeeds, recording fails with a message. */
+#include "base/mc_time.h"
 #include "server.h"
 
 #include <errno.h>
@@ -17,7 +18,6 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <time.h>
 #include <unistd.h>
 
 static volatile sig_atomic_t stop;
@@ -42,13 +42,6 @@ static const char rig_json[] =
 	"{\n  \"name\": \"testpub\",\n  \"kind\": \"outside-in\",\n  \"cameras\": [\n"
 	"    {\"name\": \"cam0\", \"width\": 640, \"height\": 480, \"model\": \"pinhole\",\n"
 	"     \"fx\": 500, \"fy\": 500, \"cx\": 320, \"cy\": 240}\n  ]\n}\n";
-
-static uint64_t now_ns(void)
-{
-	struct timespec ts;
-	clock_gettime(CLOCK_MONOTONIC, &ts);
-	return (uint64_t)ts.tv_sec * 1000000000ull + (uint64_t)ts.tv_nsec;
-}
 
 /* Forward kinematics of the rest pose with the left arm waving. */
 static void make_skeleton(mc_skeleton *sk, double t, uint64_t capture_ns)
@@ -122,7 +115,7 @@ int main(int argc, char **argv)
 		return 1;
 	}
 	mc_skeleton *sk = malloc(sizeof(*sk));
-	make_skeleton(sk, 0, now_ns());
+	make_skeleton(sk, 0, mc_now_ns());
 	srv_skeleton_def *def = calloc(1, sizeof(*def));
 	def->njoints = NJOINTS;
 	def->rig_is_world = true;
@@ -143,15 +136,15 @@ int main(int argc, char **argv)
 
 	srv_status st = {0};
 	st.tracker_state = SRV_TRACKER_OK;
-	st.start_ns = now_ns();
+	st.start_ns = mc_now_ns();
 	snprintf(st.device, sizeof(st.device), "synthetic");
 	st.ncams = 1;
 	snprintf(st.cams[0].name, sizeof(st.cams[0].name), "cam0");
 	st.cams[0].width = 640;
 	st.cams[0].height = 480;
-	uint64_t period = (uint64_t)(1e9 / rate), next = now_ns(), t0 = next;
+	uint64_t period = (uint64_t)(1e9 / rate), next = mc_now_ns(), t0 = next;
 	for (uint64_t seq = 1; !stop && (frames <= 0 || seq <= (uint64_t)frames); seq++) {
-		uint64_t t = now_ns();
+		uint64_t t = mc_now_ns();
 		make_skeleton(sk, (double)(t - t0) * 1e-9, t - 2000000);
 		if (srv_publish(srv, sk, seq, &err))
 			fprintf(stderr, "mocap-testpub: %s\n", err.msg);
@@ -164,7 +157,7 @@ int main(int argc, char **argv)
 		next += period;
 		for (;;) {
 			answer_controls(srv);
-			uint64_t n = now_ns();
+			uint64_t n = mc_now_ns();
 			if (n >= next || stop)
 				break;
 			struct pollfd p = {.fd = srv_event_fd(srv), .events = POLLIN};

@@ -34,12 +34,12 @@ $(IPC_SERVER_LIB): $(BUILD)/ipc/proto.o $(IPC_SERVER_OBJ)
 	@rm -f $@
 	ar rcs $@ $^
 
-$(IPC_CLIENT_LIB): $(BUILD)/ipc/proto.o $(BUILD)/ipc/mocap.o
+$(IPC_CLIENT_LIB): $(BUILD)/ipc/proto.o $(IPC_CLIENT_OBJ)
 	@rm -f $@
 	ar rcs $@ $^
 
 # Only the mocap_ symbols are exported (ipc/libmocap.map).
-$(IPC_SO): $(BUILD)/ipc/proto.o $(BUILD)/ipc/mocap.o ipc/libmocap.map
+$(IPC_SO): $(BUILD)/ipc/proto.o $(IPC_CLIENT_OBJ) ipc/libmocap.map
 	@mkdir -p $(@D)
 	$(CC) -shared -Wl,-soname,libmocap.so.1 -Wl,--version-script=ipc/libmocap.map -Wl,--no-undefined \
 		-o $@ $(filter %.o,$^) $(LDFLAGS) -lm

@@ -233,23 +233,6 @@ const char *proto_type_name(uint16_t type)
 	return "unknown";
 }
 
-const char *proto_error_name(uint32_t code)
-{
-	switch (code) {
-	case PROTO_E_VERSION: return "version";
-	case PROTO_E_MALFORMED: return "malformed";
-	case PROTO_E_HANDSHAKE: return "handshake";
-	case PROTO_E_PERMISSION: return "permission";
-	case PROTO_E_INVALID: return "invalid";
-	case PROTO_E_UNAVAILABLE: return "unavailable";
-	case PROTO_E_BUSY: return "busy";
-	case PROTO_E_TOO_MANY_CLIENTS: return "too many clients";
-	case PROTO_E_OVERLOAD: return "overload";
-	case PROTO_E_SHUTDOWN: return "shutdown";
-	}
-	return "unknown";
-}
-
 /* --- Bodies, one pair of functions per message type.  The offsets in the
  * comments are from the start of the message (the header is 16 bytes). --- */
 

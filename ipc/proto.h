@@ -271,6 +271,5 @@ static inline size_t proto_frame_size(int njoints) { return 48 + 64 * (size_t)nj
 
 /* "SUBSCRIBE", "FRAME", ... or "unknown". */
 const char *proto_type_name(uint16_t type);
-const char *proto_error_name(uint32_t code);
 
 #endif

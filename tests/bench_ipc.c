@@ -9,17 +9,17 @@
  * --rt runs every thread (publisher, server, subscribers) with SCHED_FIFO,
  * as a VR deployment might: the figures then show the IPC path without
  * other processes' load on a shared machine (needs CAP_SYS_NICE). */
-#include "server.h"
+#include "base/mc_stats.h"
+#include "base/mc_time.h"
 #include "mocap.h"
+#include "server.h"
 
-#include <errno.h>
 #include <pthread.h>
 #include <sched.h>
 #include <stdatomic.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <time.h>
 #include <unistd.h>
 
 #define NJ 18
@@ -56,26 +56,8 @@ static void *subscriber(void *arg)
 	return NULL;
 }
 
-static int cmp_double(const void *a, const void *b)
-{
-	double x = *(const double *)a, y = *(const double *)b;
-	return (x > y) - (x < y);
-}
-
-static double pct(const double *sorted, int n, double p)
-{
-	if (n == 0)
-		return 0;
-	int i = (int)(p * (n - 1) + 0.5);
-	return sorted[i];
-}
-
-static void sleep_until(uint64_t t)
-{
-	struct timespec ts = {(time_t)(t / 1000000000ull), (long)(t % 1000000000ull)};
-	while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, NULL) == EINTR) {
-	}
-}
+/* The p-th percentile (0..100, nearest rank) of n sorted samples. */
+static double pct(const double *sorted, int n, double p) { return mc_stats_percentile(sorted, (size_t)n, p); }
 
 static bool run(srv_server *srv, int nsubs, mocap_mode mode, int frames)
 {
@@ -99,10 +81,10 @@ static bool run(srv_server *srv, int nsubs, mocap_mode mode, int frames)
 		sk->joints[j].confidence = 1;
 	}
 	double *pub_us = calloc((size_t)frames, sizeof(double));
-	uint64_t period = 1000000000ull / 60, next = mocap_now_ns();
+	uint64_t period = MC_NS_PER_S / 60, next = mocap_now_ns();
 	for (int i = 0; i < frames; i++) {
 		next += period;
-		sleep_until(next);
+		mc_sleep_until_ns(next);
 		sk->timestamp_ns = mocap_now_ns();
 		sk->joints[0].position = mc_v3(i, 0, 0);
 		mc_err err;
@@ -125,12 +107,12 @@ static bool run(srv_server *srv, int nsubs, mocap_mode mode, int frames)
 		k += args[i].n;
 		free(args[i].lat_ms);
 	}
-	qsort(all, (size_t)total, sizeof(double), cmp_double);
-	qsort(pub_us, (size_t)frames, sizeof(double), cmp_double);
-	double p99 = pct(all, total, 0.99);
+	mc_stats_sort(all, (size_t)total);
+	mc_stats_sort(pub_us, (size_t)frames);
+	double p99 = pct(all, total, 99);
 	printf("  %3d   %-6s  %7d/%-7d  %7.3f  %7.3f  %7.3f   %6.1f %6.1f\n", nsubs, mode == MOCAP_LATEST ? "latest" : "all",
-	       total, frames * nsubs, pct(all, total, 0.5), p99, total ? all[total - 1] : 0.0, pct(pub_us, frames, 0.5),
-	       pct(pub_us, frames, 0.99));
+	       total, frames * nsubs, pct(all, total, 50), p99, total ? all[total - 1] : 0.0, pct(pub_us, frames, 50),
+	       pct(pub_us, frames, 99));
 	free(all);
 	free(pub_us);
 	free(sk);

@@ -1,0 +1,146 @@
+/* What the files of ipc/client/ (libmocap) share.  Not installed: the
+ * library's API is ../mocap.h.  Functions here are prefixed mcl_, never
+ * mocap_: libmocap.so exports exactly mocap_* (../libmocap.map), and the
+ * static libmocap.a should not claim short names of the application's.
+ * Core headers used here are header-only (static inline), so the library
+ * links nothing of the core.
+ *
+ * Threads.  Any thread that needs something from the socket (a frame, a
+ * reply) becomes the "reader" if nobody else is: it polls and receives
+ * without holding the lock, then files each message under the lock (frames
+ * into the frame queue, replies into the slot of the thread waiting for
+ * that request id) and wakes the others.  Threads that find a reader busy
+ * wait on the condition variable.  So replies always reach the thread that
+ * asked, whichever thread happened to read them, and frames read by a
+ * request are kept for mocap_read_frame.
+ *
+ * The files:
+ *   connect.c   connecting, the handshake, closing
+ *   reader.c    receiving and filing messages (the reader role)
+ *   request.c   sending, request/reply, and the simple requests
+ *   frames.c    subscription, the frame queue, mocap_read_frame
+ *   rings.c     camera ring descriptors
+ *   inputs.c    keypoints and head poses (one-way messages)
+ *   error.c     per-thread errors, names of codes and states */
+#ifndef MCL_INTERNAL_H
+#define MCL_INTERNAL_H
+
+#include "base/mc_time.h"
+#include "mocap.h"
+#include "proto.h"
+
+#include <pthread.h>
+#include <stdatomic.h>
+#include <stdbool.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <sys/un.h>
+
+#define FRAME_QUEUE_MAX 1024 /* frames kept in the library ("all" mode) */
+#define MAX_WAITERS 32       /* requests in flight at once */
+#define RX_BURST 64
+#define MAX_RX_FDS 16
+#define FOREVER UINT64_MAX
+#define MCL_ERRMSG_MAX (PROTO_TEXT_MAX + 256)
+
+/* A frame as queued: the mocap_skeleton_frame header and njoints joints. */
+#define FRAME_BYTES(n) (offsetof(mocap_skeleton_frame, joints) + (size_t)(n) * sizeof(mocap_joint))
+
+/* A thread waiting for the reply to one request. */
+typedef struct {
+	bool used, done;
+	uint32_t id;
+	uint8_t *data; /* the reply datagram */
+	size_t len;
+	int fds[MAX_RX_FDS];
+	int nfds;
+} waiter;
+
+struct mocap_client {
+	int fd, epfd, evfd;
+	char path[sizeof(((struct sockaddr_un *)0)->sun_path)];
+	bool privileged;
+	int timeout_ms;
+	atomic_uint next_id;
+
+	pthread_mutex_t lock; /* everything below */
+	pthread_cond_t cond;
+	bool reading;         /* a thread is receiving */
+	int dead;             /* 0, or the error every call now returns */
+	char dead_msg[PROTO_TEXT_MAX + 128];
+	int mode;
+	mocap_skeleton_frame **fq;     /* ring of FRAME_QUEUE_MAX partial frames */
+	int fq_head, fq_n;
+	uint64_t pending_missed;
+	bool ev_set;
+	waiter waiters[MAX_WAITERS];
+	int async_code;       /* refusal of a keypoint batch or head pose */
+	char async_msg[PROTO_TEXT_MAX + 1];
+
+	/* The reader's own scratch. */
+	uint8_t rx[PROTO_MAX_MESSAGE + 1];
+	proto_msg dec;
+};
+
+/* --- Time --- */
+
+static inline uint64_t mcl_deadline_after(int timeout_ms)
+{
+	return timeout_ms < 0 ? FOREVER : mc_now_ns() + (uint64_t)timeout_ms * MC_NS_PER_MS;
+}
+
+/* Milliseconds until a deadline for poll(), rounded up; -1 for forever. */
+static inline int mcl_ms_until(uint64_t deadline)
+{
+	if (deadline == FOREVER)
+		return -1;
+	uint64_t t = mc_now_ns();
+	if (t >= deadline)
+		return 0;
+	uint64_t ms = (deadline - t + MC_NS_PER_MS - 1) / MC_NS_PER_MS;
+	return ms > 1000000000 ? 1000000000 : (int)ms;
+}
+
+/* --- error.c --- */
+
+/* Sets the calling thread's error; returns code. */
+int mcl_set_err(int code, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
+/* The MOCAP_E_* code for a PROTO_E_* code of an ERROR message. */
+int mcl_code_of_server_error(uint32_t code);
+/* The connection's final error as the calling thread's (lock held). */
+int mcl_dead_error(mocap_client *c);
+
+/* --- reader.c (lock held unless said otherwise) --- */
+
+/* Marks the connection dead with the error every call returns from now. */
+void mcl_set_dead(mocap_client *c, int code, const char *fmt, ...) __attribute__((format(printf, 3, 4)));
+/* One step of waiting for something from the socket: read if nobody else
+ * does, else wait for the reader.  deadline 0 only takes what is there. */
+void mcl_wait_step(mocap_client *c, uint64_t deadline);
+void mcl_close_fds(const int *fds, int n);
+
+/* --- frames.c (lock held) --- */
+
+/* Makes the eventfd readable exactly while a frame or an error waits. */
+void mcl_update_event(mocap_client *c);
+void mcl_fq_clear(mocap_client *c);
+/* Queues a received frame (taking it); LATEST mode keeps only the newest. */
+void mcl_fq_push(mocap_client *c, mocap_skeleton_frame *f);
+
+/* --- request.c --- */
+
+/* A request on a heap message (the union is large for small thread stacks). */
+proto_msg *mcl_new_msg(uint16_t type);
+/* The next request id (never 0, which means "unsolicited"). */
+uint32_t mcl_next_id(mocap_client *c);
+/* Sends one message, waiting for room in the socket until deadline. */
+int mcl_send_msg(mocap_client *c, const proto_msg *m, uint64_t deadline);
+/* Sends `req` and waits for the reply of type `want` with the same id,
+ * decoded into *reply (which may be req); its descriptors go to fds
+ * (MAX_RX_FDS) when fds and nfds are given, else they are closed.  An
+ * ERROR reply becomes its error code.  raw: where the reply datagram is
+ * kept for the caller to free (RIG's json points into it), or NULL. */
+int mcl_request(mocap_client *c, proto_msg *req, uint16_t want, proto_msg *reply, int *fds, int *nfds,
+		uint8_t **raw);
+
+#endif
