@@ -74,7 +74,7 @@ static int create_tracking_thread(mcd_pipeline *p, const mcd_config *cfg, mcd_tr
 		.ncams = p->ncams,
 		.cams = p->cams,
 		.tracking = tracking,
-		.srv = p->srv,
+		.keypoints = p->srv ? srv_keypoints_inbox(p->srv) : NULL,
 		.group_tolerance_ms = cfg->group_tolerance_ms,
 		.group_deadline_ms = cfg->group_deadline_ms,
 		.on_finished = wake_main,

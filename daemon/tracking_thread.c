@@ -20,7 +20,7 @@ struct mcd_tracking_thread {
 	int ncams;
 	mcd_camera *cams[MC_MAX_CAMERAS];
 	mcd_tracking *tracking;
-	srv_server *srv;
+	srv_keypoint_inbox *inbox;
 	mcd_publisher *pub;
 	void (*on_finished)(void *ctx);
 	void *ctx;
@@ -128,9 +128,9 @@ static int gather_views(mcd_tracking_thread *t, const mcd_group *g, mc_frame_vie
  * of each rig camera, if its capture time is that of the camera's view. */
 static int collect_keypoints(mcd_tracking_thread *t, const mc_frame_view *views, int nviews)
 {
-	if (!t->srv || !t->kp_batch)
+	if (!t->inbox)
 		return 0;
-	while (srv_poll_keypoints(t->srv, t->kp_batch) == 1)
+	while (srv_inbox_pop_keypoints(t->inbox, t->kp_batch) == 1)
 		if (t->kp_batch->cam >= 0 && t->kp_batch->cam < nviews)
 			t->kp_latest[t->kp_batch->cam] = *t->kp_batch;
 	pthread_mutex_lock(&t->lock);
@@ -334,7 +334,7 @@ mcd_tracking_thread *mcd_tracking_thread_create(const mcd_tracking_thread_config
 	t->ncams = cfg->ncams < MC_MAX_CAMERAS ? cfg->ncams : MC_MAX_CAMERAS;
 	memcpy(t->cams, cfg->cams, sizeof(t->cams[0]) * (size_t)t->ncams);
 	t->tracking = cfg->tracking;
-	t->srv = cfg->srv;
+	t->inbox = cfg->keypoints;
 	t->on_finished = cfg->on_finished;
 	t->ctx = cfg->ctx;
 	t->st.track_state = -1;
@@ -343,7 +343,7 @@ mcd_tracking_thread *mcd_tracking_thread_create(const mcd_tracking_thread_config
 	mcd_grouper_init(&t->grouper, t->ncams, (uint64_t)(cfg->group_tolerance_ms * 1e6),
 			 (uint64_t)(cfg->group_deadline_ms * 1e6));
 	t->conv = mc_image_conv_new(err);
-	if (!t->conv || (t->srv && alloc_keypoints(t, err))) {
+	if (!t->conv || (t->inbox && alloc_keypoints(t, err))) {
 		mcd_tracking_thread_destroy(t);
 		return NULL;
 	}

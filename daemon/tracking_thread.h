@@ -4,9 +4,10 @@
  * ring (mcd_tracking_thread_push, on the capture thread).  The tracking
  * thread groups them by instant (grouper.h); for the frame set that is due
  * it copies the views out of the rings, converts them to RGB24
- * (core/image/mc_image.h), takes the keypoints clients sent for them,
- * runs the tracker (tracker_setup.h) and hands the result to the
- * publishing thread (publish.h).  With the tracker disabled, frame sets
+ * (core/image/mc_image.h), takes the keypoints clients sent for them from
+ * the server's keypoint inbox (ipc/server.h), runs the tracker
+ * (tracker_setup.h) and hands the result to the publishing thread
+ * (publish.h).  With the tracker disabled, frame sets
  * are still grouped and handed on, untracked.
  *
  * With many frame sets due at once (the tracker is slower than the
@@ -48,7 +49,9 @@ typedef struct {
 	int ncams;
 	mcd_camera *const *cams; /* the cameras, by index; they outlive the thread */
 	mcd_tracking *tracking;  /* NULL: the tracker is disabled */
-	srv_server *srv;         /* NULL: no socket, so no keypoints */
+	/* Where the keypoints clients send wait (srv_keypoints_inbox); NULL:
+	 * no socket, so no keypoints. */
+	srv_keypoint_inbox *keypoints;
 	double group_tolerance_ms, group_deadline_ms;
 	/* Called (on the tracking thread) once every stream has ended and
 	 * every frame set was handed on. */
