@@ -106,6 +106,26 @@ typedef struct mdrv_driver {
 typedef const mdrv_driver *(*mdrv_entry_fn)(void);
 
 #ifdef __cplusplus
+#define MDRV_ENTRY_LINKAGE extern "C"
+#else
+#define MDRV_ENTRY_LINKAGE
+#endif
+
+/* Defines a plugin's descriptor and its entry point in one place.  The
+ * plugin names its callbacks after itself: PREFIX_probe, PREFIX_open,
+ * PREFIX_get_format, PREFIX_start, PREFIX_next_frame, PREFIX_stop and
+ * PREFIX_close.  Positional initialisers, so that C++ plugins use it too. */
+#define MDRV_DEFINE_DRIVER(PREFIX, NAME, DESCRIPTION)                                                        \
+	static const mdrv_driver PREFIX##_driver = {MDRV_ABI_VERSION,      NAME,           DESCRIPTION,          \
+						    PREFIX##_probe,        PREFIX##_open,  PREFIX##_get_format,  \
+						    PREFIX##_start,        PREFIX##_next_frame, PREFIX##_stop, \
+						    PREFIX##_close};                                             \
+	MDRV_ENTRY_LINKAGE __attribute__((visibility("default"))) const mdrv_driver *mdrv_entry(void)        \
+	{                                                                                                    \
+		return &PREFIX##_driver;                                                                     \
+	}
+
+#ifdef __cplusplus
 }
 #endif
 

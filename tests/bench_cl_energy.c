@@ -7,6 +7,7 @@
  *   bench_cl_energy [platform device [vector_width work_group_size max_groups]]
  *   (defaults: -1 -1 0 0 0, see mc_cl.h) */
 #include "cl_scene.h"
+#include "base/mc_time.h"
 #include "energy/mc_cl.h"
 #include "body/mc_model.h"
 #include "geom/mc_rig.h"
@@ -15,23 +16,18 @@
 #include <stdlib.h>
 #include <time.h>
 
-static double clock_s(clockid_t id)
-{
-	struct timespec ts;
-	clock_gettime(id, &ts);
-	return ts.tv_sec + 1e-9 * ts.tv_nsec;
-}
-
 static double now(void)
 {
-	return clock_s(CLOCK_MONOTONIC);
+	return mc_now_ns() / 1e9;
 }
 
 /* CPU time of every thread of the process (PoCL's workers included): the
  * work done, whatever else the machine is running. */
 static double cpu_now(void)
 {
-	return clock_s(CLOCK_PROCESS_CPUTIME_ID);
+	struct timespec ts;
+	clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
+	return mc_timespec_ns(&ts) / 1e9;
 }
 
 /* Random valid pixels of each camera (with repeats). */

@@ -9,6 +9,8 @@
  *
  * Usage: bench_ring [seconds] (default 5). */
 #include "ring/mc_ring.h"
+#include "base/mc_stats.h"
+#include "base/mc_time.h"
 
 #include <pthread.h>
 #include <stdatomic.h>
@@ -36,13 +38,6 @@ typedef struct {
 	atomic_int producer_done;
 } camera;
 
-static uint64_t now_ns(void)
-{
-	struct timespec ts;
-	clock_gettime(CLOCK_MONOTONIC, &ts);
-	return (uint64_t)ts.tv_sec * 1000000000ull + (uint64_t)ts.tv_nsec;
-}
-
 static double thread_cpu_s(void)
 {
 	struct rusage ru;
@@ -57,7 +52,7 @@ static void *producer(void *arg)
 	uint8_t *source = malloc(FRAME_BYTES); /* stands for the driver's DMA buffer */
 	memset(source, 0x80, FRAME_BYTES);
 	uint64_t period = (uint64_t)(1e9 / FPS);
-	uint64_t start = now_ns();
+	uint64_t start = mc_now_ns();
 	mc_err err;
 	for (int i = 0; i < cam->frames_to_write; i++) {
 		uint64_t due = start + (uint64_t)i * period;
@@ -91,7 +86,7 @@ static void *reader(void *arg)
 	for (;;) {
 		int rc = mc_ring_read_next(cam->ring, &cur, buf, FRAME_BYTES, &meta, &err);
 		if (rc == MC_RING_FRAME) {
-			uint64_t t = now_ns();
+			uint64_t t = mc_now_ns();
 			uint64_t seq;
 			memcpy(&seq, buf, sizeof(seq));
 			if (seq != meta.sequence)
@@ -112,20 +107,6 @@ static void *reader(void *arg)
 	cam->reader_cpu_s = thread_cpu_s();
 	free(buf);
 	return NULL;
-}
-
-static int cmp_double(const void *a, const void *b)
-{
-	double x = *(const double *)a, y = *(const double *)b;
-	return (x > y) - (x < y);
-}
-
-static double percentile(const double *sorted, uint64_t n, double p)
-{
-	if (n == 0)
-		return 0;
-	uint64_t i = (uint64_t)(p * (double)(n - 1) + 0.5);
-	return sorted[i];
 }
 
 int main(int argc, char **argv)
@@ -153,7 +134,7 @@ int main(int argc, char **argv)
 	}
 	struct rusage ru0, ru1;
 	getrusage(RUSAGE_SELF, &ru0);
-	uint64_t t0 = now_ns();
+	uint64_t t0 = mc_now_ns();
 	pthread_t th[2 * NCAMS];
 	for (int c = 0; c < NCAMS; c++)
 		pthread_create(&th[2 * c + 1], NULL, reader, &cams[c]);
@@ -161,7 +142,7 @@ int main(int argc, char **argv)
 		pthread_create(&th[2 * c], NULL, producer, &cams[c]);
 	for (int i = 0; i < 2 * NCAMS; i++)
 		pthread_join(th[i], NULL);
-	double wall = (double)(now_ns() - t0) * 1e-9;
+	double wall = (double)(mc_now_ns() - t0) * 1e-9;
 	getrusage(RUSAGE_SELF, &ru1);
 	double cpu = (double)(ru1.ru_utime.tv_sec - ru0.ru_utime.tv_sec) + (double)(ru1.ru_stime.tv_sec - ru0.ru_stime.tv_sec) +
 		     ((double)(ru1.ru_utime.tv_usec - ru0.ru_utime.tv_usec) + (double)(ru1.ru_stime.tv_usec - ru0.ru_stime.tv_usec)) * 1e-6;
@@ -172,12 +153,12 @@ int main(int argc, char **argv)
 	uint64_t total_read = 0;
 	for (int c = 0; c < NCAMS; c++) {
 		camera *cam = &cams[c];
-		qsort(cam->latency_us, cam->read, sizeof(double), cmp_double);
+		mc_stats_sort(cam->latency_us, cam->read);
 		printf("  cam%d: %llu/%d frames read, %llu missed, %llu torn, %llu bad; latency commit->read "
 		       "p50 %.1f us, p99 %.1f us, max %.1f us; cpu producer %.3f s, reader %.3f s\n",
 		       c, (unsigned long long)cam->read, nframes, (unsigned long long)cam->missed,
-		       (unsigned long long)cam->torn, (unsigned long long)cam->bad, percentile(cam->latency_us, cam->read, 0.5),
-		       percentile(cam->latency_us, cam->read, 0.99),
+		       (unsigned long long)cam->torn, (unsigned long long)cam->bad, mc_stats_percentile(cam->latency_us, cam->read, 50),
+		       mc_stats_percentile(cam->latency_us, cam->read, 99),
 		       cam->read ? cam->latency_us[cam->read - 1] : 0.0, cam->producer_cpu_s, cam->reader_cpu_s);
 		total_read += cam->read;
 		failed |= cam->bad != 0;

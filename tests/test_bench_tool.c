@@ -15,7 +15,7 @@
 
 static char tool[4096], tmpdir[64];
 
-/* DESIGN.md's evaluated joints, as mocap-bench scores them. */
+/* docs/CONVENTIONS.md's evaluated joints, as mocap-bench scores them. */
 static const char *const evaluated[] = {
 	"neck",      "left_shoulder", "left_elbow",     "left_wrist",  "left_hip",    "left_knee",
 	"left_ankle", "left_toe",     "right_shoulder", "right_elbow", "right_wrist", "right_hip",

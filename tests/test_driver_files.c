@@ -144,7 +144,7 @@ static void test_rgb24(void)
 static void test_pacing(void)
 {
 	config cl = {0}, cr = {0};
-	uint64_t epoch = now_ns() + 20 * 1000000ull;
+	uint64_t epoch = mc_now_ns() + 20 * 1000000ull;
 	char es[32];
 	snprintf(es, sizeof(es), "%llu", (unsigned long long)epoch);
 	cfg_set(&cl, "path", DEMO "/left");
@@ -169,7 +169,7 @@ static void test_pacing(void)
 	uint64_t first = 0, last = 0;
 	for (int k = 0; k < 6; k++) {
 		CHECK(pull(l, &fl, buf, 1 << 20, 1000) == MDRV_OK);
-		uint64_t t = now_ns();
+		uint64_t t = mc_now_ns();
 		CHECK(pull(r, &fr, buf, 1 << 20, 1000) == MDRV_OK);
 		CHECK(fl.timestamp_ns == epoch + (uint64_t)k * 20000000ull);
 		CHECK(fl.timestamp_ns == fr.timestamp_ns); /* same frame, same time */
@@ -185,7 +185,7 @@ static void test_pacing(void)
 
 	/* A frame due in 10 s: next_frame times out after about timeout_ms. */
 	config c = {0};
-	snprintf(es, sizeof(es), "%llu", (unsigned long long)(now_ns() + 10000000000ull));
+	snprintf(es, sizeof(es), "%llu", (unsigned long long)(mc_now_ns() + 10000000000ull));
 	cfg_set(&c, "path", DEMO "/left");
 	cfg_set(&c, "rate", "30");
 	cfg_set(&c, "epoch", es);
@@ -193,9 +193,9 @@ static void test_pacing(void)
 	void *dev = open_start(&c, &h);
 	CHECK(dev != NULL);
 	if (dev) {
-		uint64_t t0 = now_ns();
+		uint64_t t0 = mc_now_ns();
 		CHECK(pull(dev, &fl, buf, 1 << 20, 30) == MDRV_ERR_TIMEOUT);
-		double waited = (double)(now_ns() - t0) * 1e-9;
+		double waited = (double)(mc_now_ns() - t0) * 1e-9;
 		CHECK_MSG(waited > 0.025 && waited < 1.0, "waited %.3f s", waited);
 		drv->close(dev);
 	}

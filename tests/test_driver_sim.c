@@ -118,7 +118,7 @@ static void test_render(void)
 	static uint8_t img[W * H * 3], first[W * H * 3];
 	mdrv_frame f;
 	int on_body = 0, visible = 0;
-	uint64_t t0 = now_ns();
+	uint64_t t0 = mc_now_ns();
 	/* rate 0: frame k shows motion time k / 30 s = BVH frame 4k. */
 	for (int k = 0; k < 8; k++) {
 		int rc = pull(dev, &f, img, sizeof(img), 5000);
@@ -137,7 +137,7 @@ static void test_render(void)
 			green += is_green(img + 3 * i);
 		CHECK_MSG(green > W * H / 10 && green < W * H * 7 / 10, "frame %d: %d green pixels", k, green);
 	}
-	double per_frame = (double)(now_ns() - t0) * 1e-9 / 8;
+	double per_frame = (double)(mc_now_ns() - t0) * 1e-9 / 8;
 	printf("sim: %dx%d frame in %.3f s; %d of %d projected joints on the body\n", W, H, per_frame, on_body,
 	       visible);
 	CHECK(visible >= 30);
@@ -159,7 +159,7 @@ static void test_timing(void)
 	cfg_set(&c, "width", "16");
 	cfg_set(&c, "height", "16");
 	cfg_set(&c, "rate", "40");
-	uint64_t epoch = now_ns() + 10000000ull;
+	uint64_t epoch = mc_now_ns() + 10000000ull;
 	char es[32];
 	snprintf(es, sizeof(es), "%llu", (unsigned long long)epoch);
 	cfg_set(&c, "epoch", es);
@@ -175,7 +175,7 @@ static void test_timing(void)
 	int rc;
 	while ((rc = pull(dev, &f, img, sizeof(img), 1000)) == MDRV_OK) {
 		CHECK(f.timestamp_ns == epoch + (uint64_t)n * 25000000ull);
-		CHECK(now_ns() >= f.timestamp_ns);
+		CHECK(mc_now_ns() >= f.timestamp_ns);
 		n++;
 	}
 	CHECK_MSG(rc == MDRV_ERR_END, "rc %d: %s", rc, err);

@@ -141,8 +141,8 @@ static int synth_open(synth *s, double *pose0, mc_err *err)
 		mc_clip_close(&clip);
 		return -1;
 	}
-	for (int j = 0; j < clip.njoints; j++) {
-		int mj = mc_model_find_joint(&s->model, clip.joint_names[j]);
+	for (int j = 0; j < clip.gt.njoints; j++) {
+		int mj = mc_model_find_joint(&s->model, clip.gt.joint_names[j]);
 		if (mj >= 0)
 			targets[n++] = (mc_ik_target){mj, mc_clip_gt(&clip, 0, j), 1.0};
 	}
@@ -316,7 +316,7 @@ static void test_real_clip(void)
 	}
 	double sum = 0;
 	int n = 0;
-	for (int k = 0; k < 30 && k < clip.nframes; k++) {
+	for (int k = 0; k < 30 && k < clip.gt.nframes; k++) {
 		mc_frame_view v[2];
 		mc_skeleton sk;
 		if (mc_clip_load_frame(&clip, k, v, &err) < 0 || mc_tracker_track(t, v, 2, NULL, 0, &sk, &err) < 0) {

@@ -1,11 +1,13 @@
 /* mocap-bench: tracks a head-mounted stereo fisheye clip (the layout of
  * ../shared/data/ego/<clip>) from its images and scores it against gt.json.
  *
- * Evaluation protocol (DESIGN.md): only the images, the calibration and the
+ * Evaluation protocol (docs/CONVENTIONS.md): only the images, the calibration and the
  * ground truth of frame 0 (to initialise pose and bone lengths) are used;
  * MPJPE in cm over the evaluated joints, in the left camera frame, with no
  * alignment.  The last line is machine-readable:
  *   RESULT clip=NAME frames=N mpjpe_cm=X fps=Y ms_p99=Z device=DEV */
+#include "base/mc_stats.h"
+#include "base/mc_time.h"
 #include "energy/mc_energy.h"
 #include "energy/mc_cl.h"
 #include "eval/mc_clip.h"
@@ -54,13 +56,6 @@ typedef struct {
 	mc_tracker_settings s;
 } options;
 
-
-static double now_ms(void)
-{
-	struct timespec ts;
-	clock_gettime(CLOCK_MONOTONIC, &ts);
-	return ts.tv_sec * 1e3 + ts.tv_nsec * 1e-6;
-}
 
 /* ---- tracking ---------------------------------------------------------- */
 
@@ -249,9 +244,9 @@ static int track_clip(const options *o, mc_tracker *t, const mc_clip *clip, int 
 							: 0;
 		if (mc_clip_load_frame(clip, k, views, err) < 0)
 			return -1;
-		double t0 = now_ms();
+		uint64_t t0 = mc_now_ns();
 		int rc = mc_tracker_track(t, views, 2, kp, nkp, &sk, err);
-		st->ms[k] = now_ms() - t0;
+		st->ms[k] = mc_ms_since(t0);
 		if (rc == 0 && o->overlay_dir && k % o->overlay_every == 0)
 			write_overlay(o, clip, k, &views[0], &sk);
 		mc_clip_free_frame(views);
@@ -273,20 +268,6 @@ static int track_clip(const options *o, mc_tracker *t, const mc_clip *clip, int 
 }
 
 /* ---- report ------------------------------------------------------------ */
-
-static int cmp_double(const void *a, const void *b)
-{
-	double x = *(const double *)a, y = *(const double *)b;
-	return (x > y) - (x < y);
-}
-
-static double percentile(const double *sorted, int n, double p)
-{
-	if (n == 0)
-		return 0;
-	int i = (int)ceil(p / 100.0 * n) - 1;
-	return sorted[i < 0 ? 0 : (i >= n ? n - 1 : i)];
-}
 
 static void print_accuracy(const run_stats *st)
 {
@@ -332,12 +313,12 @@ static timing timing_of(const double *ms, int n)
 		return t;
 	}
 	memcpy(sorted, ms, sizeof(double) * n);
-	qsort(sorted, n, sizeof(double), cmp_double);
+	mc_stats_sort(sorted, (size_t)n);
 	for (int i = 0; i < n; i++)
 		t.mean += sorted[i] / n;
-	t.median = percentile(sorted, n, 50);
-	t.p95 = percentile(sorted, n, 95);
-	t.p99 = percentile(sorted, n, 99);
+	t.median = mc_stats_percentile(sorted, (size_t)n, 50);
+	t.p95 = mc_stats_percentile(sorted, (size_t)n, 95);
+	t.p99 = mc_stats_percentile(sorted, (size_t)n, 99);
 	free(sorted);
 	return t;
 }
@@ -429,7 +410,7 @@ static double thesis_iterations_per_s(const mc_model *m, const double *pose, the
 				      int iterations, mc_err *err)
 {
 	mc_view view = {&tv->rt, tv->hsv};
-	double t0 = now_ms();
+	uint64_t t0 = mc_now_ns();
 	for (int it = 0; it < iterations; it++) {
 		mc_fk fk;
 		mc_scene sc;
@@ -447,7 +428,7 @@ static double thesis_iterations_per_s(const mc_model *m, const double *pose, the
 		mc_model_backprop(m, pose, &fk, dmu, grad);
 		(void)E;
 	}
-	return iterations / ((now_ms() - t0) / 1e3);
+	return iterations / (mc_ms_since(t0) / 1e3);
 }
 
 static int run_thesis_config(const options *o, const mc_clip *clip, mc_err *err)
@@ -644,7 +625,7 @@ static int run(const options *o, bool thesis, mc_err *err)
 	mc_clip clip;
 	if (mc_clip_open(o->clip, o->use_ocam, &clip, err) < 0)
 		return -1;
-	int nframes = o->max_frames > 0 && o->max_frames < clip.nframes ? o->max_frames : clip.nframes;
+	int nframes = o->max_frames > 0 && o->max_frames < clip.gt.nframes ? o->max_frames : clip.gt.nframes;
 	mc_tracker *t = start_tracker(o, &clip, &o->s, err);
 	FILE *out = t && o->out_path ? fopen(o->out_path, "w") : NULL;
 	if (!t || (o->out_path && !out)) {

@@ -16,6 +16,8 @@
 #include "energy/mc_energy.h"
 #include "image/mc_image.h"
 #include "base/mc_json.h"
+#include "eval/mc_gt.h"
+#include "base/mc_time.h"
 #include "body/mc_model.h"
 #include "geom/mc_rig.h"
 
@@ -219,37 +221,26 @@ static void draw_skeleton(image *im, const mc_camera *cam, const mc_model *model
 static int draw_ground_truth(image *im, const mc_camera *cam, const mc_model *model, const char *path, int frame,
 			     mc_err *err)
 {
-	json_t *root, *frames, *joints;
-	if (mc_json_load_file(path, &root, err))
+	mc_gt gt;
+	if (mc_gt_load(path, "joints_left_cam", &gt, err))
 		return -1;
-	int r = -1;
-	char where[512];
-	if (mc_json_array(root, "frames", path, 1, SIZE_MAX, &frames, true, err))
-		goto out;
-	if ((size_t)frame >= json_array_size(frames)) {
-		mc_err_set(err, "%s: frames: no frame %d (the file has %zu)", path, frame, json_array_size(frames));
-		goto out;
+	if (frame >= gt.nframes) {
+		mc_err_set(err, "%s: frames: no frame %d (the file has %d)", path, frame, gt.nframes);
+		mc_gt_free(&gt);
+		return -1;
 	}
-	mc_json_path_index(where, sizeof(where), path, "frames", (size_t)frame);
-	if (mc_json_object(json_array_get(frames, (size_t)frame), "joints_left_cam", where, &joints, true, err))
-		goto out;
-	snprintf(where + strlen(where), sizeof(where) - strlen(where), ".joints_left_cam");
 	mc_vec3 pos[MC_MAX_JOINTS];
 	bool have[MC_MAX_JOINTS];
-	for (int j = 0; j < model->njoints; j++) {
-		int got = mc_json_vec3(joints, model->joints[j].name, where, &pos[j], false, err);
-		if (got < 0)
-			goto out;
-		have[j] = got == 0;
-	}
 	int parent[MC_MAX_JOINTS];
-	for (int j = 0; j < model->njoints; j++)
+	for (int j = 0; j < model->njoints; j++) {
+		int g = mc_gt_joint(&gt, model->joints[j].name);
+		have[j] = g >= 0;
+		pos[j] = have[j] ? mc_gt_at(&gt, frame, g) : (mc_vec3){0, 0, 0};
 		parent[j] = model->joints[j].parent;
+	}
 	mc_draw_skeleton(im, cam, model->njoints, pos, parent, have, NULL, MC_DRAW_GT, 0.6 * mc_draw_thickness(im));
-	r = 0;
-out:
-	json_decref(root);
-	return r;
+	mc_gt_free(&gt);
+	return 0;
 }
 
 /* ---- rendering ---------------------------------------------------------------------- */
@@ -286,13 +277,6 @@ static int render_camera(const mc_camera *cam, const mc_scene *scene, const doub
 	return 0;
 }
 
-static double now_s(void)
-{
-	struct timespec ts;
-	clock_gettime(CLOCK_MONOTONIC, &ts);
-	return ts.tv_sec + ts.tv_nsec * 1e-9;
-}
-
 static int output_path(char *buf, size_t cap, const char *prefix, const char *cam, const char *suffix,
 		       mc_err *err)
 {
@@ -315,7 +299,7 @@ static int run_render(const options *o, const mc_rig *rig, const mc_model *model
 		int w = o->width ? o->width : cam->width, h = o->height ? o->height : cam->height;
 		image im = {0};
 		char path[4096];
-		double t0 = now_s();
+		uint64_t t0 = mc_now_ns();
 		if (output_path(path, sizeof(path), o->out, cam->name, "", err) ||
 		    render_camera(cam, &scene, (const double(*)[3])albedo, o->background, w, h, &im, err))
 			return -1;
@@ -325,7 +309,7 @@ static int run_render(const options *o, const mc_rig *rig, const mc_model *model
 		free(im.rgb);
 		if (r)
 			return -1;
-		printf("%s: %dx%d, %.2f s\n", path, w, h, now_s() - t0);
+		printf("%s: %dx%d, %.2f s\n", path, w, h, mc_ms_since(t0) / 1e3);
 	}
 	return 0;
 }

@@ -93,12 +93,6 @@ mc_quat mc_quat_mul(mc_quat a, mc_quat b)
 	return r;
 }
 
-mc_quat mc_quat_conj(mc_quat q)
-{
-	mc_quat r = {q.w, -q.x, -q.y, -q.z};
-	return r;
-}
-
 mc_quat mc_quat_normalize(mc_quat q)
 {
 	double n = sqrt(q.w * q.w + q.x * q.x + q.y * q.y + q.z * q.z);

@@ -60,7 +60,6 @@ bool mc_m3_isfinite(mc_mat3 a);
 
 mc_quat mc_quat_identity(void);
 mc_quat mc_quat_mul(mc_quat a, mc_quat b);
-mc_quat mc_quat_conj(mc_quat q);
 mc_quat mc_quat_normalize(mc_quat q);
 mc_quat mc_quat_from_m3(mc_mat3 R);   /* w >= 0 */
 mc_mat3 mc_quat_to_m3(mc_quat q);

@@ -1,5 +1,5 @@
 /* The one clock helper of the tree: CLOCK_MONOTONIC nanoseconds (the time
- * base of every frame, skeleton and message, DESIGN.md "Conventions"),
+ * base of every frame, skeleton and message, docs/CONVENTIONS.md "Conventions"),
  * CLOCK_REALTIME for recordings, and absolute sleeps and deadlines.
  *
  * Header-only (static inline) so that driver plugins, which do not link

@@ -397,7 +397,7 @@ double mc_bvh_rest_height(const mc_bvh *bvh)
 	return hi - lo;
 }
 
-/* DESIGN.md name, newer CMU name, older CMU name. */
+/* docs/CONVENTIONS.md name, newer CMU name, older CMU name. */
 static const char *const cmu_map[MC_BVH_CMU_JOINTS][3] = {
 	{"head_top", "Head_End", "Head_End"},
 	{"neck", "Head", "Head"},

@@ -74,12 +74,12 @@ void mc_bvh_fk(const mc_bvh *bvh, int frame, mc_xform *world_from_joint);
  * this = metres per file unit. */
 double mc_bvh_rest_height(const mc_bvh *bvh);
 
-/* ---- the CMU skeletons under the joint names of DESIGN.md ----
+/* ---- the CMU skeletons under the joint names of docs/CONVENTIONS.md ----
  *
  * The CMU database in B. Hahne's BVH conversion comes with two joint
  * namings (131_01.bvh and 01_01.bvh in shared/data/mocap); both map:
  *
- *   DESIGN.md        older naming (131_01)   newer naming (01_01)
+ *   docs/CONVENTIONS.md        older naming (131_01)   newer naming (01_01)
  *   head_top         Head_End                Head_End
  *   neck             Head                    Head        (base of the skull)
  *   spine            Chest                   Spine1      (differs; not evaluated)
@@ -99,7 +99,7 @@ double mc_bvh_rest_height(const mc_bvh *bvh);
  * per clip (the helmet's pose on the head), to below a millimetre. */
 #define MC_BVH_CMU_JOINTS 18
 
-/* The DESIGN.md name of mapped joint i (0 .. MC_BVH_CMU_JOINTS-1). */
+/* The docs/CONVENTIONS.md name of mapped joint i (0 .. MC_BVH_CMU_JOINTS-1). */
 const char *mc_bvh_cmu_joint_name(int i);
 
 /* Finds the BVH joint of every mapped joint: bvh_index[MC_BVH_CMU_JOINTS].

@@ -1,63 +1,11 @@
 #include "eval/mc_clip.h"
 
 #include "image/mc_image.h"
-#include "base/mc_json.h"
 
-#include <jansson.h>
 #include <libgen.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-
-static int read_joint_names(const char *path, json_t *root, mc_clip *clip, mc_err *err)
-{
-	json_t *names = json_object_get(root, "joint_names");
-	if (!json_is_array(names) || json_array_size(names) == 0 || json_array_size(names) > MC_CLIP_MAX_JOINTS)
-		return mc_err_set(err, "%s: joint_names: expected an array of 1..%d names", path, MC_CLIP_MAX_JOINTS);
-	clip->njoints = (int)json_array_size(names);
-	for (int j = 0; j < clip->njoints; j++) {
-		const char *s = json_string_value(json_array_get(names, j));
-		if (!s || strlen(s) >= MC_JOINT_NAME_MAX)
-			return mc_err_set(err, "%s: joint_names[%d]: expected a short string", path, j);
-		snprintf(clip->joint_names[j], MC_JOINT_NAME_MAX, "%s", s);
-	}
-	return 0;
-}
-
-static int read_frames(const char *path, json_t *root, mc_clip *clip, mc_err *err)
-{
-	json_t *frames = json_object_get(root, "frames");
-	if (!json_is_array(frames) || json_array_size(frames) == 0)
-		return mc_err_set(err, "%s: frames: expected a non-empty array", path);
-	clip->nframes = (int)json_array_size(frames);
-	clip->joints = calloc((size_t)clip->nframes * clip->njoints, sizeof(mc_vec3));
-	if (!clip->joints)
-		return mc_err_set(err, "%s: out of memory", path);
-	for (int k = 0; k < clip->nframes; k++) {
-		json_t *jl = json_object_get(json_array_get(frames, k), "joints_left_cam");
-		for (int j = 0; j < clip->njoints; j++) {
-			char where[1400];
-			snprintf(where, sizeof(where), "%.1200s: frames[%d].joints_left_cam", path, k);
-			if (mc_json_vec3(jl, clip->joint_names[j], where, &clip->joints[k * clip->njoints + j], true, err) < 0)
-				return -1;
-		}
-	}
-	return 0;
-}
-
-static int read_gt(const char *path, mc_clip *clip, mc_err *err)
-{
-	json_t *root;
-	if (mc_json_load_file(path, &root, err) < 0)
-		return -1;
-	json_t *fps = json_object_get(root, "fps");
-	clip->fps = json_is_number(fps) && json_number_value(fps) > 0 ? json_number_value(fps) : 30.0;
-	int rc = read_joint_names(path, root, clip, err);
-	if (rc == 0)
-		rc = read_frames(path, root, clip, err);
-	json_decref(root);
-	return rc;
-}
 
 int mc_clip_open(const char *dir, bool use_ocam, mc_clip *clip, mc_err *err)
 {
@@ -73,7 +21,7 @@ int mc_clip_open(const char *dir, bool use_ocam, mc_clip *clip, mc_err *err)
 	if (mc_rig_import_ego_calib(path, use_ocam, &clip->rig, err) < 0)
 		return -1;
 	snprintf(path, sizeof(path), "%s/gt.json", dir);
-	if (read_gt(path, clip, err) < 0) {
+	if (mc_gt_load(path, "joints_left_cam", &clip->gt, err) < 0) {
 		mc_clip_close(clip);
 		return -1;
 	}
@@ -82,16 +30,12 @@ int mc_clip_open(const char *dir, bool use_ocam, mc_clip *clip, mc_err *err)
 
 void mc_clip_close(mc_clip *clip)
 {
-	free(clip->joints);
-	clip->joints = NULL;
+	mc_gt_free(&clip->gt);
 }
 
 int mc_clip_joint(const mc_clip *clip, const char *name)
 {
-	for (int j = 0; j < clip->njoints; j++)
-		if (!strcmp(clip->joint_names[j], name))
-			return j;
-	return -1;
+	return mc_gt_joint(&clip->gt, name);
 }
 
 int mc_clip_load_frame(const mc_clip *clip, int k, mc_frame_view views[2], mc_err *err)
@@ -109,7 +53,7 @@ int mc_clip_load_frame(const mc_clip *clip, int k, mc_frame_view views[2], mc_er
 		snprintf(path, sizeof(path), "%s/%s/%05d.jpg", clip->dir, cams[c], k);
 		rc = mc_image_load(conv, path, &rgb, &w, &h, err);
 		if (rc == 0)
-			views[c] = (mc_frame_view){w, h, 3 * w, rgb, (uint64_t)(k * 1e9 / clip->fps)};
+			views[c] = (mc_frame_view){w, h, 3 * w, rgb, (uint64_t)(k * 1e9 / clip->gt.fps)};
 	}
 	mc_image_conv_free(conv);
 	if (rc < 0)
@@ -128,9 +72,9 @@ void mc_clip_free_frame(mc_frame_view views[2])
 int mc_clip_init_tracker(const mc_clip *clip, mc_tracker *t, mc_err *err)
 {
 	const char *names[MC_CLIP_MAX_JOINTS];
-	for (int j = 0; j < clip->njoints; j++)
-		names[j] = clip->joint_names[j];
-	if (mc_tracker_init_from_joints(t, names, clip->joints, clip->njoints, err) < 0)
+	for (int j = 0; j < clip->gt.njoints; j++)
+		names[j] = clip->gt.joint_names[j];
+	if (mc_tracker_init_from_joints(t, names, clip->gt.joints, clip->gt.njoints, err) < 0)
 		return -1;
 	mc_frame_view views[2];
 	if (mc_clip_load_frame(clip, 0, views, err) < 0)

@@ -5,21 +5,18 @@
 #define MC_CLIP_H
 
 #include "base/mc_error.h"
+#include "eval/mc_gt.h"
 #include "body/mc_model.h"
 #include "geom/mc_rig.h"
 #include "track/mc_tracker.h"
 
-#define MC_CLIP_MAX_JOINTS 32
+#define MC_CLIP_MAX_JOINTS MC_GT_MAX_JOINTS
 
 typedef struct {
 	char dir[1024];
 	char name[256];
 	mc_rig rig;          /* rig frame = left camera frame */
-	double fps;
-	int nframes;         /* frames in gt.json */
-	int njoints;
-	char joint_names[MC_CLIP_MAX_JOINTS][MC_JOINT_NAME_MAX];
-	mc_vec3 *joints;     /* nframes * njoints ground-truth positions, left camera frame */
+	mc_gt gt;            /* gt.json: fps, joints in the left camera frame */
 } mc_clip;
 
 /* Opens a clip: reads calib.json (use_ocam: the fitted OCam polynomial
@@ -32,7 +29,7 @@ int mc_clip_joint(const mc_clip *clip, const char *name);
 /* Ground truth of frame k, joint j. */
 static inline mc_vec3 mc_clip_gt(const mc_clip *clip, int k, int j)
 {
-	return clip->joints[k * clip->njoints + j];
+	return mc_gt_at(&clip->gt, k, j);
 }
 
 /* Decodes frame k of every camera into views (RGB24, buffers malloc'ed;

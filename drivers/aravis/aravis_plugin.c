@@ -404,9 +404,9 @@ static int configure(arv_dev *d, char *err, size_t errlen)
 	return MDRV_OK;
 }
 
-static void drv_close(void *dev);
+static void aravis_close(void *dev);
 
-static void *drv_open(const mdrv_host *host, char *err, size_t errlen)
+static void *aravis_open(const mdrv_host *host, char *err, size_t errlen)
 {
 	arv_dev *d = calloc(1, sizeof *d);
 	if (!d) {
@@ -450,11 +450,11 @@ static void *drv_open(const mdrv_host *host, char *err, size_t errlen)
 		 d->cfg.trigger == TRIGGER_NONE ? "" : ", triggered");
 	return d;
 fail:
-	drv_close(d);
+	aravis_close(d);
 	return NULL;
 }
 
-static int drv_get_format(void *dev, mdrv_format *fmt, char *err, size_t errlen)
+static int aravis_get_format(void *dev, mdrv_format *fmt, char *err, size_t errlen)
 {
 	(void)err;
 	(void)errlen;
@@ -462,7 +462,7 @@ static int drv_get_format(void *dev, mdrv_format *fmt, char *err, size_t errlen)
 	return MDRV_OK;
 }
 
-static int drv_start(void *dev, char *err, size_t errlen)
+static int aravis_start(void *dev, char *err, size_t errlen)
 {
 	arv_dev *d = dev;
 	if (d->stream)
@@ -550,7 +550,7 @@ static void advance_sequence(arv_dev *d, guint64 id)
 	d->last_frame_id = id;
 }
 
-static int drv_next_frame(void *dev, mdrv_frame *slot, int timeout_ms, char *err, size_t errlen)
+static int aravis_next_frame(void *dev, mdrv_frame *slot, int timeout_ms, char *err, size_t errlen)
 {
 	arv_dev *d = dev;
 	if (!d->stream)
@@ -609,7 +609,7 @@ static int drv_next_frame(void *dev, mdrv_frame *slot, int timeout_ms, char *err
 	return MDRV_OK;
 }
 
-static void drv_stop(void *dev)
+static void aravis_stop(void *dev)
 {
 	arv_dev *d = dev;
 	if (!d->stream)
@@ -624,12 +624,12 @@ static void drv_stop(void *dev)
 	g_clear_object(&d->stream);
 }
 
-static void drv_close(void *dev)
+static void aravis_close(void *dev)
 {
 	arv_dev *d = dev;
 	if (!d)
 		return;
-	drv_stop(d);
+	aravis_stop(d);
 	if (d->lost_handler)
 		g_signal_handler_disconnect(d->device, d->lost_handler);
 	g_clear_object(&d->camera);
@@ -641,7 +641,7 @@ static const char *or_empty(const char *s)
 	return s ? s : "";
 }
 
-static int drv_probe(const mdrv_host *host, mdrv_device_info *out, int max, char *err, size_t errlen)
+static int aravis_probe(const mdrv_host *host, mdrv_device_info *out, int max, char *err, size_t errlen)
 {
 	(void)host;
 	(void)err;
@@ -663,20 +663,5 @@ static int drv_probe(const mdrv_host *host, mdrv_device_info *out, int max, char
 	return n < max ? n : max;
 }
 
-static const mdrv_driver aravis_driver = {
-	.abi_version = MDRV_ABI_VERSION,
-	.name = "aravis",
-	.description = "GigE Vision / USB3 Vision cameras through Aravis 0.8",
-	.probe = drv_probe,
-	.open = drv_open,
-	.get_format = drv_get_format,
-	.start = drv_start,
-	.next_frame = drv_next_frame,
-	.stop = drv_stop,
-	.close = drv_close,
-};
-
-__attribute__((visibility("default"))) const mdrv_driver *mdrv_entry(void)
-{
-	return &aravis_driver;
-}
+MDRV_DEFINE_DRIVER(aravis, "aravis",
+		   "GigE Vision / USB3 Vision cameras through Aravis 0.8")

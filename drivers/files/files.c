@@ -406,17 +406,5 @@ static int files_next_frame(void *dev, mdrv_frame *slot, int timeout_ms, char *e
 	return MDRV_OK;
 }
 
-static const mdrv_driver files_driver = {
-	.abi_version = MDRV_ABI_VERSION,
-	.name = DRV,
-	.description = "plays a folder of numbered JPEG/PNG/PPM files as a camera",
-	.probe = files_probe,
-	.open = files_open,
-	.get_format = files_get_format,
-	.start = files_start,
-	.next_frame = files_next_frame,
-	.stop = files_stop,
-	.close = files_close,
-};
-
-const mdrv_driver *mdrv_entry(void) { return &files_driver; }
+MDRV_DEFINE_DRIVER(files, DRV,
+		   "plays a folder of numbered JPEG/PNG/PPM files as a camera")

@@ -457,7 +457,7 @@ int next_frame(Device &d, mdrv_frame *slot, int timeout_ms, char *err, size_t er
 
 /* ---- the C ABI ---- */
 
-int drv_probe(const mdrv_host *host, mdrv_device_info *out, int max, char *err, size_t errlen)
+int libcamera_probe(const mdrv_host *host, mdrv_device_info *out, int max, char *err, size_t errlen)
 {
 	(void)host;
 	try {
@@ -482,7 +482,7 @@ int drv_probe(const mdrv_host *host, mdrv_device_info *out, int max, char *err, 
 	}
 }
 
-void *drv_open(const mdrv_host *host, char *err, size_t errlen)
+void *libcamera_open(const mdrv_host *host, char *err, size_t errlen)
 {
 	try {
 		auto d = std::make_unique<Device>();
@@ -503,13 +503,13 @@ void *drv_open(const mdrv_host *host, char *err, size_t errlen)
 	}
 }
 
-int drv_get_format(void *dev, mdrv_format *fmt, char *, size_t)
+int libcamera_get_format(void *dev, mdrv_format *fmt, char *, size_t)
 {
 	*fmt = static_cast<Device *>(dev)->fmt;
 	return MDRV_OK;
 }
 
-int drv_start(void *dev, char *err, size_t errlen)
+int libcamera_start(void *dev, char *err, size_t errlen)
 {
 	Device &d = *static_cast<Device *>(dev);
 	try {
@@ -523,7 +523,7 @@ int drv_start(void *dev, char *err, size_t errlen)
 	}
 }
 
-int drv_next_frame(void *dev, mdrv_frame *slot, int timeout_ms, char *err, size_t errlen)
+int libcamera_next_frame(void *dev, mdrv_frame *slot, int timeout_ms, char *err, size_t errlen)
 {
 	try {
 		Device &d = *static_cast<Device *>(dev);
@@ -535,7 +535,7 @@ int drv_next_frame(void *dev, mdrv_frame *slot, int timeout_ms, char *err, size_
 	}
 }
 
-void drv_stop(void *dev)
+void libcamera_stop(void *dev)
 {
 	try {
 		static_cast<Device *>(dev)->stop_stream();
@@ -543,7 +543,7 @@ void drv_stop(void *dev)
 	}
 }
 
-void drv_close(void *dev)
+void libcamera_close(void *dev)
 {
 	try {
 		delete static_cast<Device *>(dev);
@@ -551,22 +551,8 @@ void drv_close(void *dev)
 	}
 }
 
-const mdrv_driver libcamera_driver = {
-	MDRV_ABI_VERSION,
-	"libcamera",
-	"cameras through libcamera (UVC, Raspberry Pi, IPU3, RkISP1, simple pipelines)",
-	drv_probe,
-	drv_open,
-	drv_get_format,
-	drv_start,
-	drv_next_frame,
-	drv_stop,
-	drv_close,
-};
 
 } /* namespace */
 
-extern "C" const mdrv_driver *mdrv_entry(void)
-{
-	return &libcamera_driver;
-}
+MDRV_DEFINE_DRIVER(libcamera, "libcamera",
+		   "cameras through libcamera (UVC, Raspberry Pi, IPU3, RkISP1, simple pipelines)")

@@ -410,7 +410,7 @@ int next_frame(Camera &c, mdrv_frame *slot, int timeout_ms, char *err, size_t er
 
 /* ---- the C ABI ---- */
 
-int drv_probe(const mdrv_host *host, mdrv_device_info *out, int max, char *err, size_t errlen)
+int openni2_probe(const mdrv_host *host, mdrv_device_info *out, int max, char *err, size_t errlen)
 {
 	(void)host;
 	try {
@@ -437,7 +437,7 @@ int drv_probe(const mdrv_host *host, mdrv_device_info *out, int max, char *err, 
 	}
 }
 
-void *drv_open(const mdrv_host *host, char *err, size_t errlen)
+void *openni2_open(const mdrv_host *host, char *err, size_t errlen)
 {
 	try {
 		auto c = std::make_unique<Camera>();
@@ -461,13 +461,13 @@ void *drv_open(const mdrv_host *host, char *err, size_t errlen)
 	}
 }
 
-int drv_get_format(void *dev, mdrv_format *fmt, char *, size_t)
+int openni2_get_format(void *dev, mdrv_format *fmt, char *, size_t)
 {
 	*fmt = static_cast<Camera *>(dev)->fmt;
 	return MDRV_OK;
 }
 
-int drv_start(void *dev, char *err, size_t errlen)
+int openni2_start(void *dev, char *err, size_t errlen)
 {
 	Camera &c = *static_cast<Camera *>(dev);
 	if (c.running)
@@ -480,7 +480,7 @@ int drv_start(void *dev, char *err, size_t errlen)
 	return MDRV_OK;
 }
 
-int drv_next_frame(void *dev, mdrv_frame *slot, int timeout_ms, char *err, size_t errlen)
+int openni2_next_frame(void *dev, mdrv_frame *slot, int timeout_ms, char *err, size_t errlen)
 {
 	Camera &c = *static_cast<Camera *>(dev);
 	if (!c.running)
@@ -492,7 +492,7 @@ int drv_next_frame(void *dev, mdrv_frame *slot, int timeout_ms, char *err, size_
 	}
 }
 
-void drv_stop(void *dev)
+void openni2_stop(void *dev)
 {
 	Camera &c = *static_cast<Camera *>(dev);
 	if (!c.running)
@@ -502,7 +502,7 @@ void drv_stop(void *dev)
 	c.running = false;
 }
 
-void drv_close(void *dev)
+void openni2_close(void *dev)
 {
 	try {
 		delete static_cast<Camera *>(dev);
@@ -510,22 +510,8 @@ void drv_close(void *dev)
 	}
 }
 
-const mdrv_driver openni2_driver = {
-	MDRV_ABI_VERSION,
-	"openni2",
-	"OpenNI2 depth cameras (depth as DEPTH16 millimetres, colour, IR) and .oni recordings",
-	drv_probe,
-	drv_open,
-	drv_get_format,
-	drv_start,
-	drv_next_frame,
-	drv_stop,
-	drv_close,
-};
 
 } /* namespace */
 
-extern "C" const mdrv_driver *mdrv_entry(void)
-{
-	return &openni2_driver;
-}
+MDRV_DEFINE_DRIVER(openni2, "openni2",
+		   "OpenNI2 depth cameras (depth as DEPTH16 millimetres, colour, IR) and .oni recordings")

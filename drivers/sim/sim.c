@@ -2,7 +2,7 @@
  * by motion capture, through a calibrated rig camera.
  *
  * Each frame: the BVH skeleton's pose at the frame's motion time gives the
- * positions of the DESIGN.md joints (core/body/mc_bvh.h documents the mapping of
+ * positions of the docs/CONVENTIONS.md joints (core/body/mc_bvh.h documents the mapping of
  * both CMU namings), scaled to the actor's height and expressed relative to
  * the BVH Head joint.  The egocentric model's root (the head) is fixed to
  * the rig at model->rig_from_root, so those positions are carried into the
@@ -347,17 +347,5 @@ static int sim_next_frame(void *dev, mdrv_frame *slot, int timeout_ms, char *err
 	return MDRV_OK;
 }
 
-static const mdrv_driver sim_driver = {
-	.abi_version = MDRV_ABI_VERSION,
-	.name = DRV,
-	.description = "renders the body model driven by a BVH file through a rig camera",
-	.probe = sim_probe,
-	.open = sim_open,
-	.get_format = sim_get_format,
-	.start = sim_start,
-	.next_frame = sim_next_frame,
-	.stop = sim_stop,
-	.close = sim_close,
-};
-
-const mdrv_driver *mdrv_entry(void) { return &sim_driver; }
+MDRV_DEFINE_DRIVER(sim, DRV,
+		   "renders the body model driven by a BVH file through a rig camera")

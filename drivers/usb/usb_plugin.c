@@ -209,9 +209,9 @@ static void pump_events(usb_dev *u, int wait_ms)
 	libusb_handle_events_timeout_completed(u->usb, &tv, NULL);
 }
 
-static void drv_close(void *dev);
+static void usb_close(void *dev);
 
-static void *drv_open(const mdrv_host *host, char *err, size_t errlen)
+static void *usb_open(const mdrv_host *host, char *err, size_t errlen)
 {
 	usb_dev *u = calloc(1, sizeof *u);
 	if (!u) {
@@ -249,7 +249,7 @@ static void *drv_open(const mdrv_host *host, char *err, size_t errlen)
 	}
 	return u;
 fail:
-	drv_close(u);
+	usb_close(u);
 	return NULL;
 }
 
@@ -278,7 +278,7 @@ static int configured_format(usb_dev *u, mdrv_format *fmt, char *err, size_t err
 	return MDRV_OK;
 }
 
-static int drv_get_format(void *dev, mdrv_format *fmt, char *err, size_t errlen)
+static int usb_get_format(void *dev, mdrv_format *fmt, char *err, size_t errlen)
 {
 	usb_dev *u = dev;
 	if (u->cam) {
@@ -288,7 +288,7 @@ static int drv_get_format(void *dev, mdrv_format *fmt, char *err, size_t errlen)
 	return configured_format(u, fmt, err, errlen);
 }
 
-static int drv_start(void *dev, char *err, size_t errlen)
+static int usb_start(void *dev, char *err, size_t errlen)
 {
 	usb_dev *u = dev;
 	u->started = true;
@@ -305,7 +305,7 @@ static int absent_error(usb_dev *u, char *err, size_t errlen)
 	return drv_errf(err, errlen, MDRV_ERR_NODEV, DRV ": %s is not plugged in", u->what);
 }
 
-static int drv_next_frame(void *dev, mdrv_frame *slot, int timeout_ms, char *err, size_t errlen)
+static int usb_next_frame(void *dev, mdrv_frame *slot, int timeout_ms, char *err, size_t errlen)
 {
 	usb_dev *u = dev;
 	if (!u->started)
@@ -347,7 +347,7 @@ static int drv_next_frame(void *dev, mdrv_frame *slot, int timeout_ms, char *err
 	return st;
 }
 
-static void drv_stop(void *dev)
+static void usb_stop(void *dev)
 {
 	usb_dev *u = dev;
 	u->started = false;
@@ -355,7 +355,7 @@ static void drv_stop(void *dev)
 		drv_v4l2_stop(u->cam);
 }
 
-static void drv_close(void *dev)
+static void usb_close(void *dev)
 {
 	usb_dev *u = dev;
 	if (!u)
@@ -370,7 +370,7 @@ static void drv_close(void *dev)
 }
 
 /* Lists USB devices that have a V4L2 node: id is VENDOR:PRODUCT[:SERIAL]. */
-static int drv_probe(const mdrv_host *host, mdrv_device_info *out, int max, char *err, size_t errlen)
+static int usb_probe(const mdrv_host *host, mdrv_device_info *out, int max, char *err, size_t errlen)
 {
 	(void)host;
 	(void)err;
@@ -394,20 +394,5 @@ static int drv_probe(const mdrv_host *host, mdrv_device_info *out, int max, char
 	return n;
 }
 
-static const mdrv_driver usb_driver = {
-	.abi_version = MDRV_ABI_VERSION,
-	.name = "usb",
-	.description = "USB cameras by vendor/product/serial, opened on plug-in (libusb hotplug + V4L2)",
-	.probe = drv_probe,
-	.open = drv_open,
-	.get_format = drv_get_format,
-	.start = drv_start,
-	.next_frame = drv_next_frame,
-	.stop = drv_stop,
-	.close = drv_close,
-};
-
-const mdrv_driver *mdrv_entry(void)
-{
-	return &usb_driver;
-}
+MDRV_DEFINE_DRIVER(usb, "usb",
+		   "USB cameras by vendor/product/serial, opened on plug-in (libusb hotplug + V4L2)")

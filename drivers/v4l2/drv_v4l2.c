@@ -571,11 +571,6 @@ void drv_v4l2_get_format(const drv_v4l2 *v, mdrv_format *fmt)
 	*fmt = v->fmt;
 }
 
-int drv_v4l2_fd(const drv_v4l2 *v)
-{
-	return v->fd;
-}
-
 static void unmap_buffers(drv_v4l2 *v)
 {
 	for (unsigned i = 0; i < v->n_bufs; i++)

@@ -43,8 +43,6 @@ int drv_v4l2_start(drv_v4l2 *v, char *err, size_t errlen);
 int drv_v4l2_next_frame(drv_v4l2 *v, mdrv_frame *slot, int timeout_ms, char *err, size_t errlen);
 void drv_v4l2_stop(drv_v4l2 *v);
 void drv_v4l2_close(drv_v4l2 *v);
-/* The pollable descriptor (readable when a frame is ready). */
-int drv_v4l2_fd(const drv_v4l2 *v);
 
 /* A capture node found in /dev. */
 typedef struct {

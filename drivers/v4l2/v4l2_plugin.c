@@ -70,7 +70,7 @@ static int select_node(const mdrv_host *host, char *path, size_t n, char *err, s
 	return st;
 }
 
-static int drv_probe(const mdrv_host *host, mdrv_device_info *out, int max, char *err, size_t errlen)
+static int v4l2_probe(const mdrv_host *host, mdrv_device_info *out, int max, char *err, size_t errlen)
 {
 	(void)host;
 	(void)err;
@@ -87,7 +87,7 @@ static int drv_probe(const mdrv_host *host, mdrv_device_info *out, int max, char
 	return n;
 }
 
-static void *drv_open(const mdrv_host *host, char *err, size_t errlen)
+static void *v4l2_open(const mdrv_host *host, char *err, size_t errlen)
 {
 	drv_v4l2_settings s;
 	char path[PATH_MAX];
@@ -98,7 +98,7 @@ static void *drv_open(const mdrv_host *host, char *err, size_t errlen)
 	return drv_v4l2_open(path, &s, host, DRV, &status, err, errlen);
 }
 
-static int drv_get_format(void *dev, mdrv_format *fmt, char *err, size_t errlen)
+static int v4l2_get_format(void *dev, mdrv_format *fmt, char *err, size_t errlen)
 {
 	(void)err;
 	(void)errlen;
@@ -106,40 +106,25 @@ static int drv_get_format(void *dev, mdrv_format *fmt, char *err, size_t errlen)
 	return MDRV_OK;
 }
 
-static int drv_start(void *dev, char *err, size_t errlen)
+static int v4l2_start(void *dev, char *err, size_t errlen)
 {
 	return drv_v4l2_start(dev, err, errlen);
 }
 
-static int drv_next_frame(void *dev, mdrv_frame *slot, int timeout_ms, char *err, size_t errlen)
+static int v4l2_next_frame(void *dev, mdrv_frame *slot, int timeout_ms, char *err, size_t errlen)
 {
 	return drv_v4l2_next_frame(dev, slot, timeout_ms, err, errlen);
 }
 
-static void drv_stop(void *dev)
+static void v4l2_stop(void *dev)
 {
 	drv_v4l2_stop(dev);
 }
 
-static void drv_close(void *dev)
+static void v4l2_close(void *dev)
 {
 	drv_v4l2_close(dev);
 }
 
-static const mdrv_driver v4l2_driver = {
-	.abi_version = MDRV_ABI_VERSION,
-	.name = "v4l2",
-	.description = "V4L2 capture devices (USB UVC cameras): YUYV, MJPEG, GREY",
-	.probe = drv_probe,
-	.open = drv_open,
-	.get_format = drv_get_format,
-	.start = drv_start,
-	.next_frame = drv_next_frame,
-	.stop = drv_stop,
-	.close = drv_close,
-};
-
-const mdrv_driver *mdrv_entry(void)
-{
-	return &v4l2_driver;
-}
+MDRV_DEFINE_DRIVER(v4l2, "v4l2",
+		   "V4L2 capture devices (USB UVC cameras): YUYV, MJPEG, GREY")

@@ -22,6 +22,7 @@
 #include <unistd.h>
 
 #include "mdrv.h"
+#include "base/mc_time.h"
 
 typedef struct {
 	const char *keys[16];
@@ -60,13 +61,6 @@ static inline void cfg_set(config *c, const char *key, const char *val)
 }
 
 static inline mdrv_host host_for(config *c) { return (mdrv_host){.ctx = c, .config_get = cfg_get, .log = cfg_log}; }
-
-static inline uint64_t now_ns(void)
-{
-	struct timespec ts;
-	clock_gettime(CLOCK_MONOTONIC, &ts);
-	return (uint64_t)ts.tv_sec * 1000000000ull + (uint64_t)ts.tv_nsec;
-}
 
 /* Loads mocap-driver-NAME.so; NULL when it cannot be loaded. */
 static inline const mdrv_driver *load_plugin(const char *name, void **dl)

@@ -16,6 +16,8 @@
  *
  * Usage: uvc_gadget [SERIAL]   (default MOCAPUVC01; gadgetfs must be mounted
  * at /dev/gadget) */
+#include "base/mc_time.h"
+
 #include <dirent.h>
 #include <errno.h>
 #include <fcntl.h>
@@ -259,20 +261,13 @@ static size_t make_mjpeg(tjhandle tj, const uint8_t *yuyv, uint8_t *grey, uint8_
 	return 0;
 }
 
-static uint64_t now_ns(void)
-{
-	struct timespec ts;
-	clock_gettime(CLOCK_MONOTONIC, &ts);
-	return (uint64_t)ts.tv_sec * 1000000000u + (uint64_t)ts.tv_nsec;
-}
-
 static void *writer_main(void *arg)
 {
 	(void)arg;
 	tjhandle tj = tjInitCompress();
 	static uint8_t yuyv[YUYV_SIZE], grey[WIDTH * HEIGHT], payload[MAX_PAYLOAD];
 	unsigned n = 0, fid = 0;
-	uint64_t next = now_ns();
+	uint64_t next = mc_now_ns();
 	for (;;) {
 		pthread_mutex_lock(&lock);
 		while (!streaming && !want_exit)
@@ -287,7 +282,7 @@ static void *writer_main(void *arg)
 		uint64_t interval = (uint64_t)commit.dwFrameInterval * 100;
 		pthread_mutex_unlock(&lock);
 
-		uint64_t t = now_ns();
+		uint64_t t = mc_now_ns();
 		if (next > t) {
 			struct timespec ts = {.tv_sec = (time_t)((next - t) / 1000000000u),
 					      .tv_nsec = (long)((next - t) % 1000000000u)};

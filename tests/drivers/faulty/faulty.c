@@ -35,6 +35,7 @@
  *
  * Every key is read in open(), as mocapd requires of drivers. */
 #include "mdrv.h"
+#include "base/mc_time.h"
 
 #include <errno.h>
 #include <pthread.h>
@@ -83,13 +84,6 @@ typedef struct {
 	unsigned char *jpeg;
 	unsigned long jpeg_size;
 } faulty_dev;
-
-static uint64_t now_ns(void)
-{
-	struct timespec ts;
-	clock_gettime(CLOCK_MONOTONIC, &ts);
-	return (uint64_t)ts.tv_sec * 1000000000ull + (uint64_t)ts.tv_nsec;
-}
 
 static void sleep_until(uint64_t t)
 {
@@ -257,7 +251,7 @@ static int read_keys(faulty_dev *d, const mdrv_host *h, char *err, size_t errlen
 	/* Claims every extra.* key (the host's wildcard rule). */
 	(void)h->config_get(h->ctx, "extra.*");
 	if (delay > 0)
-		sleep_until(now_ns() + (uint64_t)delay * 1000000ull);
+		sleep_until(mc_now_ns() + (uint64_t)delay * 1000000ull);
 	return MDRV_OK;
 }
 
@@ -286,7 +280,7 @@ static void *drv_open(const mdrv_host *host, char *err, size_t errlen)
 	}
 	pthread_mutex_lock(&memory_lock);
 	bool gone = mem->gone;
-	if (gone && d->return_after_ms >= 0 && now_ns() - mem->gone_since_ns >= (uint64_t)d->return_after_ms * 1000000ull)
+	if (gone && d->return_after_ms >= 0 && mc_now_ns() - mem->gone_since_ns >= (uint64_t)d->return_after_ms * 1000000ull)
 		gone = mem->gone = false;
 	bool fail_now = fail_open || mem->opens_failed < d->fail_open_count;
 	if (fail_now)
@@ -321,7 +315,7 @@ static int drv_start(void *dev, char *err, size_t errlen)
 	(void)err, (void)errlen;
 	faulty_dev *d = dev;
 	d->frames = d->produced = 0;
-	d->next_ns = (now_ns() / d->period_ns + 1) * d->period_ns;
+	d->next_ns = (mc_now_ns() / d->period_ns + 1) * d->period_ns;
 	return MDRV_OK;
 }
 
@@ -369,7 +363,7 @@ static int drv_next_frame(void *dev, mdrv_frame *slot, int timeout_ms, char *err
 		if (!m->gone && !m->disappeared) {
 			m->gone = true;
 			m->disappeared = true; /* disappears once */
-			m->gone_since_ns = now_ns();
+			m->gone_since_ns = mc_now_ns();
 		}
 		bool gone = m->gone;
 		pthread_mutex_unlock(&memory_lock);
@@ -395,9 +389,9 @@ static int drv_next_frame(void *dev, mdrv_frame *slot, int timeout_ms, char *err
 	}
 	if (d->hang_after >= 0 && d->frames >= (uint64_t)d->hang_after) {
 		d->hang_after = -1;
-		sleep_until(now_ns() + (uint64_t)d->hang_ms * 1000000ull);
+		sleep_until(mc_now_ns() + (uint64_t)d->hang_ms * 1000000ull);
 	}
-	uint64_t deadline = now_ns() + (uint64_t)(timeout_ms < 0 ? 0 : timeout_ms) * 1000000ull;
+	uint64_t deadline = mc_now_ns() + (uint64_t)(timeout_ms < 0 ? 0 : timeout_ms) * 1000000ull;
 	for (;;) {
 		if (d->next_ns > deadline) {
 			sleep_until(deadline);
