@@ -3,9 +3,13 @@
 # pkg-config file), mocapctl, the IPC tests, the fuzzer and the benchmark.
 #
 # For the daemon: link $(BUILD)/libmocapipc.a before $(CORE_LIB)
-# (srv_server uses mc_error and mc_math from the core).  Use the literal path
-# in daemon/module.mk: it is included before this file, so IPC_SERVER_LIB is
-# not defined yet when its prerequisites are read.
+# (srv_server uses mc_error, mc_math and mc_pose from the core).  Use the
+# literal path in daemon/module.mk: it is included before this file, so
+# IPC_SERVER_LIB is not defined yet when its prerequisites are read.
+#
+# libmocap uses only header-only core helpers (base/mc_time.h,
+# base/mc_thread.h), so libmocap.so links nothing of the core and exports
+# only mocap_* (ipc/libmocap.map).
 
 IPC_SERVER_LIB := $(BUILD)/libmocapipc.a
 IPC_CLIENT_LIB := $(BUILD)/libmocap.a

@@ -152,9 +152,7 @@ static void distribute_frame(srv_server *srv, const pending_frame *p, uint64_t *
 		else
 			any_rig = true;
 	}
-	proto_msg *m = &srv->out;
-	memset(&m->h, 0, sizeof(m->h));
-	m->h.type = MC_MSG_FRAME;
+	proto_msg *m = srv_out_msg(srv, MC_MSG_FRAME, 0);
 	fill_frame_msg(&m->u.frame, p);
 	blob *rig = NULL, *world = NULL;
 	if (any_rig || (any_world && !srv->def_rig_is_world))
@@ -208,9 +206,7 @@ void srv_send_definition(srv_server *srv, client *c)
 
 static void install_definition(srv_server *srv, const srv_skeleton_def *d, uint32_t id)
 {
-	proto_msg *m = &srv->out;
-	memset(&m->h, 0, sizeof(m->h));
-	m->h.type = MC_MSG_SKELETON;
+	proto_msg *m = srv_out_msg(srv, MC_MSG_SKELETON, 0);
 	mc_msg_skeleton *s = &m->u.skeleton;
 	s->skeleton_id = id;
 	s->njoints = (uint16_t)d->njoints;

@@ -132,10 +132,7 @@ static void handle_get_skeleton(srv_server *srv, client *c, const proto_msg *m)
 
 static void handle_get_rig(srv_server *srv, client *c, const proto_msg *m)
 {
-	proto_msg *o = &srv->out;
-	memset(&o->h, 0, sizeof(o->h));
-	o->h.type = MC_MSG_RIG;
-	o->h.request_id = m->h.request_id;
+	proto_msg *o = srv_out_msg(srv, MC_MSG_RIG, m->h.request_id);
 	blob *b = NULL;
 	pthread_mutex_lock(&srv->lock);
 	if (srv->rig_json) {
@@ -184,10 +181,7 @@ static void handle_get_rings(srv_server *srv, client *c, const proto_msg *m)
 {
 	if (!require_privilege(srv, c, m, "mapping camera rings"))
 		return;
-	proto_msg *o = &srv->out;
-	memset(&o->h, 0, sizeof(o->h));
-	o->h.type = MC_MSG_RINGS;
-	o->h.request_id = m->h.request_id;
+	proto_msg *o = srv_out_msg(srv, MC_MSG_RINGS, m->h.request_id);
 	int fds[PROTO_MAX_RINGS], n = 0;
 	pthread_mutex_lock(&srv->lock);
 	for (int i = 0; i < srv->nrings; i++) {
@@ -280,10 +274,7 @@ static void handle_head_pose(srv_server *srv, client *c, const proto_msg *m)
 
 static void handle_ping(srv_server *srv, client *c, const proto_msg *m)
 {
-	proto_msg *o = &srv->out;
-	memset(&o->h, 0, sizeof(o->h));
-	o->h.type = MC_MSG_PONG;
-	o->h.request_id = m->h.request_id;
+	proto_msg *o = srv_out_msg(srv, MC_MSG_PONG, m->h.request_id);
 	o->u.ping.value = m->u.ping.value;
 	o->u.ping.server_time_ns = mc_now_ns();
 	srv_reply(srv, c, o);
@@ -343,10 +334,7 @@ void srv_deliver_control_results(srv_server *srv)
 		client *c = srv_find_client(srv, ans[i].client_serial);
 		if (!c)
 			continue;
-		proto_msg *o = &srv->out;
-		memset(&o->h, 0, sizeof(o->h));
-		o->h.type = MC_MSG_CONTROL_RESULT;
-		o->h.request_id = ans[i].request_id;
+		proto_msg *o = srv_out_msg(srv, MC_MSG_CONTROL_RESULT, ans[i].request_id);
 		o->u.control_result.command = ans[i].command;
 		o->u.control_result.result = ans[i].result;
 		srv_str_copy(o->u.control_result.message, sizeof(o->u.control_result.message), ans[i].message);

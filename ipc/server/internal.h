@@ -57,6 +57,7 @@ static inline void srv_str_copy(char *dst, size_t size, const char *src)
 
 /* --- Blobs: encoded messages shared between client queues (queue.c) --- */
 
+
 typedef struct {
 	int refs;
 	bool is_frame;
@@ -251,6 +252,17 @@ blob *srv_blob_ref(blob *b);
 void srv_blob_unref(blob *b);
 /* Encodes m into a new blob; NULL when it does not encode or no memory. */
 blob *srv_encode_blob(srv_server *srv, const proto_msg *m, bool is_frame);
+
+/* The server thread's outgoing message, its header cleared and set to
+ * type and request_id (0: unsolicited); the body is the caller's to fill. */
+static inline proto_msg *srv_out_msg(srv_server *srv, uint16_t type, uint32_t request_id)
+{
+	proto_msg *m = &srv->out;
+	memset(&m->h, 0, sizeof(m->h));
+	m->h.type = type;
+	m->h.request_id = request_id;
+	return m;
+}
 
 /* Appends a blob (taking a reference).  false when the client's reply
  * budget is exhausted: it does not read what it asked for. */

@@ -144,9 +144,7 @@ void srv_queue_gap(srv_server *srv, client *c)
 {
 	if (!c->gap_count || c->mode != MC_SUB_ALL || c->qframes >= (int)c->queue_len)
 		return;
-	proto_msg *m = &srv->out;
-	memset(&m->h, 0, sizeof(m->h));
-	m->h.type = MC_MSG_GAP;
+	proto_msg *m = srv_out_msg(srv, MC_MSG_GAP, 0);
 	m->u.gap.first_seq = c->gap_first;
 	m->u.gap.count = c->gap_count;
 	blob *b = srv_encode_blob(srv, m, false);
@@ -211,10 +209,7 @@ void srv_reply_error(srv_server *srv, client *c, uint32_t request_id, uint16_t r
 {
 	if (c->dead)
 		return;
-	proto_msg *m = &srv->out;
-	memset(&m->h, 0, sizeof(m->h));
-	m->h.type = MC_MSG_ERROR;
-	m->h.request_id = request_id;
+	proto_msg *m = srv_out_msg(srv, MC_MSG_ERROR, request_id);
 	m->u.error.code = code;
 	m->u.error.request_type = request_type;
 	m->u.error.fatal = fatal;
@@ -236,10 +231,7 @@ void srv_reply_error(srv_server *srv, client *c, uint32_t request_id, uint16_t r
 
 void srv_reply_ok(srv_server *srv, client *c, uint32_t request_id, uint16_t request_type, uint32_t value)
 {
-	proto_msg *m = &srv->out;
-	memset(&m->h, 0, sizeof(m->h));
-	m->h.type = MC_MSG_OK;
-	m->h.request_id = request_id;
+	proto_msg *m = srv_out_msg(srv, MC_MSG_OK, request_id);
 	m->u.ok.request_type = request_type;
 	m->u.ok.value = value;
 	srv_reply(srv, c, m);
