@@ -263,13 +263,10 @@ typedef struct {
 	int map[MC_DETECTOR_MAX_JOINTS]; /* detector joint -> skeleton joint, -1: none */
 } detector;
 
-static void detector_open(detector *d, const char *model, int threads, mocap_client *c, bool verbose)
+/* Maps the detector's joints to the daemon's skeleton (again after a
+ * reload may have changed it). */
+static void detector_map(detector *d, mocap_client *c, bool verbose)
 {
-	mc_err err = {{0}};
-	d->det = mc_detector_load(model, &err);
-	if (!d->det)
-		fail("%s", err.msg);
-	mc_detector_set_threads(threads);
 	/* The daemon's skeleton: retried for a while, it is there once the
 	 * daemon loaded its model. */
 	mocap_skeleton_def *def = calloc(1, sizeof(*def));
@@ -281,6 +278,7 @@ static void detector_open(detector *d, const char *model, int threads, mocap_cli
 	const char *names[MOCAP_MAX_JOINTS];
 	for (int j = 0; j < def->njoints; j++)
 		names[j] = def->joints[j].name;
+	const char *model = mc_detector_path(d->det);
 	int found = mc_detector_map_names(d->det, names, def->njoints, d->map);
 	if (found == 0)
 		fail("%s: none of its %d joints is in the daemon's skeleton", model, mc_detector_njoints(d->det));
@@ -296,6 +294,16 @@ static void detector_open(detector *d, const char *model, int threads, mocap_cli
 		printf("%s\n", strcmp(sep, ", ") ? "" : ")");
 	}
 	free(def);
+}
+
+static void detector_open(detector *d, const char *model, int threads, mocap_client *c, bool verbose)
+{
+	mc_err err = {{0}};
+	d->det = mc_detector_load(model, &err);
+	if (!d->det)
+		fail("%s", err.msg);
+	mc_detector_set_threads(threads);
+	detector_map(d, c, verbose);
 }
 
 /* Returns the keypoint count, or -1 with err. */
@@ -485,9 +493,11 @@ int main(int argc, char **argv)
 			/* The capture time of the image, not now. */
 			rc = mocap_send_keypoints(c, meta.timestamp_ns, cam->rig_index, kp, n);
 			if (rc == MOCAP_E_REFUSED || rc == MOCAP_E_PERMISSION) {
-				/* An earlier batch was refused; this one was sent. */
+				/* An earlier batch was refused (this one was sent):
+				 * maybe a reload changed the skeleton; map again. */
 				if (refused++ < 5)
 					fprintf(stderr, "mocap-detect: mocapd refused keypoints: %s\n", mocap_errmsg());
+				detector_map(&det, c, false);
 				rc = 0;
 			}
 			if (rc < 0) {
@@ -514,6 +524,7 @@ int main(int argc, char **argv)
 					break;
 				}
 				ncams = open_rings(c, cams, ncams, only, false);
+				detector_map(&det, c, false);
 				continue;
 			}
 			if (mc_ring_wait(cams[0].ring, &cams[0].cursor, 20, &err) < 0)

@@ -56,18 +56,18 @@ $(DETECT_BENCH): detect/bench_detect.c $(DETECT_LIB) $(CORE_LIB)
 # daemon harness tests/daemon/harness.h for the end-to-end test).
 $(BUILD)/detect/tests/test_detector $(BUILD)/detect/tests/test_detector_shipped: $(BUILD)/detect/tests/%: \
 		detect/tests/%.c $(DETECT_LIB) $(CORE_LIB)
-	@mkdir -p $(@D)
+	@mkdir -p $(@D) $(BUILD)/tests
 	$(CC) $(CPPFLAGS) -Idetect -Itests $(CFLAGS) -MMD -MP $< -o $@ $(LDFLAGS) $(DETECT_LIB) $(CORE_LIB) $(CORE_LIBS) $(DETECT_LIBS)
 
 # The unit's test runs systemd-analyze verify on it (ExecStart must exist).
 $(BUILD)/detect/tests/test_detect_unit: detect/tests/test_detect_unit.c | $(MOCAP_DETECT)
-	@mkdir -p $(@D)
+	@mkdir -p $(@D) $(BUILD)/tests
 	$(CC) $(CPPFLAGS) -Itests $(CFLAGS) -MMD -MP $< -o $@ $(LDFLAGS)
 
 # The end-to-end test runs mocapd (files driver) and mocap-detect.
 $(BUILD)/detect/tests/test_mocap_detect: detect/tests/test_mocap_detect.c $(DETECT_LINK_DEPS) \
 		| $(MOCAP_DETECT) $(BUILD)/bin/mocapd $(BUILD)/drivers/mocap-driver-files.so
-	@mkdir -p $(@D)
+	@mkdir -p $(@D) $(BUILD)/tests
 	$(CC) $(CPPFLAGS) -Idetect -Itests $(CFLAGS) -MMD -MP $< -o $@ $(LDFLAGS) $(DETECT_LIB) $(BUILD)/libmocap.a \
 		$(CORE_LIB) $(CORE_LIBS) $(DETECT_LIBS)
 
