@@ -280,21 +280,18 @@ static int unknown_keys(mcd_camera *c)
 	return 0;
 }
 
-/* Opens and starts the device. Returns the device, or NULL with *result
- * telling whether to retry. */
-static void *open_device(mcd_camera *c, run_result *result)
+/* Opens the device, reads its format and starts it.  Returns the device,
+ * or NULL with *result telling whether to retry. */
+static void *open_and_start(mcd_camera *c, mdrv_format *fmt, run_result *result)
 {
 	char err[512] = "";
-	set_state(c, MCD_CAM_OPENING);
-	memset(c->key_read, 0, sizeof(c->key_read));
+	*result = RUN_REOPEN;
 	void *dev = c->drv->open(&c->host, err, sizeof(err));
 	if (!dev) {
 		set_error(c, "open", err[0] ? err : "failed");
-		*result = RUN_REOPEN;
 		return NULL;
 	}
-	mdrv_format fmt;
-	int rc = c->drv->get_format(dev, &fmt, err, sizeof(err));
+	int rc = c->drv->get_format(dev, fmt, err, sizeof(err));
 	if (rc == MDRV_OK)
 		rc = c->drv->start(dev, err, sizeof(err));
 	else
@@ -302,30 +299,41 @@ static void *open_device(mcd_camera *c, run_result *result)
 	if (rc != MDRV_OK) {
 		set_error(c, "start", err[0] ? err : "failed");
 		c->drv->close(dev);
-		*result = rc == MDRV_ERR_CONFIG ? RUN_FAILED : RUN_REOPEN;
+		if (rc == MDRV_ERR_CONFIG)
+			*result = RUN_FAILED;
 		return NULL;
 	}
-	if (unknown_keys(c)) {
-		c->drv->stop(dev);
-		c->drv->close(dev);
-		*result = RUN_FAILED;
-		return NULL;
-	}
-	mc_err merr;
-	if (ensure_ring(c, slot_bytes_for(&fmt), &merr)) {
-		set_error(c, "frame ring", merr.msg);
-		c->drv->stop(dev);
-		c->drv->close(dev);
-		*result = RUN_REOPEN;
-		return NULL;
-	}
-	pthread_mutex_lock(&c->lock);
-	c->format = fmt;
-	pthread_mutex_unlock(&c->lock);
-	c->opened_once = true;
-	mcd_info("camera %s: opened (%s driver, %s %ux%u, %.4g fps)", c->cfg.name, c->drv->name,
-		 mc_pixfmt_name(fmt.pixfmt), fmt.width, fmt.height, fmt.fps);
 	return dev;
+}
+
+/* Opens and starts the device, checks its keys and sizes the ring.
+ * Returns the device, or NULL with *result telling whether to retry. */
+static void *open_device(mcd_camera *c, run_result *result)
+{
+	set_state(c, MCD_CAM_OPENING);
+	memset(c->key_read, 0, sizeof(c->key_read));
+	mdrv_format fmt;
+	void *dev = open_and_start(c, &fmt, result);
+	if (!dev)
+		return NULL;
+	mc_err merr;
+	if (unknown_keys(c))
+		*result = RUN_FAILED;
+	else if (ensure_ring(c, slot_bytes_for(&fmt), &merr)) {
+		set_error(c, "frame ring", merr.msg);
+		*result = RUN_REOPEN;
+	} else {
+		pthread_mutex_lock(&c->lock);
+		c->format = fmt;
+		pthread_mutex_unlock(&c->lock);
+		c->opened_once = true;
+		mcd_info("camera %s: opened (%s driver, %s %ux%u, %.4g fps)", c->cfg.name, c->drv->name,
+			 mc_pixfmt_name(fmt.pixfmt), fmt.width, fmt.height, fmt.fps);
+		return dev;
+	}
+	c->drv->stop(dev);
+	c->drv->close(dev);
+	return NULL;
 }
 
 /* What the capture loop keeps about the stream of one opening. */

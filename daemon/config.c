@@ -156,6 +156,36 @@ static void begin_section(parser *p, const char *name)
 	}
 }
 
+/* Refuses an indented line; begins the section a "[...]" line names.
+ * False on an error. */
+static bool check_line(parser *p, const char *buf)
+{
+	const char *s = buf;
+	while (*s == ' ' || *s == '\t')
+		s++;
+	bool blank = *s == '\n' || *s == ';' || *s == '#';
+	if (!blank && s != buf) {
+		/* inih would read an indented line as the continuation of the
+		 * previous value: refuse it rather than misread it. */
+		fail(p, "indented line (inih reads it as the continuation of the previous value); remove the "
+			"indentation");
+		return false;
+	}
+	const char *end = *s == '[' ? strchr(s, ']') : NULL;
+	if (!end)
+		return true;
+	char name[MCD_NAME_MAX + 8];
+	size_t n = (size_t)(end - s - 1);
+	if (n >= sizeof(name)) {
+		fail(p, "section name too long");
+		return false;
+	}
+	memcpy(name, s + 1, n);
+	name[n] = 0;
+	begin_section(p, name);
+	return true;
+}
+
 /* inih's reader: hands out one line at a time, counting lines and seeing
  * section headers before inih does. */
 static char *read_line(char *buf, int cap, void *stream)
@@ -179,32 +209,7 @@ static char *read_line(char *buf, int cap, void *stream)
 	buf[content] = '\n';
 	buf[content + 1] = 0;
 
-	const char *s = buf;
-	while (*s == ' ' || *s == '\t')
-		s++;
-	bool blank = *s == '\n' || *s == ';' || *s == '#';
-	if (!blank && s != buf) {
-		/* inih would read an indented line as the continuation of the
-		 * previous value: refuse it rather than misread it. */
-		fail(p, "indented line (inih reads it as the continuation of the previous value); remove the "
-			"indentation");
-		return NULL;
-	}
-	if (*s == '[') {
-		const char *end = strchr(s, ']');
-		if (end) {
-			char name[MCD_NAME_MAX + 8];
-			size_t n = (size_t)(end - s - 1);
-			if (n >= sizeof(name)) {
-				fail(p, "section name too long");
-				return NULL;
-			}
-			memcpy(name, s + 1, n);
-			name[n] = 0;
-			begin_section(p, name);
-		}
-	}
-	return buf;
+	return check_line(p, buf) ? buf : NULL;
 }
 
 static int apply_key(parser *p, const mcd_config_key *k, void *base, const char *key, const char *value)
@@ -367,11 +372,9 @@ int mcd_config_parse(const char *text, const char *origin, const char *base_dir,
 	return 0;
 }
 
-int mcd_config_load(const char *path, mcd_config *cfg, mc_err *err)
+/* The whole file as a NUL-terminated text (malloc'ed), at most 1 MiB. */
+static char *read_file(FILE *f, const char *path, mc_err *err)
 {
-	FILE *f = fopen(path, "rb");
-	if (!f)
-		return mc_err_set(err, "%s: cannot open: %s", path, strerror(errno));
 	char *text = NULL;
 	size_t len = 0, cap = 0;
 	char chunk[4096];
@@ -382,8 +385,8 @@ int mcd_config_load(const char *path, mcd_config *cfg, mc_err *err)
 			char *grown = realloc(text, cap);
 			if (!grown) {
 				free(text);
-				fclose(f);
-				return mc_err_set(err, "%s: out of memory", path);
+				mc_err_set(err, "%s: out of memory", path);
+				return NULL;
 			}
 			text = grown;
 		}
@@ -391,26 +394,37 @@ int mcd_config_load(const char *path, mcd_config *cfg, mc_err *err)
 		len += n;
 		if (len > (1u << 20)) {
 			free(text);
-			fclose(f);
-			return mc_err_set(err, "%s: larger than 1 MiB; not a mocapd config", path);
+			mc_err_set(err, "%s: larger than 1 MiB; not a mocapd config", path);
+			return NULL;
 		}
 	}
-	bool bad = ferror(f);
-	fclose(f);
-	if (bad) {
+	if (ferror(f)) {
 		free(text);
-		return mc_err_set(err, "%s: read error", path);
+		mc_err_set(err, "%s: read error", path);
+		return NULL;
 	}
-	if (!text) {
-		text = calloc(1, 1);
-		if (!text)
-			return mc_err_set(err, "%s: out of memory", path);
+	if (!text && !(text = calloc(1, 1))) {
+		mc_err_set(err, "%s: out of memory", path);
+		return NULL;
 	}
 	text[len] = 0;
 	if (strlen(text) != len) {
 		free(text);
-		return mc_err_set(err, "%s: contains a NUL byte; not a text file", path);
+		mc_err_set(err, "%s: contains a NUL byte; not a text file", path);
+		return NULL;
 	}
+	return text;
+}
+
+int mcd_config_load(const char *path, mcd_config *cfg, mc_err *err)
+{
+	FILE *f = fopen(path, "rb");
+	if (!f)
+		return mc_err_set(err, "%s: cannot open: %s", path, strerror(errno));
+	char *text = read_file(f, path, err);
+	fclose(f);
+	if (!text)
+		return -1;
 	char dir[PATH_MAX];
 	snprintf(dir, sizeof(dir), "%s", path);
 	char *slash = strrchr(dir, '/');

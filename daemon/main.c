@@ -82,9 +82,59 @@ static void usage(FILE *f)
 		"See docs/CONFIG.md for the config file.\n");
 }
 
+enum { OPT_PLUGIN_DIR = 256, OPT_EXIT_AT_END, OPT_CHECK, OPT_SOCKET, OPT_SAVE_POSES };
+
+/* One option of getopt_long: -1 to go on, else the exit status. */
+static int take_option(int c, options *o)
+{
+	switch (c) {
+	case 'c':
+		o->config_path = optarg;
+		return -1;
+	case OPT_PLUGIN_DIR:
+		o->plugin_dir = optarg;
+		return -1;
+	case OPT_SOCKET:
+		if (strlen(optarg) >= 108) {
+			fprintf(stderr, "mocapd: --socket: path too long (at most 107 bytes)\n");
+			return 2;
+		}
+		o->socket_path = optarg;
+		return -1;
+	case OPT_SAVE_POSES:
+		o->pose_dir = optarg;
+		return -1;
+	case 'l':
+		o->log_level = mcd_log_parse_level(optarg);
+		if (o->log_level < 0) {
+			fprintf(stderr, "mocapd: --log-level: expected error, warn, info or debug, got '%s'\n", optarg);
+			return 2;
+		}
+		return -1;
+	case 'p':
+		o->print = true;
+		return -1;
+	case OPT_EXIT_AT_END:
+		o->exit_at_end = true;
+		return -1;
+	case OPT_CHECK:
+		o->check_only = true;
+		return -1;
+	case 'V':
+		printf("mocapd %s (driver ABI %u)\n", MOCAPD_VERSION, (unsigned)MDRV_ABI_VERSION);
+		return 0;
+	case 'h':
+		usage(stdout);
+		return 0;
+	default:
+		usage(stderr);
+		return 2;
+	}
+}
+
+/* -1 to go on, else the exit status. */
 static int parse_options(int argc, char **argv, options *o)
 {
-	enum { OPT_PLUGIN_DIR = 256, OPT_EXIT_AT_END, OPT_CHECK, OPT_SOCKET, OPT_SAVE_POSES };
 	static const struct option longs[] = {
 		{"config", required_argument, NULL, 'c'},
 		{"plugin-dir", required_argument, NULL, OPT_PLUGIN_DIR},
@@ -101,50 +151,9 @@ static int parse_options(int argc, char **argv, options *o)
 	*o = (options){.config_path = DEFAULT_CONFIG, .log_level = -1};
 	int c;
 	while ((c = getopt_long(argc, argv, "c:l:pVh", longs, NULL)) != -1) {
-		switch (c) {
-		case 'c':
-			o->config_path = optarg;
-			break;
-		case OPT_PLUGIN_DIR:
-			o->plugin_dir = optarg;
-			break;
-		case OPT_SOCKET:
-			if (strlen(optarg) >= 108) {
-				fprintf(stderr, "mocapd: --socket: path too long (at most 107 bytes)\n");
-				return 2;
-			}
-			o->socket_path = optarg;
-			break;
-		case OPT_SAVE_POSES:
-			o->pose_dir = optarg;
-			break;
-		case 'l':
-			o->log_level = mcd_log_parse_level(optarg);
-			if (o->log_level < 0) {
-				fprintf(stderr, "mocapd: --log-level: expected error, warn, info or debug, got '%s'\n",
-					optarg);
-				return 2;
-			}
-			break;
-		case 'p':
-			o->print = true;
-			break;
-		case OPT_EXIT_AT_END:
-			o->exit_at_end = true;
-			break;
-		case OPT_CHECK:
-			o->check_only = true;
-			break;
-		case 'V':
-			printf("mocapd %s (driver ABI %u)\n", MOCAPD_VERSION, (unsigned)MDRV_ABI_VERSION);
-			return 0;
-		case 'h':
-			usage(stdout);
-			return 0;
-		default:
-			usage(stderr);
-			return 2;
-		}
+		int rc = take_option(c, o);
+		if (rc >= 0)
+			return rc;
 	}
 	if (optind < argc) {
 		fprintf(stderr, "mocapd: unexpected argument '%s'\n", argv[optind]);
@@ -395,19 +404,35 @@ static void maybe_ready(daemon_ctx *d, uint64_t now)
 	mcd_info("ready: %s", line);
 }
 
+/* What is due at `now`: READY=1, the status refresh, the watchdog. */
+static void do_timers(daemon_ctx *d, uint64_t now)
+{
+	maybe_ready(d, now);
+	if (d->ready && now >= d->next_status_ns) {
+		refresh_status(d, now);
+		d->next_status_ns = now + (uint64_t)(d->cfg->status_interval_s * 1e9);
+	}
+	if (d->ready && d->watchdog_usec && now >= d->next_watchdog_ns) {
+		feed_watchdog(d);
+		d->next_watchdog_ns = now + d->watchdog_usec * 1000 / 2;
+	}
+}
+
+/* How long to poll: until the next timer, at most a second. */
+static int poll_timeout_ms(const daemon_ctx *d, uint64_t now)
+{
+	uint64_t wake = d->ready ? d->next_status_ns : now + 50 * MC_NS_PER_MS;
+	if (d->watchdog_usec && d->ready && d->next_watchdog_ns < wake)
+		wake = d->next_watchdog_ns;
+	int timeout_ms = wake > now ? (int)((wake - now) / MC_NS_PER_MS) + 1 : 0;
+	return timeout_ms > 1000 ? 1000 : timeout_ms;
+}
+
 static int run(daemon_ctx *d)
 {
 	for (;;) {
 		uint64_t now = mc_now_ns();
-		maybe_ready(d, now);
-		if (d->ready && now >= d->next_status_ns) {
-			refresh_status(d, now);
-			d->next_status_ns = now + (uint64_t)(d->cfg->status_interval_s * 1e9);
-		}
-		if (d->ready && d->watchdog_usec && now >= d->next_watchdog_ns) {
-			feed_watchdog(d);
-			d->next_watchdog_ns = now + d->watchdog_usec * 1000 / 2;
-		}
+		do_timers(d, now);
 		if (d->opt.exit_at_end && mcd_pipeline_finished(d->pipe)) {
 			mcd_info("every stream has ended; exiting (--exit-at-end)");
 			return 0;
@@ -417,22 +442,14 @@ static int run(daemon_ctx *d)
 			{.fd = mcd_pipeline_event_fd(d->pipe), .events = POLLIN},
 			{.fd = d->srv ? srv_event_fd(d->srv) : -1, .events = POLLIN},
 		};
-		uint64_t wake = d->ready ? d->next_status_ns : now + 50000000ull;
-		if (d->watchdog_usec && d->ready && d->next_watchdog_ns < wake)
-			wake = d->next_watchdog_ns;
-		int timeout_ms = wake > now ? (int)((wake - now) / 1000000ull) + 1 : 0;
-		if (timeout_ms > 1000)
-			timeout_ms = 1000;
-		if (poll(fds, 3, timeout_ms) < 0 && errno != EINTR) {
+		if (poll(fds, 3, poll_timeout_ms(d, now)) < 0 && errno != EINTR) {
 			mcd_error("poll: %s", strerror(errno));
 			return 1;
 		}
 		if ((fds[0].revents & POLLIN) && handle_signals(d))
 			return 0;
-		if (fds[1].revents & POLLIN) {
-			if (mcd_pipeline_take_events(d->pipe))
-				mcd_pipeline_share_rings(d->pipe);
-		}
+		if ((fds[1].revents & POLLIN) && mcd_pipeline_take_events(d->pipe))
+			mcd_pipeline_share_rings(d->pipe);
 		if (fds[2].revents & POLLIN)
 			handle_requests(d);
 	}
@@ -475,6 +492,23 @@ static int start(daemon_ctx *d, mc_err *err)
 	return 0;
 }
 
+/* --check: the rig, the model, the initial joints and the plugins are
+ * the parts of start-up that can be checked without touching devices or
+ * OpenCL.  Returns the exit status. */
+static int check_only(const daemon_ctx *d)
+{
+	mc_err err = {{0}};
+	bool ok = !d->cfg->tracker.enabled || mcd_tracking_check(d->cfg, &err) == 0;
+	mcd_pipeline *p = ok ? mcd_pipeline_create(d->cfg, NULL, NULL, &err) : NULL;
+	ok = p != NULL;
+	mcd_pipeline_destroy(p);
+	if (!ok)
+		mcd_error("%s", err.msg);
+	else
+		printf("%s: ok\n", d->opt.config_path);
+	return ok ? 0 : 1;
+}
+
 int main(int argc, char **argv)
 {
 	daemon_ctx d = {.sigfd = -1};
@@ -494,19 +528,9 @@ int main(int argc, char **argv)
 	mcd_log_set_level(d.cfg->log_level);
 	d.start_ns = mc_now_ns();
 	if (d.opt.check_only) {
-		/* The rig, the model, the initial joints and the plugins are the
-		 * parts of start-up that can be checked without touching devices
-		 * or OpenCL. */
-		bool ok = !d.cfg->tracker.enabled || mcd_tracking_check(d.cfg, &err) == 0;
-		mcd_pipeline *p = ok ? mcd_pipeline_create(d.cfg, NULL, NULL, &err) : NULL;
-		ok = p != NULL;
-		mcd_pipeline_destroy(p);
-		if (!ok)
-			mcd_error("%s", err.msg);
-		else
-			printf("%s: ok\n", d.opt.config_path);
+		rc = check_only(&d);
 		free(d.cfg);
-		return ok ? 0 : 1;
+		return rc;
 	}
 	mcd_info("mocapd %s starting with %s", MOCAPD_VERSION, d.opt.config_path);
 	if (start(&d, &err)) {

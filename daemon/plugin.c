@@ -127,18 +127,10 @@ static int check_descriptor(const mdrv_driver *drv, const char *path, mc_err *er
 	return 0;
 }
 
-int mcd_plugin_load(const char *dir, const char *name, uid_t uid, gid_t gid, mcd_plugin *out, mc_err *err)
+/* Opens <real_dir>/mocap-driver-<name>.so without following a link and
+ * checks that descriptor; sets out->path.  Returns the fd or -1 with err. */
+static int open_checked(const char *real_dir, const char *name, uid_t uid, gid_t gid, mcd_plugin *out, mc_err *err)
 {
-	memset(out, 0, sizeof(*out));
-	out->fd = -1;
-	if (!valid_driver_name(name))
-		return mc_err_set(err, "driver '%s': not a valid driver name (letters, digits, '_', '-')", name);
-	char real_dir[PATH_MAX];
-	if (!realpath(dir, real_dir))
-		return mc_err_set(err, "plugin directory %s: %s", dir, strerror(errno));
-	if (mcd_dir_trusted(real_dir, uid, gid, err))
-		return -1;
-
 	int dfd = open(real_dir, O_RDONLY | O_DIRECTORY | O_CLOEXEC);
 	if (dfd < 0)
 		return mc_err_set(err, "plugin directory %s: %s", real_dir, strerror(errno));
@@ -172,37 +164,60 @@ int mcd_plugin_load(const char *dir, const char *name, uid_t uid, gid_t gid, mcd
 		close(fd);
 		return -1;
 	}
+	return fd;
+}
 
-	/* Load the very file that was checked, not whatever the path names now. */
+/* Loads the very file that was checked (from its descriptor, not whatever
+ * the path names now) and takes its driver descriptor. */
+static int load_from_fd(int fd, mcd_plugin *out, mc_err *err)
+{
 	char fd_path[64];
 	snprintf(fd_path, sizeof(fd_path), "/proc/self/fd/%d", fd);
 	dlerror();
 	void *handle = dlopen(fd_path, RTLD_NOW | RTLD_LOCAL);
 	if (!handle) {
 		const char *why = dlerror();
-		close(fd);
 		return mc_err_set(err, "%s: cannot load: %s", out->path, why ? why : "unknown dlopen error");
 	}
 	mdrv_entry_fn entry;
 	*(void **)&entry = dlsym(handle, MDRV_ENTRY_SYMBOL);
 	if (!entry) {
 		dlclose(handle);
-		close(fd);
 		return mc_err_set(err, "%s: exports no %s(); not a mocapd driver plugin; refused", out->path,
 				  MDRV_ENTRY_SYMBOL);
 	}
 	const mdrv_driver *drv = entry();
 	if (check_descriptor(drv, out->path, err)) {
 		dlclose(handle);
+		return -1;
+	}
+	out->handle = handle;
+	out->driver = drv;
+	return 0;
+}
+
+int mcd_plugin_load(const char *dir, const char *name, uid_t uid, gid_t gid, mcd_plugin *out, mc_err *err)
+{
+	memset(out, 0, sizeof(*out));
+	out->fd = -1;
+	if (!valid_driver_name(name))
+		return mc_err_set(err, "driver '%s': not a valid driver name (letters, digits, '_', '-')", name);
+	char real_dir[PATH_MAX];
+	if (!realpath(dir, real_dir))
+		return mc_err_set(err, "plugin directory %s: %s", dir, strerror(errno));
+	if (mcd_dir_trusted(real_dir, uid, gid, err))
+		return -1;
+	int fd = open_checked(real_dir, name, uid, gid, out, err);
+	if (fd < 0)
+		return -1;
+	if (load_from_fd(fd, out, err)) {
 		close(fd);
 		return -1;
 	}
-	if (strcmp(drv->name, name) != 0)
-		mcd_warn("%s: the driver calls itself '%s', not '%s'", out->path, drv->name, name);
+	if (strcmp(out->driver->name, name) != 0)
+		mcd_warn("%s: the driver calls itself '%s', not '%s'", out->path, out->driver->name, name);
 	snprintf(out->name, sizeof(out->name), "%s", name);
-	out->handle = handle;
 	out->fd = fd;
-	out->driver = drv;
 	return 0;
 }
 
