@@ -1,76 +1,11 @@
 #include "tracker_setup.h"
 
 #include "log.h"
-#include "base/mc_json.h"
+#include "eval/mc_gt.h"
 
-#include <errno.h>
-#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-
-int mcd_read_init_joints(const char *path, char ***names_out, mc_vec3 **pos_out, int *n_out, mc_err *err)
-{
-	json_t *root;
-	if (mc_json_load_file(path, &root, err))
-		return -1;
-	json_t *frames, *joints;
-	int rc = -1;
-	char where[600];
-	if (mc_json_array(root, "frames", path, 1, SIZE_MAX, &frames, true, err))
-		goto out;
-	json_t *frame0 = json_array_get(frames, 0);
-	snprintf(where, sizeof(where), "%s: frames[0]", path);
-	if (!json_is_object(frame0)) {
-		mc_err_set(err, "%s: expected an object", where);
-		goto out;
-	}
-	if (mc_json_object(frame0, "joints_left_cam", where, &joints, true, err))
-		goto out;
-	int n = (int)json_object_size(joints);
-	char **names = calloc((size_t)n + 1, sizeof(*names));
-	mc_vec3 *pos = calloc((size_t)n + 1, sizeof(*pos));
-	if (!names || !pos) {
-		free(names);
-		free(pos);
-		mc_err_set(err, "%s: out of memory", path);
-		goto out;
-	}
-	int i = 0;
-	const char *key;
-	json_t *value;
-	snprintf(where, sizeof(where), "%s: frames[0].joints_left_cam", path);
-	json_object_foreach(joints, key, value)
-	{
-		(void)value;
-		names[i] = strdup(key);
-		if (!names[i] || mc_json_vec3(joints, key, where, &pos[i], true, err)) {
-			if (names[i])
-				i++;
-			mcd_joints_free(names, pos, i);
-			if (!names[0])
-				mc_err_set(err, "%s: out of memory", path);
-			goto out;
-		}
-		i++;
-	}
-	*names_out = names;
-	*pos_out = pos;
-	*n_out = n;
-	rc = 0;
-out:
-	json_decref(root);
-	return rc;
-}
-
-void mcd_joints_free(char **names, mc_vec3 *pos, int n)
-{
-	if (names)
-		for (int i = 0; i < n; i++)
-			free(names[i]);
-	free(names);
-	free(pos);
-}
 
 static int load_rig(const mcd_config *cfg, mcd_tracking *t, mc_err *err)
 {
@@ -105,10 +40,30 @@ static int map_cameras(const mcd_config *cfg, mcd_tracking *t, mc_err *err)
 	return 0;
 }
 
-static int init_pose(const mcd_config *cfg, mcd_tracking *t, mc_err *err)
+/* The pose and bone lengths from frame 0 of the init_joints file. */
+static int init_from_joints(const mcd_config *cfg, mcd_tracking *t, mc_err *err)
 {
 	const char *path = cfg->tracker.init_joints;
-	if (!path[0]) {
+	mc_gt gt;
+	if (mc_gt_load(path, "joints_left_cam", &gt, err))
+		return -1;
+	const char *names[MC_GT_MAX_JOINTS];
+	mc_vec3 pos[MC_GT_MAX_JOINTS];
+	for (int j = 0; j < gt.njoints; j++) {
+		names[j] = gt.joint_names[j];
+		pos[j] = mc_gt_at(&gt, 0, j);
+	}
+	int n = gt.njoints;
+	int rc = mc_tracker_init_from_joints(t->tracker, names, pos, n, err);
+	mc_gt_free(&gt);
+	if (rc == 0)
+		mcd_info("tracker: initialised from %d joints of %s, frame 0", n, path);
+	return rc;
+}
+
+static int init_pose(const mcd_config *cfg, mcd_tracking *t, mc_err *err)
+{
+	if (!cfg->tracker.init_joints[0]) {
 		double pose[MC_MAX_DOF];
 		mc_model_rest_pose(&t->model, pose);
 		mc_tracker_set_pose(t->tracker, pose);
@@ -116,17 +71,20 @@ static int init_pose(const mcd_config *cfg, mcd_tracking *t, mc_err *err)
 		return 0;
 	}
 	char where[700];
-	mcd_config_where(cfg, "tracker", "init_joints", where, sizeof(where));
-	char **names;
-	mc_vec3 *pos;
-	int n;
-	if (mcd_read_init_joints(path, &names, &pos, &n, err))
-		return mc_err_prefix(err, "%s", where);
-	int rc = mc_tracker_init_from_joints(t->tracker, (const char *const *)names, pos, n, err);
-	mcd_joints_free(names, pos, n);
-	if (rc)
-		return mc_err_prefix(err, "%s", where);
-	mcd_info("tracker: initialised from %d joints of %s, frame 0", n, path);
+	if (init_from_joints(cfg, t, err))
+		return mc_err_prefix(err, "%s", mcd_config_where(cfg, "tracker", "init_joints", where, sizeof(where)));
+	return 0;
+}
+
+/* The rig, the camera map and the model: what both --check and the start
+ * need. */
+static int load_rig_and_model(const mcd_config *cfg, mcd_tracking *t, mc_err *err)
+{
+	char where[700];
+	if (load_rig(cfg, t, err) || map_cameras(cfg, t, err))
+		return -1;
+	if (mc_model_load(cfg->tracker.model, &t->model, err))
+		return mc_err_prefix(err, "%s", mcd_config_where(cfg, "tracker", "model", where, sizeof(where)));
 	return 0;
 }
 
@@ -136,25 +94,15 @@ int mcd_tracking_check(const mcd_config *cfg, mc_err *err)
 	if (!t)
 		return mc_err_set(err, "out of memory");
 	char where[700];
-	int rc = -1;
-	if (load_rig(cfg, t, err) || map_cameras(cfg, t, err))
-		goto out;
-	if (mc_model_load(cfg->tracker.model, &t->model, err)) {
-		mc_err_prefix(err, "%s", mcd_config_where(cfg, "tracker", "model", where, sizeof(where)));
-		goto out;
-	}
-	if (cfg->tracker.init_joints[0]) {
-		char **names;
-		mc_vec3 *pos;
-		int n;
-		if (mcd_read_init_joints(cfg->tracker.init_joints, &names, &pos, &n, err)) {
+	int rc = load_rig_and_model(cfg, t, err);
+	if (rc == 0 && cfg->tracker.init_joints[0]) {
+		mc_gt gt;
+		rc = mc_gt_load(cfg->tracker.init_joints, "joints_left_cam", &gt, err);
+		if (rc)
 			mc_err_prefix(err, "%s", mcd_config_where(cfg, "tracker", "init_joints", where, sizeof(where)));
-			goto out;
-		}
-		mcd_joints_free(names, pos, n);
+		else
+			mc_gt_free(&gt);
 	}
-	rc = 0;
-out:
 	mcd_tracking_free(t);
 	free(t);
 	return rc;
@@ -163,13 +111,8 @@ out:
 int mcd_tracking_setup(const mcd_config *cfg, mcd_tracking *t, mc_err *err)
 {
 	memset(t, 0, sizeof(*t));
-	char where[700];
-	if (load_rig(cfg, t, err) || map_cameras(cfg, t, err))
+	if (load_rig_and_model(cfg, t, err))
 		goto fail;
-	if (mc_model_load(cfg->tracker.model, &t->model, err)) {
-		mc_err_prefix(err, "%s", mcd_config_where(cfg, "tracker", "model", where, sizeof(where)));
-		goto fail;
-	}
 	t->settings = cfg->tracker.settings;
 	t->tracker = mc_tracker_create(&t->rig, &t->model, &t->settings, err);
 	if (!t->tracker) {

@@ -3,9 +3,9 @@
  * cameras to rig cameras.
  *
  * Initial pose: with `init_joints = gt.json`, frame 0's joints (rig frame,
- * i.e. the left camera frame of the ego data) initialise pose and bone
- * lengths through mc_tracker_init_from_joints; otherwise the model's rest
- * pose.  Errors name the config key they come from, e.g.
+ * i.e. the left camera frame of the ego data, read by core/eval/mc_gt.h)
+ * initialise pose and bone lengths through mc_tracker_init_from_joints;
+ * otherwise the model's rest pose.  Errors name the config key they come from, e.g.
  *   "mocapd.conf:24: [tracker] rig: rigs/x.json: cameras[0].f: ..." */
 #ifndef MCD_TRACKER_SETUP_H
 #define MCD_TRACKER_SETUP_H
@@ -39,10 +39,5 @@ void mcd_tracking_free(mcd_tracking *t);
  * reloadable) through mc_tracker_set_budget, keeping the actor, the pose
  * and the device.  Call on the tracking thread, between frames. */
 int mcd_tracking_reload(mcd_tracking *t, const mc_tracker_settings *want, mc_err *err);
-
-/* Reads frame 0's joints from a gt.json (the ego data's format).  *names and
- * *pos are malloc'ed arrays of n entries; free both with mcd_joints_free. */
-int mcd_read_init_joints(const char *path, char ***names, mc_vec3 **pos, int *n, mc_err *err);
-void mcd_joints_free(char **names, mc_vec3 *pos, int n);
 
 #endif
