@@ -595,6 +595,46 @@ static void test_inputs_and_world(void)
 	srv_destroy(srv);
 }
 
+/* The keypoint inbox the tracking thread reads: oldest first, bounded (a
+ * full inbox drops its oldest batch and counts it), and the event fd
+ * readable exactly while a batch waits. */
+static void test_keypoint_inbox(void)
+{
+	srv_server *srv = make_server(8, 256);
+	mc_err err;
+	CHECK(srv_set_rig(srv, "{}", 2, &err) == 0);
+	srv_keypoint_inbox *inbox = srv_keypoints_inbox(srv);
+	CHECK(inbox != NULL && srv_keypoints_inbox(srv) == inbox);
+	mocap_client *c = mocap_connect(path, "detector");
+	mocap_keypoint kp = {3, 10, 20, 0.5f};
+	const int sent = 65; /* one more than the inbox holds */
+	for (int i = 0; i < sent; i++)
+		CHECK(mocap_send_keypoints(c, 1000 + (uint64_t)i, i % 2, &kp, 1) == 0);
+	CHECK(mocap_ping(c, NULL) == 0); /* every batch is in by now */
+	struct pollfd pf = {.fd = srv_event_fd(srv), .events = POLLIN};
+	CHECK(poll(&pf, 1, 0) == 1);
+	srv_stats st;
+	srv_get_stats(srv, &st);
+	CHECK(st.keypoint_drops == 1);
+	srv_keypoints got;
+	int n = 0;
+	bool in_order = true;
+	while (srv_inbox_pop_keypoints(inbox, &got) == 1) {
+		in_order &= got.capture_ns == 1001 + (uint64_t)n && got.cam == (int)((1 + n) % 2) && got.nkeypoints == 1 &&
+			    got.keypoints[0].joint == 3;
+		n++;
+	}
+	CHECK_MSG(n == sent - 1 && in_order, "%d batches popped (in order: %d)", n, in_order);
+	CHECK(poll(&pf, 1, 0) == 0);
+	/* The old call reads the same inbox. */
+	CHECK(mocap_send_keypoints(c, 5, 1, &kp, 1) == 0);
+	CHECK(mocap_ping(c, NULL) == 0);
+	CHECK(srv_poll_keypoints(srv, &got) == 1 && got.capture_ns == 5);
+	CHECK(srv_inbox_pop_keypoints(inbox, &got) == 0);
+	mocap_close(c);
+	srv_destroy(srv);
+}
+
 static void test_rings(void)
 {
 	srv_server *srv = make_server(8, 256);
@@ -688,6 +728,7 @@ int main(int argc, char **argv)
 	test_control();
 	test_permissions(argv[0]);
 	test_inputs_and_world();
+	test_keypoint_inbox();
 	test_rings();
 	test_errors();
 	rmdir(dir);
