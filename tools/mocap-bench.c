@@ -13,6 +13,7 @@
 #include "eval/mc_clip.h"
 #include "image/mc_draw.h"
 #include "track/mc_tracker.h"
+#include "bench/detector_eval.h"
 
 #include <errno.h>
 #include <getopt.h>
@@ -53,6 +54,8 @@ typedef struct {
 	 * noise (native pixels): a stand-in for a 2D detector, which is not
 	 * the evaluation protocol */
 	double simulated_detector_px;
+	const char *detector_path; /* --detector MODEL: the 2D joint detector feeds the tracker */
+	int detector_every;        /* detect on every Nth frame set */
 	mc_tracker_settings s;
 } options;
 
@@ -226,8 +229,20 @@ static double mpjpe_of(const run_stats *st)
 	return st->err_n ? sum / (st->err_n * NEVAL) : 0;
 }
 
-static int track_clip(const options *o, mc_tracker *t, const mc_clip *clip, int nframes, FILE *out,
-		      run_stats *st, mc_err *err)
+/* The keypoints of frame set k: the detector's (timed with the frame, as
+ * part of the cost of tracking it), the simulated detector's, or none. */
+static int frame_keypoints(const options *o, bench_detector *bd, mc_tracker *t, const mc_clip *clip, int k,
+			   const mc_frame_view *views, uint64_t *rng, mc_keypoint *kp, int cap, mc_err *err)
+{
+	if (bd)
+		return bench_detector_run(bd, clip, k, views, 2, kp, cap, err);
+	if (o->simulated_detector_px >= 0)
+		return simulated_keypoints(clip, mc_tracker_model(t), k, o->simulated_detector_px, rng, kp, cap);
+	return 0;
+}
+
+static int track_clip(const options *o, mc_tracker *t, bench_detector *bd, const mc_clip *clip, int nframes,
+		      FILE *out, run_stats *st, mc_err *err)
 {
 	st->ms = calloc(nframes, sizeof(double));
 	if (!st->ms)
@@ -238,14 +253,12 @@ static int track_clip(const options *o, mc_tracker *t, const mc_clip *clip, int 
 	for (int k = 0; k < nframes; k++) {
 		mc_frame_view views[2];
 		mc_skeleton sk;
-		mc_keypoint kp[2 * NEVAL];
-		int nkp = o->simulated_detector_px >= 0 ? simulated_keypoints(clip, mc_tracker_model(t), k,
-									     o->simulated_detector_px, &rng, kp, 2 * NEVAL)
-							: 0;
+		mc_keypoint kp[2 * MC_DETECTOR_MAX_JOINTS];
 		if (mc_clip_load_frame(clip, k, views, err) < 0)
 			return -1;
 		uint64_t t0 = mc_now_ns();
-		int rc = mc_tracker_track(t, views, 2, kp, nkp, &sk, err);
+		int nkp = frame_keypoints(o, bd, t, clip, k, views, &rng, kp, 2 * MC_DETECTOR_MAX_JOINTS, err);
+		int rc = nkp < 0 ? -1 : mc_tracker_track(t, views, 2, kp, nkp, &sk, err);
 		st->ms[k] = mc_ms_since(t0);
 		if (rc == 0 && o->overlay_dir && k % o->overlay_every == 0)
 			write_overlay(o, clip, k, &views[0], &sk);
@@ -345,7 +358,7 @@ static double reference_ms_per_frame(const options *o, const mc_clip *clip, mc_e
 	run_stats st = {0};
 	options q = *o;
 	q.quiet = true;
-	int rc = track_clip(&q, t, clip, o->reference_frames, NULL, &st, err);
+	int rc = track_clip(&q, t, NULL, clip, o->reference_frames, NULL, &st, err);
 	timing tm = timing_of(st.ms, st.frames);
 	free(st.ms);
 	mc_tracker_destroy(t);
@@ -497,7 +510,11 @@ static void usage(FILE *f)
 		   "  --simulated-detector PX  feed the tracker keypoints projected from the ground truth with PX\n"
 		   "                        pixels of noise (15%% missed), standing in for a 2D detector; NOT the\n"
 		   "                        evaluation protocol, which uses no ground truth after frame 0\n"
-		   "  --lambda-detection L  weight of the keypoint term\n");
+		   "  --lambda-detection L  weight of the keypoint term\n"
+		   "  --detector MODEL      the 2D joint detector (ONNX, docs/DETECTOR.md) feeds the tracker; its\n"
+		   "                        time counts in the reported speed, and a 2D report follows\n"
+		   "  --detector-every N    detect on every Nth frame set only (default 1)\n"
+		   "  --lambda-color L      weight of the colour term (default 1; 0: detections and priors only)\n");
 }
 
 static int parse_number(const char *opt, const char *arg, double lo, double hi, double *out)
@@ -515,7 +532,7 @@ static int parse_number(const char *opt, const char *arg, double lo, double hi, 
 enum { OPT_MODEL = 256, OPT_OUT, OPT_FRAMES, OPT_BACKEND, OPT_WIDTH, OPT_HEIGHT, OPT_ITER, OPT_FRAC, OPT_DROP,
        OPT_STEP, OPT_MOM, OPT_LSMOOTH, OPT_LPOSE, OPT_LLIMIT, OPT_PLAT, OPT_DEV, OPT_SEED, OPT_OCAM, OPT_REF,
        OPT_NOTHESIS, OPT_QUIET, OPT_CLIP, OPT_HELP, OPT_OVERLAY, OPT_OVERLAY_EVERY, OPT_LANCHOR,
-       OPT_SIMDET, OPT_LDET };
+       OPT_SIMDET, OPT_LDET, OPT_DETECTOR, OPT_DET_EVERY, OPT_LCOLOR };
 
 static int apply_option(options *o, int c, const char *name, const char *arg, bool *thesis)
 {
@@ -525,6 +542,7 @@ static int apply_option(options *o, int c, const char *name, const char *arg, bo
 	case OPT_CLIP: o->clip = arg; return 0;
 	case OPT_MODEL: o->model_path = arg; return 0;
 	case OPT_OUT: o->out_path = arg; return 0;
+	case OPT_DETECTOR: o->detector_path = arg; return 0;
 	case OPT_OVERLAY: o->overlay_dir = arg; return 0;
 	case OPT_OCAM: o->use_ocam = true; return 0;
 	case OPT_NOTHESIS: *thesis = false; return 0;
@@ -555,6 +573,8 @@ static int apply_option(options *o, int c, const char *name, const char *arg, bo
 	case OPT_LLIMIT: s->lambda_limit = v; break;
 	case OPT_LANCHOR: s->lambda_anchor = v; break;
 	case OPT_LDET: s->lambda_detection = v; break;
+	case OPT_LCOLOR: s->lambda_color = v; break;
+	case OPT_DET_EVERY: o->detector_every = v >= 1 ? (int)v : 1; break;
 	case OPT_SIMDET: o->simulated_detector_px = v; break;
 	case OPT_PLAT: s->cl_platform = (int)v; break;
 	case OPT_DEV: s->cl_device = (int)v; break;
@@ -573,6 +593,8 @@ static int parse_options(int argc, char **argv, options *o, bool *thesis)
 		{"lambda-smooth", 1, 0, OPT_LSMOOTH}, {"lambda-pose", 1, 0, OPT_LPOSE},
 		{"lambda-limit", 1, 0, OPT_LLIMIT}, {"lambda-anchor", 1, 0, OPT_LANCHOR},
 		{"lambda-detection", 1, 0, OPT_LDET}, {"simulated-detector", 1, 0, OPT_SIMDET},
+		{"detector", 1, 0, OPT_DETECTOR}, {"detector-every", 1, 0, OPT_DET_EVERY},
+		{"lambda-color", 1, 0, OPT_LCOLOR},
 		{"platform", 1, 0, OPT_PLAT}, {"device", 1, 0, OPT_DEV},
 		{"seed", 1, 0, OPT_SEED}, {"ocam", 0, 0, OPT_OCAM}, {"reference-frames", 1, 0, OPT_REF},
 		{"no-thesis", 0, 0, OPT_NOTHESIS}, {"overlay-dir", 1, 0, OPT_OVERLAY},
@@ -588,6 +610,10 @@ static int parse_options(int argc, char **argv, options *o, bool *thesis)
 			usage(stderr);
 			return -1;
 		}
+	}
+	if (o->detector_path && o->simulated_detector_px >= 0) {
+		fprintf(stderr, "mocap-bench: --detector and --simulated-detector exclude each other\n");
+		return -1;
 	}
 	if (!o->clip) {
 		fprintf(stderr, "mocap-bench: --clip DIR is required\n");
@@ -641,8 +667,22 @@ static int run(const options *o, bool thesis, mc_err *err)
 		printf("WARNING: simulated detector: keypoints from the ground truth, %.1f px noise, %.0f%% missed. "
 		       "Not the evaluation protocol.\n",
 		       o->simulated_detector_px, 100 * SIMULATED_MISS);
+	bench_detector det, *bd = NULL;
+	if (o->detector_path) {
+		if (bench_detector_open(&det, o->detector_path, mc_tracker_model(t), &clip, o->detector_every, nframes,
+					err) < 0) {
+			if (out)
+				fclose(out);
+			mc_tracker_destroy(t);
+			mc_clip_close(&clip);
+			return -1;
+		}
+		bd = &det;
+		printf("detector: %s, every %d frame set(s), lambda_detection %.3g, lambda_color %.3g\n",
+		       o->detector_path, det.every, o->s.lambda_detection, o->s.lambda_color);
+	}
 	run_stats st = {0};
-	int rc = track_clip(o, t, &clip, nframes, out, &st, err);
+	int rc = track_clip(o, t, bd, &clip, nframes, out, &st, err);
 	if (out)
 		fclose(out);
 	char device[160];
@@ -650,6 +690,8 @@ static int run(const options *o, bool thesis, mc_err *err)
 	mc_tracker_destroy(t);
 	if (rc == 0) {
 		print_accuracy(&st);
+		if (bd)
+			bench_detector_report(bd, clip.name);
 		print_speed(o, &clip, &st, err);
 		if (thesis && run_thesis_config(o, &clip, err) < 0)
 			fprintf(stderr, "mocap-bench: thesis configuration: %s\n", err->msg);
@@ -660,6 +702,8 @@ static int run(const options *o, bool thesis, mc_err *err)
 		printf("RESULT clip=%s frames=%d mpjpe_cm=%.2f fps=%.1f ms_p99=%.2f device=%s\n", clip.name, st.frames,
 		       100.0 * mpjpe_of(&st), 1e3 / tm.mean, tm.p99, device);
 	}
+	if (bd)
+		bench_detector_close(bd);
 	free(st.ms);
 	mc_clip_close(&clip);
 	return rc;

@@ -42,6 +42,7 @@ void mc_tracker_settings_default(mc_tracker_settings *s)
 	s->step = 0.004;
 	s->momentum = 0.7;
 	s->lambda_detection = 1.0 / 3.0;
+	s->lambda_color = 1.0;
 	s->lambda_limit = 0.1;
 	s->lambda_pose = 1e-4;
 	s->lambda_smooth = 0.1;
@@ -85,6 +86,8 @@ static int validate_settings(const mc_tracker_settings *s, mc_err *err)
 		return mc_err_set(err, "tracker: step must be in (0, 1), got %g", s->step);
 	if (!(s->momentum >= 0 && s->momentum < 1))
 		return mc_err_set(err, "tracker: momentum must be in [0, 1), got %g", s->momentum);
+	if (!(s->lambda_color >= 0 && s->lambda_color < 1e6))
+		return mc_err_set(err, "tracker: lambda_color must be in [0, 1e6), got %g", s->lambda_color);
 	if (!(s->lambda_anchor >= 0 && s->lambda_anchor < 1e6))
 		return mc_err_set(err, "tracker: lambda_anchor must be in [0, 1e6), got %g", s->lambda_anchor);
 	return 0;
@@ -615,6 +618,24 @@ static void predict(const mc_tracker *t, double *pred)
 	mc_model_clamp_pose(&t->model, pred);
 }
 
+/* The colour term of one iteration, weighted by lambda_color (skipped,
+ * with its pixel sampling, when that is 0). */
+static int color_term(mc_tracker *t, const mc_scene *scene, double *E, mc_vec3 *dmu, mc_err *err)
+{
+	if (t->s.lambda_color <= 0) {
+		*E = 0;
+		memset(dmu, 0, sizeof(mc_vec3) * scene->n);
+		return 0;
+	}
+	int ns = mc_trk_sample_pixels(t, t->s.pixel_fraction);
+	if (mc_trk_data_term(t, scene, ns, t->s.dropout, E, dmu, err) < 0)
+		return -1;
+	for (int q = 0; q < scene->n; q++)
+		dmu[q] = mc_v3_scale(dmu[q], t->s.lambda_color);
+	*E *= t->s.lambda_color;
+	return 0;
+}
+
 /* Runs the iteration budget from `pose` (in/out). Returns the mean data
  * energy per pixel over the last quarter of the iterations. */
 static int optimise(mc_tracker *t, double *pose, const double *pred, const mc_keypoint *kp, int nkp, double *final_E,
@@ -632,8 +653,7 @@ static int optimise(mc_tracker *t, double *pose, const double *pred, const mc_ke
 		double grad[MC_MAX_DOF] = {0}, E;
 		mc_model_fk(&t->model, pose, &fk);
 		mc_trk_make_scene(t, &fk, &scene);
-		int ns = mc_trk_sample_pixels(t, t->s.pixel_fraction);
-		if (mc_trk_data_term(t, &scene, ns, t->s.dropout, &E, dmu, err) < 0)
+		if (color_term(t, &scene, &E, dmu, err) < 0)
 			return -1;
 		mc_model_backprop(&t->model, pose, &fk, dmu, grad);
 		mc_energy_pose(&t->model, pose, t->s.lambda_limit, t->s.lambda_pose, grad);

@@ -32,6 +32,9 @@ typedef struct {
 	double step;             /* base step size */
 	double momentum;         /* 0..1 */
 	double lambda_detection, lambda_limit, lambda_pose, lambda_smooth;
+	/* Weight of the colour term (1).  0 drops it: the pose then follows the
+	 * detections and the priors alone (for measuring what each term does). */
+	double lambda_color;
 	/* Pull toward the pose set by mc_tracker_set_pose / init_from_joints
 	 * (the calibration pose), same pseudo-Huber form as lambda_smooth:
 	 * keeps weakly observed dofs from random-walking (docs/TRACKER.md). */

@@ -1,0 +1,44 @@
+/* The detector inside mocap-bench (--detector MODEL): runs the 2D joint
+ * detector on every view of a frame set, hands its keypoints to the
+ * tracker, and scores the detections in 2D against the clip's ground truth
+ * projected through the rig (for the report only: the tracker never sees
+ * the ground truth). */
+#ifndef BENCH_DETECTOR_EVAL_H
+#define BENCH_DETECTOR_EVAL_H
+
+#include "eval/mc_clip.h"
+#include "mc_detector.h"
+
+/* Joint groups of the 2D report, as in the 3D one. */
+#define BENCH_DET_GROUPS 4
+
+typedef struct {
+	mc_detector *det;
+	int model_map[MC_DETECTOR_MAX_JOINTS]; /* detector joint -> model joint, -1 */
+	int gt_map[MC_DETECTOR_MAX_JOINTS];    /* detector joint -> gt joint, -1 */
+	int group[MC_DETECTOR_MAX_JOINTS];     /* report group, -1: not evaluated */
+	int every;                             /* detect on every Nth frame set */
+	/* 2D scoring, pixels at the detector's input resolution */
+	double *err[BENCH_DET_GROUPS];
+	int nerr[BENCH_DET_GROUPS], cap;
+	int in_image, missed, false_pos, reported;
+	/* cost */
+	double *view_ms;
+	int nviews, views_cap;
+} bench_detector;
+
+/* Loads the model and maps its joints to the model's and the clip's;
+ * nframes sizes the score buffers. */
+int bench_detector_open(bench_detector *bd, const char *path, const mc_model *model, const mc_clip *clip, int every,
+			int nframes, mc_err *err);
+void bench_detector_close(bench_detector *bd);
+
+/* Frame set k: detects (when k is a detection frame), scores and writes the
+ * tracker's keypoints.  Returns their count, or -1 with err. */
+int bench_detector_run(bench_detector *bd, const mc_clip *clip, int k, const mc_frame_view *views, int nviews,
+		       mc_keypoint *kp, int max, mc_err *err);
+
+/* The 2D report and its machine-readable DETECT2D line. */
+void bench_detector_report(bench_detector *bd, const char *clip_name);
+
+#endif
