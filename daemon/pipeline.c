@@ -255,11 +255,8 @@ static void camera_status(mcd_pipeline *p, int c, const mcd_track_stats *ts, mcd
 {
 	snprintf(cs->name, sizeof(cs->name), "%s", mcd_camera_name(p->cams[c]));
 	snprintf(cs->driver, sizeof(cs->driver), "%s", mcd_camera_driver(p->cams[c]));
-	cs->missing = ts->cams[c].missing;
-	cs->late = ts->cams[c].late;
-	cs->overrun = ts->cams[c].overrun;
-	cs->undecodable = ts->cams[c].undecodable;
-	snprintf(cs->last_error, sizeof(cs->last_error), "%s", ts->cams[c].last_error);
+	cs->track = ts->cams[c];
+	snprintf(cs->last_error, sizeof(cs->last_error), "%s", ts->last_error[c]);
 	cs->state = mcd_camera_state(p->cams[c]);
 	mcd_camera_counters(p->cams[c], &cs->counters);
 	cs->format = mcd_camera_format(p->cams[c]);
@@ -274,14 +271,7 @@ void mcd_pipeline_get_status(mcd_pipeline *p, mcd_pipeline_status *st, bool rese
 	memset(st, 0, sizeof(*st));
 	st->ncams = p->ncams;
 	st->tracking = p->tracking;
-	st->sets = ts.sets;
-	st->complete_sets = ts.complete_sets;
-	st->tracked = ts.tracked;
-	st->skipped = ts.skipped;
-	st->track_errors = ts.track_errors;
-	st->track_ms_total = ts.track_ms_total;
-	st->track_ms_max = ts.track_ms_max;
-	st->track_state = ts.track_state;
+	st->track = ts.total;
 	for (int c = 0; c < p->ncams; c++)
 		camera_status(p, c, &ts, &st->cams[c]);
 	if (p->pub)

@@ -15,6 +15,7 @@
 #include "publish.h"
 #include "server.h"
 #include "tracker_setup.h"
+#include "tracking_thread.h"
 
 #include <stdbool.h>
 #include <stdint.h>
@@ -25,25 +26,15 @@ typedef struct {
 	mcd_cam_state state;
 	mcd_cam_counters counters;
 	mdrv_format format;
-	uint64_t missing;     /* frame sets emitted without this camera */
-	uint64_t late;        /* frames that came after their frame set */
-	uint64_t overrun;     /* frames overwritten in the ring before use */
-	uint64_t undecodable; /* frames that failed conversion to RGB */
-	char last_error[256];
+	mcd_cam_track_stats track; /* what the tracking thread counted */
+	char last_error[256];      /* the capture thread's, or the last undecodable frame */
 } mcd_cam_status;
 
 typedef struct {
 	int ncams;
 	mcd_cam_status cams[MC_MAX_CAMERAS];
-	bool tracking;          /* a tracker is configured */
-	uint64_t sets;          /* frame sets emitted by the grouper */
-	uint64_t complete_sets; /* with every camera */
-	uint64_t tracked;       /* frame sets tracked */
-	uint64_t skipped;       /* frame sets skipped because newer ones were due */
-	uint64_t track_errors;
-	double track_ms_total;  /* sum over all tracked sets */
-	double track_ms_max;    /* since the last mcd_pipeline_get_status(.., reset_max) */
-	int track_state;        /* mc_track_state of the last tracked set, -1 none */
+	bool tracking;           /* a tracker is configured */
+	mcd_track_totals track;  /* track_ms_max: since the last mcd_pipeline_get_status(.., reset_max) */
 	mcd_publish_stats publish;
 } mcd_pipeline_status;
 

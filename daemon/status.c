@@ -8,7 +8,7 @@
 uint64_t mcd_cam_drops(const mcd_cam_status *c)
 {
 	return c->counters.short_frames + c->counters.corrupt_frames + c->counters.bad_frames + c->counters.nospace +
-	       c->overrun + c->undecodable + c->late;
+	       c->track.overrun + c->track.undecodable + c->track.late;
 }
 
 static double rate(uint64_t now, uint64_t prev, double dt_s)
@@ -19,13 +19,13 @@ static double rate(uint64_t now, uint64_t prev, double dt_s)
 /* Mean tracking time over the interval. */
 static double mean_track_ms(const mcd_pipeline_status *now, const mcd_pipeline_status *prev)
 {
-	uint64_t n = now->tracked - prev->tracked;
-	return n ? (now->track_ms_total - prev->track_ms_total) / (double)n : 0;
+	uint64_t n = now->track.tracked - prev->track.tracked;
+	return n ? (now->track.track_ms_total - prev->track.track_ms_total) / (double)n : 0;
 }
 
 static const char *track_state_name(int s)
 {
-	return s == 0 ? "ok" : s == 1 ? "uncertain" : s == 2 ? "lost" : "idle";
+	return s < 0 ? "idle" : mc_track_state_name((mc_track_state)s);
 }
 
 void mcd_status_line(const mcd_pipeline_status *now, const mcd_pipeline_status *prev, double dt_s, char *buf,
@@ -36,10 +36,10 @@ void mcd_status_line(const mcd_pipeline_status *now, const mcd_pipeline_status *
 		buf[0] = 0;
 	if (now->tracking)
 		mcd_appendf(buf, cap, &len, "tracking %.1f fps, %.1f ms (max %.1f), %s",
-			    rate(now->tracked, prev->tracked, dt_s), mean_track_ms(now, prev), now->track_ms_max,
-			    track_state_name(now->track_state));
+			    rate(now->track.tracked, prev->track.tracked, dt_s), mean_track_ms(now, prev),
+			    now->track.track_ms_max, track_state_name(now->track.track_state));
 	else
-		mcd_appendf(buf, cap, &len, "tracker off, %.1f frame sets/s", rate(now->sets, prev->sets, dt_s));
+		mcd_appendf(buf, cap, &len, "tracker off, %.1f frame sets/s", rate(now->track.sets, prev->track.sets, dt_s));
 	for (int c = 0; c < now->ncams; c++) {
 		const mcd_cam_status *cn = &now->cams[c], *cp = &prev->cams[c];
 		mcd_appendf(buf, cap, &len, " | %s: %s", cn->name, mcd_cam_state_name(cn->state));
@@ -72,13 +72,13 @@ void mcd_status_to_server(const mcd_pipeline_status *now, const mcd_pipeline_sta
 			  uint64_t start_ns, const char *device, srv_status *out)
 {
 	memset(out, 0, sizeof(*out));
-	out->tracker_state = now->tracking && now->track_state >= 0 ? (srv_tracker_state)now->track_state
-								     : SRV_TRACKER_IDLE;
+	out->tracker_state = now->tracking && now->track.track_state >= 0 ? (srv_tracker_state)now->track.track_state
+									   : SRV_TRACKER_IDLE;
 	out->publish_fps = rate(now->publish.published, prev->publish.published, dt_s);
 	out->track_ms_mean = mean_track_ms(now, prev);
-	out->track_ms_max = now->track_ms_max;
+	out->track_ms_max = now->track.track_ms_max;
 	out->frames_published = now->publish.published;
-	out->frames_dropped = now->skipped + now->publish.dropped;
+	out->frames_dropped = now->track.skipped + now->publish.dropped;
 	out->start_ns = start_ns;
 	snprintf(out->device, sizeof(out->device), "%s", device ? device : "");
 	out->ncams = now->ncams < SRV_STATUS_MAX_CAMS ? now->ncams : SRV_STATUS_MAX_CAMS;

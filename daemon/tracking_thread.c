@@ -87,7 +87,7 @@ static void note_undecodable(mcd_tracking_thread *t, int c, const mc_err *err)
 {
 	pthread_mutex_lock(&t->lock);
 	uint64_t n = ++t->st.cams[c].undecodable;
-	snprintf(t->st.cams[c].last_error, sizeof(t->st.cams[c].last_error), "frame dropped: %.220s", err->msg);
+	snprintf(t->st.last_error[c], sizeof(t->st.last_error[c]), "frame dropped: %.220s", err->msg);
 	pthread_mutex_unlock(&t->lock);
 	if (mc_throttle_should_log(n))
 		mcd_warn("camera %s: frame dropped: %s (%llu so far)", mcd_camera_name(t->cams[c]), err->msg,
@@ -170,15 +170,16 @@ static void calibrate_once(mcd_tracking_thread *t, const mc_frame_view *views, i
 static uint64_t count_tracked(mcd_tracking_thread *t, int rc, const mcd_output *o)
 {
 	pthread_mutex_lock(&t->lock);
+	mcd_track_totals *tt = &t->st.total;
 	if (rc == 0) {
-		t->st.tracked++;
-		t->st.track_ms_total += o->sk.track_ms;
-		if (o->sk.track_ms > t->st.track_ms_max)
-			t->st.track_ms_max = o->sk.track_ms;
-		t->st.track_state = (int)o->sk.state;
+		tt->tracked++;
+		tt->track_ms_total += o->sk.track_ms;
+		if (o->sk.track_ms > tt->track_ms_max)
+			tt->track_ms_max = o->sk.track_ms;
+		tt->track_state = (int)o->sk.state;
 	} else
-		t->st.track_errors++;
-	uint64_t errors = t->st.track_errors;
+		tt->track_errors++;
+	uint64_t errors = tt->track_errors;
 	pthread_mutex_unlock(&t->lock);
 	return errors;
 }
@@ -269,7 +270,7 @@ static bool track_due(mcd_tracking_thread *t, uint64_t now)
 	int due = 0;
 	while (mcd_grouper_pop(&t->grouper, now, expect, &g)) {
 		if (due++)
-			t->st.skipped++;
+			t->st.total.skipped++;
 		newest = g;
 	}
 	if (!due)
@@ -337,7 +338,7 @@ mcd_tracking_thread *mcd_tracking_thread_create(const mcd_tracking_thread_config
 	t->inbox = cfg->keypoints;
 	t->on_finished = cfg->on_finished;
 	t->ctx = cfg->ctx;
-	t->st.track_state = -1;
+	t->st.total.track_state = -1;
 	pthread_mutex_init(&t->lock, NULL);
 	mc_cond_init_monotonic(&t->cond);
 	mcd_grouper_init(&t->grouper, t->ncams, (uint64_t)(cfg->group_tolerance_ms * 1e6),
@@ -440,13 +441,13 @@ void mcd_tracking_thread_stats(mcd_tracking_thread *t, mcd_track_stats *st, bool
 	pthread_mutex_lock(&t->lock);
 	*st = t->st;
 	const mcd_grouper_stats *gs = &t->grouper.stats;
-	st->sets = gs->groups;
-	st->complete_sets = gs->complete;
+	st->total.sets = gs->groups;
+	st->total.complete_sets = gs->complete;
 	for (int c = 0; c < t->ncams; c++) {
 		st->cams[c].missing = gs->missing[c];
 		st->cams[c].late = gs->late[c] + gs->overflow[c];
 	}
 	if (reset_max)
-		t->st.track_ms_max = 0;
+		t->st.total.track_ms_max = 0;
 	pthread_mutex_unlock(&t->lock);
 }

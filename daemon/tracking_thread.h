@@ -26,7 +26,7 @@
 #include <stdbool.h>
 #include <stdint.h>
 
-/* Counters of the tracking thread and its grouper. */
+/* Counters of the tracking thread and its grouper: over all frame sets, */
 typedef struct {
 	uint64_t sets;          /* frame sets emitted by the grouper */
 	uint64_t complete_sets; /* with every camera */
@@ -36,13 +36,20 @@ typedef struct {
 	double track_ms_total;  /* sum over all tracked sets */
 	double track_ms_max;    /* since the last mcd_tracking_thread_stats(.., reset_max) */
 	int track_state;        /* mc_track_state of the last tracked set, -1 none */
-	struct {
-		uint64_t missing;     /* frame sets emitted without this camera */
-		uint64_t late;        /* frames that came after their frame set */
-		uint64_t overrun;     /* frames overwritten in the ring before use */
-		uint64_t undecodable; /* frames that failed conversion to RGB */
-		char last_error[256]; /* of the last undecodable frame */
-	} cams[MC_MAX_CAMERAS];
+} mcd_track_totals;
+
+/* ... and per camera. */
+typedef struct {
+	uint64_t missing;     /* frame sets emitted without this camera */
+	uint64_t late;        /* frames that came after their frame set */
+	uint64_t overrun;     /* frames overwritten in the ring before use */
+	uint64_t undecodable; /* frames that failed conversion to RGB */
+} mcd_cam_track_stats;
+
+typedef struct {
+	mcd_track_totals total;
+	mcd_cam_track_stats cams[MC_MAX_CAMERAS];
+	char last_error[MC_MAX_CAMERAS][256]; /* of each camera's last undecodable frame */
 } mcd_track_stats;
 
 typedef struct {

@@ -4,6 +4,7 @@
  * the table's, and the keys "Reloading" lists as taking effect at once
  * are exactly those the table marks reloadable. */
 #include "config.h"
+#include "daemon/harness.h"
 #include "test_util.h"
 
 #include <ctype.h>
@@ -14,21 +15,6 @@
 
 static mcd_config defaults;
 static mcd_camera_config camera_defaults;
-
-static char *read_text(const char *path)
-{
-	FILE *f = fopen(path, "rb");
-	if (!f)
-		return NULL;
-	fseek(f, 0, SEEK_END);
-	long n = ftell(f);
-	fseek(f, 0, SEEK_SET);
-	char *s = calloc(1, (size_t)(n > 0 ? n : 0) + 1);
-	if (s && n > 0 && fread(s, 1, (size_t)n, f) != (size_t)n)
-		s[0] = 0;
-	fclose(f);
-	return s;
-}
 
 /* The `...` spans of text[0..len), at most max, each at most cap bytes. */
 static int ticks(const char *text, size_t len, char out[][128], int max)
@@ -197,9 +183,9 @@ static void check_reload_section(const char *text)
 
 int main(void)
 {
-	char *text = read_text("docs/CONFIG.md");
-	if (!text)
+	if (access("docs/CONFIG.md", R_OK) != 0)
 		TEST_SKIP("run from the repository root (docs/CONFIG.md not found)");
+	char *text = mcd_read_file("docs/CONFIG.md");
 	size_t nkeys;
 	mcd_config_keys(&nkeys);
 	CHECK(nkeys <= sizeof(documented) / sizeof(documented[0]));
