@@ -22,6 +22,7 @@
 #include <fstream>
 #include <iterator>
 #include <memory>
+#include <mutex>
 #include <string>
 #include <vector>
 
@@ -228,6 +229,9 @@ double ms_since(std::chrono::steady_clock::time_point t0)
 }
 
 bool threads_set = false;
+// OpenCV's log level is process-wide: loads that silence it for the import
+// take turns.
+std::mutex import_lock;
 
 } // namespace
 
@@ -433,6 +437,7 @@ mc_detector *load(const char *onnx_path, mc_err *err)
 		return nullptr;
 	if (check_input(d.get(), info, err) < 0)
 		return nullptr;
+	std::unique_lock<std::mutex> lock(import_lock);
 	if (!threads_set) {
 		cv::setNumThreads(1);
 		threads_set = true;
@@ -448,6 +453,7 @@ mc_detector *load(const char *onnx_path, mc_err *err)
 		return nullptr;
 	}
 	cv::utils::logging::setLogLevel(old);
+	lock.unlock();
 	if (d->net.empty()) {
 		mc_err_set(err, "%s: OpenCV read an empty network", onnx_path);
 		return nullptr;
@@ -599,6 +605,7 @@ void mc_detector_set_threshold(mc_detector *d, float threshold)
 void mc_detector_set_threads(int nthreads)
 {
 	try {
+		std::lock_guard<std::mutex> lock(import_lock);
 		cv::setNumThreads(nthreads >= 1 ? nthreads : 1);
 		threads_set = true;
 	} catch (...) {

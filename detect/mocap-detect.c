@@ -18,7 +18,9 @@
  *   4. ask for the camera rings (mocap_get_rings): one read-only memfd per
  *      camera; map each with mc_ring_map() (or mmap it yourself, layout in
  *      core/ring/mc_ring.h);
- *   5. loop: copy the newest frame of each ring (mc_ring_read_latest),
+ *   5. loop, one thread per camera (so that one camera's frame never waits
+ *      for another's detection): wait for a new frame (mc_ring_wait), copy
+ *      the newest frame of the ring (mc_ring_read_latest),
  *      convert it to RGB (mc_image_to_rgb24: drivers deliver YUYV, MJPEG,
  *      Bayer, ...), detect, and send the keypoints with the frame's capture
  *      timestamp (mocap_send_keypoints).  The daemon matches each batch to
@@ -42,6 +44,8 @@
 
 #include <errno.h>
 #include <getopt.h>
+#include <pthread.h>
+#include <stdatomic.h>
 #include <glob.h>
 #include <jansson.h>
 #include <signal.h>
@@ -58,10 +62,11 @@
 #define MOCAP_DETECT_MODEL_DIR "/usr/local/share/mocapd/models"
 #endif
 
-/* If no frame arrives for this long, the rings are asked for again (the
- * daemon gives a camera a new ring when it reopens it). */
+/* If no camera delivers a frame for this long, the rings are asked for
+ * again (the daemon gives a camera a new ring when it reopens it). */
 #define RING_STALE_NS 3000000000ull
 
+/* One camera: its ring, and the thread that detects on it. */
 typedef struct {
 	char name[MOCAP_NAME_MAX];
 	int rig_index;            /* camera index for KEYPOINTS */
@@ -69,18 +74,26 @@ typedef struct {
 	mc_ring_cursor cursor;
 	uint8_t *buf, *rgb;       /* a copy of the slot; the frame as RGB24 */
 	size_t buf_cap, rgb_cap;
-	uint64_t last_frame_ns;
-	/* statistics */
+	pthread_t thread;
+	bool running;
+	_Atomic uint64_t last_frame_ns;
+	/* statistics, written by the camera's thread, read after it ended */
 	uint64_t views, keypoints, batches, skipped, errors;
 	double ms_total, ms_max;
 } camera;
 
-static volatile sig_atomic_t stop;
+/* SIGINT/SIGTERM, or a fatal error in a thread. */
+static atomic_int stop;
+/* Tells the camera threads to end so the rings can be reopened. */
+static atomic_int restart;
+static atomic_int exit_code;
+/* Batches mocapd refused (reported by the next send). */
+static atomic_ullong refused;
 
 static void on_signal(int sig)
 {
 	(void)sig;
-	stop = 1;
+	atomic_store(&stop, 1);
 }
 
 static void usage(FILE *f)
@@ -258,58 +271,79 @@ static int open_rings(mocap_client *c, camera *cams, int old_n, const char *only
 /* ---- The detector.  Replace this part to plug in your own: in, one RGB
  * image; out, keypoints in the daemon's skeleton joint indices. */
 
-typedef struct {
-	mc_detector *det;
-	int map[MC_DETECTOR_MAX_JOINTS]; /* detector joint -> skeleton joint, -1: none */
-} detector;
+/* Detector joint -> skeleton joint (-1: none), shared by the camera
+ * threads; map_version changes when the main thread maps again. */
+static pthread_mutex_t map_lock = PTHREAD_MUTEX_INITIALIZER;
+static int joint_map[MC_DETECTOR_MAX_JOINTS];
+static atomic_int map_version;
+/* A camera thread saw a refusal: the main thread maps again. */
+static atomic_int remap_wanted;
 
-/* Maps the detector's joints to the daemon's skeleton (again after a
- * reload may have changed it). */
-static void detector_map(detector *d, mocap_client *c, bool verbose)
+/* Maps the model's joints to the daemon's skeleton (again after a reload
+ * may have changed it).  d: any detector of the model. */
+static void map_joints(const mc_detector *d, mocap_client *c, bool verbose)
 {
 	/* The daemon's skeleton: retried for a while, it is there once the
 	 * daemon loaded its model. */
 	mocap_skeleton_def *def = calloc(1, sizeof(*def));
 	int rc = MOCAP_E_UNAVAILABLE;
-	for (int i = 0; def && i < 50 && !stop && (rc = mocap_get_skeleton(c, def)) == MOCAP_E_UNAVAILABLE; i++)
+	for (int i = 0; def && i < 50 && !atomic_load(&stop) && (rc = mocap_get_skeleton(c, def)) == MOCAP_E_UNAVAILABLE;
+	     i++)
 		usleep(100000);
 	if (!def || rc < 0)
 		fail("cannot get the skeleton from mocapd: %s", def ? mocap_errmsg() : "out of memory");
 	const char *names[MOCAP_MAX_JOINTS];
 	for (int j = 0; j < def->njoints; j++)
 		names[j] = def->joints[j].name;
-	const char *model = mc_detector_path(d->det);
-	int found = mc_detector_map_names(d->det, names, def->njoints, d->map);
+	const char *model = mc_detector_path(d);
+	int map[MC_DETECTOR_MAX_JOINTS];
+	int found = mc_detector_map_names(d, names, def->njoints, map);
 	if (found == 0)
-		fail("%s: none of its %d joints is in the daemon's skeleton", model, mc_detector_njoints(d->det));
+		fail("%s: none of its %d joints is in the daemon's skeleton", model, mc_detector_njoints(d));
 	if (verbose) {
 		printf("mocap-detect: %s: %d of its %d joints are in the daemon's skeleton", model, found,
-		       mc_detector_njoints(d->det));
+		       mc_detector_njoints(d));
 		const char *sep = " (not: ";
-		for (int j = 0; j < mc_detector_njoints(d->det); j++)
-			if (d->map[j] < 0) {
-				printf("%s%s", sep, mc_detector_joint_name(d->det, j));
+		for (int j = 0; j < mc_detector_njoints(d); j++)
+			if (map[j] < 0) {
+				printf("%s%s", sep, mc_detector_joint_name(d, j));
 				sep = ", ";
 			}
 		printf("%s\n", strcmp(sep, ", ") ? "" : ")");
 	}
 	free(def);
+	pthread_mutex_lock(&map_lock);
+	memcpy(joint_map, map, sizeof(map));
+	pthread_mutex_unlock(&map_lock);
+	atomic_fetch_add(&map_version, 1);
 }
 
-static void detector_open(detector *d, const char *model, int threads, mocap_client *c, bool verbose)
+/* One camera thread's detector. */
+typedef struct {
+	mc_detector *det;
+	int map[MC_DETECTOR_MAX_JOINTS];
+	int map_version;
+} detector;
+
+static mc_detector *load_model(const char *model)
 {
 	mc_err err = {{0}};
-	d->det = mc_detector_load(model, &err);
-	if (!d->det)
+	mc_detector *d = mc_detector_load(model, &err);
+	if (!d)
 		fail("%s", err.msg);
-	mc_detector_set_threads(threads);
-	detector_map(d, c, verbose);
+	return d;
 }
 
 /* Returns the keypoint count, or -1 with err. */
 static int detect_view(detector *d, const uint8_t *rgb, int width, int height, mocap_keypoint *kp, int max,
 		       mc_err *err)
 {
+	if (d->map_version != atomic_load(&map_version)) {
+		pthread_mutex_lock(&map_lock);
+		memcpy(d->map, joint_map, sizeof(d->map));
+		d->map_version = atomic_load(&map_version);
+		pthread_mutex_unlock(&map_lock);
+	}
 	mc_detection det[MC_DETECTOR_MAX_JOINTS];
 	int nd = mc_detector_detect(d->det, rgb, width, height, 0, det, MC_DETECTOR_MAX_JOINTS, err);
 	if (nd < 0)
@@ -323,7 +357,7 @@ static int detect_view(detector *d, const uint8_t *rgb, int width, int height, m
 	return n;
 }
 
-/* ---- The loop. */
+/* ---- The camera threads. */
 
 /* The newest frame of a camera, as RGB in cam->rgb.  1: a new frame (meta
  * filled), 0: none, -1: error (printed). */
@@ -361,10 +395,15 @@ static int newest_rgb(camera *cam, mc_image_conv *conv, mc_ring_meta *meta)
 	return 1;
 }
 
-/* Sleeps until t_ns or a signal. */
+static bool ending(void)
+{
+	return atomic_load(&stop) || atomic_load(&restart);
+}
+
+/* Sleeps until t_ns, or until told to end. */
 static void sleep_until(uint64_t t_ns)
 {
-	while (!stop) {
+	while (!ending()) {
 		uint64_t now = mc_now_ns();
 		if (now >= t_ns)
 			return;
@@ -372,6 +411,102 @@ static void sleep_until(uint64_t t_ns)
 		struct timespec ts = mc_ns_timespec(d);
 		nanosleep(&ts, NULL);
 	}
+}
+
+typedef struct {
+	camera *cam;
+	mocap_client *client;
+	const char *model;
+	uint64_t period_ns; /* --rate; 0: every frame */
+} worker_args;
+
+/* Waits for each new frame of one camera, detects, sends. */
+static void *camera_thread(void *arg)
+{
+	worker_args *w = arg;
+	camera *cam = w->cam;
+	detector det = {.det = load_model(w->model), .map_version = -1};
+	mc_err err = {{0}};
+	mc_image_conv *conv = mc_image_conv_new(&err);
+	if (!conv)
+		fail("%s", err.msg);
+	while (!ending()) {
+		uint64_t start_ns = mc_now_ns();
+		mc_ring_meta meta;
+		int rc = newest_rgb(cam, conv, &meta);
+		if (rc < 0)
+			cam->errors++;
+		if (rc <= 0) {
+			/* Nothing new: wait for the next commit (a futex in the
+			 * ring: we wake as soon as the driver commits). */
+			if (mc_ring_wait(cam->ring, &cam->cursor, 100, &err) < 0)
+				sleep_until(mc_now_ns() + 10000000ull);
+			continue;
+		}
+		atomic_store(&cam->last_frame_ns, mc_now_ns());
+		mocap_keypoint kp[MOCAP_MAX_KEYPOINTS];
+		uint64_t t0 = mc_now_ns();
+		int n = detect_view(&det, cam->rgb, (int)meta.width, (int)meta.height, kp, MOCAP_MAX_KEYPOINTS, &err);
+		double ms = mc_ms_since(t0);
+		if (n < 0) {
+			fprintf(stderr, "mocap-detect: camera %s: %s\n", cam->name, err.msg);
+			cam->errors++;
+			continue;
+		}
+		cam->views++;
+		cam->ms_total += ms;
+		if (ms > cam->ms_max)
+			cam->ms_max = ms;
+		if (n > 0) {
+			/* The capture time of the image, not now. */
+			rc = mocap_send_keypoints(w->client, meta.timestamp_ns, cam->rig_index, kp, n);
+			if (rc == MOCAP_E_REFUSED || rc == MOCAP_E_PERMISSION) {
+				/* An earlier batch was refused (this one was sent):
+				 * maybe a reload changed the skeleton; map again. */
+				if (atomic_fetch_add(&refused, 1) < 5)
+					fprintf(stderr, "mocap-detect: mocapd refused keypoints: %s\n", mocap_errmsg());
+				atomic_store(&remap_wanted, 1);
+				rc = 0;
+			}
+			if (rc < 0) {
+				fprintf(stderr, "mocap-detect: cannot send keypoints: %s\n", mocap_errmsg());
+				atomic_store(&exit_code, 1);
+				atomic_store(&stop, 1);
+				break;
+			}
+			cam->batches++;
+			cam->keypoints += (uint64_t)n;
+		}
+		if (w->period_ns)
+			sleep_until(start_ns + w->period_ns);
+	}
+	mc_image_conv_free(conv);
+	mc_detector_free(det.det);
+	return NULL;
+}
+
+/* Starts one thread per camera. */
+static void start_threads(camera *cams, int ncams, worker_args *args, mocap_client *c, const char *model,
+			  uint64_t period_ns)
+{
+	atomic_store(&restart, 0);
+	for (int i = 0; i < ncams; i++) {
+		args[i] = (worker_args){.cam = &cams[i], .client = c, .model = model, .period_ns = period_ns};
+		int rc = pthread_create(&cams[i].thread, NULL, camera_thread, &args[i]);
+		if (rc)
+			fail("cannot start a thread: %s", strerror(rc));
+		cams[i].running = true;
+	}
+}
+
+static void join_threads(camera *cams, int ncams)
+{
+	atomic_store(&restart, 1);
+	for (int i = 0; i < ncams; i++)
+		if (cams[i].running) {
+			pthread_join(cams[i].thread, NULL);
+			cams[i].running = false;
+		}
 }
 
 int main(int argc, char **argv)
@@ -437,6 +572,9 @@ int main(int argc, char **argv)
 	sigaction(SIGTERM, &sa, NULL);
 	signal(SIGPIPE, SIG_IGN);
 
+	/* The model first: a bad one is reported before anything else. */
+	mc_detector *names = load_model(model);
+	mc_detector_set_threads(threads);
 	/* 1. Connect (privileged: rings and keypoints need it). */
 	mocap_client *c = mocap_connect(socket_path, "mocap-detect");
 	if (!c)
@@ -445,95 +583,42 @@ int main(int argc, char **argv)
 		fail("mocapd at %s does not let this user map camera rings or send keypoints: run as the daemon's "
 		     "user or a member of its group",
 		     socket_path ? socket_path : mocap_default_socket());
-	/* 2. The detector and its joints in the daemon's skeleton. */
-	detector det = {0};
-	detector_open(&det, model, threads, c, verbose);
+	/* 2. The model's joints in the daemon's skeleton. */
+	map_joints(names, c, verbose);
 	/* 3, 4. The rig and the rings. */
-	camera cams[MOCAP_MAX_RINGS];
-	memset(cams, 0, sizeof(cams));
+	static camera cams[MOCAP_MAX_RINGS];
+	worker_args args[MOCAP_MAX_RINGS];
 	int ncams = open_rings(c, cams, 0, only, verbose);
-	mc_err err = {{0}};
-	mc_image_conv *conv = mc_image_conv_new(&err);
-	if (!conv)
-		fail("%s", err.msg);
 
-	/* 5. Detect on the newest frame of each camera, send, repeat. */
+	/* 5. A thread per camera detects and sends; this one watches. */
 	const uint64_t period_ns = rate > 0 ? (uint64_t)(1e9 / rate) : 0;
-	uint64_t refused = 0, start_ns = mc_now_ns();
-	int exit_code = 0;
-	while (!stop) {
-		uint64_t round_ns = mc_now_ns();
-		int fresh = 0;
-		for (int i = 0; i < ncams && !stop; i++) {
-			camera *cam = &cams[i];
-			mc_ring_meta meta;
-			int rc = newest_rgb(cam, conv, &meta);
-			if (rc <= 0) {
-				cam->errors += rc < 0;
-				continue;
-			}
-			fresh++;
-			cam->last_frame_ns = mc_now_ns();
-			mocap_keypoint kp[MOCAP_MAX_KEYPOINTS];
-			uint64_t t0 = mc_now_ns();
-			int n = detect_view(&det, cam->rgb, (int)meta.width, (int)meta.height, kp, MOCAP_MAX_KEYPOINTS,
-					    &err);
-			double ms = mc_ms_since(t0);
-			if (n < 0) {
-				fprintf(stderr, "mocap-detect: camera %s: %s\n", cam->name, err.msg);
-				cam->errors++;
-				continue;
-			}
-			cam->views++;
-			cam->ms_total += ms;
-			if (ms > cam->ms_max)
-				cam->ms_max = ms;
-			if (n == 0)
-				continue;
-			/* The capture time of the image, not now. */
-			rc = mocap_send_keypoints(c, meta.timestamp_ns, cam->rig_index, kp, n);
-			if (rc == MOCAP_E_REFUSED || rc == MOCAP_E_PERMISSION) {
-				/* An earlier batch was refused (this one was sent):
-				 * maybe a reload changed the skeleton; map again. */
-				if (refused++ < 5)
-					fprintf(stderr, "mocap-detect: mocapd refused keypoints: %s\n", mocap_errmsg());
-				detector_map(&det, c, false);
-				rc = 0;
-			}
-			if (rc < 0) {
-				fprintf(stderr, "mocap-detect: cannot send keypoints: %s\n", mocap_errmsg());
-				exit_code = 1;
-				stop = 1;
-				break;
-			}
-			cam->batches++;
-			cam->keypoints += (uint64_t)n;
-		}
-		if (stop)
-			break;
-		if (fresh == 0) {
-			/* Nothing new: wait for the first camera's next frame.  A
-			 * camera silent for long may have a new ring. */
-			bool stale = true;
-			for (int i = 0; i < ncams; i++)
-				stale = stale && mc_now_ns() - cams[i].last_frame_ns > RING_STALE_NS;
-			if (stale) {
-				if (mocap_ping(c, NULL) < 0) {
-					fprintf(stderr, "mocap-detect: lost mocapd: %s\n", mocap_errmsg());
-					exit_code = 1;
-					break;
-				}
-				ncams = open_rings(c, cams, ncams, only, false);
-				detector_map(&det, c, false);
-				continue;
-			}
-			if (mc_ring_wait(cams[0].ring, &cams[0].cursor, 20, &err) < 0)
-				sleep_until(mc_now_ns() + 5000000ull);
+	uint64_t start_ns = mc_now_ns();
+	start_threads(cams, ncams, args, c, model, period_ns);
+	while (!atomic_load(&stop)) {
+		struct timespec ts = {.tv_nsec = 100000000L};
+		nanosleep(&ts, NULL);
+		if (atomic_exchange(&remap_wanted, 0))
+			map_joints(names, c, false);
+		/* Every camera silent for long: the daemon may have reopened
+		 * them with new rings (or stopped: then the ping fails). */
+		bool stale = true;
+		uint64_t now = mc_now_ns();
+		for (int i = 0; i < ncams; i++)
+			stale = stale && now - atomic_load(&cams[i].last_frame_ns) > RING_STALE_NS;
+		if (!stale || atomic_load(&stop))
 			continue;
+		if (mocap_ping(c, NULL) < 0) {
+			fprintf(stderr, "mocap-detect: lost mocapd: %s\n", mocap_errmsg());
+			atomic_store(&exit_code, 1);
+			break;
 		}
-		if (period_ns)
-			sleep_until(round_ns + period_ns);
+		join_threads(cams, ncams);
+		ncams = open_rings(c, cams, ncams, only, false);
+		map_joints(names, c, false);
+		start_threads(cams, ncams, args, c, model, period_ns);
 	}
+	atomic_store(&stop, 1);
+	join_threads(cams, ncams);
 
 	/* Statistics. */
 	double secs = mc_ms_since(start_ns) / 1e3;
@@ -547,14 +632,13 @@ int main(int argc, char **argv)
 		       (unsigned long long)cam->keypoints, (unsigned long long)cam->batches,
 		       (unsigned long long)cam->skipped, (unsigned long long)cam->errors);
 	}
-	printf("mocap-detect: %llu refusals from mocapd\n", (unsigned long long)refused);
+	printf("mocap-detect: %llu refusals from mocapd\n", (unsigned long long)atomic_load(&refused));
 	close_rings(cams, ncams);
 	for (int i = 0; i < ncams; i++) {
 		free(cams[i].buf);
 		free(cams[i].rgb);
 	}
-	mc_image_conv_free(conv);
-	mc_detector_free(det.det);
+	mc_detector_free(names);
 	mocap_close(c);
-	return exit_code;
+	return atomic_load(&exit_code);
 }

@@ -161,26 +161,33 @@ static void test_fixed(mcd_run *r, const mc_rig *rig)
 	/* 5 s of frames (25 frame sets at 5 fps). */
 	uint64_t end = mcd_now_ms() + 5000;
 	double after = before, closest = before;
-	int frames = 0;
+	int frames = 0, on_ray = 0;
+	char series[2048] = "";
+	size_t len = 0;
 	while (mcd_now_ms() < end && mocap_read_frame(c, f, 2000) == 1) {
 		frames++;
 		after = ray_distance(&rig->cams[0], ku, kv, f->joints[wrist].position);
 		if (after < closest)
 			closest = after;
+		on_ray += after < 0.05;
+		if (len < sizeof(series) - 16)
+			len += (size_t)snprintf(series + len, sizeof(series) - len, " %.1f", 100 * after);
 	}
 	mocap_daemon_status *st = calloc(1, sizeof(*st));
 	CHECK(st && mocap_get_status(c, st) == 0);
 	kill(pid, SIGTERM);
 	int rc = wait_detect(pid, 10000);
 	char *log = mcd_read_file(out);
-	printf("right wrist from the keypoint ray: %.1f cm before mocap-detect, %.1f cm after %d frames "
-	       "(closest %.1f cm); daemon: %llu skeletons published\n",
-	       100 * before, 100 * after, frames, 100 * closest, st ? (unsigned long long)st->frames_published : 0ull);
+	printf("right wrist from the keypoint ray: %.1f cm before mocap-detect, then per frame (cm):%s\n"
+	       "%d of %d frames within 5 cm (closest %.1f cm); daemon: %llu skeletons published\n",
+	       100 * before, series, on_ray, frames, 100 * closest,
+	       st ? (unsigned long long)st->frames_published : 0ull);
 	printf("mocap-detect said:\n%s", log ? log : "");
 	CHECK_MSG(rc == 0, "mocap-detect exited with %d after SIGTERM", rc);
 	CHECK(frames >= 10);
 	CHECK_MSG(before > 0.15, "the keypoint is only %.1f cm off the wrist at the start", 100 * before);
-	CHECK_MSG(after < 0.05, "the wrist stayed %.1f cm off the keypoint's ray", 100 * after);
+	CHECK_MSG(on_ray >= 3, "the wrist came within 5 cm of the keypoint's ray in %d frames (closest %.1f cm)", on_ray,
+		  100 * closest);
 	unsigned long long views = 0, kps = 0, batches = 0;
 	const char *line = log ? strstr(log, "camera left: ") : NULL;
 	CHECK_MSG(line && sscanf(line, "camera left: %llu views", &views) == 1 && views >= 10,
@@ -254,7 +261,7 @@ static void test_errors(mcd_run *r)
 		const char *says[2];
 	} cases[] = {
 		{{"--socket", r->sock, "--model", model, NULL}, 1, {"bad_channels.onnx", "17 heatmap channels"}},
-		{{"--socket", "/tmp/no-such-mocapd.sock", "--model", model, NULL}, 1, {"/tmp/no-such-mocapd.sock", "not running"}},
+		{{"--socket", "/tmp/no-such-mocapd.sock", "--model", good, NULL}, 1, {"/tmp/no-such-mocapd.sock", "not running"}},
 		{{"--rate", "-3", NULL}, 2, {"--rate -3", "detections per second"}},
 		{{"--cameras", "nosuch", "--socket", r->sock, "--model", good, NULL}, 1, {"nosuch", "offered by mocapd"}},
 	};
