@@ -7,7 +7,8 @@
  * detector of their own (another network, another runtime, a marker
  * finder): everything it does goes through the public client library
  * (ipc/mocap.h) and the frame ring reader (core/ring/mc_ring.h), and only
- * the function detect_view() below knows about our detector.  The steps:
+ * load_model(), map_joints() and detect_view() below know about our
+ * detector: replace those.  The steps:
  *
  *   1. connect to the daemon's socket (mocap_connect) as a privileged client:
  *      the daemon's user or group may map rings and send keypoints;
@@ -32,7 +33,8 @@
  * top-left pixel) with a confidence in [0, 1]; send only joints the
  * detector found.  A detector slower than the cameras is fine: it skips to
  * the newest frame each time, and the tracker uses keypoints for the frame
- * sets they arrive in time for.
+ * sets they arrive in time for (it does not wait for them: see
+ * docs/DETECT_RUNTIME.md, "Timing against the tracker").
  *
  * Exit status: 0 after SIGINT or SIGTERM, 1 on an error (no daemon, no
  * permission, a bad model, the daemon went away), 2 for a bad command line. */
