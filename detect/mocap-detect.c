@@ -107,7 +107,8 @@ static void usage(FILE *f)
 		"\n"
 		"  --socket PATH    the daemon's socket (default: $MOCAP_SOCKET, else %s)\n"
 		"  --model PATH     the detector, an ONNX file (default: the one *ego*.onnx in\n"
-		"                   %s, else in config/models)\n"
+		"                   BINDIR/../share/mocapd/models, %s,\n"
+		"                   or config/models)\n"
 		"  --rate HZ        at most this many detections per camera per second\n"
 		"                   (default 0: every frame, as fast as the detector goes)\n"
 		"  --threads N      OpenCV threads for the network (default 1)\n"
@@ -130,12 +131,23 @@ static void fail(const char *fmt, ...)
 	exit(1);
 }
 
-/* The shipped model: the one file matching *ego*.onnx in a models folder. */
+/* The shipped model: the one file matching *ego*.onnx in a models folder:
+ * next to the installed binary (BINDIR/../share/mocapd/models, whatever
+ * PREFIX it was installed with), the folder compiled in, config/models. */
 static bool find_model(char *path, size_t cap)
 {
-	const char *dirs[] = {MOCAP_DETECT_MODEL_DIR, "config/models"};
+	char beside[4096] = "";
+	ssize_t n = readlink("/proc/self/exe", beside, sizeof(beside) - 64);
+	char *slash = n > 0 ? (beside[n] = 0, strrchr(beside, '/')) : NULL;
+	if (slash)
+		snprintf(slash, 64, "/../share/mocapd/models");
+	else
+		beside[0] = 0;
+	const char *dirs[] = {beside, MOCAP_DETECT_MODEL_DIR, "config/models"};
 	for (size_t i = 0; i < sizeof(dirs) / sizeof(dirs[0]); i++) {
-		char pattern[4096];
+		if (!dirs[i][0])
+			continue;
+		char pattern[4200];
 		snprintf(pattern, sizeof(pattern), "%s/*ego*.onnx", dirs[i]);
 		glob_t g;
 		if (glob(pattern, 0, NULL, &g) == 0 && g.gl_pathc > 0) {
@@ -563,7 +575,8 @@ int main(int argc, char **argv)
 	char found_model[4096];
 	if (!model) {
 		if (!find_model(found_model, sizeof(found_model)))
-			fail("no detector model: none matches %s/*ego*.onnx or config/models/*ego*.onnx; give one with --model",
+			fail("no detector model: no *ego*.onnx beside the binary (../share/mocapd/models), in %s or in "
+			     "config/models; give one with --model",
 			     MOCAP_DETECT_MODEL_DIR);
 		model = found_model;
 	}
