@@ -244,8 +244,8 @@ srv_keypoint_inbox *srv_keypoints_inbox(srv_server *srv);
  * none waits.  Never blocks for long (a short lock, no socket). */
 int srv_inbox_pop_keypoints(srv_keypoint_inbox *inbox, srv_keypoints *out);
 
-/* The same as srv_inbox_pop_keypoints(srv_keypoints_inbox(srv), out); kept
- * until the daemon takes keypoints from the inbox. */
+/* The same as srv_inbox_pop_keypoints(srv_keypoints_inbox(srv), out), for
+ * callers that hold the server anyway (tests). */
 int srv_poll_keypoints(srv_server *srv, srv_keypoints *out);
 
 /* The pose of the rig in a VR runtime's world frame at one instant
