@@ -32,6 +32,19 @@
 
 #define NJ 18
 
+/* The client library's public header cannot include the server's (it is
+ * installed without the core): what both name must agree. */
+_Static_assert((int)MOCAP_CMD_RELOAD == MC_CONTROL_RELOAD && (int)MOCAP_CMD_RECORD_START == MC_CONTROL_RECORD_START &&
+		       (int)MOCAP_CMD_RECORD_STOP == MC_CONTROL_RECORD_STOP,
+	       "control commands");
+_Static_assert((int)MOCAP_TRACK_OK == SRV_TRACKER_OK && (int)MOCAP_TRACK_UNCERTAIN == SRV_TRACKER_UNCERTAIN &&
+		       (int)MOCAP_TRACK_LOST == SRV_TRACKER_LOST && (int)MOCAP_TRACK_IDLE == SRV_TRACKER_IDLE,
+	       "tracker states");
+_Static_assert(MOCAP_NAME_MAX == SRV_NAME_MAX && MOCAP_MAX_RINGS == SRV_MAX_RINGS &&
+		       MOCAP_MAX_KEYPOINTS == SRV_MAX_KEYPOINTS && MOCAP_MAX_CAMERAS >= MC_MAX_CAMERAS,
+	       "limits");
+_Static_assert(sizeof(MOCAP_DEFAULT_SOCKET) == sizeof(SRV_DEFAULT_PATH), "default socket path");
+
 static char dir[48], path[96];
 
 static uint64_t now_ns(void) { return mocap_now_ns(); }
@@ -696,6 +709,7 @@ static void test_errors(void)
 	CHECK(c != NULL);
 	unsetenv("MOCAP_SOCKET");
 	CHECK(strcmp(mocap_default_socket(), MOCAP_DEFAULT_SOCKET) == 0);
+	CHECK(strcmp(MOCAP_DEFAULT_SOCKET, SRV_DEFAULT_PATH) == 0);
 	/* The daemon stops: calls fail with "disconnected", nothing hangs. */
 	CHECK(mocap_subscribe(c, MOCAP_ALL, MOCAP_SPACE_RIG, 0) == 0);
 	srv_destroy(srv);
