@@ -57,7 +57,6 @@ static inline void srv_str_copy(char *dst, size_t size, const char *src)
 
 /* --- Blobs: encoded messages shared between client queues (queue.c) --- */
 
-
 typedef struct {
 	int refs;
 	bool is_frame;
