@@ -316,6 +316,31 @@ static void test_shipped_configs(void)
 	CHECK(strcmp(cfg.socket.path, "/run/mocapd/mocapd.sock") == 0);
 }
 
+/* A reload takes the keys the table marks reloadable and keeps the others. */
+static void test_reload(void)
+{
+	static mcd_config cur, neu;
+	mc_err err;
+	const char *before = CAM "rig_camera = l\n[daemon]\ngroup_deadline_ms = 80\n[tracker]\nrig = r.json\n"
+			     "model = m.json\niterations = 20\nseed = 1\n";
+	const char *after = CAM "rig_camera = l\n[daemon]\ngroup_deadline_ms = 50\n[tracker]\nrig = r.json\n"
+			    "model = m.json\niterations = 10\nseed = 2\n";
+	CHECK_MSG(mcd_config_parse(before, "mocapd.conf", "/etc/mocapd", &cur, &err) == 0, "%s", err.msg);
+	CHECK_MSG(mcd_config_parse(after, "mocapd.conf", "/etc/mocapd", &neu, &err) == 0, "%s", err.msg);
+	CHECK(mcd_config_take_reloadable(&cur, &neu) == 1); /* seed */
+	CHECK_NEAR(cur.group_deadline_ms, 50, 0);
+	CHECK(cur.tracker.settings.iterations == 10);
+	CHECK(cur.tracker.settings.seed == 1);
+	CHECK(mcd_config_take_reloadable(&cur, &cur) == 0);
+	/* a camera that changes is refused as a whole */
+	CHECK_MSG(mcd_config_parse("[camera left]\ndriver = other\nrig_camera = l\n[tracker]\nrig = r.json\n"
+				   "model = m.json\niterations = 10\nseed = 1\n[daemon]\ngroup_deadline_ms = 50\n",
+				   "mocapd.conf", "/etc/mocapd", &neu, &err) == 0,
+		  "%s", err.msg);
+	CHECK(mcd_config_take_reloadable(&cur, &neu) == 1);
+	CHECK(strcmp(cur.cams[0].driver, "faulty") == 0);
+}
+
 int main(void)
 {
 	test_full_config();
@@ -325,5 +350,6 @@ int main(void)
 	test_cross_checks();
 	test_load_file();
 	test_shipped_configs();
+	test_reload();
 	return mc_test_finish("test_daemon_config");
 }
