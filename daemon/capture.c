@@ -8,18 +8,15 @@
 #include "image/mc_image.h"
 
 #include <errno.h>
-#include <fcntl.h>
 #include <pthread.h>
 #include <stdatomic.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <sys/stat.h>
 #include <unistd.h>
 
 #define FRAME_TIMEOUT_MS 200 /* how often the capture loop looks up */
 #define IO_ERRORS_BEFORE_REOPEN 3
-#define MAX_SLOT_BYTES (256u << 20)
 #define NAP_STEP_NS (100 * MC_NS_PER_MS) /* a napping thread's heartbeat */
 
 struct mcd_camera {
@@ -50,10 +47,7 @@ struct mcd_camera {
 	double reopen_initial_ms, reopen_max_ms, stall_timeout_ms;
 	bool limits_changed;
 
-	/* Guards ring replacement against readers. */
-	pthread_mutex_t ring_lock;
-	mc_ring *ring;
-	uint64_t ring_generation; /* bumped when the ring is replaced */
+	mcd_frame_ring ring;
 };
 
 const char *mcd_cam_state_name(mcd_cam_state s)
@@ -201,20 +195,9 @@ static size_t slot_bytes_for(const mdrv_format *f)
 /* Makes sure the ring's slots hold `bytes`; replaces the ring if not. */
 static int ensure_ring(mcd_camera *c, size_t bytes, mc_err *err)
 {
-	if (c->ring && mc_ring_slot_bytes(c->ring) >= bytes)
-		return 0;
-	if (bytes > MAX_SLOT_BYTES)
-		return mc_err_set(err, "frames of %zu bytes are larger than the %u MiB limit", bytes,
-				  MAX_SLOT_BYTES >> 20);
-	mc_ring *ring = mc_ring_create(c->cfg.name, (unsigned)c->cfg.ring_slots, bytes, err);
-	if (!ring)
-		return -1;
-	pthread_mutex_lock(&c->ring_lock);
-	mc_ring *old = c->ring;
-	c->ring = ring;
-	c->ring_generation++;
-	pthread_mutex_unlock(&c->ring_lock);
-	mc_ring_close(old);
+	int rc = mcd_frame_ring_ensure(&c->ring, bytes, err);
+	if (rc <= 0)
+		return rc;
 	mcd_debug("camera %s: frame ring of %d slots x %zu bytes", c->cfg.name, c->cfg.ring_slots, bytes);
 	if (c->sink.on_change)
 		c->sink.on_change(c->sink.ctx, c->index);
@@ -235,7 +218,7 @@ static void commit_frame(mcd_camera *c, mdrv_frame *slot)
 		.flags = slot->flags,
 	};
 	mc_err err;
-	if (mc_ring_slot_commit(c->ring, &meta, &err) != 0) {
+	if (mc_ring_slot_commit(c->ring.ring, &meta, &err) != 0) {
 		mcd_warn("camera %s: %s", c->cfg.name, err.msg);
 		count(c, &c->counters.bad_frames);
 		return;
@@ -245,7 +228,7 @@ static void commit_frame(mcd_camera *c, mdrv_frame *slot)
 	c->counters.last_frame_ns = meta.commit_ns ? meta.commit_ns : now;
 	pthread_mutex_unlock(&c->lock);
 	if (c->sink.on_frame)
-		c->sink.on_frame(c->sink.ctx, c->index, c->ring_generation, &meta);
+		c->sink.on_frame(c->sink.ctx, c->index, c->ring.generation, &meta);
 }
 
 /* Logs a dropped frame, at warn level for the first few and then only at
@@ -354,7 +337,7 @@ static void handle_frame(mcd_camera *c, stream_state *s, mdrv_frame *slot, size_
 	char kind;
 	const char *why = frame_problem(slot, cap, &kind);
 	if (why) {
-		mc_ring_slot_abort(c->ring);
+		mc_ring_slot_abort(c->ring.ring);
 		note_bad_frame(c, why,
 			       kind == 's'   ? &c->counters.short_frames
 			       : kind == 'c' ? &c->counters.corrupt_frames
@@ -404,7 +387,7 @@ static int handle_timeout(mcd_camera *c, stream_state *s)
 static int handle_nospace(mcd_camera *c, const char *err)
 {
 	count(c, &c->counters.nospace);
-	size_t bigger = mc_ring_slot_bytes(c->ring) * 2;
+	size_t bigger = mc_ring_slot_bytes(c->ring.ring) * 2;
 	mc_err merr;
 	mcd_warn("camera %s: frame larger than the slot (%s); growing the ring to %zu-byte slots", c->cfg.name, err,
 		 bigger);
@@ -449,7 +432,7 @@ static run_result stream(mcd_camera *c, void *dev, mcd_backoff *backoff)
 	while (!atomic_load(&c->stop)) {
 		atomic_fetch_add(&c->heartbeat, 1);
 		size_t cap;
-		uint8_t *data = mc_ring_slot_begin(c->ring, &cap);
+		uint8_t *data = mc_ring_slot_begin(c->ring.ring, &cap);
 		if (!data) {
 			set_error(c, "frame ring", "no slot available");
 			return RUN_REOPEN;
@@ -461,7 +444,7 @@ static run_result stream(mcd_camera *c, void *dev, mcd_backoff *backoff)
 			handle_frame(c, &s, &slot, cap);
 			continue;
 		}
-		mc_ring_slot_abort(c->ring);
+		mc_ring_slot_abort(c->ring.ring);
 		int next = handle_error(c, &s, rc, err);
 		if (next != RUN_ON)
 			return (run_result)next;
@@ -559,7 +542,7 @@ mcd_camera *mcd_camera_create(int index, const mcd_camera_config *cfg, const cha
 		c->sink = *sink;
 	c->host = (mdrv_host){.ctx = c, .config_get = host_config_get, .log = host_log};
 	pthread_mutex_init(&c->lock, NULL);
-	pthread_mutex_init(&c->ring_lock, NULL);
+	mcd_frame_ring_init(&c->ring, cfg->name, (unsigned)cfg->ring_slots);
 	mc_cond_init_monotonic(&c->wake);
 	c->reopen_initial_ms = 250;
 	c->reopen_max_ms = 10000;
@@ -605,9 +588,8 @@ void mcd_camera_destroy(mcd_camera *c)
 		pthread_detach(c->thread);
 		return;
 	}
-	mc_ring_close(c->ring);
+	mcd_frame_ring_destroy(&c->ring);
 	pthread_mutex_destroy(&c->lock);
-	pthread_mutex_destroy(&c->ring_lock);
 	pthread_cond_destroy(&c->wake);
 	free(c);
 }
@@ -680,43 +662,7 @@ void mcd_camera_last_error(const mcd_camera *c, char *buf, size_t cap)
 	pthread_mutex_unlock((pthread_mutex_t *)&c->lock);
 }
 
-int mcd_camera_read(mcd_camera *c, uint64_t generation, uint64_t sequence, uint8_t **buf, size_t *cap,
-		    mc_ring_meta *meta, mc_err *err)
+mcd_frame_ring *mcd_camera_ring(mcd_camera *c)
 {
-	pthread_mutex_lock(&c->ring_lock);
-	int rc = MC_RING_NONE;
-	if (c->ring && generation != c->ring_generation)
-		rc = MC_RING_GAP; /* the ring it was in is gone */
-	else if (c->ring) {
-		size_t need = mc_ring_slot_bytes(c->ring);
-		if (*cap < need) {
-			uint8_t *grown = realloc(*buf, need);
-			if (!grown) {
-				pthread_mutex_unlock(&c->ring_lock);
-				return mc_err_set(err, "camera %s: out of memory", c->cfg.name);
-			}
-			*buf = grown;
-			*cap = need;
-		}
-		mc_ring_cursor cur = {.next = sequence};
-		rc = mc_ring_read_next(c->ring, &cur, *buf, *cap, meta, err);
-		if (rc == MC_RING_NONE || (rc == MC_RING_FRAME && meta->sequence != sequence))
-			rc = MC_RING_GAP;
-	}
-	pthread_mutex_unlock(&c->ring_lock);
-	return rc;
-}
-
-int mcd_camera_ring_dup(mcd_camera *c, uint64_t *size)
-{
-	pthread_mutex_lock(&c->ring_lock);
-	int fd = -1;
-	if (c->ring) {
-		fd = fcntl(mc_ring_fd(c->ring), F_DUPFD_CLOEXEC, 3);
-		struct stat st;
-		if (fd >= 0 && fstat(fd, &st) == 0)
-			*size = (uint64_t)st.st_size;
-	}
-	pthread_mutex_unlock(&c->ring_lock);
-	return fd;
+	return &c->ring;
 }

@@ -2,7 +2,7 @@
  *
  * The capture thread opens the device through its driver plugin, starts it
  * and calls next_frame() into the next slot of the camera's frame ring
- * (core/ring/mc_ring.h).  Good frames are committed and reported to the sink;
+ * (frame_ring.h).  Good frames are committed and reported to the sink;
  * short, corrupt and malformed frames are dropped and counted.  When the
  * driver fails (open, start, an error mid-stream, the device gone, no frame
  * for stall_timeout) the thread closes the device and reopens it after an
@@ -21,6 +21,7 @@
 #define MCD_CAPTURE_H
 
 #include "config.h"
+#include "frame_ring.h"
 #include "base/mc_error.h"
 #include "ring/mc_ring.h"
 #include "mdrv.h"
@@ -100,14 +101,8 @@ void mcd_camera_counters(const mcd_camera *c, mcd_cam_counters *out);
 mdrv_format mcd_camera_format(const mcd_camera *c);
 void mcd_camera_last_error(const mcd_camera *c, char *buf, size_t cap);
 
-/* Copies frame `sequence` of ring `generation` into *buf (grown with
- * realloc as needed; *cap is its size).  Returns MC_RING_FRAME, MC_RING_GAP
- * (it was overwritten already, or its ring replaced), MC_RING_NONE (no ring
- * yet), or -1 with err. */
-int mcd_camera_read(mcd_camera *c, uint64_t generation, uint64_t sequence, uint8_t **buf, size_t *cap,
-		    mc_ring_meta *meta, mc_err *err);
-/* The ring's memfd (dup'ed: the caller closes it) and size, for clients;
- * -1 if there is no ring yet. */
-int mcd_camera_ring_dup(mcd_camera *c, uint64_t *size);
+/* The camera's frame ring: the tracking thread reads its frames there,
+ * clients get its memfd. */
+mcd_frame_ring *mcd_camera_ring(mcd_camera *c);
 
 #endif

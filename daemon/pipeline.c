@@ -294,7 +294,7 @@ void mcd_pipeline_share_rings(mcd_pipeline *p)
 	srv_clear_rings(p->srv);
 	for (int c = 0; c < p->ncams; c++) {
 		uint64_t size = 0;
-		int fd = mcd_camera_ring_dup(p->cams[c], &size);
+		int fd = mcd_frame_ring_dup(mcd_camera_ring(p->cams[c]), &size);
 		if (fd < 0)
 			continue;
 		mc_err err;

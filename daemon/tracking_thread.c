@@ -104,8 +104,8 @@ static int gather_views(mcd_tracking_thread *t, const mcd_group *g, mc_frame_vie
 			continue;
 		mc_err err = {{0}};
 		mc_ring_meta meta;
-		int rc = mcd_camera_read(t->cams[c], g->frame[c].generation, g->frame[c].sequence, &t->raw[c],
-					 &t->raw_cap[c], &meta, &err);
+		int rc = mcd_frame_ring_read(mcd_camera_ring(t->cams[c]), g->frame[c].generation, g->frame[c].sequence,
+					     &t->raw[c], &t->raw_cap[c], &meta, &err);
 		if (rc != MC_RING_FRAME) {
 			note_overrun(t, c, g->frame[c].sequence, rc, &err);
 			continue;
