@@ -79,7 +79,7 @@ static void answer_controls(srv_server *srv)
 		else
 			srv_control_done(srv, ctl.token, 1, "recording is not supported by the test publisher");
 	}
-	srv_keypoints kp; /* not used here: taken so that the event fd resets */
+	srv_keypoints kp; /* the test publisher tracks nothing: keypoints are taken and dropped */
 	while (srv_inbox_pop_keypoints(srv_keypoints_inbox(srv), &kp) == 1) {
 	}
 }

@@ -193,10 +193,10 @@ void srv_get_stats(srv_server *srv, srv_stats *st);
 
 /* --- What clients send to the daemon ----------------------------------- */
 
-/* An fd (eventfd) that is readable exactly while control requests or
- * keypoint batches are waiting to be taken; srv_poll_control and
- * srv_inbox_pop_keypoints reset it when both are empty.  Add it to the
- * daemon's poll set. */
+/* An fd (eventfd) that is readable exactly while control requests wait to
+ * be taken; srv_poll_control resets it when none is left.  Add it to the
+ * daemon's main poll set.  Keypoints do not make it readable: the tracking
+ * thread takes them from their inbox once per frame set. */
 int srv_event_fd(srv_server *srv);
 
 typedef enum {

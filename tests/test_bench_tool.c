@@ -7,7 +7,6 @@
 #include "test_util.h"
 
 #include <jansson.h>
-#include <libgen.h>
 #include <string.h>
 #include <unistd.h>
 
@@ -140,11 +139,7 @@ static void test_bad_command_lines(void)
 int main(int argc, char **argv)
 {
 	(void)argc;
-	char self[4096];
-	snprintf(self, sizeof(self), "%s", argv[0]);
-	snprintf(tool, sizeof(tool), "%s/../bin/mocap-bench", dirname(self));
-	if (access(tool, X_OK) != 0)
-		TEST_SKIP("%s is not built", tool);
+	mc_test_find_tool(argv[0], "mocap-bench", tool, sizeof(tool));
 	if (access("tests/data/ego_demo/gt.json", R_OK) != 0)
 		TEST_SKIP("run from the repository root (tests/data/ego_demo not found)");
 	snprintf(tmpdir, sizeof(tmpdir), "/tmp/mocap-bench-test-XXXXXX");

@@ -7,7 +7,6 @@
 #include "geom/mc_rig.h"
 #include "test_util.h"
 
-#include <libgen.h>
 #include <stdint.h>
 #include <string.h>
 #include <unistd.h>
@@ -204,11 +203,7 @@ static void test_bad_command_lines(void)
 int main(int argc, char **argv)
 {
 	(void)argc;
-	char self[4096];
-	snprintf(self, sizeof(self), "%s", argv[0]);
-	snprintf(tool, sizeof(tool), "%s/../bin/mocap-render", dirname(self));
-	if (access(tool, X_OK) != 0)
-		TEST_SKIP("%s not built (make builds tools before tests)", tool);
+	mc_test_find_tool(argv[0], "mocap-render", tool, sizeof(tool));
 	mc_rig rig;
 	static mc_model model;
 	static mc_fk fk;

@@ -7,8 +7,10 @@
 #define MC_TEST_UTIL_H
 
 #include <math.h>
+#include <unistd.h>
 #include <stdio.h>
 #include <stdlib.h>
+#include <string.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
 
@@ -49,6 +51,17 @@ static int mc_test_failures;
 		printf("\n");                                                         \
 		exit(77);                                                             \
 	} while (0)
+
+/* The path of tool `name` built next to this test (BUILD/bin/NAME, the test
+ * being BUILD/tests/TEST), into out; skips the test when it is not built. */
+static inline void mc_test_find_tool(const char *argv0, const char *name, char *out, size_t cap)
+{
+	const char *slash = strrchr(argv0, '/');
+	int dir = slash ? (int)(slash - argv0) : 1;
+	snprintf(out, cap, "%.*s/../bin/%s", dir, slash ? argv0 : ".", name);
+	if (access(out, X_OK) != 0)
+		TEST_SKIP("%s is not built (make builds the tools before the tests)", out);
+}
 
 static inline int mc_test_finish(const char *name)
 {

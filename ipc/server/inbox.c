@@ -19,9 +19,13 @@ static void signal_event(srv_server *srv)
 }
 
 /* Called with the lock held: resets the event fd once nothing waits. */
+/* Only control requests: the main loop waits on the fd for them, while the
+ * tracking thread takes keypoints on its own schedule (once per frame set),
+ * so a keypoint batch waiting for it must not keep the fd readable and the
+ * main loop spinning. */
 static void reset_event_fd_if_idle(srv_server *srv)
 {
-	bool waiting = srv->keypoints.count > 0;
+	bool waiting = false;
 	for (int i = 0; i < srv->ncontrols; i++)
 		waiting |= !srv->controls[i].polled;
 	if (!waiting) {
@@ -62,7 +66,6 @@ int srv_keypoints_push(srv_keypoint_inbox *in, const mc_msg_keypoints *k, pid_t 
 		o->keypoints[i].v = k->kp[i].v;
 		o->keypoints[i].conf = k->kp[i].confidence;
 	}
-	signal_event(srv);
 	pthread_mutex_unlock(&srv->lock);
 	return dropped;
 }
@@ -78,7 +81,6 @@ int srv_inbox_pop_keypoints(srv_keypoint_inbox *in, srv_keypoints *out)
 		in->count--;
 		got = 1;
 	}
-	reset_event_fd_if_idle(srv);
 	pthread_mutex_unlock(&srv->lock);
 	return got;
 }
