@@ -24,13 +24,14 @@ struct mcd_tracking_thread {
 	mcd_publisher *pub;
 	void (*on_finished)(void *ctx);
 	void *ctx;
+	bool started; /* the thread runs (main thread only) */
 
 	/* Guards everything below, shared with the capture threads and the
 	 * main thread. */
 	pthread_mutex_t lock;
 	pthread_cond_t cond;
 	mcd_grouper grouper;
-	bool stop, started, finished;
+	bool stop, finished;
 	bool reload_pending;
 	mc_tracker_settings reload_budget;
 	mcd_track_stats st;
