@@ -71,6 +71,22 @@ bench-tracker: $(BUILD)/bin/mocap-bench
 		for c in $(DATA_DIR)/ego/*/; do $(BUILD)/bin/mocap-bench --clip $$c --quiet || exit 1; done; \
 	else echo "bench-tracker: $(DATA_DIR)/ego not found, skipped"; fi
 
+# The shipped detector inside the protocol on every evaluation clip: 2D
+# error and cost, and the tracker's MPJPE and fps with detection, with and
+# without the colour term (docs/BENCHMARKS.md, docs/DETECTOR.md).
+DETECTOR_MODEL ?= $(firstword $(wildcard config/models/*ego*.onnx))
+BENCHES += bench-detector
+.PHONY: bench-detector
+bench-detector: $(BUILD)/bin/mocap-bench
+	@if [ -z "$(DETECTOR_MODEL)" ]; then echo "bench-detector: no config/models/*ego*.onnx, skipped"; \
+	elif [ -d $(DATA_DIR)/ego ]; then \
+		for c in $(DATA_DIR)/ego/*/; do \
+			$(BUILD)/bin/mocap-bench --clip $$c --detector $(DETECTOR_MODEL) --quiet --no-thesis || exit 1; \
+			$(BUILD)/bin/mocap-bench --clip $$c --detector $(DETECTOR_MODEL) --lambda-color 0 --quiet \
+				--no-thesis --reference-frames 0 | grep -E '^(RESULT|DETECT2D)' | sed 's/^/no colour term: /' || exit 1; \
+		done; \
+	else echo "bench-detector: $(DATA_DIR)/ego not found, skipped"; fi
+
 all: $(CORE_LIB) $(TESTS) $(TOOLS) $(BINS) $(LIBS) $(PLUGINS)
 
 $(BUILD)/%.o: %.c
