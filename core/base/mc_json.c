@@ -10,27 +10,29 @@
 /* An element path: a PATH_CAP path plus "[index]". */
 #define ELEM_CAP (PATH_CAP + 24)
 
+/* The result of a parse: 0, or the error naming origin, line and column. */
+static int parsed(const json_t *root, const json_error_t *je, const char *origin, mc_err *err)
+{
+	if (root)
+		return 0;
+	/* jansson reports unreadable files with line -1 and an errno text. */
+	if (je->line < 0)
+		return mc_err_set(err, "%s: %s", origin, je->text);
+	return mc_err_set(err, "%s:%d:%d: %s", origin, je->line, je->column, je->text);
+}
+
 int mc_json_load_file(const char *path, json_t **root, mc_err *err)
 {
 	json_error_t je;
 	*root = json_load_file(path, JSON_REJECT_DUPLICATES, &je);
-	if (*root)
-		return 0;
-	/* jansson reports unreadable files with line -1 and an errno text. */
-	if (je.line < 0)
-		return mc_err_set(err, "%s: %s", path, je.text);
-	return mc_err_set(err, "%s:%d:%d: %s", path, je.line, je.column, je.text);
+	return parsed(*root, &je, path, err);
 }
 
 int mc_json_load_text(const char *text, const char *origin, json_t **root, mc_err *err)
 {
 	json_error_t je;
 	*root = json_loads(text, JSON_REJECT_DUPLICATES, &je);
-	if (*root)
-		return 0;
-	if (je.line < 0)
-		return mc_err_set(err, "%s: %s", origin, je.text);
-	return mc_err_set(err, "%s:%d:%d: %s", origin, je.line, je.column, je.text);
+	return parsed(*root, &je, origin, err);
 }
 
 char *mc_json_path(char *buf, size_t cap, const char *where, const char *key)
@@ -48,21 +50,6 @@ char *mc_json_path_index(char *buf, size_t cap, const char *where, const char *k
 	return mc_json_path(buf, cap, where, k);
 }
 
-/* Looks up key and writes its path ("where.key") into path, for the
- * caller's messages: 0 found, 1 absent and optional, -1 absent and required. */
-static int lookup(const json_t *obj, const char *key, const char *where, bool required, json_t **val,
-		  char path[PATH_CAP], mc_err *err)
-{
-	mc_json_path(path, PATH_CAP, where, key);
-	*val = json_is_object(obj) ? json_object_get(obj, key) : NULL;
-	if (*val && !json_is_null(*val))
-		return 0;
-	*val = NULL;
-	if (!required)
-		return 1;
-	return mc_err_set(err, "%s: missing", path);
-}
-
 static const char *type_name(const json_t *v)
 {
 	switch (json_typeof(v)) {
@@ -76,6 +63,34 @@ static const char *type_name(const json_t *v)
 	case JSON_NULL: return "null";
 	}
 	return "an unknown value";
+}
+
+/* Masks of JSON types for lookup(). */
+#define TYPE(t) (1u << (t))
+#define T_ANY (~0u)
+#define T_NUMBER (TYPE(JSON_INTEGER) | TYPE(JSON_REAL))
+#define T_BOOL (TYPE(JSON_TRUE) | TYPE(JSON_FALSE))
+
+/* A member found by lookup(), with its path ("where.key") for the caller's
+ * messages. */
+struct member {
+	json_t *v;
+	char path[PATH_CAP];
+};
+
+/* Looks up key: 0 found and of one of the `types`, 1 absent and optional,
+ * -1 absent and required ("<path>: missing") or of another type
+ * ("<path>: expected <what>, got <its type>"). */
+static int lookup(const json_t *obj, const char *key, const char *where, bool required, unsigned types,
+		  const char *what, struct member *m, mc_err *err)
+{
+	mc_json_path(m->path, PATH_CAP, where, key);
+	m->v = json_is_object(obj) ? json_object_get(obj, key) : NULL;
+	if (!m->v || json_is_null(m->v))
+		return required ? mc_err_set(err, "%s: missing", m->path) : 1;
+	if (!(types & TYPE(json_typeof(m->v))))
+		return mc_err_set(err, "%s: expected %s, got %s", m->path, what, type_name(m->v));
+	return 0;
 }
 
 /* Reads a finite number from v; `path` names it. */
@@ -92,12 +107,9 @@ static int number_value(const json_t *v, const char *path, double *out, mc_err *
 
 int mc_json_number(const json_t *obj, const char *key, const char *where, double *out, bool required, mc_err *err)
 {
-	json_t *v;
-	char p[PATH_CAP];
-	int r = lookup(obj, key, where, required, &v, p, err);
-	if (r)
-		return r;
-	return number_value(v, p, out, err);
+	struct member m;
+	int r = lookup(obj, key, where, required, T_NUMBER, "a number", &m, err);
+	return r ? r : number_value(m.v, m.path, out, err);
 }
 
 int mc_json_positive(const json_t *obj, const char *key, const char *where, double *out, bool required, mc_err *err)
@@ -131,22 +143,20 @@ int mc_json_number_range(const json_t *obj, const char *key, const char *where, 
 int mc_json_int(const json_t *obj, const char *key, const char *where, long long lo, long long hi, int *out,
 		bool required, mc_err *err)
 {
-	json_t *v;
-	char p[PATH_CAP];
-	int r = lookup(obj, key, where, required, &v, p, err);
+	struct member m;
+	int r = lookup(obj, key, where, required, T_NUMBER, "an integer", &m, err);
 	if (r)
 		return r;
-	double x;
-	if (json_is_integer(v)) {
-		json_int_t i = json_integer_value(v);
+	const char *p = m.path;
+	if (json_is_integer(m.v)) {
+		json_int_t i = json_integer_value(m.v);
 		if (i < lo || i > hi)
 			return mc_err_set(err, "%s: %lld is out of range [%lld, %lld]", p, (long long)i, lo, hi);
 		*out = (int)i;
 		return 0;
 	}
-	if (!json_is_real(v))
-		return mc_err_set(err, "%s: expected an integer, got %s", p, type_name(v));
-	if (number_value(v, p, &x, err))
+	double x;
+	if (number_value(m.v, p, &x, err))
 		return -1;
 	if (x != floor(x))
 		return mc_err_set(err, "%s: expected an integer, got %g", p, x);
@@ -158,33 +168,26 @@ int mc_json_int(const json_t *obj, const char *key, const char *where, long long
 
 int mc_json_bool(const json_t *obj, const char *key, const char *where, bool *out, bool required, mc_err *err)
 {
-	json_t *v;
-	char p[PATH_CAP];
-	int r = lookup(obj, key, where, required, &v, p, err);
-	if (r)
-		return r;
-	if (!json_is_boolean(v))
-		return mc_err_set(err, "%s: expected true or false, got %s", p, type_name(v));
-	*out = json_is_true(v);
-	return 0;
+	struct member m;
+	int r = lookup(obj, key, where, required, T_BOOL, "true or false", &m, err);
+	if (r == 0)
+		*out = json_is_true(m.v);
+	return r;
 }
 
 int mc_json_string(const json_t *obj, const char *key, const char *where, char *out, size_t cap, bool required,
 		   mc_err *err)
 {
-	json_t *v;
-	char p[PATH_CAP];
-	int r = lookup(obj, key, where, required, &v, p, err);
+	struct member m;
+	int r = lookup(obj, key, where, required, TYPE(JSON_STRING), "a string", &m, err);
 	if (r)
 		return r;
-	if (!json_is_string(v))
-		return mc_err_set(err, "%s: expected a string, got %s", p, type_name(v));
-	size_t n = json_string_length(v);
+	size_t n = json_string_length(m.v);
 	if (n + 1 > cap)
-		return mc_err_set(err, "%s: string is too long (%zu bytes, at most %zu)", p, n, cap - 1);
-	if (strlen(json_string_value(v)) != n)
-		return mc_err_set(err, "%s: string contains a NUL character", p);
-	memcpy(out, json_string_value(v), n + 1);
+		return mc_err_set(err, "%s: string is too long (%zu bytes, at most %zu)", m.path, n, cap - 1);
+	if (strlen(json_string_value(m.v)) != n)
+		return mc_err_set(err, "%s: string contains a NUL character", m.path);
+	memcpy(out, json_string_value(m.v), n + 1);
 	return 0;
 }
 
@@ -203,16 +206,15 @@ static int array_numbers(const json_t *arr, const char *path, double *out, size_
 int mc_json_numbers(const json_t *obj, const char *key, const char *where, double *out, size_t n, bool required,
 		    mc_err *err)
 {
-	json_t *v;
-	char p[PATH_CAP];
-	int r = lookup(obj, key, where, required, &v, p, err);
+	struct member m;
+	char what[64];
+	snprintf(what, sizeof(what), "an array of %zu numbers", n);
+	int r = lookup(obj, key, where, required, TYPE(JSON_ARRAY), what, &m, err);
 	if (r)
 		return r;
-	if (!json_is_array(v))
-		return mc_err_set(err, "%s: expected an array of %zu numbers, got %s", p, n, type_name(v));
-	if (json_array_size(v) != n)
-		return mc_err_set(err, "%s: expected %zu numbers, got %zu", p, n, json_array_size(v));
-	return array_numbers(v, p, out, n, err);
+	if (json_array_size(m.v) != n)
+		return mc_err_set(err, "%s: expected %zu numbers, got %zu", m.path, n, json_array_size(m.v));
+	return array_numbers(m.v, m.path, out, n, err);
 }
 
 int mc_json_numbers_var(const json_t *obj, const char *key, const char *where, double *out, size_t max, size_t *n,
@@ -238,81 +240,71 @@ int mc_json_vec3(const json_t *obj, const char *key, const char *where, mc_vec3 
 	return 0;
 }
 
-/* An n x n matrix as n rows of n numbers or n*n numbers; out is row-major. */
-static int square_matrix(const json_t *obj, const char *key, const char *where, size_t n, double *out, bool required,
+/* An n x n matrix as n rows of n numbers or n*n numbers, into out (n*n
+ * doubles, row-major) only when all of it is valid. */
+static int square_matrix(const json_t *obj, const char *key, const char *where, size_t n, void *out, bool required,
 			 mc_err *err)
 {
-	json_t *v;
-	char p[PATH_CAP];
-	int r = lookup(obj, key, where, required, &v, p, err);
+	struct member m;
+	int r = lookup(obj, key, where, required, T_ANY, NULL, &m, err);
 	if (r)
 		return r;
-	if (json_is_array(v) && json_array_size(v) == n * n)
-		return array_numbers(v, p, out, n * n, err);
+	double a[16];
+	json_t *v = m.v;
+	if (json_is_array(v) && json_array_size(v) == n * n) {
+		if (array_numbers(v, m.path, a, n * n, err))
+			return -1;
+		memcpy(out, a, n * n * sizeof(double));
+		return 0;
+	}
 	if (!json_is_array(v) || json_array_size(v) != n)
-		return mc_err_set(err, "%s: expected %zu rows of %zu numbers (or %zu numbers)", p, n, n, n * n);
+		return mc_err_set(err, "%s: expected %zu rows of %zu numbers (or %zu numbers)", m.path, n, n, n * n);
 	for (size_t i = 0; i < n; i++) {
 		json_t *row = json_array_get(v, i);
 		char rp[ELEM_CAP];
-		snprintf(rp, sizeof(rp), "%s[%zu]", p, i);
+		snprintf(rp, sizeof(rp), "%s[%zu]", m.path, i);
 		if (!json_is_array(row) || json_array_size(row) != n)
 			return mc_err_set(err, "%s: expected a row of %zu numbers", rp, n);
-		if (array_numbers(row, rp, out + i * n, n, err))
+		if (array_numbers(row, rp, a + i * n, n, err))
 			return -1;
 	}
+	memcpy(out, a, n * n * sizeof(double));
 	return 0;
 }
 
 int mc_json_mat4(const json_t *obj, const char *key, const char *where, double out[4][4], bool required, mc_err *err)
 {
-	double a[16];
-	int r = square_matrix(obj, key, where, 4, a, required, err);
-	if (r)
-		return r;
-	memcpy(out, a, sizeof(a));
-	return 0;
+	return square_matrix(obj, key, where, 4, out, required, err);
 }
 
 int mc_json_mat3(const json_t *obj, const char *key, const char *where, mc_mat3 *out, bool required, mc_err *err)
 {
-	double a[9];
-	int r = square_matrix(obj, key, where, 3, a, required, err);
-	if (r)
-		return r;
-	memcpy(out->m, a, sizeof(a));
-	return 0;
+	return square_matrix(obj, key, where, 3, out->m, required, err);
 }
 
 int mc_json_array(const json_t *obj, const char *key, const char *where, size_t min, size_t max, json_t **out,
 		  bool required, mc_err *err)
 {
-	json_t *v;
-	char p[PATH_CAP];
-	int r = lookup(obj, key, where, required, &v, p, err);
+	struct member m;
+	int r = lookup(obj, key, where, required, TYPE(JSON_ARRAY), "an array", &m, err);
 	if (r)
 		return r;
-	if (!json_is_array(v))
-		return mc_err_set(err, "%s: expected an array, got %s", p, type_name(v));
-	size_t n = json_array_size(v);
+	size_t n = json_array_size(m.v);
 	if (n < min)
-		return mc_err_set(err, "%s: needs at least %zu element%s, got %zu", p, min, min == 1 ? "" : "s", n);
+		return mc_err_set(err, "%s: needs at least %zu element%s, got %zu", m.path, min, min == 1 ? "" : "s", n);
 	if (n > max)
-		return mc_err_set(err, "%s: at most %zu elements allowed, got %zu", p, max, n);
-	*out = v;
+		return mc_err_set(err, "%s: at most %zu elements allowed, got %zu", m.path, max, n);
+	*out = m.v;
 	return 0;
 }
 
 int mc_json_object(const json_t *obj, const char *key, const char *where, json_t **out, bool required, mc_err *err)
 {
-	json_t *v;
-	char p[PATH_CAP];
-	int r = lookup(obj, key, where, required, &v, p, err);
-	if (r)
-		return r;
-	if (!json_is_object(v))
-		return mc_err_set(err, "%s: expected an object, got %s", p, type_name(v));
-	*out = v;
-	return 0;
+	struct member m;
+	int r = lookup(obj, key, where, required, TYPE(JSON_OBJECT), "an object", &m, err);
+	if (r == 0)
+		*out = m.v;
+	return r;
 }
 
 int mc_json_check_keys(const json_t *obj, const char *where, const char *const *allowed, mc_err *err)
