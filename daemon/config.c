@@ -147,12 +147,14 @@ static void begin_section(parser *p, const char *name)
 		p->cfg->tracker.line = p->line;
 	} else if (strcmp(name, "socket") == 0)
 		p->kind = MCD_SEC_SOCKET;
+	else if (strcmp(name, "detector") == 0)
+		p->kind = MCD_SEC_DETECTOR;
 	else if (strncmp(name, "camera", 6) == 0 && (name[6] == ' ' || name[6] == 0)) {
 		p->kind = MCD_SEC_CAMERA;
 		begin_camera(p, name);
 	} else {
 		p->known = false;
-		fail(p, "unknown section [%s] (expected [daemon], [camera NAME], [tracker] or [socket])", name);
+		fail(p, "unknown section [%s] (expected [daemon], [camera NAME], [tracker], [socket] or [detector])", name);
 	}
 }
 

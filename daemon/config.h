@@ -1,6 +1,7 @@
 /* config: mocapd's INI configuration (inih), checked key by key.
  *
- * Sections: [daemon], one [camera NAME] per camera, [tracker], [socket].
+ * Sections: [daemon], one [camera NAME] per camera, [tracker], [socket],
+ * [detector].
  * Every error names the file, the line and the key, e.g.
  *   "mocapd.conf:12: [tracker] iterations: expected a positive integer, got 'abc'"
  * Unknown keys and sections are errors.  In a camera section the keys the
@@ -74,6 +75,15 @@ typedef struct {
 	int max_clients;
 } mcd_socket_config;
 
+/* The [detector] section: the in-process 2D joint detector
+ * (detector_thread.h).  An empty model means no detector. */
+typedef struct {
+	char model[PATH_MAX];  /* ONNX file; "" = no detector */
+	double rate;           /* detections per second per camera; 0 = every frame */
+	int threads;           /* OpenCV threads (process-wide) */
+	double min_confidence; /* keypoints below it are dropped; < 0: the model's threshold */
+} mcd_detector_config;
+
 typedef struct {
 	char file[PATH_MAX]; /* as given, for messages */
 	char dir[PATH_MAX];  /* its directory, for relative paths */
@@ -94,6 +104,7 @@ typedef struct {
 	mcd_camera_config cams[MC_MAX_CAMERAS];
 	mcd_tracker_config tracker;
 	mcd_socket_config socket;
+	mcd_detector_config detector;
 
 	/* Where each key was given, for messages about values checked later
 	 * (a rig file that fails to load, a socket group that does not exist). */
@@ -124,7 +135,8 @@ const mcd_kv *mcd_camera_config_find(const mcd_camera_config *cam, const char *k
 
 /* ---- the key table ------------------------------------------------------ */
 
-typedef enum { MCD_SEC_DAEMON, MCD_SEC_CAMERA, MCD_SEC_TRACKER, MCD_SEC_SOCKET } mcd_section;
+typedef enum { MCD_SEC_DAEMON, MCD_SEC_CAMERA, MCD_SEC_TRACKER, MCD_SEC_SOCKET, MCD_SEC_DETECTOR } mcd_section;
+#define MCD_NSECTIONS 5
 
 typedef enum {
 	MCD_KEY_BOOL,     /* true/false, yes/no, on/off, 1/0 */
@@ -135,9 +147,11 @@ typedef enum {
 	MCD_KEY_STRING,   /* non-empty text */
 	MCD_KEY_NAME,     /* letters, digits, '_' and '-' */
 	MCD_KEY_PATH,     /* relative to the config file's directory */
+	MCD_KEY_OPT_PATH, /* the same, or empty for none */
 	MCD_KEY_ENUM,     /* one of `choices`, stored as an int */
 	MCD_KEY_CL_INDEX, /* "auto" (-1) or an index 0..63 */
 	MCD_KEY_MODE,     /* octal permission bits, with the leading 0 */
+	MCD_KEY_REAL_AUTO, /* "auto" (stored as -1) or a double in [lo, hi] */
 } mcd_key_type;
 
 typedef struct {
@@ -166,7 +180,7 @@ typedef struct {
 const mcd_config_key *mcd_config_keys(size_t *n);
 /* The entry for `key` in a section, or NULL. */
 const mcd_config_key *mcd_config_key_find(mcd_section section, const char *key);
-/* "daemon", "camera", "tracker" or "socket". */
+/* "daemon", "camera", "tracker", "socket" or "detector". */
 const char *mcd_section_name(mcd_section section);
 /* Parses `value` into the key's field of `base` (an mcd_config, or an
  * mcd_camera_config for camera keys).  On error returns -1 with why (no

@@ -37,6 +37,7 @@ static const mcd_key_choice backends[] = {
 #define T(member) FIELD(mcd_config, tracker.member)
 #define S(member) FIELD(mcd_config, socket.member)
 #define C(member) FIELD(mcd_camera_config, member)
+#define K(member) FIELD(mcd_config, detector.member)
 #define TRACKER_DEFAULT NULL /* mc_tracker_settings_default */
 
 static const mcd_config_key keys[] = {
@@ -88,6 +89,12 @@ static const mcd_config_key keys[] = {
 	{MCD_SEC_SOCKET, "group", MCD_KEY_NAME, S(group), 0, 0, NULL, NULL, false},
 	{MCD_SEC_SOCKET, "mode", MCD_KEY_MODE, S(mode), 0, 0, NULL, "0660", false},
 	{MCD_SEC_SOCKET, "max_clients", MCD_KEY_INT, S(max_clients), 1, 1024, NULL, "64", false},
+
+	/* A new model takes a restart; the rest is applied between detections. */
+	{MCD_SEC_DETECTOR, "model", MCD_KEY_OPT_PATH, K(model), 0, 0, NULL, NULL, false},
+	{MCD_SEC_DETECTOR, "rate", MCD_KEY_REAL, K(rate), 0, 1000, NULL, "0", true},
+	{MCD_SEC_DETECTOR, "threads", MCD_KEY_INT, K(threads), 1, 64, NULL, "1", true},
+	{MCD_SEC_DETECTOR, "min_confidence", MCD_KEY_REAL_AUTO, K(min_confidence), 0, 1, NULL, "auto", true},
 };
 
 const mcd_config_key *mcd_config_keys(size_t *n)
@@ -106,8 +113,8 @@ const mcd_config_key *mcd_config_key_find(mcd_section section, const char *key)
 
 const char *mcd_section_name(mcd_section section)
 {
-	static const char *const names[] = {"daemon", "camera", "tracker", "socket"};
-	return (unsigned)section < 4 ? names[section] : "?";
+	static const char *const names[MCD_NSECTIONS] = {"daemon", "camera", "tracker", "socket", "detector"};
+	return (unsigned)section < MCD_NSECTIONS ? names[section] : "?";
 }
 
 /* ---- parsing values ---------------------------------------------------------- */
@@ -222,8 +229,13 @@ static int p_name(const mcd_config_key *k, const char *value, void *field, char 
 /* A path; a relative one is taken relative to the config file's directory,
  * so that a config works from any working directory (systemd starts the
  * daemon in /).  `cap` is the field's size. */
-static int p_path(size_t cap, const char *value, void *field, const char *base_dir, char *why, size_t n)
+static int p_path(size_t cap, const char *value, void *field, const char *base_dir, bool optional, char *why,
+		  size_t n)
 {
+	if (!*value && optional) {
+		*(char *)field = 0;
+		return 0;
+	}
 	if (!*value) {
 		snprintf(why, n, "expected a path, got nothing");
 		return -1;
@@ -315,13 +327,24 @@ int mcd_config_key_parse(const mcd_config_key *k, const char *value, void *base,
 	case MCD_KEY_NAME:
 		return p_name(k, value, field, why, n);
 	case MCD_KEY_PATH:
-		return p_path(k->hi > 0 ? (size_t)k->hi : k->size, value, field, base_dir, why, n);
+	case MCD_KEY_OPT_PATH:
+		return p_path(k->hi > 0 ? (size_t)k->hi : k->size, value, field, base_dir, k->type == MCD_KEY_OPT_PATH,
+			      why, n);
 	case MCD_KEY_ENUM:
 		return p_enum(k, value, field, why, n);
 	case MCD_KEY_CL_INDEX:
 		return p_cl_index(value, field, why, n);
 	case MCD_KEY_MODE:
 		return p_mode(value, field, why, n);
+	case MCD_KEY_REAL_AUTO:
+		if (strcmp(value, "auto") == 0) {
+			*(double *)field = -1;
+			return 0;
+		}
+		if (p_real(k, value, field, why, n) == 0)
+			return 0;
+		snprintf(why, n, "expected auto or a number from %g to %g, got '%s'", k->lo, k->hi, value);
+		return -1;
 	}
 	snprintf(why, n, "no parser for this key");
 	return -1;
@@ -357,7 +380,14 @@ const char *mcd_config_key_format(const mcd_config_key *k, const void *base, cha
 	case MCD_KEY_STRING:
 	case MCD_KEY_NAME:
 	case MCD_KEY_PATH:
+	case MCD_KEY_OPT_PATH:
 		snprintf(buf, cap, "%s", (const char *)field);
+		break;
+	case MCD_KEY_REAL_AUTO:
+		if (*(const double *)field < 0)
+			snprintf(buf, cap, "auto");
+		else
+			snprintf(buf, cap, "%.9g", *(const double *)field);
 		break;
 	case MCD_KEY_ENUM:
 		snprintf(buf, cap, "%s", enum_name(k, *(const int *)field));
@@ -393,6 +423,7 @@ void mcd_config_defaults(mcd_config *cfg)
 	set_defaults(MCD_SEC_DAEMON, cfg);
 	set_defaults(MCD_SEC_TRACKER, cfg);
 	set_defaults(MCD_SEC_SOCKET, cfg);
+	set_defaults(MCD_SEC_DETECTOR, cfg);
 }
 
 void mcd_camera_config_defaults(mcd_camera_config *cam)
@@ -405,7 +436,7 @@ void mcd_camera_config_defaults(mcd_camera_config *cam)
 static bool same_value(const mcd_config_key *k, const mcd_config *a, const mcd_config *b)
 {
 	const char *fa = (const char *)a + k->offset, *fb = (const char *)b + k->offset;
-	if (k->type == MCD_KEY_STRING || k->type == MCD_KEY_NAME || k->type == MCD_KEY_PATH)
+	if (k->type == MCD_KEY_STRING || k->type == MCD_KEY_NAME || k->type == MCD_KEY_PATH || k->type == MCD_KEY_OPT_PATH)
 		return strcmp(fa, fb) == 0;
 	return memcmp(fa, fb, k->size) == 0;
 }

@@ -1,5 +1,7 @@
 #include "frame_ring.h"
 
+#include "image/mc_pixfmt.h"
+
 #include <fcntl.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -86,4 +88,26 @@ int mcd_frame_ring_dup(mcd_frame_ring *r, uint64_t *size)
 	}
 	pthread_mutex_unlock(&r->lock);
 	return fd;
+}
+
+int mcd_frame_to_rgb(mc_image_conv *conv, const mc_ring_meta *meta, const uint8_t *raw, uint8_t **rgb, size_t *cap,
+		     int *w, int *h, mc_err *err)
+{
+	mc_image_frame fr = {.pixfmt = meta->pixfmt, .width = meta->width, .height = meta->height,
+			     .stride = meta->stride, .data = raw, .bytes = meta->bytesused};
+	*w = (int)meta->width;
+	*h = (int)meta->height;
+	if (meta->pixfmt == MC_PIXFMT_MJPEG && (*w == 0 || *h == 0)) {
+		if (mc_image_jpeg_size(conv, raw, meta->bytesused, w, h, err))
+			return -1;
+	}
+	size_t need = (size_t)*w * (size_t)*h * 3;
+	if (*cap < need) {
+		uint8_t *grown = realloc(*rgb, need);
+		if (!grown)
+			return mc_err_set(err, "out of memory");
+		*rgb = grown;
+		*cap = need;
+	}
+	return mc_image_to_rgb24(conv, &fr, *rgb, need, err);
 }

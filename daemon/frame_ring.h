@@ -11,6 +11,7 @@
 #define MCD_FRAME_RING_H
 
 #include "base/mc_error.h"
+#include "image/mc_image.h"
 #include "ring/mc_ring.h"
 
 #include <pthread.h>
@@ -39,6 +40,13 @@ int mcd_frame_ring_ensure(mcd_frame_ring *r, size_t bytes, mc_err *err);
  * MC_RING_NONE (no ring yet), or -1 with err. */
 int mcd_frame_ring_read(mcd_frame_ring *r, uint64_t generation, uint64_t sequence, uint8_t **buf, size_t *cap,
 			mc_ring_meta *meta, mc_err *err);
+
+/* A frame read back (`raw`, as meta describes it) converted to packed
+ * RGB24 in *rgb (grown with realloc; *cap is its size); *w, *h get its
+ * size (an MJPEG frame without one in meta is sized from its header).
+ * The tracking and the detector thread each have their own conv. */
+int mcd_frame_to_rgb(mc_image_conv *conv, const mc_ring_meta *meta, const uint8_t *raw, uint8_t **rgb, size_t *cap,
+		     int *w, int *h, mc_err *err);
 
 /* The ring's memfd (dup'ed: the caller closes it) and size, for clients;
  * -1 if there is no ring yet. */

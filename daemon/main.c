@@ -9,6 +9,7 @@
  * watchdog.  SIGTERM/SIGINT stop cleanly; SIGHUP (or `mocapctl reload`)
  * reloads what can change safely (docs/CONFIG.md). */
 #include "config.h"
+#include "detector_thread.h"
 #include "log.h"
 #include "server.h"
 #include "notify.h"
@@ -492,13 +493,16 @@ static int start(daemon_ctx *d, mc_err *err)
 	return 0;
 }
 
-/* --check: the rig, the model, the initial joints and the plugins are
+/* --check: the rig, the model, the initial joints, the detector's model and the plugins are
  * the parts of start-up that can be checked without touching devices or
  * OpenCL.  Returns the exit status. */
 static int check_only(const daemon_ctx *d)
 {
 	mc_err err = {{0}};
+	char where[PATH_MAX + 64];
 	bool ok = !d->cfg->tracker.enabled || mcd_tracking_check(d->cfg, &err) == 0;
+	ok = ok && mcd_detector_check(&d->cfg->detector,
+				      mcd_config_where(d->cfg, "detector", "model", where, sizeof(where)), &err) == 0;
 	mcd_pipeline *p = ok ? mcd_pipeline_create(d->cfg, NULL, NULL, &err) : NULL;
 	ok = p != NULL;
 	mcd_pipeline_destroy(p);

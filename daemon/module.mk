@@ -24,6 +24,10 @@ FAULTY_LIBS := $(shell $(PKG_CONFIG) --libs libturbojpeg 2>/dev/null)
 # The socket server library of ipc/module.mk (included after this file, so
 # named by its path here).
 IPC_SERVER_A := $(BUILD)/libmocapipc.a
+# The detector runtime of detect/module.mk (also included later: its
+# library by path in prerequisites, $(DETECT_LIBS) only in recipes).
+DAEMON_DETECT_A := $(BUILD)/libmocapdetect.a
+DAEMON_LINK = $(DAEMON_DETECT_A) $(CORE_LIB) $(CORE_LIBS) $(DETECT_LIBS) $(DAEMON_LIBS)
 
 # mocapd links the tracker (core) and the socket server (ipc); it is built
 # once both are in the tree.
@@ -32,16 +36,16 @@ BINS += $(MOCAPD)
 DAEMON_TEST_NEEDS := $(MOCAPD)
 endif
 
-$(BUILD)/daemon/%.o: CPPFLAGS += -Idaemon $(DAEMON_CFLAGS) -DMOCAPD_PLUGIN_DIR='"$(MOCAPD_PLUGIN_DIR)"' \
+$(BUILD)/daemon/%.o: CPPFLAGS += -Idaemon -Idetect $(DAEMON_CFLAGS) -DMOCAPD_PLUGIN_DIR='"$(MOCAPD_PLUGIN_DIR)"' \
 	-DMOCAPD_VERSION='"$(MOCAPD_VERSION)"'
 
 $(DAEMON_LIB): $(DAEMON_OBJ)
 	@rm -f $@
 	ar rcs $@ $^
 
-$(MOCAPD): $(BUILD)/daemon/main.o $(DAEMON_LIB) $(IPC_SERVER_A) $(CORE_LIB)
+$(MOCAPD): $(BUILD)/daemon/main.o $(DAEMON_LIB) $(IPC_SERVER_A) $(DAEMON_DETECT_A) $(CORE_LIB)
 	@mkdir -p $(@D)
-	$(CC) $< -o $@ $(LDFLAGS) $(DAEMON_LIB) $(IPC_SERVER_A) $(CORE_LIB) $(CORE_LIBS) $(DAEMON_LIBS)
+	$(CC) $< -o $@ $(LDFLAGS) $(DAEMON_LIB) $(IPC_SERVER_A) $(DAEMON_LINK)
 
 $(FAULTY_SO): tests/drivers/faulty/faulty.c drivers/mdrv.h
 	@mkdir -p $(@D)
@@ -57,15 +61,21 @@ $(FAULTY_DIR)/bad/mocap-driver-noentry.so: tests/drivers/faulty/faulty.c drivers
 
 # The keypoint test is also a client of the socket: it links libmocap
 # (literal path: ipc/module.mk is included after this file).
-$(BUILD)/tests/test_daemon_keypoints: tests/test_daemon_keypoints.c $(DAEMON_LIB) $(CORE_LIB) $(BUILD)/libmocap.a | $(DAEMON_TEST_NEEDS)
+# The detector tests run mocapd with the test models of detect/tests/data.
+DAEMON_CLIENT_TESTS := $(BUILD)/tests/test_daemon_keypoints $(BUILD)/tests/test_daemon_detector
+$(DAEMON_CLIENT_TESTS): $(BUILD)/tests/%: tests/%.c $(DAEMON_LIB) $(DAEMON_DETECT_A) $(CORE_LIB) $(BUILD)/libmocap.a \
+		| $(DAEMON_TEST_NEEDS)
 	@mkdir -p $(@D)
-	$(CC) $(CPPFLAGS) -Idaemon $(DAEMON_CFLAGS) $(CFLAGS) -MMD -MP $< -o $@ $(LDFLAGS) $(DAEMON_LIB) $(BUILD)/libmocap.a $(CORE_LIB) $(CORE_LIBS) $(DAEMON_LIBS)
+	$(CC) $(CPPFLAGS) -Idaemon -Idetect $(DAEMON_CFLAGS) $(CFLAGS) -MMD -MP $< -o $@ $(LDFLAGS) $(DAEMON_LIB) \
+		$(BUILD)/libmocap.a $(DAEMON_LINK)
 
 # Daemon tests link the daemon library; the integration tests run mocapd
 # and the fault driver, so those are built first.
-$(BUILD)/tests/test_daemon_%: tests/test_daemon_%.c $(DAEMON_LIB) $(CORE_LIB) | $(DAEMON_TEST_NEEDS) $(FAULTY_SO) $(FAULTY_BAD)
+$(BUILD)/tests/test_daemon_%: tests/test_daemon_%.c $(DAEMON_LIB) $(DAEMON_DETECT_A) $(CORE_LIB) \
+		| $(DAEMON_TEST_NEEDS) $(FAULTY_SO) $(FAULTY_BAD)
 	@mkdir -p $(@D)
-	$(CC) $(CPPFLAGS) -Idaemon $(DAEMON_CFLAGS) $(CFLAGS) -MMD -MP $< -o $@ $(LDFLAGS) $(DAEMON_LIB) $(CORE_LIB) $(CORE_LIBS) $(DAEMON_LIBS)
+	$(CC) $(CPPFLAGS) -Idaemon -Idetect $(DAEMON_CFLAGS) $(CFLAGS) -MMD -MP $< -o $@ $(LDFLAGS) $(DAEMON_LIB) \
+		$(DAEMON_LINK)
 
 # ---- the demo: mocapd on the bundled clip, no hardware (README's first command)
 .PHONY: demo

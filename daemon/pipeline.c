@@ -24,6 +24,7 @@ struct mcd_pipeline {
 	mcd_camera *cams[MC_MAX_CAMERAS];
 	bool joined[MC_MAX_CAMERAS];
 	mcd_tracking_thread *tracker;
+	mcd_detector_thread *detector; /* NULL: no [detector] model */
 	srv_server *srv;
 	mcd_publisher *pub;
 	bool print;
@@ -56,6 +57,7 @@ static void on_frame(void *ctx, int cam, uint64_t generation, const mc_ring_meta
 	mcd_pipeline *p = ctx;
 	atomic_store(&p->ring_generation[cam], generation);
 	mcd_tracking_thread_push(p->tracker, cam, generation, meta);
+	mcd_detector_thread_push(p->detector, cam, generation, meta);
 }
 
 static void on_change(void *ctx, int cam)
@@ -82,6 +84,31 @@ static int create_tracking_thread(mcd_pipeline *p, const mcd_config *cfg, mcd_tr
 	};
 	p->tracker = mcd_tracking_thread_create(&tc, err);
 	return p->tracker ? 0 : -1;
+}
+
+/* The detector thread, when the config names a model and there is a
+ * tracker to feed; a model that does not load leaves it FAILED, not an error. */
+static int create_detector_thread(mcd_pipeline *p, const mcd_config *cfg, mcd_tracking *tracking, mc_err *err)
+{
+	if (!cfg->detector.model[0])
+		return 0;
+	if (!tracking) {
+		if (!cfg->tracker.enabled)
+			mcd_warn("detector: [tracker] enabled = false, so no tracker to feed; the detector is off");
+		return 0;
+	}
+	char where[PATH_MAX + 64];
+	mcd_detector_thread_config dc = {
+		.ncams = p->ncams,
+		.cams = p->cams,
+		.cam_to_rig = tracking->cam_to_rig,
+		.model = mc_tracker_model(tracking->tracker),
+		.sink = p->tracker,
+		.cfg = &cfg->detector,
+		.where = mcd_config_where(cfg, "detector", "model", where, sizeof(where)),
+	};
+	p->detector = mcd_detector_thread_create(&dc, err);
+	return p->detector ? 0 : -1;
 }
 
 /* Loads the drivers and creates the cameras, all with one time origin. */
@@ -120,7 +147,8 @@ mcd_pipeline *mcd_pipeline_create(const mcd_config *cfg, mcd_tracking *tracking,
 	}
 	/* The cameras are created first (the tracking thread reads them), but
 	 * report to it only once started. */
-	if (create_cameras(p, cfg, err) || create_tracking_thread(p, cfg, tracking, err)) {
+	if (create_cameras(p, cfg, err) || create_tracking_thread(p, cfg, tracking, err) ||
+	    create_detector_thread(p, cfg, tracking, err)) {
 		mcd_pipeline_destroy(p);
 		return NULL;
 	}
@@ -137,6 +165,8 @@ int mcd_pipeline_start(mcd_pipeline *p, const char *pose_dir, mc_err *err)
 	if (mcd_tracking_thread_start(p->tracker, p->pub, err))
 		return -1;
 	p->started = true;
+	if (p->detector && mcd_detector_thread_start(p->detector, err))
+		return -1;
 	for (int c = 0; c < p->ncams; c++) {
 		if (mcd_camera_start(p->cams[c], err))
 			return -1;
@@ -168,6 +198,7 @@ void mcd_pipeline_stop(mcd_pipeline *p, int grace_ms)
 		return;
 	p->stopped = true;
 	stop_cameras(p, grace_ms);
+	mcd_detector_thread_stop(p->detector);
 	if (p->started) {
 		mcd_tracking_thread_stop(p->tracker);
 		p->started = false;
@@ -181,6 +212,7 @@ void mcd_pipeline_destroy(mcd_pipeline *p)
 	if (!p)
 		return;
 	mcd_pipeline_stop(p, 2000);
+	mcd_detector_thread_destroy(p->detector);
 	mcd_tracking_thread_destroy(p->tracker);
 	bool all_joined = true;
 	for (int c = 0; c < p->ncams; c++) {
@@ -272,6 +304,7 @@ void mcd_pipeline_get_status(mcd_pipeline *p, mcd_pipeline_status *st, bool rese
 	st->ncams = p->ncams;
 	st->tracking = p->tracking;
 	st->track = ts.total;
+	mcd_detector_thread_stats(p->detector, &st->detector, reset_max);
 	for (int c = 0; c < p->ncams; c++)
 		camera_status(p, c, &ts, &st->cams[c]);
 	if (p->pub)
@@ -281,6 +314,7 @@ void mcd_pipeline_get_status(mcd_pipeline *p, mcd_pipeline_status *st, bool rese
 void mcd_pipeline_reload(mcd_pipeline *p, const mcd_config *cfg)
 {
 	mcd_tracking_thread_reload(p->tracker, cfg->group_tolerance_ms, cfg->group_deadline_ms, &cfg->tracker.settings);
+	mcd_detector_thread_reload(p->detector, &cfg->detector);
 	for (int c = 0; c < p->ncams; c++)
 		mcd_camera_set_limits(p->cams[c], cfg->reopen_initial_ms, cfg->reopen_max_ms, cfg->stall_timeout_ms);
 	if (p->pub)

@@ -3,7 +3,9 @@
  * Threads: one capture thread per camera (capture.h) writing into that
  * camera's frame ring; one tracking thread (tracking_thread.h) that groups
  * the views of one instant, reads them out of the rings and runs the
- * tracker; one publishing thread (publish.h).  The pipeline creates them,
+ * tracker; one publishing thread (publish.h); with a [detector] model, a
+ * detector thread (detector_thread.h) that detects on the newest frames
+ * and hands its keypoints to the tracking thread.  The pipeline creates them,
  * connects each capture thread's reports to the tracking thread, and
  * answers the main thread, which only starts, watches, reloads and stops. */
 #ifndef MCD_PIPELINE_H
@@ -12,6 +14,7 @@
 #include "base/mc_limits.h"
 #include "capture.h"
 #include "config.h"
+#include "detector_thread.h"
 #include "publish.h"
 #include "server.h"
 #include "tracker_setup.h"
@@ -35,6 +38,7 @@ typedef struct {
 	mcd_cam_status cams[MC_MAX_CAMERAS];
 	bool tracking;           /* a tracker is configured */
 	mcd_track_totals track;  /* track_ms_max: since the last mcd_pipeline_get_status(.., reset_max) */
+	mcd_detector_stats detector; /* ms_max: likewise */
 	mcd_publish_stats publish;
 } mcd_pipeline_status;
 
@@ -71,7 +75,8 @@ bool mcd_pipeline_progress(mcd_pipeline *p, char *stuck, size_t cap);
 void mcd_pipeline_get_status(mcd_pipeline *p, mcd_pipeline_status *st, bool reset_max);
 
 /* Applies what can change safely at run time: grouping limits, reopen
- * backoff and stall limit, printing, tracker budgets. */
+ * backoff and stall limit, printing, tracker budgets, the detector's rate,
+ * threads and confidence threshold. */
 void mcd_pipeline_reload(mcd_pipeline *p, const mcd_config *cfg);
 
 /* Offers every camera ring to the server's clients (after start and when

@@ -47,31 +47,18 @@ struct mcd_tracking_thread {
 	srv_keypoints *kp_batch;
 	srv_keypoints *kp_latest; /* per rig camera */
 	mc_keypoint *kp;          /* the ones used for one frame set */
+
+	/* The in-process detector's newest batch per rig camera: det_offer
+	 * is written by the detector thread under det_lock (a copy, never a
+	 * wait for a detection), det_latest is the tracking thread's copy. */
+	pthread_mutex_t det_lock;
+	srv_keypoints *det_offer;
+	uint64_t det_serial[MC_MAX_CAMERAS];
+	srv_keypoints *det_latest;
+	uint64_t det_seen[MC_MAX_CAMERAS];
 };
 
 /* ---- one frame set ---------------------------------------------------------------- */
-
-/* Converts camera c's frame (raw[c]) to RGB24 in rgb[c]. */
-static int to_rgb(mcd_tracking_thread *t, int c, const mc_ring_meta *meta, int *w, int *h, mc_err *err)
-{
-	mc_image_frame fr = {.pixfmt = meta->pixfmt, .width = meta->width, .height = meta->height,
-			     .stride = meta->stride, .data = t->raw[c], .bytes = meta->bytesused};
-	*w = (int)meta->width;
-	*h = (int)meta->height;
-	if (meta->pixfmt == MC_PIXFMT_MJPEG && (*w == 0 || *h == 0)) {
-		if (mc_image_jpeg_size(t->conv, t->raw[c], meta->bytesused, w, h, err))
-			return -1;
-	}
-	size_t need = (size_t)*w * (size_t)*h * 3;
-	if (t->rgb_cap[c] < need) {
-		uint8_t *grown = realloc(t->rgb[c], need);
-		if (!grown)
-			return mc_err_set(err, "out of memory");
-		t->rgb[c] = grown;
-		t->rgb_cap[c] = need;
-	}
-	return mc_image_to_rgb24(t->conv, &fr, t->rgb[c], need, err);
-}
 
 static void note_overrun(mcd_tracking_thread *t, int c, uint64_t sequence, int rc, const mc_err *err)
 {
@@ -112,7 +99,7 @@ static int gather_views(mcd_tracking_thread *t, const mcd_group *g, mc_frame_vie
 			continue;
 		}
 		int w, h;
-		if (to_rgb(t, c, &meta, &w, &h, &err)) {
+		if (mcd_frame_to_rgb(t->conv, &meta, t->raw[c], &t->rgb[c], &t->rgb_cap[c], &w, &h, &err)) {
 			note_undecodable(t, c, &err);
 			continue;
 		}
@@ -125,30 +112,53 @@ static int gather_views(mcd_tracking_thread *t, const mcd_group *g, mc_frame_vie
 	return present;
 }
 
-/* Keypoints sent by clients for the frames of this set: the newest batch
- * of each rig camera, if its capture time is that of the camera's view. */
+static bool same_instant(const srv_keypoints *b, uint64_t ts, uint64_t tol)
+{
+	uint64_t a = b->capture_ns;
+	return b->nkeypoints && (a > ts ? a - ts : ts - a) <= tol;
+}
+
+/* The detector's newest batch of rig camera r, if one came since the last look. */
+static void take_detected(mcd_tracking_thread *t, int r)
+{
+	pthread_mutex_lock(&t->det_lock);
+	if (t->det_serial[r] != t->det_seen[r]) {
+		t->det_latest[r] = t->det_offer[r];
+		t->det_seen[r] = t->det_serial[r];
+	}
+	pthread_mutex_unlock(&t->det_lock);
+}
+
+/* Keypoints for the frames of this set: per rig camera, the newest batch
+ * of the in-process detector if its capture time is that of the camera's
+ * view, else the newest batch a client sent, on the same condition. */
 static int collect_keypoints(mcd_tracking_thread *t, const mc_frame_view *views, int nviews)
 {
-	if (!t->inbox)
-		return 0;
-	while (srv_inbox_pop_keypoints(t->inbox, t->kp_batch) == 1)
+	while (t->inbox && srv_inbox_pop_keypoints(t->inbox, t->kp_batch) == 1)
 		if (t->kp_batch->cam >= 0 && t->kp_batch->cam < nviews)
 			t->kp_latest[t->kp_batch->cam] = *t->kp_batch;
 	pthread_mutex_lock(&t->lock);
 	uint64_t tol = t->grouper.tolerance_ns;
 	pthread_mutex_unlock(&t->lock);
-	int n = 0;
+	int n = 0, detected = 0;
 	for (int r = 0; r < nviews; r++) {
-		const srv_keypoints *b = &t->kp_latest[r];
-		if (!views[r].rgb || !b->nkeypoints)
+		take_detected(t, r);
+		if (!views[r].rgb)
 			continue;
-		uint64_t a = b->capture_ns, ts = views[r].timestamp_ns;
-		if ((a > ts ? a - ts : ts - a) > tol)
+		const srv_keypoints *b = &t->det_latest[r];
+		if (same_instant(b, views[r].timestamp_ns, tol))
+			detected++;
+		else if (!same_instant(b = &t->kp_latest[r], views[r].timestamp_ns, tol))
 			continue;
 		for (int k = 0; k < b->nkeypoints; k++) {
 			t->kp[n] = b->keypoints[k];
 			t->kp[n++].cam = r;
 		}
+	}
+	if (detected) {
+		pthread_mutex_lock(&t->lock);
+		t->st.total.detector_views += (uint64_t)detected;
+		pthread_mutex_unlock(&t->lock);
 	}
 	return n;
 }
@@ -320,8 +330,10 @@ static int alloc_keypoints(mcd_tracking_thread *t, mc_err *err)
 {
 	t->kp_batch = calloc(1, sizeof(*t->kp_batch));
 	t->kp_latest = calloc(MC_MAX_CAMERAS, sizeof(*t->kp_latest));
+	t->det_offer = calloc(MC_MAX_CAMERAS, sizeof(*t->det_offer));
+	t->det_latest = calloc(MC_MAX_CAMERAS, sizeof(*t->det_latest));
 	t->kp = calloc((size_t)MC_MAX_CAMERAS * SRV_MAX_KEYPOINTS, sizeof(*t->kp));
-	if (!t->kp_batch || !t->kp_latest || !t->kp)
+	if (!t->kp_batch || !t->kp_latest || !t->kp || !t->det_offer || !t->det_latest)
 		return mc_err_set(err, "out of memory");
 	return 0;
 }
@@ -341,11 +353,12 @@ mcd_tracking_thread *mcd_tracking_thread_create(const mcd_tracking_thread_config
 	t->ctx = cfg->ctx;
 	t->st.total.track_state = -1;
 	pthread_mutex_init(&t->lock, NULL);
+	pthread_mutex_init(&t->det_lock, NULL);
 	mc_cond_init_monotonic(&t->cond);
 	mcd_grouper_init(&t->grouper, t->ncams, (uint64_t)(cfg->group_tolerance_ms * 1e6),
 			 (uint64_t)(cfg->group_deadline_ms * 1e6));
 	t->conv = mc_image_conv_new(err);
-	if (!t->conv || (t->inbox && alloc_keypoints(t, err))) {
+	if (!t->conv || alloc_keypoints(t, err)) {
 		mcd_tracking_thread_destroy(t);
 		return NULL;
 	}
@@ -386,7 +399,10 @@ void mcd_tracking_thread_destroy(mcd_tracking_thread *t)
 	free(t->kp_batch);
 	free(t->kp_latest);
 	free(t->kp);
+	free(t->det_offer);
+	free(t->det_latest);
 	mc_image_conv_free(t->conv);
+	pthread_mutex_destroy(&t->det_lock);
 	pthread_mutex_destroy(&t->lock);
 	pthread_cond_destroy(&t->cond);
 	free(t);
@@ -402,6 +418,24 @@ void mcd_tracking_thread_push(mcd_tracking_thread *t, int cam, uint64_t generati
 	mcd_grouper_push(&t->grouper, cam, &ref);
 	pthread_cond_signal(&t->cond);
 	pthread_mutex_unlock(&t->lock);
+}
+
+void mcd_tracking_thread_offer_keypoints(mcd_tracking_thread *t, int rig_cam, uint64_t capture_ns,
+					 const mc_keypoint *kp, int n)
+{
+	if (rig_cam < 0 || rig_cam >= MC_MAX_CAMERAS || n < 0)
+		return;
+	if (n > SRV_MAX_KEYPOINTS)
+		n = SRV_MAX_KEYPOINTS;
+	pthread_mutex_lock(&t->det_lock);
+	srv_keypoints *b = &t->det_offer[rig_cam];
+	b->capture_ns = capture_ns;
+	b->cam = rig_cam;
+	b->nkeypoints = n;
+	b->pid = 0;
+	memcpy(b->keypoints, kp, sizeof(*kp) * (size_t)n);
+	t->det_serial[rig_cam]++;
+	pthread_mutex_unlock(&t->det_lock);
 }
 
 void mcd_tracking_thread_wake(mcd_tracking_thread *t)

@@ -4,8 +4,9 @@
  * ring (mcd_tracking_thread_push, on the capture thread).  The tracking
  * thread groups them by instant (grouper.h); for the frame set that is due
  * it copies the views out of the rings, converts them to RGB24
- * (core/image/mc_image.h), takes the keypoints clients sent for them from
- * the server's keypoint inbox (ipc/server.h), runs the tracker
+ * (core/image/mc_image.h), takes the keypoints for them (those of the
+ * in-process detector, else those clients sent, from the server's keypoint
+ * inbox, ipc/server.h), runs the tracker
  * (tracker_setup.h) and hands the result to the publishing thread
  * (publish.h).  With the tracker disabled, frame sets
  * are still grouped and handed on, untracked.
@@ -36,6 +37,7 @@ typedef struct {
 	double track_ms_total;  /* sum over all tracked sets */
 	double track_ms_max;    /* since the last mcd_tracking_thread_stats(.., reset_max) */
 	int track_state;        /* mc_track_state of the last tracked set, -1 none */
+	uint64_t detector_views; /* views tracked with the in-process detector's keypoints */
 } mcd_track_totals;
 
 /* ... and per camera. */
@@ -78,6 +80,12 @@ void mcd_tracking_thread_destroy(mcd_tracking_thread *t);
 /* A frame of camera `cam` was committed to ring `generation` (a capture
  * thread's mcd_camera_sink.on_frame). */
 void mcd_tracking_thread_push(mcd_tracking_thread *t, int cam, uint64_t generation, const mc_ring_meta *meta);
+/* The in-process detector's keypoints for rig camera `rig_cam`'s frame
+ * captured at capture_ns (detector_thread.h; on its thread).  Only copied:
+ * the next frame set whose view of that camera has this capture time uses
+ * them, in place of a client's batch. */
+void mcd_tracking_thread_offer_keypoints(mcd_tracking_thread *t, int rig_cam, uint64_t capture_ns,
+					 const mc_keypoint *kp, int n);
 /* A camera changed state: look again at which cameras a frame set waits for. */
 void mcd_tracking_thread_wake(mcd_tracking_thread *t);
 /* Reload: new grouping limits now; the tracker's budget (`budget`, may be

@@ -35,9 +35,11 @@ static int ticks(const char *text, size_t len, char out[][128], int max)
 /* The section a "## ..." heading names, or -1. */
 static int section_of(const char *line)
 {
-	static const char *const heads[] = {"## [daemon]", "## [camera NAME]", "## [tracker]", "## [socket]"};
-	static const mcd_section secs[] = {MCD_SEC_DAEMON, MCD_SEC_CAMERA, MCD_SEC_TRACKER, MCD_SEC_SOCKET};
-	for (int i = 0; i < 4; i++)
+	static const char *const heads[] = {"## [daemon]", "## [camera NAME]", "## [tracker]", "## [socket]",
+					    "## [detector]"};
+	static const mcd_section secs[] = {MCD_SEC_DAEMON, MCD_SEC_CAMERA, MCD_SEC_TRACKER, MCD_SEC_SOCKET,
+					   MCD_SEC_DETECTOR};
+	for (int i = 0; i < MCD_NSECTIONS; i++)
 		if (strncmp(line, heads[i], strlen(heads[i])) == 0)
 			return (int)secs[i];
 	return -1;
@@ -135,7 +137,7 @@ static void check_key_tables(const char *text)
 /* The key `name` of section *in (of any section if in is NULL), or NULL. */
 static const mcd_config_key *any_key(const char *name, mcd_section *in)
 {
-	for (int s = MCD_SEC_DAEMON; s <= MCD_SEC_SOCKET; s++) {
+	for (int s = MCD_SEC_DAEMON; s < MCD_NSECTIONS; s++) {
 		const mcd_config_key *k = mcd_config_key_find((mcd_section)s, name);
 		if (k && (!in || *in == (mcd_section)s))
 			return k;
@@ -160,7 +162,9 @@ static void check_reload_section(const char *text)
 	mcd_section sec = MCD_SEC_DAEMON;
 	for (int i = 0; i < n; i++) {
 		if (t[i][0] == '[') {
-			sec = strcmp(t[i], "[tracker]") == 0 ? MCD_SEC_TRACKER : MCD_SEC_DAEMON;
+			sec = strcmp(t[i], "[tracker]") == 0    ? MCD_SEC_TRACKER
+			      : strcmp(t[i], "[detector]") == 0 ? MCD_SEC_DETECTOR
+								: MCD_SEC_DAEMON;
 			continue;
 		}
 		const mcd_config_key *k = any_key(t[i], &sec);

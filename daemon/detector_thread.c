@@ -1,0 +1,333 @@
+/* The detector thread (detector_thread.h).
+ *
+ * Why it reads the rings itself instead of taking the frame sets the
+ * tracking thread decodes: the tracking thread never waits for the
+ * detector, so keypoints are only of use for a frame set if they are ready
+ * when the tracking thread starts on it.  Frames the tracking thread has
+ * decoded are already being tracked; detections made on them would always
+ * come one frame set too late (another capture time).  So the detector
+ * starts on each frame the moment its capture thread commits it, in
+ * parallel with the grouping (which waits for the other cameras) and the
+ * tracking thread's own decoding, and pays for a second JPEG decoding
+ * (about 0.3 ms per 256x256 view here) to be in time. */
+#include "detector_thread.h"
+
+#include "log.h"
+#include "mc_detector.h"
+#include "base/mc_thread.h"
+#include "base/mc_throttle.h"
+#include "base/mc_time.h"
+#include "server.h"
+
+#include <pthread.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#define IDLE_WAKE_NS (100 * MC_NS_PER_MS)
+#define RATE_SLACK_NS (2 * MC_NS_PER_MS) /* a frame this much early still counts as due */
+
+typedef struct {
+	uint64_t generation, sequence, timestamp_ns;
+} frame_ref;
+
+struct mcd_detector_thread {
+	int ncams;
+	mcd_camera *cams[MC_MAX_CAMERAS];
+	int cam_to_rig[MC_MAX_CAMERAS];
+	mcd_tracking_thread *sink;
+	mc_detector *det;
+	int map[MC_DETECTOR_MAX_JOINTS];
+	float model_threshold;
+	bool started;
+
+	/* The detector thread's own. */
+	mc_image_conv *conv;
+	uint8_t *raw, *rgb;
+	size_t raw_cap, rgb_cap;
+	mc_detection dets[MC_DETECTOR_MAX_JOINTS];
+	mc_keypoint kps[MC_DETECTOR_MAX_JOINTS];
+
+	/* Guards everything below (capture threads, main thread). */
+	pthread_mutex_t lock;
+	pthread_cond_t cond;
+	pthread_t thread;
+	bool stop;
+	bool pending[MC_MAX_CAMERAS];
+	frame_ref next[MC_MAX_CAMERAS];
+	uint64_t taken_ns[MC_MAX_CAMERAS]; /* capture time of the last frame taken, 0 none */
+	int turn;                          /* the camera looked at first */
+	mcd_detector_config cfg;
+	bool cfg_changed;
+	mcd_detector_stats st;
+};
+
+const char *mcd_detector_state_name(mcd_detector_state s)
+{
+	switch (s) {
+	case MCD_DETECTOR_OFF: return "off";
+	case MCD_DETECTOR_RUNNING: return "running";
+	case MCD_DETECTOR_FAILED: return "failed";
+	}
+	return "?";
+}
+
+/* ---- one view ------------------------------------------------------------------------ */
+
+static void note_error(mcd_detector_thread *d, int c, const mc_err *err)
+{
+	pthread_mutex_lock(&d->lock);
+	uint64_t n = ++d->st.errors;
+	snprintf(d->st.message, sizeof(d->st.message), "camera %s: %.400s", mcd_camera_name(d->cams[c]), err->msg);
+	pthread_mutex_unlock(&d->lock);
+	if (mc_throttle_should_log(n))
+		mcd_warn("detector: camera %s: %s (%llu so far)", mcd_camera_name(d->cams[c]), err->msg,
+			 (unsigned long long)n);
+}
+
+/* Reads, converts and detects camera c's frame `f`; hands the keypoints on. */
+static void detect_view(mcd_detector_thread *d, int c, const frame_ref *f)
+{
+	mc_err err = {{0}};
+	mc_ring_meta meta;
+	int rc = mcd_frame_ring_read(mcd_camera_ring(d->cams[c]), f->generation, f->sequence, &d->raw, &d->raw_cap,
+				     &meta, &err);
+	if (rc != MC_RING_FRAME) {
+		pthread_mutex_lock(&d->lock);
+		d->st.skipped++;
+		pthread_mutex_unlock(&d->lock);
+		return;
+	}
+	int w, h;
+	if (mcd_frame_to_rgb(d->conv, &meta, d->raw, &d->rgb, &d->rgb_cap, &w, &h, &err)) {
+		note_error(d, c, &err);
+		return;
+	}
+	int n = mc_detector_detect(d->det, d->rgb, w, h, 0, d->dets, MC_DETECTOR_MAX_JOINTS, &err);
+	if (n < 0) {
+		note_error(d, c, &err);
+		return;
+	}
+	int rig = d->cam_to_rig[c];
+	int nk = mc_detections_to_keypoints(d->dets, n, rig, d->map, d->kps, MC_DETECTOR_MAX_JOINTS);
+	mcd_tracking_thread_offer_keypoints(d->sink, rig, meta.timestamp_ns, d->kps, nk);
+	mc_detector_timing tm;
+	mc_detector_get_timing(d->det, &tm);
+	pthread_mutex_lock(&d->lock);
+	d->st.detections++;
+	d->st.keypoints += (uint64_t)nk;
+	d->st.ms_last = tm.last_ms;
+	d->st.ms_total += tm.last_ms;
+	if (tm.last_ms > d->st.ms_max)
+		d->st.ms_max = tm.last_ms;
+	pthread_mutex_unlock(&d->lock);
+}
+
+/* ---- the loop ------------------------------------------------------------------------- */
+
+/* Called with the lock held, on the detector thread. */
+static void apply_settings(mcd_detector_thread *d)
+{
+	d->cfg_changed = false;
+	float thr = d->cfg.min_confidence < 0 ? d->model_threshold : (float)d->cfg.min_confidence;
+	mc_detector_set_threshold(d->det, thr);
+	mc_detector_set_threads(d->cfg.threads);
+}
+
+/* The next camera with a frame waiting (round robin), or -1. */
+static int next_camera(mcd_detector_thread *d)
+{
+	for (int i = 0; i < d->ncams; i++) {
+		int c = (d->turn + i) % d->ncams;
+		if (d->pending[c]) {
+			d->turn = (c + 1) % d->ncams;
+			return c;
+		}
+	}
+	return -1;
+}
+
+static void *detector_main(void *arg)
+{
+	mcd_detector_thread *d = arg;
+	pthread_mutex_lock(&d->lock);
+	while (!d->stop) {
+		if (d->cfg_changed)
+			apply_settings(d);
+		int c = next_camera(d);
+		if (c < 0) {
+			struct timespec ts = mc_ns_timespec(mc_now_ns() + IDLE_WAKE_NS);
+			pthread_cond_timedwait(&d->cond, &d->lock, &ts);
+			continue;
+		}
+		frame_ref f = d->next[c];
+		d->pending[c] = false;
+		d->taken_ns[c] = f.timestamp_ns;
+		pthread_mutex_unlock(&d->lock);
+		detect_view(d, c, &f);
+		pthread_mutex_lock(&d->lock);
+	}
+	pthread_mutex_unlock(&d->lock);
+	return NULL;
+}
+
+/* ---- lifetime --------------------------------------------------------------------------- */
+
+static void fail(mcd_detector_thread *d, const char *where, const char *msg)
+{
+	d->st.state = MCD_DETECTOR_FAILED;
+	snprintf(d->st.message, sizeof(d->st.message), "%s", msg);
+	mcd_error("%s: %s; tracking without the detector's keypoints", where, msg);
+}
+
+/* Maps the detector's joints to the body model's; false if none match. */
+static bool map_joints(mcd_detector_thread *d, const mc_model *model, const char *where)
+{
+	int matched = mc_detector_map_model(d->det, model, d->map);
+	int nj = mc_detector_njoints(d->det);
+	for (int j = 0; j < nj; j++)
+		if (d->map[j] < 0)
+			mcd_info("detector: joint %s is not in the body model; dropped", mc_detector_joint_name(d->det, j));
+	if (matched > 0)
+		return true;
+	char msg[400];
+	snprintf(msg, sizeof(msg), "%s: none of its %d joints is a joint of the body model", mc_detector_path(d->det),
+		 nj);
+	fail(d, where, msg);
+	return false;
+}
+
+mcd_detector_thread *mcd_detector_thread_create(const mcd_detector_thread_config *cfg, mc_err *err)
+{
+	mcd_detector_thread *d = calloc(1, sizeof(*d));
+	if (!d) {
+		mc_err_set(err, "out of memory");
+		return NULL;
+	}
+	d->ncams = cfg->ncams < MC_MAX_CAMERAS ? cfg->ncams : MC_MAX_CAMERAS;
+	memcpy(d->cams, cfg->cams, sizeof(d->cams[0]) * (size_t)d->ncams);
+	memcpy(d->cam_to_rig, cfg->cam_to_rig, sizeof(d->cam_to_rig[0]) * (size_t)d->ncams);
+	d->sink = cfg->sink;
+	d->cfg = *cfg->cfg;
+	pthread_mutex_init(&d->lock, NULL);
+	mc_cond_init_monotonic(&d->cond);
+	snprintf(d->st.model, sizeof(d->st.model), "%.255s", cfg->cfg->model);
+	if (!cfg->cfg->model[0])
+		return d; /* off */
+	mc_err lerr = {{0}};
+	mc_detector_set_threads(d->cfg.threads);
+	d->det = mc_detector_load(cfg->cfg->model, &lerr);
+	if (!d->det) {
+		fail(d, cfg->where, lerr.msg);
+		return d;
+	}
+	if (!map_joints(d, cfg->model, cfg->where))
+		return d;
+	if (!(d->conv = mc_image_conv_new(err))) {
+		mcd_detector_thread_destroy(d);
+		return NULL;
+	}
+	d->model_threshold = mc_detector_threshold(d->det);
+	apply_settings(d);
+	d->st.state = MCD_DETECTOR_RUNNING;
+	int iw, ih;
+	mc_detector_input_size(d->det, &iw, &ih);
+	mcd_info("detector: %s (%d joints, %dx%d input), %s, threshold %.2f, %d OpenCV thread%s", cfg->cfg->model,
+		 mc_detector_njoints(d->det), iw, ih, d->cfg.rate > 0 ? "rate limited" : "every frame",
+		 (double)mc_detector_threshold(d->det), d->cfg.threads, d->cfg.threads == 1 ? "" : "s");
+	return d;
+}
+
+int mcd_detector_thread_start(mcd_detector_thread *d, mc_err *err)
+{
+	if (d->st.state != MCD_DETECTOR_RUNNING)
+		return 0;
+	int rc = pthread_create(&d->thread, NULL, detector_main, d);
+	if (rc)
+		return mc_err_set(err, "cannot start the detector thread: %s", strerror(rc));
+	d->started = true;
+	return 0;
+}
+
+void mcd_detector_thread_stop(mcd_detector_thread *d)
+{
+	if (!d || !d->started)
+		return;
+	pthread_mutex_lock(&d->lock);
+	d->stop = true;
+	pthread_cond_signal(&d->cond);
+	pthread_mutex_unlock(&d->lock);
+	pthread_join(d->thread, NULL);
+	d->started = false;
+}
+
+void mcd_detector_thread_destroy(mcd_detector_thread *d)
+{
+	if (!d)
+		return;
+	mcd_detector_thread_stop(d);
+	mc_detector_free(d->det);
+	mc_image_conv_free(d->conv);
+	free(d->raw);
+	free(d->rgb);
+	pthread_mutex_destroy(&d->lock);
+	pthread_cond_destroy(&d->cond);
+	free(d);
+}
+
+/* ---- from the other threads --------------------------------------------------------------- */
+
+void mcd_detector_thread_push(mcd_detector_thread *d, int cam, uint64_t generation, const mc_ring_meta *meta)
+{
+	if (!d || !d->started || cam < 0 || cam >= d->ncams)
+		return;
+	pthread_mutex_lock(&d->lock);
+	uint64_t period = d->cfg.rate > 0 ? (uint64_t)(1e9 / d->cfg.rate) : 0;
+	bool due = !period || !d->taken_ns[cam] || meta->timestamp_ns + RATE_SLACK_NS >= d->taken_ns[cam] + period;
+	if (due) {
+		if (d->pending[cam])
+			d->st.skipped++; /* the detector is behind: the newer frame wins */
+		d->pending[cam] = true;
+		d->next[cam] = (frame_ref){generation, meta->sequence, meta->timestamp_ns};
+		pthread_cond_signal(&d->cond);
+	}
+	pthread_mutex_unlock(&d->lock);
+}
+
+void mcd_detector_thread_reload(mcd_detector_thread *d, const mcd_detector_config *cfg)
+{
+	if (!d)
+		return;
+	pthread_mutex_lock(&d->lock);
+	d->cfg.rate = cfg->rate;
+	d->cfg.threads = cfg->threads;
+	d->cfg.min_confidence = cfg->min_confidence;
+	d->cfg_changed = true;
+	pthread_cond_signal(&d->cond);
+	pthread_mutex_unlock(&d->lock);
+}
+
+void mcd_detector_thread_stats(mcd_detector_thread *d, mcd_detector_stats *st, bool reset_max)
+{
+	if (!d) {
+		memset(st, 0, sizeof(*st));
+		return;
+	}
+	pthread_mutex_lock(&d->lock);
+	*st = d->st;
+	if (reset_max)
+		d->st.ms_max = 0;
+	pthread_mutex_unlock(&d->lock);
+}
+
+int mcd_detector_check(const mcd_detector_config *cfg, const char *where, mc_err *err)
+{
+	if (!cfg->model[0])
+		return 0;
+	mc_err lerr = {{0}};
+	mc_detector *det = mc_detector_load(cfg->model, &lerr);
+	if (!det)
+		return mc_err_set(err, "%s: %s", where, lerr.msg);
+	mc_detector_free(det);
+	return 0;
+}
