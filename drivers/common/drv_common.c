@@ -42,16 +42,34 @@ const char *drv_cfg_str(const mdrv_host *host, const char *key)
 	return v && *v ? v : NULL;
 }
 
+/* The value of `key` as drv_cfg_str() gives it; *present (unless NULL) tells
+ * whether there is one. */
+static const char *cfg_value(const mdrv_host *host, const char *key, bool *present)
+{
+	const char *v = drv_cfg_str(host, key);
+	if (present)
+		*present = v != NULL;
+	return v;
+}
+
+/* Parses all of `v` as an unsigned integer in `base` (strtoull's syntax, but
+ * no minus sign); false if `v` is not one or does not fit. */
+static bool parse_unsigned(const char *v, int base, unsigned long long *out)
+{
+	char *end;
+	errno = 0;
+	*out = strtoull(v, &end, base);
+	return !errno && end != v && !*end && v[0] != '-';
+}
+
 int drv_cfg_uint(const mdrv_host *host, const char *drv, const char *key, unsigned min, unsigned max,
 		 unsigned *out, char *err, size_t errlen)
 {
 	const char *v = drv_cfg_str(host, key);
 	if (!v)
 		return MDRV_OK;
-	char *end;
-	errno = 0;
-	unsigned long long n = strtoull(v, &end, 10);
-	if (errno || end == v || *end || v[0] == '-' || n < min || n > max)
+	unsigned long long n;
+	if (!parse_unsigned(v, 10, &n) || n < min || n > max)
 		return drv_errf(err, errlen, MDRV_ERR_CONFIG,
 				"%s: config key '%s': expected an integer in [%u, %u], got '%s'", drv, key, min, max, v);
 	*out = (unsigned)n;
@@ -106,14 +124,11 @@ int drv_cfg_bool(const mdrv_host *host, const char *drv, const char *key, bool *
 int drv_cfg_hex16(const mdrv_host *host, const char *drv, const char *key, uint16_t *out, bool *present,
 		  char *err, size_t errlen)
 {
-	const char *v = drv_cfg_str(host, key);
-	*present = v != NULL;
+	const char *v = cfg_value(host, key, present);
 	if (!v)
 		return MDRV_OK;
-	char *end;
-	errno = 0;
-	unsigned long n = strtoul(v, &end, 16);
-	if (errno || end == v || *end || v[0] == '-' || n > 0xffff)
+	unsigned long long n;
+	if (!parse_unsigned(v, 16, &n) || n > 0xffff)
 		return drv_errf(err, errlen, MDRV_ERR_CONFIG,
 				"%s: config key '%s': expected a 16-bit hexadecimal id such as 046d, got '%s'", drv,
 				key, v);
@@ -124,8 +139,7 @@ int drv_cfg_hex16(const mdrv_host *host, const char *drv, const char *key, uint1
 int drv_cfg_auto_double(const mdrv_host *host, const char *drv, const char *key, double min, double max,
 			drv_auto_value *out, char *err, size_t errlen)
 {
-	const char *v = drv_cfg_str(host, key);
-	out->present = v != NULL;
+	const char *v = cfg_value(host, key, &out->present);
 	out->is_auto = false;
 	if (!v)
 		return MDRV_OK;
@@ -167,10 +181,8 @@ int drv_cfg_monotonic_ns(const mdrv_host *host, const char *drv, const char *key
 	const char *v = drv_cfg_str(host, key);
 	if (!v)
 		return MDRV_OK;
-	char *end;
-	errno = 0;
-	unsigned long long n = strtoull(v, &end, 10);
-	if (v[0] < '0' || v[0] > '9' || *end || errno)
+	unsigned long long n;
+	if (v[0] < '0' || v[0] > '9' || !parse_unsigned(v, 10, &n))
 		return drv_errf(err, errlen, MDRV_ERR_CONFIG,
 				"%s: config key '%s': expected CLOCK_MONOTONIC nanoseconds, got '%s'", drv, key, v);
 	*out = n;

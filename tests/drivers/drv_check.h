@@ -27,4 +27,22 @@ static inline void drv_check_open_error(drv_harness *h, const char *prefix, cons
 	CHECK_MSG(strncmp(err, prefix, strlen(prefix)) == 0, "error '%s' should name the driver", err);
 }
 
+/* A config that opening must refuse: up to four keys as key, value pairs
+ * (the unused ones NULL) on an empty section, and a fragment of the error. */
+typedef struct {
+	const char *kv[8];
+	const char *needle;
+} drv_bad_config;
+
+/* drv_check_open_error() for each of the n configs in turn. */
+static inline void drv_check_open_errors(drv_harness *h, const char *prefix, const drv_bad_config *bad, size_t n)
+{
+	for (size_t i = 0; i < n; i++) {
+		drv_harness_clear(h);
+		for (size_t k = 0; k < 8 && bad[i].kv[k]; k += 2)
+			drv_harness_set(h, bad[i].kv[k], bad[i].kv[k + 1]);
+		drv_check_open_error(h, prefix, bad[i].needle);
+	}
+}
+
 #endif

@@ -27,15 +27,12 @@ int main(void)
 	/* twice: the shared camera manager starts and stops cleanly */
 	CHECK(H.drv->probe(&H.host, info, 8, err, sizeof err) == n);
 
-	drv_harness_clear(&H);
-	drv_harness_set(&H, "pixel_format", "NV12");
-	expect_open_error("'pixel_format': expected one of YUYV, MJPEG, GREY, RGB24");
-	drv_harness_clear(&H);
-	drv_harness_set(&H, "width", "640");
-	expect_open_error("'width' and 'height' go together");
-	drv_harness_clear(&H);
-	drv_harness_set(&H, "exposure", "long");
-	expect_open_error("'exposure'");
+	static const drv_bad_config bad[] = {
+		{{"pixel_format", "NV12"}, "'pixel_format': expected one of YUYV, MJPEG, GREY, RGB24"},
+		{{"width", "640"}, "'width' and 'height' go together"},
+		{{"exposure", "long"}, "'exposure'"},
+	};
+	drv_check_open_errors(&H, "libcamera: ", bad, sizeof bad / sizeof bad[0]);
 	if (n == 0) {
 		drv_harness_clear(&H);
 		expect_open_error("no camera found; set 'device' to one of: none");

@@ -139,23 +139,16 @@ int main(void)
 	drv_harness_clear(&H);
 	if (n == 0)
 		expect_open_error("no OpenNI2 device found");
-	drv_harness_set(&H, "device", "/nonexistent/take1.oni");
-	expect_open_error("cannot open device '/nonexistent/take1.oni'");
-	dummy("thermal");
-	expect_open_error("'stream': expected one of depth, color, colour, ir");
-	dummy("depth");
-	drv_harness_set(&H, "width", "640");
-	expect_open_error("'width' and 'height' go together");
-	drv_harness_set(&H, "height", "480");
-	expect_open_error("320x240@30 DEPTH_1_MM");
-	dummy("ir");
-	expect_open_error("device 'Dummy' has no ir sensor");
-	dummy("depth");
-	drv_harness_set(&H, "mirror", "true");
-	expect_open_error("'mirror': not supported");
-	dummy("depth");
-	drv_harness_set(&H, "speed", "2");
-	expect_open_error("'speed' and 'loop' apply to .oni recordings only");
+	static const drv_bad_config bad[] = {
+		{{"device", "/nonexistent/take1.oni"}, "cannot open device '/nonexistent/take1.oni'"},
+		{{"device", "Dummy", "stream", "thermal"}, "'stream': expected one of depth, color, colour, ir"},
+		{{"device", "Dummy", "stream", "depth", "width", "640"}, "'width' and 'height' go together"},
+		{{"device", "Dummy", "stream", "depth", "width", "640", "height", "480"}, "320x240@30 DEPTH_1_MM"},
+		{{"device", "Dummy", "stream", "ir"}, "device 'Dummy' has no ir sensor"},
+		{{"device", "Dummy", "stream", "depth", "mirror", "true"}, "'mirror': not supported"},
+		{{"device", "Dummy", "stream", "depth", "speed", "2"}, "'speed' and 'loop' apply to .oni recordings only"},
+	};
+	drv_check_open_errors(&H, "openni2: ", bad, sizeof bad / sizeof bad[0]);
 
 	test_streams();
 	drv_harness_unload(&H);

@@ -157,8 +157,6 @@ static void test_sysfs(void)
 
 static drv_harness H;
 
-static void expect_open_error(const char *needle) { drv_check_open_error(&H, "usb: ", needle); }
-
 static void test_plugin(void)
 {
 	char err[1024];
@@ -172,19 +170,14 @@ static void test_plugin(void)
 	CHECK_MSG(n >= 0, "probe: %s", err);
 	printf("probe: %d USB cameras here\n", n);
 
-	drv_harness_clear(&H);
-	expect_open_error("'vendor' and 'product'");
-	drv_harness_set(&H, "vendor", "046d");
-	expect_open_error("'vendor' and 'product'");
-	drv_harness_set(&H, "product", "xyz");
-	expect_open_error("'product': expected a 16-bit hexadecimal id");
-	drv_harness_clear(&H);
-	drv_harness_set(&H, "device", "logitech");
-	expect_open_error("VENDOR:PRODUCT");
-	drv_harness_clear(&H);
-	drv_harness_set(&H, "device", "046d:0825");
-	drv_harness_set(&H, "pixel_format", "RGB3");
-	expect_open_error("'pixel_format'");
+	static const drv_bad_config bad[] = {
+		{{NULL}, "'vendor' and 'product'"},
+		{{"vendor", "046d"}, "'vendor' and 'product'"},
+		{{"vendor", "046d", "product", "xyz"}, "'product': expected a 16-bit hexadecimal id"},
+		{{"device", "logitech"}, "VENDOR:PRODUCT"},
+		{{"device", "046d:0825", "pixel_format", "RGB3"}, "'pixel_format'"},
+	};
+	drv_check_open_errors(&H, "usb: ", bad, sizeof bad / sizeof bad[0]);
 
 	/* a camera that is not plugged in (ids no one uses) */
 	drv_harness_clear(&H);

@@ -10,16 +10,6 @@
 
 static drv_harness H;
 
-static void expect_open_error(const char *needle) { drv_check_open_error(&H, "v4l2: ", needle); }
-
-static void with(const char *key, const char *val, const char *needle)
-{
-	drv_harness_clear(&H);
-	drv_harness_set(&H, "device", "/dev/video0");
-	drv_harness_set(&H, key, val);
-	expect_open_error(needle);
-}
-
 int main(void)
 {
 	char err[512];
@@ -36,29 +26,24 @@ int main(void)
 	for (int i = 0; i < n; i++)
 		CHECK(strncmp(info[i].id, "/dev/", 5) == 0);
 
-	/* what selects the camera */
-	drv_harness_clear(&H);
-	expect_open_error("'device'");
-	drv_harness_set(&H, "device", "/dev/video-does-not-exist");
-	expect_open_error("cannot open /dev/video-does-not-exist: No such file");
-	drv_harness_set(&H, "device", "/dev/null");
-	expect_open_error("/dev/null is not a V4L2 device");
-	drv_harness_clear(&H);
-	drv_harness_set(&H, "bus_info", "usb-0000:00:14.0-9");
-	expect_open_error("no capture device matches bus_info=usb-0000:00:14.0-9");
-	drv_harness_clear(&H);
-	drv_harness_set(&H, "serial", "SN42");
-	expect_open_error("serial=SN42");
-
-	/* values, checked before any device is touched */
-	with("pixel_format", "RGB3", "'pixel_format': expected one of YUYV, MJPEG, GREY");
-	with("width", "640", "'width' and 'height' go together");
-	with("width", "-5", "'width': expected an integer in [1, 16384], got '-5'");
-	with("fps", "fast", "'fps'");
-	with("buffers", "100", "'buffers'");
-	with("exposure", "-1", "'exposure': expected 'auto' or a number");
-	with("gain", "loud", "'gain'");
-	with("white_balance", "50", "'white_balance'");
+	static const drv_bad_config bad[] = {
+		/* what selects the camera */
+		{{NULL}, "'device'"},
+		{{"device", "/dev/video-does-not-exist"}, "cannot open /dev/video-does-not-exist: No such file"},
+		{{"device", "/dev/null"}, "/dev/null is not a V4L2 device"},
+		{{"bus_info", "usb-0000:00:14.0-9"}, "no capture device matches bus_info=usb-0000:00:14.0-9"},
+		{{"serial", "SN42"}, "serial=SN42"},
+		/* values, checked before any device is touched */
+		{{"device", "/dev/video0", "pixel_format", "RGB3"}, "'pixel_format': expected one of YUYV, MJPEG, GREY"},
+		{{"device", "/dev/video0", "width", "640"}, "'width' and 'height' go together"},
+		{{"device", "/dev/video0", "width", "-5"}, "'width': expected an integer in [1, 16384], got '-5'"},
+		{{"device", "/dev/video0", "fps", "fast"}, "'fps'"},
+		{{"device", "/dev/video0", "buffers", "100"}, "'buffers'"},
+		{{"device", "/dev/video0", "exposure", "-1"}, "'exposure': expected 'auto' or a number"},
+		{{"device", "/dev/video0", "gain", "loud"}, "'gain'"},
+		{{"device", "/dev/video0", "white_balance", "50"}, "'white_balance'"},
+	};
+	drv_check_open_errors(&H, "v4l2: ", bad, sizeof bad / sizeof bad[0]);
 
 	drv_harness_unload(&H);
 	return mc_test_finish("test_v4l2");
