@@ -66,17 +66,11 @@ static void test_entry_and_config(void)
 static void test_mjpeg(void)
 {
 	config c = {0};
-	cfg_set(&c, "path", DEMO "/left");
-	cfg_set(&c, "rate", "0");
-	cfg_set(&c, "start", "3");
-	cfg_set(&c, "count", "5");
-	mdrv_host h;
-	void *dev = open_start(&c, &h);
-	CHECK_MSG(dev != NULL, "%s", err);
+	cfg_setv(&c, "path", DEMO "/left", "rate", "0", "start", "3", "count", "5", NULL);
+	mdrv_format fmt;
+	void *dev = open_checked(&c, &fmt);
 	if (!dev)
 		return;
-	mdrv_format fmt;
-	CHECK(drv->get_format(dev, &fmt, err, sizeof(err)) == MDRV_OK);
 	CHECK(fmt.pixfmt == MC_PIXFMT_MJPEG && fmt.width == 256 && fmt.height == 256 && fmt.stride == 0);
 	CHECK(fmt.max_bytes > 1000 && fmt.max_bytes < 100000);
 	uint8_t *buf = malloc(fmt.max_bytes);
@@ -108,13 +102,8 @@ static void test_mjpeg(void)
 static void test_rgb24(void)
 {
 	config c = {0};
-	cfg_set(&c, "path", DEMO "/right");
-	cfg_set(&c, "rate", "0");
-	cfg_set(&c, "count", "2");
-	cfg_set(&c, "format", "rgb24");
-	mdrv_host h;
-	void *dev = open_start(&c, &h);
-	CHECK_MSG(dev != NULL, "%s", err);
+	cfg_setv(&c, "path", DEMO "/right", "rate", "0", "count", "2", "format", "rgb24", NULL);
+	void *dev = open_checked(&c, NULL);
 	if (!dev)
 		return;
 	mdrv_format fmt;
@@ -149,13 +138,9 @@ static void test_pacing(void)
 	snprintf(es, sizeof(es), "%llu", (unsigned long long)epoch);
 	cfg_set(&cl, "path", DEMO "/left");
 	cfg_set(&cr, "path", DEMO "/right");
-	for (config *c = &cl; c; c = c == &cl ? &cr : NULL) {
-		cfg_set(c, "rate", "50");
-		cfg_set(c, "count", "6");
-		cfg_set(c, "epoch", es);
-	}
-	mdrv_host hl, hr;
-	void *l = open_start(&cl, &hl), *r = open_start(&cr, &hr);
+	for (config *c = &cl; c; c = c == &cl ? &cr : NULL)
+		cfg_setv(c, "rate", "50", "count", "6", "epoch", es, NULL);
+	void *l = open_start(&cl), *r = open_start(&cr);
 	CHECK(l && r);
 	if (!l || !r) {
 		if (l)
@@ -186,11 +171,8 @@ static void test_pacing(void)
 	/* A frame due in 10 s: next_frame times out after about timeout_ms. */
 	config c = {0};
 	snprintf(es, sizeof(es), "%llu", (unsigned long long)(mc_now_ns() + 10000000000ull));
-	cfg_set(&c, "path", DEMO "/left");
-	cfg_set(&c, "rate", "30");
-	cfg_set(&c, "epoch", es);
-	mdrv_host h;
-	void *dev = open_start(&c, &h);
+	cfg_setv(&c, "path", DEMO "/left", "rate", "30", "epoch", es, NULL);
+	void *dev = open_start(&c);
 	CHECK(dev != NULL);
 	if (dev) {
 		uint64_t t0 = mc_now_ns();
@@ -205,12 +187,8 @@ static void test_pacing(void)
 static void test_loop(void)
 {
 	config c = {0};
-	cfg_set(&c, "path", DEMO "/left");
-	cfg_set(&c, "rate", "0");
-	cfg_set(&c, "count", "3");
-	cfg_set(&c, "loop", "true");
-	mdrv_host h;
-	void *dev = open_start(&c, &h);
+	cfg_setv(&c, "path", DEMO "/left", "rate", "0", "count", "3", "loop", "true", NULL);
+	void *dev = open_start(&c);
 	CHECK(dev != NULL);
 	if (!dev)
 		return;
@@ -261,14 +239,10 @@ static void test_other_files(void)
 	fclose(fp);
 
 	config c = {0};
-	cfg_set(&c, "path", dir);
-	cfg_set(&c, "rate", "0");
-	cfg_set(&c, "format", "mjpeg");
+	cfg_setv(&c, "path", dir, "rate", "0", "format", "mjpeg", NULL);
 	expect_open_fails(&c, "mjpeg needs JPEG files");
 	cfg_set(&c, "format", "rgb24");
-	mdrv_host h;
-	void *dev = open_start(&c, &h);
-	CHECK_MSG(dev != NULL, "%s", err);
+	void *dev = open_checked(&c, NULL);
 	uint8_t *buf = malloc(W * H * 3);
 	mdrv_frame f;
 	if (dev) {
@@ -290,11 +264,8 @@ static void test_other_files(void)
 		fclose(fp);
 	}
 	config cj = {0};
-	cfg_set(&cj, "path", jdir);
-	cfg_set(&cj, "rate", "0");
-	cfg_set(&cj, "format", "rgb24");
-	dev = open_start(&cj, &h);
-	CHECK_MSG(dev != NULL, "%s", err);
+	cfg_setv(&cj, "path", jdir, "rate", "0", "format", "rgb24", NULL);
+	dev = open_checked(&cj, NULL);
 	if (dev) {
 		CHECK(pull(dev, &f, buf, W * H * 3, 1000) == MDRV_OK && f.sequence == 0);
 		CHECK(pull(dev, &f, buf, W * H * 3, 1000) == MDRV_ERR_IO);
@@ -305,9 +276,8 @@ static void test_other_files(void)
 	}
 	/* Default format for all-JPEG folders is mjpeg, bytes as in the file. */
 	config cd = {0};
-	cfg_set(&cd, "path", jdir);
-	cfg_set(&cd, "rate", "0");
-	dev = open_start(&cd, &h);
+	cfg_setv(&cd, "path", jdir, "rate", "0", NULL);
+	dev = open_start(&cd);
 	CHECK(dev != NULL);
 	if (dev) {
 		uint8_t *jb = malloc(jn);

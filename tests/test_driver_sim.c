@@ -29,34 +29,26 @@ static char bvh_path[PATH_MAX];
 static void base_config(config *c)
 {
 	memset(c, 0, sizeof(*c));
-	cfg_set(c, "bvh", bvh_path);
-	cfg_set(c, "rig", "config/rigs/ego_stereo.json");
-	cfg_set(c, "model", "config/models/default.json");
-	cfg_set(c, "camera", "left");
-	cfg_set(c, "width", "96");
-	cfg_set(c, "height", "96");
-	cfg_set(c, "rate", "0");
-	cfg_set(c, "background", "#00ff00");
+	cfg_setv(c, "bvh", bvh_path, "rig", "config/rigs/ego_stereo.json", "model", "config/models/default.json",
+		 "camera", "left", "width", "96", "height", "96", "rate", "0", "background", "#00ff00", NULL);
 }
 
 static void test_config_errors(void)
 {
+	/* one key of the base config changed, and what the error names */
+	static const char *const bad[][3] = {
+		{"bvh", "/nonexistent.bvh", "/nonexistent.bvh"},
+		{"rig", "/nonexistent-rig.json", "'rig'"},
+		{"camera", "middle", "no camera 'middle'"},
+		{"background", "green", "'background'"},
+		{"height_m", "7", "'height_m'"},
+	};
 	config c;
-	base_config(&c);
-	cfg_set(&c, "bvh", "/nonexistent.bvh");
-	expect_open_fails(&c, "/nonexistent.bvh");
-	base_config(&c);
-	cfg_set(&c, "rig", "/nonexistent-rig.json");
-	expect_open_fails(&c, "'rig'");
-	base_config(&c);
-	cfg_set(&c, "camera", "middle");
-	expect_open_fails(&c, "no camera 'middle'");
-	base_config(&c);
-	cfg_set(&c, "background", "green");
-	expect_open_fails(&c, "'background'");
-	base_config(&c);
-	cfg_set(&c, "height_m", "7");
-	expect_open_fails(&c, "'height_m'");
+	for (size_t i = 0; i < sizeof(bad) / sizeof(bad[0]); i++) {
+		base_config(&c);
+		cfg_set(&c, bad[i][0], bad[i][1]);
+		expect_open_fails(&c, bad[i][2]);
+	}
 	config empty = {0};
 	expect_open_fails(&empty, "'bvh' is required");
 }
@@ -95,13 +87,10 @@ static void test_render(void)
 {
 	config c;
 	base_config(&c);
-	mdrv_host h;
-	void *dev = open_start(&c, &h);
-	CHECK_MSG(dev != NULL, "%s", err);
+	mdrv_format fmt;
+	void *dev = open_checked(&c, &fmt);
 	if (!dev)
 		return;
-	mdrv_format fmt;
-	CHECK(drv->get_format(dev, &fmt, err, sizeof(err)) == MDRV_OK);
 	CHECK(fmt.pixfmt == MC_PIXFMT_RGB24 && fmt.width == W && fmt.height == H && fmt.stride == W * 3);
 	CHECK(fmt.max_bytes == W * H * 3);
 
@@ -156,17 +145,12 @@ static void test_timing(void)
 {
 	config c;
 	base_config(&c);
-	cfg_set(&c, "width", "16");
-	cfg_set(&c, "height", "16");
-	cfg_set(&c, "rate", "40");
 	uint64_t epoch = mc_now_ns() + 10000000ull;
 	char es[32];
 	snprintf(es, sizeof(es), "%llu", (unsigned long long)epoch);
-	cfg_set(&c, "epoch", es);
-	cfg_set(&c, "start", "8.2"); /* 131_01 lasts 994 / 120 = 8.28 s */
-	mdrv_host h;
-	void *dev = open_start(&c, &h);
-	CHECK_MSG(dev != NULL, "%s", err);
+	/* 131_01 lasts 994 / 120 = 8.28 s */
+	cfg_setv(&c, "width", "16", "height", "16", "rate", "40", "epoch", es, "start", "8.2", NULL);
+	void *dev = open_checked(&c, NULL);
 	if (!dev)
 		return;
 	uint8_t img[16 * 16 * 3];
@@ -183,9 +167,8 @@ static void test_timing(void)
 	drv->close(dev);
 
 	/* Looping from 8.2 s wraps around the end of the motion. */
-	cfg_set(&c, "loop", "true");
-	cfg_set(&c, "rate", "0");
-	dev = open_start(&c, &h);
+	cfg_setv(&c, "loop", "true", "rate", "0", NULL);
+	dev = open_start(&c);
 	CHECK(dev != NULL);
 	if (dev) {
 		for (int k = 0; k < 10; k++)

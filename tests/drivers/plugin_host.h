@@ -3,7 +3,8 @@
  * links each tests/test_*.c alone, so they cannot link drv_harness.c; this
  * header gives them the same few pieces: a key/value config section, the
  * plugin loaded with dlopen as the daemon loads it, and open/start, pull and
- * open-must-fail helpers that leave the driver's message in `err`.
+ * open-must-fail helpers that leave the driver's message in `err`.  A config
+ * carries the host its camera is opened with, which must outlive the camera.
  *
  * The plugin is found in $MOCAP_DRIVER_DIR, else in <this program's
  * folder>/../drivers (the layout of $(BUILD)/tests and $(BUILD)/drivers).
@@ -14,6 +15,7 @@
 #include <dlfcn.h>
 #include <libgen.h>
 #include <limits.h>
+#include <stdarg.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -28,6 +30,7 @@ typedef struct {
 	const char *keys[16];
 	char vals[16][PATH_MAX];
 	int n;
+	mdrv_host host; /* set by open_start() */
 } config;
 
 static const mdrv_driver *drv; /* the plugin under test */
@@ -60,6 +63,16 @@ static inline void cfg_set(config *c, const char *key, const char *val)
 	snprintf(c->vals[c->n++], sizeof(c->vals[0]), "%s", val);
 }
 
+/* cfg_set() for each key, value pair of a list that ends in NULL. */
+static inline __attribute__((sentinel)) void cfg_setv(config *c, ...)
+{
+	va_list ap;
+	va_start(ap, c);
+	for (const char *key; (key = va_arg(ap, const char *)) != NULL;)
+		cfg_set(c, key, va_arg(ap, const char *));
+	va_end(ap);
+}
+
 static inline mdrv_host host_for(config *c) { return (mdrv_host){.ctx = c, .config_get = cfg_get, .log = cfg_log}; }
 
 /* Loads mocap-driver-NAME.so; NULL when it cannot be loaded. */
@@ -87,15 +100,26 @@ static inline const mdrv_driver *load_plugin(const char *name, void **dl)
 	return entry ? entry() : NULL;
 }
 
-/* Opens and starts with host *h for config c; NULL (err set) on failure. */
-static inline void *open_start(config *c, mdrv_host *h)
+/* Opens and starts with config c (and its host); NULL (err set) on failure. */
+static inline void *open_start(config *c)
 {
-	*h = host_for(c);
-	void *dev = drv->open(h, err, sizeof(err));
+	c->host = host_for(c);
+	void *dev = drv->open(&c->host, err, sizeof(err));
 	if (dev && drv->start(dev, err, sizeof(err)) != MDRV_OK) {
 		drv->close(dev);
 		return NULL;
 	}
+	return dev;
+}
+
+/* open_start(), checking that it opened and, when fmt is not NULL, that
+ * get_format() gives the format into *fmt. */
+static inline void *open_checked(config *c, mdrv_format *fmt)
+{
+	void *dev = open_start(c);
+	CHECK_MSG(dev != NULL, "%s", err);
+	if (dev && fmt)
+		CHECK(drv->get_format(dev, fmt, err, sizeof(err)) == MDRV_OK);
 	return dev;
 }
 
