@@ -141,14 +141,56 @@ static mc_cl_energy *open_backend(const view *v, int nv)
 	return e;
 }
 
+/* A pinhole camera at the origin (table_pinhole) with a random image. */
+static void view_pinhole(view *v, int w, int h, double f, unsigned long long *rng)
+{
+	table_pinhole(&v->rays, w, h, f, mc_v3(0, 0, 0));
+	v->hsv = image_random(&v->rays, rng);
+}
+
+/* The head-mounted fisheye pair (tables_ego, w x w pixels) into t, and views
+ * of it with random images. */
+static void views_ego(view v[2], mc_raytable t[2], int w, unsigned long long *rng)
+{
+	tables_ego(t, w);
+	for (int c = 0; c < 2; c++) {
+		v[c].rays = t[c];
+		v[c].hsv = image_random(&t[c], rng);
+	}
+}
+
+/* Frees the ray tables and images of nv views. */
+static void views_free(view *v, int nv)
+{
+	for (int c = 0; c < nv; c++) {
+		table_free(&v[c].rays);
+		free(v[c].hsv);
+	}
+}
+
+/* A person in a random pose (scene_human, limbs up to `pose` rad off the
+ * rest pose) before the head-mounted pair with random images. */
+typedef struct {
+	unsigned long long rng;
+	view v[2];
+	mc_raytable t[2];
+	mc_scene sc;
+} ego_person;
+
+static void ego_person_init(ego_person *p, unsigned long long seed, int w, double pose)
+{
+	p->rng = seed;
+	views_ego(p->v, p->t, w, &p->rng);
+	scene_human(&p->sc, pose, &p->rng);
+}
+
 /* ---- the tests ---- */
 
 static void test_random_scenes(void)
 {
 	unsigned long long rng = 1234;
 	view v;
-	table_pinhole(&v.rays, 40, 30, 32, mc_v3(0, 0, 0));
-	v.hsv = image_random(&v.rays, &rng);
+	view_pinhole(&v, 40, 30, 32, &rng);
 	mc_cl_energy *e = open_backend(&v, 1);
 	printf("device: %s\n", mc_cl_energy_device(e));
 	static result cl, ref;
@@ -193,8 +235,7 @@ static void test_random_scenes(void)
 		check_agree("random scene near the camera", &cl, &ref, sc.n, 1e-3);
 	}
 	mc_cl_energy_destroy(e);
-	table_free(&v.rays);
-	free(v.hsv);
+	views_free(&v, 1);
 }
 
 /* Gaussian 0 lies at the culling edge for every ray (C < c0 < 2C, where
@@ -206,8 +247,7 @@ static void test_culling_edge(void)
 	unsigned long long rng = 11;
 	view v;
 	/* 16 x 16 rays within +-0.004 rad of the optical axis */
-	table_pinhole(&v.rays, 16, 16, 2000, mc_v3(0, 0, 0));
-	v.hsv = image_random(&v.rays, &rng);
+	view_pinhole(&v, 16, 16, 2000, &rng);
 	mc_cl_energy *e = open_backend(&v, 1);
 	mc_scene sc;
 	memset(&sc, 0, sizeof(sc));
@@ -230,8 +270,7 @@ static void test_culling_edge(void)
 			  err, size);
 	}
 	mc_cl_energy_destroy(e);
-	table_free(&v.rays);
-	free(v.hsv);
+	views_free(&v, 1);
 }
 
 /* A head-mounted stereo rig and a person in random poses: every pixel, then
@@ -242,11 +281,7 @@ static void test_human(void)
 	unsigned long long rng = 99;
 	view v[2];
 	mc_raytable t[2];
-	tables_ego(t, 48);
-	for (int c = 0; c < 2; c++) {
-		v[c].rays = t[c];
-		v[c].hsv = image_random(&t[c], &rng);
-	}
+	views_ego(v, t, 48, &rng);
 	mc_cl_energy *e = open_backend(v, 2);
 	static result cl, ref;
 	for (int pose = 0; pose < 3; pose++) {
@@ -289,34 +324,23 @@ static void test_human(void)
 	CHECK(mc_cl_energy_set_image(e, 1, v[1].hsv, &err) == 0);
 
 	mc_cl_energy_destroy(e);
-	for (int c = 0; c < 2; c++) {
-		table_free(&t[c]);
-		free(v[c].hsv);
-	}
+	views_free(v, 2);
 }
 
 /* The kernel with every vector width (1: the GPU path) and assorted
  * work-group shapes gives the reference's numbers. */
 static void test_launch_settings(void)
 {
-	unsigned long long rng = 21;
-	view v[2];
-	mc_raytable t[2];
-	tables_ego(t, 24);
-	for (int c = 0; c < 2; c++) {
-		v[c].rays = t[c];
-		v[c].hsv = image_random(&t[c], &rng);
-	}
-	mc_scene sc;
-	scene_human(&sc, 0.5, &rng);
+	static ego_person p;
+	ego_person_init(&p, 21, 24, 0.5);
 	static result cl, ref;
-	eval_ref(&sc, v, 2, NULL, NULL, 0, 0, &ref);
+	eval_ref(&p.sc, p.v, 2, NULL, NULL, 0, 0, &ref);
 	static const mc_cl_options settings[] = {
 		{1, 0, 0}, {4, 3, 5}, {8, 1, 1}, {16, 8, 0}, {16, 2, 64},
 	};
 	for (size_t i = 0; i < sizeof(settings) / sizeof(settings[0]); i++) {
 		mc_err err = {{0}};
-		mc_cl_energy *e = mc_cl_energy_create_opts(-1, -1, t, 2, &settings[i], &err);
+		mc_cl_energy *e = mc_cl_energy_create_opts(-1, -1, p.t, 2, &settings[i], &err);
 		CHECK_MSG(e != NULL, "%s", err.msg);
 		if (!e)
 			continue;
@@ -325,53 +349,42 @@ static void test_launch_settings(void)
 		CHECK(got.vector_width == settings[i].vector_width);
 		CHECK(!settings[i].work_group_size || got.work_group_size == settings[i].work_group_size);
 		for (int c = 0; c < 2; c++)
-			CHECK(mc_cl_energy_set_image(e, c, v[c].hsv, &err) == 0);
-		eval_cl(e, &sc, NULL, NULL, 0, 0, &cl);
+			CHECK(mc_cl_energy_set_image(e, c, p.v[c].hsv, &err) == 0);
+		eval_cl(e, &p.sc, NULL, NULL, 0, 0, &cl);
 		char what[64];
 		snprintf(what, sizeof(what), "VW %d, work-group %d, groups <= %d", got.vector_width,
 			 got.work_group_size, got.max_groups);
-		check_agree(what, &cl, &ref, sc.n, 1e-3);
+		check_agree(what, &cl, &ref, p.sc.n, 1e-3);
 		mc_cl_energy_destroy(e);
 	}
 	mc_err err = {{0}};
 	mc_cl_options bad = {3, 0, 0};
-	CHECK(mc_cl_energy_create_opts(-1, -1, t, 2, &bad, &err) == NULL);
+	CHECK(mc_cl_energy_create_opts(-1, -1, p.t, 2, &bad, &err) == NULL);
 	CHECK_MSG(strstr(err.msg, "vector_width 3"), "%s", err.msg);
 	bad = (mc_cl_options){0, 1 << 20, 0};
-	CHECK(mc_cl_energy_create_opts(-1, -1, t, 2, &bad, &err) == NULL);
+	CHECK(mc_cl_energy_create_opts(-1, -1, p.t, 2, &bad, &err) == NULL);
 	CHECK_MSG(strstr(err.msg, "work_group_size 1048576"), "%s", err.msg);
-	for (int c = 0; c < 2; c++) {
-		table_free(&t[c]);
-		free(v[c].hsv);
-	}
+	views_free(p.v, 2);
 }
 
 static void test_dropout(void)
 {
-	unsigned long long rng = 5;
-	view v[2];
-	mc_raytable t[2];
-	tables_ego(t, 32);
-	for (int c = 0; c < 2; c++) {
-		v[c].rays = t[c];
-		v[c].hsv = image_random(&t[c], &rng);
-	}
-	mc_cl_energy *e = open_backend(v, 2);
-	mc_scene sc;
-	scene_human(&sc, 0.2, &rng);
+	static ego_person p;
+	ego_person_init(&p, 5, 32, 0.2);
+	mc_cl_energy *e = open_backend(p.v, 2);
 	static result full, r;
-	eval_cl(e, &sc, NULL, NULL, 0, 0, &full);
+	eval_cl(e, &p.sc, NULL, NULL, 0, 0, &full);
 	CHECK(full.E != 0);
 
 	/* Everything dropped: nothing is seen. */
-	eval_cl(e, &sc, NULL, NULL, 1.0, 77, &r);
+	eval_cl(e, &p.sc, NULL, NULL, 1.0, 77, &r);
 	CHECK(r.E == 0);
-	CHECK(max_abs_mu(&r, sc.n) == 0 && max_abs_sigma(&r, sc.n) == 0);
+	CHECK(max_abs_mu(&r, p.sc.n) == 0 && max_abs_sigma(&r, p.sc.n) == 0);
 
 	/* The hash drops about the requested fraction. */
 	long dropped = 0, total = 0;
 	for (int px = 0; px < 2000; px++)
-		for (int q = 0; q < sc.n; q++, total++)
+		for (int q = 0; q < p.sc.n; q++, total++)
 			dropped += mc_cl_dropped(42, px & 1, px, q, 0.25);
 	double frac = (double)dropped / total;
 	CHECK_MSG(fabs(frac - 0.25) < 0.01, "dropped fraction %.4f for p = 0.25", frac);
@@ -382,7 +395,7 @@ static void test_dropout(void)
 	double sum = 0, sum2 = 0;
 	int nseeds = 40;
 	for (int s = 0; s < nseeds; s++) {
-		eval_cl(e, &sc, NULL, NULL, 0.5, (uint32_t)s, &r);
+		eval_cl(e, &p.sc, NULL, NULL, 0.5, (uint32_t)s, &r);
 		CHECK(isfinite(r.E));
 		sum += r.E;
 		sum2 += r.E * r.E;
@@ -392,18 +405,14 @@ static void test_dropout(void)
 	CHECK(isfinite(mean) && sd > 0);
 	CHECK(fabs(mean - full.E) > 3 * sd / sqrt(nseeds));
 	mc_cl_energy_destroy(e);
-	for (int c = 0; c < 2; c++) {
-		table_free(&t[c]);
-		free(v[c].hsv);
-	}
+	views_free(p.v, 2);
 }
 
 static void test_errors(void)
 {
 	unsigned long long rng = 3;
 	view v;
-	table_pinhole(&v.rays, 8, 6, 8, mc_v3(0, 0, 0));
-	v.hsv = image_random(&v.rays, &rng);
+	view_pinhole(&v, 8, 6, 8, &rng);
 	mc_err err = {{0}};
 
 	CHECK(mc_cl_energy_create(99, -1, &v.rays, 1, &err) == NULL);
@@ -456,8 +465,7 @@ static void test_errors(void)
 	sc.background = false;
 	CHECK(mc_cl_energy_eval(e, &sc, NULL, NULL, 0, 0, &E, NULL, NULL, &err) == 0 && E == 0);
 	mc_cl_energy_destroy(e);
-	table_free(&v.rays);
-	free(v.hsv);
+	views_free(&v, 1);
 }
 
 int main(void)
