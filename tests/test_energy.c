@@ -52,11 +52,17 @@ static void place(mc_scene *s, int q, mc_vec3 o, mc_vec3 n, double m, double x, 
 	s->c[q] = c;
 }
 
-static void random_scene(scene_kind kind, int n, unsigned long long *rng, mc_vec3 o, mc_vec3 dir, mc_scene *s)
+/* A scene of n Gaussians, all zero, and no background model. */
+static void empty_scene(mc_scene *s, int n)
 {
 	memset(s, 0, sizeof(*s));
 	s->n = n;
 	s->background = false;
+}
+
+static void random_scene(scene_kind kind, int n, unsigned long long *rng, mc_vec3 o, mc_vec3 dir, mc_scene *s)
+{
+	empty_scene(s, n);
 	for (int q = 0; q < n; q++) {
 		double sigma = urand(rng, 0.04, 0.25);
 		/* sigma c between thin (0.2) and very dense (20) */
@@ -506,9 +512,7 @@ static void test_visibility_budget(void)
 {
 	mc_vec3 o = mc_v3(0, 0, 0), n = mc_v3(0, 0, 1);
 	mc_scene s;
-	memset(&s, 0, sizeof(s));
-	s.n = 1;
-	s.background = false;
+	empty_scene(&s, 1);
 	s.mu[0] = mc_v3(0, 0, 3);
 	s.sigma[0] = 0.1;
 	/* eq. 5.5's closed form holds for a Gaussian well in front */
@@ -553,9 +557,7 @@ static void test_occlusion(void)
 {
 	mc_vec3 o = mc_v3(0, 0, 0), n = mc_v3(0, 0, 1);
 	mc_scene s;
-	memset(&s, 0, sizeof(s));
-	s.n = 2;
-	s.background = false;
+	empty_scene(&s, 2);
 	s.mu[0] = mc_v3(0, 0, 2), s.sigma[0] = 0.2, s.c[0] = 50;   /* opaque, in front */
 	s.mu[1] = mc_v3(0, 0, 4), s.sigma[1] = 0.2, s.c[1] = 50;   /* behind it */
 	double both[2], b, alone[2], b_alone;
@@ -596,9 +598,7 @@ static void test_culling_edge(void)
 {
 	mc_vec3 o = mc_v3(0, 0, 0), n = mc_v3(0, 0, 1);
 	mc_scene s;
-	memset(&s, 0, sizeof(s));
-	s.n = 2;
-	s.background = false;
+	empty_scene(&s, 2);
 	s.mu[0] = mc_v3(0, 0, 2), s.sigma[0] = 0.1, s.c[0] = 5;   /* on the ray */
 	s.sigma[1] = 0.1, s.c[1] = 1e4;                         /* in front, sideways */
 	double w[2] = {0.5, 1};
