@@ -90,6 +90,23 @@ static srv_cam_state server_cam_state(const mcd_cam_status *c)
 	}
 }
 
+static void detector_to_server(const mcd_pipeline_status *now, const mcd_pipeline_status *prev, double dt_s,
+			       srv_detector_status *o)
+{
+	const mcd_detector_stats *d = &now->detector;
+	o->state = (srv_detector_state)d->state;
+	o->rate = rate(d->detections, prev->detector.detections, dt_s);
+	o->used_rate = rate(now->track.detector_views, prev->track.detector_views, dt_s);
+	o->ms_mean = mean_detect_ms(d, &prev->detector);
+	o->ms_last = d->ms_last;
+	o->ms_max = d->ms_max;
+	o->views = d->detections;
+	o->skipped = d->skipped;
+	o->used = now->track.detector_views;
+	snprintf(o->model, sizeof(o->model), "%s", d->model);
+	snprintf(o->message, sizeof(o->message), "%s", d->message);
+}
+
 void mcd_status_to_server(const mcd_pipeline_status *now, const mcd_pipeline_status *prev, double dt_s,
 			  uint64_t start_ns, const char *device, srv_status *out)
 {
@@ -115,4 +132,5 @@ void mcd_status_to_server(const mcd_pipeline_status *now, const mcd_pipeline_sta
 		o->frames = cn->counters.frames;
 		o->drops = mcd_cam_drops(cn);
 	}
+	detector_to_server(now, prev, dt_s, &out->detector);
 }

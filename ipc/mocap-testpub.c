@@ -142,6 +142,17 @@ int main(int argc, char **argv)
 	snprintf(st.cams[0].name, sizeof(st.cams[0].name), "cam0");
 	st.cams[0].width = 640;
 	st.cams[0].height = 480;
+	/* A detector with fixed figures, so that clients can test reading them. */
+	st.detector.state = SRV_DETECTOR_RUNNING;
+	st.detector.rate = 30;
+	st.detector.used_rate = 29;
+	st.detector.ms_mean = 1.25;
+	st.detector.ms_last = 1.5;
+	st.detector.ms_max = 2.5;
+	st.detector.views = 300;
+	st.detector.skipped = 3;
+	st.detector.used = 290;
+	snprintf(st.detector.model, sizeof(st.detector.model), "synthetic.onnx");
 	uint64_t period = (uint64_t)(1e9 / rate), next = mc_now_ns(), t0 = next;
 	for (uint64_t seq = 1; !stop && (frames <= 0 || seq <= (uint64_t)frames); seq++) {
 		uint64_t t = mc_now_ns();

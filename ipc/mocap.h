@@ -35,7 +35,7 @@ extern "C" {
 #endif
 
 #define MOCAP_LIB_VERSION "1.0.0"
-#define MOCAP_PROTOCOL_VERSION 1
+#define MOCAP_PROTOCOL_VERSION 2 /* the highest it speaks; it speaks 1 too */
 #define MOCAP_DEFAULT_SOCKET "/run/mocapd/mocapd.sock"
 #define MOCAP_SOCKET_ENV "MOCAP_SOCKET"
 
@@ -113,6 +113,24 @@ typedef struct {
 	uint64_t frames, drops;
 } mocap_camera_status;
 
+typedef enum {
+	MOCAP_DETECTOR_OFF = 0,     /* no in-process detector configured */
+	MOCAP_DETECTOR_RUNNING = 1,
+	MOCAP_DETECTOR_FAILED = 2,  /* its model did not load: see message */
+	MOCAP_DETECTOR_UNKNOWN = 3, /* the daemon speaks protocol version 1 only */
+} mocap_detector_state;
+
+/* The daemon's in-process 2D joint detector ([detector] in its config). */
+typedef struct {
+	mocap_detector_state state;
+	double rate;      /* views detected per second, recent average */
+	double used_rate; /* views tracked with its keypoints per second */
+	double ms_mean, ms_last, ms_max; /* ms per view: recent mean, last, recent maximum */
+	uint64_t views, skipped, used; /* since start: detected, not detected (a newer frame came first), tracked with */
+	char model[1024];   /* the model file */
+	char message[1024]; /* FAILED: why, naming the file and the mismatch */
+} mocap_detector_status;
+
 typedef struct {
 	mocap_track_state tracker_state;
 	int recording;
@@ -124,6 +142,9 @@ typedef struct {
 	char device[MOCAP_NAME_MAX];
 	int ncams;
 	mocap_camera_status cams[MOCAP_MAX_CAMERAS];
+	/* Since libmocap 1.1 (symbol version MOCAP_2 of mocap_get_status;
+	 * programs built against 1.0 keep the old layout without it). */
+	mocap_detector_status detector;
 } mocap_daemon_status;
 
 typedef struct {

@@ -24,7 +24,7 @@ static const char usage[] =
 	"usage: mocapctl [--socket PATH] COMMAND [OPTIONS]\n"
 	"\n"
 	"commands:\n"
-	"  status                 cameras, frame rates, drops, tracking time, tracker state\n"
+	"  status                 cameras, frame rates, drops, tracking time, tracker state, detector\n"
 	"  watch                  print skeletons as they arrive\n"
 	"      --json             one JSON object per frame and line\n"
 	"      --count N          stop after N frames\n"
@@ -81,6 +81,29 @@ static void print_duration(double s)
 		printf("%.1fs", s);
 }
 
+/* "detector:   running, 59.8 views/s, 1.05 ms per view (last 1.01, max 1.90), ..." */
+static void print_detector(const mocap_detector_status *d)
+{
+	printf("detector:   ");
+	switch (d->state) {
+	case MOCAP_DETECTOR_OFF:
+		printf("off\n");
+		return;
+	case MOCAP_DETECTOR_FAILED:
+		printf("failed: %s\n", d->message);
+		return;
+	case MOCAP_DETECTOR_RUNNING:
+		printf("running, %.1f views/s, %.2f ms per view (last %.2f, max %.2f)\n", d->rate, d->ms_mean, d->ms_last,
+		       d->ms_max);
+		printf("            %llu views detected, %llu skipped; %llu tracked with its keypoints (%.1f/s); model %s\n",
+		       (unsigned long long)d->views, (unsigned long long)d->skipped, (unsigned long long)d->used,
+		       d->used_rate, d->model);
+		return;
+	default:
+		printf("unknown (the daemon speaks protocol version 1)\n");
+	}
+}
+
 static int cmd_status(mocap_client *c, const char *path)
 {
 	mocap_daemon_status st;
@@ -94,6 +117,7 @@ static int cmd_status(mocap_client *c, const char *path)
 	printf("\npublished:  %llu skeletons, %.1f fps; frame sets skipped by the tracker: %llu\n",
 	       (unsigned long long)st.frames_published, st.publish_fps, (unsigned long long)st.frames_dropped);
 	printf("tracking:   %.2f ms mean, %.2f ms max per frame\n", st.track_ms_mean, st.track_ms_max);
+	print_detector(&st.detector);
 	printf("clients:    %d connected; frames dropped for slow clients: %llu\n", st.clients,
 	       (unsigned long long)st.client_drops);
 	printf("recording:  %s\n", st.recording ? "yes" : "no");

@@ -1,4 +1,4 @@
-/* proto: encoding and decoding of protocol version 1 (see proto.h and
+/* proto: encoding and decoding of protocol versions 1 and 2 (see proto.h and
  * docs/PROTOCOL.md, which gives every offset used here). */
 #include "proto.h"
 
@@ -554,6 +554,48 @@ static void enc_status(writer *w, const mc_msg_status *m)
 	w_str(w, m->device, PROTO_NAME_MAX);
 	for (int c = 0; c < m->ncams; c++)
 		w_str(w, m->cams[c].name, PROTO_NAME_MAX);
+	if (!m->has_detector)
+		return;
+	const mc_wire_detector_status *d = &m->detector; /* version 2 */
+	w_u32(w, d->state);
+	w_u32(w, 0);
+	w_f64(w, d->rate);
+	w_f64(w, d->used_rate);
+	w_f64(w, d->ms_mean);
+	w_f64(w, d->ms_last);
+	w_f64(w, d->ms_max);
+	w_u64(w, d->views);
+	w_u64(w, d->skipped);
+	w_u64(w, d->used);
+	w_str(w, d->model, PROTO_TEXT_MAX);
+	w_str(w, d->message, PROTO_TEXT_MAX);
+}
+
+/* The detector block of version 2, when the message goes on after the
+ * camera names. */
+static void dec_status_detector(reader *r, mc_msg_status *m)
+{
+	m->has_detector = false;
+	if (r->bad || r->pos == r->len)
+		return;
+	mc_wire_detector_status *d = &m->detector;
+	m->has_detector = true;
+	d->state = r_u32(r, "detector.state");
+	r_u32(r, "detector.reserved");
+	if (!r->bad && d->state > 2) {
+		r_fail(r, "detector.state: %u, expected 0..2", d->state);
+		return;
+	}
+	d->rate = r_f64(r, "detector.rate");
+	d->used_rate = r_f64(r, "detector.used_rate");
+	d->ms_mean = r_f64(r, "detector.ms_mean");
+	d->ms_last = r_f64(r, "detector.ms_last");
+	d->ms_max = r_f64(r, "detector.ms_max");
+	d->views = r_u64(r, "detector.views");
+	d->skipped = r_u64(r, "detector.skipped");
+	d->used = r_u64(r, "detector.used");
+	r_str(r, d->model, PROTO_TEXT_MAX, "detector.model");
+	r_str(r, d->message, PROTO_TEXT_MAX, "detector.message");
 }
 static void dec_status(reader *r, mc_msg_status *m)
 {
@@ -588,6 +630,7 @@ static void dec_status(reader *r, mc_msg_status *m)
 	r_str(r, m->device, PROTO_NAME_MAX, "device");
 	for (int c = 0; c < m->ncams && !r->bad; c++)
 		r_str(r, m->cams[c].name, PROTO_NAME_MAX, "cams.name");
+	dec_status_detector(r, m);
 }
 
 static void enc_rig(writer *w, const mc_msg_rig *m)

@@ -1,4 +1,4 @@
-/* proto: the mocapd wire protocol, version 1 (docs/PROTOCOL.md).
+/* proto: the mocapd wire protocol, versions 1 and 2 (docs/PROTOCOL.md).
  *
  * One message per SOCK_SEQPACKET datagram.  Every message starts with a
  * 16-byte header; all integers and floats are little-endian; strings are a
@@ -18,7 +18,8 @@
 #include <stddef.h>
 #include <stdint.h>
 
-#define PROTO_VERSION 1        /* the only version this code speaks */
+#define PROTO_VERSION 2        /* the highest version this code speaks */
+#define PROTO_MIN_VERSION 1    /* the lowest; 2 differs only in STATUS's detector block */
 #define PROTO_MAGIC 0x50434f4du /* "MOCP" as bytes 4d 4f 43 50 */
 #define PROTO_HEADER_SIZE 16
 #define PROTO_MAX_MESSAGE 65536
@@ -193,6 +194,16 @@ typedef struct {
 	char name[PROTO_NAME_MAX + 1];
 } mc_wire_cam_status;
 
+/* Version 2: the in-process detector, after the camera names. */
+typedef struct {
+	uint32_t state; /* 0 off, 1 running, 2 failed */
+	double rate, used_rate; /* views detected / tracked with its keypoints per second */
+	double ms_mean, ms_last, ms_max; /* per view */
+	uint64_t views, skipped, used;
+	char model[PROTO_TEXT_MAX + 1];
+	char message[PROTO_TEXT_MAX + 1];
+} mc_wire_detector_status;
+
 typedef struct {
 	uint64_t server_time_ns, start_ns;
 	uint64_t frames_published, frames_dropped, client_drops;
@@ -203,6 +214,10 @@ typedef struct {
 	uint32_t nclients;
 	char device[PROTO_NAME_MAX + 1];
 	mc_wire_cam_status cams[PROTO_MAX_CAMS];
+	/* Not a field: whether the detector block is there (encoding: for a
+	 * version 2 connection; decoding: the message had it). */
+	bool has_detector;
+	mc_wire_detector_status detector;
 } mc_msg_status;
 
 typedef struct {

@@ -159,6 +159,25 @@ typedef struct {
 	uint64_t drops;      /* lost or overwritten before use */
 } srv_cam_status;
 
+typedef enum {
+	SRV_DETECTOR_OFF = 0,     /* no in-process detector configured */
+	SRV_DETECTOR_RUNNING = 1,
+	SRV_DETECTOR_FAILED = 2,  /* its model did not load: see message */
+} srv_detector_state;
+
+/* The daemon's in-process 2D detector (STATUS, protocol version 2). */
+typedef struct {
+	srv_detector_state state;
+	double rate;          /* views detected per second, recent average */
+	double used_rate;     /* views tracked with its keypoints per second */
+	double ms_mean, ms_last, ms_max; /* per view: recent mean, last, recent maximum */
+	uint64_t views;       /* detected since start */
+	uint64_t skipped;     /* not detected: a newer frame came first */
+	uint64_t used;        /* views tracked with its keypoints, since start */
+	char model[256];      /* the configured model file */
+	char message[512];    /* FAILED: why (names the file and the mismatch) */
+} srv_detector_status;
+
 typedef struct {
 	srv_tracker_state tracker_state;
 	bool recording;
@@ -171,6 +190,7 @@ typedef struct {
 	char device[SRV_NAME_MAX]; /* compute device, e.g. "pocl: cpu" */
 	int ncams;
 	srv_cam_status cams[MC_MAX_CAMERAS];
+	srv_detector_status detector;
 } srv_status;
 
 /* Replaces the snapshot that status requests are answered from (copied).

@@ -1,6 +1,6 @@
 """mocap: a client of mocapd for lab scripts, in pure Python (standard library).
 
-Speaks protocol version 1 of docs/PROTOCOL.md over the daemon's
+Speaks protocol versions 1 and 2 of docs/PROTOCOL.md over the daemon's
 SOCK_SEQPACKET Unix socket.  Single-threaded: use one Client per thread.
 
     import mocap
@@ -19,7 +19,8 @@ import struct
 import time
 from collections import namedtuple
 
-PROTOCOL_VERSION = 1
+PROTOCOL_VERSION = 2      # the highest spoken; 1 too (2 adds STATUS's detector block)
+PROTOCOL_MIN_VERSION = 1
 MAGIC = 0x50434F4D
 HEADER = struct.Struct("<HHIII")  # type, flags, size, request_id, reserved
 MAX_MESSAGE = 65536
@@ -46,8 +47,11 @@ JointDef = namedtuple("JointDef", "name parent rest_offset")
 Skeleton = namedtuple("Skeleton", "id rig_is_world joints")
 Frame = namedtuple("Frame", "seq capture_ns publish_ns receive_ns missed skeleton_id state space joints")
 Camera = namedtuple("Camera", "name state width height fps frames drops")
+Detector = namedtuple("Detector", "state rate used_rate ms_mean ms_last ms_max views skipped used model message")
 Status = namedtuple("Status", "server_time_ns uptime_ns frames_published frames_dropped client_drops "
-                              "publish_fps track_ms_mean track_ms_max tracker_state recording clients device cameras")
+                              "publish_fps track_ms_mean track_ms_max tracker_state recording clients device cameras "
+                              "detector")
+DETECTOR_STATES = {0: "off", 1: "running", 2: "failed"}
 Ring = namedtuple("Ring", "camera fd size")
 
 
@@ -127,9 +131,9 @@ class Client:
         except OSError as e:
             self._sock.close()
             raise Error("not running", "cannot connect to %s: %s" % (self.path, e.strerror))
-        body = struct.pack("<IHH", MAGIC, PROTOCOL_VERSION, PROTOCOL_VERSION) + _str16(name[:63])
+        body = struct.pack("<IHH", MAGIC, PROTOCOL_MIN_VERSION, PROTOCOL_VERSION) + _str16(name[:63])
         r = self._request(HELLO, body, WELCOME)
-        magic, version, flags, _max, self.server_pid, _t = r.take("IHHIIQ")
+        magic, self.version, flags, _max, self.server_pid, _t = r.take("IHHIIQ")
         self.daemon_version = r.string()
         self.privileged = bool(flags & 1)
 
@@ -310,11 +314,17 @@ class Client:
         cams = [r.take("dQQIIII") for _ in range(ncams)]
         device = r.string()
         names = [r.string() for _ in range(ncams)]
+        detector = None  # a version 1 daemon: unknown
+        if r.pos < len(r.data):
+            dstate, _res = r.take("II")
+            figures = r.take("5d")
+            counts = r.take("3Q")
+            detector = Detector(DETECTOR_STATES.get(dstate, str(dstate)), *figures, *counts, r.string(), r.string())
         r.end()
         cameras = [Camera(n, CAMERA_STATES.get(c[3], str(c[3])), c[4], c[5], c[0], c[1], c[2])
                    for n, c in zip(names, cams)]
         return Status(now, max(0, now - start), pub, dropped, cdrops, fps, tmean, tmax,
-                      TRACK_STATES.get(state, str(state)), bool(rec), nclients, device, cameras)
+                      TRACK_STATES.get(state, str(state)), bool(rec), nclients, device, cameras, detector)
 
     def rig(self):
         """The rig in use, as JSON text."""

@@ -46,6 +46,11 @@ class WithPublisher(unittest.TestCase):
             self.assertEqual([cam.name for cam in st.cameras], ["cam0"])
             self.assertEqual(st.cameras[0].width, 640)
             self.assertGreaterEqual(st.clients, 1)
+            self.assertEqual(c.version, 2)
+            d = st.detector
+            self.assertEqual((d.state, d.rate, d.ms_mean, d.ms_last, d.ms_max), ("running", 30, 1.25, 1.5, 2.5))
+            self.assertEqual((d.views, d.skipped, d.used, d.used_rate), (300, 3, 290, 29))
+            self.assertEqual((d.model, d.message), ("synthetic.onnx", ""))
             sk = c.skeleton()
             names = [j.name for j in sk.joints]
             self.assertEqual(len(names), 18)
@@ -95,6 +100,19 @@ class WithPublisher(unittest.TestCase):
             c.send_head_pose(mocap.now_ns(), (0, 1.6, 0), (1, 0, 0, 0))
             c.ping()
 
+    def test_version_1(self):
+        # A version 1 client gets version 1's STATUS: no detector block.
+        saved = mocap.PROTOCOL_VERSION
+        mocap.PROTOCOL_VERSION = 1
+        try:
+            with mocap.Client(self.path, "py-v1") as c:
+                self.assertEqual(c.version, 1)
+                st = c.status()
+                self.assertIsNone(st.detector)
+                self.assertEqual(st.device, "synthetic")
+        finally:
+            mocap.PROTOCOL_VERSION = saved
+
     def test_version_mismatch(self):
         s = socket.socket(socket.AF_UNIX, socket.SOCK_SEQPACKET)
         s.connect(self.path)
@@ -105,7 +123,7 @@ class WithPublisher(unittest.TestCase):
         self.assertEqual((typ, rid, size), (mocap.ERROR, 1, len(data)))
         code, req, fatal, n = struct.unpack_from("<IHHH", data, 16)
         self.assertEqual((code, req, fatal), (1, mocap.HELLO, 1))
-        self.assertIn("speaks 1..1", data[26:26 + n].decode())
+        self.assertIn("speaks 1..2", data[26:26 + n].decode())
         self.assertEqual(s.recv(65536), b"")  # then disconnected
         s.close()
 
@@ -131,6 +149,7 @@ class WithPublisher(unittest.TestCase):
         r = run("status")
         self.assertEqual(r.returncode, 0, r.stderr)
         self.assertIn("tracker:    ok", r.stdout)
+        self.assertIn("detector:   running, 30.0 views/s, 1.25 ms per view (last 1.50, max 2.50)", r.stdout)
         self.assertIn("cam0", r.stdout)
         r = run("watch", "--json", "--count", "3", "--all")
         self.assertEqual(r.returncode, 0, r.stderr)

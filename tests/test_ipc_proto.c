@@ -266,6 +266,23 @@ static void test_other_messages(void)
 	CHECK(rdf64(buf + 56) == 29.5 && buf[80] == 2 && rd16(buf + 82) == 2 && rd32(buf + 84) == 4);
 	CHECK(rd64(buf + 88 + 40 + 16) == 3 && rd32(buf + 88 + 40 + 28) == 1280);
 	CHECK(strcmp(b.u.status.cams[1].name, "right") == 0 && strcmp(b.u.status.device, "pocl") == 0);
+	CHECK(!b.u.status.has_detector);
+	/* Version 2: the detector block after the camera names. */
+	size_t v1 = n;
+	s->has_detector = true;
+	s->detector.state = 2;
+	s->detector.ms_mean = 1.25;
+	s->detector.used = 77;
+	strcpy(s->detector.model, "m.onnx");
+	strcpy(s->detector.message, "m.onnx: bad");
+	n = roundtrip(PROTO_FROM_SERVER);
+	CHECK(n == v1 + 72 + 2 + 6 + 2 + 11);
+	CHECK(rd32(buf + v1) == 2 && rdf64(buf + v1 + 24) == 1.25 && rd64(buf + v1 + 64) == 77);
+	CHECK(b.u.status.has_detector && b.u.status.detector.state == 2 && b.u.status.detector.used == 77);
+	CHECK(strcmp(b.u.status.detector.model, "m.onnx") == 0 && strcmp(b.u.status.detector.message, "m.onnx: bad") == 0);
+	buf[v1] = 3;
+	expect_refused(buf, n, PROTO_FROM_SERVER, "detector.state: 3");
+	s->has_detector = false;
 
 	start(MC_MSG_RIG);
 	a.u.rig.ncams = 2;

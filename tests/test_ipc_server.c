@@ -171,18 +171,23 @@ static void test_handshake(void)
 	/* A client speaking only newer versions is refused with a message
 	 * saying which versions each side speaks, then disconnected. */
 	int fd = raw_connect(path);
-	send_hello(fd, 2, 3);
+	send_hello(fd, 3, 4);
 	CHECK(raw_recv(fd, 2000) == 1 && rx.h.type == MC_MSG_ERROR);
 	CHECK(rx.u.error.code == PROTO_E_VERSION && rx.u.error.fatal == 1);
-	CHECK_MSG(strstr(rx.u.error.message, "client speaks versions 2..3") &&
-			  strstr(rx.u.error.message, "this mocapd speaks 1..1"),
+	CHECK_MSG(strstr(rx.u.error.message, "client speaks versions 3..4") &&
+			  strstr(rx.u.error.message, "this mocapd speaks 1..2"),
 		  "%s", rx.u.error.message);
 	CHECK(closed_by_server(fd));
 	close(fd);
-	/* A range that includes 1 is accepted with version 1. */
+	/* Only version 2: accepted with 2. */
+	fd = raw_connect(path);
+	send_hello(fd, 2, 2);
+	CHECK(raw_recv(fd, 2000) == 1 && rx.h.type == MC_MSG_WELCOME && rx.u.welcome.version == 2);
+	close(fd);
+	/* A range that includes both is accepted with the highest, 2. */
 	fd = raw_connect(path);
 	send_hello(fd, 1, 9);
-	CHECK(raw_recv(fd, 2000) == 1 && rx.h.type == MC_MSG_WELCOME && rx.u.welcome.version == 1);
+	CHECK(raw_recv(fd, 2000) == 1 && rx.h.type == MC_MSG_WELCOME && rx.u.welcome.version == 2);
 	CHECK(rx.u.welcome.flags & MC_WELCOME_PRIVILEGED); /* same user as the server */
 	/* A second HELLO is a protocol error. */
 	send_hello(fd, 1, 1);
@@ -526,6 +531,21 @@ static void test_requests(void)
 	CHECK(rx.u.status.ncams == 2 && strcmp(rx.u.status.cams[1].name, "right") == 0 && rx.u.status.cams[1].drops == 17);
 	CHECK(rx.u.status.cams[1].state == MC_CAM_STATE_STALLED && rx.u.status.nclients == 1);
 	CHECK(strcmp(rx.u.status.device, "pocl: cpu") == 0);
+	CHECK(!rx.u.status.has_detector); /* a version 1 client: no detector block */
+	/* A version 2 client gets the detector too. */
+	st.detector.state = SRV_DETECTOR_FAILED;
+	st.detector.ms_max = 3.5;
+	st.detector.views = 42;
+	snprintf(st.detector.message, sizeof(st.detector.message), "m.onnx: not an ONNX model");
+	srv_set_status(srv, &st);
+	int fd2 = raw_connect(path);
+	send_hello(fd2, 1, 2);
+	CHECK(raw_recv(fd2, 2000) == 1 && rx.h.type == MC_MSG_WELCOME && rx.u.welcome.version == 2);
+	simple_request(fd2, MC_MSG_GET_STATUS, 15);
+	CHECK(raw_expect(fd2, MC_MSG_STATUS) && rx.h.request_id == 15 && rx.u.status.has_detector);
+	CHECK(rx.u.status.detector.state == 2 && rx.u.status.detector.ms_max == 3.5 && rx.u.status.detector.views == 42);
+	CHECK(strcmp(rx.u.status.detector.message, "m.onnx: not an ONNX model") == 0);
+	close(fd2);
 
 	/* Publishing checks the definition. */
 	mc_skeleton sk;

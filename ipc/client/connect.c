@@ -118,7 +118,7 @@ mocap_client *mocap_connect(const char *path, const char *client_name)
 		return NULL;
 	}
 	m->u.hello.magic = PROTO_MAGIC;
-	m->u.hello.min_version = PROTO_VERSION;
+	m->u.hello.min_version = PROTO_MIN_VERSION;
 	m->u.hello.max_version = PROTO_VERSION;
 	snprintf(m->u.hello.client_name, sizeof(m->u.hello.client_name), "%s", client_name ? client_name : "");
 	int rc = mcl_request(c, m, MC_MSG_WELCOME, m, NULL, NULL, NULL);

@@ -104,6 +104,10 @@ static inline int mcl_ms_until(uint64_t deadline)
 /* --- error.c --- */
 
 /* Sets the calling thread's error; returns code. */
+/* mocap_get_status's two symbol versions (request.c). */
+int mcl_get_status_v2(mocap_client *c, mocap_daemon_status *st);
+int mcl_get_status_v1(mocap_client *c, void *st);
+
 int mcl_set_err(int code, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
 /* The MOCAP_E_* code for a PROTO_E_* code of an ERROR message. */
 int mcl_code_of_server_error(uint32_t code);

@@ -5,6 +5,7 @@
 #include "client/internal.h"
 
 #include <errno.h>
+#include <stddef.h>
 #include <poll.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -194,9 +195,27 @@ static void convert_status(const mc_msg_status *s, mocap_daemon_status *st)
 		cs->frames = s->cams[i].frames;
 		cs->drops = s->cams[i].drops;
 	}
+	mocap_detector_status *d = &st->detector;
+	if (!s->has_detector) {
+		d->state = MOCAP_DETECTOR_UNKNOWN; /* a version 1 daemon */
+		return;
+	}
+	const mc_wire_detector_status *w = &s->detector;
+	d->state = (mocap_detector_state)w->state;
+	d->rate = w->rate;
+	d->used_rate = w->used_rate;
+	d->ms_mean = w->ms_mean;
+	d->ms_last = w->ms_last;
+	d->ms_max = w->ms_max;
+	d->views = w->views;
+	d->skipped = w->skipped;
+	d->used = w->used;
+	snprintf(d->model, sizeof(d->model), "%s", w->model);
+	snprintf(d->message, sizeof(d->message), "%s", w->message);
 }
 
-int mocap_get_status(mocap_client *c, mocap_daemon_status *st)
+/* mocap_get_status@@MOCAP_2: the status with the detector. */
+int mcl_get_status_v2(mocap_client *c, mocap_daemon_status *st)
 {
 	proto_msg *m = mcl_new_msg(MC_MSG_GET_STATUS);
 	if (!m)
@@ -207,6 +226,26 @@ int mocap_get_status(mocap_client *c, mocap_daemon_status *st)
 	free(m);
 	return rc;
 }
+
+/* mocap_get_status@MOCAP_1, for programs built against libmocap 1.0:
+ * their mocap_daemon_status ends where `detector` begins. */
+int mcl_get_status_v1(mocap_client *c, void *st)
+{
+	mocap_daemon_status *full = malloc(sizeof(*full));
+	if (!full) {
+		mcl_set_err(MOCAP_E_SYSTEM, "out of memory");
+		return MOCAP_E_SYSTEM;
+	}
+	int rc = mcl_get_status_v2(c, full);
+	if (rc == 0)
+		memcpy(st, full, offsetof(mocap_daemon_status, detector));
+	free(full);
+	return rc;
+}
+
+/* In a static link the default version (@@) is plain mocap_get_status. */
+__asm__(".symver mcl_get_status_v1,mocap_get_status@MOCAP_1");
+__asm__(".symver mcl_get_status_v2,mocap_get_status@@MOCAP_2");
 
 int mocap_get_rig(mocap_client *c, char **json, int *ncams)
 {

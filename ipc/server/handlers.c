@@ -12,23 +12,24 @@ static void handle_hello(srv_server *srv, client *c, const proto_msg *m)
 {
 	const mc_msg_hello *h = &m->u.hello;
 	srv_str_copy(c->name, sizeof(c->name), h->client_name);
-	if (h->min_version > PROTO_VERSION || h->max_version < PROTO_VERSION) {
+	if (h->min_version > PROTO_VERSION || h->max_version < PROTO_MIN_VERSION) {
 		srv_reply_error(srv, c, m->h.request_id, m->h.type, PROTO_E_VERSION, true,
 				"protocol version mismatch: the client speaks versions %u..%u, this mocapd speaks %d..%d; "
 				"update the client library or the daemon",
-				h->min_version, h->max_version, PROTO_VERSION, PROTO_VERSION);
+				h->min_version, h->max_version, PROTO_MIN_VERSION, PROTO_VERSION);
 		pthread_mutex_lock(&srv->lock);
 		srv->stats.refused++;
 		pthread_mutex_unlock(&srv->lock);
 		return;
 	}
 	c->hello = true;
+	c->version = h->max_version < PROTO_VERSION ? h->max_version : PROTO_VERSION; /* the highest both speak */
 	proto_msg *o = &srv->out;
 	memset(o, 0, sizeof(o->h) + sizeof(o->u.welcome));
 	o->h.type = MC_MSG_WELCOME;
 	o->h.request_id = m->h.request_id;
 	o->u.welcome.magic = PROTO_MAGIC;
-	o->u.welcome.version = PROTO_VERSION;
+	o->u.welcome.version = c->version;
 	o->u.welcome.flags = c->privileged ? MC_WELCOME_PRIVILEGED : 0;
 	o->u.welcome.max_message = PROTO_MAX_MESSAGE;
 	o->u.welcome.server_pid = (uint32_t)getpid();
@@ -106,6 +107,22 @@ static void handle_get_status(srv_server *srv, client *c, const proto_msg *m)
 		s->cams[i].width = (uint32_t)(cs->width > 0 ? cs->width : 0);
 		s->cams[i].height = (uint32_t)(cs->height > 0 ? cs->height : 0);
 		srv_str_copy(s->cams[i].name, sizeof(s->cams[i].name), cs->name);
+	}
+	s->has_detector = c->version >= 2;
+	if (s->has_detector) {
+		const srv_detector_status *ds = &st->detector;
+		mc_wire_detector_status *d = &s->detector;
+		d->state = (uint32_t)ds->state;
+		d->rate = ds->rate;
+		d->used_rate = ds->used_rate;
+		d->ms_mean = ds->ms_mean;
+		d->ms_last = ds->ms_last;
+		d->ms_max = ds->ms_max;
+		d->views = ds->views;
+		d->skipped = ds->skipped;
+		d->used = ds->used;
+		srv_str_copy(d->model, sizeof(d->model), ds->model);
+		srv_str_copy(d->message, sizeof(d->message), ds->message);
 	}
 	pthread_mutex_unlock(&srv->lock);
 	s->server_time_ns = mc_now_ns();

@@ -85,6 +85,7 @@ typedef struct client {
 	uint64_t serial;        /* unique per connection, for control tokens */
 	uint64_t accepted_ns;
 	bool hello, privileged, dead;
+	uint16_t version;       /* the protocol version chosen in HELLO */
 	pid_t pid;
 	uid_t uid;
 	gid_t gid;
