@@ -203,25 +203,15 @@ static void test_controls(void)
 		CHECK(read_ctrl("/dev/video0", V4L2_CID_AUTOGAIN, &v) == 0 && v == 1);
 		H.drv->close(dev);
 	}
-	drv_harness_clear(&H);
-	drv_harness_set(&H, "device", "/dev/video0");
-	drv_harness_set(&H, "ctrl.brightness", "999");
-	expect_open_error(MDRV_ERR_CONFIG, "outside the control's range");
-	drv_harness_set(&H, "ctrl.brightness", "bright");
-	expect_open_error(MDRV_ERR_CONFIG, "'ctrl.brightness'");
-	drv_harness_clear(&H);
-	drv_harness_set(&H, "device", "/dev/video0");
-	drv_harness_set(&H, "gain", "1000");
-	expect_open_error(MDRV_ERR_CONFIG, "'gain'");
-	/* vivid has neither exposure nor white balance controls */
-	drv_harness_clear(&H);
-	drv_harness_set(&H, "device", "/dev/video0");
-	drv_harness_set(&H, "exposure", "0.01");
-	expect_open_error(MDRV_ERR_CONFIG, "no absolute exposure control");
-	drv_harness_clear(&H);
-	drv_harness_set(&H, "device", "/dev/video0");
-	drv_harness_set(&H, "white_balance", "auto");
-	expect_open_error(MDRV_ERR_CONFIG, "no automatic white balance control");
+	static const drv_bad_config bad[] = { /* MDRV_ERR_CONFIG */
+		{{"device", "/dev/video0", "ctrl.brightness", "999"}, "outside the control's range"},
+		{{"device", "/dev/video0", "ctrl.brightness", "bright"}, "'ctrl.brightness'"},
+		{{"device", "/dev/video0", "gain", "1000"}, "'gain'"},
+		/* vivid has neither exposure nor white balance controls */
+		{{"device", "/dev/video0", "exposure", "0.01"}, "no absolute exposure control"},
+		{{"device", "/dev/video0", "white_balance", "auto"}, "no automatic white balance control"},
+	};
+	drv_check_open_errors(&H, "v4l2: ", bad, sizeof bad / sizeof bad[0]);
 }
 
 static void test_selection(void)
@@ -235,18 +225,13 @@ static void test_selection(void)
 		CHECK_MSG(drv_harness_logged(&H, "opened /dev/video1"), "bus_info vivid-001 should open /dev/video1");
 		H.drv->close(dev);
 	}
-	drv_harness_set(&H, "bus_info", "usb-0000:00:14.0-9");
-	expect_open_error(MDRV_ERR_NODEV, "platform:vivid-000");
-	drv_harness_clear(&H);
-	drv_harness_set(&H, "serial", "SN1234");
-	expect_open_error(MDRV_ERR_NODEV, "serial=SN1234");
-	drv_harness_clear(&H);
-	drv_harness_set(&H, "device", "/dev/video0");
-	drv_harness_set(&H, "bus_info", "platform:vivid-001");
-	expect_open_error(MDRV_ERR_NODEV, "no capture device matches");
-	drv_harness_clear(&H);
-	drv_harness_set(&H, "device", "/dev/video7");
-	expect_open_error(MDRV_ERR_NODEV, "/dev/video7");
+	static const drv_bad_config bad[] = { /* MDRV_ERR_NODEV */
+		{{"bus_info", "usb-0000:00:14.0-9"}, "platform:vivid-000"},
+		{{"serial", "SN1234"}, "serial=SN1234"},
+		{{"device", "/dev/video0", "bus_info", "platform:vivid-001"}, "no capture device matches"},
+		{{"device", "/dev/video7"}, "/dev/video7"},
+	};
+	drv_check_open_errors(&H, "v4l2: ", bad, sizeof bad / sizeof bad[0]);
 }
 
 /* Unbinding the vivid platform device is what a USB unplug looks like to a
