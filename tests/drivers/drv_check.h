@@ -5,10 +5,32 @@
 #define DRV_CHECK_H
 
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
 #include "drv_harness.h"
 #include "test_util.h"
+
+/* Loads the plugin `name` into h, or prints why not and exits 1. */
+static inline void drv_check_load(drv_harness *h, const char *name)
+{
+	char err[1024];
+	if (drv_harness_load(h, name, err, sizeof err) != 0) {
+		fprintf(stderr, "%s\n", err);
+		exit(1);
+	}
+}
+
+/* Probes into info (cap entries), checks that probe worked and prints the
+ * count as "probe: N <what>"; returns the count. */
+static inline int drv_check_probe(drv_harness *h, mdrv_device_info *info, int cap, const char *what)
+{
+	char err[1024];
+	int n = h->drv->probe(&h->host, info, cap, err, sizeof err);
+	CHECK_MSG(n >= 0, "probe: %s", err);
+	printf("probe: %d %s\n", n, what);
+	return n;
+}
 
 /* Opens a camera with h's current config and expects it to fail with a
  * message that contains `needle` and starts with `prefix`, the driver's

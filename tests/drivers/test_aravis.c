@@ -463,11 +463,7 @@ int main(void)
 		if (lock_fd < 0 || flock(lock_fd, LOCK_EX) != 0)
 			TEST_SKIP("cannot take /tmp/mocapd-test-aravis.lock");
 	}
-	char err[512];
-	if (drv_harness_load(&H, "aravis", err, sizeof err) != 0) {
-		fprintf(stderr, "%s\n", err);
-		return 1;
-	}
+	drv_check_load(&H, "aravis");
 	atexit(on_exit_kill);
 	start_fake();
 	if (!wait_for_camera(10)) {

@@ -15,15 +15,10 @@ static void expect_open_error(const char *needle) { drv_check_open_error(&H, "li
 int main(void)
 {
 	char err[1024];
-	if (drv_harness_load(&H, "libcamera", err, sizeof err) != 0) {
-		fprintf(stderr, "%s\n", err);
-		return 1;
-	}
+	drv_check_load(&H, "libcamera");
 	CHECK(!strcmp(H.drv->name, "libcamera"));
 	mdrv_device_info info[8];
-	int n = H.drv->probe(&H.host, info, 8, err, sizeof err);
-	CHECK_MSG(n >= 0, "probe: %s", err);
-	printf("probe: %d cameras\n", n);
+	int n = drv_check_probe(&H, info, 8, "cameras");
 	/* twice: the shared camera manager starts and stops cleanly */
 	CHECK(H.drv->probe(&H.host, info, 8, err, sizeof err) == n);
 

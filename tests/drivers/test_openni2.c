@@ -126,15 +126,9 @@ static void test_streams(void)
 
 int main(void)
 {
-	char err[1024];
-	if (drv_harness_load(&H, "openni2", err, sizeof err) != 0) {
-		fprintf(stderr, "%s\n", err);
-		return 1;
-	}
+	drv_check_load(&H, "openni2");
 	mdrv_device_info info[8];
-	int n = H.drv->probe(&H.host, info, 8, err, sizeof err);
-	CHECK_MSG(n >= 0, "probe: %s", err);
-	printf("probe: %d devices\n", n);
+	int n = drv_check_probe(&H, info, 8, "devices");
 
 	drv_harness_clear(&H);
 	if (n == 0)

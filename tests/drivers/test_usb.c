@@ -166,9 +166,7 @@ static void test_plugin(void)
 		return;
 	}
 	mdrv_device_info info[16];
-	int n = H.drv->probe(&H.host, info, 16, err, sizeof err);
-	CHECK_MSG(n >= 0, "probe: %s", err);
-	printf("probe: %d USB cameras here\n", n);
+	drv_check_probe(&H, info, 16, "USB cameras here");
 
 	static const drv_bad_config bad[] = {
 		{{NULL}, "'vendor' and 'product'"},

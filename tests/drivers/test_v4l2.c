@@ -12,17 +12,11 @@ static drv_harness H;
 
 int main(void)
 {
-	char err[512];
-	if (drv_harness_load(&H, "v4l2", err, sizeof err) != 0) {
-		fprintf(stderr, "%s\n", err);
-		return 1;
-	}
+	drv_check_load(&H, "v4l2");
 	CHECK(!strcmp(H.drv->name, "v4l2"));
 
 	mdrv_device_info info[16];
-	int n = H.drv->probe(&H.host, info, 16, err, sizeof err);
-	CHECK_MSG(n >= 0, "probe: %s", err);
-	printf("probe: %d capture devices here\n", n);
+	int n = drv_check_probe(&H, info, 16, "capture devices here");
 	for (int i = 0; i < n; i++)
 		CHECK(strncmp(info[i].id, "/dev/", 5) == 0);
 

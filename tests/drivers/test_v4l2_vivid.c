@@ -288,11 +288,7 @@ int main(void)
 	struct stat st;
 	if (stat(VIVID_SYSFS, &st) != 0)
 		TEST_SKIP("the vivid driver is not loaded here (tests/vm/vivid-test.sh runs this in a VM)");
-	char err[512];
-	if (drv_harness_load(&H, "v4l2", err, sizeof err) != 0) {
-		fprintf(stderr, "%s\n", err);
-		return 1;
-	}
+	drv_check_load(&H, "v4l2");
 	test_probe(2);
 	test_mode("YUYV", "320", "180", "30", MC_PIXFMT_YUYV, 2);
 	test_mode("GREY", "640", "360", "15", MC_PIXFMT_GRAY8, 1);
