@@ -9,7 +9,10 @@
  * starts on each frame the moment its capture thread commits it, in
  * parallel with the grouping (which waits for the other cameras) and the
  * tracking thread's own decoding, and pays for a second JPEG decoding
- * (about 0.3 ms per 256x256 view here) to be in time. */
+ * (about 0.3 ms per 256x256 view here) to be in time.  One worker per
+ * camera, so that the second camera's view does not wait for the first's
+ * detection (with one thread for both, the right camera's keypoints came
+ * too late for about half the frame sets of test_daemon_detector). */
 #include "detector_thread.h"
 
 #include "log.h"
@@ -31,34 +34,43 @@ typedef struct {
 	uint64_t generation, sequence, timestamp_ns;
 } frame_ref;
 
-struct mcd_detector_thread {
-	int ncams;
-	mcd_camera *cams[MC_MAX_CAMERAS];
-	int cam_to_rig[MC_MAX_CAMERAS];
-	mcd_tracking_thread *sink;
+/* One camera's worker: its own thread and network (a loaded network is
+ * used by one thread at a time), so that no camera's frame waits for
+ * another camera's detection. */
+typedef struct {
+	mcd_detector_thread *d;
+	int cam;
 	mc_detector *det;
-	int map[MC_DETECTOR_MAX_JOINTS];
-	float model_threshold;
-	bool started;
-
-	/* The detector thread's own. */
 	mc_image_conv *conv;
 	uint8_t *raw, *rgb;
 	size_t raw_cap, rgb_cap;
 	mc_detection dets[MC_DETECTOR_MAX_JOINTS];
 	mc_keypoint kps[MC_DETECTOR_MAX_JOINTS];
-
-	/* Guards everything below (capture threads, main thread). */
-	pthread_mutex_t lock;
-	pthread_cond_t cond;
 	pthread_t thread;
-	bool stop;
-	bool pending[MC_MAX_CAMERAS];
-	frame_ref next[MC_MAX_CAMERAS];
-	uint64_t taken_ns[MC_MAX_CAMERAS]; /* capture time of the last frame taken, 0 none */
-	int turn;                          /* the camera looked at first */
-	mcd_detector_config cfg;
+	bool started;
+	/* Under d->lock: */
+	bool pending;
+	frame_ref next;
+	uint64_t taken_ns; /* capture time of the last frame taken, 0 none */
 	bool cfg_changed;
+} worker;
+
+struct mcd_detector_thread {
+	int ncams;
+	mcd_camera *cams[MC_MAX_CAMERAS];
+	int cam_to_rig[MC_MAX_CAMERAS];
+	mcd_tracking_thread *sink;
+	int map[MC_DETECTOR_MAX_JOINTS];
+	float model_threshold;
+	bool started;
+	worker w[MC_MAX_CAMERAS];
+
+	/* Guards the workers' shared parts and everything below (capture
+	 * threads, main thread); each worker waits on its own condition. */
+	pthread_mutex_t lock;
+	pthread_cond_t cond[MC_MAX_CAMERAS];
+	bool stop;
+	mcd_detector_config cfg;
 	mcd_detector_stats st;
 };
 
@@ -85,12 +97,15 @@ static void note_error(mcd_detector_thread *d, int c, const mc_err *err)
 			 (unsigned long long)n);
 }
 
-/* Reads, converts and detects camera c's frame `f`; hands the keypoints on. */
-static void detect_view(mcd_detector_thread *d, int c, const frame_ref *f)
+/* Reads, converts and detects the worker's camera's frame `f`; hands the
+ * keypoints on. */
+static void detect_view(worker *w, const frame_ref *f)
 {
+	mcd_detector_thread *d = w->d;
+	int c = w->cam;
 	mc_err err = {{0}};
 	mc_ring_meta meta;
-	int rc = mcd_frame_ring_read(mcd_camera_ring(d->cams[c]), f->generation, f->sequence, &d->raw, &d->raw_cap,
+	int rc = mcd_frame_ring_read(mcd_camera_ring(d->cams[c]), f->generation, f->sequence, &w->raw, &w->raw_cap,
 				     &meta, &err);
 	if (rc != MC_RING_FRAME) {
 		pthread_mutex_lock(&d->lock);
@@ -98,21 +113,21 @@ static void detect_view(mcd_detector_thread *d, int c, const frame_ref *f)
 		pthread_mutex_unlock(&d->lock);
 		return;
 	}
-	int w, h;
-	if (mcd_frame_to_rgb(d->conv, &meta, d->raw, &d->rgb, &d->rgb_cap, &w, &h, &err)) {
+	int width, height;
+	if (mcd_frame_to_rgb(w->conv, &meta, w->raw, &w->rgb, &w->rgb_cap, &width, &height, &err)) {
 		note_error(d, c, &err);
 		return;
 	}
-	int n = mc_detector_detect(d->det, d->rgb, w, h, 0, d->dets, MC_DETECTOR_MAX_JOINTS, &err);
+	int n = mc_detector_detect(w->det, w->rgb, width, height, 0, w->dets, MC_DETECTOR_MAX_JOINTS, &err);
 	if (n < 0) {
 		note_error(d, c, &err);
 		return;
 	}
 	int rig = d->cam_to_rig[c];
-	int nk = mc_detections_to_keypoints(d->dets, n, rig, d->map, d->kps, MC_DETECTOR_MAX_JOINTS);
-	mcd_tracking_thread_offer_keypoints(d->sink, rig, meta.timestamp_ns, d->kps, nk);
+	int nk = mc_detections_to_keypoints(w->dets, n, rig, d->map, w->kps, MC_DETECTOR_MAX_JOINTS);
+	mcd_tracking_thread_offer_keypoints(d->sink, rig, meta.timestamp_ns, w->kps, nk);
 	mc_detector_timing tm;
-	mc_detector_get_timing(d->det, &tm);
+	mc_detector_get_timing(w->det, &tm);
 	pthread_mutex_lock(&d->lock);
 	d->st.detections++;
 	d->st.keypoints += (uint64_t)nk;
@@ -125,46 +140,34 @@ static void detect_view(mcd_detector_thread *d, int c, const frame_ref *f)
 
 /* ---- the loop ------------------------------------------------------------------------- */
 
-/* Called with the lock held, on the detector thread. */
-static void apply_settings(mcd_detector_thread *d)
+/* Called with the lock held, on the worker's thread. */
+static void apply_settings(worker *w)
 {
-	d->cfg_changed = false;
+	mcd_detector_thread *d = w->d;
+	w->cfg_changed = false;
 	float thr = d->cfg.min_confidence < 0 ? d->model_threshold : (float)d->cfg.min_confidence;
-	mc_detector_set_threshold(d->det, thr);
+	mc_detector_set_threshold(w->det, thr);
 	mc_detector_set_threads(d->cfg.threads);
 }
 
-/* The next camera with a frame waiting (round robin), or -1. */
-static int next_camera(mcd_detector_thread *d)
+static void *worker_main(void *arg)
 {
-	for (int i = 0; i < d->ncams; i++) {
-		int c = (d->turn + i) % d->ncams;
-		if (d->pending[c]) {
-			d->turn = (c + 1) % d->ncams;
-			return c;
-		}
-	}
-	return -1;
-}
-
-static void *detector_main(void *arg)
-{
-	mcd_detector_thread *d = arg;
+	worker *w = arg;
+	mcd_detector_thread *d = w->d;
 	pthread_mutex_lock(&d->lock);
 	while (!d->stop) {
-		if (d->cfg_changed)
-			apply_settings(d);
-		int c = next_camera(d);
-		if (c < 0) {
+		if (w->cfg_changed)
+			apply_settings(w);
+		if (!w->pending) {
 			struct timespec ts = mc_ns_timespec(mc_now_ns() + IDLE_WAKE_NS);
-			pthread_cond_timedwait(&d->cond, &d->lock, &ts);
+			pthread_cond_timedwait(&d->cond[w->cam], &d->lock, &ts);
 			continue;
 		}
-		frame_ref f = d->next[c];
-		d->pending[c] = false;
-		d->taken_ns[c] = f.timestamp_ns;
+		frame_ref f = w->next;
+		w->pending = false;
+		w->taken_ns = f.timestamp_ns;
 		pthread_mutex_unlock(&d->lock);
-		detect_view(d, c, &f);
+		detect_view(w, &f);
 		pthread_mutex_lock(&d->lock);
 	}
 	pthread_mutex_unlock(&d->lock);
@@ -181,20 +184,48 @@ static void fail(mcd_detector_thread *d, const char *where, const char *msg)
 }
 
 /* Maps the detector's joints to the body model's; false if none match. */
-static bool map_joints(mcd_detector_thread *d, const mc_model *model, const char *where)
+static bool map_joints(mcd_detector_thread *d, const mc_detector *det, const mc_model *model, const char *where)
 {
-	int matched = mc_detector_map_model(d->det, model, d->map);
-	int nj = mc_detector_njoints(d->det);
+	int matched = mc_detector_map_model(det, model, d->map);
+	int nj = mc_detector_njoints(det);
 	for (int j = 0; j < nj; j++)
 		if (d->map[j] < 0)
-			mcd_info("detector: joint %s is not in the body model; dropped", mc_detector_joint_name(d->det, j));
+			mcd_info("detector: joint %s is not in the body model; dropped", mc_detector_joint_name(det, j));
 	if (matched > 0)
 		return true;
 	char msg[400];
-	snprintf(msg, sizeof(msg), "%s: none of its %d joints is a joint of the body model", mc_detector_path(d->det),
-		 nj);
+	snprintf(msg, sizeof(msg), "%s: none of its %d joints is a joint of the body model", mc_detector_path(det), nj);
 	fail(d, where, msg);
 	return false;
+}
+
+/* Every camera's worker, with its own network (the first is loaded
+ * already). */
+static int make_workers(mcd_detector_thread *d, mc_detector *first, mc_err *err)
+{
+	for (int c = 0; c < d->ncams; c++) {
+		worker *w = &d->w[c];
+		w->d = d;
+		w->cam = c;
+		w->det = c ? mc_detector_load(d->cfg.model, err) : first;
+		if (!w->det || !(w->conv = mc_image_conv_new(err)))
+			return -1;
+		apply_settings(w);
+	}
+	return 0;
+}
+
+static void log_running(const mcd_detector_thread *d)
+{
+	const mc_detector *det = d->w[0].det;
+	int iw, ih;
+	mc_detector_input_size(det, &iw, &ih);
+	char rate[64] = "every frame";
+	if (d->cfg.rate > 0)
+		snprintf(rate, sizeof(rate), "at most %g views/s per camera", d->cfg.rate);
+	mcd_info("detector: %s (%d joints, %dx%d input), %s, threshold %.2f, %d OpenCV thread%s, one worker per camera",
+		 d->cfg.model, mc_detector_njoints(det), iw, ih, rate, (double)mc_detector_threshold(det), d->cfg.threads,
+		 d->cfg.threads == 1 ? "" : "s");
 }
 
 mcd_detector_thread *mcd_detector_thread_create(const mcd_detector_thread_config *cfg, mc_err *err)
@@ -210,31 +241,31 @@ mcd_detector_thread *mcd_detector_thread_create(const mcd_detector_thread_config
 	d->sink = cfg->sink;
 	d->cfg = *cfg->cfg;
 	pthread_mutex_init(&d->lock, NULL);
-	mc_cond_init_monotonic(&d->cond);
+	for (int c = 0; c < MC_MAX_CAMERAS; c++)
+		mc_cond_init_monotonic(&d->cond[c]);
 	snprintf(d->st.model, sizeof(d->st.model), "%.255s", cfg->cfg->model);
-	if (!cfg->cfg->model[0])
+	if (!cfg->cfg->model[0] || d->ncams == 0)
 		return d; /* off */
 	mc_err lerr = {{0}};
 	mc_detector_set_threads(d->cfg.threads);
-	d->det = mc_detector_load(cfg->cfg->model, &lerr);
-	if (!d->det) {
+	mc_detector *first = mc_detector_load(cfg->cfg->model, &lerr);
+	if (!first) {
 		fail(d, cfg->where, lerr.msg);
 		return d;
 	}
-	if (!map_joints(d, cfg->model, cfg->where))
+	if (!map_joints(d, first, cfg->model, cfg->where)) {
+		mc_detector_free(first);
 		return d;
-	if (!(d->conv = mc_image_conv_new(err))) {
+	}
+	d->model_threshold = mc_detector_threshold(first);
+	if (make_workers(d, first, err)) {
+		if (!d->w[0].det)
+			mc_detector_free(first);
 		mcd_detector_thread_destroy(d);
 		return NULL;
 	}
-	d->model_threshold = mc_detector_threshold(d->det);
-	apply_settings(d);
 	d->st.state = MCD_DETECTOR_RUNNING;
-	int iw, ih;
-	mc_detector_input_size(d->det, &iw, &ih);
-	mcd_info("detector: %s (%d joints, %dx%d input), %s, threshold %.2f, %d OpenCV thread%s", cfg->cfg->model,
-		 mc_detector_njoints(d->det), iw, ih, d->cfg.rate > 0 ? "rate limited" : "every frame",
-		 (double)mc_detector_threshold(d->det), d->cfg.threads, d->cfg.threads == 1 ? "" : "s");
+	log_running(d);
 	return d;
 }
 
@@ -242,22 +273,33 @@ int mcd_detector_thread_start(mcd_detector_thread *d, mc_err *err)
 {
 	if (d->st.state != MCD_DETECTOR_RUNNING)
 		return 0;
-	int rc = pthread_create(&d->thread, NULL, detector_main, d);
-	if (rc)
-		return mc_err_set(err, "cannot start the detector thread: %s", strerror(rc));
+	for (int c = 0; c < d->ncams; c++) {
+		int rc = pthread_create(&d->w[c].thread, NULL, worker_main, &d->w[c]);
+		if (rc) {
+			mcd_detector_thread_stop(d);
+			return mc_err_set(err, "cannot start the detector thread of camera %s: %s", mcd_camera_name(d->cams[c]),
+					  strerror(rc));
+		}
+		d->w[c].started = true;
+	}
 	d->started = true;
 	return 0;
 }
 
 void mcd_detector_thread_stop(mcd_detector_thread *d)
 {
-	if (!d || !d->started)
+	if (!d)
 		return;
 	pthread_mutex_lock(&d->lock);
 	d->stop = true;
-	pthread_cond_signal(&d->cond);
+	for (int c = 0; c < d->ncams; c++)
+		pthread_cond_signal(&d->cond[c]);
 	pthread_mutex_unlock(&d->lock);
-	pthread_join(d->thread, NULL);
+	for (int c = 0; c < d->ncams; c++)
+		if (d->w[c].started) {
+			pthread_join(d->w[c].thread, NULL);
+			d->w[c].started = false;
+		}
 	d->started = false;
 }
 
@@ -266,12 +308,16 @@ void mcd_detector_thread_destroy(mcd_detector_thread *d)
 	if (!d)
 		return;
 	mcd_detector_thread_stop(d);
-	mc_detector_free(d->det);
-	mc_image_conv_free(d->conv);
-	free(d->raw);
-	free(d->rgb);
+	for (int c = 0; c < d->ncams; c++) {
+		worker *w = &d->w[c];
+		mc_detector_free(w->det);
+		mc_image_conv_free(w->conv);
+		free(w->raw);
+		free(w->rgb);
+	}
 	pthread_mutex_destroy(&d->lock);
-	pthread_cond_destroy(&d->cond);
+	for (int c = 0; c < MC_MAX_CAMERAS; c++)
+		pthread_cond_destroy(&d->cond[c]);
 	free(d);
 }
 
@@ -281,15 +327,16 @@ void mcd_detector_thread_push(mcd_detector_thread *d, int cam, uint64_t generati
 {
 	if (!d || !d->started || cam < 0 || cam >= d->ncams)
 		return;
+	worker *w = &d->w[cam];
 	pthread_mutex_lock(&d->lock);
 	uint64_t period = d->cfg.rate > 0 ? (uint64_t)(1e9 / d->cfg.rate) : 0;
-	bool due = !period || !d->taken_ns[cam] || meta->timestamp_ns + RATE_SLACK_NS >= d->taken_ns[cam] + period;
+	bool due = !period || !w->taken_ns || meta->timestamp_ns + RATE_SLACK_NS >= w->taken_ns + period;
 	if (due) {
-		if (d->pending[cam])
-			d->st.skipped++; /* the detector is behind: the newer frame wins */
-		d->pending[cam] = true;
-		d->next[cam] = (frame_ref){generation, meta->sequence, meta->timestamp_ns};
-		pthread_cond_signal(&d->cond);
+		if (w->pending)
+			d->st.skipped++; /* the worker is behind: the newer frame wins */
+		w->pending = true;
+		w->next = (frame_ref){generation, meta->sequence, meta->timestamp_ns};
+		pthread_cond_signal(&d->cond[cam]);
 	}
 	pthread_mutex_unlock(&d->lock);
 }
@@ -302,8 +349,10 @@ void mcd_detector_thread_reload(mcd_detector_thread *d, const mcd_detector_confi
 	d->cfg.rate = cfg->rate;
 	d->cfg.threads = cfg->threads;
 	d->cfg.min_confidence = cfg->min_confidence;
-	d->cfg_changed = true;
-	pthread_cond_signal(&d->cond);
+	for (int c = 0; c < d->ncams; c++) {
+		d->w[c].cfg_changed = true;
+		pthread_cond_signal(&d->cond[c]);
+	}
 	pthread_mutex_unlock(&d->lock);
 }
 

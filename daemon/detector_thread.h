@@ -1,10 +1,11 @@
 /* detector_thread: the in-process 2D joint detector ([detector] in the
  * config; the runtime is detect/mc_detector.h).
  *
- * One thread with one mc_detector.  Each capture thread tells it of every
- * frame it commits (mcd_detector_thread_push, next to the tracking
- * thread's push); the thread copies the newest frame of each camera out of
- * its ring, converts it to RGB24, detects at the configured rate and hands
+ * One worker thread per camera, each with its own mc_detector.  Each
+ * capture thread tells its worker of every frame it commits
+ * (mcd_detector_thread_push, next to the tracking thread's push); the
+ * worker copies the newest frame out of the ring, converts it to RGB24,
+ * detects at the configured rate and hands
  * the keypoints, stamped with the frame's capture time and the rig camera,
  * to the tracking thread (mcd_tracking_thread_offer_keypoints), which
  * matches them to its frame sets by capture time like the keypoints

@@ -5,8 +5,7 @@
  * driver at 5 fps, both cameras with one epoch, so that the client knows
  * the capture time of the next frame set. */
 #include "daemon/harness.h"
-#include "geom/mc_rig.h"
-#include "mocap.h"
+#include "daemon/rays.h"
 #include "test_util.h"
 
 
@@ -32,30 +31,6 @@ static void write_config(mcd_run *r, uint64_t epoch)
 	mcd_run_config(r, text);
 }
 
-static mc_vec3 joint_position(const mocap_skeleton_frame *f, int j)
-{
-	return mc_v3(f->joints[j].position[0], f->joints[j].position[1], f->joints[j].position[2]);
-}
-
-/* Distance of p from the ray through pixel (u, v) of camera c. */
-static double ray_distance(const mc_camera *cam, double u, double v, mc_vec3 p)
-{
-	mc_vec3 dir;
-	if (!mc_camera_unproject(cam, u, v, &dir))
-		return 1e9;
-	mc_vec3 n = mc_v3_normalize(mc_m3_apply(cam->rig_from_cam.R, dir));
-	mc_vec3 d = mc_v3_sub(p, cam->rig_from_cam.t);
-	return mc_v3_norm(mc_v3_axpy(-mc_v3_dot(d, n), n, d));
-}
-
-static int find_joint(const mocap_skeleton_def *def, const char *name)
-{
-	for (int j = 0; j < def->njoints; j++)
-		if (!strcmp(def->joints[j].name, name))
-			return j;
-	return -1;
-}
-
 static void run(mcd_run *r, const mc_rig *rig)
 {
 	mocap_client *c = mocap_connect(r->sock, "test_daemon_keypoints");
@@ -67,13 +42,13 @@ static void run(mcd_run *r, const mc_rig *rig)
 	int wrist = -1;
 	CHECK(def && f && mocap_subscribe(c, MOCAP_ALL, MOCAP_SPACE_RIG, 0) == 0);
 	CHECK(f && mocap_read_frame(c, f, 30000) == 1);
-	CHECK(def && mocap_get_skeleton(c, def) == 0 && (wrist = find_joint(def, "right_wrist")) >= 0);
+	CHECK(def && mocap_get_skeleton(c, def) == 0 && (wrist = mcd_find_joint(def, "right_wrist")) >= 0);
 	if (!def || !f || wrist < 0 || mc_test_failures)
 		goto out;
 
 	/* A target 0.2 m from the wrist, across the left camera's line of sight,
 	 * seen by both cameras. */
-	mc_vec3 w0 = joint_position(f, wrist);
+	mc_vec3 w0 = mcd_joint_position(f, wrist);
 	mc_vec3 sight = mc_v3_normalize(mc_v3_sub(w0, rig->cams[0].rig_from_cam.t));
 	mc_vec3 across = mc_v3_normalize(mc_v3_cross(sight, mc_v3(0, 0, 1)));
 	mc_vec3 target = mc_v3_axpy(0.2, across, w0);
@@ -84,7 +59,7 @@ static void run(mcd_run *r, const mc_rig *rig)
 		CHECK(mc_camera_project(&rig->cams[cam], p, &u[cam], &v[cam]));
 		kp[cam] = (mocap_keypoint){wrist, (float)u[cam], (float)v[cam], 1.0f};
 	}
-	double before = ray_distance(&rig->cams[0], u[0], v[0], w0);
+	double before = mcd_ray_distance(&rig->cams[0], u[0], v[0], w0);
 
 	/* Keypoints for the next frame set, after every frame received. */
 	int sent = 0;
@@ -95,8 +70,8 @@ static void run(mcd_run *r, const mc_rig *rig)
 		if (mocap_read_frame(c, f, 10000) != 1)
 			break;
 	}
-	double after = ray_distance(&rig->cams[0], u[0], v[0], joint_position(f, wrist));
-	double right = ray_distance(&rig->cams[1], u[1], v[1], joint_position(f, wrist));
+	double after = mcd_ray_distance(&rig->cams[0], u[0], v[0], mcd_joint_position(f, wrist));
+	double right = mcd_ray_distance(&rig->cams[1], u[1], v[1], mcd_joint_position(f, wrist));
 	printf("right wrist from the keypoint ray: %.1f cm before, %.1f cm (left) and %.1f cm (right) after, "
 	       "%d batches sent\n",
 	       100 * before, 100 * after, 100 * right, sent);

@@ -1,0 +1,241 @@
+/* The in-process detector ([detector] in the config) end to end: mocapd
+ * plays the bundled clip in a loop (files driver, 5 fps) and detects on
+ * it with detect/tests/data/fixed_wrist.onnx, a test model whose only
+ * joint is the right wrist at pixel (139.5, 75.5) of every 256x256 view.
+ *
+ * - good model: the status (STATUS on the socket, protocol version 2, and
+ *   the sd_notify STATUS= line) reports the detector running with
+ *   detections, their cost and views tracked with them, and the published
+ *   right wrist, 20-60 cm off that pixel's ray of the left camera at the
+ *   start, comes onto it (within 5 cm) in some frame sets: the keypoints
+ *   reached the tracker with the right capture time, camera and joint.
+ *   Only some: the tracking thread never waits for the detector, and at
+ *   5 fps it is idle when a frame set completes, so it starts at once and
+ *   a detection that ends a millisecond later is not used for that set
+ *   (counted: `used` against `views`; docs/CONFIG.md, [detector]).  The
+ *   same pixel on the right camera is another ray, so where both cameras'
+ *   keypoints are used the wrist settles between the two rays;
+ * - bad models (wrong output shape, not ONNX, a missing file): mocapd
+ *   starts anyway, keeps publishing skeletons and reports the detector
+ *   failed with the file and the mismatch in its status and log;
+ *   `mocapd --check` fails on the config line. */
+#include "daemon/harness.h"
+#include "daemon/rays.h"
+#include "test_util.h"
+
+#define RATE 5
+#define FRAMES 25 /* 5 s */
+
+static char repo[PATH_MAX];
+static mc_rig rig;
+
+static void write_config(mcd_run *r, const char *model)
+{
+	char text[8 * PATH_MAX];
+	snprintf(text, sizeof(text),
+		 "[daemon]\nplugin_dir = %s/drivers\nstatus_interval_s = 0.5\n"
+		 "[camera left]\ndriver = files\nrig_camera = left\nloop = true\nrate = %d\n"
+		 "path = %s/tests/data/ego_demo/left\n"
+		 "[camera right]\ndriver = files\nrig_camera = right\nloop = true\nrate = %d\n"
+		 "path = %s/tests/data/ego_demo/right\n"
+		 "[tracker]\nrig = %s/config/rigs/ego_stereo.json\nmodel = %s/config/models/default.json\n"
+		 "init_joints = %s/tests/data/ego_demo/gt.json\n"
+		 "[socket]\npath = @SOCK@\n"
+		 "[detector]\nmodel = %s\n",
+		 mcd_build_dir, RATE, repo, RATE, repo, repo, repo, repo, model);
+	mcd_run_config(r, text);
+}
+
+/* Starts mocapd; false (and *skip set) when OpenCL is not usable here. */
+static bool start(mcd_run *r, const char *model, bool *skip)
+{
+	*skip = false;
+	CHECK(mcd_run_init(r));
+	write_config(r, model);
+	CHECK(mcd_run_start(r, NULL, NULL));
+	if (mcd_run_wait_notify(r, "READY=1", 60000))
+		return true;
+	char *log = mcd_read_file(r->log);
+	*skip = log && strstr(log, "OpenCL") && strstr(log, "error");
+	free(log);
+	if (!*skip) {
+		mcd_run_dump(r, "start");
+		CHECK_MSG(false, "mocapd did not become ready with [detector] model = %s", model);
+	}
+	mcd_run_cleanup(r);
+	return false;
+}
+
+static bool get_status(mocap_client *c, mocap_daemon_status *st)
+{
+	int rc = mocap_get_status(c, st);
+	CHECK_MSG(rc == 0, "status: %s", mocap_errmsg());
+	return rc == 0;
+}
+
+/* How far the wrist is from what the keypoints ask: the fixed pixel's ray
+ * of one camera (only that camera's keypoints were in time), or, both
+ * cameras' being used, the place between the two rays (the same pixel is
+ * another ray in each camera): its distances to both sum to their gap. */
+static double off_keypoints(mc_vec3 p, double gap)
+{
+	const double ku = 139.5, kv = 75.5;
+	double dl = mcd_ray_distance(&rig.cams[0], ku, kv, p), dr = mcd_ray_distance(&rig.cams[1], ku, kv, p);
+	double both = dl + dr - gap;
+	return dl < dr && dl < both ? dl : dr < both ? dr : both;
+}
+
+/* The right wrist onto the fixed keypoint's rays. */
+static void check_tracking(mocap_client *c, mocap_skeleton_frame *f, int wrist)
+{
+	double gap = mcd_ray_gap(&rig.cams[0], 139.5, 75.5, &rig.cams[1], 139.5, 75.5);
+	double before = off_keypoints(mcd_joint_position(f, wrist), gap);
+	int on = 0, frames = 0;
+	double closest = 1e9;
+	char series[FRAMES * 8] = "";
+	size_t len = 0;
+	for (; frames < FRAMES && mocap_read_frame(c, f, 10000) == 1; frames++) {
+		double d = off_keypoints(mcd_joint_position(f, wrist), gap);
+		on += d < 0.05;
+		closest = d < closest ? d : closest;
+		len += (size_t)snprintf(series + len, sizeof(series) - len, " %.1f", 100 * d);
+	}
+	printf("right wrist off the keypoints' rays (the two rays are %.1f cm apart): %.1f cm at the start, then (cm):%s\n"
+	       "%d of %d frames within 5 cm (closest %.1f cm)\n",
+	       100 * gap, 100 * before, series, on, frames, 100 * closest);
+	CHECK(frames == FRAMES);
+	CHECK_MSG(before > 0.15, "the wrist started only %.1f cm off the rays", 100 * before);
+	CHECK_MSG(on >= 5, "the wrist came within 5 cm of the keypoints' rays in %d of %d frames", on, frames);
+}
+
+static void check_running_status(mcd_run *r, mocap_client *c)
+{
+	mocap_daemon_status *st = calloc(1, sizeof(*st));
+	if (!st || !get_status(c, st)) {
+		free(st);
+		return;
+	}
+	const mocap_detector_status *d = &st->detector;
+	printf("detector in mocapd: %s, %.1f views/s, %.3f ms per view (last %.3f, max %.3f), %llu views, %llu skipped, "
+	       "%llu tracked with its keypoints (%.1f/s; the others came too late for their frame set)\n",
+	       d->state == MOCAP_DETECTOR_RUNNING ? "running" : "NOT RUNNING", d->rate, d->ms_mean, d->ms_last, d->ms_max,
+	       (unsigned long long)d->views, (unsigned long long)d->skipped, (unsigned long long)d->used, d->used_rate);
+	CHECK(d->state == MOCAP_DETECTOR_RUNNING && d->message[0] == 0);
+	CHECK(strstr(d->model, "fixed_wrist.onnx") != NULL);
+	/* Both cameras, 5 frames/s each, for more than 5 s. */
+	CHECK_MSG(d->views >= 2 * FRAMES * 8 / 10, "%llu views detected", (unsigned long long)d->views);
+	CHECK(d->rate > 2 * RATE * 0.5 && d->rate < 2 * RATE * 1.5);
+	CHECK(d->ms_mean > 0 && d->ms_last > 0 && d->ms_max >= d->ms_last);
+	CHECK_MSG(d->used >= 3 && d->used <= d->views, "only %llu views were tracked with the detector's keypoints",
+		  (unsigned long long)d->used);
+	free(st);
+	mcd_run_read_notify(r);
+	CHECK_MSG(r->notes && strstr(r->notes, "| detector ") && strstr(r->notes, "ms per view"),
+		  "no detector figures in STATUS=");
+}
+
+static void test_good(void)
+{
+	char model[PATH_MAX + 64];
+	snprintf(model, sizeof(model), "%s/detect/tests/data/fixed_wrist.onnx", repo);
+	mcd_run r;
+	bool skip;
+	if (!start(&r, model, &skip)) {
+		if (skip)
+			TEST_SKIP("the tracker cannot run here (no usable OpenCL device)");
+		return;
+	}
+	mocap_client *c = mocap_connect(r.sock, "test_daemon_detector");
+	CHECK_MSG(c, "connect: %s", mocap_errmsg());
+	mocap_skeleton_def *def = calloc(1, sizeof(*def));
+	mocap_skeleton_frame *f = calloc(1, sizeof(*f));
+	int wrist = -1;
+	if (c && def && f && mocap_subscribe(c, MOCAP_ALL, MOCAP_SPACE_RIG, 0) == 0 && mocap_read_frame(c, f, 30000) == 1 &&
+	    mocap_get_skeleton(c, def) == 0 && (wrist = mcd_find_joint(def, "right_wrist")) >= 0) {
+		check_tracking(c, f, wrist);
+		check_running_status(&r, c);
+	} else
+		CHECK_MSG(false, "no skeleton from mocapd: %s", mocap_errmsg());
+	free(def);
+	free(f);
+	mocap_close(c);
+	mcd_run_signal(&r, SIGTERM);
+	CHECK(mcd_run_wait_exit(&r, 20000) == 0);
+	if (mc_test_failures)
+		mcd_run_dump(&r, "good model");
+	mcd_run_cleanup(&r);
+}
+
+/* A bad model: tracking goes on, the status says failed and why. */
+static void test_bad(const char *model, const char *file, const char *why)
+{
+	mcd_run r;
+	bool skip;
+	if (!start(&r, model, &skip))
+		return;
+	int failures = mc_test_failures;
+	mocap_client *c = mocap_connect(r.sock, "test_daemon_detector");
+	CHECK_MSG(c, "connect: %s", mocap_errmsg());
+	mocap_skeleton_frame *f = calloc(1, sizeof(*f));
+	mocap_daemon_status *st = calloc(1, sizeof(*st));
+	int frames = 0;
+	if (c && f && st && mocap_subscribe(c, MOCAP_ALL, MOCAP_SPACE_RIG, 0) == 0) {
+		while (frames < 5 && mocap_read_frame(c, f, 10000) == 1)
+			frames += f->state == MOCAP_TRACK_OK || f->state == MOCAP_TRACK_UNCERTAIN;
+		mcd_sleep_ms(700); /* one status interval after the frames */
+		if (get_status(c, st)) {
+			printf("%s: detector %s: %s; %d tracked skeletons\n", file,
+			       st->detector.state == MOCAP_DETECTOR_FAILED ? "failed" : "NOT FAILED", st->detector.message,
+			       frames);
+			CHECK(st->detector.state == MOCAP_DETECTOR_FAILED && st->detector.views == 0);
+			CHECK_MSG(strstr(st->detector.message, file) && strstr(st->detector.message, why),
+				  "the status says '%s', not naming %s and '%s'", st->detector.message, file, why);
+			CHECK(st->frames_published >= 5 && st->tracker_state != MOCAP_TRACK_IDLE);
+		}
+	}
+	CHECK_MSG(frames == 5, "%d tracked skeletons with a bad detector model", frames);
+	char want[PATH_MAX + 128];
+	snprintf(want, sizeof(want), "%s:23: [detector] model: ", r.conf);
+	CHECK_MSG(mcd_run_wait_log(&r, want, 0), "the log has no '%s'", want);
+	CHECK(mcd_run_wait_log(&r, "tracking without the detector's keypoints", 0));
+	mcd_run_read_notify(&r);
+	CHECK_MSG(r.notes && strstr(r.notes, "| detector failed (") && strstr(r.notes, file),
+		  "STATUS= does not say the detector failed");
+	free(f);
+	free(st);
+	mocap_close(c);
+	mcd_run_signal(&r, SIGTERM);
+	CHECK(mcd_run_wait_exit(&r, 20000) == 0);
+
+	/* --check: an error of the config line. */
+	const char *const check[] = {"--check", NULL};
+	CHECK(mcd_run_start(&r, check, NULL));
+	CHECK(mcd_run_wait_exit(&r, 20000) == 1);
+	CHECK_MSG(mcd_run_wait_log(&r, want, 0) && mcd_run_wait_log(&r, why, 0), "--check: no '%s ... %s'", want, why);
+	if (mc_test_failures != failures)
+		mcd_run_dump(&r, file);
+	mcd_run_cleanup(&r);
+}
+
+int main(void)
+{
+	if (!mcd_find_build())
+		TEST_SKIP("mocapd is not built");
+	if (!getcwd(repo, sizeof(repo)) || access("tests/data/ego_demo/gt.json", R_OK) != 0 ||
+	    access("detect/tests/data/fixed_wrist.onnx", R_OK) != 0)
+		TEST_SKIP("run from the repository root (tests/data/ego_demo or detect/tests/data not found)");
+	mc_err err = {{0}};
+	if (mc_rig_load("config/rigs/ego_stereo.json", &rig, &err) < 0) {
+		fprintf(stderr, "%s\n", err.msg);
+		return 1;
+	}
+	test_good();
+	char path[PATH_MAX + 64];
+	snprintf(path, sizeof(path), "%s/detect/tests/data/bad_channels.onnx", repo);
+	test_bad(path, "bad_channels.onnx", "17 heatmap channels");
+	snprintf(path, sizeof(path), "%s/detect/tests/data/not_onnx.onnx", repo);
+	test_bad(path, "not_onnx.onnx", "not an ONNX model");
+	snprintf(path, sizeof(path), "%s/build/no/such/model.onnx", repo);
+	test_bad(path, "no/such/model.onnx", "No such file or directory");
+	return mc_test_finish("test_daemon_detector");
+}
