@@ -8,6 +8,10 @@
 # blue = right, yellow = spine) and the clip's ground truth (green) over
 # both camera images.
 #
+# With config/models/ego_detector.onnx present the daemon also runs the 2D
+# joint detector on both cameras ([detector] in config/demo.conf) and its
+# keypoints feed the tracker; without it the demo tracks from colour alone.
+#
 # usage: daemon/demo.sh BUILD_DIR        (run from the repository root)
 set -u
 build=${1:-build}
@@ -24,6 +28,12 @@ done
 rm -rf "$out"
 mkdir -p "$out"
 
+model=config/models/ego_detector.onnx
+if [ -e "$model" ]; then
+	echo "== the 2D joint detector: $model (config/demo.conf [detector])"
+else
+	echo "== no $model (the shipped detector is not there yet): mocapd runs without the detector and says so"
+fi
 echo "== mocapd on $clip (config/demo.conf); log in $out/mocapd.log"
 if [ -x "$mocapctl" ]; then print=; else print=--print; fi
 "$mocapd" --config config/demo.conf --plugin-dir "$build/drivers" --socket "$sock" \
@@ -50,7 +60,7 @@ if [ $rc -ne 0 ]; then
 	tail -n 20 "$out/mocapd.log" >&2
 	exit 1
 fi
-grep -E "tracker:|status:" "$out/mocapd.log" | tail -n 4
+grep -E "tracker:|detector:|status:" "$out/mocapd.log" | tail -n 5
 
 # The tracked frame closest to each of a few frame numbers.
 nearest() {
