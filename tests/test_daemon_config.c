@@ -314,6 +314,40 @@ static void test_shipped_configs(void)
 	CHECK(cfg.ncams == 2 && strcmp(cfg.cams[0].driver, "v4l2") == 0);
 	CHECK(strcmp(cfg.tracker.model, "/usr/share/mocapd/models/default.json") == 0);
 	CHECK(strcmp(cfg.socket.path, "/run/mocapd/mocapd.sock") == 0);
+	CHECK(strcmp(cfg.detector.model, "/usr/share/mocapd/models/ego_detector.onnx") == 0);
+}
+
+/* [detector]: no model by default; empty is none; auto or a number for
+ * min_confidence; the table's ranges. */
+static void test_detector(void)
+{
+	mc_err err;
+	CHECK_MSG(parse(CAM NOTRACK, &err) == 0, "%s", err.msg);
+	CHECK(cfg.detector.model[0] == 0 && cfg.detector.rate == 0 && cfg.detector.threads == 1);
+	CHECK(cfg.detector.min_confidence < 0);
+	CHECK_MSG(parse(CAM NOTRACK "[detector]\nmodel =\nrate = 7.5\nthreads = 2\nmin_confidence = 0.45\n", &err) == 0,
+		  "%s", err.msg);
+	CHECK(cfg.detector.model[0] == 0 && cfg.detector.rate == 7.5 && cfg.detector.threads == 2);
+	CHECK_NEAR(cfg.detector.min_confidence, 0.45, 0);
+	CHECK_MSG(parse(CAM NOTRACK "[detector]\nmodel = models/d.onnx\nmin_confidence = auto\n", &err) == 0, "%s",
+		  err.msg);
+	CHECK(strcmp(cfg.detector.model, "/etc/mocapd/models/d.onnx") == 0 && cfg.detector.min_confidence < 0);
+	expect_error(CAM NOTRACK "[detector]\nmin_confidence = 2\n",
+		     "mocapd.conf:6: [detector] min_confidence: expected auto or a number from 0 to 1, got '2'");
+	expect_error(CAM NOTRACK "[detector]\nrate = -1\n",
+		     "mocapd.conf:6: [detector] rate: expected a number from 0 to 1000, got '-1'");
+	expect_error(CAM NOTRACK "[detector]\nthreads = 0\n",
+		     "mocapd.conf:6: [detector] threads: expected an integer from 1 to 64, got '0'");
+	expect_error(CAM NOTRACK "[detector]\nmodle = x.onnx\n", "mocapd.conf:6: [detector] modle: unknown key");
+	/* A reload takes rate, threads and min_confidence, not the model. */
+	static mcd_config cur, neu;
+	CHECK(mcd_config_parse(CAM NOTRACK "[detector]\nmodel = a.onnx\nrate = 5\n", "mocapd.conf", "/etc/mocapd", &cur,
+			       &err) == 0);
+	CHECK(mcd_config_parse(CAM NOTRACK "[detector]\nmodel = b.onnx\nrate = 10\nthreads = 2\nmin_confidence = 0.5\n",
+			       "mocapd.conf", "/etc/mocapd", &neu, &err) == 0);
+	CHECK(mcd_config_take_reloadable(&cur, &neu) == 1); /* model */
+	CHECK(strcmp(cur.detector.model, "/etc/mocapd/a.onnx") == 0 && cur.detector.rate == 10);
+	CHECK(cur.detector.threads == 2 && cur.detector.min_confidence == 0.5);
 }
 
 /* A reload takes the keys the table marks reloadable and keeps the others. */
@@ -351,5 +385,6 @@ int main(void)
 	test_load_file();
 	test_shipped_configs();
 	test_reload();
+	test_detector();
 	return mc_test_finish("test_daemon_config");
 }
