@@ -59,7 +59,8 @@ typedef struct {
 	mcd_camera *const *cams; /* the cameras, by index; they outlive the thread */
 	mcd_tracking *tracking;  /* NULL: the tracker is disabled */
 	/* Where the keypoints clients send wait (srv_keypoints_inbox); NULL:
-	 * no socket, so no keypoints. */
+	 * no socket, so no keypoints from clients (the in-process detector's
+	 * come through mcd_tracking_thread_offer_keypoints). */
 	srv_keypoint_inbox *keypoints;
 	double group_tolerance_ms, group_deadline_ms;
 	/* Called (on the tracking thread) once every stream has ended and

@@ -31,18 +31,9 @@ static mc_rig rig;
 
 static void write_config(mcd_run *r, const char *model)
 {
-	char text[8 * PATH_MAX];
-	snprintf(text, sizeof(text),
-		 "[daemon]\nplugin_dir = %s/drivers\nstatus_interval_s = 0.5\n"
-		 "[camera left]\ndriver = files\nrig_camera = left\nloop = true\nrate = %d\n"
-		 "path = %s/tests/data/ego_demo/left\n"
-		 "[camera right]\ndriver = files\nrig_camera = right\nloop = true\nrate = %d\n"
-		 "path = %s/tests/data/ego_demo/right\n"
-		 "[tracker]\nrig = %s/config/rigs/ego_stereo.json\nmodel = %s/config/models/default.json\n"
-		 "init_joints = %s/tests/data/ego_demo/gt.json\n"
-		 "[socket]\npath = @SOCK@\n"
-		 "[detector]\nmodel = %s\n",
-		 mcd_build_dir, RATE, repo, RATE, repo, repo, repo, repo, model);
+	char text[8 * PATH_MAX], detector[PATH_MAX + 32];
+	snprintf(detector, sizeof(detector), "[detector]\nmodel = %s\n", model);
+	mcd_demo_clip_config(text, sizeof(text), repo, RATE, "status_interval_s = 0.5\n", "", detector);
 	mcd_run_config(r, text);
 }
 

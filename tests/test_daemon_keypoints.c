@@ -16,18 +16,9 @@ static char repo[PATH_MAX];
 
 static void write_config(mcd_run *r, uint64_t epoch)
 {
-	char text[8 * PATH_MAX];
-	snprintf(text, sizeof(text),
-		 "[daemon]\nplugin_dir = %s/drivers\n"
-		 "[camera left]\ndriver = files\nrig_camera = left\nloop = true\nrate = %d\nepoch = %llu\n"
-		 "path = %s/tests/data/ego_demo/left\n"
-		 "[camera right]\ndriver = files\nrig_camera = right\nloop = true\nrate = %d\nepoch = %llu\n"
-		 "path = %s/tests/data/ego_demo/right\n"
-		 "[tracker]\nrig = %s/config/rigs/ego_stereo.json\nmodel = %s/config/models/default.json\n"
-		 "init_joints = %s/tests/data/ego_demo/gt.json\n"
-		 "[socket]\npath = @SOCK@\n",
-		 mcd_build_dir, RATE, (unsigned long long)epoch, repo, RATE, (unsigned long long)epoch, repo, repo,
-		 repo, repo);
+	char text[8 * PATH_MAX], epoch_key[64];
+	snprintf(epoch_key, sizeof(epoch_key), "epoch = %llu\n", (unsigned long long)epoch);
+	mcd_demo_clip_config(text, sizeof(text), repo, RATE, "", epoch_key, "");
 	mcd_run_config(r, text);
 }
 

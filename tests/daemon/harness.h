@@ -331,4 +331,26 @@ static inline bool mcd_can_connect(const char *path)
 	return ok;
 }
 
+/* The config of the tests that run mocapd on the bundled clip: both
+ * cameras of tests/data/ego_demo through the files driver, in a loop at
+ * `rate` fps, tracked with the default body model from the clip's first
+ * ground-truth frame, on the run's socket (@SOCK@).  daemon_extra and
+ * camera_extra are lines added to [daemon] and to each camera section
+ * ("" for none), extra is appended (another section).  repo is the
+ * repository root. */
+static inline void mcd_demo_clip_config(char *buf, size_t cap, const char *repo, int rate, const char *daemon_extra,
+					const char *camera_extra, const char *extra)
+{
+	snprintf(buf, cap,
+		 "[daemon]\nplugin_dir = %s/drivers\n%s"
+		 "[camera left]\ndriver = files\nrig_camera = left\nloop = true\nrate = %d\n%s"
+		 "path = %s/tests/data/ego_demo/left\n"
+		 "[camera right]\ndriver = files\nrig_camera = right\nloop = true\nrate = %d\n%s"
+		 "path = %s/tests/data/ego_demo/right\n"
+		 "[tracker]\nrig = %s/config/rigs/ego_stereo.json\nmodel = %s/config/models/default.json\n"
+		 "init_joints = %s/tests/data/ego_demo/gt.json\n"
+		 "[socket]\npath = @SOCK@\n%s",
+		 mcd_build_dir, daemon_extra, rate, camera_extra, repo, rate, camera_extra, repo, repo, repo, repo, extra);
+}
+
 #endif
