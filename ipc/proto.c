@@ -559,20 +559,15 @@ static void enc_status(writer *w, const mc_msg_status *m)
 	const mc_wire_detector_status *d = &m->detector; /* version 2 */
 	w_u32(w, d->state);
 	w_u32(w, 0);
-	w_f64(w, d->rate);
-	w_f64(w, d->used_rate);
-	w_f64(w, d->ms_mean);
-	w_f64(w, d->ms_last);
-	w_f64(w, d->ms_max);
-	w_u64(w, d->views);
-	w_u64(w, d->skipped);
-	w_u64(w, d->used);
+	for (int i = 0; i < 5; i++)
+		w_f64(w, d->figures[i]);
+	for (int i = 0; i < 3; i++)
+		w_u64(w, d->counts[i]);
 	w_str(w, d->model, PROTO_TEXT_MAX);
 	w_str(w, d->message, PROTO_TEXT_MAX);
 }
 
-/* The detector block of version 2, when the message goes on after the
- * camera names. */
+/* Version 2's detector block, when the message goes on after the names. */
 static void dec_status_detector(reader *r, mc_msg_status *m)
 {
 	m->has_detector = false;
@@ -586,14 +581,10 @@ static void dec_status_detector(reader *r, mc_msg_status *m)
 		r_fail(r, "detector.state: %u, expected 0..2", d->state);
 		return;
 	}
-	d->rate = r_f64(r, "detector.rate");
-	d->used_rate = r_f64(r, "detector.used_rate");
-	d->ms_mean = r_f64(r, "detector.ms_mean");
-	d->ms_last = r_f64(r, "detector.ms_last");
-	d->ms_max = r_f64(r, "detector.ms_max");
-	d->views = r_u64(r, "detector.views");
-	d->skipped = r_u64(r, "detector.skipped");
-	d->used = r_u64(r, "detector.used");
+	for (int i = 0; i < 5; i++)
+		d->figures[i] = r_f64(r, "detector figures");
+	for (int i = 0; i < 3; i++)
+		d->counts[i] = r_u64(r, "detector counts");
 	r_str(r, d->model, PROTO_TEXT_MAX, "detector.model");
 	r_str(r, d->message, PROTO_TEXT_MAX, "detector.message");
 }

@@ -197,9 +197,19 @@ typedef struct {
 /* Version 2: the in-process detector, after the camera names. */
 typedef struct {
 	uint32_t state; /* 0 off, 1 running, 2 failed */
-	double rate, used_rate; /* views detected / tracked with its keypoints per second */
-	double ms_mean, ms_last, ms_max; /* per view */
-	uint64_t views, skipped, used;
+	union {         /* in wire order */
+		struct {
+			double rate, used_rate;          /* views detected / tracked with its keypoints per second */
+			double ms_mean, ms_last, ms_max; /* per view */
+		};
+		double figures[5];
+	};
+	union {
+		struct {
+			uint64_t views, skipped, used;
+		};
+		uint64_t counts[3];
+	};
 	char model[PROTO_TEXT_MAX + 1];
 	char message[PROTO_TEXT_MAX + 1];
 } mc_wire_detector_status;
