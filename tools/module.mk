@@ -21,15 +21,23 @@ MOCAP_EGO_DIR ?= $(or $(MOCAP_DATA_DIR),../shared/data)/ego
 
 .PHONY: detector-data detector-train detector-export detector-report
 
-# DETECTOR_SHARDS Blender processes, one thread each, frames split evenly.
+# DETECTOR_SHARDS parallel chains of Blender processes, one thread each,
+# frames split evenly.  Each process renders at most DETECTOR_CHUNK frames:
+# Blender 3.4 grows by about 2 MB per stereo pair (two 6000-frame processes
+# reached 11 GB each), so a long run in one process ends in the OOM killer.
+# Which process renders a frame does not change it (see docs/DETECTOR.md).
+DETECTOR_CHUNK ?= 1000
 detector-data:
 	mkdir -p $(DETECTOR_DIR)/data $(DETECTOR_DIR)/logs
 	n=$$(( $(DETECTOR_FRAMES) / $(DETECTOR_SHARDS) )); \
 	for s in $$(seq 0 $$(( $(DETECTOR_SHARDS) - 1 ))); do \
-	  nice -n 10 $(BLENDER) -b --factory-startup --python tools/synth/render.py -- \
-	    --out $(DETECTOR_DIR)/data --mocap $(MOCAP_TRAIN_DIR) --seed $(DETECTOR_SEED) \
-	    --first $$(( s * n )) --count $$n > $(DETECTOR_DIR)/logs/render_$$(( s * n )).log 2>&1 & \
-	done; wait; grep -h 'synth:' $(DETECTOR_DIR)/logs/render_*.log | tail -n $(DETECTOR_SHARDS)
+	  ( f=$$(( s * n )); e=$$(( f + n )); while [ $$f -lt $$e ]; do \
+	      c=$$(( e - f < $(DETECTOR_CHUNK) ? e - f : $(DETECTOR_CHUNK) )); \
+	      nice -n 10 $(BLENDER) -b --factory-startup --python tools/synth/render.py -- \
+	        --out $(DETECTOR_DIR)/data --mocap $(MOCAP_TRAIN_DIR) --seed $(DETECTOR_SEED) \
+	        --first $$f --count $$c 2>&1 | grep -a 'synth:' > $(DETECTOR_DIR)/logs/render_$$f.log || exit 1; \
+	      f=$$(( f + c )); done ) & \
+	done; wait; grep -h 'synth:' $(DETECTOR_DIR)/logs/render_*.log | tail -n 4
 
 detector-train:
 	nice -n 10 $(TRAIN_PYTHON) tools/train/train.py --data $(DETECTOR_DIR)/data \
