@@ -383,21 +383,20 @@ const char *mcd_config_key_format(const mcd_config_key *k, const void *base, cha
 	case MCD_KEY_OPT_PATH:
 		snprintf(buf, cap, "%s", (const char *)field);
 		break;
-	case MCD_KEY_REAL_AUTO:
-		if (*(const double *)field < 0)
-			snprintf(buf, cap, "auto");
-		else
-			snprintf(buf, cap, "%.9g", *(const double *)field);
-		break;
 	case MCD_KEY_ENUM:
 		snprintf(buf, cap, "%s", enum_name(k, *(const int *)field));
 		break;
-	case MCD_KEY_CL_INDEX:
-		if (*(const int *)field < 0)
+	case MCD_KEY_CL_INDEX:  /* an int, */
+	case MCD_KEY_REAL_AUTO: /* a double; both "auto" when negative */
+	{
+		bool real = k->type == MCD_KEY_REAL_AUTO;
+		double v = real ? *(const double *)field : *(const int *)field;
+		if (v < 0)
 			snprintf(buf, cap, "auto");
 		else
-			snprintf(buf, cap, "%d", *(const int *)field);
+			snprintf(buf, cap, real ? "%.9g" : "%.0f", v);
 		break;
+	}
 	case MCD_KEY_MODE:
 		snprintf(buf, cap, "%04o", *(const unsigned *)field);
 		break;

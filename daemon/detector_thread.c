@@ -147,7 +147,8 @@ static void apply_settings(worker *w)
 	w->cfg_changed = false;
 	float thr = d->cfg.min_confidence < 0 ? d->model_threshold : (float)d->cfg.min_confidence;
 	mc_detector_set_threshold(w->det, thr);
-	mc_detector_set_threads(d->cfg.threads);
+	if (w->cam == 0) /* process-wide: one worker sets it */
+		mc_detector_set_threads(d->cfg.threads);
 }
 
 static void *worker_main(void *arg)
