@@ -9,7 +9,8 @@
  *   right wrist, whose true place is never within 15 cm of that pixel's
  *   rays in the whole clip, comes onto them (within 5 cm) in some frame
  *   sets: the keypoints
- *   reached the tracker with the right capture time, camera and joint.
+ *   reached the tracker with the right capture time, camera and joint;
+ *   a reload with `rate = 1` detects 1 view per second and camera.
  *   Only some: the tracking thread never waits for the detector, and at
  *   5 fps it is idle when a frame set completes, so it starts at once and
  *   a detection that ends a millisecond later is not used for that set
@@ -32,10 +33,10 @@ static char repo[PATH_MAX];
 static mc_rig rig;
 static mc_gt gt; /* the clip's ground truth, rig frame */
 
-static void write_config(mcd_run *r, const char *model)
+static void write_config(mcd_run *r, const char *model, double rate)
 {
-	char text[8 * PATH_MAX], detector[PATH_MAX + 32];
-	snprintf(detector, sizeof(detector), "[detector]\nmodel = %s\n", model);
+	char text[8 * PATH_MAX], detector[PATH_MAX + 64];
+	snprintf(detector, sizeof(detector), "[detector]\nmodel = %s\nrate = %g\n", model, rate);
 	mcd_demo_clip_config(text, sizeof(text), repo, RATE, "status_interval_s = 0.5\n", "", detector);
 	mcd_run_config(r, text);
 }
@@ -45,7 +46,7 @@ static bool start(mcd_run *r, const char *model, bool *skip)
 {
 	*skip = false;
 	CHECK(mcd_run_init(r));
-	write_config(r, model);
+	write_config(r, model, 0);
 	CHECK(mcd_run_start(r, NULL, NULL));
 	if (mcd_run_wait_notify(r, "READY=1", 60000))
 		return true;
@@ -135,6 +136,29 @@ static void check_running_status(mcd_run *r, mocap_client *c)
 		  "no detector figures in STATUS=");
 }
 
+/* A reload applies a new rate: 1 view/s per camera instead of every frame. */
+static void check_reload(mcd_run *r, mocap_client *c, const char *model)
+{
+	mocap_daemon_status *st = calloc(1, sizeof(*st));
+	if (!st || !get_status(c, st)) {
+		free(st);
+		return;
+	}
+	write_config(r, model, 1);
+	mcd_run_signal(r, SIGHUP);
+	CHECK(mcd_run_wait_log(r, "reload: ", 5000));
+	uint64_t t0 = mcd_now_ms(), before = st->detector.views;
+	mcd_sleep_ms(4000);
+	if (get_status(c, st)) {
+		double s = (double)(mcd_now_ms() - t0) / 1000;
+		uint64_t n = st->detector.views - before;
+		printf("after a reload with rate = 1: %llu views in %.1f s (at most %.0f expected; %d/s before)\n",
+		       (unsigned long long)n, s, 2 * s + 4, 2 * RATE);
+		CHECK(n <= (uint64_t)(2 * s + 4) && n >= 2);
+	}
+	free(st);
+}
+
 static void test_good(void)
 {
 	char model[PATH_MAX + 64];
@@ -155,6 +179,7 @@ static void test_good(void)
 	    mocap_get_skeleton(c, def) == 0 && (wrist = mcd_find_joint(def, "right_wrist")) >= 0) {
 		check_tracking(c, f, wrist);
 		check_running_status(&r, c);
+		check_reload(&r, c, model);
 	} else
 		CHECK_MSG(false, "no skeleton from mocapd: %s", mocap_errmsg());
 	free(def);
