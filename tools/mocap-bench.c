@@ -56,6 +56,7 @@ typedef struct {
 	double simulated_detector_px;
 	const char *detector_path; /* --detector MODEL: the 2D joint detector feeds the tracker */
 	int detector_every;        /* detect on every Nth frame set */
+	double detector_threshold; /* < 0: the model's own */
 	mc_tracker_settings s;
 } options;
 
@@ -514,6 +515,7 @@ static void usage(FILE *f)
 		   "  --detector MODEL      the 2D joint detector (ONNX, docs/DETECTOR.md) feeds the tracker; its\n"
 		   "                        time counts in the reported speed, and a 2D report follows\n"
 		   "  --detector-every N    detect on every Nth frame set only (default 1)\n"
+		   "  --detector-threshold T  keypoints below confidence T are dropped (default: the model's)\n"
 		   "  --lambda-color L      weight of the colour term (default 1; 0: detections and priors only)\n");
 }
 
@@ -532,7 +534,7 @@ static int parse_number(const char *opt, const char *arg, double lo, double hi, 
 enum { OPT_MODEL = 256, OPT_OUT, OPT_FRAMES, OPT_BACKEND, OPT_WIDTH, OPT_HEIGHT, OPT_ITER, OPT_FRAC, OPT_DROP,
        OPT_STEP, OPT_MOM, OPT_LSMOOTH, OPT_LPOSE, OPT_LLIMIT, OPT_PLAT, OPT_DEV, OPT_SEED, OPT_OCAM, OPT_REF,
        OPT_NOTHESIS, OPT_QUIET, OPT_CLIP, OPT_HELP, OPT_OVERLAY, OPT_OVERLAY_EVERY, OPT_LANCHOR,
-       OPT_SIMDET, OPT_LDET, OPT_DETECTOR, OPT_DET_EVERY, OPT_LCOLOR };
+       OPT_SIMDET, OPT_LDET, OPT_DETECTOR, OPT_DET_EVERY, OPT_LCOLOR, OPT_DET_THRESHOLD };
 
 static int apply_option(options *o, int c, const char *name, const char *arg, bool *thesis)
 {
@@ -575,6 +577,7 @@ static int apply_option(options *o, int c, const char *name, const char *arg, bo
 	case OPT_LDET: s->lambda_detection = v; break;
 	case OPT_LCOLOR: s->lambda_color = v; break;
 	case OPT_DET_EVERY: o->detector_every = v >= 1 ? (int)v : 1; break;
+	case OPT_DET_THRESHOLD: o->detector_threshold = v; break;
 	case OPT_SIMDET: o->simulated_detector_px = v; break;
 	case OPT_PLAT: s->cl_platform = (int)v; break;
 	case OPT_DEV: s->cl_device = (int)v; break;
@@ -594,7 +597,7 @@ static int parse_options(int argc, char **argv, options *o, bool *thesis)
 		{"lambda-limit", 1, 0, OPT_LLIMIT}, {"lambda-anchor", 1, 0, OPT_LANCHOR},
 		{"lambda-detection", 1, 0, OPT_LDET}, {"simulated-detector", 1, 0, OPT_SIMDET},
 		{"detector", 1, 0, OPT_DETECTOR}, {"detector-every", 1, 0, OPT_DET_EVERY},
-		{"lambda-color", 1, 0, OPT_LCOLOR},
+		{"lambda-color", 1, 0, OPT_LCOLOR}, {"detector-threshold", 1, 0, OPT_DET_THRESHOLD},
 		{"platform", 1, 0, OPT_PLAT}, {"device", 1, 0, OPT_DEV},
 		{"seed", 1, 0, OPT_SEED}, {"ocam", 0, 0, OPT_OCAM}, {"reference-frames", 1, 0, OPT_REF},
 		{"no-thesis", 0, 0, OPT_NOTHESIS}, {"overlay-dir", 1, 0, OPT_OVERLAY},
@@ -678,6 +681,8 @@ static int run(const options *o, bool thesis, mc_err *err)
 			return -1;
 		}
 		bd = &det;
+		if (o->detector_threshold >= 0)
+			mc_detector_set_threshold(det.det, (float)o->detector_threshold);
 		printf("detector: %s, every %d frame set(s), lambda_detection %.3g, lambda_color %.3g\n",
 		       o->detector_path, det.every, o->s.lambda_detection, o->s.lambda_color);
 	}
@@ -717,6 +722,7 @@ int main(int argc, char **argv)
 	o.reference_frames = 3;
 	o.overlay_every = 10;
 	o.simulated_detector_px = -1;
+	o.detector_threshold = -1;
 	mc_tracker_settings_default(&o.s);
 	if (parse_options(argc, argv, &o, &thesis) < 0)
 		return 2;

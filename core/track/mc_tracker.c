@@ -515,50 +515,6 @@ int mc_trk_data_term(mc_tracker *t, const mc_scene *scene, int nsampled, double 
 	return 0;
 }
 
-/* E_detection, as a robust distance of each detected joint from its
- * keypoint's ray: lambda conf (sqrt(1 + (r / tau)^2) - 1) / n, r the
- * joint's distance from the ray, tau = DETECTION_SCALE_M.  Quadratic near
- * the ray and a constant pull far from it, so that a detection brings back
- * a limb from anywhere in view (the thesis' visibility form, kept in
- * mc_energy_detection, only reaches a few sigma; docs/TRACKER.md).
- * Returns the energy and adds its pose gradient. */
-#define DETECTION_SCALE_M 0.05
-static double detection_term(mc_tracker *t, const double *pose, const mc_fk *fk, const mc_keypoint *kp, int nkp,
-			     double *grad)
-{
-	if (!kp || nkp <= 0 || t->s.lambda_detection <= 0)
-		return 0;
-	mc_vec3 djoint[MC_MAX_JOINTS] = {{0, 0, 0}};
-	double E = 0;
-	int used = 0;
-	for (int i = 0; i < nkp; i++) {
-		const mc_keypoint *k = &kp[i];
-		mc_vec3 ray;
-		if (k->cam < 0 || k->cam >= t->rig.ncams || k->joint < 0 || k->joint >= t->model.njoints ||
-		    !(k->conf > 0) || !mc_camera_unproject(&t->rig.cams[k->cam], k->u, k->v, &ray))
-			continue;
-		const mc_xform *X = &t->rig.cams[k->cam].rig_from_cam;
-		mc_vec3 n = mc_v3_normalize(mc_m3_apply(X->R, ray));
-		mc_vec3 d = mc_v3_sub(fk->rig_from_joint[k->joint].t, X->t);
-		mc_vec3 r = mc_v3_axpy(-mc_v3_dot(d, n), n, d); /* offset from the ray */
-		double dist = mc_v3_norm(r), x = dist / DETECTION_SCALE_M, root = sqrt(1 + x * x);
-		double w = fmin(k->conf, 1.0);
-		E += w * (root - 1);
-		used++;
-		if (dist > 1e-12) /* dE/dp = w x / root / tau * r / |r| */
-			djoint[k->joint] = mc_v3_axpy(w * x / (root * DETECTION_SCALE_M * dist), r, djoint[k->joint]);
-	}
-	if (!used)
-		return 0;
-	double scale = t->s.lambda_detection / used;
-	mc_vec3 *J = t->jacobian;
-	mc_model_joint_jacobian(&t->model, pose, fk, J);
-	for (int j = 0; j < t->model.njoints; j++)
-		for (int k = 0; k < t->model.ndof; k++)
-			grad[k] += scale * mc_v3_dot(djoint[j], J[j * t->model.ndof + k]);
-	return scale * E;
-}
-
 /* ---- optimisation -------------------------------------------------------- */
 
 /* Per-parameter step conditioning: each dof k gets a lever L_k = sum_q
@@ -638,7 +594,7 @@ static int color_term(mc_tracker *t, const mc_scene *scene, double *E, mc_vec3 *
 
 /* Runs the iteration budget from `pose` (in/out). Returns the mean data
  * energy per pixel over the last quarter of the iterations. */
-static int optimise(mc_tracker *t, double *pose, const double *pred, const mc_keypoint *kp, int nkp, double *final_E,
+static int optimise(mc_tracker *t, double *pose, const double *pred, const mc_trk_keypoint_ray *kp, int nkp, double *final_E,
 		    mc_err *err)
 {
 	step_state st;
@@ -661,7 +617,7 @@ static int optimise(mc_tracker *t, double *pose, const double *pred, const mc_ke
 		/* the same pseudo-Huber pull, toward the calibration pose */
 		if (t->s.lambda_anchor > 0)
 			mc_energy_smooth(t->model.ndof, pose, t->anchor, t->s.lambda_anchor, grad);
-		detection_term(t, pose, &fk, kp, nkp, grad);
+		mc_trk_detection_term(t, pose, &fk, kp, nkp, grad);
 		if (it >= iters - tail) {
 			Etail += E;
 			ntail++;
@@ -723,7 +679,9 @@ int mc_tracker_track(mc_tracker *t, const mc_frame_view *views, int nviews, cons
 		mc_fk fk;
 		mc_model_fk(&t->model, pred, &fk);
 		mc_trk_choose_candidates(t, &fk);
-		if (optimise(t, pose, pred, kp, nkp, &E, err) < 0)
+		mc_trk_keypoint_ray rays[MC_TRK_MAX_KEYPOINTS];
+		int nrays = mc_trk_prepare_keypoints(t, &fk, kp, nkp, rays);
+		if (optimise(t, pose, pred, rays, nrays, &E, err) < 0)
 			return -1;
 		quality = E / t->baseline;
 		out->iterations = t->s.iterations;

@@ -69,4 +69,24 @@ void mc_trk_gaussian_evidence(const mc_tracker *t, const double *pose, double *p
  * "Per-joint confidence"); 0 for every joint when out->state is lost. */
 void mc_trk_joint_confidence(const mc_tracker *t, const double *pose, mc_skeleton *out);
 
+/* ---- the keypoint term (mc_keypoint_term.c) ---- */
+
+#define MC_TRK_MAX_KEYPOINTS (2 * MC_MAX_JOINTS * MC_MAX_CAMERAS)
+
+/* A detected keypoint as a ray in the rig frame. */
+typedef struct {
+	int joint;     /* model joint */
+	mc_vec3 origin, dir;
+	double weight; /* the detection's confidence, 0..1 */
+} mc_trk_keypoint_ray;
+
+/* The frame's keypoints as rays, once per frame at the predicted pose:
+ * unusable ones dropped, left/right confusions of the detector undone, and
+ * the keypoints that two cameras disagree on dropped.  Returns the count. */
+int mc_trk_prepare_keypoints(const mc_tracker *t, const mc_fk *pred, const mc_keypoint *kp, int nkp,
+			     mc_trk_keypoint_ray *out);
+/* E_detection at a pose; adds its pose gradient to grad. */
+double mc_trk_detection_term(mc_tracker *t, const double *pose, const mc_fk *fk, const mc_trk_keypoint_ray *kp, int n,
+			     double *grad);
+
 #endif

@@ -1,0 +1,151 @@
+/* The keypoint term of the tracker (thesis ch. 6.2.2): 2D detections as
+ * rays that pull their joints, with the checks that keep a detector's
+ * mistakes from pulling the pose: left/right confusions undone against the
+ * prediction, and keypoints that two cameras disagree on dropped. */
+#include "track/mc_tracker_internal.h"
+
+#include <math.h>
+#include <stdbool.h>
+#include <stdio.h>
+#include <string.h>
+
+/* Distance of point p from a ray. */
+static double ray_distance(const mc_trk_keypoint_ray *r, mc_vec3 p)
+{
+	mc_vec3 d = mc_v3_sub(p, r->origin);
+	return mc_v3_norm(mc_v3_axpy(-mc_v3_dot(d, r->dir), r->dir, d));
+}
+
+/* Rays of the usable keypoints; returns the count. */
+static int keypoint_rays(const mc_tracker *t, const mc_keypoint *kp, int nkp, mc_trk_keypoint_ray *out, int *cam)
+{
+	int n = 0;
+	for (int i = 0; i < nkp && n < MC_TRK_MAX_KEYPOINTS; i++) {
+		const mc_keypoint *k = &kp[i];
+		mc_vec3 ray;
+		if (k->cam < 0 || k->cam >= t->rig.ncams || k->joint < 0 || k->joint >= t->model.njoints ||
+		    !(k->conf > 0) || !mc_camera_unproject(&t->rig.cams[k->cam], k->u, k->v, &ray))
+			continue;
+		const mc_xform *X = &t->rig.cams[k->cam].rig_from_cam;
+		out[n] = (mc_trk_keypoint_ray){k->joint, X->t, mc_v3_normalize(mc_m3_apply(X->R, ray)), fmin(k->conf, 1.0)};
+		cam[n++] = k->cam;
+	}
+	return n;
+}
+
+/* The model joint mirroring j ("left_knee" <-> "right_knee"), or -1. */
+static int mirror_joint(const mc_model *m, int j)
+{
+	const char *name = m->joints[j].name;
+	char other[MC_JOINT_NAME_MAX + 8];
+	if (!strncmp(name, "left_", 5))
+		snprintf(other, sizeof(other), "right_%s", name + 5);
+	else if (!strncmp(name, "right_", 6))
+		snprintf(other, sizeof(other), "left_%s", name + 6);
+	else
+		return -1;
+	return mc_model_find_joint(m, other);
+}
+
+/* A symmetric body fools detectors: in one view, both legs' (or arms')
+ * keypoints are often each other's.  When the predicted pose explains the
+ * pair swapped much better than as labelled (SWAP_RATIO of the distance),
+ * the labels are swapped for that view. */
+#define SWAP_RATIO 0.5
+static void undo_swaps(const mc_tracker *t, const mc_fk *pred, mc_trk_keypoint_ray *r, const int *cam, int n)
+{
+	for (int a = 0; a < n; a++) {
+		int ja = r[a].joint, jb = mirror_joint(&t->model, ja);
+		if (jb < 0 || strncmp(t->model.joints[ja].name, "left_", 5))
+			continue; /* each pair once, from its left joint */
+		for (int b = 0; b < n; b++) {
+			if (b == a || cam[b] != cam[a] || r[b].joint != jb)
+				continue;
+			mc_vec3 pa = pred->rig_from_joint[ja].t, pb = pred->rig_from_joint[jb].t;
+			double straight = ray_distance(&r[a], pa) + ray_distance(&r[b], pb);
+			double swapped = ray_distance(&r[a], pb) + ray_distance(&r[b], pa);
+			if (swapped < SWAP_RATIO * straight) {
+				r[a].joint = jb;
+				r[b].joint = ja;
+			}
+			break;
+		}
+	}
+}
+
+/* Two cameras' detections of one joint must see one point: when the
+ * closest distance of their rays exceeds STEREO_GATE_M (or they meet
+ * behind a camera), at least one is wrong and both are dropped, so that a
+ * detector's confusions (the other foot, a limb's shadow) do not pull the
+ * pose; the colour term decides there.  Parallel rays are kept. */
+#define STEREO_GATE_M 0.10
+static bool rays_disagree(const mc_trk_keypoint_ray *a, const mc_trk_keypoint_ray *b)
+{
+	mc_vec3 w = mc_v3_sub(a->origin, b->origin);
+	double k = mc_v3_dot(a->dir, b->dir), d = mc_v3_dot(a->dir, w), e = mc_v3_dot(b->dir, w), den = 1 - k * k;
+	if (den < 1e-9)
+		return false;
+	double sa = (k * e - d) / den, sb = (e - k * d) / den; /* closest points along each ray */
+	mc_vec3 pa = mc_v3_axpy(sa, a->dir, a->origin), pb = mc_v3_axpy(sb, b->dir, b->origin);
+	return sa <= 0 || sb <= 0 || mc_v3_norm(mc_v3_sub(pa, pb)) > STEREO_GATE_M;
+}
+
+static void gate_stereo(mc_trk_keypoint_ray *r, const int *cam, int n)
+{
+	bool reject[MC_TRK_MAX_KEYPOINTS] = {false};
+	for (int i = 0; i < n; i++)
+		for (int j = i + 1; j < n; j++)
+			if (r[i].joint == r[j].joint && cam[i] != cam[j] && rays_disagree(&r[i], &r[j]))
+				reject[i] = reject[j] = true;
+	for (int i = 0; i < n; i++)
+		if (reject[i])
+			r[i].weight = 0;
+}
+
+int mc_trk_prepare_keypoints(const mc_tracker *t, const mc_fk *pred, const mc_keypoint *kp, int nkp,
+			     mc_trk_keypoint_ray *out)
+{
+	if (!kp || nkp <= 0 || t->s.lambda_detection <= 0)
+		return 0;
+	int cam[MC_TRK_MAX_KEYPOINTS];
+	int n = keypoint_rays(t, kp, nkp, out, cam);
+	undo_swaps(t, pred, out, cam, n);
+	gate_stereo(out, cam, n);
+	return n;
+}
+
+/* E_detection, as a robust distance of each detected joint from its
+ * keypoint's ray: lambda conf (sqrt(1 + (r / tau)^2) - 1) / n, r the
+ * joint's distance from the ray, tau = DETECTION_SCALE_M.  Quadratic near
+ * the ray and a constant pull far from it, so that a detection brings back
+ * a limb from anywhere in view (the thesis' visibility form, kept in
+ * mc_energy_detection, only reaches a few sigma; docs/TRACKER.md). */
+#define DETECTION_SCALE_M 0.05
+double mc_trk_detection_term(mc_tracker *t, const double *pose, const mc_fk *fk, const mc_trk_keypoint_ray *kp, int n,
+			     double *grad)
+{
+	mc_vec3 djoint[MC_MAX_JOINTS] = {{0, 0, 0}};
+	double E = 0;
+	int used = 0;
+	for (int i = 0; i < n; i++) {
+		double w = kp[i].weight;
+		if (w <= 0)
+			continue;
+		mc_vec3 d = mc_v3_sub(fk->rig_from_joint[kp[i].joint].t, kp[i].origin);
+		mc_vec3 r = mc_v3_axpy(-mc_v3_dot(d, kp[i].dir), kp[i].dir, d); /* offset from the ray */
+		double dist = mc_v3_norm(r), x = dist / DETECTION_SCALE_M, root = sqrt(1 + x * x);
+		E += w * (root - 1);
+		used++;
+		if (dist > 1e-12) /* dE/dp = w x / root / tau * r / |r| */
+			djoint[kp[i].joint] = mc_v3_axpy(w * x / (root * DETECTION_SCALE_M * dist), r, djoint[kp[i].joint]);
+	}
+	if (!used)
+		return 0;
+	double scale = t->s.lambda_detection / used;
+	mc_vec3 *J = t->jacobian;
+	mc_model_joint_jacobian(&t->model, pose, fk, J);
+	for (int j = 0; j < t->model.njoints; j++)
+		for (int k = 0; k < t->model.ndof; k++)
+			grad[k] += scale * mc_v3_dot(djoint[j], J[j * t->model.ndof + k]);
+	return scale * E;
+}
