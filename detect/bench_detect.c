@@ -5,6 +5,7 @@
  * clip when found, else a synthetic pattern.
  *
  *     bench_detect --model config/models/ego_detector.onnx [--runs 200] [--threads 1] */
+#include "base/mc_stats.h"
 #include "image/mc_image.h"
 #include "mc_detector.h"
 
@@ -18,12 +19,6 @@ static double now_ms(void)
 	struct timespec ts;
 	clock_gettime(CLOCK_MONOTONIC, &ts);
 	return (double)ts.tv_sec * 1e3 + (double)ts.tv_nsec * 1e-6;
-}
-
-static int cmp_double(const void *a, const void *b)
-{
-	double x = *(const double *)a, y = *(const double *)b;
-	return x < y ? -1 : x > y;
 }
 
 static void run(mc_detector *d, const uint8_t *rgb, int w, int h, int runs, int threads)
@@ -54,11 +49,11 @@ static void run(mc_detector *d, const uint8_t *rgb, int w, int h, int runs, int 
 	double sum = 0;
 	for (int i = 0; i < runs; i++)
 		sum += ms[i];
-	qsort(ms, (size_t)runs, sizeof(double), cmp_double);
+	mc_stats_sort(ms, (size_t)runs);
 	printf("bench_detect: %dx%d view: %.3f ms mean, %.3f median, %.3f p90 (network %.3f ms), %d keypoints, "
 	       "%d runs, %d thread%s\n",
-	       w, h, sum / runs, ms[runs / 2], ms[(runs * 9) / 10], infer / runs, found, runs, threads,
-	       threads == 1 ? "" : "s");
+	       w, h, sum / runs, mc_stats_percentile(ms, (size_t)runs, 50), mc_stats_percentile(ms, (size_t)runs, 90),
+	       infer / runs, found, runs, threads, threads == 1 ? "" : "s");
 	free(ms);
 }
 

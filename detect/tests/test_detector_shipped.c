@@ -10,6 +10,7 @@
  * BOUND_FRAME0_PX; over frames 0, 15, 30, 45 of both cameras (8 views) the
  * median is at most BOUND_ALL_PX.  Each view's median and 90th percentile
  * and its misses are printed.  Skips (77) when no model is there. */
+#include "base/mc_stats.h"
 #include "eval/mc_clip.h"
 #include "geom/mc_camera.h"
 #include "mc_detector.h"
@@ -25,19 +26,11 @@
 #define BOUND_ALL_PX 14.0
 #define MIN_FOUND 12
 
-static int cmp_double(const void *a, const void *b)
-{
-	double x = *(const double *)a, y = *(const double *)b;
-	return x < y ? -1 : x > y;
-}
-
+/* The q-th percentile (0..100) of n samples (sorted in place). */
 static double percentile(double *v, int n, double q)
 {
-	if (n == 0)
-		return 0;
-	qsort(v, (size_t)n, sizeof(double), cmp_double);
-	int i = (int)(q * (n - 1) + 0.5);
-	return v[i];
+	mc_stats_sort(v, (size_t)n);
+	return mc_stats_percentile(v, (size_t)n, q);
 }
 
 /* Detects on view `cam` of frame k; appends the pixel errors of detected
@@ -128,7 +121,7 @@ int main(void)
 			memcpy(errs + nall, e, sizeof(double) * (size_t)ne);
 			nall += ne;
 			missed_all += missed;
-			double med = percentile(e, ne, 0.5), p90 = percentile(e, ne, 0.9);
+			double med = percentile(e, ne, 50), p90 = percentile(e, ne, 90);
 			printf("frame %2d %-5s: %2d joints detected, %d missed, median %.1f px, p90 %.1f px\n", frames[f],
 			       cam ? "right" : "left", found, missed, med, p90);
 			if (first) {
@@ -140,7 +133,7 @@ int main(void)
 		}
 		mc_clip_free_frame(views);
 	}
-	double med = percentile(errs, nall, 0.5), p90 = percentile(errs, nall, 0.9);
+	double med = percentile(errs, nall, 50), p90 = percentile(errs, nall, 90);
 	printf("frames 0, 15, 30, 45, both cameras: %d detections, %d missed, median %.1f px, p90 %.1f px\n", nall,
 	       missed_all, med, p90);
 	CHECK_MSG(nall > 0 && med <= BOUND_ALL_PX, "median error %.1f px over the 8 views (bound %.1f px)", med,
