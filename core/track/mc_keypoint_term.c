@@ -120,7 +120,7 @@ int mc_trk_prepare_keypoints(const mc_tracker *t, const mc_fk *pred, const mc_ke
  * the ray and a constant pull far from it, so that a detection brings back
  * a limb from anywhere in view (the thesis' visibility form, kept in
  * mc_energy_detection, only reaches a few sigma; docs/TRACKER.md). */
-#define DETECTION_SCALE_M 0.05
+#define DETECTION_SCALE_M 0.10
 double mc_trk_detection_term(mc_tracker *t, const double *pose, const mc_fk *fk, const mc_trk_keypoint_ray *kp, int n,
 			     double *grad)
 {
@@ -133,11 +133,11 @@ double mc_trk_detection_term(mc_tracker *t, const double *pose, const mc_fk *fk,
 			continue;
 		mc_vec3 d = mc_v3_sub(fk->rig_from_joint[kp[i].joint].t, kp[i].origin);
 		mc_vec3 r = mc_v3_axpy(-mc_v3_dot(d, kp[i].dir), kp[i].dir, d); /* offset from the ray */
-		double dist = mc_v3_norm(r), x = dist / DETECTION_SCALE_M, root = sqrt(1 + x * x);
-		E += w * (root - 1);
+		double dist = mc_v3_norm(r), x = dist / DETECTION_SCALE_M;
+		E += w * 0.5 * log(1 + x * x);
 		used++;
-		if (dist > 1e-12) /* dE/dp = w x / root / tau * r / |r| */
-			djoint[kp[i].joint] = mc_v3_axpy(w * x / (root * DETECTION_SCALE_M * dist), r, djoint[kp[i].joint]);
+		/* dE/dp = w x / (1 + x^2) / tau * r / |r| */
+		djoint[kp[i].joint] = mc_v3_axpy(w / ((1 + x * x) * DETECTION_SCALE_M * DETECTION_SCALE_M), r, djoint[kp[i].joint]);
 	}
 	if (!used)
 		return 0;
