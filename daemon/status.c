@@ -120,7 +120,7 @@ void mcd_status_to_server(const mcd_pipeline_status *now, const mcd_pipeline_sta
 	out->frames_dropped = now->track.skipped + now->publish.dropped;
 	out->start_ns = start_ns;
 	snprintf(out->device, sizeof(out->device), "%s", device ? device : "");
-	out->ncams = now->ncams < SRV_STATUS_MAX_CAMS ? now->ncams : SRV_STATUS_MAX_CAMS;
+	out->ncams = now->ncams < MC_MAX_CAMERAS ? now->ncams : MC_MAX_CAMERAS;
 	for (int c = 0; c < out->ncams; c++) {
 		const mcd_cam_status *cn = &now->cams[c];
 		srv_cam_status *o = &out->cams[c];

@@ -131,9 +131,6 @@ int srv_publish(srv_server *srv, const mc_skeleton *sk, uint64_t seq, mc_err *er
 
 /* --- Status ----------------------------------------------------------- */
 
-/* Cameras in a status report: the core's limit.  SRV_STATUS_MAX_CAMS is its
- * old name, kept until the daemon uses MC_MAX_CAMERAS. */
-#define SRV_STATUS_MAX_CAMS MC_MAX_CAMERAS
 #define SRV_NAME_MAX 64
 
 typedef enum {

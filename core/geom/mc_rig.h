@@ -7,10 +7,9 @@
 
 #include "geom/mc_camera.h"
 #include "base/mc_error.h"
+#include "base/mc_limits.h"
 
 #include <stdint.h>
-
-#define MC_MAX_CAMERAS 8
 
 typedef enum {
 	MC_RIG_EGOCENTRIC = 0, /* rig frame = the skeleton's head (root) frame */
