@@ -686,7 +686,9 @@ int mc_tracker_track(mc_tracker *t, const mc_frame_view *views, int nviews, cons
 		quality = E / t->baseline;
 		out->iterations = t->s.iterations;
 	}
-	out->state = state_from_quality(quality);
+	/* The state is read off the colour energy; without the colour term
+	 * (lambda_color 0) there is none to read, and the pose is kept. */
+	out->state = t->s.lambda_color > 0 ? state_from_quality(quality) : MC_TRACK_OK;
 	if (!pose_finite(pose, t->model.ndof))
 		out->state = MC_TRACK_LOST;
 	if (out->state != MC_TRACK_LOST) {
