@@ -35,7 +35,7 @@ detector-data:
 	      c=$$(( e - f < $(DETECTOR_CHUNK) ? e - f : $(DETECTOR_CHUNK) )); \
 	      nice -n 10 $(BLENDER) -b --factory-startup --python tools/synth/render.py -- \
 	        --out $(DETECTOR_DIR)/data --mocap $(MOCAP_TRAIN_DIR) --seed $(DETECTOR_SEED) \
-	        --first $$f --count $$c 2>&1 | grep -a 'synth:' > $(DETECTOR_DIR)/logs/render_$$f.log || exit 1; \
+	        --first $$f --count $$c 2>&1 | grep -a --line-buffered 'synth:' > $(DETECTOR_DIR)/logs/render_$$f.log || exit 1; \
 	      f=$$(( f + c )); done ) & \
 	done; wait; grep -h 'synth:' $(DETECTOR_DIR)/logs/render_*.log | tail -n 4
 

@@ -215,6 +215,9 @@ def train(a):
     total = a.epochs * a.steps_per_epoch
     state = {"epoch": 0, "step": 0, "best": None, "history": [], "train_s": 0.0}
     rng = np.random.default_rng(a.seed)
+    if a.init and not (a.resume and os.path.exists(a.ckpt)):
+        model.load_state_dict(torch.load(a.init, map_location="cpu")["model"])
+        log("initialised from %s" % a.init)
     if a.resume and os.path.exists(a.ckpt):
         ck = torch.load(a.ckpt, map_location="cpu")
         model.load_state_dict(ck["model"])
@@ -247,7 +250,7 @@ def train(a):
         run = 0.0
         for s in range(ep_start_step, a.steps_per_epoch):
             lr = a.lr * 0.5 * (1 + math.cos(math.pi * min(1.0, state["step"] / total)))
-            warm = min(1.0, (state["step"] + 1) / 200)
+            warm = min(1.0, (state["step"] + 1) / max(1, a.warmup))
             for gp in opt.param_groups:
                 gp["lr"] = lr * warm
             idx = rng.integers(0, len(tr), a.batch)
@@ -317,11 +320,12 @@ def export(a):
                       do_constant_folding=True)
     st = ck.get("state", {})
     side = {"input": [IN, IN], "joints": JOINTS, "threshold": THRESHOLD, "heatmap": [HM, HM],
-            "trained_on": "synthetic head-mounted stereo fisheye frames rendered by tools/synth/render.py "
-                          "from build/detector/data (%s, seed %d), motions /work/shared/data/mocap-train only; "
-                          "%s after epoch %d, step %d" % (
-                              os.path.basename(a.data), a.seed, os.path.basename(path), st.get("epoch", -1),
-                              st.get("step", -1)),
+            "trained_on": "synthetic head-mounted stereo fisheye views (tools/synth/render.py, seed %d, "
+                          "%s training views) of CMU motions from mocap-train only (mocap/ held out); "
+                          "%s: epoch %d, step %d, synthetic validation loss %.4f; see docs/DETECTOR.md" % (
+                              a.seed, (st.get("history") or [{}])[-1].get("train_views", "?"),
+                              os.path.basename(path), st.get("epoch", -1), st.get("step", -1),
+                              st.get("best") or float("nan")),
             "seed": a.seed,
             "parameters": ck.get("params"),
             "input_format": "float32 NCHW 1x3x128x128, RGB, [0,1]; output heatmaps float32 1x18x32x32 in [0,1]"}
@@ -405,6 +409,8 @@ def main():
     ap.add_argument("--ckpt", default=os.path.join(ROOT, "build/detector/ckpt.pt"))
     ap.add_argument("--weights", help="checkpoint for --export/--report (default --ckpt)")
     ap.add_argument("--resume", action="store_true")
+    ap.add_argument("--init", help="start from these weights (a ckpt.pt/best.pt), new optimiser and schedule")
+    ap.add_argument("--warmup", type=int, default=200, help="warm-up steps")
     ap.add_argument("--epochs", type=int, default=30)
     ap.add_argument("--steps-per-epoch", type=int, default=250)
     ap.add_argument("--batch", type=int, default=32)
