@@ -92,18 +92,8 @@ int main(void)
 	CHECK(mcd_run_init(&r));
 	write_config(&r, mc_now_ns() + 3000000000ull);
 	const char *const args[] = {NULL};
-	CHECK(mcd_run_start(&r, args, NULL));
-	if (!mcd_run_wait_notify(&r, "READY=1", 60000)) {
-		char *log = mcd_read_file(r.log);
-		bool no_cl = log && strstr(log, "OpenCL") && strstr(log, "error");
-		free(log);
-		mcd_run_dump(&r, "start");
-		mcd_run_cleanup(&r);
-		if (no_cl)
-			TEST_SKIP("the tracker cannot run here (no usable OpenCL device)");
-		CHECK_MSG(false, "mocapd did not become ready");
+	if (!mcd_run_start_ready(&r, args))
 		return mc_test_finish("test_daemon_keypoints");
-	}
 	run(&r, &rig);
 	mcd_run_signal(&r, SIGTERM);
 	CHECK(mcd_run_wait_exit(&r, 20000) == 0);

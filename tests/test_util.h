@@ -7,6 +7,7 @@
 #define MC_TEST_UTIL_H
 
 #include <math.h>
+#include <stdbool.h>
 #include <unistd.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -51,6 +52,26 @@ static int mc_test_failures;
 		printf("\n");                                                         \
 		exit(77);                                                             \
 	} while (0)
+
+/* The folder `up` levels above this test program (/proc/self/exe), e.g.
+ * the build folder for up = 2 from <build>/tests/TEST; false if there is
+ * none. */
+static inline bool mc_test_build_dir(int up, char *out, size_t cap)
+{
+	char exe[4096];
+	ssize_t n = readlink("/proc/self/exe", exe, sizeof(exe) - 1);
+	if (n <= 0)
+		return false;
+	exe[n] = 0;
+	for (int i = 0; i < up; i++) {
+		char *slash = strrchr(exe, '/');
+		if (!slash)
+			return false;
+		*slash = 0;
+	}
+	snprintf(out, cap, "%s", exe);
+	return true;
+}
 
 /* The path of tool `name` built next to this test (BUILD/bin/NAME, the test
  * being BUILD/tests/TEST), into out; skips the test when it is not built. */

@@ -15,18 +15,8 @@ static char build_dir[PATH_MAX];
 
 static bool find_build(void)
 {
-	char exe[PATH_MAX];
-	ssize_t n = readlink("/proc/self/exe", exe, sizeof(exe) - 1);
-	if (n <= 0)
+	if (!mc_test_build_dir(3, build_dir, sizeof(build_dir))) /* <build>/detect/tests/test_detect_unit */
 		return false;
-	exe[n] = 0;
-	for (int up = 0; up < 3; up++) { /* <build>/detect/tests/test_detect_unit */
-		char *slash = strrchr(exe, '/');
-		if (!slash)
-			return false;
-		*slash = 0;
-	}
-	snprintf(build_dir, sizeof(build_dir), "%s", exe);
 	char bin[PATH_MAX + 32];
 	snprintf(bin, sizeof(bin), "%s/bin/mocap-detect", build_dir);
 	return access(bin, X_OK) == 0;

@@ -28,20 +28,8 @@ static char mocap_detect[PATH_MAX + 32];
  * (<build>/detect/tests/test_mocap_detect). */
 static bool find_build(void)
 {
-	char exe[PATH_MAX];
-	ssize_t n = readlink("/proc/self/exe", exe, sizeof(exe) - 1);
-	if (n <= 0)
+	if (!mcd_find_build_up(3))
 		return false;
-	exe[n] = 0;
-	for (int up = 0; up < 3; up++) {
-		char *slash = strrchr(exe, '/');
-		if (!slash)
-			return false;
-		*slash = 0;
-	}
-	snprintf(mcd_build_dir, sizeof(mcd_build_dir), "%s", exe);
-	snprintf(mcd_mocapd, sizeof(mcd_mocapd), "%s/bin/mocapd", mcd_build_dir);
-	snprintf(mcd_faulty_dir, sizeof(mcd_faulty_dir), "%s/tests/faulty", mcd_build_dir);
 	snprintf(mocap_detect, sizeof(mocap_detect), "%s/bin/mocap-detect", mcd_build_dir);
 	return true;
 }
@@ -295,18 +283,8 @@ int main(void)
 	CHECK(mcd_run_init(&r));
 	write_config(&r);
 	const char *const args[] = {NULL};
-	CHECK(mcd_run_start(&r, args, NULL));
-	if (!mcd_run_wait_notify(&r, "READY=1", 60000)) {
-		char *log = mcd_read_file(r.log);
-		bool no_cl = log && strstr(log, "OpenCL") && strstr(log, "error");
-		free(log);
-		mcd_run_dump(&r, "start");
-		mcd_run_cleanup(&r);
-		if (no_cl)
-			TEST_SKIP("the tracker cannot run here (no usable OpenCL device)");
-		CHECK_MSG(false, "mocapd did not become ready");
+	if (!mcd_run_start_ready(&r, args))
 		return mc_test_finish("test_mocap_detect");
-	}
 	test_fixed(&r, &rig);
 	test_shipped(&r);
 	test_errors(&r);

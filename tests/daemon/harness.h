@@ -52,21 +52,13 @@ static inline void mcd_sleep_ms(int ms)
 	mc_sleep_until_ns(mc_now_ns() + (uint64_t)ms * MC_NS_PER_MS);
 }
 
-/* Finds mocapd and the fault driver; false (with a reason printed) if
- * they are not built. */
-static inline bool mcd_find_build(void)
+/* Finds the build folder `up` levels above this test program (2 for
+ * <build>/tests/TEST, 3 for <build>/detect/tests/TEST), mocapd and the
+ * fault driver in it; false (with a reason printed) if they are not built. */
+static inline bool mcd_find_build_up(int up)
 {
-	char exe[PATH_MAX];
-	ssize_t n = readlink("/proc/self/exe", exe, sizeof(exe) - 1);
-	if (n <= 0)
+	if (!mc_test_build_dir(up, mcd_build_dir, sizeof(mcd_build_dir)))
 		return false;
-	exe[n] = 0;
-	*strrchr(exe, '/') = 0; /* <build>/tests */
-	char *slash = strrchr(exe, '/');
-	if (!slash)
-		return false;
-	*slash = 0;
-	snprintf(mcd_build_dir, sizeof(mcd_build_dir), "%s", exe);
 	snprintf(mcd_mocapd, sizeof(mcd_mocapd), "%s/bin/mocapd", mcd_build_dir);
 	snprintf(mcd_faulty_dir, sizeof(mcd_faulty_dir), "%s/tests/faulty", mcd_build_dir);
 	if (access(mcd_mocapd, X_OK) != 0) {
@@ -74,6 +66,11 @@ static inline bool mcd_find_build(void)
 		return false;
 	}
 	return true;
+}
+
+static inline bool mcd_find_build(void)
+{
+	return mcd_find_build_up(2);
 }
 
 static inline char *mcd_read_file(const char *path)
@@ -317,6 +314,26 @@ static inline void mcd_run_cleanup(mcd_run *r)
 		unlink(p);
 	}
 	rmdir(r->dir);
+}
+
+/* Starts mocapd with args (NULL-terminated) and waits up to 60 s for
+ * READY=1.  On failure its output is dumped and the run cleaned up; the
+ * test is skipped when the tracker has no usable OpenCL device here, and
+ * otherwise a failed check is counted and false returned. */
+static inline bool mcd_run_start_ready(mcd_run *r, const char *const *args)
+{
+	CHECK(mcd_run_start(r, args, NULL));
+	if (mcd_run_wait_notify(r, "READY=1", 60000))
+		return true;
+	char *log = mcd_read_file(r->log);
+	bool no_cl = log && strstr(log, "OpenCL") && strstr(log, "error");
+	free(log);
+	mcd_run_dump(r, "start");
+	mcd_run_cleanup(r);
+	if (no_cl)
+		TEST_SKIP("the tracker cannot run here (no usable OpenCL device)");
+	CHECK_MSG(false, "mocapd did not become ready");
+	return false;
 }
 
 /* True if something accepts connections on a SOCK_SEQPACKET socket path. */
