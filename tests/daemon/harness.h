@@ -9,6 +9,7 @@
 #define MCD_TEST_HARNESS_H
 
 #include "base/mc_time.h"
+#include "../test_util.h"
 
 #include <errno.h>
 #include <fcntl.h>
