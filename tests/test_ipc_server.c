@@ -116,6 +116,17 @@ static void simple_request(int fd, uint16_t type, uint32_t id)
 	CHECK(raw_send(fd, &tx) == 0);
 }
 
+/* Subscribes fd to every frame ("all" mode; queue_len 0: the default). */
+static void subscribe_all(int fd, uint32_t id, uint32_t queue_len)
+{
+	memset(&tx, 0, sizeof(tx));
+	tx.h.type = MC_MSG_SUBSCRIBE;
+	tx.h.request_id = id;
+	tx.u.subscribe.mode = MC_SUB_ALL;
+	tx.u.subscribe.queue_len = queue_len;
+	CHECK(raw_send(fd, &tx) == 0);
+}
+
 /* The connection is closed by the server (after an optional last message). */
 static bool closed_by_server(int fd)
 {
@@ -222,11 +233,7 @@ static void test_malformed(void)
 	srv_server *srv = make_server(8, -1);
 	set_def(srv, 3);
 	int good = hello_client();
-	memset(&tx, 0, sizeof(tx));
-	tx.h.type = MC_MSG_SUBSCRIBE;
-	tx.h.request_id = 2;
-	tx.u.subscribe.mode = MC_SUB_ALL;
-	CHECK(raw_send(good, &tx) == 0);
+	subscribe_all(good, 2, 0);
 	CHECK(raw_expect(good, MC_MSG_OK));
 
 	struct {
@@ -300,12 +307,7 @@ static void test_disconnects(void)
 	srv_server *srv = make_server(16, -1);
 	set_def(srv, 20);
 	int watcher = hello_client();
-	memset(&tx, 0, sizeof(tx));
-	tx.h.type = MC_MSG_SUBSCRIBE;
-	tx.h.request_id = 2;
-	tx.u.subscribe.mode = MC_SUB_ALL;
-	tx.u.subscribe.queue_len = 4000;
-	CHECK(raw_send(watcher, &tx) == 0);
+	subscribe_all(watcher, 2, 4000);
 	CHECK(raw_expect(watcher, MC_MSG_OK));
 	for (int round = 0; round < 20; round++) {
 		/* Connected, nothing sent. */
@@ -319,11 +321,7 @@ static void test_disconnects(void)
 		simple_request(c, MC_MSG_GET_STATUS, 3);
 		/* Subscribed to everything, never reads, leaves mid-stream. */
 		int d = hello_client();
-		memset(&tx, 0, sizeof(tx));
-		tx.h.type = MC_MSG_SUBSCRIBE;
-		tx.h.request_id = 4;
-		tx.u.subscribe.mode = MC_SUB_ALL;
-		CHECK(raw_send(d, &tx) == 0);
+		subscribe_all(d, 4, 0);
 		for (int k = 0; k < 10; k++)
 			publish(srv, (uint64_t)round * 10 + k + 1, 20);
 		close(a);
@@ -567,11 +565,7 @@ static void test_requests(void)
 
 	/* A subscriber gets the definition first, then frames; a new
 	 * definition reaches it before the frames that follow it. */
-	memset(&tx, 0, sizeof(tx));
-	tx.h.type = MC_MSG_SUBSCRIBE;
-	tx.h.request_id = 15;
-	tx.u.subscribe.mode = MC_SUB_ALL;
-	CHECK(raw_send(fd, &tx) == 0);
+	subscribe_all(fd, 15, 0);
 	CHECK(raw_recv(fd, 2000) == 1 && rx.h.type == MC_MSG_OK && rx.u.ok.value == 256);
 	CHECK(raw_recv(fd, 2000) == 1 && rx.h.type == MC_MSG_SKELETON && rx.h.request_id == 0);
 	uint32_t id1 = rx.u.skeleton.skeleton_id;
