@@ -1,20 +1,12 @@
 /* The keypoint term of the tracker (thesis ch. 6.2.2): 2D detections as
- * rays that pull their joints, with the checks that keep a detector's
- * mistakes from pulling the pose: left/right confusions undone against the
- * prediction, and keypoints that two cameras disagree on dropped. */
+ * rays that pull their joints, with a robust loss and a stereo check that
+ * keep a detector's mistakes from pulling the pose. */
 #include "track/mc_tracker_internal.h"
 
 #include <math.h>
 #include <stdbool.h>
 #include <stdio.h>
 #include <string.h>
-
-/* Distance of point p from a ray. */
-static double ray_distance(const mc_trk_keypoint_ray *r, mc_vec3 p)
-{
-	mc_vec3 d = mc_v3_sub(p, r->origin);
-	return mc_v3_norm(mc_v3_axpy(-mc_v3_dot(d, r->dir), r->dir, d));
-}
 
 /* Rays of the usable keypoints; returns the count. */
 static int keypoint_rays(const mc_tracker *t, const mc_keypoint *kp, int nkp, mc_trk_keypoint_ray *out, int *cam)
@@ -31,46 +23,6 @@ static int keypoint_rays(const mc_tracker *t, const mc_keypoint *kp, int nkp, mc
 		cam[n++] = k->cam;
 	}
 	return n;
-}
-
-/* The model joint mirroring j ("left_knee" <-> "right_knee"), or -1. */
-static int mirror_joint(const mc_model *m, int j)
-{
-	const char *name = m->joints[j].name;
-	char other[MC_JOINT_NAME_MAX + 8];
-	if (!strncmp(name, "left_", 5))
-		snprintf(other, sizeof(other), "right_%s", name + 5);
-	else if (!strncmp(name, "right_", 6))
-		snprintf(other, sizeof(other), "left_%s", name + 6);
-	else
-		return -1;
-	return mc_model_find_joint(m, other);
-}
-
-/* A symmetric body fools detectors: in one view, both legs' (or arms')
- * keypoints are often each other's.  When the predicted pose explains the
- * pair swapped much better than as labelled (SWAP_RATIO of the distance),
- * the labels are swapped for that view. */
-#define SWAP_RATIO 0.5
-static void undo_swaps(const mc_tracker *t, const mc_fk *pred, mc_trk_keypoint_ray *r, const int *cam, int n)
-{
-	for (int a = 0; a < n; a++) {
-		int ja = r[a].joint, jb = mirror_joint(&t->model, ja);
-		if (jb < 0 || strncmp(t->model.joints[ja].name, "left_", 5))
-			continue; /* each pair once, from its left joint */
-		for (int b = 0; b < n; b++) {
-			if (b == a || cam[b] != cam[a] || r[b].joint != jb)
-				continue;
-			mc_vec3 pa = pred->rig_from_joint[ja].t, pb = pred->rig_from_joint[jb].t;
-			double straight = ray_distance(&r[a], pa) + ray_distance(&r[b], pb);
-			double swapped = ray_distance(&r[a], pb) + ray_distance(&r[b], pa);
-			if (swapped < SWAP_RATIO * straight) {
-				r[a].joint = jb;
-				r[b].joint = ja;
-			}
-			break;
-		}
-	}
 }
 
 /* Two cameras' detections of one joint must see one point: when the
@@ -102,14 +54,12 @@ static void gate_stereo(mc_trk_keypoint_ray *r, const int *cam, int n)
 			r[i].weight = 0;
 }
 
-int mc_trk_prepare_keypoints(const mc_tracker *t, const mc_fk *pred, const mc_keypoint *kp, int nkp,
-			     mc_trk_keypoint_ray *out)
+int mc_trk_prepare_keypoints(const mc_tracker *t, const mc_keypoint *kp, int nkp, mc_trk_keypoint_ray *out)
 {
 	if (!kp || nkp <= 0 || t->s.lambda_detection <= 0)
 		return 0;
 	int cam[MC_TRK_MAX_KEYPOINTS];
 	int n = keypoint_rays(t, kp, nkp, out, cam);
-	undo_swaps(t, pred, out, cam, n);
 	gate_stereo(out, cam, n);
 	return n;
 }

@@ -680,7 +680,7 @@ int mc_tracker_track(mc_tracker *t, const mc_frame_view *views, int nviews, cons
 		mc_model_fk(&t->model, pred, &fk);
 		mc_trk_choose_candidates(t, &fk);
 		mc_trk_keypoint_ray rays[MC_TRK_MAX_KEYPOINTS];
-		int nrays = mc_trk_prepare_keypoints(t, &fk, kp, nkp, rays);
+		int nrays = mc_trk_prepare_keypoints(t, kp, nkp, rays);
 		if (optimise(t, pose, pred, rays, nrays, &E, err) < 0)
 			return -1;
 		quality = E / t->baseline;

@@ -80,11 +80,9 @@ typedef struct {
 	double weight; /* the detection's confidence, 0..1 */
 } mc_trk_keypoint_ray;
 
-/* The frame's keypoints as rays, once per frame at the predicted pose:
- * unusable ones dropped, left/right confusions of the detector undone, and
- * the keypoints that two cameras disagree on dropped.  Returns the count. */
-int mc_trk_prepare_keypoints(const mc_tracker *t, const mc_fk *pred, const mc_keypoint *kp, int nkp,
-			     mc_trk_keypoint_ray *out);
+/* The frame's keypoints as rays, once per frame: unusable ones and those
+ * that two cameras disagree on dropped.  Returns the count. */
+int mc_trk_prepare_keypoints(const mc_tracker *t, const mc_keypoint *kp, int nkp, mc_trk_keypoint_ray *out);
 /* E_detection at a pose; adds its pose gradient to grad. */
 double mc_trk_detection_term(mc_tracker *t, const double *pose, const mc_fk *fk, const mc_trk_keypoint_ray *kp, int n,
 			     double *grad);
