@@ -30,10 +30,7 @@ static void run(mcd_run *r, const mc_rig *rig)
 		return;
 	mocap_skeleton_def *def = calloc(1, sizeof(*def));
 	mocap_skeleton_frame *f = calloc(1, sizeof(*f));
-	int wrist = -1;
-	CHECK(def && f && mocap_subscribe(c, MOCAP_ALL, MOCAP_SPACE_RIG, 0) == 0);
-	CHECK(f && mocap_read_frame(c, f, 30000) == 1);
-	CHECK(def && mocap_get_skeleton(c, def) == 0 && (wrist = mcd_find_joint(def, "right_wrist")) >= 0);
+	int wrist = mcd_first_frame_joint(c, MOCAP_ALL, def, f, "right_wrist");
 	if (!def || !f || wrist < 0 || mc_test_failures)
 		goto out;
 

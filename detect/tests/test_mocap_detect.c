@@ -12,6 +12,7 @@
  * shipped model present, it also runs on both cameras for a few seconds.
  * And the errors: a bad model, no daemon. */
 #include "daemon/harness.h"
+#include "daemon/rays.h"
 #include "geom/mc_camera.h"
 #include "geom/mc_rig.h"
 #include "mocap.h"
@@ -97,25 +98,6 @@ static void dump(const char *what, const char *path)
 	free(s);
 }
 
-static int find_joint(const mocap_skeleton_def *def, const char *name)
-{
-	for (int j = 0; j < def->njoints; j++)
-		if (!strcmp(def->joints[j].name, name))
-			return j;
-	return -1;
-}
-
-/* Distance of p (rig frame) from the ray through pixel (u, v) of camera c. */
-static double ray_distance(const mc_camera *cam, double u, double v, const double p[3])
-{
-	mc_vec3 dir;
-	if (!mc_camera_unproject(cam, u, v, &dir))
-		return 1e9;
-	mc_vec3 n = mc_v3_normalize(mc_m3_apply(cam->rig_from_cam.R, dir));
-	mc_vec3 d = mc_v3_sub(mc_v3(p[0], p[1], p[2]), cam->rig_from_cam.t);
-	return mc_v3_norm(mc_v3_axpy(-mc_v3_dot(d, n), n, d));
-}
-
 /* The fixed model's right wrist on the left camera: the wrist moves onto
  * the keypoint's ray. */
 static void test_fixed(mcd_run *r, const mc_rig *rig)
@@ -127,17 +109,14 @@ static void test_fixed(mcd_run *r, const mc_rig *rig)
 		return;
 	mocap_skeleton_def *def = calloc(1, sizeof(*def));
 	mocap_skeleton_frame *f = calloc(1, sizeof(*f));
-	int wrist = -1;
-	CHECK(def && f && mocap_subscribe(c, MOCAP_LATEST, MOCAP_SPACE_RIG, 0) == 0);
-	CHECK(f && mocap_read_frame(c, f, 30000) == 1);
-	CHECK(def && mocap_get_skeleton(c, def) == 0 && (wrist = find_joint(def, "right_wrist")) >= 0);
+	int wrist = mcd_first_frame_joint(c, MOCAP_LATEST, def, f, "right_wrist");
 	if (mc_test_failures) {
 		free(def);
 		free(f);
 		mocap_close(c);
 		return;
 	}
-	double before = ray_distance(&rig->cams[0], ku, kv, f->joints[wrist].position);
+	double before = mcd_ray_distance(&rig->cams[0], ku, kv, mcd_joint_position(f, wrist));
 
 	char out[256];
 	snprintf(out, sizeof(out), "%s/detect.txt", r->dir);
@@ -154,7 +133,7 @@ static void test_fixed(mcd_run *r, const mc_rig *rig)
 	size_t len = 0;
 	while (mcd_now_ms() < end && mocap_read_frame(c, f, 2000) == 1) {
 		frames++;
-		after = ray_distance(&rig->cams[0], ku, kv, f->joints[wrist].position);
+		after = mcd_ray_distance(&rig->cams[0], ku, kv, mcd_joint_position(f, wrist));
 		if (after < closest)
 			closest = after;
 		on_ray += after < 0.05;

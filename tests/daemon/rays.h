@@ -4,6 +4,7 @@
 #ifndef MCD_TEST_RAYS_H
 #define MCD_TEST_RAYS_H
 
+#include "../test_util.h"
 #include "geom/mc_rig.h"
 #include "mocap.h"
 
@@ -56,6 +57,19 @@ static inline int mcd_find_joint(const mocap_skeleton_def *def, const char *name
 		if (!strcmp(def->joints[j].name, name))
 			return j;
 	return -1;
+}
+
+/* Subscribes c (mode, rig space), reads the first frame into f and the
+ * skeleton definition into def; the index of `joint`, or -1 with a failed
+ * check counted. */
+static inline int mcd_first_frame_joint(mocap_client *c, mocap_mode mode, mocap_skeleton_def *def,
+					mocap_skeleton_frame *f, const char *joint)
+{
+	int j = -1;
+	CHECK(def && f && mocap_subscribe(c, mode, MOCAP_SPACE_RIG, 0) == 0);
+	CHECK(f && mocap_read_frame(c, f, 30000) == 1);
+	CHECK(def && mocap_get_skeleton(c, def) == 0 && (j = mcd_find_joint(def, joint)) >= 0);
+	return j;
 }
 
 #endif
