@@ -3,8 +3,9 @@
 # `make deps-train` and take an hour or more.  See docs/DETECTOR.md.
 #
 #   make detector-data      render DETECTOR_FRAMES stereo pairs (resumes)
-#   make detector-train     train (resumes from $(DETECTOR_DIR)/ckpt.pt)
-#   make detector-export    export the best checkpoint to config/models/ego_detector.onnx
+#   make detector-train     train, stage 1 (resumes from $(DETECTOR_DIR)/ckpt.pt)
+#   make detector-finetune  stage 2 (resumes from $(DETECTOR_DIR)/stage2/ckpt.pt)
+#   make detector-export    export stage 2's best checkpoint to config/models/ego_detector.onnx
 #   make detector-report    2D error report on ../shared/data/ego/*
 #
 # Long jobs: run them under nohup (they resume where they stopped).
@@ -19,7 +20,7 @@ TRAIN_PYTHON ?= /usr/bin/python3
 MOCAP_TRAIN_DIR ?= $(or $(MOCAP_DATA_DIR),../shared/data)/mocap-train
 MOCAP_EGO_DIR ?= $(or $(MOCAP_DATA_DIR),../shared/data)/ego
 
-.PHONY: detector-data detector-train detector-export detector-report
+.PHONY: detector-data detector-train detector-finetune detector-export detector-report
 
 # DETECTOR_SHARDS parallel chains of Blender processes, one thread each,
 # frames split evenly.  Each process renders at most DETECTOR_CHUNK frames:
@@ -43,10 +44,20 @@ detector-train:
 	nice -n 10 $(TRAIN_PYTHON) tools/train/train.py --data $(DETECTOR_DIR)/data \
 	  --ckpt $(DETECTOR_DIR)/ckpt.pt --seed $(DETECTOR_SEED) --epochs $(DETECTOR_EPOCHS) --resume
 
+# Stage 2 of the shipped model: fine-tune stage 1's last checkpoint (after
+# more frames were rendered) with a new seed and a short cosine schedule.
+detector-finetune:
+	mkdir -p $(DETECTOR_DIR)/stage2
+	nice -n 10 $(TRAIN_PYTHON) tools/train/train.py --data $(DETECTOR_DIR)/data \
+	  --ckpt $(DETECTOR_DIR)/stage2/ckpt.pt --init $(DETECTOR_DIR)/ckpt.pt --seed 2 --epochs 24 \
+	  --lr 1e-3 --warmup 100 --resume
+
+DETECTOR_WEIGHTS ?= $(DETECTOR_DIR)/stage2/best.pt
+
 detector-export:
-	$(TRAIN_PYTHON) tools/train/train.py --data $(DETECTOR_DIR)/data --seed $(DETECTOR_SEED) \
-	  --weights $(DETECTOR_DIR)/best.pt --export config/models/ego_detector.onnx
+	$(TRAIN_PYTHON) tools/train/train.py --data $(DETECTOR_DIR)/data --seed 2 --data-seed $(DETECTOR_SEED) \
+	  --weights $(DETECTOR_WEIGHTS) --export config/models/ego_detector.onnx
 
 detector-report:
-	$(TRAIN_PYTHON) tools/train/train.py --weights $(DETECTOR_DIR)/best.pt --ego $(MOCAP_EGO_DIR) \
+	$(TRAIN_PYTHON) tools/train/train.py --weights $(DETECTOR_WEIGHTS) --ego $(MOCAP_EGO_DIR) \
 	  --report --report-out $(DETECTOR_DIR)/report.json

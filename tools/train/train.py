@@ -320,10 +320,10 @@ def export(a):
                       do_constant_folding=True)
     st = ck.get("state", {})
     side = {"input": [IN, IN], "joints": JOINTS, "threshold": THRESHOLD, "heatmap": [HM, HM],
-            "trained_on": "synthetic head-mounted stereo fisheye views (tools/synth/render.py, seed %d, "
+            "trained_on": "synthetic head-mounted stereo fisheye views (tools/synth/render.py --seed %d, "
                           "%s training views) of CMU motions from mocap-train only (mocap/ held out); "
                           "%s: epoch %d, step %d, synthetic validation loss %.4f; see docs/DETECTOR.md" % (
-                              a.seed, (st.get("history") or [{}])[-1].get("train_views", "?"),
+                              a.data_seed, (st.get("history") or [{}])[-1].get("train_views", "?"),
                               os.path.basename(path), st.get("epoch", -1), st.get("step", -1),
                               st.get("best") or float("nan")),
             "seed": a.seed,
@@ -415,7 +415,8 @@ def main():
     ap.add_argument("--steps-per-epoch", type=int, default=250)
     ap.add_argument("--batch", type=int, default=32)
     ap.add_argument("--lr", type=float, default=3e-3)
-    ap.add_argument("--seed", type=int, default=1)
+    ap.add_argument("--seed", type=int, default=1, help="training seed (init, sampling, augmentation)")
+    ap.add_argument("--data-seed", type=int, default=1, help="the renderer's --seed, for the sidecar")
     ap.add_argument("--threads", type=int, default=2)
     ap.add_argument("--ckpt-minutes", type=float, default=3.0)
     ap.add_argument("--export", metavar="ONNX")
