@@ -3,9 +3,11 @@
  *   - on the bundled clip (tests/data/ego_demo, 60 frames) the detector's 2D
  *     error against the projected ground truth stays within a bound, and
  *     the tracker runs with its keypoints;
- *   - on the evaluation clip walk_131_01 (../shared/data, when present) the
- *     tracker with the detector beats the tracker without it over the whole
- *     clip.
+ *   - on the evaluation clips (../shared/data/ego/walk_131_01 and
+ *     jumps_01_01, when present) the tracker with the detector beats the
+ *     tracker without it, in MPJPE averaged over the two whole clips.  One
+ *     clip alone is too noisy to assert: on walk_131_01 the seed moves the
+ *     result by up to 4 cm either way (docs/BENCHMARKS.md).
  * The bundled clip's own 3D comparison is printed, not asserted: over its
  * first 2 s the colour term alone tracks well (9.4 cm) and the detector's
  * errors on the feet cost more than it brings (docs/DETECTOR.md, "Known
@@ -77,16 +79,26 @@ int main(int argc, char **argv)
 	CHECK_MSG(median_px <= MEDIAN_PX_MAX, "2D median %.2f px, expected at most %.1f px", median_px, MEDIAN_PX_MAX);
 
 	const char *data = mc_test_data_dir();
-	char clip[4200];
-	snprintf(clip, sizeof(clip), "%s/ego/walk_131_01", data ? data : "");
-	if (!data || access(clip, R_OK) != 0) {
-		printf("SKIP (part): %s not found, the whole-clip comparison did not run\n", clip);
-	} else {
+	static const char *const clips[] = {"walk_131_01", "jumps_01_01"};
+	double sum_without = 0, sum_with = 0;
+	int n = 0;
+	for (size_t i = 0; i < sizeof(clips) / sizeof(clips[0]); i++) {
+		char clip[4200];
+		snprintf(clip, sizeof(clip), "%s/ego/%s", data ? data : "", clips[i]);
+		if (!data || access(clip, R_OK) != 0) {
+			printf("SKIP (part): %s not found, the whole-clip comparison did not run\n", clip);
+			n = 0;
+			break;
+		}
 		compare(clip, detector, &without, &with, &median_px);
-		printf("walk_131_01, 240 frames: %.2f cm without the detector, %.2f cm with it; 2D median %.2f px\n",
-		       without, with, median_px);
-		CHECK_MSG(with < without, "the detector did not help on walk_131_01: %.2f cm with, %.2f cm without", with,
-			  without);
+		printf("%s: %.2f cm without the detector, %.2f cm with it; 2D median %.2f px\n", clips[i], without, with,
+		       median_px);
+		sum_without += without;
+		sum_with += with;
+		n++;
 	}
+	if (n > 0)
+		CHECK_MSG(sum_with < sum_without, "the detector did not help: %.2f cm with, %.2f cm without (mean of %d clips)",
+			  sum_with / n, sum_without / n, n);
 	return mc_test_finish("test_detector_tracking");
 }
