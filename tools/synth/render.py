@@ -23,6 +23,7 @@ from mathutils import Matrix, Vector
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from motion import JOINTS, load_clips, sample_pose  # noqa: E402
+from fisheye import project_cam  # noqa: E402
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(os.path.dirname(HERE))
@@ -99,18 +100,7 @@ def load_rig(path, res):
     return cams
 
 
-def project(cam, P):
-    """P (N,3) in the camera frame (OpenCV) -> (u, v, theta)."""
-    x, y, z = P[:, 0], P[:, 1], P[:, 2]
-    rho = np.sqrt(x * x + y * y)
-    th = np.arctan2(rho, z)
-    k = cam["k"]
-    thd = th * (1 + k[0] * th ** 2 + k[1] * th ** 4 + k[2] * th ** 6 + k[3] * th ** 8)
-    r = cam["f"] * thd
-    rs = np.where(rho > 1e-12, rho, 1.0)
-    u = cam["cx"] + r * x / rs
-    v = cam["cy"] + r * y / rs
-    return u, v, th
+project = project_cam
 
 
 def blender_cam_matrix(T_world_cv):

@@ -2,8 +2,13 @@
 fisheye projection.  The decoding here is the one the C runtime implements."""
 import json
 import math
+import os
+import sys
 
 import numpy as np
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "synth"))
+from fisheye import project_cam  # noqa: E402
 
 JOINTS = ["head_top", "neck", "spine", "pelvis",
           "left_shoulder", "left_elbow", "left_wrist", "left_hip", "left_knee", "left_ankle", "left_toe",
@@ -95,14 +100,6 @@ def project(cam, P_rig):
     """P_rig (N,3) in the rig (= left camera) frame -> u, v, inside (N,) bool."""
     T = np.linalg.inv(cam["rig_from_cam"])
     P = P_rig @ T[:3, :3].T + T[:3, 3]
-    x, y, z = P[:, 0], P[:, 1], P[:, 2]
-    rho = np.sqrt(x * x + y * y)
-    th = np.arctan2(rho, z)
-    k = cam["k"]
-    thd = th * (1 + k[0] * th ** 2 + k[1] * th ** 4 + k[2] * th ** 6 + k[3] * th ** 8)
-    r = cam["f"] * thd
-    rs = np.where(rho > 1e-12, rho, 1.0)
-    u = cam["cx"] + r * x / rs
-    v = cam["cy"] + r * y / rs
+    u, v, th = project_cam(cam, P)
     inside = (th <= cam["fov"] / 2) & (u >= -0.5) & (u <= IN - 0.5) & (v >= -0.5) & (v <= IN - 0.5)
     return u, v, inside

@@ -1,0 +1,20 @@
+"""The equidistant (Kannala-Brandt) fisheye projection of the project's rig
+files, in numpy: shared by the renderer's labels (tools/synth/render.py) and
+the trainer's 2D report (tools/train/common.py), so both project exactly as
+the C core does (core/geom/mc_camera.c)."""
+
+import numpy as np
+
+
+def project_cam(cam, P):
+    """P (N,3) in the camera frame (OpenCV) -> (u, v, theta)."""
+    x, y, z = P[:, 0], P[:, 1], P[:, 2]
+    rho = np.sqrt(x * x + y * y)
+    th = np.arctan2(rho, z)
+    k = cam["k"]
+    thd = th * (1 + k[0] * th ** 2 + k[1] * th ** 4 + k[2] * th ** 6 + k[3] * th ** 8)
+    r = cam["f"] * thd
+    rs = np.where(rho > 1e-12, rho, 1.0)
+    u = cam["cx"] + r * x / rs
+    v = cam["cy"] + r * y / rs
+    return u, v, th
