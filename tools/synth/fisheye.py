@@ -18,3 +18,14 @@ def project_cam(cam, P):
     u = cam["cx"] + r * x / rs
     v = cam["cy"] + r * y / rs
     return u, v, th
+
+
+def rig_from_cam_matrix(T):
+    """A rig file's `rig_from_cam` (a 4x4 list, or {"rotation", "translation"})
+    as a 4x4 numpy matrix."""
+    if isinstance(T, dict):
+        M = np.eye(4)
+        M[:3, :3] = np.array(T["rotation"])
+        M[:3, 3] = np.array(T["translation"])
+        return M
+    return np.array(T, dtype=float)

@@ -23,7 +23,7 @@ from mathutils import Matrix, Vector
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from motion import JOINTS, load_clips, sample_pose  # noqa: E402
-from fisheye import project_cam  # noqa: E402
+from fisheye import project_cam, rig_from_cam_matrix  # noqa: E402
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(os.path.dirname(HERE))
@@ -87,13 +87,7 @@ def load_rig(path, res):
     for c in rig["cameras"]:
         assert c["model"] == "equidistant", c["model"]
         s = res / c["width"]
-        T = c["rig_from_cam"]
-        if isinstance(T, dict):
-            M = np.eye(4)
-            M[:3, :3] = np.array(T["rotation"])
-            M[:3, 3] = np.array(T["translation"])
-        else:
-            M = np.array(T, dtype=float)
+        M = rig_from_cam_matrix(c["rig_from_cam"])
         cams.append({"name": c["name"], "f": c["f"] * s, "cx": (c["cx"] + 0.5) * s - 0.5,
                      "cy": (c["cy"] + 0.5) * s - 0.5, "k": list(c.get("k", [0, 0, 0, 0])),
                      "fov": math.radians(c.get("fov_deg", 180.0)), "rig_from_cam": M})

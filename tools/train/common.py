@@ -8,7 +8,7 @@ import sys
 import numpy as np
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "synth"))
-from fisheye import project_cam  # noqa: E402
+from fisheye import project_cam, rig_from_cam_matrix  # noqa: E402
 
 JOINTS = ["head_top", "neck", "spine", "pelvis",
           "left_shoulder", "left_elbow", "left_wrist", "left_hip", "left_knee", "left_ankle", "left_toe",
@@ -83,13 +83,7 @@ def load_rig(path, res=IN):
     cams = {}
     for c in rig["cameras"]:
         s = res / c["width"]
-        T = c["rig_from_cam"]
-        if isinstance(T, dict):
-            M = np.eye(4)
-            M[:3, :3] = np.array(T["rotation"])
-            M[:3, 3] = np.array(T["translation"])
-        else:
-            M = np.array(T, dtype=float)
+        M = rig_from_cam_matrix(c["rig_from_cam"])
         cams[c["name"]] = {"f": c["f"] * s, "cx": (c["cx"] + 0.5) * s - 0.5, "cy": (c["cy"] + 0.5) * s - 0.5,
                            "k": c.get("k", [0, 0, 0, 0]), "fov": math.radians(c.get("fov_deg", 180.0)),
                            "rig_from_cam": M}
