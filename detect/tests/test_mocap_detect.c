@@ -253,11 +253,8 @@ int main(void)
 	    access("detect/tests/data/fixed_wrist.onnx", R_OK) != 0)
 		TEST_SKIP("run from the repository root (tests/data/ego_demo or detect/tests/data not found)");
 	mc_rig rig;
-	mc_err err = {{0}};
-	if (mc_rig_load("config/rigs/ego_stereo.json", &rig, &err) < 0) {
-		fprintf(stderr, "%s\n", err.msg);
+	if (!mcd_load_ego_rig(&rig))
 		return 1;
-	}
 	mcd_run r;
 	CHECK(mcd_run_init(&r));
 	write_config(&r);

@@ -9,6 +9,7 @@
 #include "mocap.h"
 
 #include <math.h>
+#include <stdio.h>
 #include <stdbool.h>
 #include <string.h>
 
@@ -70,6 +71,17 @@ static inline int mcd_first_frame_joint(mocap_client *c, mocap_mode mode, mocap_
 	CHECK(f && mocap_read_frame(c, f, 30000) == 1);
 	CHECK(def && mocap_get_skeleton(c, def) == 0 && (j = mcd_find_joint(def, joint)) >= 0);
 	return j;
+}
+
+/* The bundled head-mounted rig the demo clip was taken with; false with
+ * the error printed. */
+static inline bool mcd_load_ego_rig(mc_rig *rig)
+{
+	mc_err err = {{0}};
+	if (mc_rig_load("config/rigs/ego_stereo.json", rig, &err) == 0)
+		return true;
+	fprintf(stderr, "%s\n", err.msg);
+	return false;
 }
 
 #endif
