@@ -6,20 +6,13 @@
  *
  *     bench_detect --model config/models/ego_detector.onnx [--runs 200] [--threads 1] */
 #include "base/mc_stats.h"
+#include "base/mc_time.h"
 #include "image/mc_image.h"
 #include "mc_detector.h"
 
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <time.h>
-
-static double now_ms(void)
-{
-	struct timespec ts;
-	clock_gettime(CLOCK_MONOTONIC, &ts);
-	return (double)ts.tv_sec * 1e3 + (double)ts.tv_nsec * 1e-6;
-}
 
 static void run(mc_detector *d, const uint8_t *rgb, int w, int h, int runs, int threads)
 {
@@ -33,9 +26,9 @@ static void run(mc_detector *d, const uint8_t *rgb, int w, int h, int runs, int 
 	for (int i = 0; i < 10; i++)
 		mc_detector_detect(d, rgb, w, h, 0, det, MC_DETECTOR_MAX_JOINTS, &err);
 	for (int i = 0; i < runs; i++) {
-		double t0 = now_ms();
+		uint64_t t0 = mc_now_ns();
 		int n = mc_detector_detect(d, rgb, w, h, 0, det, MC_DETECTOR_MAX_JOINTS, &err);
-		ms[i] = now_ms() - t0;
+		ms[i] = mc_ms_since(t0);
 		if (n < 0) {
 			fprintf(stderr, "bench_detect: %s\n", err.msg);
 			free(ms);

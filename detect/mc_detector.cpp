@@ -8,6 +8,8 @@
 // complaint.  The output shape is checked by running it once on zeros.
 #include "mc_detector.h"
 
+#include "base/mc_time.h"
+
 #include <jansson.h>
 #include <opencv2/core.hpp>
 #include <opencv2/core/utils/logger.hpp>
@@ -15,7 +17,6 @@
 #include <opencv2/imgproc.hpp>
 
 #include <cerrno>
-#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -222,11 +223,6 @@ const char *const default_joints[MC_DETECTOR_DEFAULT_NJOINTS] = {
 	"left_wrist",	  "left_hip",	 "left_knee",	"left_ankle", "left_toe",      "right_shoulder",
 	"right_elbow",	  "right_wrist", "right_hip",	"right_knee", "right_ankle",   "right_toe",
 };
-
-double ms_since(std::chrono::steady_clock::time_point t0)
-{
-	return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-}
 
 bool threads_set = false;
 // OpenCV's log level is process-wide: loads that silence it for the import
@@ -472,7 +468,7 @@ mc_detector *load(const char *onnx_path, mc_err *err)
 int detect(mc_detector *d, const uint8_t *rgb, int width, int height, int stride, mc_detection *out, int max,
 	   mc_err *err)
 {
-	auto t0 = std::chrono::steady_clock::now();
+	uint64_t t0 = mc_now_ns();
 	if (stride == 0)
 		stride = 3 * width;
 	if (!rgb || width <= 0 || height <= 0 || stride < 3 * width || max < 0 || (max > 0 && !out))
@@ -496,10 +492,10 @@ int detect(mc_detector *d, const uint8_t *rgb, int width, int height, int stride
 			bl[x] = row[3 * x + 2] * (1.0f / 255.0f);
 		}
 	}
-	auto t1 = std::chrono::steady_clock::now();
+	uint64_t t1 = mc_now_ns();
 	d->net.setInput(d->blob, d->input_name);
 	cv::Mat o = d->net.forward(d->output_name);
-	double infer = ms_since(t1);
+	double infer = mc_ms_since(t1);
 	if (o.dims != 4 || o.size[1] != d->njoints || o.size[2] != d->hm_h || o.size[3] != d->hm_w ||
 	    o.type() != CV_32F)
 		return mc_err_set(err, "%s: the network's output changed shape", d->path.c_str());
@@ -509,7 +505,7 @@ int detect(mc_detector *d, const uint8_t *rgb, int width, int height, int stride
 		return mc_err_set(err, "%s: the network's output is not contiguous", d->path.c_str());
 	int n = mc_detector_decode(d->heatmaps.data(), d->njoints, d->hm_h, d->hm_w, d->in_w, d->in_h, width, height,
 				   d->threshold, out, max);
-	double ms = ms_since(t0);
+	double ms = mc_ms_since(t0);
 	mc_detector_timing &t = d->timing;
 	t.calls++;
 	t.last_ms = ms;

@@ -5,8 +5,6 @@
 
 #include <math.h>
 #include <stdbool.h>
-#include <stdio.h>
-#include <string.h>
 
 /* Rays of the usable keypoints; returns the count. */
 static int keypoint_rays(const mc_tracker *t, const mc_keypoint *kp, int nkp, mc_trk_keypoint_ray *out, int *cam)
@@ -64,12 +62,11 @@ int mc_trk_prepare_keypoints(const mc_tracker *t, const mc_keypoint *kp, int nkp
 	return n;
 }
 
-/* E_detection, as a robust distance of each detected joint from its
- * keypoint's ray: lambda conf (sqrt(1 + (r / tau)^2) - 1) / n, r the
- * joint's distance from the ray, tau = DETECTION_SCALE_M.  Quadratic near
- * the ray and a constant pull far from it, so that a detection brings back
- * a limb from anywhere in view (the thesis' visibility form, kept in
- * mc_energy_detection, only reaches a few sigma; docs/TRACKER.md). */
+/* E_detection, a Cauchy loss of each detected joint's distance from its
+ * keypoint's ray: lambda conf 0.5 log(1 + (r / tau)^2) / n, r the joint's
+ * distance from the ray, tau = DETECTION_SCALE_M.  Quadratic near the ray;
+ * far from it the pull falls off as 1/r, so a wrong detection pulls much
+ * less than a right one near the joint (docs/TRACKER.md). */
 #define DETECTION_SCALE_M 0.10
 double mc_trk_detection_term(mc_tracker *t, const double *pose, const mc_fk *fk, const mc_trk_keypoint_ray *kp, int n,
 			     double *grad)

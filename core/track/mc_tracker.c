@@ -11,6 +11,7 @@
  * calibration is in mc_calibrate.c. */
 #include "track/mc_tracker.h"
 
+#include "base/mc_time.h"
 #include "body/mc_ik.h"
 #include "track/mc_tracker_internal.h"
 
@@ -18,7 +19,6 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <time.h>
 
 /* Extra angular margin (metres at the Gaussian) around each Gaussian when
  * choosing candidate pixels: covers the motion within one frame. */
@@ -63,13 +63,6 @@ const char *mc_track_state_name(mc_track_state s)
 		return "lost";
 	}
 	return "unknown";
-}
-
-static double now_ms(void)
-{
-	struct timespec ts;
-	clock_gettime(CLOCK_MONOTONIC, &ts);
-	return ts.tv_sec * 1e3 + ts.tv_nsec * 1e-6;
 }
 
 static int validate_settings(const mc_tracker_settings *s, mc_err *err)
@@ -665,7 +658,7 @@ static bool pose_finite(const double *p, int n)
 int mc_tracker_track(mc_tracker *t, const mc_frame_view *views, int nviews, const mc_keypoint *kp, int nkp,
 		     mc_skeleton *out, mc_err *err)
 {
-	double start = now_ms();
+	uint64_t start = mc_now_ns();
 	memset(out, 0, sizeof(*out));
 	for (int c = 0; c < nviews && c < t->rig.ncams; c++)
 		if (view_usable(&views[c]) && views[c].timestamp_ns > out->timestamp_ns)
@@ -704,6 +697,6 @@ int mc_tracker_track(mc_tracker *t, const mc_frame_view *views, int nviews, cons
 	}
 	out->energy = E;
 	fill_skeleton(t, t->pose, out);
-	out->track_ms = now_ms() - start;
+	out->track_ms = mc_ms_since(start);
 	return 0;
 }

@@ -1,6 +1,8 @@
 /* drv_harness: a dlopen-based host for driver plugin tests. */
 #include "drv_harness.h"
 
+#include "base/mc_time.h"
+
 #include <dlfcn.h>
 #include <libgen.h>
 #include <limits.h>
@@ -149,7 +151,5 @@ int drv_harness_frame(drv_harness *h, void *dev, mdrv_frame *f, void *buf, size_
 
 unsigned long long drv_harness_now_ns(void)
 {
-	struct timespec ts;
-	clock_gettime(CLOCK_MONOTONIC, &ts);
-	return (unsigned long long)ts.tv_sec * 1000000000ull + (unsigned long long)ts.tv_nsec;
+	return mc_now_ns();
 }
