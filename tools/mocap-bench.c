@@ -30,16 +30,6 @@ static const char *const eval_joints[] = {
 };
 #define NEVAL ((int)(sizeof(eval_joints) / sizeof(eval_joints[0])))
 
-static const struct {
-	const char *name;
-	const char *members[4];
-} groups[] = {
-	{"torso", {"neck", "shoulder", NULL}},
-	{"arms", {"elbow", "wrist", NULL}},
-	{"legs", {"hip", "knee", NULL}},
-	{"feet", {"ankle", "toe", NULL}},
-};
-
 typedef struct {
 	const char *clip;
 	const char *model_path;
@@ -286,16 +276,15 @@ static int track_clip(const options *o, mc_tracker *t, bench_detector *bd, const
 static void print_accuracy(const run_stats *st)
 {
 	printf("accuracy (MPJPE, cm, left camera frame, no alignment):\n");
-	for (size_t g = 0; g < sizeof(groups) / sizeof(groups[0]); g++) {
+	for (int g = 0; g < BENCH_GROUPS; g++) {
 		double sum = 0;
 		int n = 0;
 		for (int e = 0; e < NEVAL; e++)
-			for (int m = 0; groups[g].members[m]; m++)
-				if (strstr(eval_joints[e], groups[g].members[m])) {
-					sum += st->err_sum[e];
-					n++;
-				}
-		printf("  %-6s %6.2f\n", groups[g].name, n ? 100.0 * sum / (n * st->err_n) : 0);
+			if (bench_joint_group(eval_joints[e]) == g) {
+				sum += st->err_sum[e];
+				n++;
+			}
+		printf("  %-6s %6.2f\n", bench_group_name(g), n ? 100.0 * sum / (n * st->err_n) : 0);
 	}
 	for (int e = 0; e < NEVAL; e++)
 		printf("  %-15s %6.2f   (mean confidence %.2f)\n", eval_joints[e], 100.0 * st->err_sum[e] / st->err_n,

@@ -12,25 +12,6 @@
  * the detector's input resolution) counts as false. */
 #define FALSE_PX 10.0
 
-static const struct {
-	const char *name;
-	const char *members[3];
-} groups[BENCH_DET_GROUPS] = {
-	{"torso", {"neck", "shoulder", NULL}},
-	{"arms", {"elbow", "wrist", NULL}},
-	{"legs", {"hip", "knee", NULL}},
-	{"feet", {"ankle", "toe", NULL}},
-};
-
-static int group_of(const char *joint)
-{
-	for (int g = 0; g < BENCH_DET_GROUPS; g++)
-		for (int m = 0; groups[g].members[m]; m++)
-			if (strstr(joint, groups[g].members[m]))
-				return g;
-	return -1;
-}
-
 int bench_detector_open(bench_detector *bd, const char *path, const mc_model *model, const mc_clip *clip, int every,
 			int nframes, mc_err *err)
 {
@@ -48,17 +29,14 @@ int bench_detector_open(bench_detector *bd, const char *path, const mc_model *mo
 	for (int j = 0; j < nj; j++) {
 		const char *name = mc_detector_joint_name(bd->det, j);
 		bd->gt_map[j] = mc_clip_joint(clip, name);
-		/* head_top, spine and pelvis are not evaluated (docs/CONVENTIONS.md) */
-		bd->group[j] = strcmp(name, "head_top") && strcmp(name, "spine") && strcmp(name, "pelvis")
-				       ? group_of(name)
-				       : -1;
+		bd->group[j] = bench_joint_group(name); /* -1: not evaluated */
 	}
 	bd->cap = nframes * clip->rig.ncams * nj;
 	bd->views_cap = nframes * clip->rig.ncams;
 	bd->view_ms = calloc((size_t)bd->views_cap + 1, sizeof(double));
-	for (int g = 0; g < BENCH_DET_GROUPS; g++)
+	for (int g = 0; g < BENCH_GROUPS; g++)
 		bd->err[g] = calloc((size_t)bd->cap + 1, sizeof(double));
-	for (int g = 0; g < BENCH_DET_GROUPS; g++)
+	for (int g = 0; g < BENCH_GROUPS; g++)
 		if (!bd->err[g] || !bd->view_ms) {
 			bench_detector_close(bd);
 			return mc_err_set(err, "out of memory for the detector's scores");
@@ -69,7 +47,7 @@ int bench_detector_open(bench_detector *bd, const char *path, const mc_model *mo
 void bench_detector_close(bench_detector *bd)
 {
 	mc_detector_free(bd->det);
-	for (int g = 0; g < BENCH_DET_GROUPS; g++)
+	for (int g = 0; g < BENCH_GROUPS; g++)
 		free(bd->err[g]);
 	free(bd->view_ms);
 	memset(bd, 0, sizeof(*bd));
@@ -138,11 +116,11 @@ void bench_detector_report(bench_detector *bd, const char *clip_name)
 	mc_detector_input_size(bd->det, &in_w, &in_h);
 	printf("detector (%s), 2D error at %dx%d against the projected ground truth:\n", mc_detector_path(bd->det), in_w,
 	       in_h);
-	double *all = calloc((size_t)bd->cap * BENCH_DET_GROUPS + 1, sizeof(double));
+	double *all = calloc((size_t)bd->cap * BENCH_GROUPS + 1, sizeof(double));
 	int nall = 0;
-	for (int g = 0; g < BENCH_DET_GROUPS; g++) {
+	for (int g = 0; g < BENCH_GROUPS; g++) {
 		mc_stats_sort(bd->err[g], (size_t)bd->nerr[g]);
-		printf("  %-6s median %5.2f px, p90 %5.2f px (%d detections)\n", groups[g].name,
+		printf("  %-6s median %5.2f px, p90 %5.2f px (%d detections)\n", bench_group_name(g),
 		       mc_stats_percentile(bd->err[g], (size_t)bd->nerr[g], 50),
 		       mc_stats_percentile(bd->err[g], (size_t)bd->nerr[g], 90), bd->nerr[g]);
 		if (all) {

@@ -8,9 +8,8 @@
 
 #include "eval/mc_clip.h"
 #include "mc_detector.h"
+#include "bench/joint_groups.h"
 
-/* Joint groups of the 2D report, as in the 3D one. */
-#define BENCH_DET_GROUPS 4
 
 typedef struct {
 	mc_detector *det;
@@ -19,8 +18,8 @@ typedef struct {
 	int group[MC_DETECTOR_MAX_JOINTS];     /* report group, -1: not evaluated */
 	int every;                             /* detect on every Nth frame set */
 	/* 2D scoring, pixels at the detector's input resolution */
-	double *err[BENCH_DET_GROUPS];
-	int nerr[BENCH_DET_GROUPS], cap;
+	double *err[BENCH_GROUPS];
+	int nerr[BENCH_GROUPS], cap;
 	int in_image, missed, false_pos, reported;
 	/* cost */
 	double *view_ms;
