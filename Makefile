@@ -123,13 +123,14 @@ $(BUILD)/bin/%: tools/%.c $(CORE_LIB)
 
 # mocap-bench links the detector runtime (detect/, C++ behind a C header)
 # and its own helpers in tools/bench/.  Literal paths: detect/module.mk's
-# variables are read later than this rule's prerequisites would need.
+# variables are read later than this rule's prerequisites would need.  The
+# include flags are on the objects and the recipe only: a target-specific
+# variable on the program would leak into the core objects it builds.
 BENCH_TOOL_OBJ := $(patsubst tools/bench/%.c,$(BUILD)/tools/bench/%.o,$(wildcard tools/bench/*.c))
 $(BUILD)/tools/bench/%.o: CPPFLAGS += -Idetect -Itools
-$(BUILD)/bin/mocap-bench: CPPFLAGS += -Idetect -Itools
 $(BUILD)/bin/mocap-bench: tools/mocap-bench.c $(BENCH_TOOL_OBJ) $(BUILD)/libmocapdetect.a $(CORE_LIB)
 	@mkdir -p $(@D)
-	$(CC) $(CPPFLAGS) $(CFLAGS) -MMD -MP $< $(BENCH_TOOL_OBJ) -o $@ $(LDFLAGS) $(BUILD)/libmocapdetect.a $(CORE_LIB) \
+	$(CC) $(CPPFLAGS) -Idetect -Itools $(CFLAGS) -MMD -MP $< $(BENCH_TOOL_OBJ) -o $@ $(LDFLAGS) $(BUILD)/libmocapdetect.a $(CORE_LIB) \
 		$(CORE_LIBS) $(DETECT_LIBS)
 
 # Unit tests: every $(BUILD)/tests/test_* program (exit 0 pass, 77 skip).
