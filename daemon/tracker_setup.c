@@ -64,10 +64,13 @@ static int init_from_joints(const mcd_config *cfg, mcd_tracking *t, mc_err *err)
 static int init_pose(const mcd_config *cfg, mcd_tracking *t, mc_err *err)
 {
 	if (!cfg->tracker.init_joints[0]) {
-		double pose[MC_MAX_DOF];
-		mc_model_rest_pose(&t->model, pose);
-		mc_tracker_set_pose(t->tracker, pose);
-		mcd_info("tracker: starting from the model's rest pose");
+		/* No ground truth: the first pose, the colours and (outside-in)
+		 * the actor's size come from the detections; until then the
+		 * state is "initialising". */
+		if (mc_tracker_start_from_detections(t->tracker, true, err) < 0)
+			return -1;
+		t->calibrate_pending = false;
+		mcd_info("tracker: no init_joints: waiting for detections of the actor (state initialising)");
 		return 0;
 	}
 	char where[700];
@@ -119,9 +122,9 @@ int mcd_tracking_setup(const mcd_config *cfg, mcd_tracking *t, mc_err *err)
 		mc_err_prefix(err, "%s:%d: [tracker]", cfg->file, cfg->tracker.line);
 		goto fail;
 	}
+	t->calibrate_pending = cfg->tracker.calibrate_colors;
 	if (init_pose(cfg, t, err))
 		goto fail;
-	t->calibrate_pending = cfg->tracker.calibrate_colors;
 	mcd_info("tracker: rig %s (%d cameras), model %s (%d joints, %d Gaussians), %dx%d, %d iterations, on %s",
 		 t->rig.name, t->rig.ncams, t->model.name, t->model.njoints, t->model.ngauss, t->settings.width,
 		 t->settings.height, t->settings.iterations, mc_tracker_device_name(t->tracker));

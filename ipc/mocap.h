@@ -66,6 +66,7 @@ typedef enum {
 	MOCAP_TRACK_UNCERTAIN = 1,
 	MOCAP_TRACK_LOST = 2,
 	MOCAP_TRACK_IDLE = 3, /* status only: the daemon is not tracking */
+	MOCAP_TRACK_INITIALISING = 4, /* waiting for detections that a body fits: no pose yet */
 } mocap_track_state;
 typedef enum {
 	MOCAP_CMD_RELOAD = 1,

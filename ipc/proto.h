@@ -177,7 +177,7 @@ typedef struct {
 	uint64_t publish_ns;
 	uint32_t skeleton_id;
 	uint16_t njoints;
-	uint8_t state;   /* 0 ok, 1 uncertain, 2 lost */
+	uint8_t state;   /* 0 ok, 1 uncertain, 2 lost, 4 initialising */
 	uint8_t space;   /* mc_space */
 	mc_wire_joint joints[PROTO_MAX_JOINTS];
 } mc_msg_frame;
@@ -218,7 +218,7 @@ typedef struct {
 	uint64_t server_time_ns, start_ns;
 	uint64_t frames_published, frames_dropped, client_drops;
 	double publish_fps, track_ms_mean, track_ms_max;
-	uint8_t tracker_state; /* 0 ok, 1 uncertain, 2 lost, 3 idle */
+	uint8_t tracker_state; /* 0 ok, 1 uncertain, 2 lost, 3 idle, 4 initialising */
 	uint8_t recording;
 	uint16_t ncams;
 	uint32_t nclients;

@@ -144,7 +144,8 @@ typedef enum {
 	SRV_TRACKER_OK = MC_TRACK_OK,
 	SRV_TRACKER_UNCERTAIN = MC_TRACK_UNCERTAIN,
 	SRV_TRACKER_LOST = MC_TRACK_LOST,
-	SRV_TRACKER_IDLE = 3, /* not tracking (disabled, initialising, no frames) */
+	SRV_TRACKER_IDLE = 3, /* not tracking (disabled, no frames yet) */
+	SRV_TRACKER_INITIALISING = MC_TRACK_INITIALISING, /* waiting for detections that a body fits */
 } srv_tracker_state;
 
 typedef struct {

@@ -29,7 +29,7 @@ DEFAULT_SOCKET = "/run/mocapd/mocapd.sock"
 LATEST, ALL = 1, 2
 SPACE_RIG, SPACE_WORLD = 0, 1
 CMD_RELOAD, CMD_RECORD_START, CMD_RECORD_STOP = 1, 2, 3
-TRACK_STATES = {0: "ok", 1: "uncertain", 2: "lost", 3: "idle"}
+TRACK_STATES = {0: "ok", 1: "uncertain", 2: "lost", 3: "idle", 4: "initialising"}
 CAMERA_STATES = {0: "ok", 1: "stalled", 2: "error", 3: "off"}
 
 # Message types.

@@ -47,6 +47,9 @@ typedef struct {
 	const char *detector_path; /* --detector MODEL: the 2D joint detector feeds the tracker */
 	int detector_every;        /* detect on every Nth frame set */
 	double detector_threshold; /* < 0: the model's own */
+	/* --init detect: start from the detections alone, nothing from gt.json
+	 * (not even frame 0); false: frame 0's ground truth (the protocol's gt0) */
+	bool init_detect;
 	mc_tracker_settings s;
 } options;
 
@@ -90,6 +93,13 @@ static mc_tracker *start_tracker(const options *o, const mc_clip *clip, const mc
 	if (mc_model_load(o->model_path, &model, err) < 0)
 		return NULL;
 	mc_tracker *t = mc_tracker_create(&clip->rig, &model, s, err);
+	if (t && o->init_detect) {
+		if (mc_tracker_start_from_detections(t, true, err) < 0) {
+			mc_tracker_destroy(t);
+			return NULL;
+		}
+		return t;
+	}
 	if (t && mc_clip_init_tracker(clip, t, err) < 0) {
 		mc_tracker_destroy(t);
 		return NULL;
@@ -103,7 +113,8 @@ typedef struct {
 	double err_sum[NEVAL];
 	int err_n;
 	double still_sum[NEVAL]; /* holding the initial pose for every frame */
-	int states[3];
+	int states[MC_TRACK_INITIALISING + 1];
+	int first_tracked; /* first frame set out of the initialising state, -1: none */
 	double conf_sum[NEVAL];
 	/* joint estimates binned by their reported confidence (quarters of
 	 * [0, 1]): how many, and their summed error */
@@ -240,6 +251,7 @@ static int track_clip(const options *o, mc_tracker *t, bench_detector *bd, const
 		return mc_err_set(err, "out of memory");
 	mc_skeleton still;
 	current_skeleton(t, &still);
+	st->first_tracked = -1;
 	uint64_t rng = o->s.seed + 1;
 	for (int k = 0; k < nframes; k++) {
 		mc_frame_view views[2];
@@ -257,6 +269,8 @@ static int track_clip(const options *o, mc_tracker *t, bench_detector *bd, const
 		if (rc < 0)
 			return -1;
 		st->states[sk.state]++;
+		if (st->first_tracked < 0 && sk.state != MC_TRACK_INITIALISING)
+			st->first_tracked = k;
 		score(clip, k, &sk, st->err_sum);
 		score_confidence(clip, k, &sk, st);
 		score(clip, k, &still, st->still_sum);
@@ -272,6 +286,53 @@ static int track_clip(const options *o, mc_tracker *t, bench_detector *bd, const
 }
 
 /* ---- report ------------------------------------------------------------ */
+
+/* The bone length of model joint j (to its parent) in the ground truth:
+ * the median over the clip, or -1 when the clip lacks either end. */
+static double gt_bone_length(const mc_clip *clip, const mc_model *m, int j)
+{
+	int p = m->joints[j].parent;
+	int a = mc_clip_joint(clip, m->joints[j].name), b = p >= 0 ? mc_clip_joint(clip, m->joints[p].name) : -1;
+	if (a < 0 || b < 0 || clip->gt.nframes <= 0)
+		return -1;
+	double *len = malloc(sizeof(double) * clip->gt.nframes);
+	if (!len)
+		return -1;
+	for (int k = 0; k < clip->gt.nframes; k++)
+		len[k] = mc_v3_norm(mc_v3_sub(mc_clip_gt(clip, k, a), mc_clip_gt(clip, k, b)));
+	mc_stats_sort(len, clip->gt.nframes);
+	double v = mc_stats_percentile(len, clip->gt.nframes, 50);
+	free(len);
+	return v;
+}
+
+/* --init detect: when tracking started, and the bone lengths the tracker
+ * measured against the ground truth's (the BONES line). */
+static void print_init_report(const mc_tracker *t, const mc_clip *clip, const run_stats *st)
+{
+	mc_tracker_init_info in;
+	mc_tracker_get_init_info(t, &in);
+	const mc_model *m = mc_tracker_model(t);
+	printf("init from detections: first pose at frame set %d (%.2f s), size %s (bone scale %.3f) from %d frame "
+	       "sets, %d re-fits\n",
+	       st->first_tracked, st->first_tracked >= 0 ? st->first_tracked / clip->gt.fps : -1.0,
+	       in.shape_measured ? "measured" : "NOT measured", in.scale, in.shape_frames, in.refits);
+	double sum = 0, worst = 0;
+	int n = 0;
+	printf("  bone lengths (cm, estimate / ground truth):");
+	for (int j = 0; j < m->njoints; j++) {
+		double gt = gt_bone_length(clip, m, j), rest = mc_v3_norm(m->joints[j].offset);
+		if (gt < 0.05 || rest < 1e-3)
+			continue;
+		double est = m->bone_scale[j] * rest, e = fabs(est - gt) / gt;
+		printf(" %s %.1f/%.1f", m->joints[j].name, 100 * est, 100 * gt);
+		sum += e;
+		worst = fmax(worst, e);
+		n++;
+	}
+	printf("\nBONES clip=%s bones=%d mean_err_pct=%.1f max_err_pct=%.1f first_frame=%d\n", clip->name, n,
+	       n ? 100 * sum / n : 0, 100 * worst, st->first_tracked);
+}
 
 static void print_accuracy(const run_stats *st)
 {
@@ -294,8 +355,9 @@ static void print_accuracy(const run_stats *st)
 		still += st->still_sum[e];
 	printf("  holding the initial pose instead (no tracking): %.2f\n",
 	       st->err_n ? 100.0 * still / (st->err_n * NEVAL) : 0.0);
-	printf("  overall %6.2f over %d frames (states: %d ok, %d uncertain, %d lost)\n", 100.0 * mpjpe_of(st),
-	       st->err_n, st->states[0], st->states[1], st->states[2]);
+	printf("  overall %6.2f over %d frames (states: %d ok, %d uncertain, %d lost, %d initialising)\n",
+	       100.0 * mpjpe_of(st), st->err_n, st->states[MC_TRACK_OK], st->states[MC_TRACK_UNCERTAIN],
+	       st->states[MC_TRACK_LOST], st->states[MC_TRACK_INITIALISING]);
 	printf("  error by reported joint confidence:");
 	for (int b = 0; b < 4; b++)
 		printf("  %.2f-%.2f: %.2f cm (%d)", b / 4.0, (b + 1) / 4.0,
@@ -505,7 +567,11 @@ static void usage(FILE *f)
 		   "                        time counts in the reported speed, and a 2D report follows\n"
 		   "  --detector-every N    detect on every Nth frame set only (default 1)\n"
 		   "  --detector-threshold T  keypoints below confidence T are dropped (default: the model's)\n"
-		   "  --lambda-color L      weight of the colour term (default 1; 0: detections and priors only)\n");
+		   "  --lambda-color L      weight of the colour term (default 1; 0: detections and priors only)\n"
+		   "  --init gt0|detect     gt0 (default): pose and bone lengths from frame 0's ground truth;\n"
+		   "                        detect: from the detections alone (needs --detector or\n"
+		   "                        --simulated-detector), nothing from gt.json\n"
+		   "  --no-recover          never re-fit the pose to the detections when lost or stuck\n");
 }
 
 static int parse_number(const char *opt, const char *arg, double lo, double hi, double *out)
@@ -523,7 +589,8 @@ static int parse_number(const char *opt, const char *arg, double lo, double hi, 
 enum { OPT_MODEL = 256, OPT_OUT, OPT_FRAMES, OPT_BACKEND, OPT_WIDTH, OPT_HEIGHT, OPT_ITER, OPT_FRAC, OPT_DROP,
        OPT_STEP, OPT_MOM, OPT_LSMOOTH, OPT_LPOSE, OPT_LLIMIT, OPT_PLAT, OPT_DEV, OPT_SEED, OPT_OCAM, OPT_REF,
        OPT_NOTHESIS, OPT_QUIET, OPT_CLIP, OPT_HELP, OPT_OVERLAY, OPT_OVERLAY_EVERY, OPT_LANCHOR,
-       OPT_SIMDET, OPT_LDET, OPT_DETECTOR, OPT_DET_EVERY, OPT_LCOLOR, OPT_DET_THRESHOLD };
+       OPT_SIMDET, OPT_LDET, OPT_DETECTOR, OPT_DET_EVERY, OPT_LCOLOR, OPT_DET_THRESHOLD, OPT_INIT,
+       OPT_NORECOVER };
 
 static int apply_option(options *o, int c, const char *name, const char *arg, bool *thesis)
 {
@@ -538,6 +605,14 @@ static int apply_option(options *o, int c, const char *name, const char *arg, bo
 	case OPT_OCAM: o->use_ocam = true; return 0;
 	case OPT_NOTHESIS: *thesis = false; return 0;
 	case OPT_QUIET: o->quiet = true; return 0;
+	case OPT_NORECOVER: o->s.recover = false; return 0;
+	case OPT_INIT:
+		if (!strcmp(arg, "gt0") || !strcmp(arg, "detect")) {
+			o->init_detect = !strcmp(arg, "detect");
+			return 0;
+		}
+		fprintf(stderr, "mocap-bench: --init: expected gt0 or detect, got '%s'\n", arg);
+		return -1;
 	case OPT_BACKEND:
 		if (!strcmp(arg, "opencl") || !strcmp(arg, "reference")) {
 			s->backend = !strcmp(arg, "opencl") ? MC_BACKEND_OPENCL : MC_BACKEND_REFERENCE;
@@ -591,6 +666,7 @@ static int parse_options(int argc, char **argv, options *o, bool *thesis)
 		{"seed", 1, 0, OPT_SEED}, {"ocam", 0, 0, OPT_OCAM}, {"reference-frames", 1, 0, OPT_REF},
 		{"no-thesis", 0, 0, OPT_NOTHESIS}, {"overlay-dir", 1, 0, OPT_OVERLAY},
 		{"overlay-every", 1, 0, OPT_OVERLAY_EVERY}, {"quiet", 0, 0, OPT_QUIET}, {"help", 0, 0, OPT_HELP},
+		{"init", 1, 0, OPT_INIT}, {"no-recover", 0, 0, OPT_NORECOVER},
 		{0, 0, 0, 0}};
 	int c, idx;
 	while ((c = getopt_long(argc, argv, "", longopts, &idx)) != -1) {
@@ -602,6 +678,10 @@ static int parse_options(int argc, char **argv, options *o, bool *thesis)
 			usage(stderr);
 			return -1;
 		}
+	}
+	if (o->init_detect && !o->detector_path && o->simulated_detector_px < 0) {
+		fprintf(stderr, "mocap-bench: --init detect needs --detector MODEL (or --simulated-detector PX)\n");
+		return -1;
 	}
 	if (o->detector_path && o->simulated_detector_px >= 0) {
 		fprintf(stderr, "mocap-bench: --detector and --simulated-detector exclude each other\n");
@@ -679,6 +759,8 @@ static int run(const options *o, bool thesis, mc_err *err)
 	int rc = track_clip(o, t, bd, &clip, nframes, out, &st, err);
 	if (out)
 		fclose(out);
+	if (rc == 0 && o->init_detect)
+		print_init_report(t, &clip, &st);
 	char device[160];
 	snprintf(device, sizeof(device), "%s", mc_tracker_device_name(t));
 	mc_tracker_destroy(t);

@@ -10,6 +10,14 @@ void mc_ik_options_default(mc_ik_options *o)
 	o->pose_prior = 1e-4;
 	o->fit_bone_scale = true;
 	o->fit_root = true;
+	o->restarts = true;
+}
+
+/* v without its component along a ray target's direction (a point target
+ * has dir 0 and keeps v whole). */
+static mc_vec3 target_project(const mc_ik_target *t, mc_vec3 v)
+{
+	return mc_v3_axpy(-mc_v3_dot(v, t->dir), t->dir, v);
 }
 
 static int compare_double(const void *a, const void *b)
@@ -60,7 +68,7 @@ static double ik_cost(const mc_model *m, const double *p, const mc_ik_target *t,
 	mc_model_fk(m, p, &fk);
 	double c = 0;
 	for (int i = 0; i < n; i++) {
-		mc_vec3 r = mc_v3_sub(fk.rig_from_joint[t[i].joint].t, t[i].position);
+		mc_vec3 r = target_project(&t[i], mc_v3_sub(fk.rig_from_joint[t[i].joint].t, t[i].position));
 		c += t[i].weight * mc_v3_norm2(r);
 	}
 	for (int k = first_joint_dof; k < m->ndof; k++)
@@ -81,8 +89,11 @@ static bool ik_step(const mc_model *m, const double *p, const mc_ik_target *t, i
 	memset(A, 0, sizeof(double) * nd * nd);
 	memset(g, 0, sizeof(double) * nd);
 	for (int i = 0; i < n; i++) {
-		const mc_vec3 *Ji = &J[t[i].joint * nd];
-		mc_vec3 r = mc_v3_sub(fk.rig_from_joint[t[i].joint].t, t[i].position);
+		const mc_vec3 *Jj = &J[t[i].joint * nd];
+		mc_vec3 Ji[MC_MAX_DOF];
+		for (int a = 0; a < nd; a++) /* the projection is idempotent: P J, P r */
+			Ji[a] = target_project(&t[i], Jj[a]);
+		mc_vec3 r = target_project(&t[i], mc_v3_sub(fk.rig_from_joint[t[i].joint].t, t[i].position));
 		for (int a = 0; a < nd; a++) {
 			g[a] += t[i].weight * mc_v3_dot(Ji[a], r);
 			for (int b = a; b < nd; b++)
@@ -168,7 +179,7 @@ static double solve_with_restarts(const mc_model *m, double *p, const mc_ik_targ
 	memcpy(start, p, sizeof(double) * m->ndof);
 	memcpy(best, p, sizeof(double) * m->ndof);
 	double best_cost = lm_solve(m, best, t, n, o, first_joint_dof, nfrozen);
-	for (int a = 1; a <= IK_RESTARTS && sqrt(best_cost / wsum) > IK_GOOD_RMS; a++) {
+	for (int a = 1; o->restarts && a <= IK_RESTARTS && sqrt(best_cost / wsum) > IK_GOOD_RMS; a++) {
 		restart_pose(m, a, first_joint_dof, start, trial);
 		double c = lm_solve(m, trial, t, n, o, first_joint_dof, nfrozen);
 		if (c < best_cost) {

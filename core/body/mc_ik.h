@@ -9,11 +9,15 @@
 #include "base/mc_error.h"
 #include "body/mc_model.h"
 
-/* One target: a model joint and where it should be, in the rig frame. */
+/* One target: a model joint and where it should be, in the rig frame.
+ * With a non-zero (unit) dir the target is a ray from `position`: only the
+ * joint's distance from that line counts (a 2D detection seen from a
+ * camera, whose depth is unknown). */
 typedef struct {
 	int joint;
 	mc_vec3 position;
 	double weight;
+	mc_vec3 dir;
 } mc_ik_target;
 
 typedef struct {
@@ -21,6 +25,7 @@ typedef struct {
 	double pose_prior;    /* Tikhonov weight pulling joint dofs to 0 */
 	bool fit_bone_scale;  /* set bone_scale from target bone lengths first */
 	bool fit_root;        /* also solve for the root placement */
+	bool restarts;        /* try other starts while the fit is poor (default true) */
 } mc_ik_options;
 
 void mc_ik_options_default(mc_ik_options *o);

@@ -52,11 +52,10 @@ static void gate_stereo(mc_trk_keypoint_ray *r, const int *cam, int n)
 			r[i].weight = 0;
 }
 
-int mc_trk_prepare_keypoints(const mc_tracker *t, const mc_keypoint *kp, int nkp, mc_trk_keypoint_ray *out)
+int mc_trk_prepare_keypoints(const mc_tracker *t, const mc_keypoint *kp, int nkp, mc_trk_keypoint_ray *out, int *cam)
 {
-	if (!kp || nkp <= 0 || t->s.lambda_detection <= 0)
+	if (!kp || nkp <= 0)
 		return 0;
-	int cam[MC_TRK_MAX_KEYPOINTS];
 	int n = keypoint_rays(t, kp, nkp, out, cam);
 	gate_stereo(out, cam, n);
 	return n;
@@ -74,6 +73,8 @@ double mc_trk_detection_term(mc_tracker *t, const double *pose, const mc_fk *fk,
 	mc_vec3 djoint[MC_MAX_JOINTS] = {{0, 0, 0}};
 	double E = 0;
 	int used = 0;
+	if (t->s.lambda_detection <= 0)
+		return 0;
 	for (int i = 0; i < n; i++) {
 		double w = kp[i].weight;
 		if (w <= 0)

@@ -47,6 +47,7 @@ void mc_tracker_settings_default(mc_tracker_settings *s)
 	s->lambda_pose = 1e-4;
 	s->lambda_smooth = 0.1;
 	s->lambda_anchor = 0; /* off: it biases real motion (docs/TRACKER.md) */
+	s->recover = true;
 	s->cl_platform = -1;
 	s->cl_device = -1;
 	s->seed = 1;
@@ -61,6 +62,8 @@ const char *mc_track_state_name(mc_track_state s)
 		return "uncertain";
 	case MC_TRACK_LOST:
 		return "lost";
+	case MC_TRACK_INITIALISING:
+		return "initialising";
 	}
 	return "unknown";
 }
@@ -202,6 +205,7 @@ void mc_tracker_destroy(mc_tracker *t)
 	}
 	free(t->mask);
 	free(t->jacobian);
+	mc_trk_init_free(t);
 	if (t->cl)
 		mc_cl_energy_destroy(t->cl);
 	free(t);
@@ -232,6 +236,18 @@ const char *mc_tracker_device_name(const mc_tracker *t)
 	return t->device;
 }
 
+int mc_tracker_start_from_detections(mc_tracker *t, bool measure_shape, mc_err *err)
+{
+	return mc_trk_init_start(t, measure_shape, err);
+}
+
+void mc_tracker_get_init_info(const mc_tracker *t, mc_tracker_init_info *out)
+{
+	const mc_trk_init *in = &t->init;
+	*out = (mc_tracker_init_info){in->waiting, in->shape_done, in->nshape, in->inits, in->refits, in->last_joints,
+				      in->scale};
+}
+
 int mc_tracker_init_from_joints(mc_tracker *t, const char *const *names, const mc_vec3 *positions, int n,
 				mc_err *err)
 {
@@ -241,7 +257,7 @@ int mc_tracker_init_from_joints(mc_tracker *t, const char *const *names, const m
 		int j = mc_model_find_joint(&t->model, names[i]);
 		if (j < 0)
 			continue;
-		targets[nt++] = (mc_ik_target){j, positions[i], 1.0};
+		targets[nt++] = (mc_ik_target){j, positions[i], 1.0, {0, 0, 0}};
 	}
 	mc_ik_options o;
 	mc_ik_options_default(&o);
@@ -623,6 +639,18 @@ static int optimise(mc_tracker *t, double *pose, const double *pred, const mc_tr
 	return 0;
 }
 
+int mc_trk_pose_energy(mc_tracker *t, const double *pose, double *E, mc_err *err)
+{
+	mc_fk fk;
+	mc_scene scene;
+	mc_vec3 dmu[MC_MAX_GAUSSIANS];
+	mc_model_fk(&t->model, pose, &fk);
+	mc_trk_make_scene(t, &fk, &scene);
+	mc_trk_choose_candidates(t, &fk);
+	int ns = mc_trk_sample_pixels(t, 0.25);
+	return mc_trk_data_term(t, &scene, ns, 0.0, E, dmu, err);
+}
+
 /* ---- tracking ------------------------------------------------------------ */
 
 static void fill_skeleton(const mc_tracker *t, const double *pose, mc_skeleton *out)
@@ -655,6 +683,23 @@ static bool pose_finite(const double *p, int n)
 	return true;
 }
 
+/* The skeleton while waiting for a first pose: the rest pose, no confidence. */
+static void initialising_skeleton(const mc_tracker *t, mc_skeleton *out)
+{
+	out->state = MC_TRACK_INITIALISING;
+	mc_fk fk;
+	mc_model_fk(&t->model, t->pose, &fk);
+	out->njoints = t->model.njoints;
+	for (int j = 0; j < t->model.njoints; j++) {
+		mc_skeleton_joint *sj = &out->joints[j];
+		snprintf(sj->name, sizeof(sj->name), "%s", t->model.joints[j].name);
+		sj->parent = t->model.joints[j].parent;
+		sj->position = fk.rig_from_joint[j].t;
+		sj->orientation = mc_quat_from_m3(fk.rig_from_joint[j].R);
+		sj->confidence = 0;
+	}
+}
+
 int mc_tracker_track(mc_tracker *t, const mc_frame_view *views, int nviews, const mc_keypoint *kp, int nkp,
 		     mc_skeleton *out, mc_err *err)
 {
@@ -664,6 +709,18 @@ int mc_tracker_track(mc_tracker *t, const mc_frame_view *views, int nviews, cons
 		if (view_usable(&views[c]) && views[c].timestamp_ns > out->timestamp_ns)
 			out->timestamp_ns = views[c].timestamp_ns;
 	int present = mc_trk_load_views(t, views, nviews);
+	mc_trk_keypoint_ray rays[MC_TRK_MAX_KEYPOINTS];
+	int ray_cam[MC_TRK_MAX_KEYPOINTS];
+	int nrays = mc_trk_prepare_keypoints(t, kp, nkp, rays, ray_cam);
+	int waiting = present > 0 ? mc_trk_init_step(t, views, nviews, rays, ray_cam, nrays, err)
+				  : (t->init.waiting ? 1 : 0);
+	if (waiting < 0)
+		return -1;
+	if (waiting) {
+		initialising_skeleton(t, out);
+		out->track_ms = mc_ms_since(start);
+		return 0;
+	}
 
 	double pred[MC_MAX_DOF], pose[MC_MAX_DOF], E = 0, quality = 0;
 	predict(t, pred);
@@ -672,8 +729,6 @@ int mc_tracker_track(mc_tracker *t, const mc_frame_view *views, int nviews, cons
 		mc_fk fk;
 		mc_model_fk(&t->model, pred, &fk);
 		mc_trk_choose_candidates(t, &fk);
-		mc_trk_keypoint_ray rays[MC_TRK_MAX_KEYPOINTS];
-		int nrays = mc_trk_prepare_keypoints(t, kp, nkp, rays);
 		if (optimise(t, pose, pred, rays, nrays, &E, err) < 0)
 			return -1;
 		quality = E / t->baseline;
@@ -695,8 +750,10 @@ int mc_tracker_track(mc_tracker *t, const mc_frame_view *views, int nviews, cons
 		memcpy(t->prev2, t->prev, sizeof(t->prev2));
 		t->history = 0;
 	}
+	
 	out->energy = E;
 	fill_skeleton(t, t->pose, out);
+	mc_trk_init_after(t, out);
 	out->track_ms = mc_ms_since(start);
 	return 0;
 }

@@ -21,6 +21,9 @@ typedef enum {
 	MC_TRACK_OK = 0,
 	MC_TRACK_UNCERTAIN = 1,
 	MC_TRACK_LOST = 2,
+	/* waiting for detections that a body fits (mc_tracker_start_from_detections);
+	 * 3 is the status message's "idle" */
+	MC_TRACK_INITIALISING = 4,
 } mc_track_state;
 
 typedef struct {
@@ -39,6 +42,9 @@ typedef struct {
 	 * (the calibration pose), same pseudo-Huber form as lambda_smooth:
 	 * keeps weakly observed dofs from random-walking (docs/TRACKER.md). */
 	double lambda_anchor;
+	/* Re-fit the pose to the triangulated detections when the state is
+	 * lost or a confident joint keeps disagreeing with the pose. */
+	bool recover;
 	int cl_platform, cl_device; /* -1: first GPU, else first CPU */
 	uint64_t seed;
 } mc_tracker_settings;
@@ -104,6 +110,26 @@ const mc_model *mc_tracker_model(const mc_tracker *t);
  * ignored.  Resets the pose history. */
 int mc_tracker_init_from_joints(mc_tracker *t, const char *const *names, const mc_vec3 *positions, int n,
 				mc_err *err);
+
+/* Starts without any pose: until a frame set's keypoints (two or more
+ * cameras per joint that agree) fit a body, mc_tracker_track reports
+ * MC_TRACK_INITIALISING with the rest pose.  The first fit sets the pose
+ * and the colours from that frame set; with measure_shape, the actor's size
+ * (one scale of the model's bones) is then found from a few of the next
+ * frame sets' detections, and the colours are measured again
+ * (docs/TRACKER.md, "Starting without ground truth").  Returns -1 with err
+ * when out of memory. */
+int mc_tracker_start_from_detections(mc_tracker *t, bool measure_shape, mc_err *err);
+
+typedef struct {
+	bool initialising;   /* no pose yet */
+	bool shape_measured; /* the actor's size set from detections */
+	int shape_frames;    /* frame sets collected for them */
+	int inits, refits;   /* first fits, and re-fits (recoveries) since the start */
+	int joints_triangulated; /* in the last frame set */
+	double scale;        /* the actor's size found, as a bone scale (0 before) */
+} mc_tracker_init_info;
+void mc_tracker_get_init_info(const mc_tracker *t, mc_tracker_init_info *out);
 
 /* Estimates each Gaussian's colour from one frame set at the current pose:
  * visibility-weighted mean of its pixels, the worst 50% dropped (thesis 5.3.2). */

@@ -8,6 +8,39 @@
 #include "energy/mc_energy.h"
 #include "track/mc_tracker.h"
 
+/* One frame set's keypoints triangulated per joint (mc_init.c). */
+typedef struct {
+	bool have[MC_MAX_JOINTS];
+	mc_vec3 pos[MC_MAX_JOINTS];
+	double conf[MC_MAX_JOINTS];
+	int nray[MC_MAX_JOINTS]; /* the rays that met, per joint */
+	struct {
+		mc_vec3 origin, dir;
+		double weight;
+	} ray[MC_MAX_JOINTS][MC_MAX_CAMERAS];
+	int n, torso;
+} mc_trk_triangulation;
+
+/* Initialisation, shape calibration and recovery from detections
+ * (mc_init.c). */
+#define MC_TRK_SHAPE_FRAMES 10 /* frame sets whose detections set the actor's size */
+typedef struct {
+	bool waiting;    /* no pose yet: the state is initialising */
+	bool fit_shape;  /* measure the actor's size */
+	bool shape_done; /* size set from the collected frame sets */
+	int nshape;      /* frame sets collected */
+	int since_shape; /* frame sets since the last one collected */
+	mc_trk_triangulation *shape_tri; /* MC_TRK_SHAPE_FRAMES, malloc'ed */
+	double shape_pose[MC_TRK_SHAPE_FRAMES][MC_MAX_DOF]; /* tracked pose of each */
+	bool collected;  /* this frame set was collected (its pose is stored after tracking) */
+	int disagree[MC_MAX_JOINTS]; /* frame sets in a row a joint missed its rays */
+	float conf[MC_MAX_JOINTS];   /* last frame set's joint confidence */
+	int lost_run;    /* frame sets in a row in the lost state */
+	int inits, refits;
+	int last_joints;  /* joints triangulated in the last frame set */
+	double scale;     /* the size found (uniform bone scale), 0 before */
+} mc_trk_init;
+
 struct mc_tracker {
 	mc_rig rig;
 	mc_model model;
@@ -40,6 +73,7 @@ struct mc_tracker {
 	double evidence0[MC_MAX_GAUSSIANS];
 	int history; /* frames of history in prev/prev2 (0..2) */
 	double baseline; /* mean data energy per pixel after calibration (< 0) */
+	mc_trk_init init;
 	uint64_t rng;
 };
 
@@ -57,6 +91,10 @@ int mc_trk_sample_pixels(mc_tracker *t, double fraction);
  * with respect to the Gaussian centres. */
 int mc_trk_data_term(mc_tracker *t, const mc_scene *scene, int nsampled, double dropout, double *E, mc_vec3 *dmu,
 		     mc_err *err);
+
+/* The colour energy of the current views at a pose (a quarter of its
+ * candidate pixels, no dropout), for comparing two poses. */
+int mc_trk_pose_energy(mc_tracker *t, const double *pose, double *E, mc_err *err);
 
 /* The valid working pixel of camera c that a rig-frame point projects to,
  * or -1. */
@@ -80,11 +118,28 @@ typedef struct {
 	double weight; /* the detection's confidence, 0..1 */
 } mc_trk_keypoint_ray;
 
-/* The frame's keypoints as rays, once per frame: unusable ones and those
- * that two cameras disagree on dropped.  Returns the count. */
-int mc_trk_prepare_keypoints(const mc_tracker *t, const mc_keypoint *kp, int nkp, mc_trk_keypoint_ray *out);
-/* E_detection at a pose; adds its pose gradient to grad. */
+/* The frame's keypoints as rays, once per frame, with each ray's camera
+ * (cam): unusable ones left out, and those that two cameras disagree on
+ * given weight 0.  Returns the count. */
+int mc_trk_prepare_keypoints(const mc_tracker *t, const mc_keypoint *kp, int nkp, mc_trk_keypoint_ray *out, int *cam);
+/* E_detection at a pose (0 when lambda_detection is 0); adds its pose
+ * gradient to grad. */
 double mc_trk_detection_term(mc_tracker *t, const double *pose, const mc_fk *fk, const mc_trk_keypoint_ray *kp, int n,
 			     double *grad);
+
+/* ---- starting and recovering from detections (mc_init.c) ---- */
+
+/* Waits for a first pose from detections (the rest pose until then);
+ * fit_shape: also measure the actor's size. */
+int mc_trk_init_start(mc_tracker *t, bool fit_shape, mc_err *err);
+/* Before tracking a frame set: the first pose when waiting, a re-fit when
+ * lost or stuck, the shape samples.  Returns 1 while still waiting, 0 to
+ * track, -1 with err. */
+int mc_trk_init_step(mc_tracker *t, const mc_frame_view *views, int nviews, const mc_trk_keypoint_ray *rays,
+		     const int *cam, int nrays, mc_err *err);
+/* After tracking: the state and confidence, for recovery, and the pose of
+ * a collected frame set. */
+void mc_trk_init_after(mc_tracker *t, const mc_skeleton *out);
+void mc_trk_init_free(mc_tracker *t);
 
 #endif

@@ -52,6 +52,7 @@ const char *mocap_track_state_name(mocap_track_state s)
 	case MOCAP_TRACK_UNCERTAIN: return "uncertain";
 	case MOCAP_TRACK_LOST: return "lost";
 	case MOCAP_TRACK_IDLE: return "idle";
+	case MOCAP_TRACK_INITIALISING: return "initialising";
 	}
 	return "unknown";
 }

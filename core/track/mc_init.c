@@ -1,0 +1,423 @@
+/* Initialisation, actor size calibration and recovery from detections
+ * (docs/TRACKER.md, "Starting without ground truth").
+ *
+ * Every frame set's keypoints are triangulated per joint: the rays of two
+ * or more cameras that meet.  While the tracker waits for a first pose, a
+ * frame set whose detections a body fits becomes the start: the pose from
+ * inverse kinematics to the rays, the colours from its images.  Over the
+ * next seconds some frame sets are kept; the actor's size is then the bone
+ * scale whose fits explain their rays best, and the colours are measured
+ * again.  While tracking, a lost state re-fits the whole pose to the
+ * detections, and a limb whose confidence stays low while confident
+ * detections keep missing it re-fits that limb (the bone lengths kept).
+ *
+ * Everything is fitted to rays, not to triangulated points: a far joint's
+ * triangulated depth is uncertain by tens of centimetres on a head-mounted
+ * rig (a 0.3 m baseline), and bone lengths measured between such points
+ * came out 20-25% short on the evaluation clips. */
+#include "body/mc_ik.h"
+#include "track/mc_tracker_internal.h"
+
+#include <stdlib.h>
+#include <string.h>
+
+/* Two cameras' rays of one joint must pass this close to one point. */
+#define TRI_GATE_M 0.06
+/* Detections below this confidence are not used. */
+#define TRI_MIN_CONF 0.3
+/* A fit needs this many triangulated joints, FIT_TORSO_MIN of them on the torso. */
+#define FIT_MIN_JOINTS 8
+#define FIT_TORSO_MIN 3
+/* Largest RMS distance of a fitted body's joints from their rays: about
+ * twice the detector's median error at a metre (docs/DETECTOR.md). */
+#define FIT_MAX_RMS_M 0.08
+/* A joint this far from its rays for DISAGREE_FRAMES frame sets in a row,
+ * with a confidence below STUCK_CONF, is caught in a wrong minimum. */
+#define DISAGREE_M 0.20
+#define DISAGREE_FRAMES 10
+#define STUCK_CONF 0.15
+/* Frame sets in a row in the lost state after which the pose is re-fitted
+ * to the detections: a frame set or two are lost in ordinary tracking
+ * (fast motion, motion blur), and re-fitting then to detections, which
+ * are noisier than the tracked pose, made the evaluation clips worse. */
+#define LOST_FRAMES 5
+/* Frame sets between two kept for the size: poses that differ. */
+#define SHAPE_EVERY 3
+/* The sizes tried: bone scales SCALE_MIN .. SCALE_MAX (a 1.75 m model:
+ * about 1.40 m to 2.10 m), then refined around the best. */
+#define SCALE_MIN 0.80
+#define SCALE_MAX 1.20
+#define SCALE_STEPS 9
+
+static bool is_torso(const char *name)
+{
+	static const char *const torso[] = {"left_shoulder", "right_shoulder", "left_hip", "right_hip", "spine",
+					    "pelvis"};
+	for (size_t i = 0; i < sizeof(torso) / sizeof(torso[0]); i++)
+		if (!strcmp(name, torso[i]))
+			return true;
+	return false;
+}
+
+static mc_vec3 off_ray(mc_vec3 p, mc_vec3 origin, mc_vec3 dir)
+{
+	mc_vec3 d = mc_v3_sub(p, origin);
+	return mc_v3_axpy(-mc_v3_dot(d, dir), dir, d);
+}
+
+/* The point nearest to the rays idx[0..n-1] (least squares over
+ * sum_i w_i |(I - d_i d_i^T)(x - o_i)|^2); false when they are near
+ * parallel, the point lies behind a camera or a ray misses it by more than
+ * TRI_GATE_M. */
+static bool triangulate_joint(const mc_trk_keypoint_ray *r, const int *idx, int n, mc_vec3 *out, double *conf)
+{
+	double A[9] = {0}, b[3] = {0}, wmin = 1;
+	for (int i = 0; i < n; i++) {
+		const mc_trk_keypoint_ray *k = &r[idx[i]];
+		double d[3] = {k->dir.x, k->dir.y, k->dir.z}, o[3] = {k->origin.x, k->origin.y, k->origin.z};
+		for (int a = 0; a < 3; a++)
+			for (int c = 0; c < 3; c++) {
+				double P = (a == c) - d[a] * d[c];
+				A[3 * a + c] += k->weight * P;
+				b[a] += k->weight * P * o[c];
+			}
+		wmin = fmin(wmin, k->weight);
+	}
+	if (!mc_la_lu_solve(A, b, 3))
+		return false;
+	mc_vec3 x = mc_v3(b[0], b[1], b[2]);
+	for (int i = 0; i < n; i++) {
+		const mc_trk_keypoint_ray *k = &r[idx[i]];
+		if (mc_v3_dot(mc_v3_sub(x, k->origin), k->dir) <= 0.05 ||
+		    mc_v3_norm(off_ray(x, k->origin, k->dir)) > TRI_GATE_M)
+			return false;
+	}
+	*out = x;
+	*conf = wmin;
+	return mc_v3_isfinite(x);
+}
+
+/* Per joint, the best-confidence ray of every camera, triangulated. */
+static void triangulate(const mc_tracker *t, const mc_trk_keypoint_ray *r, const int *cam, int nr,
+			mc_trk_triangulation *tri)
+{
+	memset(tri, 0, sizeof(*tri));
+	for (int j = 0; j < t->model.njoints; j++) {
+		int best[MC_MAX_CAMERAS], n = 0;
+		for (int c = 0; c < t->rig.ncams; c++) {
+			best[n] = -1;
+			for (int i = 0; i < nr; i++)
+				if (r[i].joint == j && cam[i] == c && r[i].weight >= TRI_MIN_CONF &&
+				    (best[n] < 0 || r[i].weight > r[best[n]].weight))
+					best[n] = i;
+			if (best[n] >= 0)
+				n++;
+		}
+		if (n < 2 || !triangulate_joint(r, best, n, &tri->pos[j], &tri->conf[j]))
+			continue;
+		tri->have[j] = true;
+		for (int i = 0; i < n; i++) {
+			tri->ray[j][i].origin = r[best[i]].origin;
+			tri->ray[j][i].dir = r[best[i]].dir;
+			tri->ray[j][i].weight = r[best[i]].weight;
+		}
+		tri->nray[j] = n;
+		tri->n++;
+		tri->torso += is_torso(t->model.joints[j].name);
+	}
+}
+
+static bool enough_for_fit(const mc_trk_triangulation *tri)
+{
+	return tri->n >= FIT_MIN_JOINTS && tri->torso >= FIT_TORSO_MIN;
+}
+
+/* Weighted mean squared distance of the pose's joints from their rays,
+ * over the joints in `use` (NULL: every triangulated joint); *wsum gets
+ * the weight. */
+static double ray_cost(const mc_model *m, const mc_trk_triangulation *tri, const bool *use, const double *pose,
+		       double *wsum)
+{
+	mc_fk fk;
+	mc_model_fk(m, pose, &fk);
+	double sum = 0, w = 0;
+	for (int j = 0; j < m->njoints; j++)
+		for (int i = 0; tri->have[j] && (!use || use[j]) && i < tri->nray[j]; i++) {
+			double wi = tri->ray[j][i].weight;
+			sum += wi * mc_v3_norm2(off_ray(fk.rig_from_joint[j].t, tri->ray[j][i].origin, tri->ray[j][i].dir));
+			w += wi;
+		}
+	*wsum = w;
+	return w > 0 ? sum / w : 0;
+}
+
+/* Fits the pose (in/out: the start) to the rays of the joints in `use`
+ * (NULL: every triangulated one); `keep` (NULL: none) holds every other
+ * joint where it is.  Returns the RMS distance from the rays used, or -1. */
+static double fit_pose(const mc_tracker *t, mc_model *m, const mc_trk_triangulation *tri, const bool *use,
+		       const mc_fk *keep, int iterations, bool restarts, double *pose)
+{
+	mc_ik_target tg[MC_MAX_JOINTS * MC_MAX_CAMERAS];
+	int n = 0;
+	for (int j = 0; j < m->njoints; j++) {
+		bool fit = tri->have[j] && (!use || use[j]);
+		for (int i = 0; fit && i < tri->nray[j]; i++)
+			tg[n++] = (mc_ik_target){j, tri->ray[j][i].origin, tri->ray[j][i].weight, tri->ray[j][i].dir};
+		if (!fit && keep && !t->fixed_joint[j])
+			tg[n++] = (mc_ik_target){j, keep->rig_from_joint[j].t, 1.0, {0, 0, 0}};
+	}
+	mc_ik_options o;
+	mc_ik_options_default(&o);
+	o.iterations = iterations;
+	o.restarts = restarts;
+	o.fit_bone_scale = false;
+	/* The head's place on the rig comes from the model (or an actor
+	 * file): fitted to the detections as well, it made the jumps clip
+	 * 4 cm worse and the walk 0.2 cm better. */
+	o.fit_root = false;
+	mc_err err;
+	if (mc_ik_solve(m, pose, tg, n, &o, &err) < 0)
+		return -1;
+	double w;
+	return sqrt(ray_cost(m, tri, use, pose, &w));
+}
+
+void mc_trk_init_free(mc_tracker *t)
+{
+	free(t->init.shape_tri);
+	t->init.shape_tri = NULL;
+}
+
+int mc_trk_init_start(mc_tracker *t, bool fit_shape, mc_err *err)
+{
+	mc_trk_init_free(t);
+	memset(&t->init, 0, sizeof(t->init));
+	if (fit_shape) {
+		t->init.shape_tri = calloc(MC_TRK_SHAPE_FRAMES, sizeof(mc_trk_triangulation));
+		if (!t->init.shape_tri)
+			return mc_err_set(err, "tracker: out of memory");
+	}
+	t->init.waiting = true;
+	/* On a rig fixed to the head, a change of size moves each joint
+	 * along a line through the head, which is nearly the camera's own
+	 * ray: the detections hardly see it (the search found 0.80-0.90 where
+	 * the truth is 1.0 +- 0.07), so the model's size is kept there. */
+	t->init.fit_shape = fit_shape && t->model.root_free;
+	double pose[MC_MAX_DOF];
+	mc_model_rest_pose(&t->model, pose);
+	mc_tracker_set_pose(t, pose);
+	return 0;
+}
+
+/* The first pose, from the rest pose with restarts; then the colours from
+ * these images.  Returns 1 when tracking can start, 0 to wait, -1. */
+static int first_fit(mc_tracker *t, const mc_frame_view *views, int nviews, const mc_trk_triangulation *tri,
+		     mc_err *err)
+{
+	double pose[MC_MAX_DOF];
+	mc_model_rest_pose(&t->model, pose);
+	double rms = fit_pose(t, &t->model, tri, NULL, NULL, 60, true, pose);
+	if (!(rms >= 0 && rms <= FIT_MAX_RMS_M))
+		return 0; /* not a body: wait for a better frame set */
+	mc_tracker_set_pose(t, pose);
+	if (mc_tracker_calibrate_colors(t, views, nviews, err) < 0)
+		return -1;
+	t->init.waiting = false;
+	t->init.inits++;
+	return 1;
+}
+
+/* ---- the actor's size ---------------------------------------------------- */
+
+/* Mean squared ray distance over the kept frame sets at one bone scale,
+ * each re-fitted from its tracked pose. */
+static double size_cost(const mc_tracker *t, double scale)
+{
+	mc_model m = t->model;
+	for (int j = 0; j < m.njoints; j++)
+		m.bone_scale[j] = scale;
+	double sum = 0, wsum = 0;
+	for (int f = 0; f < t->init.nshape; f++) {
+		double pose[MC_MAX_DOF], w;
+		memcpy(pose, t->init.shape_pose[f], sizeof(pose));
+		fit_pose(t, &m, &t->init.shape_tri[f], NULL, NULL, 30, false, pose);
+		double c = ray_cost(&m, &t->init.shape_tri[f], NULL, pose, &w);
+		sum += c * w;
+		wsum += w;
+	}
+	return wsum > 0 ? sum / wsum : 1e9;
+}
+
+/* The bone scale in [SCALE_MIN, SCALE_MAX] that explains the kept frame
+ * sets' rays best: a grid, then a parabola through the best point and its
+ * neighbours. */
+static double find_size(const mc_tracker *t)
+{
+	double cost[SCALE_STEPS], step = (SCALE_MAX - SCALE_MIN) / (SCALE_STEPS - 1);
+	int best = 0;
+	for (int i = 0; i < SCALE_STEPS; i++) {
+		cost[i] = size_cost(t, SCALE_MIN + i * step);
+		if (cost[i] < cost[best])
+			best = i;
+	}
+	double s = SCALE_MIN + best * step;
+	if (best > 0 && best < SCALE_STEPS - 1) {
+		double a = cost[best - 1], b = cost[best], c = cost[best + 1], den = a - 2 * b + c;
+		if (den > 0)
+			s += step * fmin(fmax(0.5 * (a - c) / den, -0.5), 0.5);
+	}
+	return s;
+}
+
+/* Keeps every SHAPE_EVERY-th frame set with enough joints, until
+ * MC_TRK_SHAPE_FRAMES are kept (its pose is stored after tracking). */
+static void collect_shape(mc_tracker *t, const mc_trk_triangulation *tri)
+{
+	mc_trk_init *in = &t->init;
+	in->collected = false;
+	if (!in->fit_shape || in->shape_done || in->nshape >= MC_TRK_SHAPE_FRAMES || !enough_for_fit(tri))
+		return;
+	if (in->nshape > 0 && ++in->since_shape < SHAPE_EVERY)
+		return;
+	in->since_shape = 0;
+	in->shape_tri[in->nshape] = *tri;
+	in->collected = true;
+}
+
+/* Once MC_TRK_SHAPE_FRAMES are kept: the size, the pose at that size, and
+ * the colours again. */
+static int finish_shape(mc_tracker *t, const mc_frame_view *views, int nviews, const mc_trk_triangulation *tri,
+			mc_err *err)
+{
+	mc_trk_init *in = &t->init;
+	if (!in->fit_shape || in->shape_done || in->nshape < MC_TRK_SHAPE_FRAMES)
+		return 0;
+	in->scale = find_size(t);
+	for (int j = 0; j < t->model.njoints; j++)
+		t->model.bone_scale[j] = in->scale;
+	in->shape_done = true;
+	double pose[MC_MAX_DOF];
+	memcpy(pose, t->pose, sizeof(pose));
+	if (fit_pose(t, &t->model, tri, NULL, NULL, 30, false, pose) >= 0)
+		mc_tracker_set_pose(t, pose);
+	return mc_tracker_calibrate_colors(t, views, nviews, err);
+}
+
+/* ---- recovery ------------------------------------------------------------ */
+
+/* Marks the joints caught in a wrong minimum (stuck[j]) and returns their
+ * count: confidence below STUCK_CONF while they miss their rays by
+ * DISAGREE_M, DISAGREE_FRAMES frame sets in a row. */
+static int stuck_joints(mc_tracker *t, const mc_trk_triangulation *tri, bool *stuck)
+{
+	mc_trk_init *in = &t->init;
+	mc_fk fk;
+	mc_model_fk(&t->model, t->pose, &fk);
+	int n = 0;
+	for (int j = 0; j < t->model.njoints; j++) {
+		double miss = 0;
+		for (int i = 0; tri->have[j] && i < tri->nray[j]; i++)
+			miss = fmax(miss, mc_v3_norm(off_ray(fk.rig_from_joint[j].t, tri->ray[j][i].origin,
+							       tri->ray[j][i].dir)));
+		bool off = tri->have[j] && miss > DISAGREE_M && in->conf[j] < STUCK_CONF;
+		in->disagree[j] = off ? in->disagree[j] + 1 : 0;
+		stuck[j] = in->disagree[j] >= DISAGREE_FRAMES;
+		n += stuck[j];
+	}
+	return n;
+}
+
+/* A stuck joint's limb: the joint, its parent (the bone that swings it)
+ * and everything below it. */
+static void limb_of(const mc_model *m, const bool *stuck, bool *limb)
+{
+	for (int j = 0; j < m->njoints; j++) {
+		int p = m->joints[j].parent;
+		limb[j] = stuck[j] || (p >= 0 && limb[p]);
+	}
+	for (int j = 0; j < m->njoints; j++) {
+		int p = m->joints[j].parent;
+		if (stuck[j] && p >= 0 && m->joints[p].ndof > 0)
+			limb[p] = true;
+	}
+}
+
+/* Re-fits the whole pose (after a loss) or the stuck limbs to the rays,
+ * and keeps the fit only if the images agree: its colour energy must be
+ * lower than the tracked pose's (the detections are noisier than a pose
+ * the images support).  The colours, the size and the anchor stay. */
+static int refit(mc_tracker *t, const mc_trk_triangulation *tri, const bool *limb, mc_err *err)
+{
+	double pose[MC_MAX_DOF], anchor[MC_MAX_DOF], E_now, E_fit;
+	mc_fk keep;
+	memcpy(pose, t->pose, sizeof(pose));
+	mc_model_fk(&t->model, t->pose, &keep);
+	double rms = fit_pose(t, &t->model, tri, limb, limb ? &keep : NULL, 60, !limb, pose);
+	if (!(rms >= 0 && rms <= FIT_MAX_RMS_M))
+		return 0;
+	if (t->s.lambda_color > 0) {
+		if (mc_trk_pose_energy(t, t->pose, &E_now, err) < 0 || mc_trk_pose_energy(t, pose, &E_fit, err) < 0)
+			return -1;
+		if (!(E_fit < E_now))
+			return 0;
+	}
+	memcpy(anchor, t->anchor, sizeof(anchor));
+	mc_tracker_set_pose(t, pose);
+	memcpy(t->anchor, anchor, sizeof(anchor));
+	memset(t->init.disagree, 0, sizeof(t->init.disagree));
+	t->init.refits++;
+	return 0;
+}
+
+static int recover(mc_tracker *t, const mc_trk_triangulation *tri, mc_err *err)
+{
+	if (!t->s.recover || !enough_for_fit(tri))
+		return 0;
+	bool stuck[MC_MAX_JOINTS], limb[MC_MAX_JOINTS];
+	int nstuck = stuck_joints(t, tri, stuck);
+	if (t->init.lost_run >= LOST_FRAMES)
+		return refit(t, tri, NULL, err);
+	if (nstuck == 0)
+		return 0;
+	limb_of(&t->model, stuck, limb);
+	return refit(t, tri, limb, err);
+}
+
+/* ---- per frame set --------------------------------------------------------- */
+
+int mc_trk_init_step(mc_tracker *t, const mc_frame_view *views, int nviews, const mc_trk_keypoint_ray *rays,
+		     const int *cam, int nrays, mc_err *err)
+{
+	mc_trk_init *in = &t->init;
+	mc_trk_triangulation tri;
+	triangulate(t, rays, cam, nrays, &tri);
+	in->last_joints = tri.n;
+	if (in->waiting) {
+		if (!enough_for_fit(&tri))
+			return 1;
+		int rc = first_fit(t, views, nviews, &tri, err);
+		if (rc <= 0)
+			return rc < 0 ? -1 : 1;
+		collect_shape(t, &tri);
+		return 0;
+	}
+	if (recover(t, &tri, err) < 0)
+		return -1;
+	if (finish_shape(t, views, nviews, &tri, err) < 0)
+		return -1;
+	collect_shape(t, &tri);
+	return 0;
+}
+
+void mc_trk_init_after(mc_tracker *t, const mc_skeleton *out)
+{
+	mc_trk_init *in = &t->init;
+	in->lost_run = out->state == MC_TRACK_LOST ? in->lost_run + 1 : 0;
+	for (int j = 0; j < out->njoints && j < MC_MAX_JOINTS; j++)
+		in->conf[j] = out->joints[j].confidence;
+	if (in->collected && out->state != MC_TRACK_LOST) {
+		memcpy(in->shape_pose[in->nshape], t->pose, sizeof(in->shape_pose[0]));
+		in->nshape++;
+	}
+	in->collected = false;
+}
