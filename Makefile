@@ -73,7 +73,8 @@ bench-tracker: $(BUILD)/bin/mocap-bench
 
 # The shipped detector inside the protocol on every evaluation clip: 2D
 # error and cost, and the tracker's MPJPE and fps with detection, with and
-# without the colour term (docs/BENCHMARKS.md, docs/DETECTOR.md).
+# without the colour term, and started from the detections alone (--init
+# detect, nothing from gt.json) (docs/BENCHMARKS.md, docs/DETECTOR.md).
 DETECTOR_MODEL ?= $(firstword $(wildcard config/models/*ego*.onnx))
 BENCHES += bench-detector
 .PHONY: bench-detector
@@ -84,6 +85,8 @@ bench-detector: $(BUILD)/bin/mocap-bench
 			$(BUILD)/bin/mocap-bench --clip $$c --detector $(DETECTOR_MODEL) --quiet --no-thesis || exit 1; \
 			$(BUILD)/bin/mocap-bench --clip $$c --detector $(DETECTOR_MODEL) --lambda-color 0 --quiet \
 				--no-thesis --reference-frames 0 | grep -E '^(RESULT|DETECT2D)' | sed 's/^/no colour term: /' || exit 1; \
+			$(BUILD)/bin/mocap-bench --clip $$c --detector $(DETECTOR_MODEL) --init detect --quiet --no-thesis \
+				--reference-frames 0 | grep -E '^(RESULT|BONES|init from)' | sed 's/^/--init detect: /' || exit 1; \
 		done; \
 	else echo "bench-detector: $(DATA_DIR)/ego not found, skipped"; fi
 

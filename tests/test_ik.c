@@ -38,7 +38,7 @@ int main(void)
 		mc_model_fk(&truth, pose, &fk);
 		mc_ik_target targets[MC_MAX_JOINTS];
 		for (int j = 0; j < truth.njoints; j++)
-			targets[j] = (mc_ik_target){j, fk.rig_from_joint[j].t, 1.0};
+			targets[j] = (mc_ik_target){j, fk.rig_from_joint[j].t, 1.0, {0, 0, 0}};
 		mc_ik_options o;
 		mc_ik_options_default(&o);
 		o.iterations = 300;
@@ -58,7 +58,7 @@ int main(void)
 	/* Too few targets are refused with a message. */
 	mc_model m = truth;
 	double est[MC_MAX_DOF];
-	mc_ik_target two[2] = {{0, mc_v3(0, 0, 0), 1}, {1, mc_v3(0, 0.1, 0), 1}};
+	mc_ik_target two[2] = {{0, mc_v3(0, 0, 0), 1, {0, 0, 0}}, {1, mc_v3(0, 0.1, 0), 1, {0, 0, 0}}};
 	mc_ik_options o;
 	mc_ik_options_default(&o);
 	mc_model_rest_pose(&m, est);

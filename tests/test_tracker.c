@@ -144,7 +144,7 @@ static int synth_open(synth *s, double *pose0, mc_err *err)
 	for (int j = 0; j < clip.gt.njoints; j++) {
 		int mj = mc_model_find_joint(&s->model, clip.gt.joint_names[j]);
 		if (mj >= 0)
-			targets[n++] = (mc_ik_target){mj, mc_clip_gt(&clip, 0, j), 1.0};
+			targets[n++] = (mc_ik_target){mj, mc_clip_gt(&clip, 0, j), 1.0, {0, 0, 0}};
 	}
 	mc_clip_close(&clip);
 	mc_ik_options o;

@@ -56,37 +56,6 @@ typedef struct {
 
 /* ---- tracking ---------------------------------------------------------- */
 
-static double gaussian_noise(uint64_t *rng)
-{
-	double u1 = ((mc_rng_next(rng) >> 11) + 0.5) * 0x1.0p-53, u2 = mc_rng_uniform(rng); /* u1 in (0, 1) */
-	return sqrt(-2 * log(u1)) * cos(2 * M_PI * u2);
-}
-
-/* A simulated 2D detector (--simulated-detector): the evaluated joints of
- * frame k projected from the ground truth into both cameras, with Gaussian
- * noise of `noise_px` native pixels per axis, 15% of them missed.  Returns
- * the number of keypoints. */
-#define SIMULATED_MISS 0.15
-static int simulated_keypoints(const mc_clip *clip, const mc_model *m, int k, double noise_px, uint64_t *rng,
-			       mc_keypoint *kp, int cap)
-{
-	int n = 0;
-	for (int e = 0; e < NEVAL; e++) {
-		int g = mc_clip_joint(clip, eval_joints[e]), j = mc_model_find_joint(m, eval_joints[e]);
-		for (int c = 0; c < 2 && g >= 0 && j >= 0 && n < cap; c++) {
-			const mc_camera *cam = &clip->rig.cams[c];
-			mc_vec3 p = mc_xform_apply(mc_xform_inverse(cam->rig_from_cam), mc_clip_gt(clip, k, g));
-			double u, v;
-			bool seen = mc_camera_project(cam, p, &u, &v);
-			if (!seen || mc_rng_uniform(rng) < SIMULATED_MISS)
-				continue;
-			kp[n++] = (mc_keypoint){c, j, u + noise_px * gaussian_noise(rng), v + noise_px * gaussian_noise(rng),
-						1.0};
-		}
-	}
-	return n;
-}
-
 static mc_tracker *start_tracker(const options *o, const mc_clip *clip, const mc_tracker_settings *s, mc_err *err)
 {
 	mc_model model;
@@ -239,7 +208,8 @@ static int frame_keypoints(const options *o, bench_detector *bd, mc_tracker *t, 
 	if (bd)
 		return bench_detector_run(bd, clip, k, views, 2, kp, cap, err);
 	if (o->simulated_detector_px >= 0)
-		return simulated_keypoints(clip, mc_tracker_model(t), k, o->simulated_detector_px, rng, kp, cap);
+		return mc_clip_simulated_keypoints(clip, mc_tracker_model(t), eval_joints, NEVAL, k,
+						    o->simulated_detector_px, rng, kp, cap);
 	return 0;
 }
 
@@ -738,7 +708,7 @@ static int run(const options *o, bool thesis, mc_err *err)
 	if (o->simulated_detector_px >= 0)
 		printf("WARNING: simulated detector: keypoints from the ground truth, %.1f px noise, %.0f%% missed. "
 		       "Not the evaluation protocol.\n",
-		       o->simulated_detector_px, 100 * SIMULATED_MISS);
+		       o->simulated_detector_px, 100 * MC_CLIP_SIMULATED_MISS);
 	bench_detector det, *bd = NULL;
 	if (o->detector_path) {
 		if (bench_detector_open(&det, o->detector_path, mc_tracker_model(t), &clip, o->detector_every, nframes,

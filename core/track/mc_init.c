@@ -32,10 +32,18 @@
  * twice the detector's median error at a metre (docs/DETECTOR.md). */
 #define FIT_MAX_RMS_M 0.08
 /* A joint this far from its rays for DISAGREE_FRAMES frame sets in a row,
- * with a confidence below STUCK_CONF, is caught in a wrong minimum. */
+ * with a confidence below STUCK_CONF, is caught in a wrong minimum.  (The
+ * distance to the triangulated point instead, 0.30 m, also caught limbs
+ * at a wrong depth, which the keypoint term leaves near their rays, but
+ * the triangulations' depth noise made the evaluation clips 3-4 cm
+ * worse.) */
 #define DISAGREE_M 0.20
 #define DISAGREE_FRAMES 10
 #define STUCK_CONF 0.15
+/* After this many frame sets of disagreement the detections win: the
+ * stuck limbs are re-fitted and the colours measured again at the new
+ * pose, whatever the colour energy says. */
+#define FORCE_FRAMES 30
 /* Frame sets in a row in the lost state after which the pose is re-fitted
  * to the detections: a frame set or two are lost in ordinary tracking
  * (fast motion, motion blur), and re-fitting then to detections, which
@@ -305,26 +313,31 @@ static int finish_shape(mc_tracker *t, const mc_frame_view *views, int nviews, c
 
 /* ---- recovery ------------------------------------------------------------ */
 
-/* Marks the joints caught in a wrong minimum (stuck[j]) and returns their
- * count: confidence below STUCK_CONF while they miss their rays by
- * DISAGREE_M, DISAGREE_FRAMES frame sets in a row. */
+/* Counts, per joint, the frame sets in a row it missed its rays by
+ * DISAGREE_M (among the frame sets that detect it); marks as stuck those past DISAGREE_FRAMES with a confidence
+ * below STUCK_CONF, or past FORCE_FRAMES whatever their confidence (the
+ * colours may have been learnt at a wrong pose, and then the confidence,
+ * measured against them, says nothing).  Returns the largest run among
+ * the stuck joints, 0 when none is. */
 static int stuck_joints(mc_tracker *t, const mc_trk_triangulation *tri, bool *stuck)
 {
 	mc_trk_init *in = &t->init;
 	mc_fk fk;
 	mc_model_fk(&t->model, t->pose, &fk);
-	int n = 0;
+	int worst = 0;
 	for (int j = 0; j < t->model.njoints; j++) {
 		double miss = 0;
 		for (int i = 0; tri->have[j] && i < tri->nray[j]; i++)
 			miss = fmax(miss, mc_v3_norm(off_ray(fk.rig_from_joint[j].t, tri->ray[j][i].origin,
 							       tri->ray[j][i].dir)));
-		bool off = tri->have[j] && miss > DISAGREE_M && in->conf[j] < STUCK_CONF;
-		in->disagree[j] = off ? in->disagree[j] + 1 : 0;
-		stuck[j] = in->disagree[j] >= DISAGREE_FRAMES;
-		n += stuck[j];
+		if (tri->have[j]) /* an undetected frame set neither adds nor clears */
+			in->disagree[j] = miss > DISAGREE_M ? in->disagree[j] + 1 : 0;
+		stuck[j] = (in->disagree[j] >= DISAGREE_FRAMES && in->conf[j] < STUCK_CONF) ||
+			   in->disagree[j] >= FORCE_FRAMES;
+		if (stuck[j] && in->disagree[j] > worst)
+			worst = in->disagree[j];
 	}
-	return n;
+	return worst;
 }
 
 /* A stuck joint's limb: the joint, its parent (the bone that swings it)
@@ -342,20 +355,22 @@ static void limb_of(const mc_model *m, const bool *stuck, bool *limb)
 	}
 }
 
-/* Re-fits the whole pose (after a loss) or the stuck limbs to the rays,
- * and keeps the fit only if the images agree: its colour energy must be
- * lower than the tracked pose's (the detections are noisier than a pose
- * the images support).  The colours, the size and the anchor stay. */
-static int refit(mc_tracker *t, const mc_trk_triangulation *tri, const bool *limb, mc_err *err)
+/* Re-fits the whole pose (after a loss) or the stuck limbs to the rays.
+ * Unless forced, the fit is kept only if the images agree: its colour
+ * energy must be lower than the tracked pose's (the detections are
+ * noisier than a pose the images support); then the colours, the size and
+ * the anchor stay.  A forced fit measures the colours again. */
+static int refit(mc_tracker *t, const mc_frame_view *views, int nviews, const mc_trk_triangulation *tri,
+		 const bool *limb, bool forced, mc_err *err)
 {
 	double pose[MC_MAX_DOF], anchor[MC_MAX_DOF], E_now, E_fit;
 	mc_fk keep;
 	memcpy(pose, t->pose, sizeof(pose));
 	mc_model_fk(&t->model, t->pose, &keep);
-	double rms = fit_pose(t, &t->model, tri, limb, limb ? &keep : NULL, 60, !limb, pose);
+	double rms = fit_pose(t, &t->model, tri, limb, limb ? &keep : NULL, 60, true, pose);
 	if (!(rms >= 0 && rms <= FIT_MAX_RMS_M))
 		return 0;
-	if (t->s.lambda_color > 0) {
+	if (!forced && t->s.lambda_color > 0) {
 		if (mc_trk_pose_energy(t, t->pose, &E_now, err) < 0 || mc_trk_pose_energy(t, pose, &E_fit, err) < 0)
 			return -1;
 		if (!(E_fit < E_now))
@@ -363,24 +378,27 @@ static int refit(mc_tracker *t, const mc_trk_triangulation *tri, const bool *lim
 	}
 	memcpy(anchor, t->anchor, sizeof(anchor));
 	mc_tracker_set_pose(t, pose);
-	memcpy(t->anchor, anchor, sizeof(anchor));
 	memset(t->init.disagree, 0, sizeof(t->init.disagree));
 	t->init.refits++;
+	if (forced)
+		return mc_tracker_calibrate_colors(t, views, nviews, err);
+	memcpy(t->anchor, anchor, sizeof(anchor));
 	return 0;
 }
 
-static int recover(mc_tracker *t, const mc_trk_triangulation *tri, mc_err *err)
+static int recover(mc_tracker *t, const mc_frame_view *views, int nviews, const mc_trk_triangulation *tri,
+		   mc_err *err)
 {
 	if (!t->s.recover || !enough_for_fit(tri))
 		return 0;
 	bool stuck[MC_MAX_JOINTS], limb[MC_MAX_JOINTS];
-	int nstuck = stuck_joints(t, tri, stuck);
+	int run = stuck_joints(t, tri, stuck);
 	if (t->init.lost_run >= LOST_FRAMES)
-		return refit(t, tri, NULL, err);
-	if (nstuck == 0)
+		return refit(t, views, nviews, tri, NULL, false, err);
+	if (run == 0)
 		return 0;
 	limb_of(&t->model, stuck, limb);
-	return refit(t, tri, limb, err);
+	return refit(t, views, nviews, tri, limb, run >= FORCE_FRAMES, err);
 }
 
 /* ---- per frame set --------------------------------------------------------- */
@@ -401,7 +419,7 @@ int mc_trk_init_step(mc_tracker *t, const mc_frame_view *views, int nviews, cons
 		collect_shape(t, &tri);
 		return 0;
 	}
-	if (recover(t, &tri, err) < 0)
+	if (recover(t, views, nviews, &tri, err) < 0)
 		return -1;
 	if (finish_shape(t, views, nviews, &tri, err) < 0)
 		return -1;

@@ -1,0 +1,245 @@
+/* Starting without ground truth and recovering from loss (docs/TRACKER.md,
+ * "Starting without ground truth"), on the bundled clip
+ * (tests/data/ego_demo, 60 frames, the OpenCL tracker on PoCL).
+ *
+ * The keypoints come from a simulated detector (the ground truth
+ * projected, 3 px of noise, 15% missed: mc_clip_simulated_keypoints), so
+ * that these tests measure the tracker's logic and not the shipped
+ * detector's accuracy, which test_detector_tracking and mocap-bench
+ * --detector --init detect measure.
+ *   1. Without keypoints the state is "initialising", with confidence 0;
+ *      from detections alone tracking starts within 0.5 s and stays within
+ *      a bound of the ground-truth start (gt0).
+ *   2. A wrong start (arms raised where the actor's hang, the body 15% too
+ *      small) is run and its arm error printed, NOT asserted: the re-fit
+ *      does not bring such arms back today (docs/TRACKER.md, "Known
+ *      limits": the keypoint term pulls the wrong arm onto the detections'
+ *      rays at the wrong depth, where nothing says it is stuck).
+ *   3. Covered cameras (black images, no keypoints) for 0.5 s in the middle
+ *      of the clip: within 0.5 s of the images coming back the state is
+ *      tracked again and the error within a bound. */
+#include "test_util.h"
+
+#include "eval/mc_clip.h"
+
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+static const char *const joints[] = {"neck", "left_shoulder", "left_elbow", "left_wrist", "left_hip",
+				     "left_knee", "left_ankle", "left_toe", "right_shoulder", "right_elbow",
+				     "right_wrist", "right_hip", "right_knee", "right_ankle", "right_toe"};
+#define NJ ((int)(sizeof(joints) / sizeof(joints[0])))
+static const char *const arm_joints[] = {"left_elbow", "left_wrist", "right_elbow", "right_wrist"};
+
+#define NOISE_PX 3.0
+/* bounds, cm (measured values in the comments at each check) */
+#define DETECT_OVER_GT0_CM 3.0
+#define ARMS_AFTER_CM 12.0
+#define RECOVERED_CM 15.0
+
+typedef struct {
+	mc_clip clip;
+	mc_model model;
+	mc_tracker_settings s;
+	uint64_t rng;
+} fixture;
+
+/* Mean error (cm) over `names` of skeleton sk at frame k. */
+static double error_cm(const fixture *f, const mc_skeleton *sk, int k, const char *const *names, int n)
+{
+	double sum = 0;
+	for (int e = 0; e < n; e++) {
+		int g = mc_clip_joint(&f->clip, names[e]), j = mc_model_find_joint(&f->model, names[e]);
+		CHECK(g >= 0 && j >= 0);
+		sum += mc_v3_norm(mc_v3_sub(sk->joints[j].position, mc_clip_gt(&f->clip, k, g)));
+	}
+	return 100 * sum / n;
+}
+
+/* Tracks frame k; blank: the cameras see black and no keypoints come. */
+static void track(fixture *f, mc_tracker *t, int k, bool blank, mc_skeleton *sk)
+{
+	mc_frame_view v[2];
+	mc_err err;
+	CHECK_MSG(mc_clip_load_frame(&f->clip, k, v, &err) == 0, "%s", err.msg);
+	mc_keypoint kp[2 * NJ];
+	int nkp = 0;
+	if (blank)
+		for (int c = 0; c < 2; c++)
+			memset((void *)v[c].rgb, 0, (size_t)v[c].stride * v[c].height);
+	else
+		nkp = mc_clip_simulated_keypoints(&f->clip, &f->model, joints, NJ, k, NOISE_PX, &f->rng, kp, 2 * NJ);
+	CHECK_MSG(mc_tracker_track(t, v, 2, kp, nkp, sk, &err) == 0, "%s", err.msg);
+	mc_clip_free_frame(v);
+}
+
+static mc_tracker *new_tracker(fixture *f)
+{
+	mc_err err;
+	mc_tracker *t = mc_tracker_create(&f->clip.rig, &f->model, &f->s, &err);
+	CHECK_MSG(t != NULL, "%s", err.msg);
+	f->rng = 7;
+	return t;
+}
+
+/* MPJPE (cm) over the clip from tracker t. */
+static double run_clip(fixture *f, mc_tracker *t, int *first_tracked)
+{
+	double sum = 0;
+	*first_tracked = -1;
+	for (int k = 0; k < f->clip.gt.nframes; k++) {
+		mc_skeleton sk;
+		track(f, t, k, false, &sk);
+		if (*first_tracked < 0 && sk.state != MC_TRACK_INITIALISING)
+			*first_tracked = k;
+		sum += error_cm(f, &sk, k, joints, NJ);
+	}
+	return sum / f->clip.gt.nframes;
+}
+
+static void test_start_from_detections(fixture *f)
+{
+	mc_err err;
+	mc_tracker *t = new_tracker(f);
+	CHECK(mc_clip_init_tracker(&f->clip, t, &err) == 0);
+	int first;
+	double gt0 = run_clip(f, t, &first);
+	mc_tracker_destroy(t);
+
+	t = new_tracker(f);
+	CHECK(mc_tracker_start_from_detections(t, true, &err) == 0);
+	mc_skeleton sk;
+	mc_frame_view v[2];
+	CHECK(mc_clip_load_frame(&f->clip, 0, v, &err) == 0);
+	CHECK(mc_tracker_track(t, v, 2, NULL, 0, &sk, &err) == 0);
+	mc_clip_free_frame(v);
+	CHECK_MSG(sk.state == MC_TRACK_INITIALISING, "no keypoints: state %s", mc_track_state_name(sk.state));
+	CHECK(sk.njoints == f->model.njoints && sk.joints[3].confidence == 0);
+	CHECK(strcmp(mc_track_state_name(MC_TRACK_INITIALISING), "initialising") == 0);
+	mc_tracker_init_info info;
+	mc_tracker_get_init_info(t, &info);
+	CHECK(info.initialising && info.inits == 0);
+
+	double detect = run_clip(f, t, &first);
+	mc_tracker_get_init_info(t, &info);
+	printf("start from detections: first pose at frame %d, MPJPE %.2f cm (gt0 start: %.2f cm)\n", first, detect,
+	       gt0);
+	CHECK(!info.initialising && info.inits == 1);
+	CHECK_MSG(first >= 0 && first <= 15, "tracking started at frame %d, expected within 0.5 s", first);
+	/* measured: 6.6 vs 4.4 cm */
+	CHECK_MSG(detect <= gt0 + DETECT_OVER_GT0_CM, "from detections %.2f cm, gt0 %.2f cm", detect, gt0);
+	mc_tracker_destroy(t);
+}
+
+/* Mean error (cm) over `names` of the tracker's current pose at frame k. */
+static double pose_error_cm(const fixture *f, const mc_tracker *t, int k, const char *const *names, int n)
+{
+	mc_fk fk;
+	const mc_model *m = mc_tracker_model(t);
+	mc_model_fk(m, mc_tracker_pose(t), &fk);
+	double sum = 0;
+	for (int e = 0; e < n; e++)
+		sum += mc_v3_norm(mc_v3_sub(fk.rig_from_joint[mc_model_find_joint(m, names[e])].t,
+					    mc_clip_gt(&f->clip, k, mc_clip_joint(&f->clip, names[e]))));
+	return 100 * sum / n;
+}
+
+/* Frame 0's ground truth with the body shrunk by 15% about the neck
+ * (another actor's bone lengths), and then the arms raised forward
+ * (shoulders at 80% of their forward limit, elbows straight) where the
+ * actor's hang. */
+static void test_wrong_start(fixture *f)
+{
+	mc_err err;
+	mc_tracker *t = new_tracker(f);
+	const char *names[MC_CLIP_MAX_JOINTS];
+	mc_vec3 pos[MC_CLIP_MAX_JOINTS];
+	int neck = mc_clip_joint(&f->clip, "neck");
+	mc_vec3 c = mc_clip_gt(&f->clip, 0, neck);
+	for (int j = 0; j < f->clip.gt.njoints; j++) {
+		names[j] = f->clip.gt.joint_names[j];
+		pos[j] = mc_v3_add(c, mc_v3_scale(mc_v3_sub(mc_clip_gt(&f->clip, 0, j), c), 0.85));
+	}
+	CHECK(mc_tracker_init_from_joints(t, names, pos, f->clip.gt.njoints, &err) == 0);
+	double pose[MC_MAX_DOF];
+	memcpy(pose, mc_tracker_pose(t), sizeof(double) * f->model.ndof);
+	for (int j = 0; j < f->model.njoints; j++) {
+		const mc_joint *jt = &f->model.joints[j];
+		for (int d = 0; d < jt->ndof && (strstr(jt->name, "shoulder") || strstr(jt->name, "elbow")); d++)
+			pose[jt->dof0 + d] = strstr(jt->name, "shoulder") && d == 0 ? 0.8 * jt->upper[0] : 0;
+	}
+	mc_tracker_set_pose(t, pose);
+	double before = pose_error_cm(f, t, 0, arm_joints, 4);
+	mc_frame_view v[2];
+	CHECK(mc_clip_load_frame(&f->clip, 0, v, &err) == 0);
+	CHECK(mc_tracker_calibrate_colors(t, v, 2, &err) == 0);
+	mc_clip_free_frame(v);
+
+	mc_skeleton sk;
+	double after = 0;
+	int n_after = 0;
+	for (int k = 0; k < f->clip.gt.nframes; k++) {
+		track(f, t, k, false, &sk);
+		double e = error_cm(f, &sk, k, arm_joints, 4);
+		if (k >= f->clip.gt.nframes - 15) {
+			after += e;
+			n_after++;
+		}
+	}
+	after /= n_after;
+	mc_tracker_init_info info;
+	mc_tracker_get_init_info(t, &info);
+	printf("wrong start: arms %.1f cm off at the start, %.1f cm over the last 0.5 s (%d re-fits)\n", before, after,
+	       info.refits);
+	CHECK_MSG(before > 2 * ARMS_AFTER_CM, "the start was not wrong enough (%.1f cm)", before);
+	if (after > ARMS_AFTER_CM)
+		printf("NOT RECOVERED (known limit, not asserted): arms %.1f cm off at the end, bound %.0f cm\n", after,
+		       ARMS_AFTER_CM);
+	mc_tracker_destroy(t);
+}
+
+static void test_covered_cameras(fixture *f)
+{
+	mc_err err;
+	mc_tracker *t = new_tracker(f);
+	CHECK(mc_clip_init_tracker(&f->clip, t, &err) == 0);
+	const int cover0 = 20, cover1 = 35, within = 15; /* frames: 0.5 s at 30 fps */
+	mc_skeleton sk;
+	int back = -1;
+	double err_back = 0;
+	for (int k = 0; k < f->clip.gt.nframes && k < cover1 + within; k++) {
+		bool blank = k >= cover0 && k < cover1;
+		track(f, t, k, blank, &sk);
+		if (blank)
+			CHECK_MSG(sk.state == MC_TRACK_LOST, "frame %d covered: state %s", k, mc_track_state_name(sk.state));
+		double e = error_cm(f, &sk, k, joints, NJ);
+		if (!blank && k >= cover1 && back < 0 && sk.state != MC_TRACK_LOST && e <= RECOVERED_CM) {
+			back = k;
+			err_back = e;
+		}
+	}
+	mc_tracker_init_info info;
+	mc_tracker_get_init_info(t, &info);
+	printf("covered cameras, frames %d-%d: tracked again at frame %d (%.1f cm), %d re-fits\n", cover0, cover1 - 1,
+	       back, err_back, info.refits);
+	CHECK_MSG(back >= cover1 && back < cover1 + within, "not recovered within 0.5 s (frame %d)", back);
+	mc_tracker_destroy(t);
+}
+
+int main(void)
+{
+	if (access("tests/data/ego_demo/gt.json", R_OK) != 0)
+		TEST_SKIP("run from the repository root (tests/data/ego_demo not found)");
+	fixture f;
+	mc_err err;
+	memset(&f, 0, sizeof(f));
+	CHECK_MSG(mc_clip_open("tests/data/ego_demo", false, &f.clip, &err) == 0, "%s", err.msg);
+	CHECK_MSG(mc_model_load("config/models/default.json", &f.model, &err) == 0, "%s", err.msg);
+	mc_tracker_settings_default(&f.s);
+	test_start_from_detections(&f);
+	test_wrong_start(&f);
+	test_covered_cameras(&f);
+	mc_clip_close(&f.clip);
+	return mc_test_finish("test_tracker_recovery");
+}
