@@ -64,6 +64,7 @@ static const mcd_config_key keys[] = {
 	{MCD_SEC_TRACKER, "model", MCD_KEY_PATH, T(model), 0, 0, NULL, NULL, false},
 	{MCD_SEC_TRACKER, "init_joints", MCD_KEY_PATH, T(init_joints), 0, 0, NULL, NULL, false},
 	{MCD_SEC_TRACKER, "calibrate_colors", MCD_KEY_BOOL, T(calibrate_colors), 0, 0, NULL, "false", false},
+	{MCD_SEC_TRACKER, "recover", MCD_KEY_BOOL, T(settings.recover), 0, 0, NULL, "true", false},
 	{MCD_SEC_TRACKER, "backend", MCD_KEY_ENUM, T(settings.backend), 0, 0, backends, TRACKER_DEFAULT, false},
 	{MCD_SEC_TRACKER, "width", MCD_KEY_INT, T(settings.width), 1, 8192, NULL, TRACKER_DEFAULT, false},
 	{MCD_SEC_TRACKER, "height", MCD_KEY_INT, T(settings.height), 1, 8192, NULL, TRACKER_DEFAULT, false},
