@@ -187,6 +187,9 @@ static uint64_t count_tracked(mcd_tracking_thread *t, int rc, const mcd_output *
 		tt->track_ms_total += o->sk.track_ms;
 		if (o->sk.track_ms > tt->track_ms_max)
 			tt->track_ms_max = o->sk.track_ms;
+		if (tt->track_state == MC_TRACK_INITIALISING && o->sk.state != MC_TRACK_INITIALISING)
+			mcd_info("tracker: first pose found from the detections after %llu frame sets",
+				 (unsigned long long)tt->tracked);
 		tt->track_state = (int)o->sk.state;
 	} else
 		tt->track_errors++;
