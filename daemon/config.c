@@ -340,6 +340,11 @@ static int check_tracker(mcd_config *cfg, mc_err *err)
 		return mc_err_set(err, "%s:%d: [tracker]: missing key 'rig'", cfg->file, t->line);
 	if (!t->model[0])
 		return mc_err_set(err, "%s:%d: [tracker]: missing key 'model'", cfg->file, t->line);
+	if (t->actor[0] && t->init_joints[0]) {
+		char where[300];
+		return mc_err_set(err, "%s: excludes init_joints (an actor starts from the detections)",
+				  mcd_config_where(cfg, "tracker", "actor", where, sizeof(where)));
+	}
 	return 0;
 }
 

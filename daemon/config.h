@@ -62,7 +62,9 @@ typedef struct {
 	mcd_rig_format rig_format;
 	bool rig_ocam; /* ego-calib: use the fitted OCam polynomial */
 	char model[PATH_MAX];
-	char init_joints[PATH_MAX]; /* gt.json whose frame 0 gives the joints; "" = rest pose */
+	char init_joints[PATH_MAX]; /* gt.json whose frame 0 gives the joints; "" = from detections */
+	char actor[PATH_MAX];       /* actor file (a model file with the actor's size and colours); "" = none */
+	char actor_dir[PATH_MAX];   /* where `mocapctl actor save NAME` writes NAME.json */
 	bool calibrate_colors;
 	mc_tracker_settings settings;
 } mcd_tracker_config;

@@ -63,6 +63,8 @@ static const mcd_config_key keys[] = {
 	{MCD_SEC_TRACKER, "rig_ocam", MCD_KEY_BOOL, T(rig_ocam), 0, 0, NULL, "false", false},
 	{MCD_SEC_TRACKER, "model", MCD_KEY_PATH, T(model), 0, 0, NULL, NULL, false},
 	{MCD_SEC_TRACKER, "init_joints", MCD_KEY_PATH, T(init_joints), 0, 0, NULL, NULL, false},
+	{MCD_SEC_TRACKER, "actor", MCD_KEY_PATH, T(actor), 0, 0, NULL, NULL, false},
+	{MCD_SEC_TRACKER, "actor_dir", MCD_KEY_PATH, T(actor_dir), 0, 0, NULL, "/var/lib/mocapd/actors", true},
 	{MCD_SEC_TRACKER, "calibrate_colors", MCD_KEY_BOOL, T(calibrate_colors), 0, 0, NULL, "false", false},
 	{MCD_SEC_TRACKER, "recover", MCD_KEY_BOOL, T(settings.recover), 0, 0, NULL, "true", false},
 	{MCD_SEC_TRACKER, "backend", MCD_KEY_ENUM, T(settings.backend), 0, 0, backends, TRACKER_DEFAULT, false},

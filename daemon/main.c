@@ -8,6 +8,7 @@
  * status snapshot and, when every pipeline thread made progress, the
  * watchdog.  SIGTERM/SIGINT stop cleanly; SIGHUP (or `mocapctl reload`)
  * reloads what can change safely (docs/CONFIG.md). */
+#include "actor.h"
 #include "config.h"
 #include "detector_thread.h"
 #include "log.h"
@@ -381,6 +382,10 @@ static void handle_requests(daemon_ctx *d)
 		if (ctl.command == MC_CONTROL_RELOAD) {
 			mcd_info("reload requested by pid %d (uid %u)", (int)ctl.pid, (unsigned)ctl.uid);
 			rc = reload(d, msg, sizeof(msg));
+		} else if (ctl.command == MC_CONTROL_ACTOR_SAVE) {
+			mcd_info("actor save '%s' requested by pid %d (uid %u)", ctl.argument, (int)ctl.pid,
+				 (unsigned)ctl.uid);
+			rc = mcd_actor_save(d->pipe, d->cfg, ctl.argument, msg, sizeof(msg));
 		} else {
 			rc = -1;
 			snprintf(msg, sizeof(msg), "recording is not available in this mocapd");

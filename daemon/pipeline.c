@@ -296,6 +296,11 @@ static void camera_status(mcd_pipeline *p, int c, const mcd_track_stats *ts, mcd
 		mcd_camera_last_error(p->cams[c], cs->last_error, sizeof(cs->last_error));
 }
 
+bool mcd_pipeline_actor(mcd_pipeline *p, mc_model *out)
+{
+	return p->tracking && p->tracker && mcd_tracking_thread_actor(p->tracker, out);
+}
+
 void mcd_pipeline_get_status(mcd_pipeline *p, mcd_pipeline_status *st, bool reset_max)
 {
 	mcd_track_stats ts;

@@ -67,10 +67,15 @@ static int init_pose(const mcd_config *cfg, mcd_tracking *t, mc_err *err)
 		/* No ground truth: the first pose, the colours and (outside-in)
 		 * the actor's size come from the detections; until then the
 		 * state is "initialising". */
-		if (mc_tracker_start_from_detections(t->tracker, true, err) < 0)
+		bool actor = cfg->tracker.actor[0];
+		if (mc_tracker_start_from_detections(t->tracker, actor ? MC_INIT_KEEP_ACTOR : MC_INIT_MEASURE_SIZE, err) < 0)
 			return -1;
 		t->calibrate_pending = false;
-		mcd_info("tracker: no init_joints: waiting for detections of the actor (state initialising)");
+		if (actor)
+			mcd_info("tracker: actor %s (its size and colours); waiting for detections (state initialising)",
+				 cfg->tracker.actor);
+		else
+			mcd_info("tracker: no init_joints: waiting for detections of the actor (state initialising)");
 		return 0;
 	}
 	char where[700];
@@ -79,8 +84,44 @@ static int init_pose(const mcd_config *cfg, mcd_tracking *t, mc_err *err)
 	return 0;
 }
 
-/* The rig, the camera map and the model: what both --check and the start
- * need. */
+/* An actor file is a model file saved by `mocapctl actor save` (the
+ * model with the actor's bone scales, head placement and colours): it
+ * must have the configured model's skeleton and Gaussians. */
+static int check_actor_fits(const mc_model *model, const mc_model *actor, mc_err *err)
+{
+	if (actor->njoints != model->njoints || actor->ngauss != model->ngauss || actor->root_free != model->root_free)
+		return mc_err_set(err, "made for another model (%d joints, %d Gaussians, %s root; the model has %d, %d, %s)",
+				  actor->njoints, actor->ngauss, actor->root_free ? "free" : "fixed", model->njoints,
+				  model->ngauss, model->root_free ? "free" : "fixed");
+	for (int j = 0; j < model->njoints; j++)
+		if (strcmp(actor->joints[j].name, model->joints[j].name) ||
+		    actor->joints[j].parent != model->joints[j].parent)
+			return mc_err_set(err, "made for another model (joint %d is '%s', the model's is '%s')", j,
+					  actor->joints[j].name, model->joints[j].name);
+	return 0;
+}
+
+static int load_actor(const mcd_config *cfg, mcd_tracking *t, mc_err *err)
+{
+	mc_model *actor = malloc(sizeof(*actor));
+	if (!actor)
+		return mc_err_set(err, "out of memory");
+	int rc = mc_model_load(cfg->tracker.actor, actor, err);
+	if (rc == 0)
+		rc = check_actor_fits(&t->model, actor, err);
+	if (rc == 0)
+		t->model = *actor;
+	free(actor);
+	if (rc) {
+		char where[700];
+		return mc_err_prefix(err, "%s: %s", mcd_config_where(cfg, "tracker", "actor", where, sizeof(where)),
+				     cfg->tracker.actor);
+	}
+	return 0;
+}
+
+/* The rig, the camera map and the model (or the actor): what both --check
+ * and the start need. */
 static int load_rig_and_model(const mcd_config *cfg, mcd_tracking *t, mc_err *err)
 {
 	char where[700];
@@ -88,6 +129,8 @@ static int load_rig_and_model(const mcd_config *cfg, mcd_tracking *t, mc_err *er
 		return -1;
 	if (mc_model_load(cfg->tracker.model, &t->model, err))
 		return mc_err_prefix(err, "%s", mcd_config_where(cfg, "tracker", "model", where, sizeof(where)));
+	if (cfg->tracker.actor[0] && load_actor(cfg, t, err))
+		return -1;
 	return 0;
 }
 

@@ -35,6 +35,10 @@ struct mcd_tracking_thread {
 	bool reload_pending;
 	mc_tracker_settings reload_budget;
 	mcd_track_stats st;
+	/* The tracker's actor (its model: size, head placement, colours) as
+	 * of its last colour calibration, for `mocapctl actor save`. */
+	mc_model *actor;
+	unsigned actor_version;
 
 	pthread_t thread;
 	atomic_uint_fast64_t heartbeat;
@@ -198,6 +202,32 @@ static uint64_t count_tracked(mcd_tracking_thread *t, int rc, const mcd_output *
 	return errors;
 }
 
+/* Copies the tracker's actor when it changed (a colour calibration). */
+static void snapshot_actor(mcd_tracking_thread *t, mc_tracker *tracker)
+{
+	unsigned v = mc_tracker_actor_version(tracker);
+	if (v == t->actor_version)
+		return;
+	pthread_mutex_lock(&t->lock);
+	if (!t->actor)
+		t->actor = malloc(sizeof(*t->actor));
+	if (t->actor) {
+		*t->actor = *mc_tracker_model(tracker);
+		t->actor_version = v;
+	}
+	pthread_mutex_unlock(&t->lock);
+}
+
+bool mcd_tracking_thread_actor(mcd_tracking_thread *t, mc_model *out)
+{
+	pthread_mutex_lock(&t->lock);
+	bool have = t->actor && t->actor_version > 0;
+	if (have)
+		*out = *t->actor;
+	pthread_mutex_unlock(&t->lock);
+	return have;
+}
+
 static void track(mcd_tracking_thread *t, const mc_frame_view *views, int present, mcd_output *o)
 {
 	mcd_tracking *tr = t->tracking;
@@ -211,6 +241,8 @@ static void track(mcd_tracking_thread *t, const mc_frame_view *views, int presen
 		o->ndof = mc_tracker_model(tr->tracker)->ndof;
 		memcpy(o->pose, mc_tracker_pose(tr->tracker), sizeof(double) * (size_t)o->ndof);
 	}
+	if (rc == 0)
+		snapshot_actor(t, tr->tracker);
 	uint64_t errors = count_tracked(t, rc, o);
 	if (rc != 0 && mc_throttle_should_log(errors))
 		mcd_warn("tracker: %s (%llu failures so far)", err.msg, (unsigned long long)errors);
@@ -406,6 +438,7 @@ void mcd_tracking_thread_destroy(mcd_tracking_thread *t)
 	free(t->det_latest);
 	mc_image_conv_free(t->conv);
 	pthread_mutex_destroy(&t->det_lock);
+	free(t->actor);
 	pthread_mutex_destroy(&t->lock);
 	pthread_cond_destroy(&t->cond);
 	free(t);

@@ -99,5 +99,8 @@ bool mcd_tracking_thread_finished(mcd_tracking_thread *t);
 /* Counts the loop's iterations (the watchdog's evidence). */
 uint64_t mcd_tracking_thread_heartbeat(mcd_tracking_thread *t);
 void mcd_tracking_thread_stats(mcd_tracking_thread *t, mcd_track_stats *st, bool reset_max);
+/* The tracker's actor as of its last colour calibration (any thread);
+ * false before the first. */
+bool mcd_tracking_thread_actor(mcd_tracking_thread *t, mc_model *out);
 
 #endif

@@ -72,6 +72,7 @@ typedef enum {
 	MOCAP_CMD_RELOAD = 1,
 	MOCAP_CMD_RECORD_START = 2, /* argument: output path, "" = the daemon's default */
 	MOCAP_CMD_RECORD_STOP = 3,
+	MOCAP_CMD_ACTOR_SAVE = 4, /* argument: a name; the daemon writes [tracker] actor_dir/NAME.json */
 } mocap_command;
 
 typedef struct {

@@ -1,5 +1,5 @@
 /* mocapctl: command-line client of mocapd (status, watch, rig, skeleton,
- * reload, record).  Built on libmocap; see `mocapctl --help`. */
+ * reload, record, actor save).  Built on libmocap; see `mocapctl --help`. */
 #include "mocap.h"
 
 #include <errno.h>
@@ -35,6 +35,8 @@ static const char usage[] =
 	"  reload                 reload configuration, rig and model (daemon's user or group)\n"
 	"  record start [PATH]    start recording (daemon's user or group)\n"
 	"  record stop            stop recording\n"
+	"  actor save NAME        save the calibrated actor (size, colours) as [tracker] actor_dir/NAME.json,\n"
+	"                         for [tracker] actor at the next start (daemon's user or group)\n"
 	"  ping                   round-trip time to the daemon\n"
 	"\n"
 	"The socket is --socket PATH, else $MOCAP_SOCKET, else " MOCAP_DEFAULT_SOCKET ".\n"
@@ -339,8 +341,9 @@ int main(int argc, char **argv)
 	bool known = !strcmp(cmd, "status") || !strcmp(cmd, "watch") || !strcmp(cmd, "rig") ||
 		     !strcmp(cmd, "skeleton") || !strcmp(cmd, "reload") || !strcmp(cmd, "ping") ||
 		     (!strcmp(cmd, "record") && npos >= 2 &&
-		      (!strcmp(pos[1], "start") || (!strcmp(pos[1], "stop") && npos == 2)));
-	int max_pos = !strcmp(cmd, "record") ? 3 : 1;
+		      (!strcmp(pos[1], "start") || (!strcmp(pos[1], "stop") && npos == 2))) ||
+		     (!strcmp(cmd, "actor") && npos == 3 && !strcmp(pos[1], "save"));
+	int max_pos = !strcmp(cmd, "record") || !strcmp(cmd, "actor") ? 3 : 1;
 	if (!known || npos > max_pos) {
 		fprintf(stderr, "mocapctl: %s '%s'\n%s", known ? "too many arguments for" : "unknown command", cmd, usage);
 		return EXIT_USAGE;
@@ -372,6 +375,8 @@ int main(int argc, char **argv)
 		rc = cmd_control(c, MOCAP_CMD_RELOAD, NULL, "reload");
 	else if (!strcmp(cmd, "ping"))
 		rc = cmd_ping(c);
+	else if (!strcmp(cmd, "actor"))
+		rc = cmd_control(c, MOCAP_CMD_ACTOR_SAVE, pos[2], "actor save");
 	else if (!strcmp(pos[1], "start"))
 		rc = cmd_control(c, MOCAP_CMD_RECORD_START, npos > 2 ? pos[2] : "", "record start");
 	else

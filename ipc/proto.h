@@ -124,7 +124,7 @@ typedef struct {
 } mc_msg_subscribe;
 
 typedef struct {
-	uint32_t command;   /* mc_control_command values: 1 reload, 2 record start, 3 record stop */
+	uint32_t command;   /* mc_control_command values: 1 reload, 2 record start, 3 record stop, 4 actor save */
 	char argument[PROTO_ARG_MAX + 1];
 } mc_msg_control;
 

@@ -221,6 +221,7 @@ typedef enum {
 	MC_CONTROL_RELOAD = 1,          /* reload configuration, rig and model */
 	MC_CONTROL_RECORD_START = 2,    /* argument: output path ("" = default) */
 	MC_CONTROL_RECORD_STOP = 3,
+	MC_CONTROL_ACTOR_SAVE = 4,      /* argument: the actor's name */
 } mc_control_command;
 
 typedef struct {

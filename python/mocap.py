@@ -28,7 +28,7 @@ DEFAULT_SOCKET = "/run/mocapd/mocapd.sock"
 
 LATEST, ALL = 1, 2
 SPACE_RIG, SPACE_WORLD = 0, 1
-CMD_RELOAD, CMD_RECORD_START, CMD_RECORD_STOP = 1, 2, 3
+CMD_RELOAD, CMD_RECORD_START, CMD_RECORD_STOP, CMD_ACTOR_SAVE = 1, 2, 3, 4
 TRACK_STATES = {0: "ok", 1: "uncertain", 2: "lost", 3: "idle", 4: "initialising"}
 CAMERA_STATES = {0: "ok", 1: "stalled", 2: "error", 3: "off"}
 
@@ -336,7 +336,7 @@ class Client:
         return text.decode("utf-8", "replace")
 
     def control(self, command, argument=""):
-        """Runs CMD_RELOAD / CMD_RECORD_START / CMD_RECORD_STOP; returns the daemon's message."""
+        """Runs CMD_RELOAD / CMD_RECORD_START / CMD_RECORD_STOP / CMD_ACTOR_SAVE; returns the daemon's message."""
         r = self._request(CONTROL, struct.pack("<I", command) + _str16(argument), CONTROL_RESULT)
         _cmd, result = r.take("Ii")
         msg = r.string()
@@ -346,6 +346,10 @@ class Client:
 
     def reload(self):
         return self.control(CMD_RELOAD)
+
+    def save_actor(self, name):
+        """Saves the calibrated actor as [tracker] actor_dir/NAME.json; returns the daemon's message."""
+        return self.control(CMD_ACTOR_SAVE, name)
 
     def rings(self):
         """Read-only camera ring descriptors (close them when done)."""

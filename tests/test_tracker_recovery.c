@@ -108,7 +108,7 @@ static void test_start_from_detections(fixture *f)
 	mc_tracker_destroy(t);
 
 	t = new_tracker(f);
-	CHECK(mc_tracker_start_from_detections(t, true, &err) == 0);
+	CHECK(mc_tracker_start_from_detections(t, MC_INIT_MEASURE_SIZE, &err) == 0);
 	mc_skeleton sk;
 	mc_frame_view v[2];
 	CHECK(mc_clip_load_frame(&f->clip, 0, v, &err) == 0);
@@ -129,6 +129,24 @@ static void test_start_from_detections(fixture *f)
 	CHECK_MSG(first >= 0 && first <= 15, "tracking started at frame %d, expected within 0.5 s", first);
 	/* measured: 6.6 vs 4.4 cm */
 	CHECK_MSG(detect <= gt0 + DETECT_OVER_GT0_CM, "from detections %.2f cm, gt0 %.2f cm", detect, gt0);
+	CHECK(mc_tracker_actor_version(t) >= 1);
+
+	/* The calibrated actor as the model, kept (an actor file): the
+	 * colours stay as they are and tracking starts again. */
+	mc_model actor = *mc_tracker_model(t);
+	mc_tracker_destroy(t);
+	t = mc_tracker_create(&f->clip.rig, &actor, &f->s, &err);
+	CHECK_MSG(t && mc_tracker_start_from_detections(t, MC_INIT_KEEP_ACTOR, &err) == 0, "%s", err.msg);
+	f->rng = 7;
+	double again = run_clip(f, t, &first);
+	const mc_model *m = mc_tracker_model(t);
+	int same = 0;
+	for (int q = 0; q < m->ngauss; q++)
+		same += !memcmp(m->gauss[q].rgb, actor.gauss[q].rgb, sizeof(actor.gauss[q].rgb));
+	printf("with the actor kept: first pose at frame %d, MPJPE %.2f cm, %d of %d colours unchanged\n", first,
+	       again, same, m->ngauss);
+	CHECK(same == m->ngauss && first >= 0 && first <= 15);
+	CHECK_MSG(again <= gt0 + DETECT_OVER_GT0_CM, "with the actor %.2f cm, gt0 %.2f cm", again, gt0);
 	mc_tracker_destroy(t);
 }
 

@@ -1,6 +1,7 @@
 /* Actor calibration (thesis 5.3.2): each Gaussian's colour from one frame
  * set at a known pose, the background colour, and the baseline energy that
- * the tracking quality is measured against. */
+ * the tracking quality is measured against (the last two also for an actor
+ * whose colours come from an actor file). */
 #include "track/mc_tracker_internal.h"
 
 #include <stdio.h>
@@ -177,6 +178,11 @@ static int measure_baseline(mc_tracker *t, mc_err *err)
 
 int mc_tracker_calibrate_colors(mc_tracker *t, const mc_frame_view *views, int nviews, mc_err *err)
 {
+	return mc_trk_calibrate(t, views, nviews, true, err);
+}
+
+int mc_trk_calibrate(mc_tracker *t, const mc_frame_view *views, int nviews, bool colours, mc_err *err)
+{
 	colour_samples *per_gauss = calloc(MC_MAX_GAUSSIANS, sizeof(colour_samples));
 	colour_samples background = {0};
 	int rc = -1;
@@ -199,15 +205,18 @@ int mc_tracker_calibrate_colors(mc_tracker *t, const mc_frame_view *views, int n
 		goto out;
 	}
 	double evidence[MC_MAX_GAUSSIANS];
-	for (int q = 0; q < t->model.ngauss; q++) {
+	for (int q = 0; colours && q < t->model.ngauss; q++) {
 		evidence[q] = total_weight(&per_gauss[q]);
 		if (evidence[q] >= MIN_COLOUR_EVIDENCE)
 			robust_colour(&per_gauss[q], t->model.gauss[q].rgb);
 	}
-	borrow_colours(&t->model, evidence);
+	if (colours)
+		borrow_colours(&t->model, evidence);
 	calibrate_background(t, &background);
 	mc_trk_gaussian_evidence(t, t->pose, t->evidence0);
 	rc = measure_baseline(t, err);
+	if (rc == 0 && colours)
+		t->actor_version++;
 out:
 	for (int q = 0; per_gauss && q < MC_MAX_GAUSSIANS; q++)
 		free(per_gauss[q].s);

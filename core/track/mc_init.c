@@ -196,10 +196,12 @@ void mc_trk_init_free(mc_tracker *t)
 	t->init.shape_tri = NULL;
 }
 
-int mc_trk_init_start(mc_tracker *t, bool fit_shape, mc_err *err)
+int mc_trk_init_start(mc_tracker *t, unsigned flags, mc_err *err)
 {
+	bool fit_shape = (flags & MC_INIT_MEASURE_SIZE) && !(flags & MC_INIT_KEEP_ACTOR);
 	mc_trk_init_free(t);
 	memset(&t->init, 0, sizeof(t->init));
+	t->init.keep_colours = flags & MC_INIT_KEEP_ACTOR;
 	if (fit_shape) {
 		t->init.shape_tri = calloc(MC_TRK_SHAPE_FRAMES, sizeof(mc_trk_triangulation));
 		if (!t->init.shape_tri)
@@ -228,8 +230,10 @@ static int first_fit(mc_tracker *t, const mc_frame_view *views, int nviews, cons
 	if (!(rms >= 0 && rms <= FIT_MAX_RMS_M))
 		return 0; /* not a body: wait for a better frame set */
 	mc_tracker_set_pose(t, pose);
-	if (mc_tracker_calibrate_colors(t, views, nviews, err) < 0)
+	if (mc_trk_calibrate(t, views, nviews, !t->init.keep_colours, err) < 0)
 		return -1;
+	if (t->init.keep_colours)
+		t->actor_version++; /* the actor file's actor is now the one in use */
 	t->init.waiting = false;
 	t->init.inits++;
 	return 1;

@@ -236,9 +236,14 @@ const char *mc_tracker_device_name(const mc_tracker *t)
 	return t->device;
 }
 
-int mc_tracker_start_from_detections(mc_tracker *t, bool measure_shape, mc_err *err)
+int mc_tracker_start_from_detections(mc_tracker *t, unsigned flags, mc_err *err)
 {
-	return mc_trk_init_start(t, measure_shape, err);
+	return mc_trk_init_start(t, flags, err);
+}
+
+unsigned mc_tracker_actor_version(const mc_tracker *t)
+{
+	return t->actor_version;
 }
 
 void mc_tracker_get_init_info(const mc_tracker *t, mc_tracker_init_info *out)

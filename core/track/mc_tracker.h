@@ -114,12 +114,20 @@ int mc_tracker_init_from_joints(mc_tracker *t, const char *const *names, const m
 /* Starts without any pose: until a frame set's keypoints (two or more
  * cameras per joint that agree) fit a body, mc_tracker_track reports
  * MC_TRACK_INITIALISING with the rest pose.  The first fit sets the pose
- * and the colours from that frame set; with measure_shape, the actor's size
+ * and the colours from that frame set (with MC_INIT_KEEP_ACTOR, the model's
+ * colours are kept); with MC_INIT_MEASURE_SIZE, the actor's size
  * (one scale of the model's bones) is then found from a few of the next
  * frame sets' detections, and the colours are measured again
  * (docs/TRACKER.md, "Starting without ground truth").  Returns -1 with err
  * when out of memory. */
-int mc_tracker_start_from_detections(mc_tracker *t, bool measure_shape, mc_err *err);
+#define MC_INIT_MEASURE_SIZE 1u /* measure the actor's size (outside-in rigs only) */
+#define MC_INIT_KEEP_ACTOR 2u   /* the model is an actor file: keep its size and colours */
+int mc_tracker_start_from_detections(mc_tracker *t, unsigned flags, mc_err *err);
+
+/* Counts the tracker's colour calibrations: a new value means the actor
+ * (mc_tracker_model: bone scales, head placement, colours) changed, e.g.
+ * for saving it as an actor file (mc_model_save).  0: never calibrated. */
+unsigned mc_tracker_actor_version(const mc_tracker *t);
 
 typedef struct {
 	bool initialising;   /* no pose yet */

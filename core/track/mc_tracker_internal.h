@@ -27,6 +27,7 @@ typedef struct {
 typedef struct {
 	bool waiting;    /* no pose yet: the state is initialising */
 	bool fit_shape;  /* measure the actor's size */
+	bool keep_colours; /* the colours came with the model (an actor file) */
 	bool shape_done; /* size set from the collected frame sets */
 	int nshape;      /* frame sets collected */
 	int since_shape; /* frame sets since the last one collected */
@@ -74,8 +75,14 @@ struct mc_tracker {
 	int history; /* frames of history in prev/prev2 (0..2) */
 	double baseline; /* mean data energy per pixel after calibration (< 0) */
 	mc_trk_init init;
+	unsigned actor_version; /* counts colour calibrations */
 	uint64_t rng;
 };
+
+/* Calibration at the current pose on one frame set: with `colours`, each
+ * Gaussian's colour (thesis 5.3.2, and actor_version++); always the
+ * background colour, the per-Gaussian evidence and the baseline energy. */
+int mc_trk_calibrate(mc_tracker *t, const mc_frame_view *views, int nviews, bool colours, mc_err *err);
 
 /* Converts the views to working-resolution RGB (t->rgb) and HSV (t->hsv);
  * returns how many cameras carry a usable, non-blank image (t->present). */
@@ -130,8 +137,8 @@ double mc_trk_detection_term(mc_tracker *t, const double *pose, const mc_fk *fk,
 /* ---- starting and recovering from detections (mc_init.c) ---- */
 
 /* Waits for a first pose from detections (the rest pose until then);
- * fit_shape: also measure the actor's size. */
-int mc_trk_init_start(mc_tracker *t, bool fit_shape, mc_err *err);
+ * flags: MC_INIT_* (mc_tracker.h). */
+int mc_trk_init_start(mc_tracker *t, unsigned flags, mc_err *err);
 /* Before tracking a frame set: the first pose when waiting, a re-fit when
  * lost or stuck, the shape samples.  Returns 1 while still waiting, 0 to
  * track, -1 with err. */

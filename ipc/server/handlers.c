@@ -184,9 +184,10 @@ static void handle_control(srv_server *srv, client *c, const proto_msg *m)
 	const mc_msg_control *ctl = &m->u.control;
 	if (!require_privilege(srv, c, m, "control"))
 		return;
-	if (ctl->command < MC_CONTROL_RELOAD || ctl->command > MC_CONTROL_RECORD_STOP) {
+	if (ctl->command < MC_CONTROL_RELOAD || ctl->command > MC_CONTROL_ACTOR_SAVE) {
 		srv_reply_error(srv, c, m->h.request_id, m->h.type, PROTO_E_INVALID, false,
-				"unknown control command %u (1 reload, 2 record start, 3 record stop)", ctl->command);
+				"unknown control command %u (1 reload, 2 record start, 3 record stop, 4 actor save)",
+				ctl->command);
 		return;
 	}
 	if (!srv_controls_push(srv, c, m->h.request_id, ctl))
