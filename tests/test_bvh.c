@@ -123,6 +123,14 @@ static void expect_error(const char *text, const char *needle)
 
 static void test_malformed(void)
 {
+	/* Whole-file loaders refuse what is not a regular file (issue 20,
+	 * defect 1: a directory made ftell say LLONG_MAX and malloc 2^63). */
+	mc_bvh dir_bvh;
+	mc_err derr;
+	CHECK(mc_bvh_load("tests/data", &dir_bvh, &derr) < 0);
+	CHECK_MSG(strstr(derr.msg, "tests/data: not a regular file (a directory)"), "%s", derr.msg);
+	CHECK(mc_bvh_load("/dev/zero", &dir_bvh, &derr) < 0);
+	CHECK_MSG(strstr(derr.msg, "not a regular file (a character device)"), "%s", derr.msg);
 	expect_error("", "end of file");
 	expect_error("HIERARCH\n", ":1: expected HIERARCHY");
 	expect_error("HIERARCHY\nJOINT A\n", ":2: expected ROOT");

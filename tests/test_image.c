@@ -129,6 +129,19 @@ static void test_mjpeg(void)
 		return;
 	int w = 0, h = 0;
 	CHECK(mc_image_jpeg_size(conv, jpeg, n, &w, &h, &err) == 0 && w == W && h == H);
+	/* A tables-only JPEG (SOI, EOI) and one cut before its SOF set no
+	 * size: refused as 0x0 every time, never a size from the stack
+	 * (issue 20, defect 2). */
+	static const uint8_t tables_only[] = {0xFF, 0xD8, 0xFF, 0xD9};
+	for (int round = 0; round < 2; round++) {
+		w = h = 12345;
+		CHECK(mc_image_jpeg_size(conv, tables_only, sizeof(tables_only), &w, &h, &err) != 0);
+		CHECK_MSG(w == 0 && h == 0 && (strstr(err.msg, "0x0") || strstr(err.msg, "bad header")),
+			  "tables-only JPEG: %dx%d, %s", w, h, err.msg);
+		w = h = 12345;
+		CHECK(mc_image_jpeg_size(conv, jpeg, 20, &w, &h, &err) != 0);
+		CHECK_MSG(w == 0 && h == 0, "JPEG cut before SOF: %dx%d, %s", w, h, err.msg);
+	}
 	CHECK(convert(MC_PIXFMT_MJPEG, W, H, 0, jpeg, n, out, sizeof(out), &err) == 0);
 	double sum = 0;
 	for (size_t i = 0; i < sizeof(out); i++)

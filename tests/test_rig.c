@@ -351,6 +351,23 @@ static void test_import_ocamcalib_bad(void)
 		CHECK_ERR(err.msg, cases[i][1]);
 		unlink(path);
 	}
+	/* Not a regular file: refused, not read for ever (issue 20, defect 7). */
+	CHECK(mc_rig_import_ocamcalib("/dev/zero", M_PI / 2, &cam, &err) == -1);
+	CHECK_ERR(err.msg, "/dev/zero: not a regular file (a character device)");
+	CHECK(mc_rig_import_ocamcalib("tests/data/ocam", M_PI / 2, &cam, &err) == -1);
+	CHECK_ERR(err.msg, "tests/data/ocam: not a regular file (a directory)");
+	/* A line longer than any buffer is one line: the width after 9000
+	 * spaces is 256, not cut into 2 and 56 (defect 7). */
+	{
+		static char text[9200];
+		int n = snprintf(text, sizeof(text), "2 -80 0\n0\n127.5 127.5\n1 0 0\n128 %9000s256\n", "");
+		char path[64];
+		if (n > 0 && temp_file(path, sizeof(path), text)) {
+			CHECK_MSG(mc_rig_import_ocamcalib(path, 80 * DEG, &cam, &err) == 0, "%s", err.msg);
+			CHECK_MSG(cam.width == 256 && cam.height == 128, "long line: %dx%d", cam.width, cam.height);
+			unlink(path);
+		}
+	}
 	/* a minimal valid file: no inverse polynomial, comments anywhere */
 	char path[64];
 	if (temp_file(path, sizeof(path), "# direct\n2 -80 0\n# inverse\n0\n#centre\n100.5 120.5\n1 0 0\n200 300\n")) {

@@ -1,6 +1,8 @@
 /* mc_bvh: BVH parser and forward kinematics (see mc_bvh.h). */
 #include "body/mc_bvh.h"
 
+#include "base/mc_file.h"
+
 #include <errno.h>
 #include <math.h>
 #include <stdio.h>
@@ -296,30 +298,12 @@ int mc_bvh_parse(const char *text, size_t len, const char *origin, mc_bvh *bvh, 
 int mc_bvh_load(const char *path, mc_bvh *bvh, mc_err *err)
 {
 	memset(bvh, 0, sizeof(*bvh));
-	FILE *f = fopen(path, "rb");
-	if (!f)
-		return mc_err_set(err, "%s: %s", path, strerror(errno));
-	char *text = NULL;
-	long size = -1;
-	if (fseek(f, 0, SEEK_END) == 0)
-		size = ftell(f);
-	if (size < 0 || fseek(f, 0, SEEK_SET) != 0) {
-		fclose(f);
-		return mc_err_set(err, "%s: cannot determine the file size", path);
-	}
-	text = malloc((size_t)size + 1);
-	if (!text) {
-		fclose(f);
-		return mc_err_set(err, "%s: out of memory (%ld bytes)", path, size);
-	}
-	size_t got = fread(text, 1, (size_t)size, f);
-	int read_failed = ferror(f);
-	fclose(f);
-	if (read_failed || got != (size_t)size) {
-		free(text);
-		return mc_err_set(err, "%s: read error", path);
-	}
-	int rc = mc_bvh_parse(text, got, path, bvh, err);
+	uint8_t *text;
+	size_t got;
+	/* 256 MiB: hours of motion capture at 120 Hz */
+	if (mc_file_read(path, 256u << 20, &text, &got, err) < 0)
+		return -1;
+	int rc = mc_bvh_parse((const char *)text, got, path, bvh, err);
 	free(text);
 	return rc;
 }

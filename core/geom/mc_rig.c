@@ -2,6 +2,8 @@
  * evaluation data's calib.json and OCamCalib's calib_results.txt, and ray
  * tables. */
 #include "geom/mc_rig.h"
+
+#include "base/mc_file.h"
 #include "base/mc_json.h"
 
 #include <errno.h>
@@ -393,17 +395,29 @@ typedef struct {
 
 static int tokens_read(const char *path, token_list *tl, mc_err *err)
 {
-	FILE *f = fopen(path, "r");
-	if (!f)
-		return mc_err_set(err, "%s: cannot open: %s", path, strerror(errno));
-	char buf[8192];
+	/* The whole file at once (a regular file of at most 1 MiB), split at
+	 * newlines: no line is cut, whatever its length. */
+	uint8_t *data;
+	size_t bytes;
+	if (mc_file_read(path, 1u << 20, &data, &bytes, err) < 0)
+		return -1;
+	char *text = (char *)data;
+	if (strlen(text) != bytes) {
+		free(data);
+		return mc_err_set(err, "%s: contains a NUL byte; not a text file", path);
+	}
 	int lineno = 0, r = 0;
-	while (r == 0 && fgets(buf, sizeof(buf), f)) {
+	for (char *next = text; r == 0 && next && *next;) {
+		char *line = next, *nl = strchr(line, '\n');
+		if (nl)
+			*nl = 0;
+		next = nl ? nl + 1 : NULL;
 		lineno++;
-		char *s = buf + strspn(buf, " \t\r\n");
+		char *s = line + strspn(line, " \t\r");
 		if (*s == '#')
 			continue;
-		for (char *tok = strtok(s, " \t\r\n"); tok && r == 0; tok = strtok(NULL, " \t\r\n")) {
+		char *save = NULL;
+		for (char *tok = strtok_r(s, " \t\r", &save); tok && r == 0; tok = strtok_r(NULL, " \t\r", &save)) {
 			if (tl->n == tl->cap) {
 				size_t cap = tl->cap ? tl->cap * 2 : 64;
 				double *val = realloc(tl->val, cap * sizeof(*val));
@@ -432,7 +446,7 @@ static int tokens_read(const char *path, token_list *tl, mc_err *err)
 			tl->n++;
 		}
 	}
-	fclose(f);
+	free(data);
 	return r;
 }
 

@@ -2,6 +2,7 @@
 #include "image/mc_image.h"
 
 #include "image/mc_pixfmt.h"
+#include "base/mc_file.h"
 
 #include <errno.h>
 #include <limits.h>
@@ -88,6 +89,10 @@ int mc_image_jpeg_size(mc_image_conv *conv, const uint8_t *jpeg, size_t bytes, i
 	if (bytes > ULONG_MAX)
 		return mc_err_set(err, "MJPEG: %zu bytes: too large", bytes);
 	int subsamp, colorspace;
+	/* A tables-only JPEG, or one cut before its SOF, passes the header
+	 * call without setting the size: start from 0 so that it is refused
+	 * below, not read as whatever was on the stack. */
+	*width = *height = 0;
 	if (tjDecompressHeader3(h, jpeg, (unsigned long)bytes, width, height, &subsamp, &colorspace) != 0) {
 		mc_err_set(err, "MJPEG: %zu bytes: bad header: %s", bytes, tjGetErrorStr2(h));
 		reset_decoder(conv);
@@ -563,30 +568,7 @@ int mc_image_decode(mc_image_conv *conv, const uint8_t *data, size_t bytes, cons
 
 int mc_image_read_file(const char *path, uint8_t **data, size_t *bytes, mc_err *err)
 {
-	*data = NULL;
-	FILE *f = fopen(path, "rb");
-	if (!f)
-		return mc_err_set(err, "%s: %s", path, strerror(errno));
-	struct stat st;
-	if (fstat(fileno(f), &st) != 0 || !S_ISREG(st.st_mode)) {
-		fclose(f);
-		return mc_err_set(err, "%s: not a regular file", path);
-	}
-	size_t n = (size_t)st.st_size;
-	uint8_t *buf = malloc(n ? n : 1);
-	if (!buf) {
-		fclose(f);
-		return mc_err_set(err, "%s: out of memory (%zu bytes)", path, n);
-	}
-	size_t got = fread(buf, 1, n, f);
-	fclose(f);
-	if (got != n) {
-		free(buf);
-		return mc_err_set(err, "%s: read error", path);
-	}
-	*data = buf;
-	*bytes = n;
-	return 0;
+	return mc_file_read(path, MC_IMAGE_MAX_FILE_BYTES, data, bytes, err);
 }
 
 int mc_image_load(mc_image_conv *conv, const char *path, uint8_t **rgb, int *width, int *height, mc_err *err)

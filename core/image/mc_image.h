@@ -72,7 +72,10 @@ mc_image_file_kind mc_image_file_kind_of(const uint8_t *data, size_t bytes);
  * `origin` (e.g. the file name) starts every error message. */
 int mc_image_decode(mc_image_conv *conv, const uint8_t *data, size_t bytes, const char *origin, uint8_t **rgb,
 		    int *width, int *height, mc_err *err);
-/* Reads a whole file into a malloc'd buffer (*data, *bytes). */
+/* Reads a whole image file into a malloc'd buffer (*data, *bytes):
+ * mc_file_read, refusing anything but a regular file of at most
+ * MC_IMAGE_MAX_FILE_BYTES. */
+#define MC_IMAGE_MAX_FILE_BYTES (64u << 20)
 int mc_image_read_file(const char *path, uint8_t **data, size_t *bytes, mc_err *err);
 /* mc_image_read_file + mc_image_decode. */
 int mc_image_load(mc_image_conv *conv, const char *path, uint8_t **rgb, int *width, int *height, mc_err *err);

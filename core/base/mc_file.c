@@ -1,0 +1,63 @@
+#include "base/mc_file.h"
+
+#include <errno.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+
+static const char *file_kind(mode_t m)
+{
+	if (S_ISDIR(m))
+		return "a directory";
+	if (S_ISCHR(m))
+		return "a character device";
+	if (S_ISBLK(m))
+		return "a block device";
+	if (S_ISFIFO(m))
+		return "a FIFO";
+	if (S_ISSOCK(m))
+		return "a socket";
+	return "not a plain file";
+}
+
+int mc_file_read(const char *path, size_t max_bytes, uint8_t **data, size_t *bytes, mc_err *err)
+{
+	*data = NULL;
+	*bytes = 0;
+	FILE *f = fopen(path, "rb");
+	if (!f)
+		return mc_err_set(err, "%s: cannot open: %s", path, strerror(errno));
+	struct stat st;
+	if (fstat(fileno(f), &st) != 0) {
+		int e = errno;
+		fclose(f);
+		return mc_err_set(err, "%s: %s", path, strerror(e));
+	}
+	if (!S_ISREG(st.st_mode)) {
+		fclose(f);
+		return mc_err_set(err, "%s: not a regular file (%s)", path, file_kind(st.st_mode));
+	}
+	if ((unsigned long long)st.st_size > max_bytes) {
+		fclose(f);
+		return mc_err_set(err, "%s: %lld bytes, more than the %zu accepted", path, (long long)st.st_size,
+				  max_bytes);
+	}
+	size_t n = (size_t)st.st_size;
+	uint8_t *buf = malloc(n + 1);
+	if (!buf) {
+		fclose(f);
+		return mc_err_set(err, "%s: out of memory (%zu bytes)", path, n);
+	}
+	size_t got = fread(buf, 1, n, f);
+	int failed = ferror(f);
+	fclose(f);
+	if (failed || got != n) {
+		free(buf);
+		return mc_err_set(err, "%s: read error (%zu of %zu bytes)", path, got, n);
+	}
+	buf[n] = 0;
+	*data = buf;
+	*bytes = n;
+	return 0;
+}

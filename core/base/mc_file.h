@@ -1,0 +1,21 @@
+/* mc_file: reading a whole file, for every loader that does.
+ *
+ * Refuses what is not a regular file (a directory, /dev/zero, a FIFO) and
+ * anything larger than the caller's bound before allocating, so that no
+ * path given in a config can make a loader allocate without limit or read
+ * for ever (issue: "a directory as a BVH path" mallocs 2^63 bytes). */
+#ifndef MC_FILE_H
+#define MC_FILE_H
+
+#include "base/mc_error.h"
+
+#include <stddef.h>
+#include <stdint.h>
+
+/* Reads path into *data (malloc'ed, with a NUL byte after the *bytes read,
+ * so that text can be parsed in place).  Errors name the file: "x.bvh: not
+ * a regular file (a directory)", "x.jpg: 70000000 bytes, more than the
+ * 67108864 accepted". */
+int mc_file_read(const char *path, size_t max_bytes, uint8_t **data, size_t *bytes, mc_err *err);
+
+#endif
