@@ -50,16 +50,22 @@ static int fail(parser *p, const char *fmt, ...)
 	return 0;
 }
 
-static void record_where(mcd_config *cfg, const char *section, const char *key, int line)
+/* False when the table is full: the key could then not be checked for a
+ * second occurrence, so the caller refuses the file rather than accept a
+ * duplicate unseen. */
+static bool record_where(mcd_config *cfg, const char *section, const char *key, int line)
 {
 	int n = cfg->nwhere;
 	if (n >= (int)(sizeof(cfg->where) / sizeof(cfg->where[0])))
-		return;
+		return false;
 	snprintf(cfg->where[n].section, sizeof(cfg->where[n].section), "%s", section);
 	snprintf(cfg->where[n].key, sizeof(cfg->where[n].key), "%s", key);
 	cfg->where[n].line = line;
 	cfg->nwhere = n + 1;
+	return true;
 }
+
+#define MAX_WHERE ((int)(sizeof(((mcd_config *)0)->where) / sizeof(((mcd_config *)0)->where[0])))
 
 static int find_where(const mcd_config *cfg, const char *section, const char *key)
 {
@@ -222,7 +228,8 @@ static int apply_key(parser *p, const mcd_config_key *k, void *base, const char 
 	char why[300];
 	if (mcd_config_key_parse(k, value, base, p->cfg->dir, why, sizeof(why)) != 0)
 		return fail(p, "[%s] %s: %s", p->section, key, why);
-	record_where(p->cfg, p->section, key, p->line);
+	if (!record_where(p->cfg, p->section, key, p->line))
+		return fail(p, "[%s] %s: more than %d keys in the file; not a mocapd config", p->section, key, MAX_WHERE);
 	return 1;
 }
 
@@ -259,7 +266,8 @@ static int driver_key(parser *p, mcd_camera_config *cam, const char *key, const 
 			return fail(p, "[%s] %s: %s", p->section, key, why);
 	}
 	kv->line = p->line;
-	record_where(p->cfg, p->section, key, p->line);
+	if (!record_where(p->cfg, p->section, key, p->line))
+		return fail(p, "[%s] %s: more than %d keys in the file; not a mocapd config", p->section, key, MAX_WHERE);
 	return 1;
 }
 
@@ -367,6 +375,9 @@ int mcd_config_parse(const char *text, const char *origin, const char *base_dir,
 	snprintf(cfg->file, sizeof(cfg->file), "%s", origin);
 	snprintf(cfg->dir, sizeof(cfg->dir), "%s", base_dir ? base_dir : ".");
 	parser p = {.cfg = cfg, .err = err, .origin = origin, .text = text};
+	/* A UTF-8 byte order mark (some editors write one) is not a key. */
+	if (!strncmp(text, "\xEF\xBB\xBF", 3))
+		p.pos = 3;
 	int rc = ini_parse_stream(read_line, &p, on_key, &p);
 	if (p.failed)
 		return -1;

@@ -115,7 +115,7 @@ typedef struct {
 		char section[MCD_NAME_MAX + 8];
 		char key[MCD_NAME_MAX];
 		int line;
-	} where[160];
+	} where[64 + MC_MAX_CAMERAS * (8 + MCD_MAX_DRIVER_KEYS)]; /* every key a valid file can hold */
 } mcd_config;
 
 /* Fills the defaults of the key table (compiled-in plugin directory,

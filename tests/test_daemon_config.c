@@ -218,6 +218,23 @@ static void test_structure_errors(void)
 		     "remove the indentation");
 	expect_error(CAM NOTRACK "iterations 5\n",
 		     "mocapd.conf:5: syntax error (expected [section] or key = value)");
+	/* A duplicate after as many keys as a file can hold is still caught
+	 * (issue 20, defect 6: the 161st key and after went unchecked). */
+	static char many[1 << 16];
+	size_t len = 0;
+	for (int c = 0; c < MC_MAX_CAMERAS; c++) {
+		len += (size_t)snprintf(many + len, sizeof(many) - len, "[camera c%d]\ndriver = faulty\n", c);
+		for (int k = 0; k < MCD_MAX_DRIVER_KEYS; k++)
+			len += (size_t)snprintf(many + len, sizeof(many) - len, "k%d = 1\n", k);
+	}
+	int line = 1 + MC_MAX_CAMERAS * (2 + MCD_MAX_DRIVER_KEYS) + 3;
+	snprintf(many + len, sizeof(many) - len, NOTRACK "[socket]\nmode = 0600\nmode = 0666\n");
+	char want[200];
+	snprintf(want, sizeof(want), "mocapd.conf:%d: [socket] mode: given twice (first at line %d)", line + 1, line);
+	expect_error(many, want);
+	/* A UTF-8 byte order mark before the first section is not a key. */
+	mc_err err;
+	CHECK_MSG(parse("\xEF\xBB\xBF" CAM NOTRACK, &err) == 0, "with a BOM: %s", err.msg);
 	char longline[400];
 	snprintf(longline, sizeof(longline), CAM NOTRACK "rig = %0300d\n", 0);
 	expect_error(longline, "mocapd.conf:5: line too long (at most 198 characters)");
