@@ -63,7 +63,7 @@ static mc_tracker *start_tracker(const options *o, const mc_clip *clip, const mc
 		return NULL;
 	mc_tracker *t = mc_tracker_create(&clip->rig, &model, s, err);
 	if (t && o->init_detect) {
-		if (mc_tracker_start_from_detections(t, true, err) < 0) {
+		if (mc_tracker_start_from_detections(t, MC_INIT_MEASURE_SIZE, err) < 0) {
 			mc_tracker_destroy(t);
 			return NULL;
 		}
