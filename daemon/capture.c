@@ -17,6 +17,11 @@
 
 #define FRAME_TIMEOUT_MS 200 /* how often the capture loop looks up */
 #define IO_ERRORS_BEFORE_REOPEN 3
+/* Frames in a row that the driver refuses for their format or size (a
+ * file of another size in a folder, a corrupt frame) before the camera is
+ * reopened: one such frame is dropped and counted, and the stream goes on
+ * (reopening restarted a folder's playback at its first frame). */
+#define FORMAT_ERRORS_BEFORE_REOPEN 30
 #define NAP_STEP_NS (100 * MC_NS_PER_MS) /* a napping thread's heartbeat */
 
 struct mcd_camera {
@@ -323,6 +328,7 @@ static void *open_device(mcd_camera *c, run_result *result)
 typedef struct {
 	mcd_backoff *backoff;
 	int io_errors;      /* in a row */
+	int format_errors;  /* in a row */
 	bool first;         /* no good frame yet */
 	bool streaming;     /* in state STREAMING */
 	uint64_t last_good; /* when the last good frame came */
@@ -346,6 +352,7 @@ static void handle_frame(mcd_camera *c, stream_state *s, mdrv_frame *slot, size_
 	}
 	commit_frame(c, slot);
 	s->io_errors = 0;
+	s->format_errors = 0;
 	s->last_good = mc_now_ns();
 	if (s->first) {
 		/* Only a good frame proves the device works again. */
@@ -418,7 +425,14 @@ static int handle_error(mcd_camera *c, stream_state *s, int rc, const char *err)
 	case MDRV_ERR_CONFIG:
 		set_error(c, "next_frame", err[0] ? err : "config error");
 		return RUN_FAILED;
-	default: /* NODEV, FORMAT, unknown codes */
+	case MDRV_ERR_FORMAT:
+		if (++s->format_errors < FORMAT_ERRORS_BEFORE_REOPEN) {
+			note_bad_frame(c, err[0] ? err : "format or size", &c->counters.bad_frames);
+			return RUN_ON;
+		}
+		set_error(c, "next_frame", err[0] ? err : "format error");
+		return RUN_REOPEN;
+	default: /* NODEV, unknown codes */
 		set_error(c, "next_frame", err[0] ? err : "driver error");
 		return RUN_REOPEN;
 	}

@@ -2,6 +2,7 @@
  * plugin errors at start-up, SIGTERM, SIGHUP reload, SIGKILL then restart
  * (no stale socket or lock), a second instance, socket activation. */
 #include "daemon/harness.h"
+#include "image/mc_draw.h"
 #include "test_util.h"
 
 #define BASE BASE_WITH("")
@@ -48,6 +49,53 @@ static void test_run_to_end(void)
 	CHECK(access(r.sock, F_OK) != 0); /* removed on the way out */
 	if (mc_test_failures)
 		mcd_run_dump(&r, "run to end");
+	mcd_run_cleanup(&r);
+}
+
+/* A folder of 6 frames whose third has another size, played once: that
+ * frame is dropped and counted, the other 5 are delivered, and mocapd
+ * exits at the end (issue 20, defect 5: the camera was reopened, which
+ * restarted the folder at its first frame, for ever). */
+static void test_frame_of_another_size(void)
+{
+	mcd_run r;
+	CHECK(mcd_run_init(&r));
+	char dir[sizeof(r.dir) + 16], path[sizeof(dir) + 32];
+	snprintf(dir, sizeof(dir), "%s/frames", r.dir);
+	CHECK(mkdir(dir, 0755) == 0);
+	/* PNG, which the driver decodes (and so checks) itself; an MJPEG
+	 * frame of another size is the host's to drop (frame_problem). */
+	mc_err err;
+	static uint8_t rgb[64 * 48 * 3];
+	for (int i = 0; i < 6; i++) {
+		mc_canvas im = {rgb, i == 2 ? 32 : 64, i == 2 ? 24 : 48};
+		memset(rgb, 40 * i, sizeof(rgb));
+		snprintf(path, sizeof(path), "%s/%05d.png", dir, i);
+		CHECK_MSG(mc_draw_write_png(path, &im, &err) == 0, "%s", err.msg);
+	}
+	char text[4 * PATH_MAX];
+	snprintf(text, sizeof(text),
+		 "[daemon]\nplugin_dir = %s/drivers\n[socket]\npath = @SOCK@\n[tracker]\nenabled = false\n"
+		 "[camera a]\ndriver = files\npath = %s\nrate = 30\n",
+		 mcd_build_dir, dir);
+	mcd_run_config(&r, text);
+	const char *const args[] = {"--print", "--exit-at-end", NULL};
+	CHECK(mcd_run_start(&r, args, NULL));
+	int rc = mcd_run_wait_exit(&r, 20000);
+	CHECK_MSG(rc == 0, "exit %d (a frame of another size must not restart the folder)", rc);
+	char *out = mcd_read_file(r.out);
+	int frames = out ? mcd_count(out, "frame ") : -1;
+	CHECK_MSG(frames == 5, "%d frame lines, expected the 5 of the stream's size", frames);
+	free(out);
+	CHECK(mcd_run_wait_log(&r, "frame dropped (files: '", 0) && mcd_run_wait_log(&r, "is 32x24, the stream is 64x48", 0));
+	CHECK(!mcd_run_wait_log(&r, "reopening", 0));
+	if (mc_test_failures)
+		mcd_run_dump(&r, "frame of another size");
+	for (int i = 0; i < 6; i++) {
+		snprintf(path, sizeof(path), "%s/%05d.png", dir, i);
+		unlink(path);
+	}
+	rmdir(dir);
 	mcd_run_cleanup(&r);
 }
 
@@ -292,6 +340,7 @@ int main(void)
 	if (!mcd_find_build())
 		TEST_SKIP("mocapd is not built");
 	test_run_to_end();
+	test_frame_of_another_size();
 	test_config_error();
 	test_refused_plugin_dir();
 	test_sigterm();
