@@ -228,6 +228,14 @@ static int passed_socket(const char *path, mc_err *err)
 	return fd;
 }
 
+/* The server's word on each client that connects (PROTOCOL.md: HELLO's
+ * client_name is shown in the log). */
+static void log_client(void *ctx, const char *line)
+{
+	(void)ctx;
+	mcd_info("%s", line);
+}
+
 static int start_server(daemon_ctx *d, mc_err *err)
 {
 	const mcd_config *cfg = d->cfg;
@@ -244,6 +252,7 @@ static int start_server(daemon_ctx *d, mc_err *err)
 	sc.max_clients = cfg->socket.max_clients;
 	sc.socket_mode = cfg->socket.mode;
 	snprintf(sc.daemon_version, sizeof(sc.daemon_version), "mocapd %s", MOCAPD_VERSION);
+	sc.on_client = log_client;
 	if (cfg->socket.group[0]) {
 		struct group *gr = getgrnam(cfg->socket.group);
 		if (!gr) {

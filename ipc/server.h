@@ -81,6 +81,10 @@ typedef struct {
 	 * nanoseconds of the frame's capture time (or brackets it). */
 	uint64_t head_pose_max_age_ns;
 	char daemon_version[64]; /* reported in the handshake */
+	/* Where the server tells about its clients (a client's name, pid and
+	 * uid after its HELLO), called on the server's thread; NULL: nowhere. */
+	void (*on_client)(void *ctx, const char *line);
+	void *on_client_ctx;
 } srv_config;
 
 void srv_config_default(srv_config *cfg);

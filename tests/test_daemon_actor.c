@@ -13,6 +13,7 @@
  *   (the log says so) and tracks again from the detections; `--check`
  *   fails on an actor with init_joints, and on an actor file of another
  *   model, naming the config line.
+ * The log names the clients that connect (HELLO's client_name).
  * Skips when no detector model ships (config/models/ *ego*.onnx). */
 #include "daemon/harness.h"
 #include "body/mc_model.h"
@@ -105,6 +106,14 @@ static void test_no_detector(void)
 	CHECK(mocap_control(c, MOCAP_CMD_ACTOR_SAVE, "early", msg, sizeof(msg)) == MOCAP_E_FAILED);
 	CHECK_MSG(strstr(mocap_errmsg(), "no actor yet"), "refusal says '%s'", mocap_errmsg());
 	printf("no detector: 5 of 5 frames initialising; save refused: %s\n", mocap_errmsg());
+	/* The log names each client after its HELLO, with its control
+	 * characters replaced (issue 20, defect 9). */
+	mocap_client *evil = mocap_connect(r.sock, "evil\nmocapd: error: forged");
+	CHECK(evil != NULL);
+	mocap_close(evil);
+	CHECK(mcd_run_wait_log(&r, "client 'test_daemon_actor' connected (pid ", 2000));
+	CHECK(mcd_run_wait_log(&r, "client 'evil?mocapd: error: forged' connected", 2000));
+	CHECK(!mcd_run_wait_log(&r, "\nmocapd: error: forged", 0));
 	stop(&r, c);
 	mcd_run_cleanup(&r);
 }

@@ -6,7 +6,25 @@
 
 #include <fcntl.h>
 #include <math.h>
+#include <stdio.h>
 #include <unistd.h>
+
+/* Tells the daemon who connected; the name is the client's own words,
+ * so anything but printable ASCII becomes '?' (no forged log lines). */
+static void report_client(srv_server *srv, const client *c)
+{
+	if (!srv->cfg.on_client)
+		return;
+	char name[sizeof(c->name)];
+	size_t n = 0;
+	for (; c->name[n] && n + 1 < sizeof(name); n++)
+		name[n] = c->name[n] >= 0x20 && c->name[n] < 0x7f ? c->name[n] : '?';
+	name[n] = 0;
+	char line[200];
+	snprintf(line, sizeof(line), "client '%s' connected (pid %d, uid %u%s), protocol %u", n ? name : "?",
+		 (int)c->pid, (unsigned)c->uid, c->privileged ? ", may control" : "", c->version);
+	srv->cfg.on_client(srv->cfg.on_client_ctx, line);
+}
 
 static void handle_hello(srv_server *srv, client *c, const proto_msg *m)
 {
@@ -24,6 +42,7 @@ static void handle_hello(srv_server *srv, client *c, const proto_msg *m)
 	}
 	c->hello = true;
 	c->version = h->max_version < PROTO_VERSION ? h->max_version : PROTO_VERSION; /* the highest both speak */
+	report_client(srv, c);
 	proto_msg *o = &srv->out;
 	memset(o, 0, sizeof(o->h) + sizeof(o->u.welcome));
 	o->h.type = MC_MSG_WELCOME;
