@@ -329,6 +329,12 @@ typedef struct {
 	mcd_backoff *backoff;
 	int io_errors;      /* in a row */
 	int format_errors;  /* in a row */
+	/* The driver's sequence number of the last frame it delivered (good
+	 * or dropped here), to count the frames it never delivered; and the
+	 * frames it refused since (FORMAT errors), counted already. */
+	bool have_sequence;
+	uint64_t last_sequence;
+	uint64_t refused;
 	bool first;         /* no good frame yet */
 	bool streaming;     /* in state STREAMING */
 	uint64_t last_good; /* when the last good frame came */
@@ -338,8 +344,27 @@ typedef struct {
 
 /* A frame the driver delivered into the slot: dropped and counted, or
  * committed. */
+/* Counts the frames missing between the last delivered one and this one
+ * (a sequence that goes back is a restarted device: nothing is counted). */
+static void count_sequence_gap(mcd_camera *c, stream_state *s, uint64_t sequence)
+{
+	if (s->have_sequence && sequence > s->last_sequence + 1) {
+		uint64_t gap = sequence - s->last_sequence - 1;
+		gap = gap > s->refused ? gap - s->refused : 0;
+		if (gap) {
+			pthread_mutex_lock(&c->lock);
+			c->counters.lost += gap;
+			pthread_mutex_unlock(&c->lock);
+		}
+	}
+	s->have_sequence = true;
+	s->last_sequence = sequence;
+	s->refused = 0;
+}
+
 static void handle_frame(mcd_camera *c, stream_state *s, mdrv_frame *slot, size_t cap)
 {
+	count_sequence_gap(c, s, slot->sequence);
 	char kind;
 	const char *why = frame_problem(slot, cap, &kind);
 	if (why) {
@@ -428,6 +453,7 @@ static int handle_error(mcd_camera *c, stream_state *s, int rc, const char *err)
 	case MDRV_ERR_FORMAT:
 		if (++s->format_errors < FORMAT_ERRORS_BEFORE_REOPEN) {
 			note_bad_frame(c, err[0] ? err : "format or size", &c->counters.bad_frames);
+			s->refused++; /* its sequence number is skipped, and counted here */
 			return RUN_ON;
 		}
 		set_error(c, "next_frame", err[0] ? err : "format error");

@@ -52,6 +52,7 @@ typedef struct {
 	uint64_t errors;         /* driver errors (open, start, mid-stream) */
 	uint64_t reopens;        /* times the device was reopened */
 	uint64_t nospace;        /* frames that did not fit the slot */
+	uint64_t lost;           /* never delivered: gaps in the driver's frame sequence */
 	uint64_t last_frame_ns;  /* commit time of the newest frame, 0 = none */
 } mcd_cam_counters;
 

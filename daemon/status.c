@@ -8,6 +8,7 @@
 uint64_t mcd_cam_drops(const mcd_cam_status *c)
 {
 	return c->counters.short_frames + c->counters.corrupt_frames + c->counters.bad_frames + c->counters.nospace +
+	       c->counters.lost +
 	       c->track.overrun + c->track.undecodable + c->track.late;
 }
 

@@ -128,6 +128,36 @@ static void test_bad_frames(void)
 	finish(&r, "bad frames", before);
 }
 
+/* The newest STATUS= line sd_notify got. */
+static const char *last_status(mcd_run *r)
+{
+	mcd_run_read_notify(r);
+	const char *last = r->notes ? r->notes : "";
+	for (const char *p = last; (p = strstr(p, "STATUS=")); p++)
+		last = p;
+	return last;
+}
+
+/* Frames a device never delivered (gaps in its sequence numbers) count as
+ * drops (issue 20, defect 9: a camera that lost 440 of 6040 frames showed
+ * "0 drops").  drop_every = 4 at 30 fps: about 7 a second. */
+static void test_sequence_gaps(void)
+{
+	int before = mc_test_failures;
+	mcd_run r;
+	CHECK(start(&r, BASE "device = G7\n[camera gappy]\ndriver = faulty\ndevice = D7\ndrop_every = 4\n"));
+	mcd_sleep_ms(1500);
+	CHECK(mcd_run_wait_notify(&r, "gappy: streaming", 2000));
+	const char *last = last_status(&r);
+	const char *g = strstr(last, "gappy: streaming");
+	const char *d = g ? strstr(g, "fps, ") : NULL;
+	long drops = d ? atol(d + 5) : -1;
+	printf("drop_every = 4, about 1.5 s: %ld drops (%s)\n", drops, g ? g : "no gappy camera in the status");
+	CHECK_MSG(drops >= 5, "gappy: %ld drops in %s", drops, last);
+	CHECK_MSG(strstr(last, "good: streaming") && strstr(strstr(last, "good: streaming"), ", 0 drops"), "%s", last);
+	finish(&r, "sequence gaps", before);
+}
+
 static void test_disappear_and_return(void)
 {
 	int before = mc_test_failures;
@@ -198,6 +228,7 @@ int main(void)
 	test_error_mid_stream();
 	test_io_errors_are_retried_first();
 	test_bad_frames();
+	test_sequence_gaps();
 	test_disappear_and_return();
 	test_stall();
 	test_unknown_driver_key();
