@@ -33,6 +33,7 @@ struct mcd_camera {
 	mdrv_host host;
 	bool key_read[MCD_MAX_DRIVER_KEYS];
 	char epoch[32]; /* offered as "epoch" on the first opening; "" = none */
+	unsigned outages; /* times the camera went away after streaming (capture thread only) */
 	bool opened_once;
 
 	pthread_t thread;
@@ -533,9 +534,14 @@ static bool wait_to_reopen(mcd_camera *c, mcd_backoff *backoff, const char *last
 	pthread_mutex_unlock(&c->lock);
 	double wait_ms = mcd_backoff_next(backoff);
 	/* A camera that stays away is reported at attempts 1, 2, 3, 4, 8,
-	 * 16, ... so that the journal is not flooded. */
+	 * 16, ...; one that keeps going away (a loose cable: the attempts
+	 * start again at 1 after each good frame) at its outages 1, 2, 3, 4,
+	 * 8, 16, ..., so that the journal is not flooded either way. */
 	unsigned n = backoff->failures;
-	mcd_log(mc_throttle_should_log(n) ? MCD_LOG_WARN : MCD_LOG_DEBUG,
+	if (n == 1)
+		c->outages++;
+	bool warn = mc_throttle_should_log(n) && (n > 1 || mc_throttle_should_log(c->outages));
+	mcd_log(warn ? MCD_LOG_WARN : MCD_LOG_DEBUG,
 		"camera %s: %s; reopening in %.0f ms (attempt %u)", c->cfg.name, last, wait_ms, n);
 	set_state(c, MCD_CAM_RETRYING);
 	return nap(c, wait_ms);
