@@ -79,23 +79,28 @@ static int create_listen_socket(srv_server *srv, mc_err *err)
 	int fd = socket(AF_UNIX, SOCK_SEQPACKET | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
 	if (fd < 0)
 		return mc_err_set(err, "socket: %s", strerror(errno));
-	/* bind, then fix mode and group, then listen: nobody can connect
-	 * before listen(), so there is no window with the wrong permissions. */
-	if (bind(fd, (struct sockaddr *)&a, sizeof(a)) != 0) {
+	/* The mode comes from the umask at bind (a socket file is created
+	 * 0777 & ~umask), and the group is set with lchown: nothing follows a
+	 * symbolic link that someone may have put at the path meanwhile (a
+	 * chmod or chown by path would change its target).  Nobody can
+	 * connect before listen(), so there is no window with the wrong
+	 * permissions. */
+	mode_t old_umask = umask(0777 & ~(mode_t)(srv->cfg.socket_mode & 0777));
+	int bound = bind(fd, (struct sockaddr *)&a, sizeof(a));
+	umask(old_umask);
+	if (bound != 0) {
 		mc_err_set(err, "%s: cannot create the socket: %s", path, strerror(errno));
 		close(fd);
 		return -1;
 	}
 	srv->created_path = true;
 	struct stat st;
-	if (stat(path, &st) == 0) {
+	if (lstat(path, &st) == 0) {
 		srv->path_dev = st.st_dev;
 		srv->path_ino = st.st_ino;
 	}
 	srv->listen_fd = fd;
-	if (chmod(path, srv->cfg.socket_mode & 07777) != 0)
-		return mc_err_set(err, "%s: chmod %o: %s", path, srv->cfg.socket_mode, strerror(errno));
-	if (srv->cfg.control_gid != (gid_t)-1 && chown(path, (uid_t)-1, srv->cfg.control_gid) != 0)
+	if (srv->cfg.control_gid != (gid_t)-1 && lchown(path, (uid_t)-1, srv->cfg.control_gid) != 0)
 		return mc_err_set(err, "%s: cannot give the socket to group %u: %s", path,
 				  (unsigned)srv->cfg.control_gid, strerror(errno));
 	if (listen(fd, 64) != 0)
