@@ -133,6 +133,24 @@ static void test_mjpeg(void)
 	 * size: refused as 0x0 every time, never a size from the stack
 	 * (issue 20, defect 2). */
 	static const uint8_t tables_only[] = {0xFF, 0xD8, 0xFF, 0xD9};
+	/* A small JPEG whose SOF claims 32768x32768 (a decompression bomb) is
+	 * refused from its header, before any buffer (issue 20, defect 3). */
+	uint8_t *bomb = malloc(n);
+	if (bomb) {
+		memcpy(bomb, jpeg, n);
+		size_t sof = 0;
+		for (size_t i = 2; i + 9 < n && !sof; i++)
+			if (bomb[i] == 0xFF && bomb[i + 1] == 0xC0)
+				sof = i;
+		CHECK(sof > 0);
+		if (sof) {
+			bomb[sof + 5] = 0x80, bomb[sof + 6] = 0x00; /* height 32768 */
+			bomb[sof + 7] = 0x80, bomb[sof + 8] = 0x00; /* width 32768 */
+			CHECK(mc_image_jpeg_size(conv, bomb, n, &w, &h, &err) != 0);
+			CHECK_MSG(strstr(err.msg, "32768x32768 out of range"), "%s", err.msg);
+		}
+		free(bomb);
+	}
 	for (int round = 0; round < 2; round++) {
 		w = h = 12345;
 		CHECK(mc_image_jpeg_size(conv, tables_only, sizeof(tables_only), &w, &h, &err) != 0);

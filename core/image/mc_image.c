@@ -16,6 +16,16 @@
 #include <turbojpeg.h>
 
 #define MAX_SIDE 32768 /* larger images are refused: sizes come from foreign input */
+/* Nor more pixels than this (8192 x 8192, twice 8K UHD): a 14 KB JPEG may
+ * claim 32768 x 32768, which would be a 3 GB buffer and seconds of CPU
+ * per frame (issue 20, defect 3). */
+#define MAX_PIXELS (8192ll * 8192ll)
+
+/* Whether a size from foreign input is one to decode. */
+static bool decodable_size(long long w, long long h)
+{
+	return w > 0 && h > 0 && w <= MAX_SIDE && h <= MAX_SIDE && w * h <= MAX_PIXELS;
+}
 
 struct mc_image_conv {
 	tjhandle dec; /* created on first use */
@@ -98,7 +108,7 @@ int mc_image_jpeg_size(mc_image_conv *conv, const uint8_t *jpeg, size_t bytes, i
 		reset_decoder(conv);
 		return -1;
 	}
-	if (*width <= 0 || *height <= 0 || *width > MAX_SIDE || *height > MAX_SIDE)
+	if (!decodable_size(*width, *height))
 		return mc_err_set(err, "MJPEG: image size %dx%d out of range", *width, *height);
 	return 0;
 }
@@ -462,7 +472,7 @@ static int decode_png(const uint8_t *data, size_t n, const char *origin, uint8_t
 	img.version = PNG_IMAGE_VERSION;
 	if (!png_image_begin_read_from_memory(&img, data, n))
 		return mc_err_set(err, "%s: PNG: %s", origin, img.message);
-	if (img.width == 0 || img.height == 0 || img.width > MAX_SIDE || img.height > MAX_SIDE) {
+	if (!decodable_size(img.width, img.height)) {
 		png_image_free(&img);
 		return mc_err_set(err, "%s: PNG: size %ux%u out of range", origin, img.width, img.height);
 	}
@@ -513,7 +523,7 @@ static int decode_pnm(const uint8_t *d, size_t n, const char *origin, uint8_t **
 	long width, height, maxval;
 	if (pnm_number(d, n, &pos, &width) || pnm_number(d, n, &pos, &height) || pnm_number(d, n, &pos, &maxval))
 		return mc_err_set(err, "%s: PNM: bad header", origin);
-	if (width <= 0 || height <= 0 || width > MAX_SIDE || height > MAX_SIDE)
+	if (!decodable_size(width, height))
 		return mc_err_set(err, "%s: PNM: size %ldx%ld out of range", origin, width, height);
 	if (maxval < 1 || maxval > 255)
 		return mc_err_set(err, "%s: PNM: maxval %ld unsupported (8-bit only)", origin, maxval);
