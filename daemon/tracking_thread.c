@@ -116,6 +116,14 @@ static int gather_views(mcd_tracking_thread *t, const mcd_group *g, mc_frame_vie
 	return present;
 }
 
+/* While the tracker waits for a first pose, keypoints up to this much
+ * older than the frame set are used: the tracking thread never waits for
+ * the detector, and on a loaded machine every detection can come a frame
+ * late, which would leave the tracker initialising for ever.  The actor
+ * stands for a moment then (docs/TRACKER.md), so a pose 0.3 s old is
+ * still a start that the images refine. */
+#define INIT_KEYPOINT_AGE_NS 300000000ull
+
 static bool same_instant(const srv_keypoints *b, uint64_t ts, uint64_t tol)
 {
 	uint64_t a = b->capture_ns;
@@ -143,6 +151,8 @@ static int collect_keypoints(mcd_tracking_thread *t, const mc_frame_view *views,
 			t->kp_latest[t->kp_batch->cam] = *t->kp_batch;
 	pthread_mutex_lock(&t->lock);
 	uint64_t tol = t->grouper.tolerance_ns;
+	if (t->st.total.track_state == MC_TRACK_INITIALISING && tol < INIT_KEYPOINT_AGE_NS)
+		tol = INIT_KEYPOINT_AGE_NS;
 	pthread_mutex_unlock(&t->lock);
 	int n = 0, detected = 0;
 	for (int r = 0; r < nviews; r++) {

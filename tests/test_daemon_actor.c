@@ -46,11 +46,12 @@ static void write_config(mcd_run *r, const char *tracker_extra, const char *extr
 
 /* Polls the status until the tracker state is one of ok, uncertain, lost
  * (started) or the time is up; returns the last state. */
-static int wait_started(mocap_client *c, int timeout_ms)
+static int wait_started(mcd_run *r, mocap_client *c, int timeout_ms)
 {
 	mocap_daemon_status st;
 	int state = -1;
 	for (uint64_t t0 = mcd_now_ms(); mcd_now_ms() - t0 < (uint64_t)timeout_ms; mcd_sleep_ms(200)) {
+		mcd_run_read_notify(r); /* as systemd would: a full notify socket blocks sd_notify */
 		if (mocap_get_status(c, &st) != 0)
 			return -1;
 		state = st.tracker_state;
@@ -129,7 +130,7 @@ static const char *test_save(mcd_run *rr)
 	mocap_client *c = start(r, "", det);
 	if (!c)
 		return NULL;
-	int state = wait_started(c, 60000);
+	int state = wait_started(r, c, 60000);
 	CHECK_MSG(state >= 0 && state <= MOCAP_TRACK_LOST, "still %s after 60 s",
 		  mocap_track_state_name((mocap_track_state)state));
 	CHECK(mcd_run_wait_log(r, "first pose found from the detections", 5000));
@@ -166,7 +167,7 @@ static void test_load(const char *actor)
 	if (!c)
 		return;
 	CHECK(mcd_run_wait_log(&r, "(its size and colours)", 5000));
-	int state = wait_started(c, 60000);
+	int state = wait_started(&r, c, 60000);
 	CHECK_MSG(state >= 0 && state <= MOCAP_TRACK_LOST, "with the actor: still %s after 60 s",
 		  mocap_track_state_name((mocap_track_state)state));
 	stop(&r, c);
