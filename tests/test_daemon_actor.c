@@ -87,8 +87,10 @@ static void test_no_detector(void)
 {
 	mcd_run r;
 	mocap_client *c = start(&r, "", "");
-	if (!c)
+	if (!c) {
+		mcd_run_cleanup(&r);
 		return;
+	}
 	mocap_skeleton_frame *f = calloc(1, sizeof(*f));
 	CHECK(f && mocap_subscribe(c, MOCAP_ALL, MOCAP_SPACE_RIG, 0) == 0);
 	int frames = 0, initialising = 0;
@@ -164,8 +166,10 @@ static void test_load(const char *actor)
 	snprintf(det, sizeof(det), "[detector]\nmodel = %s\n", detector_model);
 	mcd_run r;
 	mocap_client *c = start(&r, tracker, det);
-	if (!c)
+	if (!c) {
+		mcd_run_cleanup(&r);
 		return;
+	}
 	CHECK(mcd_run_wait_log(&r, "(its size and colours)", 5000));
 	int state = wait_started(&r, c, 60000);
 	CHECK_MSG(state >= 0 && state <= MOCAP_TRACK_LOST, "with the actor: still %s after 60 s",
