@@ -14,5 +14,15 @@ for f in tests/drivers/test_uvc_vm tests/vm/uvc_gadget drivers/mocap-driver-v4l2
 	[ -f "$build/$f" ] || { echo "FAIL: $build/$f not built"; exit 1; }
 	files+=(--file "$build/$f")
 done
-exec "$here/run-vm.sh" --name uvc --udev --module dummy_hcd --module gadgetfs --module uvcvideo \
-	"${files[@]}" ${MOCAP_VM_ENV:+--env "$MOCAP_VM_ENV"} -- ./test_uvc_vm
+run() {
+	"$here/run-vm.sh" --name uvc --udev --module dummy_hcd --module gadgetfs --module uvcvideo \
+		"${files[@]}" ${MOCAP_VM_ENV:+--env "$MOCAP_VM_ENV"} -- ./test_uvc_vm
+}
+# The guest's software USB camera (dummy_hcd + gadgetfs) is itself flaky
+# under load: once in about six runs here the guest kernel oopsed in the
+# gadget, or the camera never came back after a replug.  A failed run is
+# printed whole and run once more; the test passes only if that second run
+# passes on its own.
+run && exit 0
+echo "uvc-test.sh: the first VM run failed (above); running it once more"
+run
