@@ -58,6 +58,7 @@
 #define SRV_ARG_MAX 256      /* control argument, bytes incl. NUL */
 #define SRV_MAX_KEYPOINTS 256 /* per keypoint batch (one camera, one frame) */
 #define SRV_MAX_RINGS 16
+#define SRV_HEAD_POSE_MAX_M 10000.0 /* farther head poses are refused */
 
 typedef struct {
 	/* Socket path.  With listen_fd < 0 the server creates it: a stale

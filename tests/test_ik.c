@@ -63,5 +63,12 @@ int main(void)
 	mc_ik_options_default(&o);
 	mc_model_rest_pose(&m, est);
 	CHECK(mc_ik_solve(&m, est, two, 2, &o, &err) < 0 && strstr(err.msg, "at least 3"));
+	/* All at one point, or 1e308 m away: no body (issue 20, defect 8). */
+	mc_ik_target same[3] = {{1, mc_v3(0, 0, 0), 1, {0, 0, 0}}, {2, mc_v3(0, 0, 0), 1, {0, 0, 0}},
+				{3, mc_v3(0, 0, 0), 1, {0, 0, 0}}};
+	CHECK(mc_ik_solve(&m, est, same, 3, &o, &err) < 0 && strstr(err.msg, "not a body"));
+	same[1].position = mc_v3(1e308, 0, 0);
+	CHECK_MSG(mc_ik_solve(&m, est, same, 3, &o, &err) < 0 && strstr(err.msg, "more than 100 m from the rig"), "%s",
+		  err.msg);
 	return mc_test_finish("test_ik");
 }

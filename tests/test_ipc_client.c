@@ -580,9 +580,16 @@ static void test_inputs_and_world(void)
 	CHECK(mocap_send_head_pose(w, 1005000000, pb, q90) == 0);
 	double bad_q[4] = {1, 1, 0, 0};
 	CHECK(mocap_send_head_pose(w, 1005000000, pb, bad_q) == MOCAP_E_ARG);
+	/* 1e308 m is finite but no play area: the server refuses it (issue
+	 * 20, defect 8), and the pose it keeps is the last sane one */
+	double far[3] = {1e308, 0, 0};
+	mocap_send_head_pose(w, 1006000000, far, q90);
 	mocap_ping(w, NULL);
 	srv_head_pose hp;
 	CHECK(srv_latest_head_pose(srv, &hp) == 1 && hp.timestamp_ns == 1005000000);
+	int refused = mocap_send_head_pose(w, 1005000000, pb, q90);
+	CHECK_MSG(refused != 0 && strstr(mocap_errmsg(), "at most 10000 m"), "after a far head pose: %d %s", refused,
+		  mocap_errmsg());
 	make_skeleton(&sk, 2);
 	sk.timestamp_ns = 1000000000;
 	srv_publish(srv, &sk, 2, &err);

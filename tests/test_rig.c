@@ -466,7 +466,12 @@ static void test_bad_rigs(void)
 	bad_camera_field("cx", json_string("nan"), "bad.json: cameras[0].cx: expected a number, got a string");
 	bad_camera_field("f", json_string("inf"), "bad.json: cameras[0].f: expected a number, got a string");
 	/* huge but finite numbers: out of range */
-	bad_camera_field("f", json_real(1e308), "bad.json: cameras[0].fx: must be in (0, 1e+07] pixels");
+	bad_camera_field("f", json_real(1e308), "bad.json: cameras[0].fx: must be in [1, 1e+07] pixels");
+	/* absurd but positive: a focal length of 5e-324 pixels, a camera 1e300 m
+	 * away (issue 20, defect 8) */
+	bad_camera_field("f", json_real(5e-324), "bad.json: cameras[0].fx: must be in [1, 1e+07] pixels, got 4.94066e-324");
+	bad_camera_field("rig_from_cam", json_pack("[[i,i,i,f],[i,i,i,i],[i,i,i,i],[i,i,i,i]]", 1, 0, 0, 1e300, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1),
+			 "bad.json: cameras[0].rig_from_cam: the camera is 1e+300 m from the rig origin (at most 1000 m)");
 	bad_camera_field("cx", json_real(-1e300), "bad.json: cameras[0].cx: must be within +-1e+07 pixels");
 	bad_camera_field("fov_deg", json_real(1e300), "bad.json: cameras[0].fov_deg: 1e+300 is out of range");
 	/* negative and zero sizes */
@@ -618,7 +623,15 @@ static void test_raytables(void)
 	mc_camera broken = rig.cams[0];
 	broken.fx = -1;
 	CHECK(mc_raytable_build(&broken, 64, 64, &bad, &err) == -1);
-	CHECK_ERR(err.msg, "camera 'left': fx: must be in (0");
+	CHECK_ERR(err.msg, "camera 'left': fx: must be in [1");
+	/* a camera whose every pixel lies outside its field of view has no
+	 * ray: refused, not tracked with nothing (issue 20, defect 8) */
+	broken = rig.cams[0];
+	broken.cx = broken.cy = -1e6;
+	broken.max_theta = 0.1;
+	CHECK(mc_raytable_build(&broken, 64, 64, &bad, &err) == -1);
+	CHECK_ERR(err.msg, "camera 'left': no pixel has a ray");
+	CHECK(bad.dir == NULL && bad.valid == NULL);
 out:
 	mc_raytable_free(&left_rt);
 	mc_raytable_free(&right_rt);

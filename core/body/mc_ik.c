@@ -194,14 +194,23 @@ static double solve_with_restarts(const mc_model *m, double *p, const mc_ik_targ
 double mc_ik_solve(mc_model *model, double *pose, const mc_ik_target *targets, int n, const mc_ik_options *o,
 		   mc_err *err)
 {
-	double wsum = 0;
+	double wsum = 0, spread = 0;
 	for (int i = 0; i < n; i++) {
 		if (targets[i].joint < 0 || targets[i].joint >= model->njoints || !mc_v3_isfinite(targets[i].position))
 			return mc_err_set(err, "ik target %d: invalid joint or position", i);
+		mc_vec3 p = targets[i].position;
+		if (fabs(p.x) > MC_IK_TARGET_MAX_M || fabs(p.y) > MC_IK_TARGET_MAX_M || fabs(p.z) > MC_IK_TARGET_MAX_M)
+			return mc_err_set(err, "ik target %d ('%s'): (%g, %g, %g) m is more than %g m from the rig", i,
+					  model->joints[targets[i].joint].name, p.x, p.y, p.z, MC_IK_TARGET_MAX_M);
+		if (mc_v3_norm2(targets[i].dir) == 0) /* point targets must span a body, not one point */
+			spread = fmax(spread, mc_v3_norm(mc_v3_sub(p, targets[0].position)));
 		wsum += targets[i].weight;
 	}
 	if (n < 3 || !(wsum > 0))
 		return mc_err_set(err, "ik: need at least 3 weighted joint targets, got %d", n);
+	if (mc_v3_norm2(targets[0].dir) == 0 && spread < MC_IK_MIN_SPREAD_M)
+		return mc_err_set(err, "ik: the %d joint positions lie within %g m of each other: not a body", n,
+				  MC_IK_MIN_SPREAD_M);
 	if (o->fit_bone_scale)
 		mc_ik_fit_bone_scale(model, targets, n);
 

@@ -20,6 +20,12 @@ typedef struct {
 	mc_vec3 dir;
 } mc_ik_target;
 
+/* Targets farther than this from the rig origin, or point targets all
+ * within MC_IK_MIN_SPREAD_M of the first, are refused: no body is there
+ * (issue 20, defect 8: all-zero or 1e308 initial joints). */
+#define MC_IK_TARGET_MAX_M 100.0
+#define MC_IK_MIN_SPREAD_M 0.05
+
 typedef struct {
 	int iterations;       /* Levenberg-Marquardt iterations */
 	double pose_prior;    /* Tikhonov weight pulling joint dofs to 0 */

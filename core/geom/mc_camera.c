@@ -455,6 +455,10 @@ static int validate_pose(const mc_xform *x, mc_err *err)
 {
 	if (!mc_m3_isfinite(x->R) || !mc_v3_isfinite(x->t))
 		return mc_err_set(err, "rig_from_cam: not finite");
+	double dist = hypot(hypot(x->t.x, x->t.y), x->t.z); /* no overflow at 1e300 */
+	if (dist > MC_CAMERA_OFFSET_MAX_M)
+		return mc_err_set(err, "rig_from_cam: the camera is %g m from the rig origin (at most %g m)", dist,
+				  MC_CAMERA_OFFSET_MAX_M);
 	mc_mat3 RRt = mc_m3_mul(x->R, mc_m3_transpose(x->R));
 	double dev = 0;
 	for (int i = 0; i < 3; i++)
@@ -487,9 +491,9 @@ int mc_camera_validate(const mc_camera *cam, mc_err *err)
 			if (!isfinite(f[i]))
 				return mc_err_set(err, "%s: not a finite number", names[i]);
 		for (int i = 0; i < 2; i++)
-			if (!(f[i] > 0 && f[i] <= MC_CAMERA_COORD_MAX))
-				return mc_err_set(err, "%s: must be in (0, %g] pixels, got %g", names[i], MC_CAMERA_COORD_MAX,
-						  f[i]);
+			if (!(f[i] >= MC_CAMERA_FOCAL_MIN && f[i] <= MC_CAMERA_COORD_MAX))
+				return mc_err_set(err, "%s: must be in [%g, %g] pixels, got %g", names[i], MC_CAMERA_FOCAL_MIN,
+						  MC_CAMERA_COORD_MAX, f[i]);
 		for (int i = 2; i < 4; i++)
 			if (fabs(f[i]) > MC_CAMERA_COORD_MAX)
 				return mc_err_set(err, "%s: must be within +-%g pixels, got %g", names[i], MC_CAMERA_COORD_MAX,

@@ -32,6 +32,10 @@
 #define MC_CAMERA_SIZE_MAX 32768
 /* Largest focal length or principal point coordinate accepted, pixels. */
 #define MC_CAMERA_COORD_MAX 1e7
+/* A focal length below a pixel, or a camera farther than this from the rig
+ * origin, is a broken calibration, not a camera (issue 20, defect 8). */
+#define MC_CAMERA_FOCAL_MIN 1.0
+#define MC_CAMERA_OFFSET_MAX_M 1000.0
 
 typedef enum {
 	MC_CAM_PINHOLE = 0,

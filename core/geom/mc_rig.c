@@ -568,6 +568,11 @@ int mc_raytable_build(const mc_camera *cam, int width, int height, mc_raytable *
 			rt->nvalid++;
 		}
 	}
+	if (rt->nvalid == 0) { /* nothing could ever be seen: a broken calibration */
+		mc_raytable_free(rt);
+		return mc_err_set(err, "camera '%s': no pixel has a ray (check its intrinsics and field of view)",
+				  cam->name);
+	}
 	return 0;
 }
 

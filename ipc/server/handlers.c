@@ -301,6 +301,14 @@ static void handle_head_pose(srv_server *srv, client *c, const proto_msg *m)
 				"its length is %g", sqrt(n2));
 		return;
 	}
+	/* Metres in a VR runtime's tracking space: a play area, not 1e308. */
+	for (int i = 0; i < 3; i++)
+		if (fabs(h->position[i]) > SRV_HEAD_POSE_MAX_M) {
+			srv_reply_error(srv, c, m->h.request_id, m->h.type, PROTO_E_INVALID, false,
+					"head pose: position[%d] is %g m; at most %g m from the origin", i,
+					(double)h->position[i], SRV_HEAD_POSE_MAX_M);
+			return;
+		}
 	srv_head_pose hp;
 	hp.timestamp_ns = h->timestamp_ns;
 	hp.position = mc_v3(h->position[0], h->position[1], h->position[2]);
