@@ -34,6 +34,7 @@ struct mcd_camera {
 	bool key_read[MCD_MAX_DRIVER_KEYS];
 	char epoch[32]; /* offered as "epoch" on the first opening; "" = none */
 	unsigned outages; /* times the camera went away after streaming (capture thread only) */
+	int open_status;  /* what the last failed open() said (host_open_status) */
 	bool opened_once;
 
 	pthread_t thread;
@@ -94,6 +95,13 @@ static const char *host_config_get(void *ctx, const char *key)
 	if (strcmp(key, "rig_camera") == 0)
 		return c->cfg.rig_camera[0] ? c->cfg.rig_camera : NULL;
 	return NULL;
+}
+
+/* open() said why it failed (drv_open_failed); read by open_and_start. */
+static void host_open_status(void *ctx, int status)
+{
+	mcd_camera *c = ctx;
+	c->open_status = status;
 }
 
 static void host_log(void *ctx, int level, const char *msg)
@@ -275,9 +283,12 @@ static void *open_and_start(mcd_camera *c, mdrv_format *fmt, run_result *result)
 {
 	char err[512] = "";
 	*result = RUN_REOPEN;
+	c->open_status = 0;
 	void *dev = c->drv->open(&c->host, err, sizeof(err));
 	if (!dev) {
 		set_error(c, "open", err[0] ? err : "failed");
+		if (c->open_status == MDRV_ERR_CONFIG)
+			*result = RUN_FAILED; /* the driver says retrying cannot help */
 		return NULL;
 	}
 	int rc = c->drv->get_format(dev, fmt, err, sizeof(err));
@@ -517,7 +528,8 @@ static bool is_final(mcd_camera *c, run_result result, const char *last)
 		mcd_info("camera %s: end of stream", c->cfg.name);
 		set_state(c, MCD_CAM_ENDED);
 	} else if (result == RUN_FAILED) {
-		mcd_error("camera %s: %s; giving up on this camera (fix the config and restart)", c->cfg.name, last);
+		mcd_error("%s:%d: [camera %s]: %s; giving up on this camera (fix the config and restart)", c->config_file,
+			  c->cfg.line, c->cfg.name, last);
 		set_state(c, MCD_CAM_FAILED);
 	}
 	return result != RUN_REOPEN;
@@ -586,7 +598,7 @@ mcd_camera *mcd_camera_create(int index, const mcd_camera_config *cfg, const cha
 	c->drv = plugin->driver;
 	if (sink)
 		c->sink = *sink;
-	c->host = (mdrv_host){.ctx = c, .config_get = host_config_get, .log = host_log};
+	c->host = (mdrv_host){.ctx = c, .config_get = host_config_get, .log = host_log, .open_status = host_open_status};
 	pthread_mutex_init(&c->lock, NULL);
 	mcd_frame_ring_init(&c->ring, cfg->name, (unsigned)cfg->ring_slots);
 	mc_cond_init_monotonic(&c->wake);

@@ -74,6 +74,12 @@ typedef struct {
 	 * "prefix." as read, for keys the driver uses later. */
 	const char *(*config_get)(void *ctx, const char *key);
 	void (*log)(void *ctx, int level, const char *msg);
+	/* A driver whose open() fails says why with this before it returns
+	 * NULL (drv_open_failed): MDRV_ERR_CONFIG (a bad key value, a missing
+	 * or unreadable input, an undecodable first frame) is permanent and
+	 * the host gives the camera up (state failed); any other status, or
+	 * none, is retried with backoff.  May be NULL (an older host). */
+	void (*open_status)(void *ctx, int status);
 } mdrv_host;
 
 typedef struct {

@@ -99,6 +99,45 @@ static void test_frame_of_another_size(void)
 	mcd_run_cleanup(&r);
 }
 
+/* A driver open() that fails for a reason that will not change (a bad
+ * key value, an empty folder, a missing BVH) gives the camera up at once,
+ * naming the config line, instead of reopening it for ever (issue 20,
+ * defect 4). */
+static void test_permanent_open_errors(void)
+{
+	mcd_run r;
+	CHECK(mcd_run_init(&r));
+	char empty[sizeof(r.dir) + 16];
+	snprintf(empty, sizeof(empty), "%s/empty", r.dir);
+	CHECK(mkdir(empty, 0755) == 0);
+	char text[4 * PATH_MAX];
+	snprintf(text, sizeof(text),
+		 "[daemon]\nplugin_dir = %s/drivers\nreopen_initial_ms = 50\nreopen_max_ms = 100\n"
+		 "[socket]\npath = @SOCK@\n[tracker]\nenabled = false\n"
+		 "[camera rate]\ndriver = files\npath = %s\nrate = -5\n"
+		 "[camera loop]\ndriver = files\npath = %s\nloop = maybe\n"
+		 "[camera sim]\ndriver = sim\nbvh = %s\n",
+		 mcd_build_dir, empty, empty, empty);
+	mcd_run_config(&r, text);
+	CHECK(mcd_run_start(&r, print_args, NULL));
+	CHECK(mcd_run_wait_log(&r, "[camera rate]: open: files: config key 'rate'", 10000));
+	CHECK(mcd_run_wait_log(&r, "[camera loop]: open: files: config key 'loop'", 10000));
+	CHECK(mcd_run_wait_log(&r, "[camera sim]: open: sim: ", 10000));
+	mcd_sleep_ms(500); /* ten backoff periods */
+	char want[PATH_MAX + 64];
+	snprintf(want, sizeof(want), "%s:9: [camera rate]: open: files:", r.conf);
+	CHECK_MSG(mcd_run_wait_log(&r, want, 0), "the log has no '%s'", want);
+	CHECK_MSG(mcd_run_count(r.log, "giving up on this camera") == 3, "%d cameras given up",
+		  mcd_run_count(r.log, "giving up on this camera"));
+	CHECK_MSG(mcd_run_count(r.log, "reopening") == 0, "a permanent error was retried");
+	mcd_run_signal(&r, SIGTERM);
+	CHECK(mcd_run_wait_exit(&r, 10000) == 0);
+	if (mc_test_failures)
+		mcd_run_dump(&r, "permanent open errors");
+	rmdir(empty);
+	mcd_run_cleanup(&r);
+}
+
 static void test_config_error(void)
 {
 	mcd_run r;
@@ -341,6 +380,7 @@ int main(void)
 		TEST_SKIP("mocapd is not built");
 	test_run_to_end();
 	test_frame_of_another_size();
+	test_permanent_open_errors();
 	test_config_error();
 	test_refused_plugin_dir();
 	test_sigterm();

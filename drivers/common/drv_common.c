@@ -22,6 +22,13 @@ int drv_errf(char *err, size_t errlen, int status, const char *fmt, ...)
 	return status;
 }
 
+void *drv_open_failed(const mdrv_host *host, int status)
+{
+	if (host && host->open_status)
+		host->open_status(host->ctx, status);
+	return NULL;
+}
+
 void drv_logf(const mdrv_host *host, int level, const char *fmt, ...)
 {
 	if (!host || !host->log)

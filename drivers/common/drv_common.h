@@ -26,6 +26,10 @@ extern "C" {
 int drv_errf(char *err, size_t errlen, int status, const char *fmt, ...)
 	__attribute__((format(printf, 4, 5)));
 
+/* Tells the host why open() failed (host->open_status, when it has one)
+ * and returns NULL, for `return drv_open_failed(host, rc);`. */
+void *drv_open_failed(const mdrv_host *host, int status);
+
 /* Logs through host->log when the host offers one. */
 void drv_logf(const mdrv_host *host, int level, const char *fmt, ...) __attribute__((format(printf, 3, 4)));
 

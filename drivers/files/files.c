@@ -279,30 +279,35 @@ static void *files_open(const mdrv_host *host, char *err, size_t errlen)
 	unsigned start = 0, count = 0;
 	int format = -1;
 	mc_err e;
-	if (parse_config(d, &start, &count, &format, err, errlen) != MDRV_OK ||
-	    scan_folder(d, start, count, err, errlen) != MDRV_OK)
+	int rc = parse_config(d, &start, &count, &format, err, errlen);
+	if (rc == MDRV_OK)
+		rc = scan_folder(d, start, count, err, errlen);
+	if (rc != MDRV_OK)
 		goto fail;
 	bool all_jpeg = true;
 	for (int i = 0; i < d->nfiles; i++)
 		all_jpeg &= d->files[i].jpeg;
 	if (format == 0 && !all_jpeg) {
-		drv_errf(err, errlen, MDRV_ERR_CONFIG,
-			 "%s: config key 'format': mjpeg needs JPEG files, '%s' holds others (use rgb24)", DRV, d->dir);
+		rc = drv_errf(err, errlen, MDRV_ERR_CONFIG,
+			      "%s: config key 'format': mjpeg needs JPEG files, '%s' holds others (use rgb24)", DRV, d->dir);
 		goto fail;
 	}
 	d->rgb24 = format == 1 || !all_jpeg;
 	if (!(d->conv = mc_image_conv_new(&e))) {
-		drv_errf(err, errlen, MDRV_ERR_IO, "%s: %s", DRV, e.msg);
+		rc = drv_errf(err, errlen, MDRV_ERR_IO, "%s: %s", DRV, e.msg);
 		goto fail;
 	}
-	if (probe_first_file(d, err, errlen) != MDRV_OK)
+	rc = probe_first_file(d, err, errlen);
+	if (rc != MDRV_OK)
 		goto fail;
 	drv_logf(host, MDRV_LOG_INFO, "%s: %d frames from %s (%ux%u %s, %g fps%s)", DRV, d->nfiles, d->dir,
 		 d->fmt.width, d->fmt.height, mc_pixfmt_name(d->fmt.pixfmt), d->rate, d->loop ? ", looping" : "");
 	return d;
 fail:
 	files_close(d);
-	return NULL;
+	/* The folder, its files and the keys do not change by waiting: an
+	 * empty folder or an undecodable first file is permanent too. */
+	return drv_open_failed(host, rc == MDRV_ERR_FORMAT ? MDRV_ERR_CONFIG : rc);
 }
 
 static int files_get_format(void *dev, mdrv_format *fmt, char *err, size_t errlen)

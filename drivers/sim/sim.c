@@ -267,12 +267,16 @@ static void *sim_open(const mdrv_host *host, char *err, size_t errlen)
 	unsigned w, h;
 	double height_m;
 	mc_err e;
-	if (load_inputs(d, err, errlen) != MDRV_OK || parse_options(d, &w, &h, &height_m, err, errlen) != MDRV_OK ||
-	    fit_actor(d, height_m, err, errlen) != MDRV_OK)
+	int rc = load_inputs(d, err, errlen);
+	if (rc == MDRV_OK)
+		rc = parse_options(d, &w, &h, &height_m, err, errlen);
+	if (rc == MDRV_OK)
+		rc = fit_actor(d, height_m, err, errlen);
+	if (rc != MDRV_OK)
 		goto fail;
 	if (mc_raytable_build(&d->rig.cams[d->cam], (int)w, (int)h, &d->rays, &e) != 0) {
-		drv_errf(err, errlen, MDRV_ERR_CONFIG, "%s: camera '%s' at %ux%u: %s", DRV, d->rig.cams[d->cam].name, w,
-			 h, e.msg);
+		rc = drv_errf(err, errlen, MDRV_ERR_CONFIG, "%s: camera '%s' at %ux%u: %s", DRV,
+			      d->rig.cams[d->cam].name, w, h, e.msg);
 		goto fail;
 	}
 	d->fmt = (mdrv_format){.pixfmt = MC_PIXFMT_RGB24, .width = w, .height = h, .stride = w * 3, .fps = d->rate,
@@ -283,7 +287,7 @@ static void *sim_open(const mdrv_host *host, char *err, size_t errlen)
 	return d;
 fail:
 	sim_close(d);
-	return NULL;
+	return drv_open_failed(host, rc);
 }
 
 static int sim_get_format(void *dev, mdrv_format *fmt, char *err, size_t errlen)
