@@ -32,6 +32,9 @@ static inline mc_vec3 mc_v3_cross(mc_vec3 a, mc_vec3 b)
 {
 	return mc_v3(a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x);
 }
+/* v without its component along the unit vector dir: the offset of a point
+ * v (relative to a line's origin) from the line. */
+static inline mc_vec3 mc_v3_reject(mc_vec3 v, mc_vec3 dir) { return mc_v3_axpy(-mc_v3_dot(v, dir), dir, v); }
 static inline double mc_v3_norm2(mc_vec3 a) { return mc_v3_dot(a, a); }
 static inline double mc_v3_norm(mc_vec3 a) { return sqrt(mc_v3_dot(a, a)); }
 static inline mc_vec3 mc_v3_normalize(mc_vec3 a)

@@ -17,7 +17,7 @@ void mc_ik_options_default(mc_ik_options *o)
  * has dir 0 and keeps v whole). */
 static mc_vec3 target_project(const mc_ik_target *t, mc_vec3 v)
 {
-	return mc_v3_axpy(-mc_v3_dot(v, t->dir), t->dir, v);
+	return mc_v3_reject(v, t->dir);
 }
 
 static int compare_double(const void *a, const void *b)

@@ -215,8 +215,8 @@ int mc_trk_calibrate(mc_tracker *t, const mc_frame_view *views, int nviews, bool
 	calibrate_background(t, &background);
 	mc_trk_gaussian_evidence(t, t->pose, t->evidence0);
 	rc = measure_baseline(t, err);
-	if (rc == 0 && colours)
-		t->actor_version++;
+	if (rc == 0)
+		t->actor_version++; /* the actor in use changed, or (colours kept) started */
 out:
 	for (int q = 0; per_gauss && q < MC_MAX_GAUSSIANS; q++)
 		free(per_gauss[q].s);

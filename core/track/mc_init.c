@@ -69,8 +69,7 @@ static bool is_torso(const char *name)
 
 static mc_vec3 off_ray(mc_vec3 p, mc_vec3 origin, mc_vec3 dir)
 {
-	mc_vec3 d = mc_v3_sub(p, origin);
-	return mc_v3_axpy(-mc_v3_dot(d, dir), dir, d);
+	return mc_v3_reject(mc_v3_sub(p, origin), dir);
 }
 
 /* The point nearest to the rays idx[0..n-1] (least squares over
@@ -232,8 +231,6 @@ static int first_fit(mc_tracker *t, const mc_frame_view *views, int nviews, cons
 	mc_tracker_set_pose(t, pose);
 	if (mc_trk_calibrate(t, views, nviews, !t->init.keep_colours, err) < 0)
 		return -1;
-	if (t->init.keep_colours)
-		t->actor_version++; /* the actor file's actor is now the one in use */
 	t->init.waiting = false;
 	t->init.inits++;
 	return 1;

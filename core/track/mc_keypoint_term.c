@@ -80,7 +80,7 @@ double mc_trk_detection_term(mc_tracker *t, const double *pose, const mc_fk *fk,
 		if (w <= 0)
 			continue;
 		mc_vec3 d = mc_v3_sub(fk->rig_from_joint[kp[i].joint].t, kp[i].origin);
-		mc_vec3 r = mc_v3_axpy(-mc_v3_dot(d, kp[i].dir), kp[i].dir, d); /* offset from the ray */
+		mc_vec3 r = mc_v3_reject(d, kp[i].dir); /* offset from the ray */
 		double dist = mc_v3_norm(r), x = dist / DETECTION_SCALE_M;
 		E += w * 0.5 * log(1 + x * x);
 		used++;

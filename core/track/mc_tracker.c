@@ -658,7 +658,8 @@ int mc_trk_pose_energy(mc_tracker *t, const double *pose, double *E, mc_err *err
 
 /* ---- tracking ------------------------------------------------------------ */
 
-static void fill_skeleton(const mc_tracker *t, const double *pose, mc_skeleton *out)
+/* The joints of a pose: names, parents, positions, orientations. */
+static void skeleton_joints(const mc_tracker *t, const double *pose, mc_skeleton *out)
 {
 	mc_fk fk;
 	mc_model_fk(&t->model, pose, &fk);
@@ -670,6 +671,11 @@ static void fill_skeleton(const mc_tracker *t, const double *pose, mc_skeleton *
 		sj->position = fk.rig_from_joint[j].t;
 		sj->orientation = mc_quat_from_m3(fk.rig_from_joint[j].R);
 	}
+}
+
+static void fill_skeleton(const mc_tracker *t, const double *pose, mc_skeleton *out)
+{
+	skeleton_joints(t, pose, out);
 	mc_trk_joint_confidence(t, pose, out);
 }
 
@@ -692,17 +698,9 @@ static bool pose_finite(const double *p, int n)
 static void initialising_skeleton(const mc_tracker *t, mc_skeleton *out)
 {
 	out->state = MC_TRACK_INITIALISING;
-	mc_fk fk;
-	mc_model_fk(&t->model, t->pose, &fk);
-	out->njoints = t->model.njoints;
-	for (int j = 0; j < t->model.njoints; j++) {
-		mc_skeleton_joint *sj = &out->joints[j];
-		snprintf(sj->name, sizeof(sj->name), "%s", t->model.joints[j].name);
-		sj->parent = t->model.joints[j].parent;
-		sj->position = fk.rig_from_joint[j].t;
-		sj->orientation = mc_quat_from_m3(fk.rig_from_joint[j].R);
-		sj->confidence = 0;
-	}
+	skeleton_joints(t, t->pose, out);
+	for (int j = 0; j < out->njoints; j++)
+		out->joints[j].confidence = 0;
 }
 
 int mc_tracker_track(mc_tracker *t, const mc_frame_view *views, int nviews, const mc_keypoint *kp, int nkp,

@@ -124,9 +124,10 @@ int mc_tracker_init_from_joints(mc_tracker *t, const char *const *names, const m
 #define MC_INIT_KEEP_ACTOR 2u   /* the model is an actor file: keep its size and colours */
 int mc_tracker_start_from_detections(mc_tracker *t, unsigned flags, mc_err *err);
 
-/* Counts the tracker's colour calibrations: a new value means the actor
- * (mc_tracker_model: bone scales, head placement, colours) changed, e.g.
- * for saving it as an actor file (mc_model_save).  0: never calibrated. */
+/* Counts the tracker's calibrations: a new value means the actor in use
+ * (mc_tracker_model: bone scales, head placement, colours) changed or, from
+ * an actor file, started, e.g. for saving it as an actor file
+ * (mc_model_save).  0: never calibrated. */
 unsigned mc_tracker_actor_version(const mc_tracker *t);
 
 typedef struct {

@@ -75,13 +75,14 @@ struct mc_tracker {
 	int history; /* frames of history in prev/prev2 (0..2) */
 	double baseline; /* mean data energy per pixel after calibration (< 0) */
 	mc_trk_init init;
-	unsigned actor_version; /* counts colour calibrations */
+	unsigned actor_version; /* counts calibrations (mc_trk_calibrate) */
 	uint64_t rng;
 };
 
 /* Calibration at the current pose on one frame set: with `colours`, each
- * Gaussian's colour (thesis 5.3.2, and actor_version++); always the
- * background colour, the per-Gaussian evidence and the baseline energy. */
+ * Gaussian's colour (thesis 5.3.2); always the background colour, the
+ * per-Gaussian evidence and the baseline energy; actor_version++ on
+ * success. */
 int mc_trk_calibrate(mc_tracker *t, const mc_frame_view *views, int nviews, bool colours, mc_err *err);
 
 /* Converts the views to working-resolution RGB (t->rgb) and HSV (t->hsv);
