@@ -30,17 +30,9 @@ static char repo[PATH_MAX], detector_model[2 * PATH_MAX];
  * `extra` are added to [tracker] and at the end. */
 static void write_config(mcd_run *r, const char *tracker_extra, const char *extra)
 {
-	char text[8 * PATH_MAX];
-	snprintf(text, sizeof(text),
-		 "[daemon]\nplugin_dir = %s/drivers\nstatus_interval_s = 0.5\n"
-		 "[camera left]\ndriver = files\nrig_camera = left\nloop = true\nrate = %d\n"
-		 "path = %s/tests/data/ego_demo/left\n"
-		 "[camera right]\ndriver = files\nrig_camera = right\nloop = true\nrate = %d\n"
-		 "path = %s/tests/data/ego_demo/right\n"
-		 "[tracker]\nrig = %s/config/rigs/ego_stereo.json\nmodel = %s/config/models/default.json\n"
-		 "actor_dir = %s/actors\n%s"
-		 "[socket]\npath = @SOCK@\n%s",
-		 mcd_build_dir, RATE, repo, RATE, repo, repo, repo, r->dir, tracker_extra, extra);
+	char text[8 * PATH_MAX], tracker[2 * PATH_MAX + 64];
+	snprintf(tracker, sizeof(tracker), "actor_dir = %s/actors\n%s", r->dir, tracker_extra);
+	mcd_demo_clip_config(text, sizeof(text), repo, RATE, "status_interval_s = 0.5\n", "", tracker, extra);
 	mcd_run_config(r, text);
 }
 
@@ -196,10 +188,7 @@ static void test_load(const char *actor)
 
 int main(void)
 {
-	if (!mcd_find_build())
-		TEST_SKIP("mocapd is not built");
-	if (!getcwd(repo, sizeof(repo)) || access("tests/data/ego_demo/gt.json", R_OK) != 0)
-		TEST_SKIP("run from the repository root (tests/data/ego_demo not found)");
+	mcd_require_build_and_clip(repo, sizeof(repo));
 	glob_t g;
 	if (glob("config/models/*ego*.onnx", 0, NULL, &g) != 0 || g.gl_pathc != 1) {
 		globfree(&g);

@@ -37,7 +37,7 @@ static void write_config(mcd_run *r, const char *model, double rate)
 {
 	char text[8 * PATH_MAX], detector[PATH_MAX + 64];
 	snprintf(detector, sizeof(detector), "[detector]\nmodel = %s\nrate = %g\n", model, rate);
-	mcd_demo_clip_config(text, sizeof(text), repo, RATE, "status_interval_s = 0.5\n", "", detector);
+	mcd_demo_clip_config(text, sizeof(text), repo, RATE, "status_interval_s = 0.5\n", "", NULL, detector);
 	mcd_run_config(r, text);
 }
 
@@ -245,11 +245,9 @@ static void test_bad(const char *model, const char *file, const char *why)
 
 int main(void)
 {
-	if (!mcd_find_build())
-		TEST_SKIP("mocapd is not built");
-	if (!getcwd(repo, sizeof(repo)) || access("tests/data/ego_demo/gt.json", R_OK) != 0 ||
-	    access("detect/tests/data/fixed_wrist.onnx", R_OK) != 0)
-		TEST_SKIP("run from the repository root (tests/data/ego_demo or detect/tests/data not found)");
+	mcd_require_build_and_clip(repo, sizeof(repo));
+	if (access("detect/tests/data/fixed_wrist.onnx", R_OK) != 0)
+		TEST_SKIP("run from the repository root (detect/tests/data not found)");
 	mc_err err = {{0}};
 	if (mc_rig_load("config/rigs/ego_stereo.json", &rig, &err) < 0) {
 		fprintf(stderr, "%s\n", err.msg);

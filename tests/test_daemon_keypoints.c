@@ -18,7 +18,7 @@ static void write_config(mcd_run *r, uint64_t epoch)
 {
 	char text[8 * PATH_MAX], epoch_key[64];
 	snprintf(epoch_key, sizeof(epoch_key), "epoch = %llu\n", (unsigned long long)epoch);
-	mcd_demo_clip_config(text, sizeof(text), repo, RATE, "", epoch_key, "");
+	mcd_demo_clip_config(text, sizeof(text), repo, RATE, "", epoch_key, NULL, "");
 	mcd_run_config(r, text);
 }
 
@@ -75,10 +75,7 @@ out:
 
 int main(void)
 {
-	if (!mcd_find_build())
-		TEST_SKIP("mocapd is not built");
-	if (!getcwd(repo, sizeof(repo)) || access("tests/data/ego_demo/gt.json", R_OK) != 0)
-		TEST_SKIP("run from the repository root (tests/data/ego_demo not found)");
+	mcd_require_build_and_clip(repo, sizeof(repo));
 	mc_rig rig;
 	if (!mcd_load_ego_rig(&rig))
 		return 1;

@@ -175,10 +175,7 @@ static void test_reload_budget(void)
 
 int main(void)
 {
-	if (!mcd_find_build())
-		TEST_SKIP("mocapd is not built");
-	if (!getcwd(repo, sizeof(repo)) || access("tests/data/ego_demo/gt.json", R_OK) != 0)
-		TEST_SKIP("run from the repository root (tests/data/ego_demo not found)");
+	mcd_require_build_and_clip(repo, sizeof(repo));
 	char files[PATH_MAX + 64];
 	snprintf(files, sizeof(files), "%s/drivers/mocap-driver-files.so", mcd_build_dir);
 	if (access(files, R_OK) != 0)

@@ -351,24 +351,40 @@ static inline bool mcd_can_connect(const char *path)
 
 /* The config of the tests that run mocapd on the bundled clip: both
  * cameras of tests/data/ego_demo through the files driver, in a loop at
- * `rate` fps, tracked with the default body model from the clip's first
- * ground-truth frame, on the run's socket (@SOCK@).  daemon_extra and
- * camera_extra are lines added to [daemon] and to each camera section
- * ("" for none), extra is appended (another section).  repo is the
+ * `rate` fps, tracked with the default body model, on the run's socket
+ * (@SOCK@).  daemon_extra and camera_extra are lines added to [daemon] and
+ * to each camera section ("" for none); tracker_extra the lines of
+ * [tracker] after rig and model (NULL: init_joints from the clip's first
+ * ground-truth frame); extra is appended (another section).  repo is the
  * repository root. */
 static inline void mcd_demo_clip_config(char *buf, size_t cap, const char *repo, int rate, const char *daemon_extra,
-					const char *camera_extra, const char *extra)
+					const char *camera_extra, const char *tracker_extra, const char *extra)
 {
+	char init[PATH_MAX + 64] = "";
+	if (!tracker_extra) {
+		snprintf(init, sizeof(init), "init_joints = %s/tests/data/ego_demo/gt.json\n", repo);
+		tracker_extra = init;
+	}
 	snprintf(buf, cap,
 		 "[daemon]\nplugin_dir = %s/drivers\n%s"
 		 "[camera left]\ndriver = files\nrig_camera = left\nloop = true\nrate = %d\n%s"
 		 "path = %s/tests/data/ego_demo/left\n"
 		 "[camera right]\ndriver = files\nrig_camera = right\nloop = true\nrate = %d\n%s"
 		 "path = %s/tests/data/ego_demo/right\n"
-		 "[tracker]\nrig = %s/config/rigs/ego_stereo.json\nmodel = %s/config/models/default.json\n"
-		 "init_joints = %s/tests/data/ego_demo/gt.json\n"
+		 "[tracker]\nrig = %s/config/rigs/ego_stereo.json\nmodel = %s/config/models/default.json\n%s"
 		 "[socket]\npath = @SOCK@\n%s",
-		 mcd_build_dir, daemon_extra, rate, camera_extra, repo, rate, camera_extra, repo, repo, repo, repo, extra);
+		 mcd_build_dir, daemon_extra, rate, camera_extra, repo, rate, camera_extra, repo, repo, repo, tracker_extra,
+		 extra);
+}
+
+/* Skips the test unless mocapd is built and the test runs from the
+ * repository root (where the bundled clip is); repo gets that root. */
+static inline void mcd_require_build_and_clip(char *repo, size_t cap)
+{
+	if (!mcd_find_build())
+		TEST_SKIP("mocapd is not built");
+	if (!getcwd(repo, cap) || access("tests/data/ego_demo/gt.json", R_OK) != 0)
+		TEST_SKIP("run from the repository root (tests/data/ego_demo not found)");
 }
 
 #endif

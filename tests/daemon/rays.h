@@ -37,7 +37,7 @@ static inline double mcd_ray_distance(const mc_camera *cam, double u, double v, 
 	if (!mcd_ray(cam, u, v, &n))
 		return 1e9;
 	mc_vec3 d = mc_v3_sub(p, cam->rig_from_cam.t);
-	return mc_v3_norm(mc_v3_axpy(-mc_v3_dot(d, n), n, d));
+	return mc_v3_norm(mc_v3_reject(d, n));
 }
 
 /* The shortest distance between the lines of two such rays. */
@@ -49,7 +49,7 @@ static inline double mcd_ray_gap(const mc_camera *a, double ua, double va, const
 	mc_vec3 x = mc_v3_cross(na, nb);
 	double len = mc_v3_norm(x);
 	mc_vec3 d = mc_v3_sub(b->rig_from_cam.t, a->rig_from_cam.t);
-	return len > 1e-9 ? fabs(mc_v3_dot(d, x)) / len : mc_v3_norm(mc_v3_axpy(-mc_v3_dot(d, na), na, d));
+	return len > 1e-9 ? fabs(mc_v3_dot(d, x)) / len : mc_v3_norm(mc_v3_reject(d, na));
 }
 
 static inline int mcd_find_joint(const mocap_skeleton_def *def, const char *name)
