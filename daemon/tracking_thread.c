@@ -194,6 +194,7 @@ static void calibrate_once(mcd_tracking_thread *t, const mc_frame_view *views, i
 /* Counts a tracked frame set (rc == 0) or a failure; returns the failures so far. */
 static uint64_t count_tracked(mcd_tracking_thread *t, int rc, const mcd_output *o)
 {
+	bool started = false;
 	pthread_mutex_lock(&t->lock);
 	mcd_track_totals *tt = &t->st.total;
 	if (rc == 0) {
@@ -201,14 +202,15 @@ static uint64_t count_tracked(mcd_tracking_thread *t, int rc, const mcd_output *
 		tt->track_ms_total += o->sk.track_ms;
 		if (o->sk.track_ms > tt->track_ms_max)
 			tt->track_ms_max = o->sk.track_ms;
-		if (tt->track_state == MC_TRACK_INITIALISING && o->sk.state != MC_TRACK_INITIALISING)
-			mcd_info("tracker: first pose found from the detections after %llu frame sets",
-				 (unsigned long long)tt->tracked);
+		started = tt->track_state == MC_TRACK_INITIALISING && o->sk.state != MC_TRACK_INITIALISING;
 		tt->track_state = (int)o->sk.state;
 	} else
 		tt->track_errors++;
-	uint64_t errors = tt->track_errors;
+	uint64_t errors = tt->track_errors, tracked = tt->tracked;
 	pthread_mutex_unlock(&t->lock);
+	if (started) /* logged outside the lock the capture threads share */
+		mcd_info("tracker: first pose found from the detections after %llu frame sets",
+			 (unsigned long long)tracked);
 	return errors;
 }
 
