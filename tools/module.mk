@@ -7,6 +7,9 @@
 #   make detector-finetune  stage 2 (resumes from $(DETECTOR_DIR)/stage2/ckpt.pt)
 #   make detector-export    export stage 2's best checkpoint to config/models/ego_detector.onnx
 #   make detector-report    2D error report on ../shared/data/ego/*
+#   make detector-data-outside, detector-train-outside, detector-export-outside,
+#   detector-report-outside: the same for the outside-in model
+#   (config/models/outside_detector.onnx, ../shared/data/outside/*)
 #
 # Long jobs: run them under nohup (they resume where they stopped).
 
@@ -21,6 +24,7 @@ MOCAP_TRAIN_DIR ?= $(or $(MOCAP_DATA_DIR),../shared/data)/mocap-train
 MOCAP_EGO_DIR ?= $(or $(MOCAP_DATA_DIR),../shared/data)/ego
 
 .PHONY: detector-data detector-train detector-finetune detector-export detector-report
+.PHONY: detector-data-outside detector-train-outside detector-export-outside detector-report-outside
 
 # DETECTOR_SHARDS parallel chains of Blender processes, one thread each,
 # frames split evenly.  Each process renders at most DETECTOR_CHUNK frames:
@@ -39,6 +43,28 @@ detector-data:
 	        --first $$f --count $$c 2>&1 | grep -a --line-buffered 'synth:' > $(DETECTOR_DIR)/logs/render_$$f.log || exit 1; \
 	      f=$$(( f + c )); done ) & \
 	done; wait; grep -h 'synth:' $(DETECTOR_DIR)/logs/render_*.log | tail -n 4
+
+# Outside-in pinhole views (docs/DETECTOR.md, "Outside-in model"): frames of
+# DETECTOR_OUTSIDE_VIEWS cameras each, into $(DETECTOR_DIR)/outside/data.
+DETECTOR_OUTSIDE_DIR ?= $(DETECTOR_DIR)/outside
+DETECTOR_OUTSIDE_SEED ?= 3
+DETECTOR_OUTSIDE_FRAMES ?= 5000
+DETECTOR_OUTSIDE_FIRST ?= 0
+DETECTOR_OUTSIDE_VIEWS ?= 4
+DETECTOR_OUTSIDE_CHUNK ?= 250
+DETECTOR_OUTSIDE_EPOCHS ?= 60
+detector-data-outside:
+	mkdir -p $(DETECTOR_OUTSIDE_DIR)/data $(DETECTOR_OUTSIDE_DIR)/logs
+	n=$$(( $(DETECTOR_OUTSIDE_FRAMES) / $(DETECTOR_SHARDS) )); \
+	for s in $$(seq 0 $$(( $(DETECTOR_SHARDS) - 1 ))); do \
+	  ( f=$$(( $(DETECTOR_OUTSIDE_FIRST) + s * n )); e=$$(( f + n )); while [ $$f -lt $$e ]; do \
+	      c=$$(( e - f < $(DETECTOR_OUTSIDE_CHUNK) ? e - f : $(DETECTOR_OUTSIDE_CHUNK) )); \
+	      nice -n 10 $(BLENDER) -b --factory-startup --python tools/synth/render.py -- --kind outside \
+	        --views $(DETECTOR_OUTSIDE_VIEWS) --out $(DETECTOR_OUTSIDE_DIR)/data --mocap $(MOCAP_TRAIN_DIR) \
+	        --seed $(DETECTOR_OUTSIDE_SEED) --first $$f --count $$c 2>&1 | grep -a --line-buffered 'synth:' \
+	        > $(DETECTOR_OUTSIDE_DIR)/logs/render_$$f.log || exit 1; \
+	      f=$$(( f + c )); done ) & \
+	done; wait; grep -h 'synth:' $(DETECTOR_OUTSIDE_DIR)/logs/render_*.log | tail -n 4
 
 detector-train:
 	nice -n 10 $(TRAIN_PYTHON) tools/train/train.py --data $(DETECTOR_DIR)/data \

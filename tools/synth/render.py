@@ -1,7 +1,14 @@
-"""Synthetic head-mounted stereo fisheye frames for the 2D joint detector.
+"""Synthetic frames for the 2D joint detector: head-mounted stereo fisheye
+views (--kind ego, the default) or outside-in pinhole views (--kind outside).
 
     blender -b --factory-startup --python tools/synth/render.py -- \
         --out build/detector/data --seed 1 --first 0 --count 8000
+    blender -b --factory-startup --python tools/synth/render.py -- --kind outside \
+        --out build/detector/outside --seed 11 --first 0 --count 1000
+
+With --kind outside, frame i is one posed actor seen by --views static
+pinhole cameras (default 4) at random distances, heights, fields of view
+and aims; labels go one line per frame with one entry per view.
 
 Frame i is fully determined by (--seed, i): every frame draws its own actor,
 pose, clothes, scene, lights, rig jitter and sensor effects from
@@ -71,13 +78,23 @@ def parse_args():
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--first", type=int, default=0)
     ap.add_argument("--count", type=int, default=100)
-    ap.add_argument("--res", type=int, default=128)
+    ap.add_argument("--kind", choices=("ego", "outside"), default="ego",
+                    help="ego: the head-mounted stereo fisheye rig; outside: static pinhole cameras around the actor")
+    ap.add_argument("--res", type=int, default=128, help="ego: image size (square)")
+    ap.add_argument("--width", type=int, default=192, help="outside: image width")
+    ap.add_argument("--height", type=int, default=144, help="outside: image height")
+    ap.add_argument("--views", type=int, default=4, help="outside: cameras per posed actor")
     ap.add_argument("--samples", type=int, default=8)
     ap.add_argument("--threads", type=int, default=1)
     ap.add_argument("--val-fraction", type=float, default=0.1)
     ap.add_argument("--test-projection", action="store_true",
                     help="render marker spheres and check them against r = f*theta")
-    return ap.parse_args(argv)
+    a = ap.parse_args(argv)
+    if a.kind == "ego":
+        a.res_w = a.res_h = a.res
+    else:
+        a.res_w, a.res_h = a.width, a.height
+    return a
 
 
 # ---------------------------------------------------------------- rig / camera
@@ -243,8 +260,8 @@ class Scene:
             pass
         sc.render.threads_mode = "FIXED"
         sc.render.threads = args.threads
-        sc.render.resolution_x = args.res
-        sc.render.resolution_y = args.res
+        sc.render.resolution_x = args.res_w
+        sc.render.resolution_y = args.res_h
         sc.render.resolution_percentage = 100
         sc.render.use_persistent_data = True
         sc.render.image_settings.file_format = "PNG"
@@ -256,8 +273,8 @@ class Scene:
         self.bg = world.node_tree.nodes["Background"]
         # camera
         cd = bpy.data.cameras.new("cam")
-        cd.type = "PANO"
-        for tgt in (cd, getattr(cd, "cycles", None)):
+        cd.type = "PANO" if args.kind == "ego" else "PERSP"
+        for tgt in ((cd, getattr(cd, "cycles", None)) if args.kind == "ego" else ()):
             if tgt is None:
                 continue
             try:
@@ -284,6 +301,13 @@ class Scene:
             ob = bpy.data.objects.new(name, me)
             sc.collection.objects.link(ob)
             self.seg[name] = ob
+        self.head = None
+        if args.kind == "outside":  # the actor's own head (the ego wearer's is never seen)
+            me = self.sphere.copy()
+            me.materials.append(self.mats["skin"])
+            self.head = bpy.data.objects.new("head", me)
+            sc.collection.objects.link(self.head)
+            self.seg["head"] = self.head
         self.body = set(self.seg.values())
         # floor, room, clutter
         self.floor_mat = make_material("floor")
@@ -323,7 +347,9 @@ class Scene:
         ob.hide_render = not on
         ob.hide_viewport = not on
 
-    def setup(self, pose, rng):
+    def setup(self, pose, rng, cams=None):
+        """cams (outside-in only): the views' world-from-camera poses; an
+        indoor room is then made large enough to hold them."""
         H = pose["height"]
         J = {k: np.asarray(v, dtype=float) for k, v in pose["joints"].items()}
         g = H / 1.75
@@ -357,6 +383,18 @@ class Scene:
             M[:3, 0], M[:3, 1], M[:3, 2] = x * rx, y * ry, z * max(half, rad * 0.9)
             M[:3, 3] = 0.5 * (pa + pb)
             self.seg[name].matrix_world = Matrix(M.tolist())
+        if self.head is not None:
+            # skull: from the head joint (base of the skull) up past head_top
+            up = J["head_top"] - J["neck"]
+            upn = up / max(np.linalg.norm(up), 1e-6)
+            fwd = np.cross(upn, Lax)
+            fwd = fwd / max(np.linalg.norm(fwd), 1e-6)
+            x = np.cross(fwd, upn)
+            hr = 0.085 * g * rng.uniform(0.92, 1.08)
+            M = np.eye(4)
+            M[:3, 0], M[:3, 1], M[:3, 2] = x * hr * 0.95, fwd * hr * 1.1, upn * hr * 1.25
+            M[:3, 3] = J["neck"] + 0.55 * up + 0.02 * g * fwd
+            self.head.matrix_world = Matrix(M.tolist())
         # clothes
         sleeves = rng.random() < 0.6
         longpants = rng.random() < 0.75
@@ -377,7 +415,18 @@ class Scene:
         self.floor.rotation_euler = (0, 0, rng.uniform(0, 6.3))
         indoor = rng.random() < 0.4
         self._show(self.room, indoor)
-        if indoor:
+        if indoor and cams is not None:
+            # outside-in: a room (hall) that holds every camera
+            ox, oy = rng.uniform(-1, 1), rng.uniform(-1, 1)
+            cx = max(abs(T[0, 3] - ox) for T in cams)
+            cyy = max(abs(T[1, 3] - oy) for T in cams)
+            cz = max(T[2, 3] for T in cams)
+            w, d = 2 * cx + rng.uniform(0.6, 6), 2 * cyy + rng.uniform(0.6, 6)
+            h = max(rng.uniform(2.5, 4.5), cz + rng.uniform(0.3, 1.5))
+            self.room.scale = (w, d, h)
+            self.room.location = (ox, oy, h / 2 - 0.01)
+            set_material(self.wall_mat, rng, scale=rng.uniform(0.1, 1.0), smax=0.35 if pale else 1.0)
+        elif indoor:
             w, d, h = rng.uniform(4, 12), rng.uniform(4, 12), rng.uniform(2.5, 4)
             self.room.scale = (w, d, h)
             self.room.location = (rng.uniform(-1, 1), rng.uniform(-1, 1), h / 2 - 0.01)
@@ -397,7 +446,12 @@ class Scene:
             on = indoor and (i == 0 or rng.random() < 0.5)
             self._show(lp, on)
             if on:
-                lp.location = (rng.uniform(-2, 2), rng.uniform(-2, 2), self.room.scale[2] - 0.3)
+                if cams is None:
+                    lp.location = (rng.uniform(-2, 2), rng.uniform(-2, 2), self.room.scale[2] - 0.3)
+                else:
+                    rl = self.room.location
+                    lp.location = (rl[0] + rng.uniform(-0.35, 0.35) * self.room.scale[0],
+                                   rl[1] + rng.uniform(-0.35, 0.35) * self.room.scale[1], self.room.scale[2] - 0.3)
                 lp.data.energy = rng.uniform(300, 1500)
                 lp.data.color = tuple(1 - rng.uniform(0, 0.3, 3))
                 lp.data.shadow_soft_size = rng.uniform(0.05, 0.5)
@@ -505,6 +559,181 @@ def labels_for(scene, cams, T_wl, J, pose):
     return {"joints_left_cam": [[round(float(c), 5) for c in p] for p in P_l], "views": views}, views
 
 
+# ---------------------------------------------------------------- outside-in
+# Camera randomisation for --kind outside (docs/DETECTOR.md, "Outside-in model").
+OUT_DIST = (2.5, 8.0)       # m, horizontal distance from the torso
+OUT_HEIGHT = (0.8, 3.0)     # m above the floor
+OUT_HFOV = (40.0, 80.0)     # degrees, horizontal field of view (aspect from the image)
+OUT_AZ_JITTER = 0.45        # rad: views k of n at a0 + 2 pi k / n +- this
+OUT_AIM_SIGMA = 0.22        # aim error, fraction of the half field of view (normal, clipped at 0.9)
+OUT_ROLL_DEG = 3.0          # roll sigma
+
+
+def outside_intrinsics(w, h, hfov):
+    """Pinhole with square pixels, principal point at the image centre
+    (pixel centres at integers): Blender's camera with no lens shift."""
+    fx = (w / 2.0) / math.tan(hfov / 2.0)
+    return {"fx": fx, "fy": fx, "cx": (w - 1) / 2.0, "cy": (h - 1) / 2.0, "w": w, "h": h}
+
+
+def _rot(axis, a):
+    ca, sa = math.cos(a), math.sin(a)
+    Rl = np.eye(3)
+    i, j = [(1, 2), (2, 0), (0, 1)][axis]
+    Rl[i, i], Rl[i, j], Rl[j, i], Rl[j, j] = ca, -sa, sa, ca
+    return Rl
+
+
+def outside_cams(J, rng, n, w, h):
+    """n static pinhole cameras around the actor: list of (intrinsics,
+    world-from-camera 4x4, OpenCV axes).  They aim at the torso with jitter."""
+    torso = (J["pelvis"] + J["spine"] + J["neck"]) / 3.0
+    a0 = rng.uniform(0, 2 * math.pi)
+    out = []
+    for k in range(n):
+        az = a0 + 2 * math.pi * k / n + rng.uniform(-OUT_AZ_JITTER, OUT_AZ_JITTER)
+        d = rng.uniform(*OUT_DIST)
+        ch = rng.uniform(*OUT_HEIGHT)
+        hfov = math.radians(rng.uniform(*OUT_HFOV))
+        K = outside_intrinsics(w, h, hfov)
+        vfov = 2 * math.atan((h / 2.0) / K["fy"])
+        C = np.array([torso[0] + d * math.cos(az), torso[1] + d * math.sin(az), ch])
+        z = torso - C
+        z /= np.linalg.norm(z)
+        x = np.cross(z, [0.0, 0.0, 1.0])
+        x /= np.linalg.norm(x)
+        y = np.cross(z, x)
+        R = np.stack([x, y, z], 1)
+        yaw = float(np.clip(rng.normal(0, OUT_AIM_SIGMA), -0.9, 0.9)) * hfov / 2
+        pitch = float(np.clip(rng.normal(0, OUT_AIM_SIGMA), -0.9, 0.9)) * vfov / 2
+        roll = math.radians(rng.normal(0, OUT_ROLL_DEG))
+        R = R @ _rot(1, yaw) @ _rot(0, pitch) @ _rot(2, roll)
+        T = np.eye(4)
+        T[:3, :3] = R
+        T[:3, 3] = C
+        out.append((K, T))
+    return out
+
+
+def project_pinhole(K, P):
+    """P (N,3) camera frame -> u, v, z."""
+    z = P[:, 2]
+    zs = np.where(np.abs(z) > 1e-9, z, 1e-9)
+    return K["fx"] * P[:, 0] / zs + K["cx"], K["fy"] * P[:, 1] / zs + K["cy"], z
+
+
+def outside_labels(scene, views, J):
+    P_w = np.array([J[k] for k in JOINTS])
+    out = {}
+    for name, (K, T_wc) in views:
+        T_cw = np.linalg.inv(T_wc)
+        P_c = (T_cw[:3, :3] @ P_w.T).T + T_cw[:3, 3]
+        u, v, z = project_pinhole(K, P_c)
+        st = []
+        for i, k in enumerate(JOINTS):
+            if z[i] < 0.05 or not (-0.5 <= u[i] <= K["w"] - 0.5 and -0.5 <= v[i] <= K["h"] - 0.5):
+                st.append(2)
+            elif scene.occluded(T_wc[:3, 3], P_w[i], k):
+                st.append(1)
+            else:
+                st.append(0)
+        out[name] = {"uv": [[round(float(a), 3), round(float(b), 3)] for a, b in zip(u, v)], "state": st,
+                     "K": [round(K["fx"], 4), round(K["fy"], 4), K["cx"], K["cy"]],
+                     "world_to_camera": [[round(float(c), 6) for c in r] for r in T_cw]}
+    return out
+
+
+def set_pinhole(scene, K):
+    cd = scene.cam.data
+    cd.sensor_fit = "HORIZONTAL"
+    cd.sensor_width = 36.0
+    cd.lens = 36.0 * K["fx"] / K["w"]
+    cd.shift_x = cd.shift_y = 0.0
+
+
+def main_outside(args):
+    out = args.out
+    img_dir = os.path.join(out, "images")
+    os.makedirs(img_dir, exist_ok=True)
+    done = done_indices(out)
+    todo = [i for i in range(args.first, args.first + args.count) if i not in done]
+    print("synth: %d frames to render (%d already done), seed %d, outside-in, %d views of %dx%d" % (
+        len(todo), args.count - len(todo), args.seed, args.views, args.res_w, args.res_h), flush=True)
+    if not todo:
+        return
+    clips = load_clips(args.mocap)
+    scene = Scene(args, [])
+    lab = open(os.path.join(out, "labels_%06d.jsonl" % args.first), "a")
+    tmp = os.path.join(out, "tmp_%06d.png" % args.first)
+    t0 = time.time()
+    for n, i in enumerate(todo):
+        rng = np.random.default_rng([args.seed, i])
+        split = "val" if rng.random() < args.val_fraction else "train"
+        pose = sample_pose(clips, rng, split)
+        Jp = {k: np.asarray(v, dtype=float) for k, v in pose["joints"].items()}
+        cams = outside_cams(Jp, rng, args.views, args.res_w, args.res_h)
+        J = scene.setup(pose, rng, cams=[T for _, T in cams])
+        views = [("cam%d" % k, c) for k, c in enumerate(cams)]
+        rec = {"views": outside_labels(scene, views, J)}
+        for name, (K, T_wc) in views:
+            set_pinhole(scene, K)
+            scene.render_view(T_wc, tmp)
+            postprocess(tmp, os.path.join(img_dir, "%06d_%s.jpg" % (i, name)), rng)
+        rec.update({"id": i, "seed": args.seed, "kind": "outside", "split": split, "clip": pose["clip"],
+                    "frame": pose["frame"], "mirror": pose["mirror"], "height_m": round(pose["height"], 3),
+                    "size": [args.res_w, args.res_h],
+                    "joints_world": [[round(float(c), 5) for c in J[k]] for k in JOINTS],
+                    "images": {name: "images/%06d_%s.jpg" % (i, name) for name, _ in views}})
+        lab.write(json.dumps(rec) + "\n")
+        lab.flush()
+        if (n + 1) % 10 == 0 or n + 1 == len(todo):
+            el = time.time() - t0
+            fps = (n + 1) / el
+            print("synth: %d/%d  %.2f frames/s (%d views each)  ETA %.0f min" % (
+                n + 1, len(todo), fps, args.views, (len(todo) - n - 1) / fps / 60), flush=True)
+    lab.close()
+
+
+def test_projection_outside(args):
+    """Marker spheres at known camera-frame points through the pinhole camera."""
+    sc = Scene(args, [])
+    for ob in list(sc.seg.values()) + [sc.room, sc.floor] + [c[0] for c in sc.clutter]:
+        Scene._show(ob, False)
+    sc._show(sc.sun, False)
+    sc.bg.inputs[0].default_value = (0, 0, 0, 1)
+    sc.sc.view_settings.view_transform = "Standard"
+    K = outside_intrinsics(args.res_w, args.res_h, math.radians(55.0))
+    set_pinhole(sc, K)
+    T = np.eye(4)
+    T[:3, :3] = _rot(0, 0.4) @ _rot(2, 0.3)
+    T[:3, 3] = (1, 2, 3)
+    pts = [(0.5, 0.2, 3.0), (-0.8, -0.4, 2.6), (0.3, 0.6, 2.2), (0.0, 0.0, 4.0), (-1.2, 0.8, 3.5)]
+    from PIL import Image
+    ok = True
+    for i, p in enumerate(pts):
+        m = make_material("em%d" % i)
+        m.node_tree.nodes.clear()
+        o = m.node_tree.nodes.new("ShaderNodeOutputMaterial")
+        e = m.node_tree.nodes.new("ShaderNodeEmission")
+        e.inputs[1].default_value = 50
+        m.node_tree.links.new(e.outputs[0], o.inputs[0])
+        bpy.ops.mesh.primitive_uv_sphere_add(radius=0.03)
+        ob = bpy.context.active_object
+        ob.data.materials.append(m)
+        pw = T[:3, :3] @ np.array(p) + T[:3, 3]
+        ob.location = tuple(pw)
+        sc.render_view(T, "/tmp/synth_proj.png")
+        a = np.asarray(Image.open("/tmp/synth_proj.png").convert("L")).astype(float)
+        ys, xs = np.nonzero(a > 128)
+        w = a[ys, xs]
+        uc, vc = (xs * w).sum() / w.sum(), (ys * w).sum() / w.sum()
+        u, v, _ = project_pinhole(K, np.array([p]))
+        print("point", p, "rendered (%.2f, %.2f)" % (uc, vc), "projected (%.2f, %.2f)" % (u[0], v[0]))
+        ok &= abs(uc - u[0]) < 0.5 and abs(vc - v[0]) < 0.5
+        Scene._show(ob, False)
+    print("PROJECTION", "OK" if ok else "MISMATCH")
+
+
 def test_projection(args, cams):
     """Bright marker spheres at known camera-frame points; compare rendered
     centroids with the r = f*theta projection."""
@@ -546,6 +775,12 @@ def test_projection(args, cams):
 
 def main():
     args = parse_args()
+    if args.kind == "outside":
+        if args.test_projection:
+            test_projection_outside(args)
+        else:
+            main_outside(args)
+        return
     cams = load_rig(args.rig, args.res)
     if args.test_projection:
         test_projection(args, cams)
