@@ -317,7 +317,7 @@ static void test_real_clip(void)
 	double sum = 0;
 	int n = 0;
 	for (int k = 0; k < 30 && k < clip.gt.nframes; k++) {
-		mc_frame_view v[2];
+		mc_frame_view v[MC_MAX_CAMERAS];
 		mc_skeleton sk;
 		if (mc_clip_load_frame(&clip, k, v, &err) < 0 || mc_tracker_track(t, v, 2, NULL, 0, &sk, &err) < 0) {
 			fprintf(stderr, "frame %d: %s\n", k, err.msg);

@@ -60,7 +60,7 @@ static double error_cm(const fixture *f, const mc_skeleton *sk, int k, const cha
 /* Tracks frame k; blank: the cameras see black and no keypoints come. */
 static void track(fixture *f, mc_tracker *t, int k, bool blank, mc_skeleton *sk)
 {
-	mc_frame_view v[2];
+	mc_frame_view v[MC_MAX_CAMERAS];
 	mc_err err;
 	CHECK_MSG(mc_clip_load_frame(&f->clip, k, v, &err) == 0, "%s", err.msg);
 	mc_keypoint kp[2 * NJ];
@@ -110,7 +110,7 @@ static void test_start_from_detections(fixture *f)
 	t = new_tracker(f);
 	CHECK(mc_tracker_start_from_detections(t, MC_INIT_MEASURE_SIZE, &err) == 0);
 	mc_skeleton sk;
-	mc_frame_view v[2];
+	mc_frame_view v[MC_MAX_CAMERAS];
 	CHECK(mc_clip_load_frame(&f->clip, 0, v, &err) == 0);
 	CHECK(mc_tracker_track(t, v, 2, NULL, 0, &sk, &err) == 0);
 	mc_clip_free_frame(v);
@@ -184,7 +184,7 @@ static double wrong_start(fixture *f, bool recover)
 	CHECK(mc_tracker_init_from_joints(t, names, pos, f->clip.gt.njoints, &err) == 0);
 	/* the colours are learnt at the start pose, before the arms go wrong:
 	 * a tracker that lost its arms, not one that never saw them */
-	mc_frame_view v[2];
+	mc_frame_view v[MC_MAX_CAMERAS];
 	CHECK(mc_clip_load_frame(&f->clip, 0, v, &err) == 0);
 	CHECK(mc_tracker_calibrate_colors(t, v, 2, &err) == 0);
 	mc_clip_free_frame(v);

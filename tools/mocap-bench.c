@@ -1,11 +1,14 @@
-/* mocap-bench: tracks a head-mounted stereo fisheye clip (the layout of
- * ../shared/data/ego/<clip>) from its images and scores it against gt.json.
+/* mocap-bench: tracks an evaluation clip from its images and scores it
+ * against gt.json.  Both layouts of ../shared/data are read (mc_clip):
+ * head-mounted stereo fisheye (ego/<clip>) and outside-in static cameras
+ * (outside/<clip>, tracked with a free root; --cameras picks a subset).
  *
  * Evaluation protocol (docs/CONVENTIONS.md): only the images, the calibration and the
  * ground truth of frame 0 (to initialise pose and bone lengths) are used;
- * MPJPE in cm over the evaluated joints, in the left camera frame, with no
- * alignment.  The last line is machine-readable:
- *   RESULT clip=NAME frames=N mpjpe_cm=X fps=Y ms_p99=Z device=DEV */
+ * MPJPE in cm over the evaluated joints, in the rig frame (the left camera
+ * frame, or the world frame outside-in), with no alignment.  The last line
+ * is machine-readable:
+ *   RESULT clip=NAME frames=N mpjpe_cm=X fps=Y ms_p99=Z device=DEV cameras=C */
 #include "base/mc_stats.h"
 #include "base/mc_time.h"
 #include "energy/mc_energy.h"
@@ -35,6 +38,7 @@ typedef struct {
 	const char *model_path;
 	const char *out_path;
 	const char *overlay_dir;
+	const char *cameras; /* --cameras 0,2: the clip cameras used, NULL: all */
 	int overlay_every;
 	int max_frames;
 	int reference_frames;
@@ -206,7 +210,7 @@ static int frame_keypoints(const options *o, bench_detector *bd, mc_tracker *t, 
 			   const mc_frame_view *views, uint64_t *rng, mc_keypoint *kp, int cap, mc_err *err)
 {
 	if (bd)
-		return bench_detector_run(bd, clip, k, views, 2, kp, cap, err);
+		return bench_detector_run(bd, clip, k, views, clip->rig.ncams, kp, cap, err);
 	if (o->simulated_detector_px >= 0)
 		return mc_clip_simulated_keypoints(clip, mc_tracker_model(t), eval_joints, NEVAL, k,
 						    o->simulated_detector_px, rng, kp, cap);
@@ -224,14 +228,14 @@ static int track_clip(const options *o, mc_tracker *t, bench_detector *bd, const
 	st->first_tracked = -1;
 	uint64_t rng = o->s.seed + 1;
 	for (int k = 0; k < nframes; k++) {
-		mc_frame_view views[2];
+		mc_frame_view views[MC_MAX_CAMERAS];
 		mc_skeleton sk;
-		mc_keypoint kp[2 * MC_DETECTOR_MAX_JOINTS];
+		mc_keypoint kp[MC_MAX_CAMERAS * MC_DETECTOR_MAX_JOINTS];
 		if (mc_clip_load_frame(clip, k, views, err) < 0)
 			return -1;
 		uint64_t t0 = mc_now_ns();
-		int nkp = frame_keypoints(o, bd, t, clip, k, views, &rng, kp, 2 * MC_DETECTOR_MAX_JOINTS, err);
-		int rc = nkp < 0 ? -1 : mc_tracker_track(t, views, 2, kp, nkp, &sk, err);
+		int nkp = frame_keypoints(o, bd, t, clip, k, views, &rng, kp, MC_MAX_CAMERAS * MC_DETECTOR_MAX_JOINTS, err);
+		int rc = nkp < 0 ? -1 : mc_tracker_track(t, views, clip->rig.ncams, kp, nkp, &sk, err);
 		st->ms[k] = mc_ms_since(t0);
 		if (rc == 0 && o->overlay_dir && k % o->overlay_every == 0)
 			write_overlay(o, clip, k, &views[0], &sk);
@@ -304,9 +308,11 @@ static void print_init_report(const mc_tracker *t, const mc_clip *clip, const ru
 	       n ? 100 * sum / n : 0, 100 * worst, st->first_tracked);
 }
 
-static void print_accuracy(const run_stats *st)
+static void print_accuracy(const mc_clip *clip, const run_stats *st)
 {
-	printf("accuracy (MPJPE, cm, left camera frame, no alignment):\n");
+	printf("accuracy (MPJPE, cm, %s, no alignment, %d camera%s):\n",
+	       clip->layout == MC_CLIP_OUTSIDE ? "world frame" : "left camera frame", clip->rig.ncams,
+	       clip->rig.ncams == 1 ? "" : "s");
 	for (int g = 0; g < BENCH_GROUPS; g++) {
 		double sum = 0;
 		int n = 0;
@@ -483,7 +489,7 @@ static int run_thesis_config(const options *o, const mc_clip *clip, mc_err *err)
 	mc_scene sc;
 	mc_model_fk(&m, pose, &fk);
 	mc_scene_from_model(&m, &fk, &sc);
-	mc_frame_view views[2];
+	mc_frame_view views[MC_MAX_CAMERAS];
 	thesis_view tv = {0};
 	if (mc_clip_load_frame(clip, 0, views, err) < 0)
 		return -1;
@@ -513,7 +519,9 @@ static void usage(FILE *f)
 {
 	fprintf(f, "usage: mocap-bench --clip DIR [options]\n"
 		   "  --model PATH          body model (default config/models/default.json)\n"
-		   "  --out FILE            write per-frame estimates as JSON lines\n"
+		   "  --out FILE            write per-frame estimates as JSON lines (joints in the rig frame:\n"
+		   "                        left camera, or the world frame of an outside-in clip)\n"
+		   "  --cameras LIST        outside-in: use only these clip cameras, e.g. 0,2 (default: all)\n"
 		   "  --frames N            track only the first N frames\n"
 		   "  --backend opencl|reference\n"
 		   "  --width W --height H  working resolution per camera (default 128x128)\n"
@@ -560,7 +568,7 @@ enum { OPT_MODEL = 256, OPT_OUT, OPT_FRAMES, OPT_BACKEND, OPT_WIDTH, OPT_HEIGHT,
        OPT_STEP, OPT_MOM, OPT_LSMOOTH, OPT_LPOSE, OPT_LLIMIT, OPT_PLAT, OPT_DEV, OPT_SEED, OPT_OCAM, OPT_REF,
        OPT_NOTHESIS, OPT_QUIET, OPT_CLIP, OPT_HELP, OPT_OVERLAY, OPT_OVERLAY_EVERY, OPT_LANCHOR,
        OPT_SIMDET, OPT_LDET, OPT_DETECTOR, OPT_DET_EVERY, OPT_LCOLOR, OPT_DET_THRESHOLD, OPT_INIT,
-       OPT_NORECOVER };
+       OPT_NORECOVER, OPT_CAMERAS };
 
 static int apply_option(options *o, int c, const char *name, const char *arg, bool *thesis)
 {
@@ -568,6 +576,7 @@ static int apply_option(options *o, int c, const char *name, const char *arg, bo
 	mc_tracker_settings *s = &o->s;
 	switch (c) {
 	case OPT_CLIP: o->clip = arg; return 0;
+	case OPT_CAMERAS: o->cameras = arg; return 0;
 	case OPT_MODEL: o->model_path = arg; return 0;
 	case OPT_OUT: o->out_path = arg; return 0;
 	case OPT_DETECTOR: o->detector_path = arg; return 0;
@@ -636,7 +645,7 @@ static int parse_options(int argc, char **argv, options *o, bool *thesis)
 		{"seed", 1, 0, OPT_SEED}, {"ocam", 0, 0, OPT_OCAM}, {"reference-frames", 1, 0, OPT_REF},
 		{"no-thesis", 0, 0, OPT_NOTHESIS}, {"overlay-dir", 1, 0, OPT_OVERLAY},
 		{"overlay-every", 1, 0, OPT_OVERLAY_EVERY}, {"quiet", 0, 0, OPT_QUIET}, {"help", 0, 0, OPT_HELP},
-		{"init", 1, 0, OPT_INIT}, {"no-recover", 0, 0, OPT_NORECOVER},
+		{"init", 1, 0, OPT_INIT}, {"no-recover", 0, 0, OPT_NORECOVER}, {"cameras", 1, 0, OPT_CAMERAS},
 		{0, 0, 0, 0}};
 	int c, idx;
 	while ((c = getopt_long(argc, argv, "", longopts, &idx)) != -1) {
@@ -693,6 +702,10 @@ static int run(const options *o, bool thesis, mc_err *err)
 	mc_clip clip;
 	if (mc_clip_open(o->clip, o->use_ocam, &clip, err) < 0)
 		return -1;
+	if (o->cameras && mc_clip_select_cameras(&clip, o->cameras, err) < 0) {
+		mc_clip_close(&clip);
+		return -1;
+	}
 	int nframes = o->max_frames > 0 && o->max_frames < clip.gt.nframes ? o->max_frames : clip.gt.nframes;
 	mc_tracker *t = start_tracker(o, &clip, &o->s, err);
 	FILE *out = t && o->out_path ? fopen(o->out_path, "w") : NULL;
@@ -703,7 +716,12 @@ static int run(const options *o, bool thesis, mc_err *err)
 		mc_clip_close(&clip);
 		return -1;
 	}
-	printf("clip: %s (%d frames)\n", clip.name, nframes);
+	printf("clip: %s (%d frames, %s, %d camera%s:", clip.name, nframes,
+	       clip.layout == MC_CLIP_OUTSIDE ? "outside-in" : "head-mounted", clip.rig.ncams,
+	       clip.rig.ncams == 1 ? "" : "s");
+	for (int c = 0; c < clip.rig.ncams; c++)
+		printf(" %s", clip.rig.cams[c].name);
+	printf(")\n");
 	print_settings(&o->s, mc_tracker_device_name(t));
 	if (o->simulated_detector_px >= 0)
 		printf("WARNING: simulated detector: keypoints from the ground truth, %.1f px noise, %.0f%% missed. "
@@ -735,7 +753,7 @@ static int run(const options *o, bool thesis, mc_err *err)
 	snprintf(device, sizeof(device), "%s", mc_tracker_device_name(t));
 	mc_tracker_destroy(t);
 	if (rc == 0) {
-		print_accuracy(&st);
+		print_accuracy(&clip, &st);
 		if (bd)
 			bench_detector_report(bd, clip.name);
 		print_speed(o, &clip, &st, err);
@@ -745,8 +763,8 @@ static int run(const options *o, bool thesis, mc_err *err)
 			if (*p == ' ')
 				*p = '_';
 		timing tm = timing_of(st.ms, st.frames);
-		printf("RESULT clip=%s frames=%d mpjpe_cm=%.2f fps=%.1f ms_p99=%.2f device=%s\n", clip.name, st.frames,
-		       100.0 * mpjpe_of(&st), 1e3 / tm.mean, tm.p99, device);
+		printf("RESULT clip=%s frames=%d mpjpe_cm=%.2f fps=%.1f ms_p99=%.2f device=%s cameras=%d\n", clip.name,
+		       st.frames, 100.0 * mpjpe_of(&st), 1e3 / tm.mean, tm.p99, device, clip.rig.ncams);
 	}
 	if (bd)
 		bench_detector_close(bd);

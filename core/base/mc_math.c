@@ -194,6 +194,87 @@ mc_xform mc_xform_from_4x4(const double m[4][4])
 	return x;
 }
 
+/* Eigenvector of the largest eigenvalue of a symmetric 4x4 matrix, by
+ * cyclic Jacobi rotations (exact to rounding in a few sweeps). */
+static void sym4_top_eigenvector(double A[4][4], double v[4])
+{
+	double V[4][4] = {{1, 0, 0, 0}, {0, 1, 0, 0}, {0, 0, 1, 0}, {0, 0, 0, 1}};
+	for (int sweep = 0; sweep < 50; sweep++) {
+		double off = 0;
+		for (int p = 0; p < 4; p++)
+			for (int q = p + 1; q < 4; q++)
+				off += A[p][q] * A[p][q];
+		if (off < 1e-30)
+			break;
+		for (int p = 0; p < 4; p++)
+			for (int q = p + 1; q < 4; q++) {
+				if (fabs(A[p][q]) < 1e-300)
+					continue;
+				double theta = (A[q][q] - A[p][p]) / (2 * A[p][q]);
+				double t = (theta >= 0 ? 1 : -1) / (fabs(theta) + sqrt(theta * theta + 1));
+				double c = 1 / sqrt(t * t + 1), s = t * c;
+				for (int k = 0; k < 4; k++) { /* A = A J */
+					double akp = A[k][p], akq = A[k][q];
+					A[k][p] = c * akp - s * akq;
+					A[k][q] = s * akp + c * akq;
+				}
+				for (int k = 0; k < 4; k++) { /* A = J^T A */
+					double apk = A[p][k], aqk = A[q][k];
+					A[p][k] = c * apk - s * aqk;
+					A[q][k] = s * apk + c * aqk;
+				}
+				for (int k = 0; k < 4; k++) {
+					double vkp = V[k][p], vkq = V[k][q];
+					V[k][p] = c * vkp - s * vkq;
+					V[k][q] = s * vkp + c * vkq;
+				}
+			}
+	}
+	int best = 0;
+	for (int k = 1; k < 4; k++)
+		if (A[k][k] > A[best][best])
+			best = k;
+	for (int k = 0; k < 4; k++)
+		v[k] = V[k][best];
+}
+
+mc_xform mc_xform_fit_rigid(const mc_vec3 *from, const mc_vec3 *to, const double *w, int n)
+{
+	mc_vec3 ca = mc_v3(0, 0, 0), cb = mc_v3(0, 0, 0);
+	double wsum = 0;
+	for (int i = 0; i < n; i++) {
+		double wi = w ? w[i] : 1;
+		ca = mc_v3_axpy(wi, from[i], ca);
+		cb = mc_v3_axpy(wi, to[i], cb);
+		wsum += wi;
+	}
+	mc_xform x = mc_xform_identity();
+	if (!(wsum > 0))
+		return x;
+	ca = mc_v3_scale(ca, 1 / wsum);
+	cb = mc_v3_scale(cb, 1 / wsum);
+	double S[3][3] = {{0}};
+	for (int i = 0; i < n; i++) {
+		double wi = w ? w[i] : 1;
+		mc_vec3 a = mc_v3_sub(from[i], ca), b = mc_v3_sub(to[i], cb);
+		for (int r = 0; r < 3; r++)
+			for (int c = 0; c < 3; c++)
+				S[r][c] += wi * mc_v3_get(a, r) * mc_v3_get(b, c);
+	}
+	/* Horn (1987): the rotation's quaternion is the top eigenvector of N. */
+	double N[4][4] = {
+		{S[0][0] + S[1][1] + S[2][2], S[1][2] - S[2][1], S[2][0] - S[0][2], S[0][1] - S[1][0]},
+		{S[1][2] - S[2][1], S[0][0] - S[1][1] - S[2][2], S[0][1] + S[1][0], S[2][0] + S[0][2]},
+		{S[2][0] - S[0][2], S[0][1] + S[1][0], -S[0][0] + S[1][1] - S[2][2], S[1][2] + S[2][1]},
+		{S[0][1] - S[1][0], S[2][0] + S[0][2], S[1][2] + S[2][1], -S[0][0] - S[1][1] + S[2][2]},
+	};
+	double q[4];
+	sym4_top_eigenvector(N, q);
+	x.R = mc_quat_to_m3(mc_quat_normalize((mc_quat){q[0], q[1], q[2], q[3]}));
+	x.t = mc_v3_sub(cb, mc_m3_apply(x.R, ca));
+	return x;
+}
+
 void mc_xform_to_4x4(mc_xform x, double m[4][4])
 {
 	memset(m, 0, sizeof(double) * 16);

@@ -76,6 +76,10 @@ mc_xform mc_xform_inverse(mc_xform a_from_b);                    /* b_from_a */
 mc_vec3 mc_xform_apply(mc_xform a_from_b, mc_vec3 p_b);
 /* From a 4x4 row-major homogeneous matrix; the rotation block is kept as is. */
 mc_xform mc_xform_from_4x4(const double m[4][4]);
+/* The rigid transform T minimising sum_i w[i] |T(from[i]) - to[i]|^2
+ * (Horn's closed form with unit quaternions), n >= 3 points not all on one
+ * line; w may be NULL for equal weights. */
+mc_xform mc_xform_fit_rigid(const mc_vec3 *from, const mc_vec3 *to, const double *w, int n);
 void mc_xform_to_4x4(mc_xform x, double m[4][4]);
 
 /* Small dense linear algebra, row-major n x n, n <= MC_LA_MAX. */

@@ -95,6 +95,15 @@ void mc_model_fk(const mc_model *model, const double *pose, mc_fk *fk)
 	}
 }
 
+int mc_model_make_root_free(mc_model *model, mc_err *err)
+{
+	if (model->root_free)
+		return 0;
+	model->root_free = true;
+	model->rig_from_root = mc_xform_identity();
+	return mc_model_finalize(model, err);
+}
+
 void mc_model_rest_pose(const mc_model *model, double *pose)
 {
 	for (int k = 0; k < model->ndof; k++)

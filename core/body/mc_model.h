@@ -101,6 +101,11 @@ int mc_model_finalize(mc_model *model, mc_err *err);
  * consistent). */
 int mc_model_validate(const mc_model *model, mc_err *err);
 
+/* Makes a fixed-root model's root free (six pose dofs in front of the
+ * joints' own, rig_from_root dropped), e.g. a head-mounted model used on an
+ * outside-in rig.  The pose vector grows by MC_ROOT_FREE_DOFS. */
+int mc_model_make_root_free(mc_model *model, mc_err *err);
+
 /* Index of a joint by name, or -1. */
 int mc_model_find_joint(const mc_model *model, const char *name);
 

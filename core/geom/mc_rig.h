@@ -38,6 +38,12 @@ int mc_rig_parse(const char *json_text, const char *origin, mc_rig *rig, mc_err 
  * use_ocam selects the fitted OCam polynomial instead of the equidistant model. */
 int mc_rig_import_ego_calib(const char *path, bool use_ocam, mc_rig *rig, mc_err *err);
 
+/* Imports an outside-in clip's cameras.json (../shared/data/outside/<clip>):
+ * pinhole cameras with OpenCV intrinsics (fx fy cx cy, dist k1 k2 p1 p2 k3)
+ * and a `world_to_camera` 4x4 each; the rig frame is the world frame.  The
+ * field of view (max_theta) is the image's widest corner with a margin. */
+int mc_rig_import_cameras_json(const char *path, mc_rig *rig, mc_err *err);
+
 /* Imports one camera from OCamCalib's calib_results.txt, converted to OpenCV
  * axes. Width and height come from the file. rig_from_cam is identity and
  * max_theta is given by the caller (the toolbox does not store it). */

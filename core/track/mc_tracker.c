@@ -157,6 +157,10 @@ mc_tracker *mc_tracker_create(const mc_rig *rig, const mc_model *model, const mc
 	t->model = *model;
 	t->s = *s;
 	t->rng = s->seed ? s->seed : 1;
+	/* Outside-in, the body moves through the world: the head-mounted
+	 * model's fixed root becomes a free one. */
+	if (rig->kind == MC_RIG_OUTSIDE_IN && mc_model_make_root_free(&t->model, err) < 0)
+		goto fail;
 	hide_head_gaussians(t);
 	if (alloc_buffers(t, err) < 0)
 		goto fail;

@@ -88,6 +88,8 @@ typedef struct {
 
 typedef struct mc_tracker mc_tracker;
 
+/* On an outside-in rig, a model with a fixed root is given a free one
+ * (mc_model_make_root_free): its pose then has six more dofs in front. */
 mc_tracker *mc_tracker_create(const mc_rig *rig, const mc_model *model, const mc_tracker_settings *s,
 			      mc_err *err);
 void mc_tracker_destroy(mc_tracker *t);

@@ -109,7 +109,7 @@ int main(void)
 	const int frames[] = {0, 15, 30, 45};
 	int nall = 0, missed_all = 0;
 	for (size_t f = 0; f < sizeof(frames) / sizeof(frames[0]); f++) {
-		mc_frame_view views[2];
+		mc_frame_view views[MC_MAX_CAMERAS];
 		CHECK_MSG(mc_clip_load_frame(clip, frames[f], views, &err) == 0, "%s", err.msg);
 		for (int cam = 0; cam < 2; cam++) {
 			double e[MC_DETECTOR_MAX_JOINTS];
