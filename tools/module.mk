@@ -70,6 +70,27 @@ detector-train:
 	nice -n 10 $(TRAIN_PYTHON) tools/train/train.py --data $(DETECTOR_DIR)/data \
 	  --ckpt $(DETECTOR_DIR)/ckpt.pt --seed $(DETECTOR_SEED) --epochs $(DETECTOR_EPOCHS) --resume
 
+# The outside-in model: one stage, from scratch (docs/DETECTOR.md,
+# "Outside-in model").  --threads 1 while the renderer still runs; resume
+# with DETECTOR_OUTSIDE_THREADS=2 once it has stopped.
+DETECTOR_OUTSIDE_THREADS ?= 2
+detector-train-outside:
+	nice -n 10 $(TRAIN_PYTHON) tools/train/train.py --kind outside --data $(DETECTOR_OUTSIDE_DIR)/data \
+	  --ckpt $(DETECTOR_OUTSIDE_DIR)/ckpt.pt --seed $(DETECTOR_OUTSIDE_SEED) --epochs $(DETECTOR_OUTSIDE_EPOCHS) \
+	  --threads $(DETECTOR_OUTSIDE_THREADS) --ckpt-minutes 2 --resume
+
+DETECTOR_OUTSIDE_WEIGHTS ?= $(DETECTOR_OUTSIDE_DIR)/best.pt
+
+detector-export-outside:
+	$(TRAIN_PYTHON) tools/train/train.py --kind outside --seed $(DETECTOR_OUTSIDE_SEED) \
+	  --data-seed $(DETECTOR_OUTSIDE_SEED) --weights $(DETECTOR_OUTSIDE_WEIGHTS) \
+	  --export config/models/outside_detector.onnx
+
+detector-report-outside:
+	$(TRAIN_PYTHON) tools/train/train.py --kind outside --weights $(DETECTOR_OUTSIDE_WEIGHTS) \
+	  --outside $(or $(MOCAP_DATA_DIR),../shared/data)/outside --report \
+	  --report-out $(DETECTOR_OUTSIDE_DIR)/report.json
+
 # Stage 2 of the shipped model: fine-tune stage 1's last checkpoint (after
 # more frames were rendered) with a new seed and a short cosine schedule.
 detector-finetune:

@@ -23,6 +23,19 @@ EVALUATED = [j for j in JOINTS if j not in ("head_top", "spine", "pelvis")]
 IN = 128
 HM = 32
 THRESHOLD = 0.3
+# Network input (width, height) per kind of view; heatmaps are 1/4 of it.
+# The network needs both divisible by 16.  set_kind() switches the module's
+# IN_W, IN_H, HM_W, HM_H (ego: 128x128 -> 32x32, outside: 192x144 -> 48x36).
+KINDS = {"ego": (128, 128), "outside": (192, 144)}
+IN_W, IN_H, HM_W, HM_H = IN, IN, HM, HM
+KIND = "ego"
+
+
+def set_kind(kind):
+    global IN_W, IN_H, HM_W, HM_H, KIND
+    KIND = kind
+    IN_W, IN_H = KINDS[kind]
+    HM_W, HM_H = IN_W // 4, IN_H // 4
 
 
 def build_model():
@@ -32,7 +45,8 @@ def build_model():
         return [nn.Conv2d(i, o, k, s, k // 2, bias=False), nn.BatchNorm2d(o), nn.ReLU(inplace=True)]
 
     class Net(nn.Module):
-        """128x128x3 -> 18x32x32.  Conv/BN/ReLU, MaxPool, nearest Upsample, Add, Sigmoid."""
+        """3xHxW -> 18x(H/4)x(W/4) (ego: 128x128 -> 32x32; H, W divisible by 16).
+        Conv/BN/ReLU, MaxPool, nearest Upsample, Add, Sigmoid."""
 
         def __init__(self):
             super().__init__()
@@ -58,9 +72,10 @@ def build_model():
 
 def decode(hm):
     """hm: (J, H, W) array of values in [0, 1].  Returns (J, 3): u, v (input
-    pixels at 128x128), confidence.  Argmax cell, confidence = value there,
-    sub-cell position = weighted centroid of the 3x3 window (clipped at the
-    borders), u = (x_c + 0.5) * 128 / W - 0.5."""
+    pixels, IN_W x IN_H: 128x128 for ego), confidence.  Argmax cell,
+    confidence = value there, sub-cell position = weighted centroid of the
+    3x3 window (clipped at the borders), u = (x_c + 0.5) * IN_W / W - 0.5,
+    v = (y_c + 0.5) * IN_H / H - 0.5."""
     J, H, W = hm.shape
     out = np.zeros((J, 3))
     for j in range(J):
@@ -74,7 +89,7 @@ def decode(hm):
             xc, yc = (win * xx).sum() / s, (win * yy).sum() / s
         else:
             xc, yc = float(x), float(y)
-        out[j] = ((xc + 0.5) * IN / W - 0.5, (yc + 0.5) * IN / H - 0.5, hm[j, y, x])
+        out[j] = ((xc + 0.5) * IN_W / W - 0.5, (yc + 0.5) * IN_H / H - 0.5, hm[j, y, x])
     return out
 
 

@@ -4,6 +4,7 @@
     /usr/bin/python3 tools/train/train.py --data build/detector/data --resume       # train
     /usr/bin/python3 tools/train/train.py --export config/models/ego_detector.onnx  # export
     /usr/bin/python3 tools/train/train.py --report                                  # 2D report
+    /usr/bin/python3 tools/train/train.py --kind outside --resume                   # outside-in model
 
 Checkpoints go to --ckpt (build/detector/ckpt.pt) every --ckpt-minutes and at
 each epoch end; --resume continues from there (model, optimiser, epoch and
@@ -26,12 +27,15 @@ import numpy as np
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(os.path.dirname(HERE))
 sys.path.insert(0, HERE)
-from common import EVALUATED, GROUPS, HM, IN, JOINTS, THRESHOLD, build_model, decode, load_rig, project  # noqa
+import common as C  # noqa: E402  (C.IN_W, C.IN_H, C.HM_W, C.HM_H: set by C.set_kind)
+from common import EVALUATED, GROUPS, JOINTS, THRESHOLD, build_model, decode, load_rig, project  # noqa
 
 import torch  # noqa: E402
 import torch.nn.functional as Fn  # noqa: E402
 
 SIGMA = 1.0  # target Gaussian sigma in heatmap cells (4 input pixels)
+# geometric augmentation per kind: roll (rad), zoom range, shift (input px)
+AUG = {"ego": (0.2, (0.92, 1.08), 3.0), "outside": (0.2, (0.8, 1.2), 8.0)}
 
 
 def log(*a):
@@ -45,7 +49,7 @@ class Data:
     def __init__(self, root, split):
         self.root, self.split = root, split
         self.keys, self.uv, self.st = [], [], []
-        self.img = np.zeros((0, IN, IN, 3), np.uint8)
+        self.img = np.zeros((0, C.IN_H, C.IN_W, 3), np.uint8)
         self.seen = set()
 
     def refresh(self):
@@ -64,16 +68,19 @@ class Data:
                     if key in self.seen:
                         continue
                     path = os.path.join(self.root, r["images"][cam])
+                    uv = v["uv"]
                     try:
                         im = Image.open(path).convert("RGB")
-                        if im.size != (IN, IN):
-                            im = im.resize((IN, IN), Image.BILINEAR)
+                        if im.size != (C.IN_W, C.IN_H):
+                            w0, h0 = im.size
+                            im = im.resize((C.IN_W, C.IN_H), Image.BILINEAR)
+                            uv = [[(a + 0.5) * C.IN_W / w0 - 0.5, (b + 0.5) * C.IN_H / h0 - 0.5] for a, b in uv]
                         a = np.asarray(im)
                     except OSError:
                         continue
                     self.seen.add(key)
                     new_keys.append(key)
-                    new_uv.append(v["uv"])
+                    new_uv.append(uv)
                     new_st.append(v["state"])
                     new_img.append(a)
         if new_keys:
@@ -88,14 +95,16 @@ class Data:
         return len(self.keys)
 
 
-def targets(uv, st, W=HM):
-    """uv (B,J,2) input pixels, st (B,J) states -> (B,J,W,W) Gaussian targets."""
+def targets(uv, st):
+    """uv (B,J,2) input pixels, st (B,J) states -> (B,J,HM_H,HM_W) Gaussian targets."""
     B, J = st.shape
-    xc = (uv[..., 0] + 0.5) * W / IN - 0.5
-    yc = (uv[..., 1] + 0.5) * W / IN - 0.5
-    g = torch.arange(W, dtype=torch.float32)
-    gx = torch.exp(-(g.view(1, 1, W) - xc.unsqueeze(-1)) ** 2 / (2 * SIGMA ** 2))
-    gy = torch.exp(-(g.view(1, 1, W) - yc.unsqueeze(-1)) ** 2 / (2 * SIGMA ** 2))
+    W, H = C.HM_W, C.HM_H
+    xc = (uv[..., 0] + 0.5) * W / C.IN_W - 0.5
+    yc = (uv[..., 1] + 0.5) * H / C.IN_H - 0.5
+    gxs = torch.arange(W, dtype=torch.float32)
+    gys = torch.arange(H, dtype=torch.float32)
+    gx = torch.exp(-(gxs.view(1, 1, W) - xc.unsqueeze(-1)) ** 2 / (2 * SIGMA ** 2))
+    gy = torch.exp(-(gys.view(1, 1, H) - yc.unsqueeze(-1)) ** 2 / (2 * SIGMA ** 2))
     peak = torch.where(st == 0, 1.0, torch.where(st == 1, 0.5, 0.0)).float()
     return gy.unsqueeze(-1) * gx.unsqueeze(-2) * peak.view(B, J, 1, 1)
 
@@ -108,26 +117,33 @@ def batch(data, idx, rng, augment):
     if augment:
         # roll about the image centre (a camera roll: consistent with the lens),
         # small zoom and shift
-        ang = torch.from_numpy(rng.uniform(-0.2, 0.2, B)).float()
-        sc = torch.from_numpy(rng.uniform(0.92, 1.08, B)).float()
-        sh = torch.from_numpy(rng.uniform(-3, 3, (B, 2))).float()
-        c = (IN - 1) / 2.0
+        roll, zoom, shift = AUG[C.KIND]
+        ang = torch.from_numpy(rng.uniform(-roll, roll, B)).float()
+        sc = torch.from_numpy(rng.uniform(zoom[0], zoom[1], B)).float()
+        sh = torch.from_numpy(rng.uniform(-shift, shift, (B, 2))).float()
+        W, H = C.IN_W, C.IN_H
+        c = torch.tensor([(W - 1) / 2.0, (H - 1) / 2.0])
         ca, sa = torch.cos(ang), torch.sin(ang)
         # output pixel p -> input pixel q = c + R^T (p - c - sh) / sc
         A = torch.zeros(B, 2, 3)
         A[:, 0, 0], A[:, 0, 1] = ca / sc, sa / sc
         A[:, 1, 0], A[:, 1, 1] = -sa / sc, ca / sc
-        # affine_grid works in normalised coords with align_corners=False: n = (p + 0.5) / IN * 2 - 1
-        # p - c is proportional to n with factor IN/2, so the linear part is unchanged
-        t = -(A[:, :, :2] @ sh.unsqueeze(-1)).squeeze(-1) * 2 / IN
-        A[:, :, 2] = t
+        # affine_grid works in normalised coords with align_corners=False: n = (p + 0.5) / W * 2 - 1
+        # (H for y), i.e. p - c = D n with D = diag(W/2, H/2): the linear part becomes
+        # D^-1 A D (A itself when W == H) and the translation -D^-1 A sh
+        t = -(A[:, :, :2] @ sh.unsqueeze(-1)).squeeze(-1)
+        if W != H:
+            A[:, 0, 1] *= H / W
+            A[:, 1, 0] *= W / H
+        A[:, 0, 2] = t[:, 0] * 2 / W
+        A[:, 1, 2] = t[:, 1] * 2 / H
         grid = Fn.affine_grid(A, x.shape, align_corners=False)
         x = Fn.grid_sample(x, grid, mode="bilinear", padding_mode="zeros", align_corners=False)
         # labels: forward map p = c + sh + sc R (q - c)
         d = uv - c
         R = torch.stack([torch.stack([ca, -sa], -1), torch.stack([sa, ca], -1)], -2)  # (B,2,2)
         uv = c + sh.unsqueeze(1) + sc.view(B, 1, 1) * torch.einsum("bij,bkj->bki", R, d)
-        out = (uv < -0.5).any(-1) | (uv > IN - 0.5).any(-1)
+        out = (uv < -0.5).any(-1) | (uv[..., 0] > W - 0.5) | (uv[..., 1] > H - 0.5)
         st[out] = 2
         # photometric
         gain = torch.from_numpy(rng.uniform(0.7, 1.3, (B, 1, 1, 1))).float()
@@ -192,9 +208,14 @@ def validate(model, val):
     x, uv, st = batch(val, idx, None, False)
     pred = predict(model, x)
     r = score(pred, uv.numpy(), st.numpy())
-    tgt = targets(uv, st)
     with torch.no_grad():
-        r["loss"] = float(loss_fn(model(x), tgt))
+        if C.KIND == "ego":
+            r["loss"] = float(loss_fn(model(x), targets(uv, st)))
+        else:  # in chunks (larger views)
+            tot = 0.0
+            for i in range(0, len(x), 256):
+                tot += float(loss_fn(model(x[i:i + 256]), targets(uv[i:i + 256], st[i:i + 256]))) * len(x[i:i + 256])
+            r["loss"] = tot / len(x)
     return r
 
 
@@ -315,20 +336,23 @@ def export(a):
     path = a.weights or a.ckpt
     m, ck = load_model(path)
     net = Exported(m).eval()
-    x = torch.rand(1, 3, IN, IN)
+    x = torch.rand(1, 3, C.IN_H, C.IN_W)
     torch.onnx.export(net, x, a.export, opset_version=11, input_names=["image"], output_names=["heatmaps"],
                       do_constant_folding=True)
     st = ck.get("state", {})
-    side = {"input": [IN, IN], "joints": JOINTS, "threshold": THRESHOLD, "heatmap": [HM, HM],
-            "trained_on": "synthetic head-mounted stereo fisheye views (tools/synth/render.py --seed %d, "
-                          "%s training views) of CMU motions from mocap-train only (mocap/ held out); "
-                          "%s: epoch %d, step %d, synthetic validation loss %.4f; see docs/DETECTOR.md" % (
+    what = ("synthetic head-mounted stereo fisheye views (tools/synth/render.py --seed %d, " if C.KIND == "ego" else
+            "synthetic outside-in pinhole views, 4:3 (tools/synth/render.py --kind outside --seed %d, ")
+    side = {"input": [C.IN_H, C.IN_W], "joints": JOINTS, "threshold": THRESHOLD, "heatmap": [C.HM_H, C.HM_W],
+            "trained_on": (what +
+                           "%s training views) of CMU motions from mocap-train only (mocap/ held out); "
+                           "%s: epoch %d, step %d, synthetic validation loss %.4f; see docs/DETECTOR.md") % (
                               a.data_seed, (st.get("history") or [{}])[-1].get("train_views", "?"),
                               os.path.basename(path), st.get("epoch", -1), st.get("step", -1),
                               st.get("best") or float("nan")),
             "seed": a.seed,
             "parameters": ck.get("params"),
-            "input_format": "float32 NCHW 1x3x128x128, RGB, [0,1]; output heatmaps float32 1x18x32x32 in [0,1]"}
+            "input_format": "float32 NCHW 1x3x%dx%d, RGB, [0,1]; output heatmaps float32 1x18x%dx%d in [0,1]" % (
+                C.IN_H, C.IN_W, C.HM_H, C.HM_W)}
     side_path = os.path.splitext(a.export)[0] + ".json"
     with open(side_path, "w") as f:
         json.dump(side, f, indent=1)
@@ -374,7 +398,7 @@ def report(a):
             for k, fr in enumerate(gt["frames"]):
                 P = np.array([fr["joints_left_cam"][n] for n in names])[order]
                 u, v, inside = project(cams[cam], P)
-                im = Image.open(os.path.join(d, cam, "%05d.jpg" % k)).convert("RGB").resize((IN, IN), Image.BILINEAR)
+                im = Image.open(os.path.join(d, cam, "%05d.jpg" % k)).convert("RGB").resize((C.IN, C.IN), Image.BILINEAR)
                 xs.append(np.asarray(im))
                 uvs.append(np.stack([u, v], -1))
                 sts.append(np.where(inside, 0, 2))
@@ -403,10 +427,95 @@ def report(a):
     return out
 
 
+def project_pinhole_cv(cam, P_w):
+    """OpenCV pinhole (with k1 k2 p1 p2 k3) of world points -> u, v, z (native pixels)."""
+    T = np.array(cam["world_to_camera"], dtype=float)
+    P = P_w @ T[:3, :3].T + T[:3, 3]
+    z = P[:, 2]
+    zs = np.where(np.abs(z) > 1e-9, z, 1e-9)
+    x, y = P[:, 0] / zs, P[:, 1] / zs
+    k = list(cam.get("dist") or []) + [0.0] * 5
+    k1, k2, p1, p2, k3 = k[:5]
+    r2 = x * x + y * y
+    rad = 1 + k1 * r2 + k2 * r2 ** 2 + k3 * r2 ** 3
+    xd = x * rad + 2 * p1 * x * y + p2 * (r2 + 2 * x * x)
+    yd = y * rad + p1 * (r2 + 2 * y * y) + 2 * p2 * x * y
+    return cam["fx"] * xd + cam["cx"], cam["fy"] * yd + cam["cy"], z
+
+
+def report_outside(a):
+    """2D report on ../shared/data/outside/<clip>: every camera's frames
+    resized to the network input (PIL BOX = OpenCV's INTER_AREA, the
+    runtime's resize), truth = gt.json joints_world through cameras.json."""
+    from PIL import Image
+    path = a.weights or a.ckpt
+    m, ck = load_model(path)
+    torch.set_num_threads(a.threads)
+    out = {}
+    for clip in sorted(glob.glob(os.path.join(a.outside, "*", "gt.json"))):
+        d = os.path.dirname(clip)
+        name = os.path.basename(d)
+        gt = json.load(open(clip))
+        cams = json.load(open(os.path.join(d, "cameras.json")))["cameras"]
+        names = gt["joint_names"]
+        order = [names.index(j) for j in JOINTS]
+        allp, alluv, allst, scale = [], [], [], []
+        for K, cam in enumerate(cams):
+            w, h = cam["width"], cam["height"]
+            sx, sy = C.IN_W / w, C.IN_H / h
+            xs, uvs, sts = [], [], []
+            for k, fr in enumerate(gt["frames"]):
+                P = np.array([fr["joints_world"][n] for n in names])[order]
+                u, v, z = project_pinhole_cv(cam, P)
+                inside = (z > 0.05) & (u >= -0.5) & (u <= w - 0.5) & (v >= -0.5) & (v <= h - 0.5)
+                im = Image.open(os.path.join(d, "cam%d" % K, "%05d.jpg" % k)).convert("RGB")
+                if im.size != (C.IN_W, C.IN_H):
+                    im = im.resize((C.IN_W, C.IN_H), Image.BOX)
+                xs.append(np.asarray(im))
+                uvs.append(np.stack([(u + 0.5) * sx - 0.5, (v + 0.5) * sy - 0.5], -1))
+                sts.append(np.where(inside, 0, 2))
+            x = torch.from_numpy(np.stack(xs)).permute(0, 3, 1, 2).float() / 255.0
+            allp.append(predict(m, x))
+            alluv.append(np.stack(uvs))
+            allst.append(np.stack(sts))
+            scale.append(w / C.IN_W)
+        pred, uv, st = np.concatenate(allp), np.concatenate(alluv), np.concatenate(allst)
+        r = score(pred, uv, st)
+        det = pred[..., 2] >= THRESHOLD
+        err = np.linalg.norm(pred[..., :2] - uv, axis=-1)
+        r["per_joint_median_px"] = {j: (round(float(np.median(err[:, i][det[:, i] & (st[:, i] < 2)])), 2)
+                                        if (det[:, i] & (st[:, i] < 2)).any() else None)
+                                    for i, j in enumerate(JOINTS)}
+        r["per_camera"] = {}
+        n = len(gt["frames"])
+        for K in range(len(cams)):
+            sl = slice(K * n, (K + 1) * n)
+            rc = score(pred[sl], uv[sl], st[sl])
+            r["per_camera"]["cam%d" % K] = {g: rc[g] for g in GROUPS}
+            r["per_camera"]["cam%d" % K]["missed"] = rc["miss_visible"]
+        r["native_scale"] = scale[0]
+        r["views"] = int(len(pred))
+        r["in_image"] = int((st < 2).sum())
+        r["input"] = [C.IN_W, C.IN_H]
+        out[name] = r
+        f = scale[0]
+        log("%s (%d views, %dx%d input): torso %.2f/%.2f  arms %.2f/%.2f  legs %.2f/%.2f px (median/p90, input px; "
+            "x%.2f for %dx%d); missed %.1f%% of in-image joints; false %.1f%% of detections (%d outside)" % (
+                name, len(pred), C.IN_W, C.IN_H, *r["torso"], *r["arms"], *r["legs"], f, cams[0]["width"],
+                cams[0]["height"], 100 * r["miss_visible"], 100 * r["false"], r["false_outside"]))
+    if a.report_out:
+        with open(a.report_out, "w") as fo:
+            json.dump(out, fo, indent=1)
+    return out
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--data", default=os.path.join(ROOT, "build/detector/data"))
-    ap.add_argument("--ckpt", default=os.path.join(ROOT, "build/detector/ckpt.pt"))
+    ap.add_argument("--kind", choices=("ego", "outside"), default="ego",
+                    help="ego: 128x128 head-mounted fisheye views (default); outside: 192x144 outside-in "
+                         "pinhole views (defaults under build/detector/outside/)")
+    ap.add_argument("--data", default=None, help="default build/detector/data (outside: build/detector/outside/data)")
+    ap.add_argument("--ckpt", default=None, help="default build/detector/ckpt.pt (outside: build/detector/outside/ckpt.pt)")
     ap.add_argument("--weights", help="checkpoint for --export/--report (default --ckpt)")
     ap.add_argument("--resume", action="store_true")
     ap.add_argument("--init", help="start from these weights (a ckpt.pt/best.pt), new optimiser and schedule")
@@ -421,16 +530,23 @@ def main():
     ap.add_argument("--ckpt-minutes", type=float, default=3.0)
     ap.add_argument("--export", metavar="ONNX")
     ap.add_argument("--report", action="store_true")
-    ap.add_argument("--report-out", default=os.path.join(ROOT, "build/detector/report.json"))
+    ap.add_argument("--report-out", default=None,
+                    help="default build/detector/report.json (outside: build/detector/outside/report.json)")
     ap.add_argument("--rig", default=os.path.join(ROOT, "config/rigs/ego_stereo.json"))
     ap.add_argument("--ego", default="/work/shared/data/ego")
+    ap.add_argument("--outside", default="/work/shared/data/outside", help="outside-in clips for --report")
     a = ap.parse_args()
+    C.set_kind(a.kind)
+    sub = "build/detector" if a.kind == "ego" else "build/detector/outside"
+    a.data = a.data or os.path.join(ROOT, sub, "data")
+    a.ckpt = a.ckpt or os.path.join(ROOT, sub, "ckpt.pt")
+    a.report_out = a.report_out or os.path.join(ROOT, sub, "report.json")
     os.makedirs(os.path.dirname(a.ckpt), exist_ok=True)
     if a.export or a.report:
         if a.export:
             export(a)
         if a.report:
-            report(a)
+            report(a) if a.kind == "ego" else report_outside(a)
         return
     train(a)
 
