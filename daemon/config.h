@@ -50,7 +50,7 @@ typedef struct {
 	mcd_kv keys[MCD_MAX_DRIVER_KEYS];
 } mcd_camera_config;
 
-typedef enum { MCD_RIG_JSON = 0, MCD_RIG_EGO_CALIB = 1 } mcd_rig_format;
+typedef enum { MCD_RIG_JSON = 0, MCD_RIG_EGO_CALIB = 1, MCD_RIG_CAMERAS_JSON = 2 } mcd_rig_format;
 
 /* The tracker section.  The tracker's own settings are read straight into
  * `settings`, which starts from mc_tracker_settings_default: a key left

@@ -27,7 +27,8 @@ static const mcd_key_choice log_levels[] = {
 	{"debug", MCD_LOG_DEBUG, false}, {"warning", MCD_LOG_WARN, true}, {NULL, 0, false},
 };
 static const mcd_key_choice rig_formats[] = {
-	{"json", MCD_RIG_JSON, false}, {"ego-calib", MCD_RIG_EGO_CALIB, false}, {NULL, 0, false}};
+	{"json", MCD_RIG_JSON, false}, {"ego-calib", MCD_RIG_EGO_CALIB, false},
+	{"cameras-json", MCD_RIG_CAMERAS_JSON, false}, {NULL, 0, false}};
 static const mcd_key_choice backends[] = {
 	{"opencl", MC_BACKEND_OPENCL, false}, {"reference", MC_BACKEND_REFERENCE, false}, {NULL, 0, false}};
 

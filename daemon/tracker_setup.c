@@ -12,8 +12,12 @@ static int load_rig(const mcd_config *cfg, mcd_tracking *t, mc_err *err)
 	const mcd_tracker_config *tc = &cfg->tracker;
 	char where[700];
 	mcd_config_where(cfg, "tracker", "rig", where, sizeof(where));
-	int rc = tc->rig_format == MCD_RIG_EGO_CALIB ? mc_rig_import_ego_calib(tc->rig, tc->rig_ocam, &t->rig, err)
-						      : mc_rig_load(tc->rig, &t->rig, err);
+	int rc;
+	switch (tc->rig_format) {
+	case MCD_RIG_EGO_CALIB: rc = mc_rig_import_ego_calib(tc->rig, tc->rig_ocam, &t->rig, err); break;
+	case MCD_RIG_CAMERAS_JSON: rc = mc_rig_import_cameras_json(tc->rig, &t->rig, err); break;
+	default: rc = mc_rig_load(tc->rig, &t->rig, err); break;
+	}
 	if (rc)
 		return mc_err_prefix(err, "%s", where);
 	/* Clients get the rig in the rig file format, whatever it came from. */
@@ -40,12 +44,19 @@ static int map_cameras(const mcd_config *cfg, mcd_tracking *t, mc_err *err)
 	return 0;
 }
 
+/* The joints of a gt.json-style file in the rig frame: the left camera's
+ * on a head-mounted rig, the world's on an outside-in one. */
+static const char *init_joints_key(const mc_rig *rig)
+{
+	return rig->kind == MC_RIG_OUTSIDE_IN ? "joints_world" : "joints_left_cam";
+}
+
 /* The pose and bone lengths from frame 0 of the init_joints file. */
 static int init_from_joints(const mcd_config *cfg, mcd_tracking *t, mc_err *err)
 {
 	const char *path = cfg->tracker.init_joints;
 	mc_gt gt;
-	if (mc_gt_load(path, "joints_left_cam", &gt, err))
+	if (mc_gt_load(path, init_joints_key(&t->rig), &gt, err))
 		return -1;
 	const char *names[MC_GT_MAX_JOINTS];
 	mc_vec3 pos[MC_GT_MAX_JOINTS];
@@ -129,6 +140,10 @@ static int load_rig_and_model(const mcd_config *cfg, mcd_tracking *t, mc_err *er
 		return -1;
 	if (mc_model_load(cfg->tracker.model, &t->model, err))
 		return mc_err_prefix(err, "%s", mcd_config_where(cfg, "tracker", "model", where, sizeof(where)));
+	/* as the tracker will (mc_tracker_create), so that an actor saved
+	 * outside-in fits the configured model */
+	if (t->rig.kind == MC_RIG_OUTSIDE_IN && mc_model_make_root_free(&t->model, err))
+		return mc_err_prefix(err, "%s", mcd_config_where(cfg, "tracker", "model", where, sizeof(where)));
 	if (cfg->tracker.actor[0] && load_actor(cfg, t, err))
 		return -1;
 	return 0;
@@ -143,7 +158,7 @@ int mcd_tracking_check(const mcd_config *cfg, mc_err *err)
 	int rc = load_rig_and_model(cfg, t, err);
 	if (rc == 0 && cfg->tracker.init_joints[0]) {
 		mc_gt gt;
-		rc = mc_gt_load(cfg->tracker.init_joints, "joints_left_cam", &gt, err);
+		rc = mc_gt_load(cfg->tracker.init_joints, init_joints_key(&t->rig), &gt, err);
 		if (rc)
 			mc_err_prefix(err, "%s", mcd_config_where(cfg, "tracker", "init_joints", where, sizeof(where)));
 		else

@@ -89,8 +89,29 @@ static void test_solvers(void)
 	CHECK(!mc_la_cholesky_solve(NS, ns, 2));
 }
 
+/* Horn's rigid fit recovers a known transform from exact points, and
+ * gives the least-squares one (centroids matched) under noise. */
+static void test_fit_rigid(void)
+{
+	mc_vec3 from[6] = {{0, 0, 0}, {1, 0, 0}, {0, 2, 0}, {0, 0, 0.5}, {0.3, -0.4, 0.9}, {-1, 0.2, 0.1}}, to[6];
+	mc_xform truth = {mc_m3_from_rotvec(mc_v3(0.4, -2.9, 0.7)), mc_v3(1.5, -0.2, 1.7)};
+	for (int i = 0; i < 6; i++)
+		to[i] = mc_xform_apply(truth, from[i]);
+	mc_xform fit = mc_xform_fit_rigid(from, to, NULL, 6);
+	for (int i = 0; i < 3; i++)
+		for (int j = 0; j < 3; j++)
+			CHECK(fabs(fit.R.m[i][j] - truth.R.m[i][j]) < 1e-9);
+	CHECK(mc_v3_norm(mc_v3_sub(fit.t, truth.t)) < 1e-9);
+	/* weights: a point with weight 0 does not count */
+	double w[6] = {1, 1, 1, 1, 1, 0};
+	to[5] = mc_v3(100, 100, 100);
+	fit = mc_xform_fit_rigid(from, to, w, 6);
+	CHECK(mc_v3_norm(mc_v3_sub(fit.t, truth.t)) < 1e-9);
+}
+
 int main(void)
 {
+	test_fit_rigid();
 	test_rotations();
 	test_xforms();
 	test_solvers();

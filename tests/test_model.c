@@ -356,6 +356,58 @@ static void test_bone_scale(void)
 	CHECK(stretched >= 3);
 }
 
+/* A fixed-root model made free keeps its joints' dofs after six root dofs;
+ * re-centring its root base moves the rotation out of the pose and leaves
+ * every skeleton where it was. */
+static void test_free_root_recentre(void)
+{
+	mc_model m;
+	mc_err err = {0};
+	if (!load_default(&m))
+		return;
+	int fixed_ndof = m.ndof;
+	CHECK_MSG(mc_model_make_root_free(&m, &err) == 0, "%s", err.msg);
+	CHECK(m.root_free && m.ndof == fixed_ndof + MC_ROOT_FREE_DOFS);
+	CHECK(m.joints[0].dof0 == MC_ROOT_FREE_DOFS);
+	double a[MC_MAX_DOF] = {0}, b[MC_MAX_DOF] = {0};
+	mc_model_rest_pose(&m, a);
+	mc_model_rest_pose(&m, b);
+	double ra[6] = {0.5, -1.0, 1.7, 0.3, 2.9, -0.4}, rb[6] = {0.6, -1.1, 1.6, 0.35, 2.8, -0.5};
+	memcpy(a, ra, sizeof(ra));
+	memcpy(b, rb, sizeof(rb));
+	a[8] = 0.3;
+	mc_fk fa, fb, ga, gb;
+	mc_model_fk(&m, a, &fa);
+	mc_model_fk(&m, b, &fb);
+	double *poses[2] = {a, b};
+	mc_model_recentre_root(&m, poses, 2);
+	CHECK(fabs(a[3]) + fabs(a[4]) + fabs(a[5]) < 1e-12);
+	CHECK(mc_v3_norm(mc_v3(b[3], b[4], b[5])) < 0.2); /* b is near a: its rotation vector is small */
+	mc_model_fk(&m, a, &ga);
+	mc_model_fk(&m, b, &gb);
+	for (int j = 0; j < m.njoints; j++) {
+		CHECK(mc_v3_norm(mc_v3_sub(fa.rig_from_joint[j].t, ga.rig_from_joint[j].t)) < 1e-9);
+		CHECK(mc_v3_norm(mc_v3_sub(fb.rig_from_joint[j].t, gb.rig_from_joint[j].t)) < 1e-9);
+	}
+	/* the root rotation's Jacobian still matches finite differences with a base */
+	double p[MC_MAX_DOF];
+	memcpy(p, b, sizeof(p));
+	mc_vec3 J[MC_MAX_JOINTS * MC_MAX_DOF];
+	mc_model_joint_jacobian(&m, p, &gb, J);
+	for (int k = 3; k < 6; k++) {
+		double h = 1e-6, save = p[k];
+		mc_fk fp, fm;
+		p[k] = save + h;
+		mc_model_fk(&m, p, &fp);
+		p[k] = save - h;
+		mc_model_fk(&m, p, &fm);
+		p[k] = save;
+		int j = m.njoints - 1;
+		mc_vec3 fd = mc_v3_scale(mc_v3_sub(fp.rig_from_joint[j].t, fm.rig_from_joint[j].t), 0.5 / h);
+		CHECK_MSG(mc_v3_norm(mc_v3_sub(fd, J[j * m.ndof + k])) < 1e-6, "root dof %d", k);
+	}
+}
+
 static void test_helpers(void)
 {
 	mc_model m;
@@ -773,6 +825,7 @@ int main(void)
 	test_limits();
 	test_bone_scale();
 	test_helpers();
+	test_free_root_recentre();
 	test_sphere_to_gaussian();
 	test_round_trip();
 	test_parse_details();

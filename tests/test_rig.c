@@ -1,5 +1,5 @@
 /* Tests of core/geom/mc_rig and core/base/mc_json: the rig file format (parse, save,
- * round trip), the shipped rigs, the calib.json and OCamCalib importers, ray
+ * round trip), the shipped rigs, the calib.json, cameras.json and OCamCalib importers, ray
  * tables, and bad input naming the file and the field. */
 #include "base/mc_json.h"
 #include "geom/mc_rig.h"
@@ -639,6 +639,73 @@ out:
 	mc_raytable_free(&full); /* freeing twice is harmless */
 }
 
+/* ---- outside-in cameras.json -------------------------------------------- */
+
+/* tests/data/outside holds one set of cameras in both formats
+ * (make_fixtures.py): the import must equal the rig file, and project
+ * world points as OpenCV's formula does. */
+static void test_import_cameras_json(void)
+{
+	mc_rig imported, rig;
+	mc_err err = {0};
+	CHECK_MSG(mc_rig_import_cameras_json("tests/data/outside/cameras.json", &imported, &err) == 0, "%s", err.msg);
+	CHECK_MSG(mc_rig_load("tests/data/outside/rig.json", &rig, &err) == 0, "%s", err.msg);
+	CHECK(imported.kind == MC_RIG_OUTSIDE_IN && imported.ncams == 4);
+	for (int c = 0; c < imported.ncams && c < rig.ncams; c++) {
+		const mc_camera *a = &imported.cams[c], *b = &rig.cams[c];
+		CHECK(strcmp(a->name, b->name) == 0 && a->model == MC_CAM_PINHOLE);
+		CHECK(a->width == 320 && a->height == 240 && a->fx == 280 && a->cy == 119.5);
+		for (int i = 0; i < 5; i++)
+			CHECK(a->k[i] == b->k[i]);
+		CHECK(mc_v3_norm(mc_v3_sub(a->rig_from_cam.t, b->rig_from_cam.t)) < 1e-9);
+		/* every image corner has a ray: the field of view covers the image */
+		double corner = atan(hypot(160.0 / 280, 120.0 / 280));
+		CHECK(a->max_theta > corner && a->max_theta < 89 * DEG);
+		/* a world point projects where x = fx X / Z + cx says (no distortion on cam0) */
+		mc_vec3 world = mc_v3(0.3, -0.2, 1.1);
+		mc_vec3 pa = mc_xform_apply(mc_xform_inverse(a->rig_from_cam), world);
+		mc_vec3 pb = mc_xform_apply(mc_xform_inverse(b->rig_from_cam), world);
+		double ua, va, ub, vb;
+		CHECK(mc_camera_project(a, pa, &ua, &va) && mc_camera_project(b, pb, &ub, &vb));
+		CHECK_MSG(fabs(ua - ub) < 1e-6 && fabs(va - vb) < 1e-6, "cam%d: %g,%g vs %g,%g", c, ua, va, ub, vb);
+		if (c == 0)
+			CHECK(fabs(ua - (280 * pa.x / pa.z + 159.5)) < 1e-9 && fabs(va - (280 * pa.y / pa.z + 119.5)) < 1e-9);
+	}
+}
+
+static void test_import_cameras_json_bad(void)
+{
+	static const char *const cam =
+		"\"width\": 320, \"height\": 240, \"fx\": 280, \"fy\": 280, \"cx\": 159.5, \"cy\": 119.5,"
+		" \"world_to_camera\": [[1,0,0,0],[0,1,0,0],[0,0,1,4],[0,0,0,1]]";
+	char text[4][1024];
+	snprintf(text[0], sizeof(text[0]), "{\"cameras\": [{\"name\": \"a\", \"model\": \"fisheye\", %s}]}", cam);
+	snprintf(text[1], sizeof(text[1]),
+		 "{\"cameras\": [{\"name\": \"a\", \"model\": \"pinhole\", %s}, {\"name\": \"a\", \"model\": \"pinhole\", %s}]}",
+		 cam, cam);
+	snprintf(text[2], sizeof(text[2]),
+		 "{\"cameras\": [{\"name\": \"a\", \"model\": \"pinhole\", \"dist\": [0, 0, 0], %s}]}", cam);
+	snprintf(text[3], sizeof(text[3]), "{\"cameras\": [{\"name\": \"a\", \"model\": \"pinhole\", \"fx\": 280}]}");
+	const char *const expect[][2] = {
+		{"cameras[0].model", "only 'pinhole'"},
+		{"cameras[1].name", "used twice"},
+		{"cameras[0].dist", "expected 4 or 5 numbers"},
+		{"cameras[0]", "missing"},
+	};
+	for (int i = 0; i < 4; i++) {
+		char path[64];
+		mc_rig rig;
+		mc_err err = {0};
+		if (!temp_file(path, sizeof(path), text[i]))
+			continue;
+		CHECK(mc_rig_import_cameras_json(path, &rig, &err) == -1);
+		CHECK_ERR(err.msg, path);
+		CHECK_ERR(err.msg, expect[i][0]);
+		CHECK_ERR(err.msg, expect[i][1]);
+		unlink(path);
+	}
+}
+
 int main(void)
 {
 	test_json_helpers();
@@ -647,6 +714,8 @@ int main(void)
 	test_import_ego_calib();
 	test_import_ego_calib_bad();
 	test_import_ocamcalib_bad();
+	test_import_cameras_json();
+	test_import_cameras_json_bad();
 	test_bad_rigs();
 	test_raytables();
 	return mc_test_finish("test_rig");

@@ -354,6 +354,9 @@ int main(int argc, char **argv)
 	mc_err err = {0};
 	if (mc_rig_load(o.rig_path, &rig, &err) || mc_model_load(o.model_path, &model, &err))
 		goto fail;
+	/* as the tracker does: outside-in, the body has a free root */
+	if (rig.kind == MC_RIG_OUTSIDE_IN && mc_model_make_root_free(&model, &err))
+		goto fail;
 	if (o.cam && mc_rig_find(&rig, o.cam) < 0) {
 		mc_err_set(&err, "%s: no camera named '%s'", o.rig_path, o.cam);
 		goto fail;

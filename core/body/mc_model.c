@@ -61,7 +61,9 @@ static mc_xform root_base(const mc_model *model, const double *pose, mc_fk *fk)
 		return model->rig_from_root;
 	mc_vec3 t = mc_v3(pose[0], pose[1], pose[2]);
 	mc_vec3 w = mc_v3(pose[3], pose[4], pose[5]);
-	mc_xform base = {mc_m3_from_rotvec(w), t};
+	mc_xform base = {mc_m3_mul(mc_m3_from_rotvec(w), mc_m3_from_rotvec(model->root_base)), t};
+	/* R(w) acts on the left of the base: its derivative is the left
+	 * Jacobian at w, whatever the base. */
 	mc_mat3 J = so3_left_jacobian(w);
 	for (int i = 0; i < 3; i++) {
 		fk->dof_axis[i] = unit_axis(i);
@@ -102,6 +104,20 @@ int mc_model_make_root_free(mc_model *model, mc_err *err)
 	model->root_free = true;
 	model->rig_from_root = mc_xform_identity();
 	return mc_model_finalize(model, err);
+}
+
+void mc_model_recentre_root(mc_model *model, double *const *poses, int n)
+{
+	if (!model->root_free || n < 1)
+		return;
+	mc_mat3 turn = mc_m3_from_rotvec(mc_v3(poses[0][3], poses[0][4], poses[0][5]));
+	mc_mat3 undo = mc_m3_transpose(turn);
+	model->root_base = mc_m3_to_rotvec(mc_m3_mul(turn, mc_m3_from_rotvec(model->root_base)));
+	for (int i = 0; i < n; i++) {
+		double *p = poses[i];
+		mc_vec3 w = mc_m3_to_rotvec(mc_m3_mul(mc_m3_from_rotvec(mc_v3(p[3], p[4], p[5])), undo));
+		p[3] = w.x, p[4] = w.y, p[5] = w.z;
+	}
 }
 
 void mc_model_rest_pose(const mc_model *model, double *pose)

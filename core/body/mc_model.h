@@ -55,6 +55,12 @@ typedef struct {
 	mc_joint joints[MC_MAX_JOINTS];
 	bool root_free;
 	mc_xform rig_from_root;   /* used when !root_free */
+	/* Free root: the orientation its rotation dofs p[3..5] turn from,
+	 * R_root = R(p[3..5]) R(root_base), as a rotation vector (zero: the
+	 * identity).  The tracker re-centres it (mc_model_recentre_root) so
+	 * that p[3..5] stays small, far from the rotation vector's wrap at pi.
+	 * Not saved in model files. */
+	mc_vec3 root_base;
 	int ndof;
 	int ngauss;
 	mc_gauss_def gauss[MC_MAX_GAUSSIANS];
@@ -105,6 +111,12 @@ int mc_model_validate(const mc_model *model, mc_err *err);
  * joints' own, rig_from_root dropped), e.g. a head-mounted model used on an
  * outside-in rig.  The pose vector grows by MC_ROOT_FREE_DOFS. */
 int mc_model_make_root_free(mc_model *model, mc_err *err);
+
+/* Free root: folds the rotation of poses[0] into model->root_base and
+ * re-expresses every pose in poses[0 .. n-1] against the new base, so that
+ * poses[0]'s rotation dofs become zero and each pose's skeleton is
+ * unchanged.  Does nothing for a fixed root. */
+void mc_model_recentre_root(mc_model *model, double *const *poses, int n);
 
 /* Index of a joint by name, or -1. */
 int mc_model_find_joint(const mc_model *model, const char *name);

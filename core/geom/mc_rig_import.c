@@ -288,8 +288,8 @@ static int opencv_camera(const json_t *jc, const char *where, mc_camera *cam, mc
 	    mc_json_number_range(jc, "fy", where, MC_CAMERA_FOCAL_MIN, MC_CAMERA_COORD_MAX, &cam->fy, true, err) ||
 	    mc_json_number_range(jc, "cx", where, -MC_CAMERA_COORD_MAX, MC_CAMERA_COORD_MAX, &cam->cx, true, err) ||
 	    mc_json_number_range(jc, "cy", where, -MC_CAMERA_COORD_MAX, MC_CAMERA_COORD_MAX, &cam->cy, true, err) ||
-	    mc_json_numbers_var(jc, "dist", where, dist, 5, &ndist, false, err) ||
-	    mc_json_mat4(jc, "world_to_camera", where, m, true, err))
+	    mc_json_mat4(jc, "world_to_camera", where, m, true, err) ||
+	    mc_json_numbers_var(jc, "dist", where, dist, 5, &ndist, false, err) < 0) /* 1: absent */
 		return -1;
 	if (ndist != 0 && ndist != 4 && ndist != 5)
 		return mc_err_set(err, "%s.dist: expected 4 or 5 numbers (k1 k2 p1 p2 [k3]), got %zu", where, ndist);

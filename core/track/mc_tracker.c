@@ -707,10 +707,25 @@ static void initialising_skeleton(const mc_tracker *t, mc_skeleton *out)
 		out->joints[j].confidence = 0;
 }
 
+/* A free root's rotation dofs start every frame set from zero: the pose's
+ * rotation moves into the model's root_base, and every stored pose is
+ * re-expressed against it (the skeletons do not change).  The rotation
+ * vector then never nears its wrap at pi, where the prediction and the
+ * smoothness prior, which work on the vector, would break. */
+static void recentre_free_root(mc_tracker *t)
+{
+	double *poses[4 + MC_TRK_SHAPE_FRAMES] = {t->pose, t->prev, t->prev2, t->anchor};
+	int n = 4;
+	for (int i = 0; i < t->init.nshape && i < MC_TRK_SHAPE_FRAMES; i++)
+		poses[n++] = t->init.shape_pose[i];
+	mc_model_recentre_root(&t->model, poses, n);
+}
+
 int mc_tracker_track(mc_tracker *t, const mc_frame_view *views, int nviews, const mc_keypoint *kp, int nkp,
 		     mc_skeleton *out, mc_err *err)
 {
 	uint64_t start = mc_now_ns();
+	recentre_free_root(t);
 	memset(out, 0, sizeof(*out));
 	for (int c = 0; c < nviews && c < t->rig.ncams; c++)
 		if (view_usable(&views[c]) && views[c].timestamp_ns > out->timestamp_ns)
