@@ -75,6 +75,11 @@ static int find_where(const mcd_config *cfg, const char *section, const char *ke
 	return 0;
 }
 
+bool mcd_config_is_set(const mcd_config *cfg, const char *section, const char *key)
+{
+	return find_where(cfg, section, key) > 0;
+}
+
 const char *mcd_config_where(const mcd_config *cfg, const char *section, const char *key, char *buf, size_t cap)
 {
 	int line = find_where(cfg, section, key);

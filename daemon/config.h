@@ -131,6 +131,8 @@ int mcd_config_parse(const char *text, const char *origin, const char *base_dir,
  * "mocapd.conf: [tracker] rig" for one left at its default.  `section` is
  * the name between the brackets, e.g. "camera left". Returns buf. */
 const char *mcd_config_where(const mcd_config *cfg, const char *section, const char *key, char *buf, size_t cap);
+/* Whether the file gave [section] key (rather than its default). */
+bool mcd_config_is_set(const mcd_config *cfg, const char *section, const char *key);
 
 /* The value of a driver key of a camera, or NULL. */
 const mcd_kv *mcd_camera_config_find(const mcd_camera_config *cam, const char *key);

@@ -82,6 +82,8 @@ static const mcd_config_key keys[] = {
 	 TRACKER_DEFAULT, false},
 	{MCD_SEC_TRACKER, "lambda_smooth", MCD_KEY_REAL, T(settings.lambda_smooth), 0, 1000, NULL, TRACKER_DEFAULT,
 	 false},
+	{MCD_SEC_TRACKER, "lambda_floor", MCD_KEY_REAL, T(settings.lambda_floor), 0, 1000, NULL, TRACKER_DEFAULT,
+	 false},
 	{MCD_SEC_TRACKER, "opencl_platform", MCD_KEY_CL_INDEX, T(settings.cl_platform), 0, 0, NULL, TRACKER_DEFAULT,
 	 false},
 	{MCD_SEC_TRACKER, "opencl_device", MCD_KEY_CL_INDEX, T(settings.cl_device), 0, 0, NULL, TRACKER_DEFAULT, false},

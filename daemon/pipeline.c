@@ -29,6 +29,7 @@ struct mcd_pipeline {
 	mcd_publisher *pub;
 	bool print;
 	bool tracking; /* a tracker is configured */
+	mc_rig_kind rig_kind; /* its rig's, for the settings a reload gives it */
 	int event_fd;
 	bool started; /* the tracking thread runs */
 	bool stopped; /* mcd_pipeline_stop ran */
@@ -83,6 +84,8 @@ static int create_tracking_thread(mcd_pipeline *p, const mcd_config *cfg, mcd_tr
 		.ctx = p,
 	};
 	p->tracker = mcd_tracking_thread_create(&tc, err);
+	if (tracking)
+		p->rig_kind = tracking->rig.kind;
 	return p->tracker ? 0 : -1;
 }
 
@@ -318,7 +321,9 @@ void mcd_pipeline_get_status(mcd_pipeline *p, mcd_pipeline_status *st, bool rese
 
 void mcd_pipeline_reload(mcd_pipeline *p, const mcd_config *cfg)
 {
-	mcd_tracking_thread_reload(p->tracker, cfg->group_tolerance_ms, cfg->group_deadline_ms, &cfg->tracker.settings);
+	mc_tracker_settings settings;
+	mcd_tracker_settings(cfg, p->rig_kind, &settings);
+	mcd_tracking_thread_reload(p->tracker, cfg->group_tolerance_ms, cfg->group_deadline_ms, &settings);
 	mcd_detector_thread_reload(p->detector, &cfg->detector);
 	for (int c = 0; c < p->ncams; c++)
 		mcd_camera_set_limits(p->cams[c], cfg->reopen_initial_ms, cfg->reopen_max_ms, cfg->stall_timeout_ms);

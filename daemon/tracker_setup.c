@@ -169,12 +169,29 @@ int mcd_tracking_check(const mcd_config *cfg, mc_err *err)
 	return rc;
 }
 
+void mcd_tracker_settings(const mcd_config *cfg, mc_rig_kind kind, mc_tracker_settings *s)
+{
+	*s = cfg->tracker.settings;
+	if (kind != MC_RIG_OUTSIDE_IN)
+		return;
+	const mc_tracker_outside_in_defaults *d = &mc_tracker_outside_in;
+	if (!mcd_config_is_set(cfg, "tracker", "iterations"))
+		s->iterations = d->iterations;
+	if (!mcd_config_is_set(cfg, "tracker", "lambda_smooth"))
+		s->lambda_smooth = d->lambda_smooth;
+	if (!mcd_config_is_set(cfg, "tracker", "lambda_floor"))
+		s->lambda_floor = d->lambda_floor;
+}
+
 int mcd_tracking_setup(const mcd_config *cfg, mcd_tracking *t, mc_err *err)
 {
 	memset(t, 0, sizeof(*t));
 	if (load_rig_and_model(cfg, t, err))
 		goto fail;
-	t->settings = cfg->tracker.settings;
+	mcd_tracker_settings(cfg, t->rig.kind, &t->settings);
+	if (t->rig.kind == MC_RIG_OUTSIDE_IN)
+		mcd_info("tracker: outside-in rig: iterations %d, lambda_smooth %g, lambda_floor %g",
+			 t->settings.iterations, t->settings.lambda_smooth, t->settings.lambda_floor);
 	t->tracker = mc_tracker_create(&t->rig, &t->model, &t->settings, err);
 	if (!t->tracker) {
 		mc_err_prefix(err, "%s:%d: [tracker]", cfg->file, cfg->tracker.line);

@@ -55,6 +55,9 @@ typedef struct {
 	 * (not even frame 0); false: frame 0's ground truth (the protocol's gt0) */
 	bool init_detect;
 	mc_tracker_settings s;
+	/* given on the command line: kept on outside-in clips, whose other
+	 * settings take their outside-in values (mc_tracker_outside_in) */
+	bool set_iterations, set_lambda_smooth, set_lambda_floor;
 } options;
 
 
@@ -368,10 +371,10 @@ static void print_settings(const mc_tracker_settings *s, const char *device)
 {
 	printf("device: %s\n", device);
 	printf("settings: backend=%s width=%d height=%d iterations=%d pixel_fraction=%g dropout=%g step=%g "
-	       "momentum=%g lambda_detection=%g lambda_limit=%g lambda_pose=%g lambda_smooth=%g seed=%llu\n",
+	       "momentum=%g lambda_detection=%g lambda_limit=%g lambda_pose=%g lambda_smooth=%g lambda_floor=%g seed=%llu\n",
 	       s->backend == MC_BACKEND_OPENCL ? "opencl" : "reference", s->width, s->height, s->iterations,
 	       s->pixel_fraction, s->dropout, s->step, s->momentum, s->lambda_detection, s->lambda_limit,
-	       s->lambda_pose, s->lambda_smooth, (unsigned long long)s->seed);
+	       s->lambda_pose, s->lambda_smooth, s->lambda_floor, (unsigned long long)s->seed);
 }
 
 /* ---- the reference backend on a few frames, for a speed ratio ----------- */
@@ -522,10 +525,11 @@ static void usage(FILE *f)
 		   "  --out FILE            write per-frame estimates as JSON lines (joints in the rig frame:\n"
 		   "                        left camera, or the world frame of an outside-in clip)\n"
 		   "  --cameras LIST        outside-in: use only these clip cameras, e.g. 0,2 (default: all)\n"
+		   "  --lambda-floor L      outside-in: weight of the floor prior (default: mocapd's outside-in value)\n"
 		   "  --frames N            track only the first N frames\n"
 		   "  --backend opencl|reference\n"
 		   "  --width W --height H  working resolution per camera (default 128x128)\n"
-		   "  --iterations N        gradient iterations per frame (default 50)\n"
+		   "  --iterations N        gradient iterations per frame (default 50; outside-in clips 80)\n"
 		   "  --pixel-fraction F    share of candidate pixels per iteration\n"
 		   "  --dropout P           per-pixel Gaussian dropout probability\n"
 		   "  --step S --momentum M --lambda-smooth L --lambda-pose L --lambda-limit L\n"
@@ -568,7 +572,7 @@ enum { OPT_MODEL = 256, OPT_OUT, OPT_FRAMES, OPT_BACKEND, OPT_WIDTH, OPT_HEIGHT,
        OPT_STEP, OPT_MOM, OPT_LSMOOTH, OPT_LPOSE, OPT_LLIMIT, OPT_PLAT, OPT_DEV, OPT_SEED, OPT_OCAM, OPT_REF,
        OPT_NOTHESIS, OPT_QUIET, OPT_CLIP, OPT_HELP, OPT_OVERLAY, OPT_OVERLAY_EVERY, OPT_LANCHOR,
        OPT_SIMDET, OPT_LDET, OPT_DETECTOR, OPT_DET_EVERY, OPT_LCOLOR, OPT_DET_THRESHOLD, OPT_INIT,
-       OPT_NORECOVER, OPT_CAMERAS };
+       OPT_NORECOVER, OPT_CAMERAS, OPT_LFLOOR };
 
 static int apply_option(options *o, int c, const char *name, const char *arg, bool *thesis)
 {
@@ -608,15 +612,16 @@ static int apply_option(options *o, int c, const char *name, const char *arg, bo
 	case OPT_OVERLAY_EVERY: o->overlay_every = v >= 1 ? (int)v : 1; break;
 	case OPT_WIDTH: s->width = (int)v; break;
 	case OPT_HEIGHT: s->height = (int)v; break;
-	case OPT_ITER: s->iterations = (int)v; break;
+	case OPT_ITER: s->iterations = (int)v; o->set_iterations = true; break;
 	case OPT_FRAC: s->pixel_fraction = v; break;
 	case OPT_DROP: s->dropout = v; break;
 	case OPT_STEP: s->step = v; break;
 	case OPT_MOM: s->momentum = v; break;
-	case OPT_LSMOOTH: s->lambda_smooth = v; break;
+	case OPT_LSMOOTH: s->lambda_smooth = v; o->set_lambda_smooth = true; break;
 	case OPT_LPOSE: s->lambda_pose = v; break;
 	case OPT_LLIMIT: s->lambda_limit = v; break;
 	case OPT_LANCHOR: s->lambda_anchor = v; break;
+	case OPT_LFLOOR: s->lambda_floor = v; o->set_lambda_floor = true; break;
 	case OPT_LDET: s->lambda_detection = v; break;
 	case OPT_LCOLOR: s->lambda_color = v; break;
 	case OPT_DET_EVERY: o->detector_every = v >= 1 ? (int)v : 1; break;
@@ -646,6 +651,7 @@ static int parse_options(int argc, char **argv, options *o, bool *thesis)
 		{"no-thesis", 0, 0, OPT_NOTHESIS}, {"overlay-dir", 1, 0, OPT_OVERLAY},
 		{"overlay-every", 1, 0, OPT_OVERLAY_EVERY}, {"quiet", 0, 0, OPT_QUIET}, {"help", 0, 0, OPT_HELP},
 		{"init", 1, 0, OPT_INIT}, {"no-recover", 0, 0, OPT_NORECOVER}, {"cameras", 1, 0, OPT_CAMERAS},
+		{"lambda-floor", 1, 0, OPT_LFLOOR},
 		{0, 0, 0, 0}};
 	int c, idx;
 	while ((c = getopt_long(argc, argv, "", longopts, &idx)) != -1) {
@@ -697,11 +703,27 @@ static void print_speed(const options *o, const mc_clip *clip, const run_stats *
 	}
 }
 
-static int run(const options *o, bool thesis, mc_err *err)
+/* Outside-in clips: the settings not given on the command line take their
+ * outside-in values, as mocapd does for an outside-in rig. */
+static void apply_outside_in(options *o)
+{
+	const mc_tracker_outside_in_defaults *d = &mc_tracker_outside_in;
+	if (!o->set_iterations)
+		o->s.iterations = d->iterations;
+	if (!o->set_lambda_smooth)
+		o->s.lambda_smooth = d->lambda_smooth;
+	if (!o->set_lambda_floor)
+		o->s.lambda_floor = d->lambda_floor;
+}
+
+static int run(const options *given, bool thesis, mc_err *err)
 {
 	mc_clip clip;
+	options opts = *given, *o = &opts;
 	if (mc_clip_open(o->clip, o->use_ocam, &clip, err) < 0)
 		return -1;
+	if (clip.layout == MC_CLIP_OUTSIDE)
+		apply_outside_in(o);
 	if (o->cameras && mc_clip_select_cameras(&clip, o->cameras, err) < 0) {
 		mc_clip_close(&clip);
 		return -1;

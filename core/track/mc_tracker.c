@@ -68,6 +68,12 @@ const char *mc_track_state_name(mc_track_state s)
 	return "unknown";
 }
 
+const mc_tracker_outside_in_defaults mc_tracker_outside_in = {
+	.iterations = 80,
+	.lambda_smooth = 0.01,
+	.lambda_floor = 0,
+};
+
 static int validate_settings(const mc_tracker_settings *s, mc_err *err)
 {
 	if (s->width < 8 || s->height < 8 || s->width > 2048 || s->height > 2048)
@@ -84,6 +90,8 @@ static int validate_settings(const mc_tracker_settings *s, mc_err *err)
 		return mc_err_set(err, "tracker: momentum must be in [0, 1), got %g", s->momentum);
 	if (!(s->lambda_color >= 0 && s->lambda_color < 1e6))
 		return mc_err_set(err, "tracker: lambda_color must be in [0, 1e6), got %g", s->lambda_color);
+	if (!(s->lambda_floor >= 0 && s->lambda_floor < 1e6))
+		return mc_err_set(err, "tracker: lambda_floor must be in [0, 1e6), got %g", s->lambda_floor);
 	if (!(s->lambda_anchor >= 0 && s->lambda_anchor < 1e6))
 		return mc_err_set(err, "tracker: lambda_anchor must be in [0, 1e6), got %g", s->lambda_anchor);
 	return 0;
@@ -610,6 +618,21 @@ static int color_term(mc_tracker *t, const mc_scene *scene, double *E, mc_vec3 *
 	return 0;
 }
 
+/* The floor prior (outside-in only): lambda_floor * d^2 for each visible
+ * Gaussian whose lowest point (centre less one sigma) is d below z = 0,
+ * its gradient added to dmu.  Energies are per sampled pixel, like the
+ * colour term's, so one weight suits any resolution. */
+static void floor_term(const mc_tracker *t, const mc_scene *scene, mc_vec3 *dmu)
+{
+	if (t->s.lambda_floor <= 0 || t->rig.kind != MC_RIG_OUTSIDE_IN)
+		return;
+	for (int q = 0; q < scene->n; q++) {
+		double below = scene->sigma[q] - scene->mu[q].z;
+		if (below > 0 && !t->hidden[q])
+			dmu[q].z -= 2 * t->s.lambda_floor * below;
+	}
+}
+
 /* Runs the iteration budget from `pose` (in/out). Returns the mean data
  * energy per pixel over the last quarter of the iterations. */
 static int optimise(mc_tracker *t, double *pose, const double *pred, const mc_trk_keypoint_ray *kp, int nkp, double *final_E,
@@ -629,6 +652,7 @@ static int optimise(mc_tracker *t, double *pose, const double *pred, const mc_tr
 		mc_trk_make_scene(t, &fk, &scene);
 		if (color_term(t, &scene, &E, dmu, err) < 0)
 			return -1;
+		floor_term(t, &scene, dmu);
 		mc_model_backprop(&t->model, pose, &fk, dmu, grad);
 		mc_energy_pose(&t->model, pose, t->s.lambda_limit, t->s.lambda_pose, grad);
 		mc_energy_smooth(t->model.ndof, pose, pred, t->s.lambda_smooth, grad);

@@ -42,6 +42,11 @@ typedef struct {
 	 * (the calibration pose), same pseudo-Huber form as lambda_smooth:
 	 * keeps weakly observed dofs from random-walking (docs/TRACKER.md). */
 	double lambda_anchor;
+	/* Outside-in rigs (world frame z up, floor at z = 0): weight of the
+	 * floor prior, a squared penalty on every Gaussian reaching below the
+	 * floor (its centre less one sigma), so that no foot sinks into it.
+	 * 0: off.  Ignored on head-mounted rigs, whose frame has no floor. */
+	double lambda_floor;
 	/* Re-fit the pose to the triangulated detections when the state is
 	 * lost or a confident joint keeps disagreeing with the pose. */
 	bool recover;
@@ -50,6 +55,15 @@ typedef struct {
 } mc_tracker_settings;
 
 void mc_tracker_settings_default(mc_tracker_settings *s);
+/* The settings that differ on outside-in rigs, where the whole body moves
+ * through the world and the images are mostly background (docs/TRACKER.md,
+ * "Outside-in"): a weaker smoothness prior, more iterations, the floor
+ * prior on.  Callers apply them to the settings the user did not set. */
+typedef struct {
+	int iterations;
+	double lambda_smooth, lambda_floor;
+} mc_tracker_outside_in_defaults;
+extern const mc_tracker_outside_in_defaults mc_tracker_outside_in;
 const char *mc_track_state_name(mc_track_state s);
 
 /* One camera's image: packed RGB24, any resolution (scaled to the working
