@@ -90,6 +90,25 @@ bench-detector: $(BUILD)/bin/mocap-bench
 		done; \
 	else echo "bench-detector: $(DATA_DIR)/ego not found, skipped"; fi
 
+# Outside-in clips (shared/data/outside): every clip with all four cameras,
+# with two neighbouring cameras (90 degrees apart) and with two opposite
+# ones, from colour alone and, when the outside-in detector ships, with it
+# (docs/BENCHMARKS.md, "Outside-in").
+OUTSIDE_DETECTOR ?= $(firstword $(wildcard config/models/outside_detector.onnx))
+BENCHES += bench-outside
+.PHONY: bench-outside
+bench-outside: $(BUILD)/bin/mocap-bench
+	@if [ -d $(DATA_DIR)/outside ]; then \
+		for c in $(DATA_DIR)/outside/*/; do for cams in 0,1,2,3 0,1 2,3 0,2; do \
+			$(BUILD)/bin/mocap-bench --clip $$c --cameras $$cams --quiet --no-thesis --reference-frames 0 \
+				| grep -E '^RESULT' || exit 1; \
+			if [ -n "$(OUTSIDE_DETECTOR)" ]; then \
+				$(BUILD)/bin/mocap-bench --clip $$c --cameras $$cams --detector $(OUTSIDE_DETECTOR) --quiet \
+					--no-thesis --reference-frames 0 | grep -E '^(RESULT|DETECT2D)' | sed 's/^/detector: /' || exit 1; \
+			fi; \
+		done; done; \
+	else echo "bench-outside: $(DATA_DIR)/outside not found, skipped"; fi
+
 all: $(CORE_LIB) $(TESTS) $(TOOLS) $(BINS) $(LIBS) $(PLUGINS)
 
 $(BUILD)/%.o: %.c

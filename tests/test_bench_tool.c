@@ -1,8 +1,8 @@
 /* Runs tools/mocap-bench (built next to this test, in BUILD/bin) on the
  * bundled clip (tests/data/ego_demo): the RESULT line's format, the --out
  * estimates scored here independently against the clip's gt.json (they must
- * give the MPJPE the tool printed), the simulated-detector warning, and bad
- * command lines. */
+ * give the MPJPE the tool printed), the simulated-detector warning, bad
+ * command lines, and the outside-in layout (tests/data/outside_demo). */
 #include "eval/mc_clip.h"
 #include "test_util.h"
 
@@ -122,6 +122,51 @@ static void test_run(void)
 	CHECK_MSG(strstr(out, "WARNING: simulated detector") && strstr(out, "Not the evaluation protocol"), "%s", out);
 }
 
+/* The outside-in layout (tests/data/outside_demo: cameras.json, camK/):
+ * detected, tracked with a free root and scored in the world frame; the
+ * --out joints are world coordinates (scored here against joints_world);
+ * --cameras picks a subset and says so in the RESULT line. */
+static void test_outside_in(void)
+{
+	static char out[1 << 16];
+	char args[512], path[128];
+	mc_err err = {{0}};
+	mc_clip clip;
+	CHECK_MSG(mc_clip_open("tests/data/outside_demo", false, &clip, &err) == 0, "%s", err.msg);
+	CHECK(clip.layout == MC_CLIP_OUTSIDE && clip.rig.ncams == 4 && clip.rig.kind == MC_RIG_OUTSIDE_IN);
+	snprintf(path, sizeof(path), "%s/outside.jsonl", tmpdir);
+	snprintf(args, sizeof(args),
+		 "--clip tests/data/outside_demo --frames %d --reference-frames 0 --no-thesis --quiet --out %s", FRAMES,
+		 path);
+	int rc = run_tool(args, out, sizeof(out));
+	CHECK_MSG(rc == 0, "exit %d:\n%s", rc, out);
+	CHECK_MSG(strstr(out, "outside-in, 4 cameras: cam0 cam1 cam2 cam3") && strstr(out, "world frame"), "%s", out);
+	const char *result = last_line(out);
+	printf("%s\n", result);
+	double mpjpe = -1;
+	int ncams = 0;
+	const char *cams = strstr(result, " cameras=");
+	CHECK_MSG(sscanf(result, "RESULT clip=outside_demo frames=%*d mpjpe_cm=%lf", &mpjpe) == 1, "%s", result);
+	CHECK_MSG(cams && sscanf(cams, " cameras=%d", &ncams) == 1 && ncams == 4, "%s", result);
+	int lines;
+	double scored = score_estimates(path, &clip, &lines);
+	CHECK(lines == FRAMES);
+	CHECK_MSG(fabs(scored - mpjpe) <= 0.006, "printed %.2f, scored %.4f", mpjpe, scored);
+	CHECK_MSG(mpjpe > 0 && mpjpe < 8, "MPJPE %.2f cm", mpjpe);
+	mc_clip_close(&clip);
+	unlink(path);
+
+	snprintf(args, sizeof(args), "--clip tests/data/outside_demo --frames 3 --reference-frames 0 --no-thesis "
+				     "--quiet --cameras 1,2");
+	CHECK_MSG(run_tool(args, out, sizeof(out)) == 0 && strstr(out, "2 cameras: cam1 cam2") &&
+			  strstr(last_line(out), " cameras=2"),
+		  "%s", out);
+	CHECK(run_tool("--clip tests/data/outside_demo --cameras 0,9", out, sizeof(out)) != 0 &&
+	      strstr(out, "--cameras '0,9': expected distinct camera indices 0..3"));
+	CHECK(run_tool("--clip tests/data/outside_demo --cameras 1,1", out, sizeof(out)) != 0 &&
+	      strstr(out, "expected distinct camera indices"));
+}
+
 static void test_bad_command_lines(void)
 {
 	static char out[1 << 14];
@@ -149,6 +194,7 @@ int main(int argc, char **argv)
 	}
 	test_bad_command_lines();
 	test_run();
+	test_outside_in();
 	rmdir(tmpdir);
 	return mc_test_finish("test_bench_tool");
 }

@@ -1,7 +1,8 @@
 /* mocapd end to end with the tracker: the bundled clip (tests/data/ego_demo)
  * through the files driver, grouped, converted from JPEG, tracked on OpenCL
  * (PoCL) from the initial joints of frame 0, printed and saved; then a
- * looping clip whose tracker budget is changed by SIGHUP while it runs. */
+ * looping clip whose tracker budget is changed by SIGHUP while it runs; and
+ * an outside-in rig (tests/data/outside_demo) tracked in the world frame. */
 #include "daemon/harness.h"
 #include "body/mc_model.h"
 #include "test_util.h"
@@ -119,6 +120,49 @@ static void test_clip(void)
 	mcd_run_cleanup(&r);
 }
 
+/* An outside-in rig from the clip's own cameras.json (rig_format =
+ * cameras-json), four files cameras (tests/data/outside_demo): the tracker
+ * takes the outside-in settings, starts from joints_world and prints
+ * skeletons in the world frame (z up): the first one at frame 0's neck
+ * (-0.247, 1.399, 1.747). */
+static void test_outside_in(void)
+{
+	char conf[8192] = "[daemon]\nplugin_dir = @DRIVERS@\n";
+	for (int c = 0; c < 4; c++)
+		snprintf(conf + strlen(conf), sizeof(conf) - strlen(conf),
+			 "[camera cam%d]\ndriver = files\nrig_camera = cam%d\npath = @REPO@/tests/data/outside_demo/cam%d\n", c,
+			 c, c);
+	snprintf(conf + strlen(conf), sizeof(conf) - strlen(conf),
+		 "[tracker]\nrig = @REPO@/tests/data/outside_demo/cameras.json\nrig_format = cameras-json\n"
+		 "model = @REPO@/config/models/default.json\ninit_joints = @REPO@/tests/data/outside_demo/gt.json\n"
+		 "[socket]\npath = @SOCK@\n");
+	mcd_run r;
+	CHECK(mcd_run_init(&r));
+	write_config(&r, conf);
+	const char *const args[] = {"--print", "--exit-at-end", NULL};
+	CHECK(mcd_run_start(&r, args, NULL));
+	int rc = mcd_run_wait_exit(&r, 120000);
+	if (rc == 1)
+		skip_without_opencl(&r);
+	CHECK_MSG(rc == 0, "exit %d", rc);
+	CHECK(mcd_run_wait_log(&r, "tracker: outside-in rig: iterations 80, lambda_smooth 0.01", 0));
+	CHECK(mcd_run_wait_log(&r, "rig outside_in (4 cameras)", 0));
+	char *out = mcd_read_file(r.out);
+	int lines = mcd_count(out, "frame "), full = mcd_count(out, "cams 4/4");
+	int tracked = lines - mcd_count(out, "(not tracked)");
+	printf("outside-in: %d frame sets tracked of 30 frames, %d with all four cameras\n", tracked, full);
+	CHECK_MSG(tracked >= 5, "%d frame sets tracked", tracked);
+	mc_vec3 neck;
+	CHECK(out && joint_in_line(out, "neck", &neck));
+	CHECK_NEAR(neck.x, -0.247, 0.03);
+	CHECK_NEAR(neck.y, 1.399, 0.03);
+	CHECK_NEAR(neck.z, 1.747, 0.03);
+	free(out);
+	if (mc_test_failures)
+		mcd_run_dump(&r, "outside-in");
+	mcd_run_cleanup(&r);
+}
+
 /* --check loads rig, model and initial joints and maps the cameras. */
 static void test_check(void)
 {
@@ -182,6 +226,7 @@ int main(void)
 		TEST_SKIP("the files driver is not built (%s)", files);
 	test_check();
 	test_clip();
+	test_outside_in();
 	test_reload_budget();
 	return mc_test_finish("test_daemon_track");
 }

@@ -389,6 +389,15 @@ static void test_free_root_recentre(void)
 		CHECK(mc_v3_norm(mc_v3_sub(fa.rig_from_joint[j].t, ga.rig_from_joint[j].t)) < 1e-9);
 		CHECK(mc_v3_norm(mc_v3_sub(fb.rig_from_joint[j].t, gb.rig_from_joint[j].t)) < 1e-9);
 	}
+	/* folding the base back restores plain poses with the same skeletons */
+	{
+		double a2[MC_MAX_DOF], *pa[1] = {a2};
+		memcpy(a2, a, sizeof(a2));
+		mc_model m2 = m;
+		mc_model_fold_root_base(&m2, pa, 1);
+		CHECK(mc_v3_norm(m2.root_base) == 0);
+		CHECK(mc_v3_norm(mc_v3_sub(mc_v3(a2[3], a2[4], a2[5]), mc_v3(ra[3], ra[4], ra[5]))) < 1e-9);
+	}
 	/* the root rotation's Jacobian still matches finite differences with a base */
 	double p[MC_MAX_DOF];
 	memcpy(p, b, sizeof(p));

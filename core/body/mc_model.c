@@ -120,6 +120,19 @@ void mc_model_recentre_root(mc_model *model, double *const *poses, int n)
 	}
 }
 
+void mc_model_fold_root_base(mc_model *model, double *const *poses, int n)
+{
+	if (!model->root_free)
+		return;
+	mc_mat3 base = mc_m3_from_rotvec(model->root_base);
+	for (int i = 0; i < n; i++) {
+		double *p = poses[i];
+		mc_vec3 w = mc_m3_to_rotvec(mc_m3_mul(mc_m3_from_rotvec(mc_v3(p[3], p[4], p[5])), base));
+		p[3] = w.x, p[4] = w.y, p[5] = w.z;
+	}
+	model->root_base = mc_v3(0, 0, 0);
+}
+
 void mc_model_rest_pose(const mc_model *model, double *pose)
 {
 	for (int k = 0; k < model->ndof; k++)

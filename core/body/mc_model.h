@@ -59,7 +59,7 @@ typedef struct {
 	 * R_root = R(p[3..5]) R(root_base), as a rotation vector (zero: the
 	 * identity).  The tracker re-centres it (mc_model_recentre_root) so
 	 * that p[3..5] stays small, far from the rotation vector's wrap at pi.
-	 * Not saved in model files. */
+	 * Outside mc_tracker_track it is zero; model files do not carry it. */
 	mc_vec3 root_base;
 	int ndof;
 	int ngauss;
@@ -117,6 +117,9 @@ int mc_model_make_root_free(mc_model *model, mc_err *err);
  * poses[0]'s rotation dofs become zero and each pose's skeleton is
  * unchanged.  Does nothing for a fixed root. */
 void mc_model_recentre_root(mc_model *model, double *const *poses, int n);
+/* The inverse: folds root_base into the rotation dofs of poses[0 .. n-1]
+ * (each skeleton unchanged) and sets it to zero. */
+void mc_model_fold_root_base(mc_model *model, double *const *poses, int n);
 
 /* Index of a joint by name, or -1. */
 int mc_model_find_joint(const mc_model *model, const char *name);

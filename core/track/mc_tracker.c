@@ -731,25 +731,10 @@ static void initialising_skeleton(const mc_tracker *t, mc_skeleton *out)
 		out->joints[j].confidence = 0;
 }
 
-/* A free root's rotation dofs start every frame set from zero: the pose's
- * rotation moves into the model's root_base, and every stored pose is
- * re-expressed against it (the skeletons do not change).  The rotation
- * vector then never nears its wrap at pi, where the prediction and the
- * smoothness prior, which work on the vector, would break. */
-static void recentre_free_root(mc_tracker *t)
-{
-	double *poses[4 + MC_TRK_SHAPE_FRAMES] = {t->pose, t->prev, t->prev2, t->anchor};
-	int n = 4;
-	for (int i = 0; i < t->init.nshape && i < MC_TRK_SHAPE_FRAMES; i++)
-		poses[n++] = t->init.shape_pose[i];
-	mc_model_recentre_root(&t->model, poses, n);
-}
-
-int mc_tracker_track(mc_tracker *t, const mc_frame_view *views, int nviews, const mc_keypoint *kp, int nkp,
-		     mc_skeleton *out, mc_err *err)
+static int track_frame_set(mc_tracker *t, const mc_frame_view *views, int nviews, const mc_keypoint *kp, int nkp,
+			   mc_skeleton *out, mc_err *err)
 {
 	uint64_t start = mc_now_ns();
-	recentre_free_root(t);
 	memset(out, 0, sizeof(*out));
 	for (int c = 0; c < nviews && c < t->rig.ncams; c++)
 		if (view_usable(&views[c]) && views[c].timestamp_ns > out->timestamp_ns)
@@ -802,4 +787,36 @@ int mc_tracker_track(mc_tracker *t, const mc_frame_view *views, int nviews, cons
 	mc_trk_init_after(t, out);
 	out->track_ms = mc_ms_since(start);
 	return 0;
+}
+
+/* The tracker's stored poses: the current one, the history, the anchor
+ * and those kept for measuring the actor's size. */
+static int stored_poses(mc_tracker *t, double **poses)
+{
+	int n = 0;
+	poses[n++] = t->pose;
+	poses[n++] = t->prev;
+	poses[n++] = t->prev2;
+	poses[n++] = t->anchor;
+	for (int i = 0; i < t->init.nshape && i < MC_TRK_SHAPE_FRAMES; i++)
+		poses[n++] = t->init.shape_pose[i];
+	return n;
+}
+
+/* While a frame set is tracked, a free root's rotation dofs start from
+ * zero: the current rotation moves into the model's root_base and every
+ * stored pose is re-expressed against it.  The rotation vector then never
+ * nears its wrap at pi, where the prediction and the smoothness prior
+ * (which work on the vector) would break.  Outside this call the base is
+ * folded back (zero), so that mc_tracker_model and mc_tracker_pose, and
+ * the actor and pose files made from them, are plain. */
+int mc_tracker_track(mc_tracker *t, const mc_frame_view *views, int nviews, const mc_keypoint *kp, int nkp,
+		     mc_skeleton *out, mc_err *err)
+{
+	double *poses[4 + MC_TRK_SHAPE_FRAMES];
+	int n = stored_poses(t, poses);
+	mc_model_recentre_root(&t->model, poses, n);
+	int rc = track_frame_set(t, views, nviews, kp, nkp, out, err);
+	mc_model_fold_root_base(&t->model, poses, n);
+	return rc;
 }
