@@ -8,6 +8,7 @@
 #include "geom/mc_rig.h"
 #include "image/mc_image.h"
 #include "track/mc_tracker.h"
+#include "track/mc_tracker_internal.h"
 #include "test_util.h"
 
 #include <string.h>
@@ -106,6 +107,30 @@ static double joint_error(const mc_model *m, const mc_skeleton *sk, int k)
 	return sum / m->njoints;
 }
 
+/* The check across cameras: one camera's detection of a joint 40 px too low
+ * is dropped and the three that agree are kept; with only two cameras
+ * that disagree, both are dropped. */
+static void test_view_gate(mc_tracker *t, const mc_rig *rig, const mc_model *m, mc_vec3 neck)
+{
+	int j = mc_model_find_joint(m, "neck");
+	mc_keypoint kp[MC_MAX_CAMERAS];
+	for (int c = 0; c < rig->ncams; c++) {
+		double u = 0, v = 0;
+		mc_vec3 p = mc_xform_apply(mc_xform_inverse(rig->cams[c].rig_from_cam), neck);
+		CHECK(mc_camera_project(&rig->cams[c], p, &u, &v));
+		kp[c] = (mc_keypoint){c, j, u, v + (c == 3 ? 40 : 0), 0.9}; /* vertical: off every epipolar line */
+	}
+	mc_trk_keypoint_ray rays[MC_TRK_MAX_KEYPOINTS];
+	int cam[MC_TRK_MAX_KEYPOINTS];
+	int n = mc_trk_prepare_keypoints(t, kp, rig->ncams, rays, cam);
+	CHECK(n == 4);
+	for (int i = 0; i < n; i++)
+		CHECK_MSG(rays[i].weight == (cam[i] == 3 ? 0 : 0.9), "camera %d: weight %g", cam[i], rays[i].weight);
+	mc_keypoint two[2] = {kp[0], kp[3]};
+	n = mc_trk_prepare_keypoints(t, two, 2, rays, cam);
+	CHECK(n == 2 && rays[0].weight == 0 && rays[1].weight == 0);
+}
+
 int main(int argc, char **argv)
 {
 	(void)argc;
@@ -145,6 +170,8 @@ int main(int argc, char **argv)
 		CHECK_MSG(mc_tracker_calibrate_colors(t, views, rig.ncams, &err) == 0, "%s", err.msg);
 		free_views(views);
 	}
+	if (t)
+		test_view_gate(t, &rig, &model, joints0[mc_model_find_joint(&model, "neck")]);
 	double sum = 0, last = 0, still = 0;
 	int n = 0;
 	for (int k = 1; ok && k < NFRAMES; k++) {

@@ -1,6 +1,6 @@
 /* The keypoint term of the tracker (thesis ch. 6.2.2): 2D detections as
- * rays that pull their joints, with a robust loss and a stereo check that
- * keep a detector's mistakes from pulling the pose. */
+ * rays that pull their joints, with a robust loss and a check across the
+ * cameras that keep a detector's mistakes from pulling the pose. */
 #include "track/mc_tracker_internal.h"
 
 #include <math.h>
@@ -25,9 +25,7 @@ static int keypoint_rays(const mc_tracker *t, const mc_keypoint *kp, int nkp, mc
 
 /* Two cameras' detections of one joint must see one point: when the
  * closest distance of their rays exceeds STEREO_GATE_M (or they meet
- * behind a camera), at least one is wrong and both are dropped, so that a
- * detector's confusions (the other foot, a limb's shadow) do not pull the
- * pose; the colour term decides there.  Parallel rays are kept. */
+ * behind a camera), at least one is wrong.  Parallel rays agree. */
 #define STEREO_GATE_M 0.10
 static bool rays_disagree(const mc_trk_keypoint_ray *a, const mc_trk_keypoint_ray *b)
 {
@@ -40,15 +38,25 @@ static bool rays_disagree(const mc_trk_keypoint_ray *a, const mc_trk_keypoint_ra
 	return sa <= 0 || sb <= 0 || mc_v3_norm(mc_v3_sub(pa, pb)) > STEREO_GATE_M;
 }
 
-static void gate_stereo(mc_trk_keypoint_ray *r, const int *cam, int n)
+/* Each detection is checked against the other cameras' detections of its
+ * joint and dropped when it disagrees with more of them than it agrees
+ * with, so that a detector's confusions (the other foot, a limb's shadow)
+ * do not pull the pose; the colour term decides there.  With two cameras
+ * that disagree, both go (either may be the wrong one); with three or more,
+ * the odd one out goes and the others stay. */
+static void gate_views(mc_trk_keypoint_ray *r, const int *cam, int n)
 {
-	bool reject[MC_TRK_MAX_KEYPOINTS] = {false};
+	int agree[MC_TRK_MAX_KEYPOINTS] = {0}, disagree[MC_TRK_MAX_KEYPOINTS] = {0};
 	for (int i = 0; i < n; i++)
-		for (int j = i + 1; j < n; j++)
-			if (r[i].joint == r[j].joint && cam[i] != cam[j] && rays_disagree(&r[i], &r[j]))
-				reject[i] = reject[j] = true;
+		for (int j = i + 1; j < n; j++) {
+			if (r[i].joint != r[j].joint || cam[i] == cam[j])
+				continue;
+			int *count = rays_disagree(&r[i], &r[j]) ? disagree : agree;
+			count[i]++;
+			count[j]++;
+		}
 	for (int i = 0; i < n; i++)
-		if (reject[i])
+		if (disagree[i] > agree[i])
 			r[i].weight = 0;
 }
 
@@ -57,7 +65,7 @@ int mc_trk_prepare_keypoints(const mc_tracker *t, const mc_keypoint *kp, int nkp
 	if (!kp || nkp <= 0)
 		return 0;
 	int n = keypoint_rays(t, kp, nkp, out, cam);
-	gate_stereo(out, cam, n);
+	gate_views(out, cam, n);
 	return n;
 }
 

@@ -127,8 +127,9 @@ typedef struct {
 } mc_trk_keypoint_ray;
 
 /* The frame's keypoints as rays, once per frame, with each ray's camera
- * (cam): unusable ones left out, and those that two cameras disagree on
- * given weight 0.  Returns the count. */
+ * (cam): unusable ones left out, and those that disagree with more of the
+ * other cameras' rays of their joint than agree given weight 0.  Returns
+ * the count. */
 int mc_trk_prepare_keypoints(const mc_tracker *t, const mc_keypoint *kp, int nkp, mc_trk_keypoint_ray *out, int *cam);
 /* E_detection at a pose (0 when lambda_detection is 0); adds its pose
  * gradient to grad. */
