@@ -178,10 +178,11 @@ static double fit_pose(const mc_tracker *t, mc_model *m, const mc_trk_triangulat
 	o.iterations = iterations;
 	o.restarts = restarts;
 	o.fit_bone_scale = false;
-	/* The head's place on the rig comes from the model (or an actor
-	 * file): fitted to the detections as well, it made the jumps clip
-	 * 4 cm worse and the walk 0.2 cm better. */
-	o.fit_root = false;
+	/* A fixed root's place (the head's on the rig) comes from the model
+	 * (or an actor file): fitted to the detections as well, it made the
+	 * jumps clip 4 cm worse and the walk 0.2 cm better.  A free root is
+	 * the body's place in the world: always fitted. */
+	o.fit_root = m->root_free;
 	mc_err err;
 	if (mc_ik_solve(m, pose, tg, n, &o, &err) < 0)
 		return -1;
@@ -218,6 +219,30 @@ int mc_trk_init_start(mc_tracker *t, unsigned flags, mc_err *err)
 	return 0;
 }
 
+/* A free root (outside-in) starts where the body is: the rigid fit of the
+ * rest skeleton's joints onto the triangulated ones, so that the solve
+ * from rays starts in place and facing the right way. */
+static void place_free_root(const mc_model *m, const mc_trk_triangulation *tri, double *pose)
+{
+	mc_vec3 from[MC_MAX_JOINTS], to[MC_MAX_JOINTS];
+	double w[MC_MAX_JOINTS];
+	int n = 0;
+	mc_fk fk;
+	mc_model_fk(m, pose, &fk);
+	for (int j = 0; j < m->njoints; j++)
+		if (tri->have[j]) {
+			from[n] = fk.rig_from_joint[j].t;
+			to[n] = tri->pos[j];
+			w[n++] = tri->conf[j];
+		}
+	if (!m->root_free || n < 3)
+		return;
+	mc_xform fit = mc_xform_fit_rigid(from, to, w, n);
+	mc_vec3 r = mc_m3_to_rotvec(fit.R); /* the rest pose's root is the identity at the origin */
+	double root[MC_ROOT_FREE_DOFS] = {fit.t.x, fit.t.y, fit.t.z, r.x, r.y, r.z};
+	memcpy(pose, root, sizeof(root));
+}
+
 /* The first pose, from the rest pose with restarts; then the colours from
  * these images.  Returns 1 when tracking can start, 0 to wait, -1. */
 static int first_fit(mc_tracker *t, const mc_frame_view *views, int nviews, const mc_trk_triangulation *tri,
@@ -225,6 +250,7 @@ static int first_fit(mc_tracker *t, const mc_frame_view *views, int nviews, cons
 {
 	double pose[MC_MAX_DOF];
 	mc_model_rest_pose(&t->model, pose);
+	place_free_root(&t->model, tri, pose);
 	double rms = fit_pose(t, &t->model, tri, NULL, NULL, 60, true, pose);
 	if (!(rms >= 0 && rms <= FIT_MAX_RMS_M))
 		return 0; /* not a body: wait for a better frame set */
