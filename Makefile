@@ -54,7 +54,7 @@ BENCHES :=
 .PHONY: all check check-unit check-san bench install deps deps-train clean
 all:
 
--include $(sort $(wildcard */module.mk) $(wildcard drivers/*/module.mk))
+-include $(sort $(wildcard */module.mk) $(wildcard drivers/*/module.mk) $(wildcard tests/*/module.mk))
 
 # The OpenCL energy kernel alone: evaluations per second at several pixel counts.
 BENCHES += bench-cl
