@@ -277,6 +277,39 @@ static int unknown_keys(mcd_camera *c)
 	return 0;
 }
 
+/* The config line a driver's message is about: the line of the key it
+ * names ("config key 'rate': ..." is drv_common's form), else the line of
+ * the camera's section. */
+static int line_of_message(const mcd_camera *c, const char *msg)
+{
+	const char *at = strstr(msg, "config key '");
+	for (int i = 0; at && i < c->cfg.nkeys; i++) {
+		size_t n = strlen(c->cfg.keys[i].key);
+		if (strncmp(at + 12, c->cfg.keys[i].key, n) == 0 && at[12 + n] == '\'')
+			return c->cfg.keys[i].line;
+	}
+	return c->cfg.line;
+}
+
+int mcd_camera_check(mcd_camera *c, mc_err *err)
+{
+	if (!c->drv->check) {
+		mcd_warn("camera %s: the %s driver checks its keys only when it opens", c->cfg.name, c->drv->name);
+		return 0;
+	}
+	char msg[512] = "";
+	memset(c->key_read, 0, sizeof(c->key_read));
+	if (c->drv->check(&c->host, msg, sizeof(msg)) != MDRV_OK)
+		return mc_err_set(err, "%s:%d: [camera %s] %s", c->config_file, line_of_message(c, msg), c->cfg.name,
+				  msg[0] ? msg : "bad keys");
+	for (int i = 0; i < c->cfg.nkeys; i++)
+		if (!c->key_read[i])
+			return mc_err_set(err, "%s:%d: [camera %s] %s: unknown key (the %s driver does not read it)",
+					  c->config_file, c->cfg.keys[i].line, c->cfg.name, c->cfg.keys[i].key,
+					  c->drv->name);
+	return 0;
+}
+
 /* Opens the device, reads its format and starts it.  Returns the device,
  * or NULL with *result telling whether to retry. */
 static void *open_and_start(mcd_camera *c, mdrv_format *fmt, run_result *result)
@@ -529,7 +562,7 @@ static bool is_final(mcd_camera *c, run_result result, const char *last)
 		set_state(c, MCD_CAM_ENDED);
 	} else if (result == RUN_FAILED) {
 		mcd_error("%s:%d: [camera %s]: %s; giving up on this camera (fix the config and restart)", c->config_file,
-			  c->cfg.line, c->cfg.name, last);
+			  line_of_message(c, last), c->cfg.name, last);
 		set_state(c, MCD_CAM_FAILED);
 	}
 	return result != RUN_REOPEN;

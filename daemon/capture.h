@@ -81,6 +81,11 @@ int mcd_camera_join(mcd_camera *c, int timeout_ms);
 /* Frees everything; the thread must have been joined (else it leaks it). */
 void mcd_camera_destroy(mcd_camera *c);
 
+/* mocapd --check: the driver checks the camera's keys and values without
+ * opening a device (mdrv_driver.check), and every key must be one the
+ * driver read.  Errors name the config file, the section and the key. */
+int mcd_camera_check(mcd_camera *c, mc_err *err);
+
 /* A CLOCK_MONOTONIC time origin shared by all cameras, offered to the
  * driver as the key "epoch" on the first opening when the config gives
  * none (call before start). */

@@ -507,7 +507,8 @@ static int start(daemon_ctx *d, mc_err *err)
 	return 0;
 }
 
-/* --check: the rig, the model, the initial joints, the detector's model and the plugins are
+/* --check: the rig, the model, the initial joints, the detector's model,
+ * the plugins and every camera's driver keys (checked by the driver) are
  * the parts of start-up that can be checked without touching devices or
  * OpenCL.  Returns the exit status. */
 static int check_only(const daemon_ctx *d)
@@ -518,7 +519,7 @@ static int check_only(const daemon_ctx *d)
 	ok = ok && mcd_detector_check(&d->cfg->detector,
 				      mcd_config_where(d->cfg, "detector", "model", where, sizeof(where)), &err) == 0;
 	mcd_pipeline *p = ok ? mcd_pipeline_create(d->cfg, NULL, NULL, &err) : NULL;
-	ok = p != NULL;
+	ok = p != NULL && mcd_pipeline_check_cameras(p, &err) == 0;
 	mcd_pipeline_destroy(p);
 	if (!ok)
 		mcd_error("%s", err.msg);

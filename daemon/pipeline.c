@@ -319,6 +319,14 @@ void mcd_pipeline_get_status(mcd_pipeline *p, mcd_pipeline_status *st, bool rese
 		mcd_publisher_stats(p->pub, &st->publish);
 }
 
+int mcd_pipeline_check_cameras(mcd_pipeline *p, mc_err *err)
+{
+	for (int c = 0; c < p->ncams; c++)
+		if (mcd_camera_check(p->cams[c], err) < 0)
+			return -1;
+	return 0;
+}
+
 void mcd_pipeline_reload(mcd_pipeline *p, const mcd_config *cfg)
 {
 	mc_tracker_settings settings;

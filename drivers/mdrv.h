@@ -24,7 +24,8 @@
 extern "C" {
 #endif
 
-#define MDRV_ABI_VERSION 1u
+/* 2: mdrv_driver.check (keys checked without a device, for mocapd --check) */
+#define MDRV_ABI_VERSION 2u
 #define MDRV_ENTRY_SYMBOL "mdrv_entry"
 
 typedef enum {
@@ -107,6 +108,13 @@ typedef struct mdrv_driver {
 	int (*next_frame)(void *dev, mdrv_frame *slot, int timeout_ms, char *err, size_t errlen);
 	void (*stop)(void *dev);
 	void (*close)(void *dev);
+	/* Checks the config section's keys and values as open() would, without
+	 * opening a device (input files may be read to check them), for
+	 * mocapd --check: MDRV_OK, or MDRV_ERR_CONFIG with a message naming
+	 * the key and the value.  Keys read here count as known to the host,
+	 * which reports the others.  May be NULL: the keys are then checked at
+	 * open() only. */
+	int (*check)(const mdrv_host *host, char *err, size_t errlen);
 } mdrv_driver;
 
 typedef const mdrv_driver *(*mdrv_entry_fn)(void);
@@ -120,12 +128,13 @@ typedef const mdrv_driver *(*mdrv_entry_fn)(void);
 /* Defines a plugin's descriptor and its entry point in one place.  The
  * plugin names its callbacks after itself: PREFIX_probe, PREFIX_open,
  * PREFIX_get_format, PREFIX_start, PREFIX_next_frame, PREFIX_stop and
- * PREFIX_close.  Positional initialisers, so that C++ plugins use it too. */
+ * PREFIX_close and PREFIX_check.  Positional initialisers, so that C++
+ * plugins use it too. */
 #define MDRV_DEFINE_DRIVER(PREFIX, NAME, DESCRIPTION)                                                        \
 	static const mdrv_driver PREFIX##_driver = {MDRV_ABI_VERSION,      NAME,           DESCRIPTION,          \
 						    PREFIX##_probe,        PREFIX##_open,  PREFIX##_get_format,  \
 						    PREFIX##_start,        PREFIX##_next_frame, PREFIX##_stop, \
-						    PREFIX##_close};                                             \
+						    PREFIX##_close,        PREFIX##_check};                     \
 	MDRV_ENTRY_LINKAGE __attribute__((visibility("default"))) const mdrv_driver *mdrv_entry(void)        \
 	{                                                                                                    \
 		return &PREFIX##_driver;                                                                     \

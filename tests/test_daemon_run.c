@@ -26,6 +26,7 @@
 	"format = mjpeg\n"
 
 static const char *const print_args[] = {"--print", NULL};
+static char repo_dir[PATH_MAX]; /* the repository root: tests run from there */
 
 static void test_run_to_end(void)
 {
@@ -125,7 +126,8 @@ static void test_permanent_open_errors(void)
 	CHECK(mcd_run_wait_log(&r, "[camera sim]: open: sim: ", 10000));
 	mcd_sleep_ms(500); /* ten backoff periods */
 	char want[PATH_MAX + 64];
-	snprintf(want, sizeof(want), "%s:9: [camera rate]: open: files:", r.conf);
+	/* the line of the key the driver names, not only the section's */
+	snprintf(want, sizeof(want), "%s:12: [camera rate]: open: files: config key 'rate'", r.conf);
 	CHECK_MSG(mcd_run_wait_log(&r, want, 0), "the log has no '%s'", want);
 	CHECK_MSG(mcd_run_count(r.log, "giving up on this camera") == 3, "%d cameras given up",
 		  mcd_run_count(r.log, "giving up on this camera"));
@@ -134,6 +136,31 @@ static void test_permanent_open_errors(void)
 	CHECK(mcd_run_wait_exit(&r, 10000) == 0);
 	if (mc_test_failures)
 		mcd_run_dump(&r, "permanent open errors");
+
+	/* --check asks each driver to check its keys, opening nothing: the
+	 * same bad value on its line, then a key no driver reads. */
+	const char *const check[] = {"--check", NULL};
+	CHECK(mcd_run_start(&r, check, NULL));
+	CHECK(mcd_run_wait_exit(&r, 10000) == 1);
+	snprintf(want, sizeof(want), "%s:12: [camera rate] files: config key 'rate': expected a number", r.conf);
+	CHECK_MSG(mcd_run_wait_log(&r, want, 0), "--check: the log has no '%s'", want);
+	snprintf(text, sizeof(text),
+		 "[daemon]\nplugin_dir = %s/drivers\n[socket]\npath = @SOCK@\n[tracker]\nenabled = false\n"
+		 "[camera a]\ndriver = files\npath = %s/tests/data/ego_demo/left\nlopo = true\n",
+		 mcd_build_dir, repo_dir);
+	mcd_run_config(&r, text);
+	CHECK(mcd_run_start(&r, check, NULL));
+	CHECK(mcd_run_wait_exit(&r, 10000) == 1);
+	snprintf(want, sizeof(want), "%s:10: [camera a] lopo: unknown key (the files driver does not read it)", r.conf);
+	CHECK_MSG(mcd_run_wait_log(&r, want, 0), "--check: the log has no '%s'", want);
+	/* and a good config passes */
+	snprintf(text, sizeof(text),
+		 "[daemon]\nplugin_dir = %s/drivers\n[socket]\npath = @SOCK@\n[tracker]\nenabled = false\n"
+		 "[camera a]\ndriver = files\npath = %s/tests/data/ego_demo/left\nloop = true\n",
+		 mcd_build_dir, repo_dir);
+	mcd_run_config(&r, text);
+	CHECK(mcd_run_start(&r, check, NULL));
+	CHECK(mcd_run_wait_exit(&r, 10000) == 0);
 	rmdir(empty);
 	mcd_run_cleanup(&r);
 }
@@ -378,6 +405,8 @@ int main(void)
 {
 	if (!mcd_find_build())
 		TEST_SKIP("mocapd is not built");
+	if (!getcwd(repo_dir, sizeof(repo_dir)))
+		TEST_SKIP("no working directory");
 	test_run_to_end();
 	test_frame_of_another_size();
 	test_permanent_open_errors();

@@ -46,6 +46,9 @@ static void test_entry_and_config(void)
 	cfg_set(&c, "path", DEMO "/left");
 	cfg_set(&c, "rate", "-1");
 	expect_open_fails(&c, "'rate'");
+	/* check(), for mocapd --check, finds the same without opening */
+	mdrv_host hc = host_for(&c);
+	CHECK(drv->check && drv->check(&hc, err, sizeof(err)) == MDRV_ERR_CONFIG && strstr(err, "'rate'"));
 	cfg_set(&c, "rate", "0");
 	cfg_set(&c, "loop", "maybe");
 	expect_open_fails(&c, "'loop'");
@@ -286,11 +289,38 @@ static void test_other_files(void)
 		free(jb);
 		drv->close(dev);
 	}
+	/* One file far larger than an 8x6 JPEG can be (issue 20, defect 3: a
+	 * 50 MB photo among the frames sized every slot of the ring): the
+	 * slots keep the frames' size and that file alone is refused. */
+	char bdir[] = "/tmp/mocap-files-big-XXXXXX";
+	CHECK(mkdtemp(bdir) != NULL);
+	for (int i = 0; i < 3; i++) {
+		snprintf(path, sizeof(path), "%s/%d.jpg", bdir, i);
+		fp = fopen(path, "wb");
+		fwrite(jpeg, 1, jn, fp);
+		for (int pad = 0; i == 1 && pad < 200000; pad++)
+			fputc(0, fp); /* after the JPEG's end: still decodes */
+		fclose(fp);
+	}
+	config cb = {0};
+	cfg_setv(&cb, "path", bdir, "rate", "0", NULL);
+	mdrv_format bf;
+	dev = open_checked(&cb, &bf);
+	if (dev) {
+		CHECK_MSG(bf.max_bytes == jn, "slots of %zu bytes for %zu-byte frames", bf.max_bytes, jn);
+		uint8_t *jb = malloc(bf.max_bytes);
+		CHECK(pull(dev, &f, jb, bf.max_bytes, 1000) == MDRV_OK && f.sequence == 0);
+		CHECK(pull(dev, &f, jb, bf.max_bytes, 1000) == MDRV_ERR_NOSPACE);
+		CHECK_MSG(strstr(err, "1.jpg") != NULL, "%s", err);
+		CHECK(pull(dev, &f, jb, bf.max_bytes, 1000) == MDRV_OK && f.sequence == 2);
+		free(jb);
+		drv->close(dev);
+	}
 	free(jpeg);
 	free(buf);
 	mc_image_conv_free(conv);
-	char cmd[PATH_MAX * 2 + 16];
-	snprintf(cmd, sizeof(cmd), "rm -rf '%s' '%s'", dir, jdir);
+	char cmd[PATH_MAX * 3 + 16];
+	snprintf(cmd, sizeof(cmd), "rm -rf '%s' '%s' '%s'", dir, jdir, bdir);
 	CHECK(system(cmd) == 0);
 }
 

@@ -414,8 +414,10 @@ static void *aravis_open(const mdrv_host *host, char *err, size_t errlen)
 		return NULL;
 	}
 	d->host = *host;
-	if (parse_config(host, &d->cfg, err, errlen) != MDRV_OK)
-		goto fail;
+	if (parse_config(host, &d->cfg, err, errlen) != MDRV_OK) {
+		aravis_close(d);
+		return drv_open_failed(host, MDRV_ERR_CONFIG); /* the keys do not change by waiting */
+	}
 	if (d->cfg.device)
 		drv_strlcpy(d->id, d->cfg.device, sizeof d->id);
 	else if (find_by_serial(d->cfg.serial, d->id, sizeof d->id, err, errlen) != MDRV_OK)
@@ -661,6 +663,13 @@ static int aravis_probe(const mdrv_host *host, mdrv_device_info *out, int max, c
 	}
 	pthread_mutex_unlock(&arv_list_lock);
 	return n < max ? n : max;
+}
+
+/* The keys, parsed as open() parses them; no camera is looked for. */
+static int aravis_check(const mdrv_host *host, char *err, size_t errlen)
+{
+	arv_config c;
+	return parse_config(host, &c, err, errlen);
 }
 
 MDRV_DEFINE_DRIVER(aravis, "aravis",

@@ -192,6 +192,29 @@ static int read_file(files_dev *d, const char *path, size_t *bytes, char *err, s
 	return MDRV_OK;
 }
 
+/* The slot size of an MJPEG stream: its largest file, but no more than a
+ * JPEG of the stream's size can take (its raw pixels, plus 64 KiB of
+ * headers and tables).  One larger file (a 50 MB photo among the frames)
+ * must not size every slot of the camera's ring: it is refused when its
+ * turn comes (fill_slot: MDRV_ERR_NOSPACE), and said here once. */
+static size_t mjpeg_slot_bytes(files_dev *d, size_t pixels)
+{
+	size_t bound = 3 * pixels + 65536, most = 0;
+	int over = 0;
+	for (int i = 0; i < d->nfiles; i++) {
+		if (d->files[i].bytes > bound)
+			over++;
+		else if (d->files[i].bytes > most)
+			most = d->files[i].bytes;
+	}
+	if (over)
+		drv_logf(d->host, MDRV_LOG_WARN,
+			 "%s: %d file(s) in '%s' are larger than a frame of this size can be (%zu bytes); they will be "
+			 "refused",
+			 DRV, over, d->dir, bound);
+	return most;
+}
+
 /* The format comes from the first file. */
 static int probe_first_file(files_dev *d, char *err, size_t errlen)
 {
@@ -216,10 +239,7 @@ static int probe_first_file(files_dev *d, char *err, size_t errlen)
 	} else {
 		d->fmt.pixfmt = MC_PIXFMT_MJPEG;
 		d->fmt.stride = 0;
-		d->fmt.max_bytes = 0;
-		for (int i = 0; i < d->nfiles; i++)
-			if (d->files[i].bytes > d->fmt.max_bytes)
-				d->fmt.max_bytes = d->files[i].bytes;
+		d->fmt.max_bytes = mjpeg_slot_bytes(d, (size_t)w * (size_t)h);
 	}
 	return MDRV_OK;
 }
@@ -409,6 +429,23 @@ static int files_next_frame(void *dev, mdrv_frame *slot, int timeout_ms, char *e
 	slot->flags = 0;
 	slot->format = d->fmt;
 	return MDRV_OK;
+}
+
+/* The keys, and that the folder holds numbered images (it is listed, no
+ * image is decoded). */
+static int files_check(const mdrv_host *host, char *err, size_t errlen)
+{
+	files_dev *d = calloc(1, sizeof(*d));
+	if (!d)
+		return drv_errf(err, errlen, MDRV_ERR_IO, "%s: out of memory", DRV);
+	d->host = host;
+	unsigned start = 0, count = 0;
+	int format = -1;
+	int rc = parse_config(d, &start, &count, &format, err, errlen);
+	if (rc == MDRV_OK)
+		rc = scan_folder(d, start, count, err, errlen);
+	files_close(d);
+	return rc == MDRV_OK ? MDRV_OK : MDRV_ERR_CONFIG;
 }
 
 MDRV_DEFINE_DRIVER(files, DRV,

@@ -488,7 +488,7 @@ void *libcamera_open(const mdrv_host *host, char *err, size_t errlen)
 		auto d = std::make_unique<Device>();
 		d->host = *host;
 		if (read_settings(host, d->cfg, err, errlen))
-			return nullptr;
+			return drv_open_failed(host, MDRV_ERR_CONFIG); /* the keys do not change by waiting */
 		d->cm = acquire_manager(err, errlen);
 		if (!d->cm || select_camera(*d, err, errlen) || configure(*d, err, errlen))
 			return nullptr;
@@ -551,6 +551,16 @@ void libcamera_close(void *dev)
 	}
 }
 
+/* The keys, read as open() reads them; no camera manager is started. */
+int libcamera_check(const mdrv_host *host, char *err, size_t errlen)
+{
+	try {
+		Settings s;
+		return read_settings(host, s, err, errlen);
+	} catch (const std::exception &e) {
+		return drv_errf(err, errlen, MDRV_ERR_IO, DRV ": %s", e.what());
+	}
+}
 
 } /* namespace */
 

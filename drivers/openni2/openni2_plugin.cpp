@@ -443,7 +443,7 @@ void *openni2_open(const mdrv_host *host, char *err, size_t errlen)
 		auto c = std::make_unique<Camera>();
 		c->host = *host;
 		if (read_settings(host, c->cfg, err, errlen))
-			return nullptr;
+			return drv_open_failed(host, MDRV_ERR_CONFIG); /* the keys do not change by waiting */
 		if (start_runtime(err, errlen) || default_uri(c->cfg, err, errlen))
 			return nullptr;
 		c->shared = acquire_device(c->cfg.uri, err, errlen);
@@ -510,6 +510,16 @@ void openni2_close(void *dev)
 	}
 }
 
+/* The keys, read as open() reads them; the OpenNI runtime is not started. */
+int openni2_check(const mdrv_host *host, char *err, size_t errlen)
+{
+	try {
+		Settings s;
+		return read_settings(host, s, err, errlen);
+	} catch (const std::exception &e) {
+		return drv_errf(err, errlen, MDRV_ERR_IO, DRV ": %s", e.what());
+	}
+}
 
 } /* namespace */
 

@@ -351,5 +351,22 @@ static int sim_next_frame(void *dev, mdrv_frame *slot, int timeout_ms, char *err
 	return MDRV_OK;
 }
 
+/* The keys and the inputs they name (BVH, rig, model), as open() reads
+ * them; nothing is rendered. */
+static int sim_check(const mdrv_host *host, char *err, size_t errlen)
+{
+	sim_dev *d = calloc(1, sizeof(*d));
+	if (!d)
+		return drv_errf(err, errlen, MDRV_ERR_IO, "%s: out of memory", DRV);
+	d->host = host;
+	unsigned w, h;
+	double height_m;
+	int rc = load_inputs(d, err, errlen);
+	if (rc == MDRV_OK)
+		rc = parse_options(d, &w, &h, &height_m, err, errlen);
+	sim_close(d);
+	return rc;
+}
+
 MDRV_DEFINE_DRIVER(sim, DRV,
 		   "renders the body model driven by a BVH file through a rig camera")

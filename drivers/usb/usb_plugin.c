@@ -219,8 +219,10 @@ static void *usb_open(const mdrv_host *host, char *err, size_t errlen)
 		return NULL;
 	}
 	u->host = *host;
-	if (parse_config(u, host, err, errlen) != MDRV_OK)
-		goto fail;
+	if (parse_config(u, host, err, errlen) != MDRV_OK) {
+		usb_close(u);
+		return drv_open_failed(host, MDRV_ERR_CONFIG); /* the keys do not change by waiting */
+	}
 	int r = libusb_init(&u->usb);
 	if (r != 0) {
 		drv_errf(err, errlen, MDRV_ERR_IO, DRV ": cannot start libusb: %s", libusb_strerror(r));
@@ -392,6 +394,19 @@ static int usb_probe(const mdrv_host *host, mdrv_device_info *out, int max, char
 		drv_strlcpy(o->serial, d->serial, sizeof o->serial);
 	}
 	return n;
+}
+
+/* The keys, parsed as open() parses them; the ctrl.NAME keys are checked
+ * against the camera's controls when it is there. */
+static int usb_check(const mdrv_host *host, char *err, size_t errlen)
+{
+	usb_dev *u = calloc(1, sizeof *u);
+	if (!u)
+		return drv_errf(err, errlen, MDRV_ERR_IO, DRV ": out of memory");
+	int st = parse_config(u, host, err, errlen);
+	drv_cfg_str(host, "ctrl.*");
+	free(u);
+	return st;
 }
 
 MDRV_DEFINE_DRIVER(usb, "usb",

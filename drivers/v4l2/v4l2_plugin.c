@@ -25,15 +25,24 @@ static bool same_node(const char *a, const char *b)
 	return realpath(a, ra) && realpath(b, rb) && !strcmp(ra, rb);
 }
 
-/* Picks the node the config's device / bus_info / serial keys select. */
+/* Whether the config names a camera (device, bus_info or serial). */
+static bool selects_a_camera(const mdrv_host *host, char *err, size_t errlen)
+{
+	if (drv_cfg_str(host, "device") || drv_cfg_str(host, "bus_info") || drv_cfg_str(host, "serial"))
+		return true;
+	drv_errf(err, errlen, MDRV_ERR_CONFIG,
+		 DRV ": config needs 'device' (e.g. /dev/video0), 'bus_info' or 'serial' to pick a camera");
+	return false;
+}
+
+/* Picks the node the config's device / bus_info / serial keys select
+ * (selects_a_camera said they are there).  Two matching cameras are a
+ * config error that unplugging one mends, so it is not permanent. */
 static int select_node(const mdrv_host *host, char *path, size_t n, char *err, size_t errlen)
 {
 	const char *device = drv_cfg_str(host, "device");
 	const char *bus_info = drv_cfg_str(host, "bus_info");
 	const char *serial = drv_cfg_str(host, "serial");
-	if (!device && !bus_info && !serial)
-		return drv_errf(err, errlen, MDRV_ERR_CONFIG,
-				DRV ": config needs 'device' (e.g. /dev/video0), 'bus_info' or 'serial' to pick a camera");
 	if (device && !bus_info && !serial) {
 		drv_strlcpy(path, device, n);
 		return MDRV_OK;
@@ -92,9 +101,10 @@ static void *v4l2_open(const mdrv_host *host, char *err, size_t errlen)
 	drv_v4l2_settings s;
 	char path[PATH_MAX];
 	int status;
-	if (drv_v4l2_read_settings(host, DRV, &s, err, errlen) != MDRV_OK ||
-	    select_node(host, path, sizeof path, err, errlen) != MDRV_OK)
-		return NULL;
+	if (drv_v4l2_read_settings(host, DRV, &s, err, errlen) != MDRV_OK || !selects_a_camera(host, err, errlen))
+		return drv_open_failed(host, MDRV_ERR_CONFIG); /* the keys do not change by waiting */
+	if (select_node(host, path, sizeof path, err, errlen) != MDRV_OK)
+		return NULL; /* retried: the camera may come, or the second match go */
 	return drv_v4l2_open(path, &s, host, DRV, &status, err, errlen);
 }
 
@@ -124,6 +134,18 @@ static void v4l2_stop(void *dev)
 static void v4l2_close(void *dev)
 {
 	drv_v4l2_close(dev);
+}
+
+/* The keys as open() reads them; which node they select and the
+ * ctrl.NAME keys are checked against the device when it opens. */
+static int v4l2_check(const mdrv_host *host, char *err, size_t errlen)
+{
+	drv_v4l2_settings s;
+	int st = drv_v4l2_read_settings(host, DRV, &s, err, errlen);
+	if (st == MDRV_OK && !selects_a_camera(host, err, errlen))
+		st = MDRV_ERR_CONFIG;
+	drv_cfg_str(host, "ctrl.*");
+	return st;
 }
 
 MDRV_DEFINE_DRIVER(v4l2, "v4l2",
