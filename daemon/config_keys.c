@@ -12,9 +12,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#ifndef MOCAPD_PLUGIN_DIR
-#define MOCAPD_PLUGIN_DIR "/usr/local/lib/mocapd/drivers"
-#endif
+#include "mc_install_paths.h" /* generated: MC_INSTALL_PLUGIN_DIR follows LIBDIR at make install */
 
 /* Enum keys are stored as int. */
 _Static_assert(sizeof(mc_backend) == sizeof(int), "mc_backend is stored as an int");
@@ -43,7 +41,7 @@ static const mcd_key_choice backends[] = {
 
 static const mcd_config_key keys[] = {
 	/* section, key, type, field, lo, hi, choices, default, reload */
-	{MCD_SEC_DAEMON, "plugin_dir", MCD_KEY_PATH, D(plugin_dir), 0, 0, NULL, MOCAPD_PLUGIN_DIR, false},
+	{MCD_SEC_DAEMON, "plugin_dir", MCD_KEY_PATH, D(plugin_dir), 0, 0, NULL, MC_INSTALL_PLUGIN_DIR, false},
 	{MCD_SEC_DAEMON, "log_level", MCD_KEY_ENUM, D(log_level), 0, 0, log_levels, "info", true},
 	{MCD_SEC_DAEMON, "print", MCD_KEY_BOOL, D(print), 0, 0, NULL, "false", true},
 	{MCD_SEC_DAEMON, "group_tolerance_ms", MCD_KEY_REAL, D(group_tolerance_ms), 0, 1000, NULL, "10", true},

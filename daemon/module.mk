@@ -12,7 +12,6 @@ MOCAPD_VERSION := 0.1
 DAEMON_OBJ := $(DAEMON_SRC:%.c=$(BUILD)/%.o)
 DAEMON_LIB := $(BUILD)/daemon/libmocapd.a
 MOCAPD := $(BUILD)/bin/mocapd
-MOCAPD_PLUGIN_DIR ?= $(PREFIX)/lib/mocapd/drivers
 
 # The fault-injection driver (tests only; never installed) and variants of
 # it that the plugin loader must refuse.
@@ -36,8 +35,9 @@ BINS += $(MOCAPD)
 DAEMON_TEST_NEEDS := $(MOCAPD)
 endif
 
-$(BUILD)/daemon/%.o: CPPFLAGS += -Idaemon -Idetect $(DAEMON_CFLAGS) -DMOCAPD_PLUGIN_DIR='"$(MOCAPD_PLUGIN_DIR)"' \
-	-DMOCAPD_VERSION='"$(MOCAPD_VERSION)"'
+$(BUILD)/daemon/%.o: CPPFLAGS += -Idaemon -Idetect $(DAEMON_CFLAGS) -DMOCAPD_VERSION='"$(MOCAPD_VERSION)"'
+# the default plugin_dir follows LIBDIR (the top-level Makefile's install paths)
+$(BUILD)/daemon/config_keys.o: $(INSTALL_PATHS_H)
 
 $(DAEMON_LIB): $(DAEMON_OBJ)
 	@rm -f $@
@@ -88,7 +88,6 @@ demo: all
 # and udev rules go under $(PREFIX)/lib, which systemd and udev search for
 # /usr and /usr/local alike; the config goes to $(SYSCONFDIR)/mocapd and is
 # never overwritten.
-SYSCONFDIR ?= /etc
 MOCAPD_UNITDIR ?= $(PREFIX)/lib/systemd/system
 MOCAPD_DOCDIR ?= $(PREFIX)/share/doc/mocapd
 
@@ -107,4 +106,12 @@ install-daemon:
 	install -m 644 systemd/70-mocapd.rules $(DESTDIR)$(PREFIX)/lib/udev/rules.d/70-mocapd.rules
 	install -m 644 docs/CONFIG.md docs/SYSTEMD.md $(DESTDIR)$(MOCAPD_DOCDIR)/
 	[ -e $(DESTDIR)$(SYSCONFDIR)/mocapd/mocapd.conf ] || \
-		sed -e 's|@DATADIR@|$(PREFIX)/share/mocapd|g' config/mocapd.conf > $(DESTDIR)$(SYSCONFDIR)/mocapd/mocapd.conf
+		sed -e 's|@DATADIR@|$(DATADIR)/mocapd|g' config/mocapd.conf > $(DESTDIR)$(SYSCONFDIR)/mocapd/mocapd.conf
+
+.PHONY: uninstall-daemon
+uninstall: uninstall-daemon
+uninstall-daemon:
+	rm -f $(DESTDIR)$(MOCAPD_UNITDIR)/mocapd.service $(DESTDIR)$(MOCAPD_UNITDIR)/mocapd.socket \
+		$(DESTDIR)$(PREFIX)/lib/sysusers.d/mocapd.conf $(DESTDIR)$(PREFIX)/lib/tmpfiles.d/mocapd.conf \
+		$(DESTDIR)$(PREFIX)/lib/udev/rules.d/70-mocapd.rules
+	rm -rf $(DESTDIR)$(MOCAPD_DOCDIR)

@@ -60,9 +60,8 @@
 
 #define VERSION "0.1"
 
-#ifndef MOCAP_DETECT_MODEL_DIR
-#define MOCAP_DETECT_MODEL_DIR "/usr/local/share/mocapd/models"
-#endif
+#include "mc_install_paths.h" /* generated: follows DATADIR at make install */
+#define MOCAP_DETECT_MODEL_DIR MC_INSTALL_DATA_DIR "/models"
 
 /* If no camera delivers a frame for this long, the rings are asked for
  * again (the daemon gives a camera a new ring when it reopens it). */

@@ -25,7 +25,7 @@ DETECT_LINK_DEPS := $(DETECT_LIB) $(BUILD)/libmocap.a $(CORE_LIB)
 
 # Where mocap-detect looks for the model when --model is not given: the
 # installed models, then config/models of the working directory.
-DETECT_MODEL_DIR ?= $(PREFIX)/share/mocapd/models
+DETECT_MODEL_DIR := $(DATADIR)/mocapd/models
 DETECT_UNITDIR ?= $(PREFIX)/lib/systemd/system
 DETECT_DOCDIR ?= $(PREFIX)/share/doc/mocapd
 
@@ -43,9 +43,9 @@ $(DETECT_LIB): $(DETECT_OBJ)
 	@rm -f $@
 	ar rcs $@ $^
 
-$(MOCAP_DETECT): detect/mocap-detect.c $(DETECT_LINK_DEPS)
+$(MOCAP_DETECT): detect/mocap-detect.c $(DETECT_LINK_DEPS) $(INSTALL_PATHS_H)
 	@mkdir -p $(@D)
-	$(CC) $(CPPFLAGS) -Idetect -DMOCAP_DETECT_MODEL_DIR='"$(DETECT_MODEL_DIR)"' $(CFLAGS) -MMD -MP $< -o $@ \
+	$(CC) $(CPPFLAGS) -Idetect $(CFLAGS) -MMD -MP $< -o $@ \
 		$(LDFLAGS) $(DETECT_LIB) $(BUILD)/libmocap.a $(CORE_LIB) $(CORE_LIBS) $(DETECT_LIBS)
 
 $(DETECT_BENCH): detect/bench_detect.c $(DETECT_LIB) $(CORE_LIB)
@@ -91,5 +91,11 @@ install-detect:
 		> $(DESTDIR)$(DETECT_UNITDIR)/mocap-detect.service
 	chmod 644 $(DESTDIR)$(DETECT_UNITDIR)/mocap-detect.service
 	install -m 644 docs/DETECT_RUNTIME.md $(DESTDIR)$(DETECT_DOCDIR)/
-	for m in config/models/*ego*.onnx; do [ -e "$$m" ] || continue; \
+	for m in config/models/*_detector.onnx; do [ -e "$$m" ] || continue; \
 		install -m 644 "$$m" $(DESTDIR)$(DETECT_MODEL_DIR)/; done
+
+.PHONY: uninstall-detect
+uninstall: uninstall-detect
+uninstall-detect:
+	rm -f $(DESTDIR)$(DETECT_UNITDIR)/mocap-detect.service
+	rm -rf $(DESTDIR)$(DETECT_DOCDIR)

@@ -54,7 +54,7 @@ $(IPC_SO): $(BUILD)/ipc/proto.o $(IPC_CLIENT_OBJ) ipc/libmocap.map
 .PHONY: $(IPC_PC)
 $(IPC_PC):
 	@mkdir -p $(@D)
-	@printf '%s\n' 'prefix=$(PREFIX)' 'libdir=$${prefix}/lib' 'includedir=$${prefix}/include' '' \
+	@printf '%s\n' 'prefix=$(PREFIX)' 'libdir=$(LIBDIR)' 'includedir=$${prefix}/include' '' \
 		'Name: mocap' 'Description: client library of mocapd, the motion-capture daemon' \
 		'Version: $(IPC_SO_VERSION)' 'Libs: -L$${libdir} -lmocap' 'Libs.private: -pthread -lm' \
 		'Cflags: -I$${includedir}' > $@
@@ -123,9 +123,15 @@ bench-ipc: $(BUILD)/tests/bench_ipc
 # library, its header and pkg-config file.
 install: install-ipc
 install-ipc: $(IPC_SO) $(IPC_PC)
-	install -d $(DESTDIR)$(PREFIX)/lib/pkgconfig $(DESTDIR)$(PREFIX)/include
-	install -m 755 $(IPC_SO) $(DESTDIR)$(PREFIX)/lib/
-	ln -sf libmocap.so.$(IPC_SO_VERSION) $(DESTDIR)$(PREFIX)/lib/libmocap.so.1
-	ln -sf libmocap.so.1 $(DESTDIR)$(PREFIX)/lib/libmocap.so
+	install -d $(DESTDIR)$(LIBDIR)/pkgconfig $(DESTDIR)$(PREFIX)/include
+	install -m 755 $(IPC_SO) $(DESTDIR)$(LIBDIR)/
+	ln -sf libmocap.so.$(IPC_SO_VERSION) $(DESTDIR)$(LIBDIR)/libmocap.so.1
+	ln -sf libmocap.so.1 $(DESTDIR)$(LIBDIR)/libmocap.so
 	install -m 644 ipc/mocap.h $(DESTDIR)$(PREFIX)/include/
-	install -m 644 $(IPC_PC) $(DESTDIR)$(PREFIX)/lib/pkgconfig/
+	install -m 644 $(IPC_PC) $(DESTDIR)$(LIBDIR)/pkgconfig/
+
+.PHONY: uninstall-ipc
+uninstall: uninstall-ipc
+uninstall-ipc:
+	rm -f $(DESTDIR)$(LIBDIR)/libmocap.so.$(IPC_SO_VERSION) $(DESTDIR)$(LIBDIR)/libmocap.so.1 \
+		$(DESTDIR)$(LIBDIR)/libmocap.so $(DESTDIR)$(PREFIX)/include/mocap.h $(DESTDIR)$(LIBDIR)/pkgconfig/mocap.pc

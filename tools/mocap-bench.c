@@ -17,6 +17,7 @@
 #include "image/mc_draw.h"
 #include "track/mc_tracker.h"
 #include "bench/detector_eval.h"
+#include "mc_install_paths.h" /* generated: MC_INSTALL_DATA_DIR */
 
 #include <errno.h>
 #include <getopt.h>
@@ -25,6 +26,7 @@
 #include <string.h>
 #include <sys/stat.h>
 #include <time.h>
+#include <unistd.h>
 
 static const char *const eval_joints[] = {
 	"neck",      "left_shoulder", "left_elbow",     "left_wrist",  "left_hip",    "left_knee",
@@ -521,7 +523,8 @@ static int run_thesis_config(const options *o, const mc_clip *clip, mc_err *err)
 static void usage(FILE *f)
 {
 	fprintf(f, "usage: mocap-bench --clip DIR [options]\n"
-		   "  --model PATH          body model (default config/models/default.json)\n"
+		   "  --model PATH          body model (default config/models/default.json, else the installed\n"
+		   "                        " MC_INSTALL_DATA_DIR "/models/default.json)\n"
 		   "  --out FILE            write per-frame estimates as JSON lines (joints in the rig frame:\n"
 		   "                        left camera, or the world frame of an outside-in clip)\n"
 		   "  --cameras LIST        outside-in: use only these clip cameras, e.g. 0,2 (default: all)\n"
@@ -799,7 +802,9 @@ int main(int argc, char **argv)
 {
 	options o = {0};
 	bool thesis = true;
-	o.model_path = "config/models/default.json";
+	/* the source tree's model, else the installed one */
+	o.model_path = access("config/models/default.json", R_OK) == 0 ? "config/models/default.json"
+									: MC_INSTALL_DATA_DIR "/models/default.json";
 	o.reference_frames = 3;
 	o.overlay_every = 10;
 	o.simulated_detector_px = -1;
