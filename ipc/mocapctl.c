@@ -297,7 +297,7 @@ int main(int argc, char **argv)
 		if (!strcmp(a, "-h") || !strcmp(a, "--help")) {
 			fputs(usage, stdout);
 			return EXIT_OK;
-		} else if (!strcmp(a, "--version")) {
+		} else if (!strcmp(a, "--version") || !strcmp(a, "-V")) {
 			printf("mocapctl (libmocap %s, protocol %d)\n", MOCAP_LIB_VERSION, MOCAP_PROTOCOL_VERSION);
 			return EXIT_OK;
 		} else if (!strcmp(a, "--socket") || !strcmp(a, "-s")) {

@@ -171,6 +171,9 @@ static void test_bad_command_lines(void)
 {
 	static char out[1 << 14];
 	CHECK(run_tool("--frames 3", out, sizeof(out)) != 0 && strstr(out, "--clip DIR is required"));
+	CHECK(run_tool("-h", out, sizeof(out)) == 0 && strstr(out, "usage: mocap-bench"));
+	CHECK(run_tool("-V", out, sizeof(out)) == 0 && strstr(out, "mocap-bench "));
+	CHECK(run_tool("--bogus", out, sizeof(out)) == 2);
 	CHECK(run_tool("--clip /nonexistent/clip", out, sizeof(out)) != 0 && strstr(out, "/nonexistent/clip"));
 	CHECK_MSG(run_tool("--clip tests/data/ego_demo --frames many", out, sizeof(out)) != 0 && strstr(out, "frames"),
 		  "%s", out);

@@ -163,6 +163,11 @@ static void test_overlay(const mc_rig *rig, const mc_model *model, const mc_fk *
 
 static void test_bad_command_lines(void)
 {
+	{
+		char o[4096];
+		CHECK(run_tool("-h", o, sizeof(o)) == 0 && strstr(o, "usage: mocap-render"));
+		CHECK(run_tool("-V", o, sizeof(o)) == 0 && strstr(o, "mocap-render "));
+	}
 	char out[4096];
 	CHECK(run_tool("--model config/models/default.json --out /tmp/x", out, sizeof(out)) == 2);
 	CHECK(strstr(out, "--rig is required") != NULL);

@@ -575,7 +575,7 @@ enum { OPT_MODEL = 256, OPT_OUT, OPT_FRAMES, OPT_BACKEND, OPT_WIDTH, OPT_HEIGHT,
        OPT_STEP, OPT_MOM, OPT_LSMOOTH, OPT_LPOSE, OPT_LLIMIT, OPT_PLAT, OPT_DEV, OPT_SEED, OPT_OCAM, OPT_REF,
        OPT_NOTHESIS, OPT_QUIET, OPT_CLIP, OPT_HELP, OPT_OVERLAY, OPT_OVERLAY_EVERY, OPT_LANCHOR,
        OPT_SIMDET, OPT_LDET, OPT_DETECTOR, OPT_DET_EVERY, OPT_LCOLOR, OPT_DET_THRESHOLD, OPT_INIT,
-       OPT_NORECOVER, OPT_CAMERAS, OPT_LFLOOR };
+       OPT_NORECOVER, OPT_CAMERAS, OPT_LFLOOR, OPT_VERSION = 'V' };
 
 static int apply_option(options *o, int c, const char *name, const char *arg, bool *thesis)
 {
@@ -654,12 +654,16 @@ static int parse_options(int argc, char **argv, options *o, bool *thesis)
 		{"no-thesis", 0, 0, OPT_NOTHESIS}, {"overlay-dir", 1, 0, OPT_OVERLAY},
 		{"overlay-every", 1, 0, OPT_OVERLAY_EVERY}, {"quiet", 0, 0, OPT_QUIET}, {"help", 0, 0, OPT_HELP},
 		{"init", 1, 0, OPT_INIT}, {"no-recover", 0, 0, OPT_NORECOVER}, {"cameras", 1, 0, OPT_CAMERAS},
-		{"lambda-floor", 1, 0, OPT_LFLOOR},
+		{"lambda-floor", 1, 0, OPT_LFLOOR}, {"version", 0, 0, OPT_VERSION},
 		{0, 0, 0, 0}};
 	int c, idx;
-	while ((c = getopt_long(argc, argv, "", longopts, &idx)) != -1) {
-		if (c == OPT_HELP) {
+	while ((c = getopt_long(argc, argv, "hV", longopts, &idx)) != -1) {
+		if (c == OPT_HELP || c == 'h') {
 			usage(stdout);
+			exit(0);
+		}
+		if (c == OPT_VERSION) {
+			printf("mocap-bench %s\n", MC_VERSION);
 			exit(0);
 		}
 		if (c == '?' || apply_option(o, c, longopts[idx].name, optarg, thesis) < 0) {

@@ -20,6 +20,7 @@
 #include "base/mc_time.h"
 #include "body/mc_model.h"
 #include "geom/mc_rig.h"
+#include "mc_install_paths.h" /* generated: MC_VERSION */
 
 #include <errno.h>
 #include <getopt.h>
@@ -76,13 +77,13 @@ static int parse_args(int argc, char **argv, options *o)
 		{"skeleton", no_argument, 0, 's'},     {"overlay", required_argument, 0, 'o'},
 		{"gt", required_argument, 0, 'g'},     {"frame", required_argument, 0, 'f'},
 		{"out", required_argument, 0, 'O'},    {"help", no_argument, 0, 'h'},
-		{0, 0, 0, 0},
+		{"version", no_argument, 0, 'V'},      {0, 0, 0, 0},
 	};
 	memset(o, 0, sizeof(*o));
 	o->frame = -1;
 	o->background[0] = o->background[1] = o->background[2] = 0.5;
 	int ch;
-	while ((ch = getopt_long(argc, argv, "", longopts, NULL)) != -1) {
+	while ((ch = getopt_long(argc, argv, "hV", longopts, NULL)) != -1) {
 		switch (ch) {
 		case 'r': o->rig_path = optarg; break;
 		case 'm': o->model_path = optarg; break;
@@ -107,6 +108,7 @@ static int parse_args(int argc, char **argv, options *o)
 			}
 			break;
 		case 'h': usage(stdout); exit(0);
+		case 'V': printf("mocap-render %s\n", MC_VERSION); exit(0);
 		default: usage(stderr); return -1;
 		}
 	}
