@@ -24,19 +24,11 @@ done
 grep -q "$prefix/share/mocapd" "$tmp/etc/mocapd/mocapd.conf" || fail "the installed config does not name $prefix/share/mocapd"
 
 # mocapd: no plugin_dir in the config, so the compiled-in one must be the install's
-cat >"$tmp/demo.conf" <<CONF
-[camera left]
-driver = files
-rig_camera = left
-path = $repo/tests/data/ego_demo/left
-count = 8
-rate = 30
-[camera right]
-driver = files
-rig_camera = right
-path = $repo/tests/data/ego_demo/right
-count = 8
-rate = 30
+for cam in left right; do
+	printf '[camera %s]\ndriver = files\nrig_camera = %s\npath = %s\ncount = 8\nrate = 30\n' \
+		"$cam" "$cam" "$repo/tests/data/ego_demo/$cam"
+done >"$tmp/demo.conf"
+cat >>"$tmp/demo.conf" <<CONF
 [tracker]
 rig = $prefix/share/mocapd/rigs/ego_stereo.json
 model = $prefix/share/mocapd/models/default.json

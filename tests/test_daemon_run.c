@@ -104,6 +104,20 @@ static void test_frame_of_another_size(void)
  * key value, an empty folder, a missing BVH) gives the camera up at once,
  * naming the config line, instead of reopening it for ever (issue 20,
  * defect 4). */
+/* mocapd --check on one files camera of the demo clip with `key_line`
+ * (line 10) added; returns its exit status. */
+static int check_files_camera(mcd_run *r, const char *key_line)
+{
+	char text[2 * PATH_MAX + 256];
+	snprintf(text, sizeof(text),
+		 "[daemon]\nplugin_dir = %s/drivers\n[socket]\npath = @SOCK@\n[tracker]\nenabled = false\n"
+		 "[camera a]\ndriver = files\npath = %s/tests/data/ego_demo/left\n%s\n",
+		 mcd_build_dir, repo_dir, key_line);
+	mcd_run_config(r, text);
+	const char *const check[] = {"--check", NULL};
+	return mcd_run_start(r, check, NULL) ? mcd_run_wait_exit(r, 10000) : -1;
+}
+
 static void test_permanent_open_errors(void)
 {
 	mcd_run r;
@@ -144,23 +158,10 @@ static void test_permanent_open_errors(void)
 	CHECK(mcd_run_wait_exit(&r, 10000) == 1);
 	snprintf(want, sizeof(want), "%s:12: [camera rate] files: config key 'rate': expected a number", r.conf);
 	CHECK_MSG(mcd_run_wait_log(&r, want, 0), "--check: the log has no '%s'", want);
-	snprintf(text, sizeof(text),
-		 "[daemon]\nplugin_dir = %s/drivers\n[socket]\npath = @SOCK@\n[tracker]\nenabled = false\n"
-		 "[camera a]\ndriver = files\npath = %s/tests/data/ego_demo/left\nlopo = true\n",
-		 mcd_build_dir, repo_dir);
-	mcd_run_config(&r, text);
-	CHECK(mcd_run_start(&r, check, NULL));
-	CHECK(mcd_run_wait_exit(&r, 10000) == 1);
+	CHECK(check_files_camera(&r, "lopo = true") == 1);
 	snprintf(want, sizeof(want), "%s:10: [camera a] lopo: unknown key (the files driver does not read it)", r.conf);
 	CHECK_MSG(mcd_run_wait_log(&r, want, 0), "--check: the log has no '%s'", want);
-	/* and a good config passes */
-	snprintf(text, sizeof(text),
-		 "[daemon]\nplugin_dir = %s/drivers\n[socket]\npath = @SOCK@\n[tracker]\nenabled = false\n"
-		 "[camera a]\ndriver = files\npath = %s/tests/data/ego_demo/left\nloop = true\n",
-		 mcd_build_dir, repo_dir);
-	mcd_run_config(&r, text);
-	CHECK(mcd_run_start(&r, check, NULL));
-	CHECK(mcd_run_wait_exit(&r, 10000) == 0);
+	CHECK(check_files_camera(&r, "loop = true") == 0); /* and a good config passes */
 	rmdir(empty);
 	mcd_run_cleanup(&r);
 }
