@@ -25,6 +25,7 @@ static const char usage[] =
 	"\n"
 	"commands:\n"
 	"  status                 cameras, frame rates, drops, tracking time, tracker state, detector\n"
+	"      --json             as one JSON object (fields as in libmocap's mocap_daemon_status)\n"
 	"  watch                  print skeletons as they arrive\n"
 	"      --json             one JSON object per frame and line\n"
 	"      --count N          stop after N frames\n"
@@ -83,6 +84,21 @@ static void print_duration(double s)
 		printf("%.1fs", s);
 }
 
+static void json_string(const char *s)
+{
+	putchar('"');
+	for (; *s; s++) {
+		unsigned char ch = (unsigned char)*s;
+		if (ch == '"' || ch == '\\')
+			printf("\\%c", ch);
+		else if (ch < 0x20)
+			printf("\\u%04x", ch);
+		else
+			putchar(ch);
+	}
+	putchar('"');
+}
+
 /* "detector:   running, 59.8 views/s, 1.05 ms per view (last 1.01, max 1.90), ..." */
 static void print_detector(const mocap_detector_status *d)
 {
@@ -106,12 +122,53 @@ static void print_detector(const mocap_detector_status *d)
 	}
 }
 
-static int cmd_status(mocap_client *c, const char *path)
+/* `status --json`: the same figures as one JSON object, for scripts. */
+static void print_status_json(const mocap_daemon_status *st, const char *path)
+{
+	printf("{\"socket\": ");
+	json_string(path);
+	printf(", \"tracker_state\": ");
+	json_string(mocap_track_state_name(st->tracker_state));
+	printf(", \"device\": ");
+	json_string(st->device);
+	printf(", \"frames_published\": %llu, \"publish_fps\": %.3f, \"frames_skipped\": %llu, "
+	       "\"track_ms_mean\": %.3f, \"track_ms_max\": %.3f, \"clients\": %d, \"client_drops\": %llu, "
+	       "\"recording\": %s, \"uptime_s\": %.3f",
+	       (unsigned long long)st->frames_published, st->publish_fps, (unsigned long long)st->frames_dropped,
+	       st->track_ms_mean, st->track_ms_max, st->clients, (unsigned long long)st->client_drops,
+	       st->recording ? "true" : "false", (double)st->uptime_ns * 1e-9);
+	const mocap_detector_status *d = &st->detector;
+	static const char *const dstate[] = {"off", "running", "failed", "unknown"};
+	printf(", \"detector\": {\"state\": \"%s\", \"views_per_s\": %.3f, \"used_per_s\": %.3f, \"ms_mean\": %.3f, "
+	       "\"ms_last\": %.3f, \"ms_max\": %.3f, \"views\": %llu, \"skipped\": %llu, \"used\": %llu, \"model\": ",
+	       (unsigned)d->state < 4 ? dstate[d->state] : "unknown", d->rate, d->used_rate, d->ms_mean, d->ms_last,
+	       d->ms_max, (unsigned long long)d->views, (unsigned long long)d->skipped, (unsigned long long)d->used);
+	json_string(d->model);
+	printf(", \"message\": ");
+	json_string(d->message);
+	printf("}, \"cameras\": [");
+	for (int i = 0; i < st->ncams; i++) {
+		const mocap_camera_status *cs = &st->cams[i];
+		printf("%s{\"name\": ", i ? ", " : "");
+		json_string(cs->name);
+		printf(", \"state\": \"%s\", \"width\": %d, \"height\": %d, \"fps\": %.3f, \"frames\": %llu, "
+		       "\"drops\": %llu}",
+		       cam_state_name(cs->state), cs->width, cs->height, cs->fps, (unsigned long long)cs->frames,
+		       (unsigned long long)cs->drops);
+	}
+	printf("]}\n");
+}
+
+static int cmd_status(mocap_client *c, const char *path, bool json)
 {
 	mocap_daemon_status st;
 	int rc = mocap_get_status(c, &st);
 	if (rc)
 		return fail("status");
+	if (json) {
+		print_status_json(&st, path);
+		return EXIT_OK;
+	}
 	printf("mocapd at %s\n", path);
 	printf("tracker:    %s", mocap_track_state_name(st.tracker_state));
 	if (st.device[0])
@@ -132,21 +189,6 @@ static int cmd_status(mocap_client *c, const char *path)
 		       cs->width, cs->height, cs->fps, (unsigned long long)cs->frames, (unsigned long long)cs->drops);
 	}
 	return EXIT_OK;
-}
-
-static void json_string(const char *s)
-{
-	putchar('"');
-	for (; *s; s++) {
-		unsigned char ch = (unsigned char)*s;
-		if (ch == '"' || ch == '\\')
-			printf("\\%c", ch);
-		else if (ch < 0x20)
-			printf("\\u%04x", ch);
-		else
-			putchar(ch);
-	}
-	putchar('"');
 }
 
 static const char *joint_name(const mocap_skeleton_def *s, const mocap_skeleton_frame *f, int j, char *buf, size_t n)
@@ -348,8 +390,8 @@ int main(int argc, char **argv)
 		fprintf(stderr, "mocapctl: %s '%s'\n%s", known ? "too many arguments for" : "unknown command", cmd, usage);
 		return EXIT_USAGE;
 	}
-	if ((json || all || world || count) && strcmp(cmd, "watch")) {
-		fprintf(stderr, "mocapctl: --json, --all, --world and --count go with watch\n");
+	if (((all || world || count) && strcmp(cmd, "watch")) || (json && strcmp(cmd, "watch") && strcmp(cmd, "status"))) {
+		fprintf(stderr, "mocapctl: --all, --world and --count go with watch, --json with watch or status\n");
 		return EXIT_USAGE;
 	}
 
@@ -364,7 +406,7 @@ int main(int argc, char **argv)
 
 	int rc;
 	if (!strcmp(cmd, "status"))
-		rc = cmd_status(c, path);
+		rc = cmd_status(c, path, json);
 	else if (!strcmp(cmd, "watch"))
 		rc = cmd_watch(c, json, count, all, world);
 	else if (!strcmp(cmd, "rig"))

@@ -5,6 +5,8 @@
 #include "image/mc_draw.h"
 #include "test_util.h"
 
+#include <jansson.h>
+
 #define BASE BASE_WITH("")
 #define BASE_WITH(daemon_keys)               \
 	"[daemon]\n" daemon_keys             \
@@ -260,6 +262,15 @@ static void test_mocapctl(void)
 	int rc = mc_test_run(cmd, out, sizeof(out));
 	CHECK_MSG(rc == 0, "mocapctl status: %d\n%s", rc, out);
 	CHECK_MSG(strstr(out, "cameras:    2") && strstr(out, "64x48"), "%s", out);
+	snprintf(cmd, sizeof(cmd), "%s --socket %s status --json 2>&1", ctl, r.sock);
+	rc = mc_test_run(cmd, out, sizeof(out));
+	json_error_t jerr;
+	json_t *st = json_loads(out, 0, &jerr);
+	json_t *cams = json_object_get(st, "cameras");
+	CHECK_MSG(rc == 0 && json_is_array(cams) && json_array_size(cams) == 2, "status --json: %s (%s)", out, jerr.text);
+	CHECK(json_integer_value(json_object_get(json_array_get(cams, 1), "width")) == 64);
+	CHECK(json_is_string(json_object_get(st, "tracker_state")) && json_is_object(json_object_get(st, "detector")));
+	json_decref(st);
 	snprintf(cmd, sizeof(cmd), "%s --socket %s reload >/dev/null 2>&1", ctl, r.sock);
 	CHECK(system(cmd) == 0);
 	CHECK(mcd_run_wait_log(&r, "reload requested by pid", 3000));
