@@ -199,7 +199,11 @@ void mcd_camera_config_defaults(mcd_camera_config *cam);
 
 /* Reload: copies from `neu` into `cur` the value of every key the table
  * marks reloadable, and logs each other key (and the cameras) that
- * changed, as taking a restart.  Returns how many changes were refused. */
-int mcd_config_take_reloadable(mcd_config *cur, const mcd_config *neu);
+ * changed, as taking a restart.  Returns how many changes were refused.
+ * `changes` (may be NULL) gets "nothing changed", or "applied: [tracker]
+ * iterations, ..." and/or MCD_RELOAD_NEEDS_RESTART "[daemon] plugin_dir,
+ * ...", for the client that asked (mocapctl reload). */
+#define MCD_RELOAD_NEEDS_RESTART "needs a restart: "
+int mcd_config_take_reloadable(mcd_config *cur, const mcd_config *neu, char *changes, size_t cap);
 
 #endif

@@ -469,24 +469,43 @@ static bool same_cameras(const mcd_config *a, const mcd_config *b)
 	return true;
 }
 
-int mcd_config_take_reloadable(mcd_config *cur, const mcd_config *neu)
+/* Appends ", item" (or "item" first) to a list in buf. */
+static void list_add(char *buf, size_t cap, const char *item)
 {
+	size_t n = strlen(buf);
+	if (n + 1 < cap)
+		snprintf(buf + n, cap - n, "%s%s", n ? ", " : "", item);
+}
+
+int mcd_config_take_reloadable(mcd_config *cur, const mcd_config *neu, char *changes, size_t cap)
+{
+	char applied[512] = "", restart[512] = "", item[96];
 	int refused = 0;
 	if (!same_cameras(cur, neu)) {
 		mcd_warn("reload: cameras changed; that takes a restart (systemctl restart mocapd)");
+		list_add(restart, sizeof(restart), "cameras");
 		refused++;
 	}
 	for (size_t i = 0; i < sizeof(keys) / sizeof(keys[0]); i++) {
 		const mcd_config_key *k = &keys[i];
 		if (k->section == MCD_SEC_CAMERA || same_value(k, cur, neu))
 			continue;
+		snprintf(item, sizeof(item), "[%s] %s", mcd_section_name(k->section), k->key);
 		if (k->reload) {
 			memcpy((char *)cur + k->offset, (const char *)neu + k->offset, k->size);
+			list_add(applied, sizeof(applied), item);
 			continue;
 		}
-		mcd_warn("reload: [%s] %s changed; that takes a restart (systemctl restart mocapd)",
-			 mcd_section_name(k->section), k->key);
+		mcd_warn("reload: %s changed; that takes a restart (systemctl restart mocapd)", item);
+		list_add(restart, sizeof(restart), item);
 		refused++;
+	}
+	if (changes && cap) {
+		if (!applied[0] && !restart[0])
+			snprintf(changes, cap, "nothing changed");
+		else
+			snprintf(changes, cap, "%s%s%s%s%s", applied[0] ? "applied: " : "", applied,
+				 applied[0] && restart[0] ? "; " : "", restart[0] ? MCD_RELOAD_NEEDS_RESTART : "", restart);
 	}
 	return refused;
 }

@@ -350,11 +350,12 @@ static int reload(daemon_ctx *d, char *msg, size_t cap)
 	} else {
 		/* Take what a reload can change (the config table says which);
 		 * keep, and name, what takes a restart. */
-		mcd_config_take_reloadable(d->cfg, neu);
+		char changes[780];
+		mcd_config_take_reloadable(d->cfg, neu, changes, sizeof(changes));
 		mcd_log_set_level(d->cfg->log_level);
 		mcd_pipeline_reload(d->pipe, d->cfg);
 		mcd_info("reload: %s applied (log level %s)", d->opt.config_path, mcd_log_level_name(neu->log_level));
-		snprintf(msg, cap, "reloaded %s", d->opt.config_path);
+		snprintf(msg, cap, "reloaded %.200s: %.780s", d->opt.config_path, changes);
 		free(neu);
 	}
 	mcd_notify_ready("running");
@@ -369,7 +370,7 @@ static int handle_signals(daemon_ctx *d)
 	struct signalfd_siginfo si;
 	while (read(d->sigfd, &si, sizeof(si)) == (ssize_t)sizeof(si)) {
 		if (si.ssi_signo == SIGHUP) {
-			char msg[600];
+			char msg[1024]; /* a control reply: PROTO_TEXT_MAX + 1 */
 			mcd_info("SIGHUP: reloading %s", d->opt.config_path);
 			reload(d, msg, sizeof(msg));
 		} else {
@@ -386,7 +387,7 @@ static void handle_requests(daemon_ctx *d)
 		return;
 	srv_control ctl;
 	while (srv_poll_control(d->srv, &ctl) == 1) {
-		char msg[600];
+		char msg[1024]; /* a control reply: PROTO_TEXT_MAX + 1 */
 		int rc;
 		if (ctl.command == MC_CONTROL_RELOAD) {
 			mcd_info("reload requested by pid %d (uid %u)", (int)ctl.pid, (unsigned)ctl.uid);

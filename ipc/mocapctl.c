@@ -18,6 +18,7 @@ enum {
 	EXIT_PERMISSION = 4,  /* socket or request not allowed for this user */
 	EXIT_VERSION = 5,     /* protocol version mismatch */
 	EXIT_LOST = 6,        /* connection lost or protocol error */
+	EXIT_RESTART = 7,     /* reload: done, but some changes need a restart */
 };
 
 static const char usage[] =
@@ -42,7 +43,8 @@ static const char usage[] =
 	"\n"
 	"The socket is --socket PATH, else $MOCAP_SOCKET, else " MOCAP_DEFAULT_SOCKET ".\n"
 	"Exit status: 0 ok, 1 refused or failed, 2 usage, 3 daemon not running,\n"
-	"4 permission denied, 5 protocol version mismatch, 6 connection lost.\n";
+	"4 permission denied, 5 protocol version mismatch, 6 connection lost,\n"
+	"7 reloaded but some changes need a restart (the reply names them).\n";
 
 static volatile sig_atomic_t interrupted;
 static void on_signal(int sig) { (void)sig; interrupted = 1; }
@@ -316,7 +318,8 @@ static int cmd_control(mocap_client *c, mocap_command cmd, const char *arg, cons
 	if (mocap_control(c, cmd, arg, msg, sizeof(msg)))
 		return fail(what);
 	printf("%s\n", msg[0] ? msg : "done");
-	return EXIT_OK;
+	/* the daemon's reply names what a reload could not apply */
+	return cmd == MOCAP_CMD_RELOAD && strstr(msg, "needs a restart: ") ? EXIT_RESTART : EXIT_OK;
 }
 
 static int cmd_ping(mocap_client *c)

@@ -362,7 +362,7 @@ static void test_detector(void)
 			       &err) == 0);
 	CHECK(mcd_config_parse(CAM NOTRACK "[detector]\nmodel = b.onnx\nrate = 10\nthreads = 2\nmin_confidence = 0.5\n",
 			       "mocapd.conf", "/etc/mocapd", &neu, &err) == 0);
-	CHECK(mcd_config_take_reloadable(&cur, &neu) == 1); /* model */
+	CHECK(mcd_config_take_reloadable(&cur, &neu, NULL, 0) == 1); /* model */
 	CHECK(strcmp(cur.detector.model, "/etc/mocapd/a.onnx") == 0 && cur.detector.rate == 10);
 	CHECK(cur.detector.threads == 2 && cur.detector.min_confidence == 0.5);
 }
@@ -378,17 +378,17 @@ static void test_reload(void)
 			    "model = m.json\niterations = 10\nseed = 2\n";
 	CHECK_MSG(mcd_config_parse(before, "mocapd.conf", "/etc/mocapd", &cur, &err) == 0, "%s", err.msg);
 	CHECK_MSG(mcd_config_parse(after, "mocapd.conf", "/etc/mocapd", &neu, &err) == 0, "%s", err.msg);
-	CHECK(mcd_config_take_reloadable(&cur, &neu) == 1); /* seed */
+	CHECK(mcd_config_take_reloadable(&cur, &neu, NULL, 0) == 1); /* seed */
 	CHECK_NEAR(cur.group_deadline_ms, 50, 0);
 	CHECK(cur.tracker.settings.iterations == 10);
 	CHECK(cur.tracker.settings.seed == 1);
-	CHECK(mcd_config_take_reloadable(&cur, &cur) == 0);
+	CHECK(mcd_config_take_reloadable(&cur, &cur, NULL, 0) == 0);
 	/* a camera that changes is refused as a whole */
 	CHECK_MSG(mcd_config_parse("[camera left]\ndriver = other\nrig_camera = l\n[tracker]\nrig = r.json\n"
 				   "model = m.json\niterations = 10\nseed = 1\n[daemon]\ngroup_deadline_ms = 50\n",
 				   "mocapd.conf", "/etc/mocapd", &neu, &err) == 0,
 		  "%s", err.msg);
-	CHECK(mcd_config_take_reloadable(&cur, &neu) == 1);
+	CHECK(mcd_config_take_reloadable(&cur, &neu, NULL, 0) == 1);
 	CHECK(strcmp(cur.cams[0].driver, "faulty") == 0);
 }
 

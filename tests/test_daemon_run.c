@@ -271,10 +271,19 @@ static void test_mocapctl(void)
 	CHECK(json_integer_value(json_object_get(json_array_get(cams, 1), "width")) == 64);
 	CHECK(json_is_string(json_object_get(st, "tracker_state")) && json_is_object(json_object_get(st, "detector")));
 	json_decref(st);
-	snprintf(cmd, sizeof(cmd), "%s --socket %s reload >/dev/null 2>&1", ctl, r.sock);
-	CHECK(system(cmd) == 0);
+	snprintf(cmd, sizeof(cmd), "%s --socket %s reload 2>&1", ctl, r.sock);
+	rc = mc_test_run(cmd, out, sizeof(out));
+	CHECK_MSG(rc == 0 && strstr(out, "nothing changed"), "reload: %d %s", rc, out);
 	CHECK(mcd_run_wait_log(&r, "reload requested by pid", 3000));
 	CHECK(mcd_run_wait_log(&r, "applied", 3000));
+	/* the reply names what was applied and what needs a restart, and
+	 * the exit status tells the two apart */
+	mcd_run_config(&r, BASE_WITH("log_level = debug\nstatus_interval_s = 2\n") TWO_CAMS);
+	rc = mc_test_run(cmd, out, sizeof(out));
+	CHECK_MSG(rc == 0 && strstr(out, "applied: [daemon] log_level") && !strstr(out, "restart"), "reload: %d %s", rc, out);
+	mcd_run_config(&r, BASE TWO_CAMS "[camera c]\ndriver = faulty\ndevice = C\n");
+	rc = mc_test_run(cmd, out, sizeof(out));
+	CHECK_MSG(rc == 7 && strstr(out, "needs a restart: cameras"), "reload: %d %s", rc, out);
 	mcd_run_signal(&r, SIGTERM);
 	CHECK(mcd_run_wait_exit(&r, 10000) == 0);
 	if (mc_test_failures)
