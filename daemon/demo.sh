@@ -35,9 +35,10 @@ else
 	echo "== no $model (the shipped detector is not there yet): mocapd runs without the detector and says so"
 fi
 echo "== mocapd on $clip (config/demo.conf); log in $out/mocapd.log"
-if [ -x "$mocapctl" ]; then print=; else print=--print; fi
+# --print goes to a file for the summary; on the terminal the skeletons
+# come through mocapctl watch (a client), or the file is shown after.
 "$mocapd" --config config/demo.conf --plugin-dir "$build/drivers" --socket "$sock" \
-	--exit-at-end --save-poses "$out" $print 2>"$out/mocapd.log" &
+	--exit-at-end --save-poses "$out" --print >"$out/frames.txt" 2>"$out/mocapd.log" &
 daemon=$!
 
 if [ -x "$mocapctl" ]; then
@@ -60,7 +61,41 @@ if [ $rc -ne 0 ]; then
 	tail -n 20 "$out/mocapd.log" >&2
 	exit 1
 fi
+[ -x "$mocapctl" ] || cat "$out/frames.txt"
 grep -E "tracker:|detector:|status:" "$out/mocapd.log" | tail -n 5
+
+# The summary: frame sets tracked of the clip's, those skipped because the
+# tracker was slower than the cameras, and the mean joint error against
+# the clip's ground truth (docs/CONVENTIONS.md's evaluated joints, left
+# camera frame).  A --print line is "frame N t=SECONDS STATE ... name=(x,y,z)".
+echo "== summary"
+/usr/bin/python3 - "$out/frames.txt" "$clip/gt.json" <<'PY' || echo "demo: no summary (python3 failed)"
+import json, re, sys
+gt = json.load(open(sys.argv[2]))
+fps, frames = gt.get("fps", 30), gt["frames"]
+evaluated = ["neck"] + [s + j for s in ("left_", "right_") for j in
+                        ("shoulder", "elbow", "wrist", "hip", "knee", "ankle", "toe")]
+tracked, errors = 0, []
+for line in open(sys.argv[1]):
+    m = re.match(r"frame \d+ t=([\d.]+) (\w+) ", line)
+    if not m or "(not tracked)" in line:
+        continue
+    k = round(float(m.group(1)) * fps)
+    tracked += 1
+    if k >= len(frames):
+        continue
+    truth = frames[k]["joints_left_cam"]
+    for name in evaluated:
+        j = re.search(r" %s=\(([-\d.]+),([-\d.]+),([-\d.]+)\)" % name, line)
+        if j and name in truth:
+            errors.append(sum((float(a) - b) ** 2 for a, b in zip(j.groups(), truth[name])) ** 0.5)
+n = len(frames)
+print("frame sets tracked: %d of the clip's %d; skipped because the tracker was slower than the cameras: %d"
+      % (tracked, n, max(n - tracked, 0)))
+if errors:
+    print("mean joint error against the clip's ground truth: %.1f cm (%d joint estimates)"
+          % (100 * sum(errors) / len(errors), len(errors)))
+PY
 
 # The tracked frame closest to each of a few frame numbers.
 nearest() {
