@@ -129,9 +129,12 @@ install-ipc: $(IPC_SO) $(IPC_PC)
 	ln -sf libmocap.so.1 $(DESTDIR)$(LIBDIR)/libmocap.so
 	install -m 644 ipc/mocap.h $(DESTDIR)$(PREFIX)/include/
 	install -m 644 $(IPC_PC) $(DESTDIR)$(LIBDIR)/pkgconfig/
+	install -d $(DESTDIR)$(DATADIR)/bash-completion/completions
+	install -m 644 ipc/mocapctl.bash-completion $(DESTDIR)$(DATADIR)/bash-completion/completions/mocapctl
 
 .PHONY: uninstall-ipc
 uninstall: uninstall-ipc
 uninstall-ipc:
 	rm -f $(DESTDIR)$(LIBDIR)/libmocap.so.$(IPC_SO_VERSION) $(DESTDIR)$(LIBDIR)/libmocap.so.1 \
-		$(DESTDIR)$(LIBDIR)/libmocap.so $(DESTDIR)$(PREFIX)/include/mocap.h $(DESTDIR)$(LIBDIR)/pkgconfig/mocap.pc
+		$(DESTDIR)$(LIBDIR)/libmocap.so $(DESTDIR)$(PREFIX)/include/mocap.h $(DESTDIR)$(LIBDIR)/pkgconfig/mocap.pc \
+		$(DESTDIR)$(DATADIR)/bash-completion/completions/mocapctl

@@ -23,6 +23,12 @@ done
 [ -e "$tmp/etc/mocapd/mocapd.conf" ] || fail "no $tmp/etc/mocapd/mocapd.conf"
 grep -q "$prefix/share/mocapd" "$tmp/etc/mocapd/mocapd.conf" || fail "the installed config does not name $prefix/share/mocapd"
 
+# bash completion of mocapctl, from the install
+comp=$prefix/share/bash-completion/completions/mocapctl
+[ -e "$comp" ] || fail "no $comp"
+got=$(bash -c ". '$comp'; COMP_WORDS=(mocapctl sta); COMP_CWORD=1; _mocapctl; echo \${COMPREPLY[*]}")
+[ "$got" = status ] || fail "completing 'mocapctl sta' gave '$got'"
+
 # mocapd: no plugin_dir in the config, so the compiled-in one must be the install's
 for cam in left right; do
 	printf '[camera %s]\ndriver = files\nrig_camera = %s\npath = %s\ncount = 8\nrate = 30\n' \
