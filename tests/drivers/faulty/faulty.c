@@ -32,6 +32,19 @@
  *   hang_after = N           after N frames next_frame blocks, ignoring its
  *   hang_ms = T              timeout, for T ms (10000), as a stuck driver would
  *   timestamp_offset_ms = T  added to every timestamp (may be negative)
+ *   unplug_every_s = S       a periodic unplug: the last unplug_ms of every
+ *   unplug_ms = T            S seconds (counted from the device's first
+ *                            open, so reopens keep the schedule) the device
+ *                            is gone: next_frame and open fail with
+ *                            MDRV_ERR_NODEV; then it is back (unplug_ms
+ *                            1000 by default, must be below S * 1000)
+ *   stall_every = N          before every Nth frame next_frame blocks,
+ *   stall_ms = T             ignoring its timeout, for T ms (1000)
+ *   wrong_size_every = N     every Nth frame comes in another size than
+ *                            get_format announced (half the width and
+ *                            height, bytes and stride to match), as a
+ *                            driver that switched modes behind the host's
+ *                            back would deliver it
  *
  * Every key is read in open(), as mocapd requires of drivers. */
 #include "mdrv.h"
@@ -62,6 +75,7 @@ typedef struct {
 	uint64_t frames_total; /* over the device's life, for disappear_after */
 	bool gone;
 	uint64_t gone_since_ns;
+	uint64_t first_open_ns; /* origin of the unplug_every_s schedule */
 } device_memory;
 
 static pthread_mutex_t memory_lock = PTHREAD_MUTEX_INITIALIZER;
@@ -74,6 +88,7 @@ typedef struct {
 	mdrv_format fmt;
 	long fail_open_count, error_after, short_every, corrupt_every, drop_every;
 	long disappear_after, return_after_ms, end_after, hang_after, hang_ms;
+	long unplug_every_s, unplug_ms, stall_every, stall_ms, wrong_size_every;
 	long long offset_ns;
 	int error_code;
 	bool error_once;
@@ -210,11 +225,25 @@ static int read_keys(faulty_dev *d, const mdrv_host *h, char *err, size_t errlen
 	    get_long(h, "end_after", -1, &d->end_after, err, errlen) ||
 	    get_long(h, "hang_after", -1, &d->hang_after, err, errlen) ||
 	    get_long(h, "hang_ms", 10000, &d->hang_ms, err, errlen) ||
+	    get_long(h, "unplug_every_s", 0, &d->unplug_every_s, err, errlen) ||
+	    get_long(h, "unplug_ms", 1000, &d->unplug_ms, err, errlen) ||
+	    get_long(h, "stall_every", 0, &d->stall_every, err, errlen) ||
+	    get_long(h, "stall_ms", 1000, &d->stall_ms, err, errlen) ||
+	    get_long(h, "wrong_size_every", 0, &d->wrong_size_every, err, errlen) ||
 	    get_long(h, "open_delay_ms", 0, &delay, err, errlen) ||
 	    get_long(h, "timestamp_offset_ms", 0, &offset_ms, err, errlen))
 		return MDRV_ERR_CONFIG;
 	if (w < 8 || hh < 8 || w > 4096 || hh > 4096 || fps < 1 || fps > 1000) {
 		snprintf(err, errlen, "width/height must be 8..4096 and fps 1..1000");
+		return MDRV_ERR_CONFIG;
+	}
+	if (d->unplug_every_s < 0 || d->unplug_every_s > 86400 ||
+	    (d->unplug_every_s > 0 && (d->unplug_ms < 1 || d->unplug_ms >= d->unplug_every_s * 1000))) {
+		snprintf(err, errlen, "unplug_every_s must be 0..86400 and unplug_ms 1..unplug_every_s * 1000 - 1");
+		return MDRV_ERR_CONFIG;
+	}
+	if (d->stall_ms < 0 || d->hang_ms < 0) {
+		snprintf(err, errlen, "stall_ms and hang_ms must not be negative");
 		return MDRV_ERR_CONFIG;
 	}
 	d->error_code = parse_status(h->config_get(h->ctx, "error_code"), MDRV_ERR_IO);
@@ -255,6 +284,18 @@ static int read_keys(faulty_dev *d, const mdrv_host *h, char *err, size_t errlen
 	return MDRV_OK;
 }
 
+/* unplug_every_s: whether the device is unplugged now.  The schedule
+ * starts at the device's first open (mem->first_open_ns, set under
+ * memory_lock before this is called). */
+static bool unplugged_now(const faulty_dev *d)
+{
+	if (d->unplug_every_s <= 0 || !d->mem->first_open_ns)
+		return false;
+	uint64_t period = (uint64_t)d->unplug_every_s * 1000000000ull;
+	uint64_t phase = (mc_now_ns() - d->mem->first_open_ns) % period;
+	return phase >= period - (uint64_t)d->unplug_ms * 1000000ull;
+}
+
 static void *drv_open(const mdrv_host *host, char *err, size_t errlen)
 {
 	const char *id = host->config_get(host->ctx, "device");
@@ -282,10 +323,18 @@ static void *drv_open(const mdrv_host *host, char *err, size_t errlen)
 	bool gone = mem->gone;
 	if (gone && d->return_after_ms >= 0 && mc_now_ns() - mem->gone_since_ns >= (uint64_t)d->return_after_ms * 1000000ull)
 		gone = mem->gone = false;
-	bool fail_now = fail_open || mem->opens_failed < d->fail_open_count;
+	if (!mem->first_open_ns)
+		mem->first_open_ns = mc_now_ns();
+	bool unplugged = !gone && unplugged_now(d);
+	bool fail_now = !gone && !unplugged && (fail_open || mem->opens_failed < d->fail_open_count);
 	if (fail_now)
 		mem->opens_failed++;
 	pthread_mutex_unlock(&memory_lock);
+	if (unplugged) {
+		snprintf(err, errlen, "faulty camera %s: no such device (injected: unplugged)", mem->id);
+		free(d);
+		return NULL;
+	}
 	if (gone) {
 		snprintf(err, errlen, "faulty camera %s: no such device (injected: disappeared)", mem->id);
 		free(d);
@@ -350,6 +399,15 @@ static void write_frame(faulty_dev *d, mdrv_frame *slot, uint64_t k)
 			slot->flags |= MDRV_FRAME_CORRUPT;
 	}
 	slot->bytesused = every(d->short_every, k) ? full / 2 : full;
+	if (every(d->wrong_size_every, k) && f->pixfmt != MC_PIXFMT_MJPEG) {
+		/* A consistent frame of another size: half the width (even, for
+		 * yuyv) and half the height, tightly packed. */
+		uint32_t bpp = f->stride / f->width;
+		slot->format.width = (f->width / 2) & ~1u;
+		slot->format.height = f->height / 2;
+		slot->format.stride = slot->format.width * bpp;
+		slot->bytesused = (size_t)slot->format.stride * slot->format.height;
+	}
 }
 
 static int drv_next_frame(void *dev, mdrv_frame *slot, int timeout_ms, char *err, size_t errlen)
@@ -387,6 +445,10 @@ static int drv_next_frame(void *dev, mdrv_frame *slot, int timeout_ms, char *err
 		}
 		d->error_after = -1; /* fired on an earlier opening */
 	}
+	if (unplugged_now(d)) {
+		snprintf(err, errlen, "faulty camera %s: device unplugged (injected)", m->id);
+		return MDRV_ERR_NODEV;
+	}
 	if (d->hang_after >= 0 && d->frames >= (uint64_t)d->hang_after) {
 		d->hang_after = -1;
 		sleep_until(mc_now_ns() + (uint64_t)d->hang_ms * 1000000ull);
@@ -403,6 +465,11 @@ static int drv_next_frame(void *dev, mdrv_frame *slot, int timeout_ms, char *err
 		d->next_ns += d->period_ns;
 		if (every(d->drop_every, k))
 			continue;
+		if (every(d->stall_every, k)) {
+			/* A stuck driver: the timeout is ignored; the frame after
+			 * the stall is delivered late, its timestamp on the grid. */
+			sleep_until(mc_now_ns() + (uint64_t)d->stall_ms * 1000000ull);
+		}
 		if (slot->capacity < d->fmt.max_bytes) {
 			snprintf(err, errlen, "slot of %zu bytes, frames need up to %zu", slot->capacity,
 				 d->fmt.max_bytes);
