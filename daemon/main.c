@@ -35,7 +35,8 @@
 #ifndef MOCAPD_VERSION
 #define MOCAPD_VERSION "0.1"
 #endif
-#define DEFAULT_CONFIG "/etc/mocapd/mocapd.conf"
+#include "mc_install_paths.h" /* generated: follows SYSCONFDIR at make install */
+#define DEFAULT_CONFIG MC_INSTALL_SYSCONF_DIR "/mocapd.conf"
 #define READY_TIMEOUT_S 20.0 /* READY=1 even if a camera is still trying */
 #define STOP_GRACE_MS 3000
 

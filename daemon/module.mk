@@ -37,7 +37,7 @@ endif
 
 $(BUILD)/daemon/%.o: CPPFLAGS += -Idaemon -Idetect $(DAEMON_CFLAGS) -DMOCAPD_VERSION='"$(MOCAPD_VERSION)"'
 # the default plugin_dir follows LIBDIR (the top-level Makefile's install paths)
-$(BUILD)/daemon/config_keys.o: $(INSTALL_PATHS_H)
+$(BUILD)/daemon/config_keys.o $(BUILD)/daemon/main.o: $(INSTALL_PATHS_H)
 
 $(DAEMON_LIB): $(DAEMON_OBJ)
 	@rm -f $@
