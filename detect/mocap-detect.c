@@ -105,7 +105,8 @@ static void usage(FILE *f)
 		"sends the keypoints back to it (docs/DETECT_RUNTIME.md).\n"
 		"\n"
 		"  --socket PATH    the daemon's socket (default: $MOCAP_SOCKET, else %s)\n"
-		"  --model PATH     the detector, an ONNX file (default: the one *ego*.onnx in\n"
+		"  --model PATH     the detector, an ONNX file (default: the one *ego*.onnx, or\n"
+		"                   *outside*.onnx when the daemon's rig is outside-in, in\n"
 		"                   BINDIR/../share/mocapd/models, %s,\n"
 		"                   or config/models)\n"
 		"  --rate HZ        at most this many detections per camera per second\n"
@@ -130,10 +131,12 @@ static void fail(const char *fmt, ...)
 	exit(1);
 }
 
-/* The shipped model: the one file matching *ego*.onnx in a models folder:
- * next to the installed binary (BINDIR/../share/mocapd/models, whatever
- * PREFIX it was installed with), the folder compiled in, config/models. */
-static bool find_model(char *path, size_t cap)
+/* The shipped model for the daemon's rig: the one file matching `pattern`
+ * (*ego*.onnx for head-mounted rigs, *outside*.onnx for outside-in ones)
+ * in a models folder: next to the installed binary
+ * (BINDIR/../share/mocapd/models, whatever PREFIX it was installed with),
+ * the folder compiled in, config/models. */
+static bool find_model(const char *pattern_name, char *path, size_t cap)
 {
 	char beside[4096] = "";
 	ssize_t n = readlink("/proc/self/exe", beside, sizeof(beside) - 64);
@@ -147,7 +150,7 @@ static bool find_model(char *path, size_t cap)
 		if (!dirs[i][0])
 			continue;
 		char pattern[4200];
-		snprintf(pattern, sizeof(pattern), "%s/*ego*.onnx", dirs[i]);
+		snprintf(pattern, sizeof(pattern), "%s/%s", dirs[i], pattern_name);
 		glob_t g;
 		if (glob(pattern, 0, NULL, &g) == 0 && g.gl_pathc > 0) {
 			if (g.gl_pathc > 1)
@@ -162,20 +165,51 @@ static bool find_model(char *path, size_t cap)
 	return false;
 }
 
-/* Camera names in rig order, from the rig JSON the daemon sends. */
-static int rig_cameras(mocap_client *c, char names[][MOCAP_NAME_MAX], int max)
+/* The rig JSON the daemon sends, parsed (fails the program otherwise). */
+static json_t *daemon_rig(mocap_client *c)
 {
 	char *json = NULL;
 	int ncams = 0;
-	int rc = mocap_get_rig(c, &json, &ncams);
-	if (rc < 0)
+	if (mocap_get_rig(c, &json, &ncams) < 0)
 		fail("cannot get the rig from mocapd: %s", mocap_errmsg());
 	json_error_t jerr;
 	json_t *root = json_loads(json, 0, &jerr);
 	free(json);
-	json_t *cams = root ? json_object_get(root, "cameras") : NULL;
+	if (!root)
+		fail("the rig mocapd sent is not JSON: %s", jerr.text);
+	return root;
+}
+
+/* Which shipped model suits the daemon's rig (docs/RIG_FORMAT.md "kind"). */
+static const char *model_pattern_for_rig(mocap_client *c)
+{
+	json_t *root = daemon_rig(c);
+	const char *kind = json_string_value(json_object_get(root, "kind"));
+	bool outside = kind && !strcmp(kind, "outside-in");
+	json_decref(root);
+	return outside ? "*outside*.onnx" : "*ego*.onnx";
+}
+
+/* Connects as a client that may map camera rings and send keypoints. */
+static mocap_client *connect_privileged(const char *socket_path)
+{
+	mocap_client *c = mocap_connect(socket_path, "mocap-detect");
+	if (!c)
+		fail("%s", mocap_errmsg());
+	if (!mocap_is_privileged(c))
+		fail("mocapd at %s does not let this user map camera rings or send keypoints: run as the daemon's "
+		     "user or a member of its group",
+		     socket_path ? socket_path : mocap_default_socket());
+	return c;
+}
+
+/* Camera names in rig order, from the rig JSON the daemon sends. */
+static int rig_cameras(mocap_client *c, char names[][MOCAP_NAME_MAX], int max)
+{
+	json_t *root = daemon_rig(c);
+	json_t *cams = json_object_get(root, "cameras");
 	if (!json_is_array(cams))
-		fail("the rig mocapd sent has no \"cameras\" array%s%s", root ? "" : ": ", root ? "" : jerr.text);
+		fail("the rig mocapd sent has no \"cameras\" array");
 	int n = 0;
 	for (size_t i = 0; i < json_array_size(cams) && n < max; i++) {
 		const char *s = json_string_value(json_object_get(json_array_get(cams, i), "name"));
@@ -572,11 +606,15 @@ int main(int argc, char **argv)
 		return 2;
 	}
 	char found_model[4096];
+	mocap_client *c = NULL;
 	if (!model) {
-		if (!find_model(found_model, sizeof(found_model)))
-			fail("no detector model: no *ego*.onnx beside the binary (../share/mocapd/models), in %s or in "
+		/* the model suits the rig: ask the daemon which kind it has */
+		c = connect_privileged(socket_path);
+		const char *pattern = model_pattern_for_rig(c);
+		if (!find_model(pattern, found_model, sizeof(found_model)))
+			fail("no detector model: no %s beside the binary (../share/mocapd/models), in %s or in "
 			     "config/models; give one with --model",
-			     MOCAP_DETECT_MODEL_DIR);
+			     pattern, MOCAP_DETECT_MODEL_DIR);
 		model = found_model;
 	}
 	setvbuf(stdout, NULL, _IOLBF, 0);
@@ -590,13 +628,8 @@ int main(int argc, char **argv)
 	mc_detector *names = load_model(model);
 	mc_detector_set_threads(threads);
 	/* 1. Connect (privileged: rings and keypoints need it). */
-	mocap_client *c = mocap_connect(socket_path, "mocap-detect");
 	if (!c)
-		fail("%s", mocap_errmsg());
-	if (!mocap_is_privileged(c))
-		fail("mocapd at %s does not let this user map camera rings or send keypoints: run as the daemon's "
-		     "user or a member of its group",
-		     socket_path ? socket_path : mocap_default_socket());
+		c = connect_privileged(socket_path);
 	/* 2. The model's joints in the daemon's skeleton. */
 	map_joints(names, c, verbose);
 	/* 3, 4. The rig and the rings. */
