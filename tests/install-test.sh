@@ -21,6 +21,11 @@ for f in bin/mocapd bin/mocapctl bin/mocap-bench lib/mocapd/drivers/mocap-driver
 	[ -e "$prefix/$f" ] || fail "$prefix/$f was not installed"
 done
 [ -e "$tmp/etc/mocapd/mocapd.conf" ] || fail "no $tmp/etc/mocapd/mocapd.conf"
+if command -v scdoc >/dev/null; then
+	for m in man8/mocapd.8 man5/mocapd.conf.5 man1/mocapctl.1 man1/mocap-bench.1; do
+		[ -s "$prefix/share/man/$m" ] || fail "no man page $prefix/share/man/$m"
+	done
+fi
 grep -q "$prefix/share/mocapd" "$tmp/etc/mocapd/mocapd.conf" || fail "the installed config does not name $prefix/share/mocapd"
 
 # bash completion of mocapctl, from the install
@@ -64,7 +69,7 @@ echo "installed mocap-bench: $(grep '^RESULT' "$tmp/bench.log")"
 
 cd "$repo" || fail "cd $repo"
 make -s $vars uninstall >"$tmp/uninstall.log" 2>&1 || { cat "$tmp/uninstall.log"; fail "make uninstall"; }
-for f in bin/mocapd bin/mocap-bench lib/mocapd share/mocapd lib/libmocap.so.1; do
+for f in bin/mocapd bin/mocap-bench lib/mocapd share/mocapd lib/libmocap.so.1 share/man/man8/mocapd.8; do
 	[ ! -e "$prefix/$f" ] || fail "make uninstall left $prefix/$f"
 done
 [ -e "$tmp/etc/mocapd/mocapd.conf" ] || fail "make uninstall removed the config"
