@@ -79,6 +79,21 @@ static double score_estimates(const char *path, const mc_clip *clip, int *lines)
 	return n ? 100 * sum / n : -1;
 }
 
+/* The --out file at `path` scored here must give the MPJPE the tool
+ * printed, over FRAMES lines, below `max_cm`; closes the clip and removes
+ * the file. */
+static void check_estimates(const char *path, mc_clip *clip, double mpjpe, double max_cm)
+{
+	int lines;
+	double scored = score_estimates(path, clip, &lines);
+	printf("MPJPE printed %.2f cm, scored from --out %.4f cm over %d lines\n", mpjpe, scored, lines);
+	CHECK(lines == FRAMES);
+	CHECK_MSG(fabs(scored - mpjpe) <= 0.006, "printed %.2f, scored %.4f", mpjpe, scored);
+	CHECK_MSG(mpjpe > 0 && mpjpe < max_cm, "MPJPE %.2f cm", mpjpe);
+	mc_clip_close(clip);
+	unlink(path);
+}
+
 static void test_run(void)
 {
 	static char out[1 << 16];
@@ -106,15 +121,8 @@ static void test_run(void)
 			    &frames, &mpjpe, &fps, &p99, device);
 	CHECK_MSG(fields == 6, "RESULT line: '%s'", result);
 	CHECK(!strcmp(name, "ego_demo") && frames == FRAMES && fps > 0 && p99 > 0 && !strchr(device, ' '));
-	int lines;
-	double scored = score_estimates(path, &clip, &lines);
-	printf("MPJPE printed %.2f cm, scored from --out %.4f cm over %d lines\n", mpjpe, scored, lines);
-	CHECK(lines == FRAMES);
-	CHECK_MSG(fabs(scored - mpjpe) <= 0.006, "printed %.2f, scored %.4f", mpjpe, scored);
 	/* a loose bound: the first frames of the clip are tracked */
-	CHECK_MSG(mpjpe > 0 && mpjpe < 10, "MPJPE %.2f cm", mpjpe);
-	mc_clip_close(&clip);
-	unlink(path);
+	check_estimates(path, &clip, mpjpe, 10);
 
 	snprintf(args, sizeof(args), "--clip tests/data/ego_demo --frames 3 --reference-frames 0 --no-thesis --quiet "
 				     "--simulated-detector 2");
@@ -148,13 +156,7 @@ static void test_outside_in(void)
 	const char *cams = strstr(result, " cameras=");
 	CHECK_MSG(sscanf(result, "RESULT clip=outside_demo frames=%*d mpjpe_cm=%lf", &mpjpe) == 1, "%s", result);
 	CHECK_MSG(cams && sscanf(cams, " cameras=%d", &ncams) == 1 && ncams == 4, "%s", result);
-	int lines;
-	double scored = score_estimates(path, &clip, &lines);
-	CHECK(lines == FRAMES);
-	CHECK_MSG(fabs(scored - mpjpe) <= 0.006, "printed %.2f, scored %.4f", mpjpe, scored);
-	CHECK_MSG(mpjpe > 0 && mpjpe < 8, "MPJPE %.2f cm", mpjpe);
-	mc_clip_close(&clip);
-	unlink(path);
+	check_estimates(path, &clip, mpjpe, 8);
 
 	snprintf(args, sizeof(args), "--clip tests/data/outside_demo --frames 3 --reference-frames 0 --no-thesis "
 				     "--quiet --cameras 1,2");
