@@ -68,6 +68,24 @@ static bool joint_in_line(const char *line, const char *name, mc_vec3 *v)
 	return at && sscanf(at + strlen(key), "%lf,%lf,%lf", &v->x, &v->y, &v->z) == 3;
 }
 
+/* Runs mocapd (args: --print --exit-at-end ...) on the config in r to its
+ * end (skipping the test without OpenCL) and returns its --print output;
+ * *lines frame sets, *tracked of them tracked (at least 5 expected). */
+static char *run_clip(mcd_run *r, const char *const *args, const char *all_cams, int *lines, int *tracked)
+{
+	CHECK(mcd_run_start(r, args, NULL));
+	int rc = mcd_run_wait_exit(r, 120000);
+	if (rc == 1)
+		skip_without_opencl(r);
+	CHECK_MSG(rc == 0, "exit %d", rc);
+	char *out = mcd_read_file(r->out);
+	*lines = mcd_count(out, "frame ");
+	*tracked = *lines - mcd_count(out, "(not tracked)");
+	printf("%d frame sets tracked, %d with every camera (%s)\n", *tracked, mcd_count(out, all_cams), all_cams);
+	CHECK_MSG(*tracked >= 5, "%d frame sets tracked", *tracked);
+	return out;
+}
+
 static void test_clip(void)
 {
 	mcd_run r;
@@ -77,18 +95,11 @@ static void test_clip(void)
 	snprintf(poses, sizeof(poses), "%s/poses", r.dir);
 	mkdir(poses, 0755);
 	const char *const args[] = {"--print", "--exit-at-end", "--save-poses", poses, NULL};
-	CHECK(mcd_run_start(&r, args, NULL));
-	int rc = mcd_run_wait_exit(&r, 120000);
-	if (rc == 1)
-		skip_without_opencl(&r);
-	CHECK_MSG(rc == 0, "exit %d", rc);
+	int lines, tracked;
+	char *out = run_clip(&r, args, "cams 2/2", &lines, &tracked);
 	CHECK(r.notes && strstr(r.notes, "READY=1"));
 	CHECK(mcd_run_wait_log(&r, "tracker: initialised from 18 joints", 0));
-	char *out = mcd_read_file(r.out);
-	int lines = mcd_count(out, "frame "), pairs = mcd_count(out, "cams 2/2");
-	int tracked = lines - mcd_count(out, "(not tracked)");
-	printf("%d frame sets tracked of 60 frames, %d with both cameras\n", tracked, pairs);
-	CHECK_MSG(tracked >= 5, "%d frame sets tracked", tracked);
+	int pairs = mcd_count(out, "cams 2/2");
 	CHECK_MSG(pairs >= lines - 1, "%d of %d frame sets have both cameras", pairs, lines);
 	/* The first frame set starts from frame 0's ground truth:
 	 * neck (0.150, 0.267, 0.170) in the left camera frame. */
@@ -140,18 +151,10 @@ static void test_outside_in(void)
 	CHECK(mcd_run_init(&r));
 	write_config(&r, conf);
 	const char *const args[] = {"--print", "--exit-at-end", NULL};
-	CHECK(mcd_run_start(&r, args, NULL));
-	int rc = mcd_run_wait_exit(&r, 120000);
-	if (rc == 1)
-		skip_without_opencl(&r);
-	CHECK_MSG(rc == 0, "exit %d", rc);
+	int lines, tracked;
+	char *out = run_clip(&r, args, "cams 4/4", &lines, &tracked);
 	CHECK(mcd_run_wait_log(&r, "tracker: outside-in rig: iterations 80, lambda_smooth 0.01", 0));
 	CHECK(mcd_run_wait_log(&r, "rig outside_in (4 cameras)", 0));
-	char *out = mcd_read_file(r.out);
-	int lines = mcd_count(out, "frame "), full = mcd_count(out, "cams 4/4");
-	int tracked = lines - mcd_count(out, "(not tracked)");
-	printf("outside-in: %d frame sets tracked of 30 frames, %d with all four cameras\n", tracked, full);
-	CHECK_MSG(tracked >= 5, "%d frame sets tracked", tracked);
 	mc_vec3 neck;
 	CHECK(out && joint_in_line(out, "neck", &neck));
 	CHECK_NEAR(neck.x, -0.247, 0.03);
