@@ -29,7 +29,7 @@ struct mcd_pipeline {
 	mcd_publisher *pub;
 	bool print;
 	bool tracking; /* a tracker is configured */
-	mc_rig_kind rig_kind; /* its rig's, for the settings a reload gives it */
+	const mc_rig *rig; /* its rig (NULL: none), for the settings a reload gives it */
 	int event_fd;
 	bool started; /* the tracking thread runs */
 	bool stopped; /* mcd_pipeline_stop ran */
@@ -85,7 +85,7 @@ static int create_tracking_thread(mcd_pipeline *p, const mcd_config *cfg, mcd_tr
 	};
 	p->tracker = mcd_tracking_thread_create(&tc, err);
 	if (tracking)
-		p->rig_kind = tracking->rig.kind;
+		p->rig = &tracking->rig;
 	return p->tracker ? 0 : -1;
 }
 
@@ -329,8 +329,9 @@ int mcd_pipeline_check_cameras(mcd_pipeline *p, mc_err *err)
 
 void mcd_pipeline_reload(mcd_pipeline *p, const mcd_config *cfg)
 {
-	mc_tracker_settings settings;
-	mcd_tracker_settings(cfg, p->rig_kind, &settings);
+	mc_tracker_settings settings = cfg->tracker.settings;
+	if (p->rig)
+		mcd_tracker_settings(cfg, p->rig, &settings);
 	mcd_tracking_thread_reload(p->tracker, cfg->group_tolerance_ms, cfg->group_deadline_ms, &settings);
 	mcd_detector_thread_reload(p->detector, &cfg->detector);
 	for (int c = 0; c < p->ncams; c++)

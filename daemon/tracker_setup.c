@@ -169,14 +169,14 @@ int mcd_tracking_check(const mcd_config *cfg, mc_err *err)
 	return rc;
 }
 
-void mcd_tracker_settings(const mcd_config *cfg, mc_rig_kind kind, mc_tracker_settings *s)
+void mcd_tracker_settings(const mcd_config *cfg, const mc_rig *rig, mc_tracker_settings *s)
 {
 	*s = cfg->tracker.settings;
-	if (kind != MC_RIG_OUTSIDE_IN)
+	if (rig->kind != MC_RIG_OUTSIDE_IN)
 		return;
 	const mc_tracker_outside_in_defaults *d = &mc_tracker_outside_in;
 	if (!mcd_config_is_set(cfg, "tracker", "iterations"))
-		s->iterations = d->iterations;
+		s->iterations = mc_tracker_outside_in_iterations(rig->ncams);
 	if (!mcd_config_is_set(cfg, "tracker", "lambda_smooth"))
 		s->lambda_smooth = d->lambda_smooth;
 	if (!mcd_config_is_set(cfg, "tracker", "lambda_floor"))
@@ -188,7 +188,7 @@ int mcd_tracking_setup(const mcd_config *cfg, mcd_tracking *t, mc_err *err)
 	memset(t, 0, sizeof(*t));
 	if (load_rig_and_model(cfg, t, err))
 		goto fail;
-	mcd_tracker_settings(cfg, t->rig.kind, &t->settings);
+	mcd_tracker_settings(cfg, &t->rig, &t->settings);
 	if (t->rig.kind == MC_RIG_OUTSIDE_IN)
 		mcd_info("tracker: outside-in rig: iterations %d, lambda_smooth %g, lambda_floor %g",
 			 t->settings.iterations, t->settings.lambda_smooth, t->settings.lambda_floor);

@@ -35,7 +35,7 @@ int mcd_tracking_setup(const mcd_config *cfg, mcd_tracking *t, mc_err *err);
 /* The tracker settings of a config for a rig of this kind: on an
  * outside-in rig, the keys the file leaves out take their outside-in
  * values (mc_tracker_outside_in). */
-void mcd_tracker_settings(const mcd_config *cfg, mc_rig_kind kind, mc_tracker_settings *s);
+void mcd_tracker_settings(const mcd_config *cfg, const mc_rig *rig, mc_tracker_settings *s);
 void mcd_tracking_free(mcd_tracking *t);
 
 /* Applies the budget of reloaded settings (iterations, pixel_fraction,

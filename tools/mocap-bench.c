@@ -532,7 +532,8 @@ static void usage(FILE *f)
 		   "  --frames N            track only the first N frames\n"
 		   "  --backend opencl|reference\n"
 		   "  --width W --height H  working resolution per camera (default 128x128)\n"
-		   "  --iterations N        gradient iterations per frame (default 50; outside-in clips 80)\n"
+		   "  --iterations N        gradient iterations per frame (default 50; outside-in clips 320 shared\n"
+		   "                        among the cameras, within 40..160: 80 with four cameras)\n"
 		   "  --pixel-fraction F    share of candidate pixels per iteration\n"
 		   "  --dropout P           per-pixel Gaussian dropout probability\n"
 		   "  --step S --momentum M --lambda-smooth L --lambda-pose L --lambda-limit L\n"
@@ -712,11 +713,11 @@ static void print_speed(const options *o, const mc_clip *clip, const run_stats *
 
 /* Outside-in clips: the settings not given on the command line take their
  * outside-in values, as mocapd does for an outside-in rig. */
-static void apply_outside_in(options *o)
+static void apply_outside_in(options *o, int ncams)
 {
 	const mc_tracker_outside_in_defaults *d = &mc_tracker_outside_in;
 	if (!o->set_iterations)
-		o->s.iterations = d->iterations;
+		o->s.iterations = mc_tracker_outside_in_iterations(ncams);
 	if (!o->set_lambda_smooth)
 		o->s.lambda_smooth = d->lambda_smooth;
 	if (!o->set_lambda_floor)
@@ -729,12 +730,12 @@ static int run(const options *given, bool thesis, mc_err *err)
 	options opts = *given, *o = &opts;
 	if (mc_clip_open(o->clip, o->use_ocam, &clip, err) < 0)
 		return -1;
-	if (clip.layout == MC_CLIP_OUTSIDE)
-		apply_outside_in(o);
 	if (o->cameras && mc_clip_select_cameras(&clip, o->cameras, err) < 0) {
 		mc_clip_close(&clip);
 		return -1;
 	}
+	if (clip.layout == MC_CLIP_OUTSIDE)
+		apply_outside_in(o, clip.rig.ncams);
 	int nframes = o->max_frames > 0 && o->max_frames < clip.gt.nframes ? o->max_frames : clip.gt.nframes;
 	mc_tracker *t = start_tracker(o, &clip, &o->s, err);
 	FILE *out = t && o->out_path ? fopen(o->out_path, "w") : NULL;

@@ -69,10 +69,19 @@ const char *mc_track_state_name(mc_track_state s)
 }
 
 const mc_tracker_outside_in_defaults mc_tracker_outside_in = {
-	.iterations = 80,
+	.camera_iterations = 320,
+	.min_iterations = 40,
+	.max_iterations = 160,
 	.lambda_smooth = 0.01,
 	.lambda_floor = 0,
 };
+
+int mc_tracker_outside_in_iterations(int ncams)
+{
+	const mc_tracker_outside_in_defaults *d = &mc_tracker_outside_in;
+	int n = d->camera_iterations / (ncams > 0 ? ncams : 1);
+	return n < d->min_iterations ? d->min_iterations : n > d->max_iterations ? d->max_iterations : n;
+}
 
 static int validate_settings(const mc_tracker_settings *s, mc_err *err)
 {

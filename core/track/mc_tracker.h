@@ -57,13 +57,19 @@ typedef struct {
 void mc_tracker_settings_default(mc_tracker_settings *s);
 /* The settings that differ on outside-in rigs, where the whole body moves
  * through the world and the images are mostly background (docs/TRACKER.md,
- * "Outside-in"): a weaker smoothness prior, more iterations, the floor
- * prior on.  Callers apply them to the settings the user did not set. */
+ * "Outside-in rigs"): a weaker smoothness prior, and iterations shared out
+ * so that a frame set costs the same whatever the number of cameras
+ * (mc_tracker_outside_in_iterations).  Callers apply them to the settings
+ * the user did not set. */
 typedef struct {
-	int iterations;
+	int camera_iterations;               /* iterations x cameras per frame set */
+	int min_iterations, max_iterations;  /* the bounds of the share */
 	double lambda_smooth, lambda_floor;
 } mc_tracker_outside_in_defaults;
 extern const mc_tracker_outside_in_defaults mc_tracker_outside_in;
+/* camera_iterations / ncams, within [min_iterations, max_iterations]: 80
+ * with four cameras, 160 with two. */
+int mc_tracker_outside_in_iterations(int ncams);
 const char *mc_track_state_name(mc_track_state s);
 
 /* One camera's image: packed RGB24, any resolution (scaled to the working
