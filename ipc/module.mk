@@ -79,12 +79,18 @@ $(IPC_TESTS): $(BUILD)/tests/%: tests/%.c $(IPC_LINK_DEPS)
 	@mkdir -p $(@D)
 	$(CC) $(CPPFLAGS) $(CFLAGS) -MMD -MP $< -o $@ $(LDFLAGS) $(IPC_LINK)
 
-# The Python module against the test publisher.
+# The Python client (python/, the `mocap` package) with pytest, against the
+# test publisher, mocapctl and the examples (python/conftest.py), and
+# installed with pip into a temporary venv.  Debian's interpreter: its
+# python3-pytest, python3-venv and python3-pip (make deps).
+IPC_PYTHON ?= /usr/bin/python3
 .PHONY: check-ipc-python fuzz-ipc bench-ipc install-ipc
 check-ipc-python: $(IPC_TESTPUB) $(BUILD)/bin/mocapctl $(IPC_EXAMPLES)
-	@if command -v python3 >/dev/null; then \
-		python3 -B python/test_mocap.py $(IPC_TESTPUB) $(BUILD)/bin/mocapctl $(BUILD)/examples; \
-	else echo "SKIP check-ipc-python: python3 not installed"; fi
+	@if $(IPC_PYTHON) -c 'import pytest' 2>/dev/null; then \
+		MOCAP_TESTPUB=$(abspath $(IPC_TESTPUB)) MOCAPCTL=$(abspath $(BUILD)/bin/mocapctl) \
+		MOCAP_EXAMPLES=$(abspath $(BUILD)/examples) PYTHONDONTWRITEBYTECODE=1 \
+		$(IPC_PYTHON) -m pytest -q -p no:cacheprovider python/; \
+	else echo "SKIP check-ipc-python: no pytest for $(IPC_PYTHON) (make deps: python3-pytest)"; fi
 
 # libFuzzer on the protocol decoder the server runs on every datagram, with
 # ASan+UBSan and leak detection.  FUZZ_SECONDS=60 as in CI.

@@ -1,29 +1,64 @@
 """mocap: a client of mocapd for lab scripts, in pure Python (standard library).
 
 Speaks protocol versions 1 and 2 of docs/PROTOCOL.md over the daemon's
-SOCK_SEQPACKET Unix socket.  Single-threaded: use one Client per thread.
+SOCK_SEQPACKET Unix socket.  One file: install it with `pip install ./python`
+or copy mocap.py next to a script.
+
+Blocking (single-threaded: use one Client per thread):
 
     import mocap
     with mocap.Client() as c:                  # $MOCAP_SOCKET or /run/mocapd/mocapd.sock
         print(c.status())
-        skel = c.skeleton()
         c.subscribe(mocap.ALL)                 # every frame; or mocap.LATEST
         for frame in c.frames(count=100):
-            print(frame.seq, frame.missed, frame.joints[0].position)
+            wrist = frame.joints["left_wrist"]  # or frame.joint("left_wrist"); frame.joints[0] too
+            print(frame.seq, frame.missed, wrist.position)
 
-Errors are raised as mocap.Error (with .code, one of the ERR_* names)."""
+asyncio (one client may serve many tasks at once):
 
+    import asyncio, mocap.aio
+    async def main():
+        async with mocap.aio.connect() as c:    # or: c = await mocap.aio.connect()
+            await c.subscribe(mocap.ALL)
+            async for frame in c.frames(count=100):
+                print(frame.seq, frame.joints["head_top"].position)
+    asyncio.run(main())
+
+Joint names come from the daemon's SKELETON message, which the client pairs
+with each frame by its skeleton_id (asking the daemon for it if needed).
+
+Errors: every failure is a mocap.Error (alias mocap.MocapError), of one
+subclass per kind (NotRunning, AccessDenied, VersionMismatch, ProtocolError,
+Disconnected, Timeout, PermissionDenied, Refused, Unavailable, CommandFailed,
+ArgumentError, SystemCallError: the MOCAP_E_* codes of libmocap); .code is
+the short name it always had ("not running", "permission", "invalid", ...)."""
+
+import asyncio
+import collections
+import errno as _errno
 import os
 import socket
 import struct
+import sys
 import time
+import types
 from collections import namedtuple
+
+__version__ = "1.1.0"
+__all__ = [
+    "Client", "AsyncClient", "connect", "aio", "Frame", "Joint", "Joints", "JointDef", "Skeleton", "Camera",
+    "Detector", "Status", "Ring", "MocapError", "Error", "NotRunning", "AccessDenied", "VersionMismatch",
+    "ProtocolError", "Disconnected", "Timeout", "PermissionDenied", "Refused", "Unavailable", "CommandFailed",
+    "ArgumentError", "SystemCallError", "LATEST", "ALL", "SPACE_RIG", "SPACE_WORLD", "CMD_RELOAD",
+    "CMD_RECORD_START", "CMD_RECORD_STOP", "CMD_ACTOR_SAVE", "default_socket", "now_ns",
+]
 
 PROTOCOL_VERSION = 2      # the highest spoken; 1 too (2 adds STATUS's detector block)
 PROTOCOL_MIN_VERSION = 1
 MAGIC = 0x50434F4D
 HEADER = struct.Struct("<HHIII")  # type, flags, size, request_id, reserved
 MAX_MESSAGE = 65536
+MAX_FDS = 16
 DEFAULT_SOCKET = "/run/mocapd/mocapd.sock"
 
 LATEST, ALL = 1, 2
@@ -31,6 +66,7 @@ SPACE_RIG, SPACE_WORLD = 0, 1
 CMD_RELOAD, CMD_RECORD_START, CMD_RECORD_STOP, CMD_ACTOR_SAVE = 1, 2, 3, 4
 TRACK_STATES = {0: "ok", 1: "uncertain", 2: "lost", 3: "idle", 4: "initialising"}
 CAMERA_STATES = {0: "ok", 1: "stalled", 2: "error", 3: "off"}
+DETECTOR_STATES = {0: "off", 1: "running", 2: "failed"}
 
 # Message types.
 HELLO, SUBSCRIBE, UNSUBSCRIBE, GET_STATUS, GET_SKELETON, GET_RIG = 0x1, 0x2, 0x3, 0x4, 0x5, 0x6
@@ -42,25 +78,237 @@ STATUS, RIG, CONTROL_RESULT, RINGS, PONG = 0x8007, 0x8008, 0x8009, 0x800A, 0x800
 SERVER_ERRORS = {1: "version", 2: "malformed", 3: "handshake", 4: "permission", 5: "invalid",
                  6: "unavailable", 7: "busy", 8: "too many clients", 9: "overload", 10: "shutdown"}
 
+# libmocap's error codes (ipc/mocap.h), one exception class each.
+E_NOT_RUNNING, E_ACCESS, E_VERSION, E_PROTOCOL, E_DISCONNECTED, E_TIMEOUT = -1, -2, -3, -4, -5, -6
+E_PERMISSION, E_REFUSED, E_UNAVAILABLE, E_FAILED, E_ARG, E_SYSTEM = -7, -8, -9, -10, -11, -12
+
+
+# --- errors ---
+
+class MocapError(Exception):
+    """Every failure of this module.  Also known as mocap.Error.
+
+    .code: a short name, e.g. "not running", "permission", "invalid", "timeout"
+    (for the daemon's refusals, the name of its ERROR code: SERVER_ERRORS);
+    .server_code: the daemon's ERROR code, or None when the failure is local;
+    .fatal: True when the daemon closed the connection after it;
+    .errno: the libmocap code of the class (E_*, negative), as mocap_errcode() gives.
+
+    Raised as one of its subclasses.  MocapError(code, message) and
+    Subclass(message) (which takes the subclass's usual code) both work."""
+
+    errno = None
+    default_code = "error"
+
+    def __init__(self, *args, server_code=None, fatal=False):
+        if len(args) == 1:
+            code, message = self.default_code, args[0]
+        elif len(args) == 2:
+            code, message = args
+        else:
+            raise TypeError("%s(message) or %s(code, message)" % (type(self).__name__, type(self).__name__))
+        super().__init__(message)
+        self.code = code
+        self.message = message
+        self.server_code = server_code
+        self.fatal = fatal
+
+    def __reduce__(self):  # pickles with its fields (multiprocessing)
+        return (_rebuild_error, (type(self), self.code, self.message, self.server_code, self.fatal))
+
+
+def _rebuild_error(cls, code, message, server_code, fatal):
+    return cls(code, message, server_code=server_code, fatal=fatal)
+
+
+Error = MocapError  # the name of this module's one exception class, before there were subclasses
+
+
+class NotRunning(MocapError):
+    """No daemon listens at the socket path (MOCAP_E_NOT_RUNNING)."""
+    errno, default_code = E_NOT_RUNNING, "not running"
+
+
+class AccessDenied(MocapError):
+    """The socket exists but this user may not connect to it (MOCAP_E_ACCESS)."""
+    errno, default_code = E_ACCESS, "access"
+
+
+class VersionMismatch(MocapError):
+    """The daemon speaks another protocol version (MOCAP_E_VERSION)."""
+    errno, default_code = E_VERSION, "version"
+
+
+class ProtocolError(MocapError):
+    """The daemon sent something this module does not understand, or said we did (MOCAP_E_PROTOCOL)."""
+    errno, default_code = E_PROTOCOL, "protocol"
+
+
+class Disconnected(MocapError):
+    """The connection is closed: the daemon stopped or closed us, or close() was called (MOCAP_E_DISCONNECTED)."""
+    errno, default_code = E_DISCONNECTED, "disconnected"
+
+
+class Timeout(MocapError):
+    """No reply in time (the client's timeout) (MOCAP_E_TIMEOUT)."""
+    errno, default_code = E_TIMEOUT, "timeout"
+
+
+class PermissionDenied(MocapError):
+    """The request needs the daemon's user or group (MOCAP_E_PERMISSION)."""
+    errno, default_code = E_PERMISSION, "permission"
+
+
+class Refused(MocapError):
+    """The daemon refused the request; the message says why (MOCAP_E_REFUSED)."""
+    errno, default_code = E_REFUSED, "refused"
+
+
+class Unavailable(MocapError):
+    """Nothing to answer yet: no skeleton, no rig (MOCAP_E_UNAVAILABLE)."""
+    errno, default_code = E_UNAVAILABLE, "unavailable"
+
+
+class CommandFailed(MocapError):
+    """A control command ran and failed (MOCAP_E_FAILED)."""
+    errno, default_code = E_FAILED, "failed"
+
+
+class ArgumentError(MocapError, ValueError):
+    """A bad argument, or a call at the wrong time (MOCAP_E_ARG)."""
+    errno, default_code = E_ARG, "argument"
+
+
+class SystemCallError(MocapError):
+    """A system call failed: out of descriptors, memory, ... (MOCAP_E_SYSTEM)."""
+    errno, default_code = E_SYSTEM, "system"
+
+
+# Error.code -> class; the daemon's codes are mapped as libmocap maps them.
+_ERROR_CLASSES = {
+    "not running": NotRunning, "access": AccessDenied, "version": VersionMismatch, "protocol": ProtocolError,
+    "malformed": ProtocolError, "handshake": ProtocolError, "disconnected": Disconnected,
+    "shutdown": Disconnected, "timeout": Timeout, "permission": PermissionDenied, "unavailable": Unavailable,
+    "failed": CommandFailed, "argument": ArgumentError, "system": SystemCallError,
+}
+
+
+def _error(code, message, server_code=None, fatal=False):
+    """The exception for code (an Error.code name): refusals not listed are Refused."""
+    return _ERROR_CLASSES.get(code, Refused)(code, message, server_code=server_code, fatal=fatal)
+
+
+def _server_error(data, answer=False):
+    """The exception an ERROR message stands for (answer: it answers a request of ours)."""
+    r = _Reader(data)
+    code, _req, fatal = r.take("IHH")
+    msg = r.string()
+    prefix = "mocapd closed the connection: " if fatal and not answer else ""
+    return _error(SERVER_ERRORS.get(code, "refused"), prefix + msg, server_code=code, fatal=bool(fatal))
+
+
+# --- data ---
+
 Joint = namedtuple("Joint", "position orientation confidence")
 JointDef = namedtuple("JointDef", "name parent rest_offset")
-Skeleton = namedtuple("Skeleton", "id rig_is_world joints")
-Frame = namedtuple("Frame", "seq capture_ns publish_ns receive_ns missed skeleton_id state space joints")
 Camera = namedtuple("Camera", "name state width height fps frames drops")
 Detector = namedtuple("Detector", "state rate used_rate ms_mean ms_last ms_max views skipped used model message")
 Status = namedtuple("Status", "server_time_ns uptime_ns frames_published frames_dropped client_drops "
                               "publish_fps track_ms_mean track_ms_max tracker_state recording clients device cameras "
                               "detector")
-DETECTOR_STATES = {0: "off", 1: "running", 2: "failed"}
 Ring = namedtuple("Ring", "camera fd size")
 
 
-class Error(Exception):
-    """A failure; .code is e.g. "not running", "permission", "version", "disconnected"."""
+class Skeleton(namedtuple("Skeleton", "id rig_is_world joints")):
+    """The daemon's skeleton definition: joints is a list of JointDef (name, parent index, rest offset)."""
 
-    def __init__(self, code, message):
-        super().__init__(message)
-        self.code = code
+    @property
+    def names(self):
+        return [j.name for j in self.joints]
+
+    def joint_index(self, name):
+        """The index of the joint called name (KeyError if there is none)."""
+        index = self.__dict__.get("_index")
+        if index is None:
+            index = self.__dict__["_index"] = {j.name: i for i, j in enumerate(self.joints)}
+        return index[name]
+
+    def joint(self, key):
+        """The JointDef of a joint, by name or index."""
+        return self.joints[self.joint_index(key) if isinstance(key, str) else key]
+
+
+class Joints(list):
+    """A frame's joints: a list (joints[0]) that can also be read by name
+    (joints["left_wrist"], "left_wrist" in joints, joints.get(name),
+    joints.items(), joints.as_dict()).  The names come from .skeleton, the
+    SKELETON the frame follows, or are unknown (None) when the daemon had
+    none to give."""
+
+    __slots__ = ("skeleton", "_index")
+
+    def __init__(self, joints=(), skeleton=None):
+        super().__init__(joints)
+        self._name(skeleton)
+
+    def _name(self, skeleton):
+        if skeleton is not None and len(skeleton.joints) == len(self):
+            self.skeleton = skeleton
+            self._index = {j.name: i for i, j in enumerate(skeleton.joints)}
+        else:
+            self.skeleton, self._index = None, None
+
+    def __getitem__(self, key):
+        if isinstance(key, str):
+            return list.__getitem__(self, self.index_of(key))
+        return list.__getitem__(self, key)
+
+    def __contains__(self, key):
+        if isinstance(key, str):
+            return self._index is not None and key in self._index
+        return list.__contains__(self, key)
+
+    def index_of(self, name):
+        """The index of the joint called name; KeyError if there is none or the names are unknown."""
+        if self._index is None:
+            raise KeyError("%r: joint names unknown (no SKELETON from mocapd for this frame)" % (name,))
+        try:
+            return self._index[name]
+        except KeyError:
+            raise KeyError("%r: no such joint in skeleton %d" % (name, self.skeleton.id)) from None
+
+    def get(self, name, default=None):
+        return list.__getitem__(self, self._index[name]) if name in self else default
+
+    @property
+    def names(self):
+        """The joint names in order, or None when unknown."""
+        return None if self.skeleton is None else self.skeleton.names
+
+    def items(self):
+        """(name, Joint) pairs; empty when the names are unknown."""
+        return list(zip(self.names or (), self))
+
+    def as_dict(self):
+        return dict(self.items())
+
+    def __reduce__(self):
+        return (Joints, (list(self), self.skeleton))
+
+
+class Frame(namedtuple("Frame", "seq capture_ns publish_ns receive_ns missed skeleton_id state space joints")):
+    """One skeleton pose.  joints: a Joints list, also readable by name."""
+
+    __slots__ = ()
+
+    def joint(self, key):
+        """A Joint by name ("left_wrist") or index."""
+        return self.joints[key]
+
+    @property
+    def skeleton(self):
+        """The Skeleton the joints follow, or None when unknown."""
+        return getattr(self.joints, "skeleton", None)
 
 
 def default_socket():
@@ -72,6 +320,8 @@ def now_ns():
     return time.clock_gettime_ns(time.CLOCK_MONOTONIC)
 
 
+# --- encoding and decoding, shared by Client and AsyncClient ---
+
 class _Reader:
     """Reads fields of one message; any overrun or leftover is a protocol error."""
 
@@ -81,7 +331,7 @@ class _Reader:
     def take(self, fmt):
         s = struct.Struct("<" + fmt)
         if self.pos + s.size > len(self.data):
-            raise Error("protocol", "message from mocapd is truncated")
+            raise ProtocolError("protocol", "message from mocapd is truncated")
         v = s.unpack_from(self.data, self.pos)
         self.pos += s.size
         return v if len(v) > 1 else v[0]
@@ -89,53 +339,279 @@ class _Reader:
     def string(self):
         n = self.take("H")
         if self.pos + n > len(self.data):
-            raise Error("protocol", "string runs past the end of the message")
+            raise ProtocolError("protocol", "string runs past the end of the message")
         s = self.data[self.pos:self.pos + n].decode("utf-8", "replace")
         self.pos += n
         return s
 
     def end(self):
         if self.pos != len(self.data):
-            raise Error("protocol", "%d trailing bytes in a message from mocapd" % (len(self.data) - self.pos))
+            raise ProtocolError("protocol", "%d trailing bytes in a message from mocapd" % (len(self.data) - self.pos))
 
 
 def _str16(s):
     b = s.encode("utf-8")
     if len(b) > 0xFFFF:
-        raise Error("argument", "string too long")
+        raise ArgumentError("argument", "string too long")
     return struct.pack("<H", len(b)) + b
 
 
-class Client:
-    def __init__(self, path=None, name="python", timeout=10.0):
+def _message(type_, body, request_id):
+    return HEADER.pack(type_, 0, HEADER.size + len(body), request_id, 0) + body
+
+
+def _header(data, path):
+    """(type, request_id) of a received datagram, checked."""
+    if not data:
+        raise Disconnected("disconnected", "mocapd closed the connection (%s)" % path)
+    if len(data) < HEADER.size:
+        raise ProtocolError("protocol", "message from mocapd shorter than a header")
+    type_, _flags, size, rid, _res = HEADER.unpack_from(data)
+    if size != len(data):
+        raise ProtocolError("protocol", "size field %d, datagram %d bytes" % (size, len(data)))
+    return type_, rid
+
+
+def _new_socket():
+    try:
+        return socket.socket(socket.AF_UNIX, socket.SOCK_SEQPACKET)
+    except OSError as e:
+        raise SystemCallError("system", "socket: %s" % (e.strerror or e)) from None
+
+
+def _connect_error(path, e):
+    """The exception for a failed connect() to path."""
+    if isinstance(e, FileNotFoundError):
+        return NotRunning("not running", "daemon not running at %s (no socket there; is mocapd started?)" % path)
+    if isinstance(e, ConnectionRefusedError):
+        return NotRunning("not running", "daemon not running at %s (the socket is left over, nobody listens)" % path)
+    if isinstance(e, PermissionError):
+        return AccessDenied("access", "permission denied connecting to %s: your user needs to be in the daemon's "
+                            "group" % path)
+    if e.errno == _errno.EPROTOTYPE:
+        return ProtocolError("protocol", "%s is not a mocapd socket (wrong socket type)" % path)
+    if e.errno in (_errno.ENOTDIR, _errno.ENOTSOCK):
+        return NotRunning("not running", "daemon not running at %s (%s)" % (path, e.strerror))
+    if e.errno in (_errno.EMFILE, _errno.ENFILE, _errno.ENOMEM, _errno.ENOBUFS):
+        return SystemCallError("system", "cannot connect to %s: %s" % (path, e.strerror))
+    if "too long" in str(e):
+        return ArgumentError("argument", "socket path too long: %s" % path)
+    return NotRunning("not running", "cannot connect to %s: %s" % (path, e.strerror or e))
+
+
+def _hello_body(name):
+    return struct.pack("<IHH", MAGIC, PROTOCOL_MIN_VERSION, PROTOCOL_VERSION) + _str16(name[:63])
+
+
+def _subscribe_body(mode, space, queue_len):
+    if mode not in (LATEST, ALL):
+        raise ArgumentError("argument", "subscribe: mode must be mocap.LATEST or mocap.ALL")
+    if space not in (SPACE_RIG, SPACE_WORLD):
+        raise ArgumentError("argument", "subscribe: space must be mocap.SPACE_RIG or mocap.SPACE_WORLD")
+    if not 0 <= queue_len <= 0xFFFFFFFF:
+        raise ArgumentError("argument", "subscribe: queue_len out of range")
+    return struct.pack("<BBHI", mode, space, 0, queue_len)
+
+
+def _keypoints_body(capture_ns, camera, keypoints):
+    if not 0 <= camera <= 0xFFFF:
+        raise ArgumentError("argument", "keypoints: camera %d out of range" % camera)
+    try:
+        body = struct.pack("<QHHI", capture_ns, camera, len(keypoints), 0)
+        return body + b"".join(struct.pack("<HHfff", j, 0, u, v, c) for j, u, v, c in keypoints)
+    except (struct.error, TypeError, ValueError) as e:
+        raise ArgumentError("argument", "keypoints: %s" % e) from None
+
+
+def _head_pose_body(timestamp_ns, position, orientation_wxyz):
+    try:
+        return struct.pack("<Q3d4d", timestamp_ns, *position, *orientation_wxyz)
+    except (struct.error, TypeError) as e:
+        raise ArgumentError("argument", "head pose: %s" % e) from None
+
+
+def _control_body(command, argument):
+    return struct.pack("<I", command) + _str16(argument)
+
+
+def _parse_welcome(r):
+    _magic, version, flags, _max, pid, _t = r.take("IHHIIQ")
+    return version, bool(flags & 1), pid, r.string()
+
+
+def _parse_skeleton(data):
+    r = _Reader(data)
+    sid, nj, world, _ = r.take("IHBB")
+    table = [r.take("iI3d") for _ in range(nj)]
+    names = [r.string() for _ in range(nj)]
+    r.end()
+    return Skeleton(sid, bool(world), [JointDef(n, t[0], t[2:5]) for n, t in zip(names, table)])
+
+
+_JOINT = struct.Struct("<7dfI")
+
+
+def _parse_frame(data, missed, skeletons):
+    r = _Reader(data)
+    seq, cap, pub, sid, nj, state, space = r.take("QQQIHBB")
+    if r.pos + nj * _JOINT.size != len(data):
+        raise ProtocolError("protocol", "FRAME of %d joints is %d bytes" % (nj, len(data)))
+    joints = Joints([Joint(v[0:3], v[3:7], v[7]) for v in _JOINT.iter_unpack(data[r.pos:])], skeletons.get(sid))
+    return Frame(seq, cap, pub, now_ns(), missed, sid, TRACK_STATES.get(state, str(state)),
+                 "world" if space == SPACE_WORLD else "rig", joints)
+
+
+def _parse_status(r):
+    now, start, pub, dropped, cdrops = r.take("QQQQQ")
+    fps, tmean, tmax = r.take("3d")
+    state, rec, ncams, nclients = r.take("BBHI")
+    cams = [r.take("dQQIIII") for _ in range(ncams)]
+    device = r.string()
+    names = [r.string() for _ in range(ncams)]
+    detector = None  # a version 1 daemon: unknown
+    if r.pos < len(r.data):
+        dstate, _res = r.take("II")
+        figures = r.take("5d")
+        counts = r.take("3Q")
+        detector = Detector(DETECTOR_STATES.get(dstate, str(dstate)), *figures, *counts, r.string(), r.string())
+    r.end()
+    cameras = [Camera(n, CAMERA_STATES.get(c[3], str(c[3])), c[4], c[5], c[0], c[1], c[2])
+               for n, c in zip(names, cams)]
+    return Status(now, max(0, now - start), pub, dropped, cdrops, fps, tmean, tmax,
+                  TRACK_STATES.get(state, str(state)), bool(rec), nclients, device, cameras, detector)
+
+
+def _parse_rig(r):
+    _ncams, length = r.take("II")
+    text = r.data[r.pos:r.pos + length]
+    r.pos += length
+    r.end()
+    return text.decode("utf-8", "replace")
+
+
+def _parse_control_result(r):
+    _cmd, result = r.take("Ii")
+    msg = r.string()
+    if result != 0:
+        raise CommandFailed("failed", msg)
+    return msg
+
+
+def _parse_rings(r, fds):
+    count = r.take("HHI")[0]
+    try:
+        sizes = [r.take("QQ")[0] for _ in range(count)]
+        names = [r.string() for _ in range(count)]
+        if len(fds) != count:
+            raise ProtocolError("protocol", "RINGS lists %d rings but came with %d descriptors" % (count, len(fds)))
+    except MocapError:
+        _close_fds(fds)
+        raise
+    return [Ring(n, fd, s) for n, fd, s in zip(names, fds, sizes)]
+
+
+def _close_fds(fds):
+    for fd in fds:
+        os.close(fd)
+
+
+_RECV_FLAGS = getattr(socket, "MSG_CMSG_CLOEXEC", 0)
+
+
+class _Session:
+    """The protocol state both clients keep: request ids, the subscription,
+    frames received and not yet read, gaps, and the skeleton definitions
+    that name the frames' joints."""
+
+    SKELETONS_KEPT = 8
+    MAX_BACKLOG = 4096  # frames received and not read; beyond, the oldest go (counted in missed)
+
+    def _init_session(self, path, timeout):
         self.path = path or default_socket()
         self.timeout = timeout
+        self.version = None
+        self.privileged = False
+        self.server_pid = None
+        self.daemon_version = None
         self._next_id = 1
-        self._frames = []          # frames read while waiting for a reply
-        self._missed = 0           # gap counts not yet attached to a frame
+        self._frames = collections.deque()   # frames received, not yet read
+        self._missed = 0                      # gap counts not yet attached to a frame
         self._mode = 0
-        self._skeleton = None
-        self._sock = socket.socket(socket.AF_UNIX, socket.SOCK_SEQPACKET)
+        self._skeletons = {}                  # skeleton_id -> Skeleton, newest last
+        self._asked = set()                   # skeleton ids asked for with GET_SKELETON
+
+    def _take_id(self):
+        rid = self._next_id
+        self._next_id = (self._next_id % 0xFFFFFFFF) + 1
+        return rid
+
+    def _reset_frames(self, mode):
+        self._mode = mode
+        self._frames.clear()
+        self._missed = 0
+
+    def _keep_skeleton(self, sk):
+        self._skeletons.pop(sk.id, None)
+        self._skeletons[sk.id] = sk
+        while len(self._skeletons) > self.SKELETONS_KEPT:
+            del self._skeletons[next(iter(self._skeletons))]
+        # Frames that came before their definition get their names now.
+        for f in self._frames:
+            if f.skeleton_id == sk.id and f.joints.skeleton is None:
+                f.joints._name(sk)
+
+    def _file_frame(self, data):
+        if not self._mode:
+            return
+        frame = _parse_frame(data, self._missed, self._skeletons)
+        self._missed = 0
+        if self._mode == LATEST:
+            self._frames.clear()
+        elif self._frames and len(self._frames) >= self.MAX_BACKLOG:  # an application that never reads them
+            old = self._frames.popleft()
+            if self._frames:
+                self._frames[0] = self._frames[0]._replace(missed=self._frames[0].missed + old.missed + 1)
+            else:
+                frame = frame._replace(missed=frame.missed + old.missed + 1)
+        self._frames.append(frame)
+
+    def _file_gap(self, data):
+        _first, count = _Reader(data).take("QQ")
+        self._missed += count
+
+    def _needs_skeleton(self, frame):
+        """True when the client should ask the daemon for the frame's skeleton definition."""
+        return frame.joints.skeleton is None and frame.skeleton_id not in self._asked
+
+    def _name_frame(self, frame, sk):
+        self._asked.add(frame.skeleton_id)
+        if sk is not None and sk.id == frame.skeleton_id:
+            frame.joints._name(sk)
+
+    def _check_subscribed(self):
+        if not self._mode and not self._frames:
+            raise ArgumentError("argument", "not subscribed (call subscribe first)")
+
+
+# --- the blocking client ---
+
+class Client(_Session):
+    """A connection to mocapd.  Blocking; use one Client per thread."""
+
+    def __init__(self, path=None, name="python", timeout=10.0):
+        self._init_session(path, timeout)
+        self._sock = _new_socket()
         try:
             self._sock.connect(self.path)
-        except FileNotFoundError:
-            self._sock.close()
-            raise Error("not running", "daemon not running at %s (no socket there; is mocapd started?)" % self.path)
-        except ConnectionRefusedError:
-            self._sock.close()
-            raise Error("not running", "daemon not running at %s (the socket is left over, nobody listens)" % self.path)
-        except PermissionError:
-            self._sock.close()
-            raise Error("access", "permission denied connecting to %s: your user needs to be in the daemon's group"
-                        % self.path)
         except OSError as e:
             self._sock.close()
-            raise Error("not running", "cannot connect to %s: %s" % (self.path, e.strerror))
-        body = struct.pack("<IHH", MAGIC, PROTOCOL_MIN_VERSION, PROTOCOL_VERSION) + _str16(name[:63])
-        r = self._request(HELLO, body, WELCOME)
-        magic, self.version, flags, _max, self.server_pid, _t = r.take("IHHIIQ")
-        self.daemon_version = r.string()
-        self.privileged = bool(flags & 1)
+            raise _connect_error(self.path, e) from None
+        try:
+            r = self._request(HELLO, _hello_body(name), WELCOME)
+            self.version, self.privileged, self.server_pid, self.daemon_version = _parse_welcome(r)
+        except BaseException:
+            self._sock.close()
+            raise
 
     def close(self):
         self._sock.close()
@@ -149,65 +625,50 @@ class Client:
     # --- transport ---
 
     def _send(self, type_, body=b"", request_id=0):
-        msg = HEADER.pack(type_, 0, HEADER.size + len(body), request_id, 0) + body
         try:
-            self._sock.sendall(msg)
+            self._sock.settimeout(self.timeout)
+            self._sock.sendall(_message(type_, body, request_id))
+        except socket.timeout:
+            raise Timeout("timeout", "mocapd does not read our messages") from None
         except OSError as e:
-            raise Error("disconnected", "sending to mocapd: %s" % e.strerror)
+            raise Disconnected("disconnected", "sending to mocapd: %s" % (e.strerror or e)) from None
 
     def _recv(self, timeout):
         """One message (type, request_id, bytes, fds), or None on timeout."""
         self._sock.settimeout(timeout)
         try:
-            data, fds, flags, _addr = socket.recv_fds(self._sock, MAX_MESSAGE, 16)
+            data, fds, _flags, _addr = socket.recv_fds(self._sock, MAX_MESSAGE, MAX_FDS, _RECV_FLAGS)
         except (socket.timeout, BlockingIOError):
             return None
         except OSError as e:
-            raise Error("disconnected", "connection to mocapd lost: %s" % e.strerror)
-        if not data:
-            raise Error("disconnected", "mocapd closed the connection (%s)" % self.path)
-        if len(data) < HEADER.size:
-            raise Error("protocol", "message from mocapd shorter than a header")
-        type_, _flags, size, rid, _res = HEADER.unpack_from(data)
-        if size != len(data):
-            raise Error("protocol", "size field %d, datagram %d bytes" % (size, len(data)))
+            raise Disconnected("disconnected", "connection to mocapd lost: %s" % (e.strerror or e)) from None
+        try:
+            type_, rid = _header(data, self.path)
+        except MocapError:
+            _close_fds(fds)
+            raise
         return type_, rid, data, fds
 
     def _file(self, type_, rid, data, fds):
-        """Files an unsolicited message; returns True if it was one."""
+        """Files a message that answers no request in progress."""
+        _close_fds(fds)
         if type_ == FRAME:
-            if self._mode:
-                frame = self._parse_frame(data)
-                if self._mode == LATEST:
-                    self._frames = [frame]
-                else:
-                    self._frames.append(frame)
-            return True
-        if type_ == GAP:
-            first, count = _Reader(data).take("QQ")
-            self._missed += count
-            return True
-        if type_ == SKELETON and rid == 0:
-            self._skeleton = self._parse_skeleton(data)
-            return True
-        if type_ == ERROR:  # unsolicited, or a refusal of a keypoint batch or head pose
-            r = _Reader(data)
-            code, _req, fatal = r.take("IHH")
-            msg = r.string()
-            raise Error(SERVER_ERRORS.get(code, "refused"), ("mocapd closed the connection: " if fatal else "") + msg)
-        for fd in fds:
-            os.close(fd)
-        return False
+            self._file_frame(data)
+        elif type_ == GAP:
+            self._file_gap(data)
+        elif type_ == SKELETON:
+            self._keep_skeleton(_parse_skeleton(data))
+        elif type_ == ERROR:  # unsolicited, or a refusal of a keypoint batch or head pose
+            raise _server_error(data)
 
     def _request(self, type_, body, want, fds_out=None):
-        rid = self._next_id
-        self._next_id = (self._next_id % 0xFFFFFFFF) + 1
+        rid = self._take_id()
         self._send(type_, body, rid)
         deadline = time.monotonic() + self.timeout
         while True:
             left = deadline - time.monotonic()
             if left <= 0:
-                raise Error("timeout", "no reply from mocapd within %.1f s" % self.timeout)
+                raise Timeout("timeout", "no reply from mocapd within %.1f s" % self.timeout)
             m = self._recv(left)
             if m is None:
                 continue
@@ -216,61 +677,35 @@ class Client:
                 self._file(mtype, mrid, data, fds)
                 continue
             if mtype == ERROR:
-                r = _Reader(data)
-                code, _req, _fatal = r.take("IHH")
-                raise Error(SERVER_ERRORS.get(code, "refused"), r.string())
+                _close_fds(fds)
+                raise _server_error(data, answer=True)  # a plain answer, even when fatal
             if mtype != want:
-                raise Error("protocol", "unexpected reply 0x%04x" % mtype)
+                _close_fds(fds)
+                raise ProtocolError("protocol", "unexpected reply 0x%04x" % mtype)
             if fds_out is not None:
                 fds_out.extend(fds)
             else:
-                for fd in fds:
-                    os.close(fd)
+                _close_fds(fds)
             return _Reader(data)
-
-    # --- parsing ---
-
-    def _parse_frame(self, data):
-        r = _Reader(data)
-        seq, cap, pub, sid, nj, state, space = r.take("QQQIHBB")
-        joints = []
-        for _ in range(nj):
-            v = r.take("7dfI")
-            joints.append(Joint(v[0:3], v[3:7], v[7]))
-        r.end()
-        missed, self._missed = self._missed, 0
-        return Frame(seq, cap, pub, now_ns(), missed, sid, TRACK_STATES.get(state, str(state)),
-                     "world" if space == SPACE_WORLD else "rig", joints)
-
-    @staticmethod
-    def _parse_skeleton(data):
-        r = _Reader(data)
-        sid, nj, world, _ = r.take("IHBB")
-        table = [r.take("iI3d") for _ in range(nj)]
-        names = [r.string() for _ in range(nj)]
-        r.end()
-        return Skeleton(sid, bool(world), [JointDef(n, t[0], t[2:5]) for n, t in zip(names, table)])
 
     # --- API ---
 
     def subscribe(self, mode=LATEST, space=SPACE_RIG, queue_len=0):
-        """LATEST: only the newest frame (VR); ALL: every frame, gaps counted in Frame.missed."""
-        self._mode = 0
-        self._frames = []
-        self._missed = 0
-        r = self._request(SUBSCRIBE, struct.pack("<BBHI", mode, space, 0, queue_len), OK)
-        self._mode = mode
+        """LATEST: only the newest frame (VR); ALL: every frame, gaps counted in Frame.missed.
+        Returns the daemon's queue length in effect."""
+        body = _subscribe_body(mode, space, queue_len)
+        self._reset_frames(0)
+        r = self._request(SUBSCRIBE, body, OK)
+        self._reset_frames(mode)
         return r.take("HHI")[2]
 
     def unsubscribe(self):
-        self._mode = 0
-        self._frames = []
+        self._reset_frames(0)
         self._request(UNSUBSCRIBE, b"", OK)
 
     def read_frame(self, timeout=None):
         """The next frame, or None after timeout seconds (None: wait forever)."""
-        if not self._mode and not self._frames:
-            raise Error("argument", "not subscribed (call subscribe first)")
+        self._check_subscribed()
         deadline = None if timeout is None else time.monotonic() + timeout
         if self._mode == LATEST:
             # Take in everything already there, to return the newest frame.
@@ -285,7 +720,13 @@ class Client:
             if m is None:
                 return None
             self._file(*m)
-        frame = self._frames.pop(0)
+        frame = self._frames.popleft()
+        if self._needs_skeleton(frame):
+            try:
+                sk = self.skeleton()
+            except Unavailable:
+                sk = None
+            self._name_frame(frame, sk)
         return frame
 
     def frames(self, count=None, timeout=None):
@@ -303,46 +744,22 @@ class Client:
         return self._sock.fileno()
 
     def skeleton(self):
-        r = self._request(GET_SKELETON, b"", SKELETON)
-        return self._parse_skeleton(r.data)
+        """The daemon's skeleton definition (a Skeleton)."""
+        sk = _parse_skeleton(self._request(GET_SKELETON, b"", SKELETON).data)
+        self._keep_skeleton(sk)
+        return sk
 
     def status(self):
-        r = self._request(GET_STATUS, b"", STATUS)
-        now, start, pub, dropped, cdrops = r.take("QQQQQ")
-        fps, tmean, tmax = r.take("3d")
-        state, rec, ncams, nclients = r.take("BBHI")
-        cams = [r.take("dQQIIII") for _ in range(ncams)]
-        device = r.string()
-        names = [r.string() for _ in range(ncams)]
-        detector = None  # a version 1 daemon: unknown
-        if r.pos < len(r.data):
-            dstate, _res = r.take("II")
-            figures = r.take("5d")
-            counts = r.take("3Q")
-            detector = Detector(DETECTOR_STATES.get(dstate, str(dstate)), *figures, *counts, r.string(), r.string())
-        r.end()
-        cameras = [Camera(n, CAMERA_STATES.get(c[3], str(c[3])), c[4], c[5], c[0], c[1], c[2])
-                   for n, c in zip(names, cams)]
-        return Status(now, max(0, now - start), pub, dropped, cdrops, fps, tmean, tmax,
-                      TRACK_STATES.get(state, str(state)), bool(rec), nclients, device, cameras, detector)
+        return _parse_status(self._request(GET_STATUS, b"", STATUS))
 
     def rig(self):
         """The rig in use, as JSON text."""
-        r = self._request(GET_RIG, b"", RIG)
-        _ncams, length = r.take("II")
-        text = r.data[r.pos:r.pos + length]
-        r.pos += length
-        r.end()
-        return text.decode("utf-8", "replace")
+        return _parse_rig(self._request(GET_RIG, b"", RIG))
 
     def control(self, command, argument=""):
-        """Runs CMD_RELOAD / CMD_RECORD_START / CMD_RECORD_STOP / CMD_ACTOR_SAVE; returns the daemon's message."""
-        r = self._request(CONTROL, struct.pack("<I", command) + _str16(argument), CONTROL_RESULT)
-        _cmd, result = r.take("Ii")
-        msg = r.string()
-        if result != 0:
-            raise Error("failed", msg)
-        return msg
+        """Runs CMD_RELOAD / CMD_RECORD_START / CMD_RECORD_STOP / CMD_ACTOR_SAVE; returns the daemon's message.
+        Raises CommandFailed when the command ran and failed."""
+        return _parse_control_result(self._request(CONTROL, _control_body(command, argument), CONTROL_RESULT))
 
     def reload(self):
         return self.control(CMD_RELOAD)
@@ -355,24 +772,15 @@ class Client:
         """Read-only camera ring descriptors (close them when done)."""
         fds = []
         r = self._request(GET_RINGS, b"", RINGS, fds)
-        count = r.take("HHI")[0]
-        sizes = [r.take("QQ")[0] for _ in range(count)]
-        names = [r.string() for _ in range(count)]
-        if len(fds) != count:
-            for fd in fds:
-                os.close(fd)
-            raise Error("protocol", "RINGS lists %d rings but came with %d descriptors" % (count, len(fds)))
-        return [Ring(n, fd, s) for n, fd, s in zip(names, fds, sizes)]
+        return _parse_rings(r, fds)
 
     def send_keypoints(self, capture_ns, camera, keypoints):
-        """keypoints: [(joint, u, v, confidence), ...]; not acknowledged."""
-        body = struct.pack("<QHHI", capture_ns, camera, len(keypoints), 0)
-        body += b"".join(struct.pack("<HHfff", j, 0, u, v, c) for j, u, v, c in keypoints)
-        self._send(KEYPOINTS, body, self._take_id())
+        """keypoints: [(joint, u, v, confidence), ...]; not acknowledged (a refusal is raised by a later call)."""
+        self._send(KEYPOINTS, _keypoints_body(capture_ns, camera, keypoints), self._take_id())
 
     def send_head_pose(self, timestamp_ns, position, orientation_wxyz):
         """world_from_rig at timestamp_ns; not acknowledged."""
-        self._send(HEAD_POSE, struct.pack("<Q3d4d", timestamp_ns, *position, *orientation_wxyz), self._take_id())
+        self._send(HEAD_POSE, _head_pose_body(timestamp_ns, position, orientation_wxyz), self._take_id())
 
     def ping(self):
         """Round trip in seconds."""
@@ -380,7 +788,352 @@ class Client:
         self._request(PING, struct.pack("<Q", now_ns()), PONG)
         return time.monotonic() - t
 
-    def _take_id(self):
-        rid = self._next_id
-        self._next_id = (self._next_id % 0xFFFFFFFF) + 1
-        return rid
+
+# --- the asyncio client ---
+
+class AsyncClient(_Session):
+    """A connection to mocapd for asyncio: create it with `await mocap.aio.connect(...)`.
+
+    Every method that talks to the daemon is a coroutine; any number of
+    tasks may use one client at once (replies find their request by id).
+    The socket is read by the event loop (loop.add_reader), so frames
+    arrive while the application awaits something else; in ALL mode the
+    client stops reading when max_queued frames wait unread and no request
+    is in flight, so that the daemon's queue, not this process, holds the
+    backlog (and counts what it drops in Frame.missed)."""
+
+    def __init__(self, path=None, name="python", timeout=10.0, max_queued=None):
+        self._init_session(path, timeout)
+        self._name = name
+        self._sock = None
+        self._loop = None
+        self._reading = False
+        self._waiters = {}            # request id -> future of (type, data, fds)
+        self._wakeup = None           # set when a frame or an error arrives
+        self._send_lock = None
+        self._dead = None             # the error that ended the connection
+        self._pending = None          # a non-fatal refusal of something not acknowledged
+        self._queue_limit = 256
+        self.max_queued = max_queued  # None: the daemon's queue length, at least 64
+
+    async def _open(self):
+        self._loop = asyncio.get_running_loop()
+        self._wakeup = asyncio.Event()
+        self._send_lock = asyncio.Lock()
+        sock = _new_socket()
+        sock.setblocking(False)
+        try:
+            await self._loop.sock_connect(sock, self.path)
+        except OSError as e:
+            sock.close()
+            raise _connect_error(self.path, e) from None
+        except BaseException:
+            sock.close()
+            raise
+        self._sock = sock
+        self._resume()
+        try:
+            r = await self._ask(HELLO, _hello_body(self._name), WELCOME)
+            self.version, self.privileged, self.server_pid, self.daemon_version = _parse_welcome(r)
+        except BaseException:
+            self.close()
+            raise
+        return self
+
+    def close(self):
+        """Closes the connection; requests and reads in progress raise Disconnected."""
+        if self._sock is None:
+            return
+        self._pause()
+        self._die(Disconnected("disconnected", "the connection was closed (close())"))
+        self._sock.close()
+        self._sock = None
+
+    async def aclose(self):
+        self.close()
+
+    async def __aenter__(self):
+        return self
+
+    async def __aexit__(self, *exc):
+        self.close()
+
+    def fileno(self):
+        return self._sock.fileno() if self._sock is not None else -1
+
+    # --- transport ---
+
+    def _resume(self):
+        if not self._reading and self._sock is not None and self._dead is None:
+            self._loop.add_reader(self._sock.fileno(), self._on_readable)
+            self._reading = True
+
+    def _pause(self):
+        if self._reading:
+            self._loop.remove_reader(self._sock.fileno())
+            self._reading = False
+
+    def _die(self, err):
+        if self._dead is None:
+            self._dead = err
+        self._pause()
+        for fut, _on_reply in self._waiters.values():
+            if not fut.done():
+                fut.set_exception(self._dead_error())
+        self._waiters.clear()
+        self._wakeup.set()
+
+    def _raise_pending(self):
+        """A refusal of keypoints or a head pose sent before, if one came."""
+        if self._pending is not None:
+            err, self._pending = self._pending, None
+            raise err
+
+    def _dead_error(self):
+        """A new exception like the one that ended the connection (one per caller)."""
+        return _error(self._dead.code, str(self._dead), self._dead.server_code, self._dead.fatal)
+
+    def _raise_if_dead(self):
+        if self._dead is not None:
+            raise self._dead_error()
+
+    def _on_readable(self):
+        """Reads what is there (up to a burst), filing each datagram."""
+        for _ in range(64):
+            if self._sock is None or self._dead is not None:
+                return
+            try:
+                data, fds, _flags, _addr = socket.recv_fds(self._sock, MAX_MESSAGE, MAX_FDS, _RECV_FLAGS)
+            except InterruptedError:
+                continue
+            except BlockingIOError:
+                return
+            except OSError as e:
+                self._die(Disconnected("disconnected", "connection to mocapd lost: %s" % (e.strerror or e)))
+                return
+            try:
+                self._dispatch(data, fds)
+            except MocapError as e:
+                self._die(e)
+                return
+            # ALL mode: stop reading while enough frames wait and no reply is awaited,
+            # so that the daemon's queue holds the backlog (and counts what it drops).
+            if self._mode == ALL and len(self._frames) >= (self.max_queued or self._queue_limit) \
+                    and not self._waiters:
+                self._pause()
+                return
+
+    def _dispatch(self, data, fds):
+        try:
+            type_, rid = _header(data, self.path)
+        except MocapError:
+            _close_fds(fds)
+            raise
+        waiter = self._waiters.get(rid) if rid and type_ not in (FRAME, GAP) else None
+        if waiter is not None and not waiter[0].done():
+            del self._waiters[rid]
+            if waiter[1] is not None:
+                waiter[1](type_)
+            waiter[0].set_result((type_, data, fds))
+            if type_ == ERROR and _Reader(data).take("IHH")[2]:  # fatal: the daemon closes us
+                self._die(_server_error(data))
+            return
+        _close_fds(fds)
+        if type_ == FRAME:
+            self._file_frame(data)
+            self._wakeup.set()
+        elif type_ == GAP:
+            self._file_gap(data)
+        elif type_ == SKELETON:
+            self._keep_skeleton(_parse_skeleton(data))
+        elif type_ == ERROR:
+            err = _server_error(data)
+            if err.fatal:
+                self._die(err)
+            else:  # raised by the next send_keypoints, send_head_pose or ping
+                self._pending = err
+
+    async def _send(self, type_, body, request_id):
+        self._raise_if_dead()
+        if self._sock is None:
+            raise Disconnected("disconnected", "the connection was closed (close())")
+        try:
+            async with self._send_lock:
+                await asyncio.wait_for(self._loop.sock_sendall(self._sock, _message(type_, body, request_id)),
+                                       self.timeout)
+        except asyncio.TimeoutError:
+            raise Timeout("timeout", "mocapd does not read our messages") from None
+        except OSError as e:
+            err = Disconnected("disconnected", "sending to mocapd: %s" % (e.strerror or e))
+            self._die(err)
+            raise err from None
+
+    async def _request(self, type_, body, want, keep_fds=False, on_reply=None):
+        """Sends a request and waits for its reply.  on_reply(type) runs as soon
+        as the reply is read, before any message after it is filed."""
+        rid = self._take_id()
+        fut = self._loop.create_future()
+        self._waiters[rid] = (fut, on_reply)
+        try:
+            await self._send(type_, body, rid)
+            self._resume()
+            try:
+                mtype, data, fds = await asyncio.wait_for(fut, self.timeout)
+            except asyncio.TimeoutError:
+                raise Timeout("timeout", "no reply from mocapd within %.1f s" % self.timeout) from None
+        finally:
+            self._waiters.pop(rid, None)
+        if mtype == ERROR:
+            _close_fds(fds)
+            raise _server_error(data, answer=True)
+        if mtype != want:
+            _close_fds(fds)
+            raise ProtocolError("protocol", "unexpected reply 0x%04x" % mtype)
+        if not keep_fds:
+            _close_fds(fds)
+            fds = []
+        return _Reader(data), fds
+
+    async def _ask(self, type_, body, want, on_reply=None):
+        return (await self._request(type_, body, want, on_reply=on_reply))[0]
+
+    # --- API ---
+
+    async def subscribe(self, mode=LATEST, space=SPACE_RIG, queue_len=0):
+        """LATEST: only the newest frame (VR); ALL: every frame, gaps counted in Frame.missed.
+        Returns the daemon's queue length in effect."""
+        body = _subscribe_body(mode, space, queue_len)
+        self._reset_frames(0)
+
+        def on_reply(type_):  # frames may follow OK in the same burst of reads
+            if type_ == OK:
+                self._reset_frames(mode)
+        r = await self._ask(SUBSCRIBE, body, OK, on_reply)
+        n = r.take("HHI")[2]
+        self._queue_limit = max(64, n)
+        return n
+
+    async def unsubscribe(self):
+        self._reset_frames(0)
+        await self._ask(UNSUBSCRIBE, b"", OK)
+
+    async def read_frame(self, timeout=None):
+        """The next frame, or None after timeout seconds (None: wait forever)."""
+        self._check_subscribed()
+        deadline = None if timeout is None else self._loop.time() + timeout
+        if self._mode == LATEST:
+            self._on_readable()  # take in what is already there, to return the newest
+        while not self._frames:
+            self._raise_if_dead()
+            self._wakeup.clear()
+            self._resume()
+            if deadline is None:
+                await self._wakeup.wait()
+                continue
+            left = deadline - self._loop.time()
+            if left <= 0:
+                return None
+            try:
+                await asyncio.wait_for(self._wakeup.wait(), left)
+            except asyncio.TimeoutError:
+                pass
+        frame = self._frames.popleft()
+        self._resume()
+        if self._needs_skeleton(frame):
+            try:
+                sk = await self.skeleton()
+            except Unavailable:
+                sk = None
+            self._name_frame(frame, sk)
+        return frame
+
+    async def frames(self, count=None, timeout=None):
+        """Async iterator over frames (count of them, or until a read times out)."""
+        n = 0
+        while count is None or n < count:
+            f = await self.read_frame(timeout)
+            if f is None:
+                return
+            yield f
+            n += 1
+
+    async def skeleton(self):
+        """The daemon's skeleton definition (a Skeleton)."""
+        sk = _parse_skeleton((await self._ask(GET_SKELETON, b"", SKELETON)).data)
+        self._keep_skeleton(sk)
+        return sk
+
+    async def status(self):
+        return _parse_status(await self._ask(GET_STATUS, b"", STATUS))
+
+    async def rig(self):
+        """The rig in use, as JSON text."""
+        return _parse_rig(await self._ask(GET_RIG, b"", RIG))
+
+    async def control(self, command, argument=""):
+        """Runs a CMD_* command; returns the daemon's message.  Raises CommandFailed when it failed."""
+        return _parse_control_result(await self._ask(CONTROL, _control_body(command, argument), CONTROL_RESULT))
+
+    async def reload(self):
+        return await self.control(CMD_RELOAD)
+
+    async def save_actor(self, name):
+        return await self.control(CMD_ACTOR_SAVE, name)
+
+    async def rings(self):
+        """Read-only camera ring descriptors (close them when done)."""
+        r, fds = await self._request(GET_RINGS, b"", RINGS, keep_fds=True)
+        return _parse_rings(r, fds)
+
+    async def send_keypoints(self, capture_ns, camera, keypoints):
+        """keypoints: [(joint, u, v, confidence), ...]; not acknowledged: when the daemon
+        refuses a batch, the next send_keypoints, send_head_pose or ping raises it."""
+        body = _keypoints_body(capture_ns, camera, keypoints)
+        self._raise_pending()
+        await self._send(KEYPOINTS, body, self._take_id())
+
+    async def send_head_pose(self, timestamp_ns, position, orientation_wxyz):
+        """world_from_rig at timestamp_ns; not acknowledged (see send_keypoints)."""
+        self._raise_pending()
+        await self._send(HEAD_POSE, _head_pose_body(timestamp_ns, position, orientation_wxyz), self._take_id())
+
+    async def ping(self):
+        """Round trip in seconds."""
+        self._raise_pending()
+        t = time.monotonic()
+        await self._ask(PING, struct.pack("<Q", now_ns()), PONG)
+        self._raise_pending()  # a refusal sent before the PONG
+        return time.monotonic() - t
+
+
+class _Connecting:
+    """What connect() returns: await it for the client, or use it in `async with`."""
+
+    def __init__(self, *args):
+        self._args = args
+        self._client = None
+
+    def __await__(self):
+        return AsyncClient(*self._args)._open().__await__()
+
+    async def __aenter__(self):
+        self._client = await self
+        return self._client
+
+    async def __aexit__(self, *exc):
+        self._client.close()
+
+
+def connect(path=None, name="python", timeout=10.0, max_queued=None):
+    """Connects an AsyncClient: `c = await mocap.aio.connect()`, or
+    `async with mocap.aio.connect() as c: ...` (closed at the end)."""
+    return _Connecting(path, name, timeout, max_queued)
+
+
+# mocap.aio: the asyncio API under its own name, importable as a submodule
+# (`import mocap.aio`) while this stays one file, as os.path is.
+aio = types.ModuleType(__name__ + ".aio", "The asyncio client of mocapd: await mocap.aio.connect(path, name).")
+aio.connect = connect
+aio.Client = aio.AsyncClient = AsyncClient
+aio.__all__ = ["connect", "Client", "AsyncClient"]
+sys.modules[aio.__name__] = aio
