@@ -66,6 +66,9 @@ for s in ("left", "right"):
         s + "_knee": [p + "_thigh", p + "_shin"], s + "_ankle": [p + "_shin", p + "_foot"],
         s + "_toe": [p + "_foot"],
     })
+# the outside-in actor's own head (there is no "head" object in the ego scenes)
+ADJ["head_top"] = ADJ["head_top"] + ["head"]
+ADJ["neck"] = ADJ["neck"] + ["head"]
 N_CLUTTER = 16
 
 
@@ -84,6 +87,8 @@ def parse_args():
     ap.add_argument("--width", type=int, default=192, help="outside: image width")
     ap.add_argument("--height", type=int, default=144, help="outside: image height")
     ap.add_argument("--views", type=int, default=4, help="outside: cameras per posed actor")
+    ap.add_argument("--relabel", action="store_true",
+                    help="outside: recompute the labels of the frames already in OUT (same scenes, no rendering)")
     ap.add_argument("--samples", type=int, default=8)
     ap.add_argument("--threads", type=int, default=1)
     ap.add_argument("--val-fraction", type=float, default=0.1)
@@ -667,14 +672,8 @@ def main_outside(args):
     tmp = os.path.join(out, "tmp_%06d.png" % args.first)
     t0 = time.time()
     for n, i in enumerate(todo):
-        rng = np.random.default_rng([args.seed, i])
-        split = "val" if rng.random() < args.val_fraction else "train"
-        pose = sample_pose(clips, rng, split)
-        Jp = {k: np.asarray(v, dtype=float) for k, v in pose["joints"].items()}
-        cams = outside_cams(Jp, rng, args.views, args.res_w, args.res_h)
-        J = scene.setup(pose, rng, cams=[T for _, T in cams])
-        views = [("cam%d" % k, c) for k, c in enumerate(cams)]
-        rec = {"views": outside_labels(scene, views, J)}
+        rng, pose, split, views, lab, J = frame_outside(args, clips, scene, i)
+        rec = {"views": lab}
         for name, (K, T_wc) in views:
             set_pinhole(scene, K)
             scene.render_view(T_wc, tmp)
@@ -692,6 +691,50 @@ def main_outside(args):
             print("synth: %d/%d  %.2f frames/s (%d views each)  ETA %.0f min" % (
                 n + 1, len(todo), fps, args.views, (len(todo) - n - 1) / fps / 60), flush=True)
     lab.close()
+
+
+def frame_outside(args, clips, scene, i):
+    """Scene, cameras and labels of frame i (no rendering); returns (rng, pose, views, labels, J)."""
+    rng = np.random.default_rng([args.seed, i])
+    split = "val" if rng.random() < args.val_fraction else "train"
+    pose = sample_pose(clips, rng, split)
+    Jp = {k: np.asarray(v, dtype=float) for k, v in pose["joints"].items()}
+    cams = outside_cams(Jp, rng, args.views, args.res_w, args.res_h)
+    J = scene.setup(pose, rng, cams=[T for _, T in cams])
+    views = [("cam%d" % k, c) for k, c in enumerate(cams)]
+    return rng, pose, split, views, outside_labels(scene, views, J), J
+
+
+def relabel_outside(args):
+    """Recompute `views` of every label line in OUT from (seed, id): the
+    scene is rebuilt exactly as when it was rendered, the images are kept."""
+    clips = load_clips(args.mocap)
+    scene = Scene(args, [])
+    n = 0
+    for fn in sorted(os.listdir(args.out)):
+        if not (fn.startswith("labels") and fn.endswith(".jsonl")):
+            continue
+        path = os.path.join(args.out, fn)
+        recs = []
+        for line in open(path):
+            try:
+                recs.append(json.loads(line))
+            except ValueError:
+                pass
+        for r in recs:
+            a = argparse.Namespace(**vars(args))
+            a.seed = r["seed"]
+            _, pose, split, views, lab, _ = frame_outside(a, clips, scene, r["id"])
+            assert (pose["clip"], pose["frame"], split) == (r["clip"], r["frame"], r["split"]), r["id"]
+            for name, v in lab.items():
+                assert np.allclose(v["uv"], r["views"][name]["uv"], atol=2e-3), (r["id"], name)
+            r["views"] = lab
+            n += 1
+        with open(path + ".tmp", "w") as f:
+            for r in recs:
+                f.write(json.dumps(r) + "\n")
+        os.replace(path + ".tmp", path)
+        print("synth: relabelled %s (%d frames, %d in all)" % (fn, len(recs), n), flush=True)
 
 
 def test_projection_outside(args):
@@ -778,6 +821,8 @@ def main():
     if args.kind == "outside":
         if args.test_projection:
             test_projection_outside(args)
+        elif args.relabel:
+            relabel_outside(args)
         else:
             main_outside(args)
         return
