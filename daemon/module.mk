@@ -106,7 +106,7 @@ install-daemon:
 	install -m 644 systemd/70-mocapd.rules $(DESTDIR)$(PREFIX)/lib/udev/rules.d/70-mocapd.rules
 	install -m 644 docs/CONFIG.md docs/SYSTEMD.md $(DESTDIR)$(MOCAPD_DOCDIR)/
 	[ -e $(DESTDIR)$(SYSCONFDIR)/mocapd/mocapd.conf ] || \
-		sed -e 's|@DATADIR@|$(DATADIR)/mocapd|g' config/mocapd.conf > $(DESTDIR)$(SYSCONFDIR)/mocapd/mocapd.conf
+		sed -e 's|@DATADIR@|$(DATADIR)/mocapd|g' -e 's|@PLUGINDIR@|$(LIBDIR)/mocapd/drivers|g' config/mocapd.conf > $(DESTDIR)$(SYSCONFDIR)/mocapd/mocapd.conf
 
 .PHONY: uninstall-daemon
 uninstall: uninstall-daemon

@@ -34,7 +34,7 @@
 extern "C" {
 #endif
 
-#define MOCAP_LIB_VERSION "1.0.0"
+#define MOCAP_LIB_VERSION "1.1.0" /* = IPC_SO_VERSION in ipc/module.mk */
 #define MOCAP_PROTOCOL_VERSION 2 /* the highest it speaks; it speaks 1 too */
 #define MOCAP_DEFAULT_SOCKET "/run/mocapd/mocapd.sock"
 #define MOCAP_SOCKET_ENV "MOCAP_SOCKET"

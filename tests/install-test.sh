@@ -27,6 +27,7 @@ if command -v scdoc >/dev/null; then
 	done
 fi
 grep -q "$prefix/share/mocapd" "$tmp/etc/mocapd/mocapd.conf" || fail "the installed config does not name $prefix/share/mocapd"
+grep -q "plugin_dir = $prefix/lib/mocapd/drivers" "$tmp/etc/mocapd/mocapd.conf" || fail "the installed config does not name $prefix/lib/mocapd/drivers"
 
 # bash completion of mocapctl, from the install
 comp=$prefix/share/bash-completion/completions/mocapctl
