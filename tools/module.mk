@@ -7,8 +7,8 @@
 #   make detector-finetune  stage 2 (resumes from $(DETECTOR_DIR)/stage2/ckpt.pt)
 #   make detector-export    export stage 2's best checkpoint to config/models/ego_detector.onnx
 #   make detector-report    2D error report on ../shared/data/ego/*
-#   make detector-data-outside, detector-train-outside, detector-export-outside,
-#   detector-report-outside: the same for the outside-in model
+#   make detector-data-outside, detector-train-outside, detector-finetune-outside,
+#   detector-export-outside, detector-report-outside: the same for the outside-in model
 #   (config/models/outside_detector.onnx, ../shared/data/outside/*)
 #
 # Long jobs: run them under nohup (they resume where they stopped).
@@ -24,7 +24,8 @@ MOCAP_TRAIN_DIR ?= $(or $(MOCAP_DATA_DIR),../shared/data)/mocap-train
 MOCAP_EGO_DIR ?= $(or $(MOCAP_DATA_DIR),../shared/data)/ego
 
 .PHONY: detector-data detector-train detector-finetune detector-export detector-report
-.PHONY: detector-data-outside detector-train-outside detector-export-outside detector-report-outside
+.PHONY: detector-data-outside detector-train-outside detector-finetune-outside detector-export-outside \
+	detector-report-outside
 
 # DETECTOR_SHARDS parallel chains of Blender processes, one thread each,
 # frames split evenly.  Each process renders at most DETECTOR_CHUNK frames:
@@ -79,7 +80,17 @@ detector-train-outside:
 	  --ckpt $(DETECTOR_OUTSIDE_DIR)/ckpt.pt --seed $(DETECTOR_OUTSIDE_SEED) --epochs $(DETECTOR_OUTSIDE_EPOCHS) \
 	  --threads $(DETECTOR_OUTSIDE_THREADS) --ckpt-minutes 2 --resume
 
-DETECTOR_OUTSIDE_WEIGHTS ?= $(DETECTOR_OUTSIDE_DIR)/best.pt
+# Stage 2 of the shipped outside-in model: fine-tune stage 1's last
+# checkpoint on the frames rendered meanwhile (as detector-finetune).
+DETECTOR_OUTSIDE_FT_EPOCHS ?= 12
+detector-finetune-outside:
+	mkdir -p $(DETECTOR_OUTSIDE_DIR)/stage2
+	nice -n 10 $(TRAIN_PYTHON) tools/train/train.py --kind outside --data $(DETECTOR_OUTSIDE_DIR)/data \
+	  --ckpt $(DETECTOR_OUTSIDE_DIR)/stage2/ckpt.pt --init $(DETECTOR_OUTSIDE_DIR)/ckpt.pt --seed 4 \
+	  --epochs $(DETECTOR_OUTSIDE_FT_EPOCHS) --lr 1e-3 --warmup 100 --threads $(DETECTOR_OUTSIDE_THREADS) \
+	  --ckpt-minutes 2 --resume
+
+DETECTOR_OUTSIDE_WEIGHTS ?= $(DETECTOR_OUTSIDE_DIR)/stage2/best.pt
 
 detector-export-outside:
 	$(TRAIN_PYTHON) tools/train/train.py --kind outside --seed $(DETECTOR_OUTSIDE_SEED) \

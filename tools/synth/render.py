@@ -672,8 +672,8 @@ def main_outside(args):
     tmp = os.path.join(out, "tmp_%06d.png" % args.first)
     t0 = time.time()
     for n, i in enumerate(todo):
-        rng, pose, split, views, lab, J = frame_outside(args, clips, scene, i)
-        rec = {"views": lab}
+        rng, pose, split, views, labels, J = frame_outside(args, clips, scene, i)
+        rec = {"views": labels}
         for name, (K, T_wc) in views:
             set_pinhole(scene, K)
             scene.render_view(T_wc, tmp)
