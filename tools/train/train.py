@@ -445,9 +445,22 @@ def project_pinhole_cv(cam, P_w):
 
 def report_outside(a):
     """2D report on ../shared/data/outside/<clip>: every camera's frames
-    resized to the network input (PIL BOX = OpenCV's INTER_AREA, the
-    runtime's resize), truth = gt.json joints_world through cameras.json."""
+    resized to the network input as the C runtime does it (OpenCV's
+    INTER_AREA; PIL's BOX filter, close to it, without python3-opencv),
+    truth = gt.json joints_world through cameras.json."""
     from PIL import Image
+    try:
+        import cv2
+        cv2.setNumThreads(1)
+
+        def shrink(im):
+            return cv2.resize(np.asarray(im), (C.IN_W, C.IN_H), interpolation=cv2.INTER_AREA)
+        how = "OpenCV INTER_AREA"
+    except ImportError:
+        def shrink(im):
+            return np.asarray(im.resize((C.IN_W, C.IN_H), Image.BOX))
+        how = "PIL BOX (python3-opencv not installed)"
+    log("resize: %s" % how)
     path = a.weights or a.ckpt
     m, ck = load_model(path)
     torch.set_num_threads(a.threads)
@@ -469,9 +482,7 @@ def report_outside(a):
                 u, v, z = project_pinhole_cv(cam, P)
                 inside = (z > 0.05) & (u >= -0.5) & (u <= w - 0.5) & (v >= -0.5) & (v <= h - 0.5)
                 im = Image.open(os.path.join(d, "cam%d" % K, "%05d.jpg" % k)).convert("RGB")
-                if im.size != (C.IN_W, C.IN_H):
-                    im = im.resize((C.IN_W, C.IN_H), Image.BOX)
-                xs.append(np.asarray(im))
+                xs.append(shrink(im) if im.size != (C.IN_W, C.IN_H) else np.asarray(im))
                 uvs.append(np.stack([(u + 0.5) * sx - 0.5, (v + 0.5) * sy - 0.5], -1))
                 sts.append(np.where(inside, 0, 2))
             x = torch.from_numpy(np.stack(xs)).permute(0, 3, 1, 2).float() / 255.0
@@ -497,6 +508,7 @@ def report_outside(a):
         r["views"] = int(len(pred))
         r["in_image"] = int((st < 2).sum())
         r["input"] = [C.IN_W, C.IN_H]
+        r["resize"] = how
         out[name] = r
         f = scale[0]
         log("%s (%d views, %dx%d input): torso %.2f/%.2f  arms %.2f/%.2f  legs %.2f/%.2f px (median/p90, input px; "
