@@ -181,6 +181,8 @@ void mcd_tracker_settings(const mcd_config *cfg, const mc_rig *rig, mc_tracker_s
 		s->lambda_smooth = d->lambda_smooth;
 	if (!mcd_config_is_set(cfg, "tracker", "lambda_floor"))
 		s->lambda_floor = d->lambda_floor;
+	if (!mcd_config_is_set(cfg, "tracker", "lambda_detection"))
+		s->lambda_detection = d->lambda_detection;
 }
 
 int mcd_tracking_setup(const mcd_config *cfg, mcd_tracking *t, mc_err *err)
@@ -190,8 +192,9 @@ int mcd_tracking_setup(const mcd_config *cfg, mcd_tracking *t, mc_err *err)
 		goto fail;
 	mcd_tracker_settings(cfg, &t->rig, &t->settings);
 	if (t->rig.kind == MC_RIG_OUTSIDE_IN)
-		mcd_info("tracker: outside-in rig: iterations %d, lambda_smooth %g, lambda_floor %g",
-			 t->settings.iterations, t->settings.lambda_smooth, t->settings.lambda_floor);
+		mcd_info("tracker: outside-in rig: iterations %d, lambda_smooth %g, lambda_floor %g, lambda_detection %g",
+			 t->settings.iterations, t->settings.lambda_smooth, t->settings.lambda_floor,
+			 t->settings.lambda_detection);
 	t->tracker = mc_tracker_create(&t->rig, &t->model, &t->settings, err);
 	if (!t->tracker) {
 		mc_err_prefix(err, "%s:%d: [tracker]", cfg->file, cfg->tracker.line);

@@ -59,7 +59,7 @@ typedef struct {
 	mc_tracker_settings s;
 	/* given on the command line: kept on outside-in clips, whose other
 	 * settings take their outside-in values (mc_tracker_outside_in) */
-	bool set_iterations, set_lambda_smooth, set_lambda_floor;
+	bool set_iterations, set_lambda_smooth, set_lambda_floor, set_lambda_detection;
 } options;
 
 
@@ -626,7 +626,7 @@ static int apply_option(options *o, int c, const char *name, const char *arg, bo
 	case OPT_LLIMIT: s->lambda_limit = v; break;
 	case OPT_LANCHOR: s->lambda_anchor = v; break;
 	case OPT_LFLOOR: s->lambda_floor = v; o->set_lambda_floor = true; break;
-	case OPT_LDET: s->lambda_detection = v; break;
+	case OPT_LDET: s->lambda_detection = v; o->set_lambda_detection = true; break;
 	case OPT_LCOLOR: s->lambda_color = v; break;
 	case OPT_DET_EVERY: o->detector_every = v >= 1 ? (int)v : 1; break;
 	case OPT_DET_THRESHOLD: o->detector_threshold = v; break;
@@ -722,6 +722,8 @@ static void apply_outside_in(options *o, int ncams)
 		o->s.lambda_smooth = d->lambda_smooth;
 	if (!o->set_lambda_floor)
 		o->s.lambda_floor = d->lambda_floor;
+	if (!o->set_lambda_detection)
+		o->s.lambda_detection = d->lambda_detection;
 }
 
 static int run(const options *given, bool thesis, mc_err *err)

@@ -65,6 +65,7 @@ typedef struct {
 	int camera_iterations;               /* iterations x cameras per frame set */
 	int min_iterations, max_iterations;  /* the bounds of the share */
 	double lambda_smooth, lambda_floor;
+	double lambda_detection;             /* the outside-in detector is the weaker one */
 } mc_tracker_outside_in_defaults;
 extern const mc_tracker_outside_in_defaults mc_tracker_outside_in;
 /* camera_iterations / ncams, within [min_iterations, max_iterations]: 80
