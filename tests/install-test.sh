@@ -12,6 +12,7 @@ tmp=$(mktemp -d /tmp/mocap-install-XXXXXX)
 prefix=$tmp/usr
 vars="BUILD=build-install PREFIX=$prefix SYSCONFDIR=$tmp/etc"
 fail() { echo "FAIL: $*"; exit 1; }
+. "$repo/tests/lib/installed-demo.sh"
 cleanup() { rm -rf "$tmp"; }
 trap cleanup EXIT
 
@@ -36,31 +37,8 @@ got=$(bash -c ". '$comp'; COMP_WORDS=(mocapctl sta); COMP_CWORD=1; _mocapctl; ec
 [ "$got" = status ] || fail "completing 'mocapctl sta' gave '$got'"
 
 # mocapd: no plugin_dir in the config, so the compiled-in one must be the install's
-for cam in left right; do
-	printf '[camera %s]\ndriver = files\nrig_camera = %s\npath = %s\ncount = 8\nrate = 30\n' \
-		"$cam" "$cam" "$repo/tests/data/ego_demo/$cam"
-done >"$tmp/demo.conf"
-cat >>"$tmp/demo.conf" <<CONF
-[tracker]
-rig = $prefix/share/mocapd/rigs/ego_stereo.json
-model = $prefix/share/mocapd/models/default.json
-init_joints = $repo/tests/data/ego_demo/gt.json
-[socket]
-path = $tmp/mocapd.sock
-CONF
 cd "$tmp" || fail "cd $tmp"
-"$prefix/bin/mocapd" --config "$tmp/demo.conf" --check >"$tmp/check.log" 2>&1 || { cat "$tmp/check.log"; fail "installed mocapd --check"; }
-timeout 120 "$prefix/bin/mocapd" --config "$tmp/demo.conf" --print --exit-at-end >"$tmp/run.log" 2>&1
-rc=$?
-grep -q "$prefix/lib/mocapd/drivers/mocap-driver-files.so" "$tmp/run.log" || { cat "$tmp/run.log"; fail "the installed mocapd did not load $prefix/lib/mocapd/drivers"; }
-if grep -qi "opencl" "$tmp/run.log" && grep -q "error" "$tmp/run.log" && [ $rc -ne 0 ]; then
-	echo "SKIP: the installed mocapd runs, but no usable OpenCL device here to track"
-	exit 77
-fi
-[ $rc -eq 0 ] || { tail -n 30 "$tmp/run.log"; fail "installed mocapd exited $rc"; }
-n=$(grep -c "^frame .* ok " "$tmp/run.log")
-[ "$n" -ge 3 ] || { tail -n 30 "$tmp/run.log"; fail "installed mocapd tracked $n frame sets"; }
-echo "installed mocapd: $n frame sets tracked with $prefix/lib/mocapd/drivers"
+installed_demo "$prefix/bin/mocapd" "$prefix/share/mocapd" "$prefix/lib/mocapd/drivers"
 
 # mocap-bench from another folder: the installed model
 "$prefix/bin/mocap-bench" --clip "$repo/tests/data/ego_demo" --frames 3 --no-thesis --reference-frames 0 --quiet \

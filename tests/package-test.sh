@@ -17,6 +17,7 @@ repo=$(pwd)
 pkgs="mocapd libmocap1 libmocap-dev python3-mocap mocapd-doc"
 skip() { echo "SKIP: $*"; exit 77; }
 fail() { echo "FAIL: $*"; exit 1; }
+. "$repo/tests/lib/installed-demo.sh"
 
 [ "$(id -u)" -eq 0 ] || skip "not root: installing packages needs root"
 for t in dpkg-buildpackage dh apt-get; do
@@ -115,31 +116,7 @@ case $p in /usr/lib/python3/dist-packages/*) ;; *) fail "import mocap took $p" ;
 echo "python3-mocap: $p"
 
 # The demo clip with the installed rig, model and plugins.
-for cam in left right; do
-	printf '[camera %s]\ndriver = files\nrig_camera = %s\npath = %s\ncount = 8\nrate = 30\n' \
-		"$cam" "$cam" "$repo/tests/data/ego_demo/$cam"
-done >"$tmp/demo.conf"
-cat >>"$tmp/demo.conf" <<CONF
-[tracker]
-rig = /usr/share/mocapd/rigs/ego_stereo.json
-model = /usr/share/mocapd/models/default.json
-init_joints = $repo/tests/data/ego_demo/gt.json
-[socket]
-path = $tmp/mocapd.sock
-CONF
-mocapd --config "$tmp/demo.conf" --check >"$tmp/check.log" 2>&1 || { cat "$tmp/check.log"; fail "mocapd --check"; }
-timeout 120 mocapd --config "$tmp/demo.conf" --print --exit-at-end >"$tmp/run.log" 2>&1
-rc=$?
-grep -q "/usr/lib/$ma/mocapd/drivers/mocap-driver-files.so" "$tmp/run.log" ||
-	{ tail -n 30 "$tmp/run.log"; fail "mocapd did not load /usr/lib/$ma/mocapd/drivers"; }
-if grep -qi "opencl" "$tmp/run.log" && grep -q "error" "$tmp/run.log" && [ $rc -ne 0 ]; then
-	echo "SKIP: the packages build, install and run, but no usable OpenCL device here to track"
-	exit 77
-fi
-[ $rc -eq 0 ] || { tail -n 30 "$tmp/run.log"; fail "mocapd exited $rc"; }
-n=$(grep -c "^frame .* ok " "$tmp/run.log")
-[ "$n" -ge 3 ] || { tail -n 30 "$tmp/run.log"; fail "mocapd tracked $n frame sets"; }
-echo "installed mocapd: $n frame sets tracked with /usr/lib/$ma/mocapd/drivers"
+installed_demo mocapd /usr/share/mocapd "/usr/lib/$ma/mocapd/drivers"
 
 cd "$repo" || fail "cd $repo"
 installed=0
