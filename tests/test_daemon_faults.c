@@ -188,6 +188,26 @@ static void test_disappear_and_return(void)
 	finish(&r, "disappear", before);
 }
 
+/* unplug_every_s: the camera goes away for the last unplug_ms of every
+ * period and comes back, again and again; each time it is reopened and
+ * the other camera goes on alone meanwhile. */
+static void test_periodic_unplug(void)
+{
+	int before = mc_test_failures;
+	mcd_run r;
+	CHECK(start(&r, BASE "device = G7\n[camera plug]\ndriver = faulty\ndevice = P7\nunplug_every_s = 1\n"
+			    "unplug_ms = 300\n"));
+	CHECK(mcd_run_wait_log(&r, "camera plug: next_frame: faulty camera P7: device unplugged (injected)", 5000));
+	uint64_t t0 = mcd_now_ms();
+	while (mcd_run_count(r.log, "camera plug: opened") < 3 && mcd_now_ms() - t0 < 8000)
+		mcd_sleep_ms(50);
+	CHECK_MSG(mcd_run_count(r.log, "camera plug: opened") >= 3, "opened %d times",
+		  mcd_run_count(r.log, "camera plug: opened"));
+	CHECK(mcd_run_count(r.log, "device unplugged (injected)") >= 2);
+	CHECK(lines_with(&r, "cams 1/2") > 0 && lines_with(&r, "cams 2/2") > 0);
+	finish(&r, "periodic unplug", before);
+}
+
 static void test_stall(void)
 {
 	int before = mc_test_failures;
@@ -237,6 +257,7 @@ int main(void)
 	test_bad_frames();
 	test_sequence_gaps();
 	test_disappear_and_return();
+	test_periodic_unplug();
 	test_stall();
 	test_unknown_driver_key();
 	test_claimed_key_prefix();
