@@ -618,6 +618,13 @@ static void test_parse_details(void)
 	double s = 0, c = 0;
 	mc_sphere_to_gaussian(0.09, 0.1, &s, &c);
 	CHECK(m.gauss[1].sigma == s && m.gauss[1].c == c);
+	/* A radius of 5e-324 m (fuzz_model) made sigma 0 and c infinite, in a
+	 * model the loader accepted: radii below 1 mm are refused. */
+	const char *tiny = "{\"name\": \"t\", \"root\": \"free\", \"joints\": [{\"name\": \"a\"}], \"gaussians\": "
+			   "[{\"joint\": \"a\", \"offset\": [0, 0, 0], \"radius\": 5e-324, \"color\": \"#ffffff\"}]}";
+	mc_model t;
+	CHECK(mc_model_parse(tiny, "tiny.json", &t, &err) == -1 &&
+	      strstr(err.msg, "tiny.json: gaussians[0].radius: 4.94066e-324 m is smaller than 0.001 m"));
 	CHECK(m.joints[2].dof0 == 1 && m.joints[4].dof0 == 3);
 	CHECK_NEAR(m.joints[2].upper[0], M_PI / 2, 1e-15);
 }

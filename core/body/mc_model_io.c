@@ -12,6 +12,9 @@
 
 #define WHERE_CAP 400
 #define MAX_OFFSET_M 10.0  /* as MODEL_MAX_EXTENT in mc_model.c */
+/* A smaller sphere has no size the tracker could see, and its sigma
+ * (radius / 1.6) can underflow to 0, which makes c infinite. */
+#define MIN_RADIUS_M 1e-3
 #define MAX_BONE_SCALE 10.0
 #define MAX_LIMIT_DEG 360.0
 
@@ -305,6 +308,9 @@ static int parse_gaussians(const json_t *root, const char *origin, mc_model *m, 
 		if (g->radius > MAX_OFFSET_M)
 			return mc_err_set(err, "%s: %g m is larger than %g m", mc_json_path(p, sizeof(p), where, "radius"),
 					  g->radius, MAX_OFFSET_M);
+		if (g->radius < MIN_RADIUS_M)
+			return mc_err_set(err, "%s: %g m is smaller than %g m", mc_json_path(p, sizeof(p), where, "radius"),
+					  g->radius, MIN_RADIUS_M);
 		g->scale_joint = default_bone(m, g->joint);
 		if (joint_field(go, "bone", where, m, &g->scale_joint, false, err) < 0)
 			return -1;
