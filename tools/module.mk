@@ -49,11 +49,11 @@ detector-data:
 # DETECTOR_OUTSIDE_VIEWS cameras each, into $(DETECTOR_DIR)/outside/data.
 DETECTOR_OUTSIDE_DIR ?= $(DETECTOR_DIR)/outside
 DETECTOR_OUTSIDE_SEED ?= 3
-DETECTOR_OUTSIDE_FRAMES ?= 5000
+DETECTOR_OUTSIDE_FRAMES ?= 6000
 DETECTOR_OUTSIDE_FIRST ?= 0
 DETECTOR_OUTSIDE_VIEWS ?= 4
 DETECTOR_OUTSIDE_CHUNK ?= 250
-DETECTOR_OUTSIDE_EPOCHS ?= 60
+DETECTOR_OUTSIDE_EPOCHS ?= 33
 detector-data-outside:
 	mkdir -p $(DETECTOR_OUTSIDE_DIR)/data $(DETECTOR_OUTSIDE_DIR)/logs
 	n=$$(( $(DETECTOR_OUTSIDE_FRAMES) / $(DETECTOR_SHARDS) )); \
@@ -72,16 +72,19 @@ detector-train:
 	  --ckpt $(DETECTOR_DIR)/ckpt.pt --seed $(DETECTOR_SEED) --epochs $(DETECTOR_EPOCHS) --resume
 
 # The outside-in model: one stage, from scratch (docs/DETECTOR.md,
-# "Outside-in model").  --threads 1 while the renderer still runs; resume
-# with DETECTOR_OUTSIDE_THREADS=2 once it has stopped.
-DETECTOR_OUTSIDE_THREADS ?= 2
+# "Outside-in model").  DETECTOR_OUTSIDE_THREADS=2 only on otherwise idle
+# cores: with the cores shared (a renderer, other builds) two torch threads
+# ran at 9 views/s here, one at 55.
+DETECTOR_OUTSIDE_THREADS ?= 1
 detector-train-outside:
 	nice -n 10 $(TRAIN_PYTHON) tools/train/train.py --kind outside --data $(DETECTOR_OUTSIDE_DIR)/data \
 	  --ckpt $(DETECTOR_OUTSIDE_DIR)/ckpt.pt --seed $(DETECTOR_OUTSIDE_SEED) --epochs $(DETECTOR_OUTSIDE_EPOCHS) \
 	  --threads $(DETECTOR_OUTSIDE_THREADS) --ckpt-minutes 2 --resume
 
-# Stage 2 of the shipped outside-in model: fine-tune stage 1's last
-# checkpoint on the frames rendered meanwhile (as detector-finetune).
+# Optional stage 2 for the outside-in model (the shipped one is stage 1's
+# best.pt): fine-tune stage 1's last checkpoint after more frames were
+# rendered, as detector-finetune does for ego; then export with
+# DETECTOR_OUTSIDE_WEIGHTS=$(DETECTOR_OUTSIDE_DIR)/stage2/best.pt.
 DETECTOR_OUTSIDE_FT_EPOCHS ?= 12
 detector-finetune-outside:
 	mkdir -p $(DETECTOR_OUTSIDE_DIR)/stage2
@@ -90,7 +93,7 @@ detector-finetune-outside:
 	  --epochs $(DETECTOR_OUTSIDE_FT_EPOCHS) --lr 1e-3 --warmup 100 --threads $(DETECTOR_OUTSIDE_THREADS) \
 	  --ckpt-minutes 2 --resume
 
-DETECTOR_OUTSIDE_WEIGHTS ?= $(DETECTOR_OUTSIDE_DIR)/stage2/best.pt
+DETECTOR_OUTSIDE_WEIGHTS ?= $(DETECTOR_OUTSIDE_DIR)/best.pt
 
 detector-export-outside:
 	$(TRAIN_PYTHON) tools/train/train.py --kind outside --seed $(DETECTOR_OUTSIDE_SEED) \
