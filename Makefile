@@ -219,7 +219,7 @@ DEB_PACKAGES := build-essential pkg-config xxd clang llvm libclang-rt-14-dev \
 	libopencv-dev dpkg-dev debhelper dh-python fakeroot lintian
 
 # Only for generating detector training data and training it (docs/DETECTOR.md).
-DEB_TRAIN_PACKAGES := blender python3-torch python3-numpy python3-pil
+DEB_TRAIN_PACKAGES := blender python3-torch python3-numpy python3-pil python3-opencv
 
 deps:
 	apt-get update
