@@ -737,6 +737,28 @@ def relabel_outside(args):
         print("synth: relabelled %s (%d frames, %d in all)" % (fn, len(recs), n), flush=True)
 
 
+def _render_marker(sc, T, p, i, radius):
+    """Renders a bright emissive sphere at camera-frame point p through the
+    camera at rig pose T; returns the sphere and the centroid (u, v) of
+    its bright pixels."""
+    from PIL import Image
+    m = make_material("em%d" % i)
+    m.node_tree.nodes.clear()
+    o = m.node_tree.nodes.new("ShaderNodeOutputMaterial")
+    e = m.node_tree.nodes.new("ShaderNodeEmission")
+    e.inputs[1].default_value = 50
+    m.node_tree.links.new(e.outputs[0], o.inputs[0])
+    bpy.ops.mesh.primitive_uv_sphere_add(radius=radius)
+    ob = bpy.context.active_object
+    ob.data.materials.append(m)
+    ob.location = tuple(T[:3, :3] @ np.array(p) + T[:3, 3])
+    sc.render_view(T, "/tmp/synth_proj.png")
+    a = np.asarray(Image.open("/tmp/synth_proj.png").convert("L")).astype(float)
+    ys, xs = np.nonzero(a > 128)
+    w = a[ys, xs]
+    return ob, (xs * w).sum() / w.sum(), (ys * w).sum() / w.sum()
+
+
 def test_projection_outside(args):
     """Marker spheres at known camera-frame points through the pinhole camera."""
     sc = Scene(args, [])
@@ -751,25 +773,9 @@ def test_projection_outside(args):
     T[:3, :3] = _rot(0, 0.4) @ _rot(2, 0.3)
     T[:3, 3] = (1, 2, 3)
     pts = [(0.5, 0.2, 3.0), (-0.8, -0.4, 2.6), (0.3, 0.6, 2.2), (0.0, 0.0, 4.0), (-1.2, 0.8, 3.5)]
-    from PIL import Image
     ok = True
     for i, p in enumerate(pts):
-        m = make_material("em%d" % i)
-        m.node_tree.nodes.clear()
-        o = m.node_tree.nodes.new("ShaderNodeOutputMaterial")
-        e = m.node_tree.nodes.new("ShaderNodeEmission")
-        e.inputs[1].default_value = 50
-        m.node_tree.links.new(e.outputs[0], o.inputs[0])
-        bpy.ops.mesh.primitive_uv_sphere_add(radius=0.03)
-        ob = bpy.context.active_object
-        ob.data.materials.append(m)
-        pw = T[:3, :3] @ np.array(p) + T[:3, 3]
-        ob.location = tuple(pw)
-        sc.render_view(T, "/tmp/synth_proj.png")
-        a = np.asarray(Image.open("/tmp/synth_proj.png").convert("L")).astype(float)
-        ys, xs = np.nonzero(a > 128)
-        w = a[ys, xs]
-        uc, vc = (xs * w).sum() / w.sum(), (ys * w).sum() / w.sum()
+        ob, uc, vc = _render_marker(sc, T, p, i, 0.03)
         u, v, _ = project_pinhole(K, np.array([p]))
         print("point", p, "rendered (%.2f, %.2f)" % (uc, vc), "projected (%.2f, %.2f)" % (u[0], v[0]))
         ok &= abs(uc - u[0]) < 0.5 and abs(vc - v[0]) < 0.5
@@ -790,25 +796,9 @@ def test_projection(args, cams):
     T[:3, :3] = np.array([[1, 0, 0], [0, 0, 1], [0, -1, 0]], dtype=float)  # arbitrary
     T[:3, 3] = (1, 2, 3)
     pts = [(0.5, 0.2, 1.0), (-0.8, -0.4, 0.6), (0.3, 0.9, 0.2), (0.0, 0.0, 1.0)]
-    from PIL import Image
     ok = True
     for i, p in enumerate(pts):
-        m = make_material("em%d" % i)
-        m.node_tree.nodes.clear()
-        o = m.node_tree.nodes.new("ShaderNodeOutputMaterial")
-        e = m.node_tree.nodes.new("ShaderNodeEmission")
-        e.inputs[1].default_value = 50
-        m.node_tree.links.new(e.outputs[0], o.inputs[0])
-        bpy.ops.mesh.primitive_uv_sphere_add(radius=0.02)
-        ob = bpy.context.active_object
-        ob.data.materials.append(m)
-        pw = T[:3, :3] @ np.array(p) + T[:3, 3]
-        ob.location = tuple(pw)
-        sc.render_view(T, "/tmp/synth_proj.png")
-        a = np.asarray(Image.open("/tmp/synth_proj.png").convert("L")).astype(float)
-        ys, xs = np.nonzero(a > 128)
-        w = a[ys, xs]
-        uc, vc = (xs * w).sum() / w.sum(), (ys * w).sum() / w.sum()
+        ob, uc, vc = _render_marker(sc, T, p, i, 0.02)
         u, v, th = project(cams[0], np.array([p]))
         print("point", p, "rendered (%.2f, %.2f)" % (uc, vc), "projected (%.2f, %.2f)" % (u[0], v[0]))
         ok &= abs(uc - u[0]) < 1.0 and abs(vc - v[0]) < 1.0
