@@ -379,6 +379,16 @@ def export(a):
         log("python3-opencv not installed: OpenCV check skipped")
 
 
+def per_joint_median_px(pred, uv, st):
+    """Per joint, the median pixel error of its detections (confidence at
+    least THRESHOLD) of in-image joints (state < 2), or None."""
+    det = pred[..., 2] >= THRESHOLD
+    err = np.linalg.norm(pred[..., :2] - uv, axis=-1)
+    return {j: (round(float(np.median(err[:, i][det[:, i] & (st[:, i] < 2)])), 2)
+                if (det[:, i] & (st[:, i] < 2)).any() else None)
+            for i, j in enumerate(JOINTS)}
+
+
 def report(a):
     from PIL import Image
     path = a.weights or a.ckpt
@@ -408,12 +418,7 @@ def report(a):
             allst.append(np.stack(sts))
         pred, uv, st = np.concatenate(allp), np.concatenate(alluv), np.concatenate(allst)
         r = score(pred, uv, st)
-        # per-joint median error for detected in-image joints
-        det = pred[..., 2] >= THRESHOLD
-        err = np.linalg.norm(pred[..., :2] - uv, axis=-1)
-        r["per_joint_median_px"] = {j: (round(float(np.median(err[:, i][det[:, i] & (st[:, i] < 2)])), 2)
-                                        if (det[:, i] & (st[:, i] < 2)).any() else None)
-                                    for i, j in enumerate(JOINTS)}
+        r["per_joint_median_px"] = per_joint_median_px(pred, uv, st)
         r["views"] = int(len(pred))
         r["in_image"] = int((st < 2).sum())
         out[name] = r
@@ -492,11 +497,7 @@ def report_outside(a):
             scale.append(w / C.IN_W)
         pred, uv, st = np.concatenate(allp), np.concatenate(alluv), np.concatenate(allst)
         r = score(pred, uv, st)
-        det = pred[..., 2] >= THRESHOLD
-        err = np.linalg.norm(pred[..., :2] - uv, axis=-1)
-        r["per_joint_median_px"] = {j: (round(float(np.median(err[:, i][det[:, i] & (st[:, i] < 2)])), 2)
-                                        if (det[:, i] & (st[:, i] < 2)).any() else None)
-                                    for i, j in enumerate(JOINTS)}
+        r["per_joint_median_px"] = per_joint_median_px(pred, uv, st)
         r["per_camera"] = {}
         n = len(gt["frames"])
         for K in range(len(cams)):
