@@ -172,31 +172,39 @@ static void restart_pose(const mc_model *m, int attempt, int first_joint_dof, co
 		}
 }
 
-/* A free root starts from the rigid fit of the pose's joints to the point
- * targets, so that the solve starts in the right place, facing the right
- * way, whatever the root's previous value (e.g. the origin of a lab). */
-static void align_free_root(const mc_model *m, double *p, const mc_ik_target *t, int n)
+void mc_ik_place_free_root(const mc_model *m, double *p, const int *joint, const mc_vec3 *position,
+			   const double *weight, int n)
 {
-	enum { CAP = 64 };
-	mc_vec3 from[CAP], to[CAP];
-	double w[CAP];
-	int k = 0;
+	if (!m->root_free || n < 3)
+		return;
 	mc_fk fk;
 	mc_model_fk(m, p, &fk);
-	for (int i = 0; i < n && k < CAP; i++)
-		if (mc_v3_norm2(t[i].dir) == 0 && t[i].weight > 0) {
-			from[k] = fk.rig_from_joint[t[i].joint].t;
-			to[k] = t[i].position;
-			w[k++] = t[i].weight;
-		}
-	if (k < 3)
-		return;
-	mc_xform fit = mc_xform_fit_rigid(from, to, w, k);
+	mc_vec3 from[MC_IK_PLACE_MAX];
+	for (int i = 0; i < n && i < MC_IK_PLACE_MAX; i++)
+		from[i] = fk.rig_from_joint[joint[i]].t;
+	mc_xform fit = mc_xform_fit_rigid(from, position, weight, n < MC_IK_PLACE_MAX ? n : MC_IK_PLACE_MAX);
 	mc_xform root = {mc_m3_from_rotvec(mc_v3(p[3], p[4], p[5])), mc_v3(p[0], p[1], p[2])};
 	root = mc_xform_compose(fit, root);
 	mc_vec3 r = mc_m3_to_rotvec(root.R);
 	double v[MC_ROOT_FREE_DOFS] = {root.t.x, root.t.y, root.t.z, r.x, r.y, r.z};
 	memcpy(p, v, sizeof(v));
+}
+
+/* A free root starts from the rigid fit of the pose's joints to the point
+ * targets, so that the solve starts in the right place, facing the right
+ * way, whatever the root's previous value (e.g. the origin of a lab). */
+static void align_free_root(const mc_model *m, double *p, const mc_ik_target *t, int n)
+{
+	int joint[MC_IK_PLACE_MAX], k = 0;
+	mc_vec3 to[MC_IK_PLACE_MAX];
+	double w[MC_IK_PLACE_MAX];
+	for (int i = 0; i < n && k < MC_IK_PLACE_MAX; i++)
+		if (mc_v3_norm2(t[i].dir) == 0 && t[i].weight > 0) {
+			joint[k] = t[i].joint;
+			to[k] = t[i].position;
+			w[k++] = t[i].weight;
+		}
+	mc_ik_place_free_root(m, p, joint, to, w, k);
 }
 
 static double solve_with_restarts(const mc_model *m, double *p, const mc_ik_target *t, int n,

@@ -44,6 +44,15 @@ void mc_ik_fit_bone_scale(mc_model *model, const mc_ik_target *targets, int n);
  * with fit_root, for the root placement: model->rig_from_root for fixed
  * roots, pose[0..5] for free roots.  Returns the RMS residual in metres, or
  * a negative value with err set. */
+/* A free root's place (p[0..5]) from the rigid fit (mc_xform_fit_rigid)
+ * of the pose's joints joint[i] onto position[i] with weight[i]: the
+ * skeleton moves as one, in place and facing the right way, before any
+ * solve (mc_ik_solve does it for its point targets).  At most
+ * MC_IK_PLACE_MAX points are used; fewer than 3, or a fixed root: nothing. */
+#define MC_IK_PLACE_MAX 64
+void mc_ik_place_free_root(const mc_model *m, double *p, const int *joint, const mc_vec3 *position,
+			   const double *weight, int n);
+
 double mc_ik_solve(mc_model *model, double *pose, const mc_ik_target *targets, int n, const mc_ik_options *o,
 		   mc_err *err);
 

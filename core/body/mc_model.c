@@ -106,30 +106,30 @@ int mc_model_make_root_free(mc_model *model, mc_err *err)
 	return mc_model_finalize(model, err);
 }
 
+/* Right-multiplies the root rotation R(p[3..5]) of every pose by M. */
+static void turn_root_rotations(double *const *poses, int n, mc_mat3 M)
+{
+	for (int i = 0; i < n; i++) {
+		double *p = poses[i];
+		mc_vec3 w = mc_m3_to_rotvec(mc_m3_mul(mc_m3_from_rotvec(mc_v3(p[3], p[4], p[5])), M));
+		p[3] = w.x, p[4] = w.y, p[5] = w.z;
+	}
+}
+
 void mc_model_recentre_root(mc_model *model, double *const *poses, int n)
 {
 	if (!model->root_free || n < 1)
 		return;
 	mc_mat3 turn = mc_m3_from_rotvec(mc_v3(poses[0][3], poses[0][4], poses[0][5]));
-	mc_mat3 undo = mc_m3_transpose(turn);
 	model->root_base = mc_m3_to_rotvec(mc_m3_mul(turn, mc_m3_from_rotvec(model->root_base)));
-	for (int i = 0; i < n; i++) {
-		double *p = poses[i];
-		mc_vec3 w = mc_m3_to_rotvec(mc_m3_mul(mc_m3_from_rotvec(mc_v3(p[3], p[4], p[5])), undo));
-		p[3] = w.x, p[4] = w.y, p[5] = w.z;
-	}
+	turn_root_rotations(poses, n, mc_m3_transpose(turn));
 }
 
 void mc_model_fold_root_base(mc_model *model, double *const *poses, int n)
 {
 	if (!model->root_free)
 		return;
-	mc_mat3 base = mc_m3_from_rotvec(model->root_base);
-	for (int i = 0; i < n; i++) {
-		double *p = poses[i];
-		mc_vec3 w = mc_m3_to_rotvec(mc_m3_mul(mc_m3_from_rotvec(mc_v3(p[3], p[4], p[5])), base));
-		p[3] = w.x, p[4] = w.y, p[5] = w.z;
-	}
+	turn_root_rotations(poses, n, mc_m3_from_rotvec(model->root_base));
 	model->root_base = mc_v3(0, 0, 0);
 }
 

@@ -219,28 +219,21 @@ int mc_trk_init_start(mc_tracker *t, unsigned flags, mc_err *err)
 	return 0;
 }
 
-/* A free root (outside-in) starts where the body is: the rigid fit of the
- * rest skeleton's joints onto the triangulated ones, so that the solve
- * from rays starts in place and facing the right way. */
+/* A free root (outside-in) starts where the body is: the rest skeleton
+ * fitted rigidly onto the triangulated joints, so that the solve from
+ * rays starts in place and facing the right way. */
 static void place_free_root(const mc_model *m, const mc_trk_triangulation *tri, double *pose)
 {
-	mc_vec3 from[MC_MAX_JOINTS], to[MC_MAX_JOINTS];
+	int joint[MC_MAX_JOINTS], n = 0;
+	mc_vec3 to[MC_MAX_JOINTS];
 	double w[MC_MAX_JOINTS];
-	int n = 0;
-	mc_fk fk;
-	mc_model_fk(m, pose, &fk);
 	for (int j = 0; j < m->njoints; j++)
 		if (tri->have[j]) {
-			from[n] = fk.rig_from_joint[j].t;
+			joint[n] = j;
 			to[n] = tri->pos[j];
 			w[n++] = tri->conf[j];
 		}
-	if (!m->root_free || n < 3)
-		return;
-	mc_xform fit = mc_xform_fit_rigid(from, to, w, n);
-	mc_vec3 r = mc_m3_to_rotvec(fit.R); /* the rest pose's root is the identity at the origin */
-	double root[MC_ROOT_FREE_DOFS] = {fit.t.x, fit.t.y, fit.t.z, r.x, r.y, r.z};
-	memcpy(pose, root, sizeof(root));
+	mc_ik_place_free_root(m, pose, joint, to, w, n);
 }
 
 /* The first pose, from the rest pose with restarts; then the colours from
