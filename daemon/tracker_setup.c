@@ -171,18 +171,21 @@ int mcd_tracking_check(const mcd_config *cfg, mc_err *err)
 
 void mcd_tracker_settings(const mcd_config *cfg, const mc_rig *rig, mc_tracker_settings *s)
 {
+	static const struct {
+		const char *key;
+		unsigned flag;
+	} keys[] = {{"iterations", MC_GIVEN_ITERATIONS},
+		    {"lambda_smooth", MC_GIVEN_LAMBDA_SMOOTH},
+		    {"lambda_floor", MC_GIVEN_LAMBDA_FLOOR},
+		    {"lambda_detection", MC_GIVEN_LAMBDA_DETECTION}};
 	*s = cfg->tracker.settings;
 	if (rig->kind != MC_RIG_OUTSIDE_IN)
 		return;
-	const mc_tracker_outside_in_defaults *d = &mc_tracker_outside_in;
-	if (!mcd_config_is_set(cfg, "tracker", "iterations"))
-		s->iterations = mc_tracker_outside_in_iterations(rig->ncams);
-	if (!mcd_config_is_set(cfg, "tracker", "lambda_smooth"))
-		s->lambda_smooth = d->lambda_smooth;
-	if (!mcd_config_is_set(cfg, "tracker", "lambda_floor"))
-		s->lambda_floor = d->lambda_floor;
-	if (!mcd_config_is_set(cfg, "tracker", "lambda_detection"))
-		s->lambda_detection = d->lambda_detection;
+	unsigned given = 0;
+	for (size_t i = 0; i < sizeof(keys) / sizeof(keys[0]); i++)
+		if (mcd_config_is_set(cfg, "tracker", keys[i].key))
+			given |= keys[i].flag;
+	mc_tracker_settings_outside_in(s, rig->ncams, given);
 }
 
 int mcd_tracking_setup(const mcd_config *cfg, mcd_tracking *t, mc_err *err)

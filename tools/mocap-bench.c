@@ -59,7 +59,7 @@ typedef struct {
 	mc_tracker_settings s;
 	/* given on the command line: kept on outside-in clips, whose other
 	 * settings take their outside-in values (mc_tracker_outside_in) */
-	bool set_iterations, set_lambda_smooth, set_lambda_floor, set_lambda_detection;
+	unsigned given; /* MC_GIVEN_* */
 } options;
 
 
@@ -616,17 +616,17 @@ static int apply_option(options *o, int c, const char *name, const char *arg, bo
 	case OPT_OVERLAY_EVERY: o->overlay_every = v >= 1 ? (int)v : 1; break;
 	case OPT_WIDTH: s->width = (int)v; break;
 	case OPT_HEIGHT: s->height = (int)v; break;
-	case OPT_ITER: s->iterations = (int)v; o->set_iterations = true; break;
+	case OPT_ITER: s->iterations = (int)v; o->given |= MC_GIVEN_ITERATIONS; break;
 	case OPT_FRAC: s->pixel_fraction = v; break;
 	case OPT_DROP: s->dropout = v; break;
 	case OPT_STEP: s->step = v; break;
 	case OPT_MOM: s->momentum = v; break;
-	case OPT_LSMOOTH: s->lambda_smooth = v; o->set_lambda_smooth = true; break;
+	case OPT_LSMOOTH: s->lambda_smooth = v; o->given |= MC_GIVEN_LAMBDA_SMOOTH; break;
 	case OPT_LPOSE: s->lambda_pose = v; break;
 	case OPT_LLIMIT: s->lambda_limit = v; break;
 	case OPT_LANCHOR: s->lambda_anchor = v; break;
-	case OPT_LFLOOR: s->lambda_floor = v; o->set_lambda_floor = true; break;
-	case OPT_LDET: s->lambda_detection = v; o->set_lambda_detection = true; break;
+	case OPT_LFLOOR: s->lambda_floor = v; o->given |= MC_GIVEN_LAMBDA_FLOOR; break;
+	case OPT_LDET: s->lambda_detection = v; o->given |= MC_GIVEN_LAMBDA_DETECTION; break;
 	case OPT_LCOLOR: s->lambda_color = v; break;
 	case OPT_DET_EVERY: o->detector_every = v >= 1 ? (int)v : 1; break;
 	case OPT_DET_THRESHOLD: o->detector_threshold = v; break;
@@ -711,33 +711,20 @@ static void print_speed(const options *o, const mc_clip *clip, const run_stats *
 	}
 }
 
-/* Outside-in clips: the settings not given on the command line take their
- * outside-in values, as mocapd does for an outside-in rig. */
-static void apply_outside_in(options *o, int ncams)
-{
-	const mc_tracker_outside_in_defaults *d = &mc_tracker_outside_in;
-	if (!o->set_iterations)
-		o->s.iterations = mc_tracker_outside_in_iterations(ncams);
-	if (!o->set_lambda_smooth)
-		o->s.lambda_smooth = d->lambda_smooth;
-	if (!o->set_lambda_floor)
-		o->s.lambda_floor = d->lambda_floor;
-	if (!o->set_lambda_detection)
-		o->s.lambda_detection = d->lambda_detection;
-}
-
-static int run(const options *given, bool thesis, mc_err *err)
+static int run(const options *cmdline, bool thesis, mc_err *err)
 {
 	mc_clip clip;
-	options opts = *given, *o = &opts;
+	options opts = *cmdline, *o = &opts;
 	if (mc_clip_open(o->clip, o->use_ocam, &clip, err) < 0)
 		return -1;
 	if (o->cameras && mc_clip_select_cameras(&clip, o->cameras, err) < 0) {
 		mc_clip_close(&clip);
 		return -1;
 	}
+	/* as mocapd does on an outside-in rig: the settings not given on the
+	 * command line take their outside-in values */
 	if (clip.layout == MC_CLIP_OUTSIDE)
-		apply_outside_in(o, clip.rig.ncams);
+		mc_tracker_settings_outside_in(&o->s, clip.rig.ncams, o->given);
 	int nframes = o->max_frames > 0 && o->max_frames < clip.gt.nframes ? o->max_frames : clip.gt.nframes;
 	mc_tracker *t = start_tracker(o, &clip, &o->s, err);
 	FILE *out = t && o->out_path ? fopen(o->out_path, "w") : NULL;

@@ -86,6 +86,19 @@ int mc_tracker_outside_in_iterations(int ncams)
 	return n < d->min_iterations ? d->min_iterations : n > d->max_iterations ? d->max_iterations : n;
 }
 
+void mc_tracker_settings_outside_in(mc_tracker_settings *s, int ncams, unsigned given)
+{
+	const mc_tracker_outside_in_defaults *d = &mc_tracker_outside_in;
+	if (!(given & MC_GIVEN_ITERATIONS))
+		s->iterations = mc_tracker_outside_in_iterations(ncams);
+	if (!(given & MC_GIVEN_LAMBDA_SMOOTH))
+		s->lambda_smooth = d->lambda_smooth;
+	if (!(given & MC_GIVEN_LAMBDA_FLOOR))
+		s->lambda_floor = d->lambda_floor;
+	if (!(given & MC_GIVEN_LAMBDA_DETECTION))
+		s->lambda_detection = d->lambda_detection;
+}
+
 static int validate_settings(const mc_tracker_settings *s, mc_err *err)
 {
 	if (s->width < 8 || s->height < 8 || s->width > 2048 || s->height > 2048)

@@ -71,6 +71,15 @@ extern const mc_tracker_outside_in_defaults mc_tracker_outside_in;
 /* camera_iterations / ncams, within [min_iterations, max_iterations]: 80
  * with four cameras, 160 with two. */
 int mc_tracker_outside_in_iterations(int ncams);
+/* The settings the user gave (a config key, a command-line option), which
+ * the outside-in values leave alone. */
+#define MC_GIVEN_ITERATIONS 1u
+#define MC_GIVEN_LAMBDA_SMOOTH 2u
+#define MC_GIVEN_LAMBDA_FLOOR 4u
+#define MC_GIVEN_LAMBDA_DETECTION 8u
+/* Sets the outside-in values for a rig of ncams cameras in every setting
+ * not in `given` (MC_GIVEN_* flags). */
+void mc_tracker_settings_outside_in(mc_tracker_settings *s, int ncams, unsigned given);
 const char *mc_track_state_name(mc_track_state s);
 
 /* One camera's image: packed RGB24, any resolution (scaled to the working
