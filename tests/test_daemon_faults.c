@@ -38,6 +38,19 @@ static int lines_with(mcd_run *r, const char *needle)
 	return mcd_run_count(r->out, needle);
 }
 
+/* Waits up to timeout_ms for `needle` to be in the log `want` times,
+ * reading the notify socket meanwhile as systemd would (a full one blocks
+ * the daemon); returns the count. */
+static int wait_log_count(mcd_run *r, const char *needle, int want, int timeout_ms)
+{
+	uint64_t t0 = mcd_now_ms();
+	while (mcd_run_count(r->log, needle) < want && mcd_now_ms() - t0 < (uint64_t)timeout_ms) {
+		mcd_run_read_notify(r);
+		mcd_sleep_ms(50);
+	}
+	return mcd_run_count(r->log, needle);
+}
+
 static void finish(mcd_run *r, const char *name, int failures_before)
 {
 	CHECK_MSG(mcd_run_alive(r), "%s: the daemon died", name);
@@ -177,10 +190,7 @@ static void test_disappear_and_return(void)
 	int during = lines_with(&r, "cams 1/2");
 	CHECK(during > 0); /* the other camera went on alone */
 	/* back after ~700 ms: reopened and grouped again */
-	uint64_t t0 = mcd_now_ms();
-	while (mcd_run_count(r.log, "camera usb: opened") < 2 && mcd_now_ms() - t0 < 5000)
-		mcd_sleep_ms(50);
-	CHECK(mcd_run_count(r.log, "camera usb: opened") == 2);
+	CHECK(wait_log_count(&r, "camera usb: opened", 2, 5000) == 2);
 	int pairs = lines_with(&r, "cams 2/2");
 	mcd_sleep_ms(500);
 	CHECK(lines_with(&r, "cams 2/2") >= pairs + 8);
@@ -198,13 +208,8 @@ static void test_periodic_unplug(void)
 	CHECK(start(&r, BASE "device = G7\n[camera plug]\ndriver = faulty\ndevice = P7\nunplug_every_s = 1\n"
 			    "unplug_ms = 300\n"));
 	CHECK(mcd_run_wait_log(&r, "camera plug: next_frame: faulty camera P7: device unplugged (injected)", 5000));
-	uint64_t t0 = mcd_now_ms();
-	while (mcd_run_count(r.log, "camera plug: opened") < 3 && mcd_now_ms() - t0 < 8000) {
-		mcd_run_read_notify(&r); /* as systemd would: a full notify socket blocks the daemon */
-		mcd_sleep_ms(50);
-	}
-	CHECK_MSG(mcd_run_count(r.log, "camera plug: opened") >= 3, "opened %d times",
-		  mcd_run_count(r.log, "camera plug: opened"));
+	int opened = wait_log_count(&r, "camera plug: opened", 3, 8000);
+	CHECK_MSG(opened >= 3, "opened %d times", opened);
 	CHECK(mcd_run_count(r.log, "device unplugged (injected)") >= 2);
 	CHECK(lines_with(&r, "cams 1/2") > 0 && lines_with(&r, "cams 2/2") > 0);
 	finish(&r, "periodic unplug", before);
