@@ -160,12 +160,14 @@ static void begin_section(parser *p, const char *name)
 		p->kind = MCD_SEC_SOCKET;
 	else if (strcmp(name, "detector") == 0)
 		p->kind = MCD_SEC_DETECTOR;
+	else if (strcmp(name, "network") == 0)
+		p->kind = MCD_SEC_NETWORK;
 	else if (strncmp(name, "camera", 6) == 0 && (name[6] == ' ' || name[6] == 0)) {
 		p->kind = MCD_SEC_CAMERA;
 		begin_camera(p, name);
 	} else {
 		p->known = false;
-		fail(p, "unknown section [%s] (expected [daemon], [camera NAME], [tracker], [socket] or [detector])", name);
+		fail(p, "unknown section [%s] (expected [daemon], [camera NAME], [tracker], [socket], [detector] or [network])", name);
 	}
 }
 
@@ -372,6 +374,20 @@ static int check_daemon(mcd_config *cfg, mc_err *err)
 	return 0;
 }
 
+static int check_network(mcd_config *cfg, mc_err *err)
+{
+	const mcd_network_config *n = &cfg->network;
+	char where[300];
+	if (n->listen[0] && !n->token_file[0])
+		return mc_err_set(err, "%s: needs token_file, a file with the access token TCP clients must present "
+				       "(e.g. made with: head -c 24 /dev/urandom | base64 > FILE)",
+				  mcd_config_where(cfg, "network", "listen", where, sizeof(where)));
+	if (!cfg->socket.enabled && n->listen[0])
+		return mc_err_set(err, "%s: the TCP listener belongs to the client server, which [socket] enabled = false "
+				       "turns off", mcd_config_where(cfg, "network", "listen", where, sizeof(where)));
+	return 0;
+}
+
 /* ---- entry points ------------------------------------------------------ */
 
 int mcd_config_parse(const char *text, const char *origin, const char *base_dir, mcd_config *cfg, mc_err *err)
@@ -390,7 +406,7 @@ int mcd_config_parse(const char *text, const char *origin, const char *base_dir,
 		return mc_err_set(err, "%s:%d: syntax error (expected [section] or key = value)", origin, rc);
 	if (rc < 0)
 		return mc_err_set(err, "%s: cannot parse (out of memory)", origin);
-	if (check_tracker(cfg, err) || check_cameras(cfg, err) || check_daemon(cfg, err))
+	if (check_tracker(cfg, err) || check_cameras(cfg, err) || check_daemon(cfg, err) || check_network(cfg, err))
 		return -1;
 	return 0;
 }

@@ -1,7 +1,7 @@
 /* config: mocapd's INI configuration (inih), checked key by key.
  *
  * Sections: [daemon], one [camera NAME] per camera, [tracker], [socket],
- * [detector].
+ * [detector], [network].
  * Every error names the file, the line and the key, e.g.
  *   "mocapd.conf:12: [tracker] iterations: expected a positive integer, got 'abc'"
  * Unknown keys and sections are errors.  In a camera section the keys the
@@ -77,6 +77,13 @@ typedef struct {
 	int max_clients;
 } mcd_socket_config;
 
+/* The [network] section: clients on other machines (TCP, off by default). */
+typedef struct {
+	char listen[256];          /* "HOST:PORT"; "" = no TCP listener */
+	char token_file[PATH_MAX]; /* the access token's file; required with listen */
+	bool privileged;           /* TCP clients may control and send inputs */
+} mcd_network_config;
+
 /* The [detector] section: the in-process 2D joint detector
  * (detector_thread.h).  An empty model means no detector. */
 typedef struct {
@@ -106,6 +113,7 @@ typedef struct {
 	mcd_camera_config cams[MC_MAX_CAMERAS];
 	mcd_tracker_config tracker;
 	mcd_socket_config socket;
+	mcd_network_config network;
 	mcd_detector_config detector;
 
 	/* Where each key was given, for messages about values checked later
@@ -139,8 +147,15 @@ const mcd_kv *mcd_camera_config_find(const mcd_camera_config *cam, const char *k
 
 /* ---- the key table ------------------------------------------------------ */
 
-typedef enum { MCD_SEC_DAEMON, MCD_SEC_CAMERA, MCD_SEC_TRACKER, MCD_SEC_SOCKET, MCD_SEC_DETECTOR } mcd_section;
-#define MCD_NSECTIONS 5
+typedef enum {
+	MCD_SEC_DAEMON,
+	MCD_SEC_CAMERA,
+	MCD_SEC_TRACKER,
+	MCD_SEC_SOCKET,
+	MCD_SEC_DETECTOR,
+	MCD_SEC_NETWORK,
+} mcd_section;
+#define MCD_NSECTIONS 6
 
 typedef enum {
 	MCD_KEY_BOOL,     /* true/false, yes/no, on/off, 1/0 */
@@ -156,6 +171,7 @@ typedef enum {
 	MCD_KEY_CL_INDEX, /* "auto" (-1) or an index 0..63 */
 	MCD_KEY_MODE,     /* octal permission bits, with the leading 0 */
 	MCD_KEY_REAL_AUTO, /* "auto" (stored as -1) or a double in [lo, hi] */
+	MCD_KEY_HOST_PORT, /* "HOST:PORT" or "[IPV6]:PORT", port 0..65535 */
 } mcd_key_type;
 
 typedef struct {
@@ -184,7 +200,7 @@ typedef struct {
 const mcd_config_key *mcd_config_keys(size_t *n);
 /* The entry for `key` in a section, or NULL. */
 const mcd_config_key *mcd_config_key_find(mcd_section section, const char *key);
-/* "daemon", "camera", "tracker", "socket" or "detector". */
+/* "daemon", "camera", "tracker", "socket", "detector" or "network". */
 const char *mcd_section_name(mcd_section section);
 /* Parses `value` into the key's field of `base` (an mcd_config, or an
  * mcd_camera_config for camera keys).  On error returns -1 with why (no

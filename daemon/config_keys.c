@@ -37,6 +37,7 @@ static const mcd_key_choice backends[] = {
 #define S(member) FIELD(mcd_config, socket.member)
 #define C(member) FIELD(mcd_camera_config, member)
 #define K(member) FIELD(mcd_config, detector.member)
+#define N(member) FIELD(mcd_config, network.member)
 #define TRACKER_DEFAULT NULL /* mc_tracker_settings_default */
 
 static const mcd_config_key keys[] = {
@@ -94,6 +95,11 @@ static const mcd_config_key keys[] = {
 	{MCD_SEC_SOCKET, "mode", MCD_KEY_MODE, S(mode), 0, 0, NULL, "0660", false},
 	{MCD_SEC_SOCKET, "max_clients", MCD_KEY_INT, S(max_clients), 1, 1024, NULL, "64", false},
 
+	/* Off unless listen is given; then token_file is required (config.c). */
+	{MCD_SEC_NETWORK, "listen", MCD_KEY_HOST_PORT, N(listen), 0, 0, NULL, NULL, false},
+	{MCD_SEC_NETWORK, "token_file", MCD_KEY_OPT_PATH, N(token_file), 0, 0, NULL, NULL, false},
+	{MCD_SEC_NETWORK, "privileged", MCD_KEY_BOOL, N(privileged), 0, 0, NULL, "false", false},
+
 	/* A new model takes a restart; the rest is applied between detections. */
 	{MCD_SEC_DETECTOR, "model", MCD_KEY_OPT_PATH, K(model), 0, 0, NULL, NULL, false},
 	{MCD_SEC_DETECTOR, "rate", MCD_KEY_REAL, K(rate), 0, 1000, NULL, "0", true},
@@ -117,7 +123,7 @@ const mcd_config_key *mcd_config_key_find(mcd_section section, const char *key)
 
 const char *mcd_section_name(mcd_section section)
 {
-	static const char *const names[MCD_NSECTIONS] = {"daemon", "camera", "tracker", "socket", "detector"};
+	static const char *const names[MCD_NSECTIONS] = {"daemon", "camera", "tracker", "socket", "detector", "network"};
 	return (unsigned)section < MCD_NSECTIONS ? names[section] : "?";
 }
 
@@ -216,6 +222,23 @@ static int p_string(const mcd_config_key *k, const char *value, void *field, cha
 	}
 	memcpy(field, value, strlen(value) + 1);
 	return 0;
+}
+
+/* "HOST:PORT" or "[IPV6]:PORT"; the host is resolved when the daemon
+ * starts its listener. */
+static int p_host_port(const mcd_config_key *k, const char *value, void *field, char *why, size_t n)
+{
+	const char *colon = strrchr(value, ':');
+	bool bracketed = value[0] == '[' && colon && colon > value && colon[-1] == ']';
+	bool ok = colon && colon > value && colon[1] && strlen(colon + 1) <= 5 &&
+		  (bracketed || !memchr(value, ':', (size_t)(colon - value)));
+	for (const char *c = colon ? colon + 1 : ""; ok && *c; c++)
+		ok = isdigit((unsigned char)*c);
+	if (!ok || atoi(colon + 1) > 65535) {
+		snprintf(why, n, "expected HOST:PORT (e.g. 0.0.0.0:7878, [::]:7878), got '%s'", value);
+		return -1;
+	}
+	return p_string(k, value, field, why, n);
 }
 
 /* A name made of letters, digits, '_' and '-' (driver names become file
@@ -328,6 +351,8 @@ int mcd_config_key_parse(const mcd_config_key *k, const char *value, void *base,
 		return p_positive(k, value, field, why, n);
 	case MCD_KEY_STRING:
 		return p_string(k, value, field, why, n);
+	case MCD_KEY_HOST_PORT:
+		return p_host_port(k, value, field, why, n);
 	case MCD_KEY_NAME:
 		return p_name(k, value, field, why, n);
 	case MCD_KEY_PATH:
@@ -382,6 +407,7 @@ const char *mcd_config_key_format(const mcd_config_key *k, const void *base, cha
 		snprintf(buf, cap, "%.9g", *(const double *)field);
 		break;
 	case MCD_KEY_STRING:
+	case MCD_KEY_HOST_PORT:
 	case MCD_KEY_NAME:
 	case MCD_KEY_PATH:
 	case MCD_KEY_OPT_PATH:
@@ -439,7 +465,8 @@ void mcd_camera_config_defaults(mcd_camera_config *cam)
 static bool same_value(const mcd_config_key *k, const mcd_config *a, const mcd_config *b)
 {
 	const char *fa = (const char *)a + k->offset, *fb = (const char *)b + k->offset;
-	if (k->type == MCD_KEY_STRING || k->type == MCD_KEY_NAME || k->type == MCD_KEY_PATH || k->type == MCD_KEY_OPT_PATH)
+	if (k->type == MCD_KEY_STRING || k->type == MCD_KEY_HOST_PORT || k->type == MCD_KEY_NAME ||
+	    k->type == MCD_KEY_PATH || k->type == MCD_KEY_OPT_PATH)
 		return strcmp(fa, fb) == 0;
 	return memcmp(fa, fb, k->size) == 0;
 }

@@ -12,6 +12,7 @@
 #include "config.h"
 #include "detector_thread.h"
 #include "log.h"
+#include "network.h"
 #include "server.h"
 #include "notify.h"
 #include "pipeline.h"
@@ -264,10 +265,20 @@ static int start_server(daemon_ctx *d, mc_err *err)
 		}
 		sc.control_gid = gr->gr_gid;
 	}
-	d->srv = srv_create(&sc, err);
-	if (!d->srv)
+	if (mcd_network_apply(cfg, &sc, err))
 		return -1;
+	d->srv = srv_create(&sc, err);
+	if (!d->srv) {
+		char where[700];
+		if (sc.tcp_listen[0] && strstr(err->msg, "TCP listener"))
+			mc_err_prefix(err, "%s", mcd_config_where(cfg, "network", "listen", where, sizeof(where)));
+		return -1;
+	}
 	mcd_info("socket: %s%s", cfg->socket.path, sc.listen_fd >= 0 ? " (from systemd)" : "");
+	if (sc.tcp_listen[0])
+		mcd_info("network: TCP clients on %s (port %d), with the token of %s%s", sc.tcp_listen,
+			 srv_tcp_port(d->srv), cfg->network.token_file,
+			 sc.tcp_privileged ? "; they may control the daemon" : "");
 	return 0;
 }
 
@@ -509,8 +520,8 @@ static int start(daemon_ctx *d, mc_err *err)
 	return 0;
 }
 
-/* --check: the rig, the model, the initial joints, the detector's model,
- * the plugins and every camera's driver keys (checked by the driver) are
+/* --check: the rig, the model, the initial joints, the TCP token file, the
+ * detector's model, the plugins and every camera's driver keys (checked by the driver) are
  * the parts of start-up that can be checked without touching devices or
  * OpenCL.  Returns the exit status. */
 static int check_only(const daemon_ctx *d)
@@ -518,6 +529,8 @@ static int check_only(const daemon_ctx *d)
 	mc_err err = {{0}};
 	char where[PATH_MAX + 64];
 	bool ok = !d->cfg->tracker.enabled || mcd_tracking_check(d->cfg, &err) == 0;
+	char token[SRV_TOKEN_MAX];
+	ok = ok && (!d->cfg->network.listen[0] || mcd_network_read_token(d->cfg, token, sizeof(token), &err) == 0);
 	ok = ok && mcd_detector_check(&d->cfg->detector,
 				      mcd_config_where(d->cfg, "detector", "model", where, sizeof(where)), &err) == 0;
 	mcd_pipeline *p = ok ? mcd_pipeline_create(d->cfg, NULL, NULL, &err) : NULL;

@@ -63,7 +63,8 @@ $(FAULTY_DIR)/bad/mocap-driver-noentry.so: tests/drivers/faulty/faulty.c drivers
 # (literal path: ipc/module.mk is included after this file).
 # The detector tests run mocapd with the test models of detect/tests/data;
 # the actor test with the shipped detector.
-DAEMON_CLIENT_TESTS := $(BUILD)/tests/test_daemon_keypoints $(BUILD)/tests/test_daemon_detector $(BUILD)/tests/test_daemon_actor
+DAEMON_CLIENT_TESTS := $(BUILD)/tests/test_daemon_keypoints $(BUILD)/tests/test_daemon_detector $(BUILD)/tests/test_daemon_actor \
+	$(BUILD)/tests/test_daemon_network
 $(DAEMON_CLIENT_TESTS): $(BUILD)/tests/%: tests/%.c $(DAEMON_LIB) $(DAEMON_DETECT_A) $(CORE_LIB) $(BUILD)/libmocap.a \
 		| $(DAEMON_TEST_NEEDS)
 	@mkdir -p $(@D)

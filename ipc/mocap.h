@@ -34,10 +34,12 @@
 extern "C" {
 #endif
 
-#define MOCAP_LIB_VERSION "1.1.0" /* = IPC_SO_VERSION in ipc/module.mk */
+#define MOCAP_LIB_VERSION "1.2.0" /* = IPC_SO_VERSION in ipc/module.mk */
 #define MOCAP_PROTOCOL_VERSION 2 /* the highest it speaks; it speaks 1 too */
 #define MOCAP_DEFAULT_SOCKET "/run/mocapd/mocapd.sock"
-#define MOCAP_SOCKET_ENV "MOCAP_SOCKET"
+#define MOCAP_SOCKET_ENV "MOCAP_SOCKET" /* a socket path or tcp://HOST:PORT */
+#define MOCAP_TOKEN_ENV "MOCAP_TOKEN"   /* the token for tcp:// addresses */
+#define MOCAP_TOKEN_FILE_ENV "MOCAP_TOKEN_FILE" /* or a file holding it */
 
 #define MOCAP_MAX_JOINTS 128
 #define MOCAP_MAX_CAMERAS 16
@@ -47,7 +49,7 @@ extern "C" {
 
 /* Error codes (negative return values). */
 #define MOCAP_E_NOT_RUNNING -1  /* no daemon listens at the socket path */
-#define MOCAP_E_ACCESS -2       /* the socket exists but we may not connect */
+#define MOCAP_E_ACCESS -2       /* the socket exists but we may not connect (TCP: no or wrong token) */
 #define MOCAP_E_VERSION -3      /* the daemon speaks another protocol version */
 #define MOCAP_E_PROTOCOL -4     /* the daemon sent something this library does not understand */
 #define MOCAP_E_DISCONNECTED -5 /* the connection is closed (daemon stopped, or it closed us) */
@@ -168,8 +170,18 @@ const char *mocap_default_socket(void);
 
 /* Connects and performs the handshake.  path NULL: mocap_default_socket().
  * client_name (may be NULL) shows in the daemon's log.  NULL on failure;
- * mocap_errcode() and mocap_errmsg() say why. */
+ * mocap_errcode() and mocap_errmsg() say why.
+ *
+ * path may also be "tcp://HOST:PORT" (or tcp://[IPV6]:PORT): a daemon on
+ * another machine, through its [network] listener.  Its token is taken
+ * from $MOCAP_TOKEN, else from the first line of the file
+ * $MOCAP_TOKEN_FILE (or given with mocap_connect_token).  Everything but
+ * camera rings works over TCP; timestamps stay the daemon's clock
+ * (mocap_ping gives it, to estimate the offset). */
 mocap_client *mocap_connect(const char *path, const char *client_name);
+/* The same with the TCP token given (NULL: as mocap_connect finds it);
+ * the token is ignored for a Unix socket path.  Since libmocap 1.2. */
+mocap_client *mocap_connect_token(const char *address, const char *client_name, const char *token);
 void mocap_close(mocap_client *c);
 
 /* 1 if this client may control the daemon, map rings and send inputs. */

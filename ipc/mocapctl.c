@@ -42,6 +42,8 @@ static const char usage[] =
 	"  ping                   round-trip time to the daemon\n"
 	"\n"
 	"The socket is --socket PATH, else $MOCAP_SOCKET, else " MOCAP_DEFAULT_SOCKET ".\n"
+	"PATH may be tcp://HOST:PORT for a daemon on another machine ([network] in its\n"
+	"config); the token is then $MOCAP_TOKEN or the first line of $MOCAP_TOKEN_FILE.\n"
 	"Exit status: 0 ok, 1 refused or failed, 2 usage, 3 daemon not running,\n"
 	"4 permission denied, 5 protocol version mismatch, 6 connection lost,\n"
 	"7 reloaded but some changes need a restart (the reply names them).\n";

@@ -13,7 +13,7 @@
 
 IPC_SERVER_LIB := $(BUILD)/libmocapipc.a
 IPC_CLIENT_LIB := $(BUILD)/libmocap.a
-IPC_SO_VERSION := 1.1.0
+IPC_SO_VERSION := 1.2.0
 IPC_SO := $(BUILD)/lib/libmocap.so.$(IPC_SO_VERSION)
 IPC_PC := $(BUILD)/lib/pkgconfig/mocap.pc
 IPC_TESTPUB := $(BUILD)/ipc/mocap-testpub

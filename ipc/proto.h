@@ -32,6 +32,8 @@
 #define PROTO_NAME_MAX 63      /* joint, camera, client, device names, versions */
 #define PROTO_ARG_MAX 255      /* control argument */
 #define PROTO_TEXT_MAX 1023    /* error and control result messages */
+#define PROTO_TOKEN_MAX 255    /* AUTH's token */
+#define PROTO_TCP_PREFIX 4     /* TCP: a u32 length before every message */
 #define PROTO_RIG_MAX (PROTO_MAX_MESSAGE - 24)
 
 typedef enum {
@@ -47,6 +49,7 @@ typedef enum {
 	MC_MSG_KEYPOINTS = 0x0009,
 	MC_MSG_HEAD_POSE = 0x000a,
 	MC_MSG_PING = 0x000b,
+	MC_MSG_AUTH = 0x000c, /* TCP connections only: the token, before HELLO */
 	/* server -> client */
 	MC_MSG_WELCOME = 0x8001,
 	MC_MSG_ERROR = 0x8002,
@@ -74,6 +77,7 @@ typedef enum {
 	PROTO_E_TOO_MANY_CLIENTS = 8, /* (fatal) */
 	PROTO_E_OVERLOAD = 9,     /* the client does not read its replies (fatal) */
 	PROTO_E_SHUTDOWN = 10,    /* the daemon is stopping (fatal) */
+	PROTO_E_AUTH = 11,        /* TCP: no AUTH first, or a wrong token (fatal) */
 } proto_error_code;
 
 typedef enum { MC_SUB_LATEST = 1, MC_SUB_ALL = 2 } mc_sub_mode;
@@ -146,6 +150,11 @@ typedef struct {
 	double position[3];
 	double orientation[4]; /* w, x, y, z */
 } mc_msg_head_pose;
+
+/* The access token of a TCP connection (docs/PROTOCOL.md, "TCP"). */
+typedef struct {
+	char token[PROTO_TOKEN_MAX + 1];
+} mc_msg_auth;
 
 typedef struct {
 	uint64_t value;          /* echoed */
@@ -263,6 +272,7 @@ typedef struct {
 		mc_msg_keypoints keypoints;
 		mc_msg_head_pose head_pose;
 		mc_msg_ping ping;
+		mc_msg_auth auth;
 		mc_msg_skeleton skeleton;
 		mc_msg_frame frame;
 		mc_msg_gap gap;

@@ -59,6 +59,8 @@
 #define SRV_MAX_KEYPOINTS 256 /* per keypoint batch (one camera, one frame) */
 #define SRV_MAX_RINGS 16
 #define SRV_HEAD_POSE_MAX_M 10000.0 /* farther head poses are refused */
+#define SRV_TOKEN_MIN 16     /* bytes of a TCP access token, at least ... */
+#define SRV_TOKEN_MAX 256    /* ... and at most, incl. NUL */
 
 typedef struct {
 	/* Socket path.  With listen_fd < 0 the server creates it: a stale
@@ -82,6 +84,16 @@ typedef struct {
 	 * nanoseconds of the frame's capture time (or brackets it). */
 	uint64_t head_pose_max_age_ns;
 	char daemon_version[64]; /* reported in the handshake */
+	/* Clients on other machines: a TCP listener at "HOST:PORT" (e.g.
+	 * "0.0.0.0:7878", "[::]:7878", "192.0.2.7:7878"; port 0 picks a free
+	 * one, srv_tcp_port() says which), or "" for none.  Every TCP
+	 * connection must first present tcp_token (AUTH; at least
+	 * SRV_TOKEN_MIN bytes) or it is closed.  tcp_privileged: whether
+	 * such clients may control the daemon and send keypoints and head
+	 * poses (never rings: those are shared memory on this machine). */
+	char tcp_listen[256];
+	char tcp_token[SRV_TOKEN_MAX];
+	bool tcp_privileged;
 	/* Where the server tells about its clients (a client's name, pid and
 	 * uid after its HELLO), called on the server's thread; NULL: nowhere. */
 	void (*on_client)(void *ctx, const char *line);
@@ -96,6 +108,8 @@ typedef struct srv_server srv_server;
  * thread.  NULL with err set on failure, e.g.
  *   "/run/mocapd/mocapd.sock: another mocapd is listening there". */
 srv_server *srv_create(const srv_config *cfg, mc_err *err);
+/* The TCP listener's port, or 0 when there is none. */
+int srv_tcp_port(srv_server *srv);
 /* Stops the thread, closes every client and the socket, removes the socket
  * file if the server created it. NULL is allowed. */
 void srv_destroy(srv_server *srv);
@@ -204,7 +218,7 @@ void srv_set_status(srv_server *srv, const srv_status *st);
 typedef struct {
 	int clients;              /* connected now */
 	uint64_t accepted;        /* connections accepted since start */
-	uint64_t refused;         /* refused: too many clients, bad handshake */
+	uint64_t refused;         /* refused: too many clients, bad handshake, wrong TCP token */
 	uint64_t protocol_errors; /* clients disconnected for malformed messages */
 	uint64_t frames_published;
 	uint64_t mailbox_drops;   /* frames dropped because the server thread lagged */

@@ -44,7 +44,7 @@ import time
 import types
 from collections import namedtuple
 
-__version__ = "1.1.0"
+__version__ = "1.2.0"
 __all__ = [
     "Client", "AsyncClient", "connect", "aio", "Frame", "Joint", "Joints", "JointDef", "Skeleton", "Camera",
     "Detector", "Status", "Ring", "MocapError", "Error", "NotRunning", "AccessDenied", "VersionMismatch",
@@ -70,13 +70,14 @@ DETECTOR_STATES = {0: "off", 1: "running", 2: "failed"}
 
 # Message types.
 HELLO, SUBSCRIBE, UNSUBSCRIBE, GET_STATUS, GET_SKELETON, GET_RIG = 0x1, 0x2, 0x3, 0x4, 0x5, 0x6
-CONTROL, GET_RINGS, KEYPOINTS, HEAD_POSE, PING = 0x7, 0x8, 0x9, 0xA, 0xB
+CONTROL, GET_RINGS, KEYPOINTS, HEAD_POSE, PING, AUTH = 0x7, 0x8, 0x9, 0xA, 0xB, 0xC
 WELCOME, ERROR, OK, SKELETON, FRAME, GAP = 0x8001, 0x8002, 0x8003, 0x8004, 0x8005, 0x8006
 STATUS, RIG, CONTROL_RESULT, RINGS, PONG = 0x8007, 0x8008, 0x8009, 0x800A, 0x800B
 
 # Server error codes (ERROR message) and the names Error.code uses.
 SERVER_ERRORS = {1: "version", 2: "malformed", 3: "handshake", 4: "permission", 5: "invalid",
-                 6: "unavailable", 7: "busy", 8: "too many clients", 9: "overload", 10: "shutdown"}
+                 6: "unavailable", 7: "busy", 8: "too many clients", 9: "overload", 10: "shutdown",
+                 11: "access"}
 
 # libmocap's error codes (ipc/mocap.h), one exception class each.
 E_NOT_RUNNING, E_ACCESS, E_VERSION, E_PROTOCOL, E_DISCONNECTED, E_TIMEOUT = -1, -2, -3, -4, -5, -6

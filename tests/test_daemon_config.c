@@ -2,9 +2,11 @@
  * "file:line: [section] key: why" form of the messages. */
 #include "config.h"
 #include "log.h"
+#include "network.h"
 #include "test_util.h"
 
 #include <string.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 static mcd_config cfg;
@@ -201,7 +203,7 @@ static void test_structure_errors(void)
 	expect_error(CAM NOTRACK "iteratons = 5\n", "mocapd.conf:5: [tracker] iteratons: unknown key");
 	expect_error("[daemon]\nplugins = /x\n" CAM NOTRACK, "mocapd.conf:2: [daemon] plugins: unknown key");
 	expect_error("[deamon]\n" CAM NOTRACK,
-		     "mocapd.conf:1: unknown section [deamon] (expected [daemon], [camera NAME], [tracker], [socket] or [detector])");
+		     "mocapd.conf:1: unknown section [deamon] (expected [daemon], [camera NAME], [tracker], [socket], [detector] or [network])");
 	expect_error("log_level = info\n" CAM NOTRACK,
 		     "mocapd.conf:1: log_level: key outside any section (start with [daemon])");
 	expect_error(CAM NOTRACK "enabled = true\n",
@@ -367,6 +369,53 @@ static void test_detector(void)
 	CHECK(cur.detector.threads == 2 && cur.detector.min_confidence == 0.5);
 }
 
+static void test_network(void)
+{
+	mc_err err;
+	CHECK_MSG(parse(CAM NOTRACK, &err) == 0, "%s", err.msg);
+	CHECK(cfg.network.listen[0] == 0 && !cfg.network.privileged);
+	CHECK_MSG(parse(CAM NOTRACK "[network]\nlisten = [::]:7878\ntoken_file = tok\nprivileged = yes\n", &err) == 0,
+		  "%s", err.msg);
+	CHECK(strcmp(cfg.network.listen, "[::]:7878") == 0 && strcmp(cfg.network.token_file, "/etc/mocapd/tok") == 0 &&
+	      cfg.network.privileged);
+	expect_error(CAM NOTRACK "[network]\nlisten = 0.0.0.0:7878\n",
+		     "mocapd.conf:6: [network] listen: needs token_file, a file with the access token TCP clients must "
+		     "present (e.g. made with: head -c 24 /dev/urandom | base64 > FILE)");
+	expect_error(CAM NOTRACK "[network]\nlisten = 7878\n",
+		     "mocapd.conf:6: [network] listen: expected HOST:PORT (e.g. 0.0.0.0:7878, [::]:7878), got '7878'");
+	expect_error(CAM NOTRACK "[network]\nlisten = ::1:7878\n",
+		     "mocapd.conf:6: [network] listen: expected HOST:PORT (e.g. 0.0.0.0:7878, [::]:7878), got '::1:7878'");
+	expect_error(CAM NOTRACK "[network]\nlisten = h:70000\n",
+		     "mocapd.conf:6: [network] listen: expected HOST:PORT (e.g. 0.0.0.0:7878, [::]:7878), got 'h:70000'");
+
+	/* The token file: private, 16..255 characters on its first line. */
+	char dir[] = "/tmp/mc_net_XXXXXX", file[64], token[SRV_TOKEN_MAX];
+	CHECK(mkdtemp(dir) != NULL);
+	snprintf(file, sizeof(file), "%s/token", dir);
+	char text[256];
+	snprintf(text, sizeof(text), CAM NOTRACK "[network]\nlisten = 127.0.0.1:0\ntoken_file = %s\n", file);
+	CHECK_MSG(parse(text, &err) == 0, "%s", err.msg);
+	CHECK(mcd_network_read_token(&cfg, token, sizeof(token), &err) == -1 && strstr(err.msg, "No such file"));
+	FILE *f = fopen(file, "w");
+	fputs("short\n", f);
+	fclose(f);
+	chmod(file, 0600);
+	CHECK(mcd_network_read_token(&cfg, token, sizeof(token), &err) == -1 && strstr(err.msg, "16 to 255"));
+	f = fopen(file, "w");
+	fputs("0123456789abcdefXYZ\nsecond line\n", f);
+	fclose(f);
+	CHECK(mcd_network_read_token(&cfg, token, sizeof(token), &err) == 0 && strcmp(token, "0123456789abcdefXYZ") == 0);
+	chmod(file, 0644);
+	CHECK(mcd_network_read_token(&cfg, token, sizeof(token), &err) == -1 &&
+	      strstr(err.msg, "mocapd.conf:7: [network] token_file") && strstr(err.msg, "readable by every user"));
+	srv_config sc = {0};
+	chmod(file, 0640);
+	CHECK(mcd_network_apply(&cfg, &sc, &err) == 0 && strcmp(sc.tcp_listen, "127.0.0.1:0") == 0 &&
+	      strcmp(sc.tcp_token, "0123456789abcdefXYZ") == 0 && !sc.tcp_privileged);
+	unlink(file);
+	rmdir(dir);
+}
+
 /* A reload takes the keys the table marks reloadable and keeps the others. */
 static void test_reload(void)
 {
@@ -403,5 +452,6 @@ int main(void)
 	test_shipped_configs();
 	test_reload();
 	test_detector();
+	test_network();
 	return mc_test_finish("test_daemon_config");
 }

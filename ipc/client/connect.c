@@ -1,4 +1,4 @@
-/* Connection: the socket path, connecting (with a message for each way it
+/* Connection: the socket path (or a tcp:// address, tcp.c), connecting (with a message for each way it
  * can fail that tells the user what to do), the HELLO/WELCOME handshake,
  * and closing. */
 #include "client/internal.h"
@@ -84,6 +84,7 @@ static mocap_client *client_new(int fd, const char *path)
 	c->timeout_ms = 10000;
 	atomic_init(&c->next_id, 1);
 	pthread_mutex_init(&c->lock, NULL);
+	pthread_mutex_init(&c->send_lock, NULL);
 	mc_cond_init_monotonic(&c->cond);
 	c->fq = calloc(FRAME_QUEUE_MAX, sizeof(*c->fq));
 	c->evfd = eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC);
@@ -99,24 +100,12 @@ static mocap_client *client_new(int fd, const char *path)
 	return c;
 }
 
-mocap_client *mocap_connect(const char *path, const char *client_name)
+/* HELLO and WELCOME. */
+static int handshake(mocap_client *c, const char *client_name)
 {
-	if (!path)
-		path = mocap_default_socket();
-	int fd = connect_socket(path);
-	if (fd < 0)
-		return NULL;
-	mocap_client *c = client_new(fd, path);
-	if (!c) {
-		close(fd);
-		mcl_set_err(MOCAP_E_SYSTEM, "out of memory");
-		return NULL;
-	}
 	proto_msg *m = mcl_new_msg(MC_MSG_HELLO);
-	if (!m) {
-		mocap_close(c);
-		return NULL;
-	}
+	if (!m)
+		return MOCAP_E_SYSTEM;
 	m->u.hello.magic = PROTO_MAGIC;
 	m->u.hello.min_version = PROTO_MIN_VERSION;
 	m->u.hello.max_version = PROTO_VERSION;
@@ -125,16 +114,49 @@ mocap_client *mocap_connect(const char *path, const char *client_name)
 	if (rc == 0)
 		c->privileged = (m->u.welcome.flags & MC_WELCOME_PRIVILEGED) != 0;
 	free(m);
+	return rc;
+}
+
+mocap_client *mocap_connect_token(const char *address, const char *client_name, const char *token)
+{
+	if (!address)
+		address = mocap_default_socket();
+	bool tcp = mcl_is_tcp_address(address);
+	char tok[PROTO_TOKEN_MAX + 1];
+	if (strlen(address) >= sizeof(((mocap_client *)0)->path)) {
+		mcl_set_err(MOCAP_E_ARG, "address too long: %s", address);
+		return NULL;
+	}
+	if (tcp && mcl_tcp_token(token, tok, sizeof(tok)) < 0)
+		return NULL;
+	int fd = tcp ? mcl_tcp_connect(address) : connect_socket(address);
+	if (fd < 0)
+		return NULL;
+	mocap_client *c = client_new(fd, address);
+	if (!c) {
+		close(fd);
+		mcl_set_err(MOCAP_E_SYSTEM, "out of memory");
+		return NULL;
+	}
+	c->stream = tcp;
+	int rc = tcp ? mcl_tcp_auth(c, tok) : 0;
+	if (rc == 0)
+		rc = handshake(c, client_name);
 	if (rc != 0) {
 		/* Keep the message of the failed handshake across mocap_close. */
 		int code = mocap_errcode();
 		char msg[MCL_ERRMSG_MAX];
 		snprintf(msg, sizeof(msg), "%s", mocap_errmsg());
 		mocap_close(c);
-		mcl_set_err(code, "%s: %s", path, msg);
+		mcl_set_err(code, "%s: %s", address, msg);
 		return NULL;
 	}
 	return c;
+}
+
+mocap_client *mocap_connect(const char *path, const char *client_name)
+{
+	return mocap_connect_token(path, client_name, NULL);
 }
 
 void mocap_close(mocap_client *c)
@@ -155,7 +177,9 @@ void mocap_close(mocap_client *c)
 	if (c->evfd >= 0)
 		close(c->evfd);
 	close(c->fd);
+	free(c->srx);
 	pthread_cond_destroy(&c->cond);
+	pthread_mutex_destroy(&c->send_lock);
 	pthread_mutex_destroy(&c->lock);
 	free(c);
 }

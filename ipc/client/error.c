@@ -64,6 +64,7 @@ int mcl_code_of_server_error(uint32_t code)
 	case PROTO_E_MALFORMED:
 	case PROTO_E_HANDSHAKE: return MOCAP_E_PROTOCOL;
 	case PROTO_E_PERMISSION: return MOCAP_E_PERMISSION;
+	case PROTO_E_AUTH: return MOCAP_E_ACCESS;
 	case PROTO_E_UNAVAILABLE: return MOCAP_E_UNAVAILABLE;
 	case PROTO_E_SHUTDOWN: return MOCAP_E_DISCONNECTED;
 	}

@@ -16,6 +16,8 @@
  *
  * The files:
  *   connect.c   connecting, the handshake, closing
+ *   tcp.c       tcp:// addresses: connecting, the token (AUTH), and the
+ *               length prefix that frames messages on the byte stream
  *   reader.c    receiving and filing messages (the reader role)
  *   request.c   sending, request/reply, and the simple requests
  *   frames.c    subscription, the frame queue, mocap_read_frame
@@ -34,6 +36,8 @@
 #include <stdbool.h>
 #include <stddef.h>
 #include <stdint.h>
+#include <string.h>
+#include <sys/types.h>
 #include <sys/un.h>
 
 #define FRAME_QUEUE_MAX 1024 /* frames kept in the library ("all" mode) */
@@ -58,7 +62,9 @@ typedef struct {
 
 struct mocap_client {
 	int fd, epfd, evfd;
-	char path[sizeof(((struct sockaddr_un *)0)->sun_path)];
+	char path[sizeof(((struct sockaddr_un *)0)->sun_path) + 16]; /* or tcp://HOST:PORT */
+	bool stream;          /* TCP: a byte stream, messages framed by tcp.c */
+	pthread_mutex_t send_lock; /* TCP: one message at a time on the stream */
 	bool privileged;
 	int timeout_ms;
 	atomic_uint next_id;
@@ -79,6 +85,8 @@ struct mocap_client {
 
 	/* The reader's own scratch. */
 	uint8_t rx[PROTO_MAX_MESSAGE + 1];
+	uint8_t *srx;         /* TCP: bytes received, srx_at..srx_len not filed yet */
+	size_t srx_at, srx_len;
 	proto_msg dec;
 };
 
@@ -122,6 +130,30 @@ void mcl_set_dead(mocap_client *c, int code, const char *fmt, ...) __attribute__
  * does, else wait for the reader.  deadline 0 only takes what is there. */
 void mcl_wait_step(mocap_client *c, uint64_t deadline);
 void mcl_close_fds(const int *fds, int n);
+
+/* --- tcp.c --- */
+
+#define MCL_TCP_SCHEME "tcp://"
+
+static inline bool mcl_is_tcp_address(const char *address)
+{
+	return strncmp(address, MCL_TCP_SCHEME, sizeof(MCL_TCP_SCHEME) - 1) == 0;
+}
+/* Connects to tcp://HOST:PORT; the socket, or an error code (err set). */
+int mcl_tcp_connect(const char *address);
+/* The token: the argument, else $MOCAP_TOKEN, else the first line of the
+ * file $MOCAP_TOKEN_FILE.  Copied into out; an error code when none. */
+int mcl_tcp_token(const char *given, char *out, size_t cap);
+/* Sends AUTH with the token and waits for OK. */
+int mcl_tcp_auth(mocap_client *c, const char *token);
+/* Sends n bytes of one message with its length prefix, whole (under
+ * send_lock), waiting for room until deadline. */
+int mcl_tcp_send(mocap_client *c, const uint8_t *msg, size_t n, uint64_t deadline);
+/* The reader: receives into srx (recv's result, errno set). */
+ssize_t mcl_tcp_recv(mocap_client *c);
+/* Moves the next whole message from srx into c->rx: 1 and *len, 0 when
+ * none is whole yet, -1 for a length prefix out of the protocol's range. */
+int mcl_tcp_take(mocap_client *c, size_t *len);
 
 /* --- frames.c (lock held) --- */
 

@@ -130,10 +130,74 @@ static int take_fds(struct msghdr *mh, int *fds)
 	return nfds;
 }
 
+/* Decodes the message of n bytes in c->rx and files it (lock not held).
+ * Takes the descriptors.  false when the connection is now dead. */
+static bool file_message(mocap_client *c, size_t n, bool truncated, int *fds, int nfds, uint64_t t)
+{
+	char why[256];
+	if (truncated || proto_decode(c->rx, n, PROTO_FROM_SERVER, &c->dec, why, sizeof(why)) != 0) {
+		if (truncated)
+			snprintf(why, sizeof(why), "message longer than %d bytes", PROTO_MAX_MESSAGE);
+		mcl_close_fds(fds, nfds);
+		pthread_mutex_lock(&c->lock);
+		mcl_set_dead(c, MOCAP_E_PROTOCOL, "mocapd sent a malformed message: %s", why);
+		pthread_mutex_unlock(&c->lock);
+		return false;
+	}
+	/* The conversion allocates; do it outside the lock. */
+	mocap_skeleton_frame *frame = c->dec.h.type == MC_MSG_FRAME ? convert_frame(&c->dec.u.frame, t) : NULL;
+	pthread_mutex_lock(&c->lock);
+	dispatch(c, &c->dec, n, frame, fds, nfds);
+	pthread_mutex_unlock(&c->lock);
+	return true;
+}
+
+static void set_dead_locked(mocap_client *c, ssize_t n, int err)
+{
+	pthread_mutex_lock(&c->lock);
+	if (n == 0)
+		mcl_set_dead(c, MOCAP_E_DISCONNECTED, "mocapd closed the connection (%s)", c->path);
+	else
+		mcl_set_dead(c, MOCAP_E_DISCONNECTED, "connection to mocapd lost: %s", strerror(err));
+	pthread_mutex_unlock(&c->lock);
+}
+
+/* TCP: reads what is there and files every whole message (lock not held). */
+static void read_stream_burst(mocap_client *c)
+{
+	for (int i = 0; i < RX_BURST; i++) {
+		ssize_t n = mcl_tcp_recv(c);
+		if (n < 0 && errno == EINTR)
+			continue;
+		if (n < 0 && (errno == EAGAIN || errno == EWOULDBLOCK))
+			return;
+		if (n <= 0) {
+			set_dead_locked(c, n, errno);
+			return;
+		}
+		uint64_t t = mc_now_ns();
+		size_t len;
+		int rc, no_fds[1]; /* nothing comes with a message on TCP */
+		while ((rc = mcl_tcp_take(c, &len)) == 1)
+			if (!file_message(c, len, false, no_fds, 0, t))
+				return;
+		if (rc < 0) {
+			pthread_mutex_lock(&c->lock);
+			mcl_set_dead(c, MOCAP_E_PROTOCOL, "mocapd sent a bad TCP length prefix");
+			pthread_mutex_unlock(&c->lock);
+			return;
+		}
+	}
+}
+
 /* Receives what is there (lock not held).  Returns after EAGAIN, an error
  * or RX_BURST messages. */
 static void read_burst(mocap_client *c)
 {
+	if (c->stream) {
+		read_stream_burst(c);
+		return;
+	}
 	for (int i = 0; i < RX_BURST; i++) {
 		struct iovec iov = {.iov_base = c->rx, .iov_len = sizeof(c->rx)};
 		union {
@@ -147,35 +211,15 @@ static void read_burst(mocap_client *c)
 			continue;
 		if (n < 0 && (errno == EAGAIN || errno == EWOULDBLOCK))
 			return;
+		if (n <= 0) {
+			set_dead_locked(c, n, errno);
+			return;
+		}
 		uint64_t t = mc_now_ns();
 		int fds[MAX_RX_FDS];
-		int nfds = n > 0 ? take_fds(&mh, fds) : 0;
-		pthread_mutex_lock(&c->lock);
-		if (n <= 0) {
-			if (n == 0)
-				mcl_set_dead(c, MOCAP_E_DISCONNECTED, "mocapd closed the connection (%s)", c->path);
-			else
-				mcl_set_dead(c, MOCAP_E_DISCONNECTED, "connection to mocapd lost: %s", strerror(errno));
-			pthread_mutex_unlock(&c->lock);
+		int nfds = take_fds(&mh, fds);
+		if (!file_message(c, (size_t)n, (mh.msg_flags & MSG_TRUNC) != 0, fds, nfds, t))
 			return;
-		}
-		pthread_mutex_unlock(&c->lock);
-		char why[256];
-		if ((mh.msg_flags & MSG_TRUNC) ||
-		    proto_decode(c->rx, (size_t)n, PROTO_FROM_SERVER, &c->dec, why, sizeof(why)) != 0) {
-			if (mh.msg_flags & MSG_TRUNC)
-				snprintf(why, sizeof(why), "message longer than %d bytes", PROTO_MAX_MESSAGE);
-			mcl_close_fds(fds, nfds);
-			pthread_mutex_lock(&c->lock);
-			mcl_set_dead(c, MOCAP_E_PROTOCOL, "mocapd sent a malformed message: %s", why);
-			pthread_mutex_unlock(&c->lock);
-			return;
-		}
-		/* The conversion allocates; do it outside the lock. */
-		mocap_skeleton_frame *frame = c->dec.h.type == MC_MSG_FRAME ? convert_frame(&c->dec.u.frame, t) : NULL;
-		pthread_mutex_lock(&c->lock);
-		dispatch(c, &c->dec, (size_t)n, frame, fds, nfds);
-		pthread_mutex_unlock(&c->lock);
 	}
 }
 

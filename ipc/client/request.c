@@ -37,6 +37,8 @@ int mcl_send_msg(mocap_client *c, const proto_msg *m, uint64_t deadline)
 	size_t n = proto_encode(m, buf, sizeof(buf));
 	if (!n)
 		return mcl_set_err(MOCAP_E_ARG, "%s: a field is out of the protocol's range", proto_type_name(m->h.type));
+	if (c->stream)
+		return mcl_tcp_send(c, buf, n, deadline);
 	for (;;) {
 		ssize_t r = send(c->fd, buf, n, MSG_DONTWAIT | MSG_NOSIGNAL);
 		if (r >= 0)

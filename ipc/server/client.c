@@ -26,6 +26,8 @@ void srv_client_free(client *c)
 	while (c->qn)
 		srv_q_pop(c);
 	srv_blob_unref(c->latest);
+	srv_blob_unref(c->sending);
+	free(c->srx);
 	free(c->q);
 	free(c);
 }
@@ -86,6 +88,10 @@ static bool close_received_fds(struct msghdr *mh)
  * client message that carries any. */
 void srv_client_readable(srv_server *srv, client *c)
 {
+	if (c->tcp) {
+		srv_tcp_readable(srv, c);
+		return;
+	}
 	for (int i = 0; i < READ_BURST && !c->dead; i++) {
 		struct iovec iov = {.iov_base = srv->rxbuf, .iov_len = sizeof(srv->rxbuf)};
 		union {

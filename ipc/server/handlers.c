@@ -20,9 +20,13 @@ static void report_client(srv_server *srv, const client *c)
 	for (; c->name[n] && n + 1 < sizeof(name); n++)
 		name[n] = c->name[n] >= 0x20 && c->name[n] < 0x7f ? c->name[n] : '?';
 	name[n] = 0;
-	char line[200];
-	snprintf(line, sizeof(line), "client '%s' connected (pid %d, uid %u%s), protocol %u", n ? name : "?",
-		 (int)c->pid, (unsigned)c->uid, c->privileged ? ", may control" : "", c->version);
+	char line[256];
+	if (c->tcp)
+		snprintf(line, sizeof(line), "client '%s' connected over TCP from %s%s, protocol %u", n ? name : "?",
+			 c->peer, c->privileged ? " (may control)" : "", c->version);
+	else
+		snprintf(line, sizeof(line), "client '%s' connected (pid %d, uid %u%s), protocol %u", n ? name : "?",
+			 (int)c->pid, (unsigned)c->uid, c->privileged ? ", may control" : "", c->version);
 	srv->cfg.on_client(srv->cfg.on_client_ctx, line);
 }
 
@@ -191,6 +195,11 @@ static bool require_privilege(srv_server *srv, client *c, const proto_msg *m, co
 {
 	if (c->privileged)
 		return true;
+	if (c->tcp) {
+		srv_reply_error(srv, c, m->h.request_id, m->h.type, PROTO_E_PERMISSION, false,
+				"%s is not allowed over TCP by this mocapd ([network] privileged = false)", what);
+		return false;
+	}
 	srv_reply_error(srv, c, m->h.request_id, m->h.type, PROTO_E_PERMISSION, false,
 			"%s is allowed only to mocapd's user and group (you are uid %u gid %u); "
 			"add your user to the daemon's group",
@@ -218,6 +227,11 @@ static void handle_get_rings(srv_server *srv, client *c, const proto_msg *m)
 {
 	if (!require_privilege(srv, c, m, "mapping camera rings"))
 		return;
+	if (c->tcp) {
+		srv_reply_error(srv, c, m->h.request_id, m->h.type, PROTO_E_UNAVAILABLE, false,
+				"camera rings are shared memory on the daemon's machine: not available over TCP");
+		return;
+	}
 	proto_msg *o = srv_out_msg(srv, MC_MSG_RINGS, m->h.request_id);
 	int fds[PROTO_MAX_RINGS], n = 0;
 	pthread_mutex_lock(&srv->lock);
@@ -317,6 +331,36 @@ static void handle_head_pose(srv_server *srv, client *c, const proto_msg *m)
 	srv_head_pose_store(srv, &hp);
 }
 
+/* TCP only, and first: the token (tcp.c compares it). */
+static void handle_auth(srv_server *srv, client *c, const proto_msg *m)
+{
+	if (!c->tcp) {
+		srv_reply_error(srv, c, m->h.request_id, m->h.type, PROTO_E_INVALID, false,
+				"AUTH is for TCP connections; the Unix socket needs none");
+		return;
+	}
+	if (c->authed) {
+		srv_reply_error(srv, c, m->h.request_id, m->h.type, PROTO_E_HANDSHAKE, true, "second AUTH");
+		return;
+	}
+	if (!srv_tcp_token_ok(srv, m->u.auth.token)) {
+		if (srv->cfg.on_client) {
+			char line[128];
+			snprintf(line, sizeof(line), "TCP client %s refused: wrong token", c->peer);
+			srv->cfg.on_client(srv->cfg.on_client_ctx, line);
+		}
+		pthread_mutex_lock(&srv->lock);
+		srv->stats.refused++;
+		pthread_mutex_unlock(&srv->lock);
+		srv_reply_error(srv, c, m->h.request_id, m->h.type, PROTO_E_AUTH, true,
+				"wrong token for mocapd's TCP port (see [network] token_file in its config)");
+		return;
+	}
+	c->authed = true;
+	c->privileged = srv->cfg.tcp_privileged;
+	srv_reply_ok(srv, c, m->h.request_id, m->h.type, 0);
+}
+
 static void handle_ping(srv_server *srv, client *c, const proto_msg *m)
 {
 	proto_msg *o = srv_out_msg(srv, MC_MSG_PONG, m->h.request_id);
@@ -346,7 +390,13 @@ void srv_handle_message(srv_server *srv, client *c, size_t len)
 		srv_protocol_error(srv, c, type, rid, why);
 		return;
 	}
-	if (!c->hello && m->h.type != MC_MSG_HELLO) {
+	if (c->tcp && !c->authed && m->h.type != MC_MSG_AUTH) {
+		srv_reply_error(srv, c, m->h.request_id, m->h.type, PROTO_E_AUTH, true,
+				"%s before AUTH: a TCP connection must start with AUTH and the daemon's token",
+				proto_type_name(m->h.type));
+		return;
+	}
+	if (!c->hello && m->h.type != MC_MSG_HELLO && m->h.type != MC_MSG_AUTH) {
 		srv_reply_error(srv, c, m->h.request_id, m->h.type, PROTO_E_HANDSHAKE, true,
 				"%s before HELLO: a client must start with HELLO", proto_type_name(m->h.type));
 		return;
@@ -368,6 +418,7 @@ void srv_handle_message(srv_server *srv, client *c, size_t len)
 	case MC_MSG_KEYPOINTS: handle_keypoints(srv, c, m); break;
 	case MC_MSG_HEAD_POSE: handle_head_pose(srv, c, m); break;
 	case MC_MSG_PING: handle_ping(srv, c, m); break;
+	case MC_MSG_AUTH: handle_auth(srv, c, m); break;
 	}
 }
 

@@ -17,6 +17,8 @@
  *
  * The files, in the order a message meets them:
  *   listen.c    the listening socket: creating or adopting it, accepting
+ *   tcp.c       the TCP listener for other machines: length-prefixed
+ *               framing over a byte stream, the token (AUTH)
  *   peercred.c  who the peer is (SO_PEERCRED) and whether it is privileged
  *   client.c    a connection's life: reading datagrams, closing, reaping
  *   handlers.c  one function per request type
@@ -82,6 +84,13 @@ typedef struct {
 
 typedef struct client {
 	int fd;
+	bool tcp;               /* a TCP connection (tcp.c), else the Unix socket */
+	bool authed;            /* TCP: presented the token */
+	char peer[64];          /* TCP: the peer's address, for the log */
+	uint8_t *srx;           /* TCP: bytes received that are not a whole message yet */
+	size_t srx_len;
+	blob *sending;          /* TCP: a blob partly sent, finished before any other */
+	size_t sent;            /* bytes of it sent, length prefix included */
 	uint64_t serial;        /* unique per connection, for control tokens */
 	uint64_t accepted_ns;
 	bool hello, privileged, dead;
@@ -140,7 +149,8 @@ struct srv_keypoint_inbox {
 
 struct srv_server {
 	srv_config cfg;
-	int listen_fd, epfd, wake_fd, event_fd;
+	int listen_fd, tcp_fd, epfd, wake_fd, event_fd;
+	int tcp_port;
 	bool created_path;
 	dev_t path_dev;
 	ino_t path_ino;
@@ -193,8 +203,26 @@ struct srv_server {
 int srv_listen_open(srv_server *srv, mc_err *err);
 /* Closes the listening socket and removes the file if it is still ours. */
 void srv_listen_close(srv_server *srv);
-/* Accepts every waiting connection (server thread). */
-void srv_accept_clients(srv_server *srv);
+/* Accepts every waiting connection on listen_fd (the Unix socket or,
+ * with tcp, the TCP listener) (server thread). */
+void srv_accept_clients(srv_server *srv, int listen_fd, bool tcp);
+
+/* --- tcp.c --- */
+
+/* Opens the TCP listener of cfg.tcp_listen, if any.  0 or -1 (err set). */
+int srv_tcp_open(srv_server *srv, mc_err *err);
+void srv_tcp_close(srv_server *srv);
+/* Sets up an accepted TCP connection (no delay, keep-alive, the peer's
+ * address).  false when it cannot be used. */
+bool srv_tcp_setup_client(client *c, int fd);
+/* Reads from a TCP client and handles every whole message received. */
+void srv_tcp_readable(srv_server *srv, client *c);
+/* Sends the rest of a blob with its length prefix; *sent counts the bytes
+ * gone so far.  1 all sent, 0 the socket is full, -1 the client is gone. */
+int srv_tcp_send(client *c, const blob *b, size_t *sent);
+/* Whether token is the configured one (in time independent of where they
+ * differ). */
+bool srv_tcp_token_ok(const srv_server *srv, const char *token);
 
 /* --- peercred.c --- */
 

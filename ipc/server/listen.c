@@ -126,9 +126,9 @@ void srv_listen_close(srv_server *srv)
 		unlink(srv->cfg.path);
 }
 
-/* --- Accepting --- */
+/* --- Accepting (both listeners) --- */
 
-static void refuse_connection(srv_server *srv, int fd, const char *why)
+static void refuse_connection(srv_server *srv, int fd, bool tcp, const char *why)
 {
 	proto_msg *m = &srv->out;
 	memset(m, 0, sizeof(*m));
@@ -137,8 +137,16 @@ static void refuse_connection(srv_server *srv, int fd, const char *why)
 	m->u.error.fatal = 1;
 	srv_str_copy(m->u.error.message, sizeof(m->u.error.message), why);
 	size_t n = proto_encode(m, srv->txbuf, sizeof(srv->txbuf));
-	if (n)
-		send(fd, srv->txbuf, n, MSG_DONTWAIT | MSG_NOSIGNAL);
+	blob *b = n ? srv_blob_new(srv->txbuf, n, false) : NULL;
+	if (b) {
+		client once = {.fd = fd};
+		size_t sent = 0;
+		if (tcp)
+			srv_tcp_send(&once, b, &sent);
+		else
+			srv_send_blob(&once, b);
+	}
+	srv_blob_unref(b);
 	close(fd);
 	pthread_mutex_lock(&srv->lock);
 	srv->stats.refused++;
@@ -156,21 +164,27 @@ static bool grow_clients(srv_server *srv)
 	return true;
 }
 
-void srv_accept_clients(srv_server *srv)
+/* Who the peer is: SO_PEERCRED on the Unix socket, the address on TCP. */
+static bool identify(const srv_server *srv, int fd, bool tcp, client *c)
+{
+	return tcp ? srv_tcp_setup_client(c, fd) : srv_peer_identify(srv, fd, c);
+}
+
+void srv_accept_clients(srv_server *srv, int listen_fd, bool tcp)
 {
 	for (;;) {
-		int fd = accept4(srv->listen_fd, NULL, NULL, SOCK_NONBLOCK | SOCK_CLOEXEC);
+		int fd = accept4(listen_fd, NULL, NULL, SOCK_NONBLOCK | SOCK_CLOEXEC);
 		if (fd < 0)
 			return; /* EAGAIN, or a transient error: epoll tells us again */
 		if (srv_live_clients(srv) >= srv->cfg.max_clients) {
 			char why[128];
 			snprintf(why, sizeof(why), "too many clients: mocapd accepts at most %d at once",
 				 srv->cfg.max_clients);
-			refuse_connection(srv, fd, why);
+			refuse_connection(srv, fd, tcp, why);
 			continue;
 		}
 		client *c = calloc(1, sizeof(*c));
-		if (!c || !srv_peer_identify(srv, fd, c) || !srv_q_reshape(c, 0, true)) {
+		if (!c || !identify(srv, fd, tcp, c) || !srv_q_reshape(c, 0, true)) {
 			free(c);
 			close(fd);
 			continue;

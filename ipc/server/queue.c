@@ -155,16 +155,53 @@ void srv_queue_gap(srv_server *srv, client *c)
 	srv_blob_unref(b);
 }
 
+/* Sends one blob: 1 all of it, 0 none (the socket is full), -1 the client
+ * is gone; or, on TCP, 0 with *sent > 0 when only part of it went. */
+static int send_one(client *c, const blob *b, size_t *sent)
+{
+	return c->tcp ? srv_tcp_send(c, b, sent) : srv_send_blob(c, b);
+}
+
+/* Takes the front blob off the FIFO, or out of the latest slot. */
+static void take_front(client *c)
+{
+	if (c->qn) {
+		srv_q_pop(c);
+	} else {
+		srv_blob_unref(c->latest);
+		c->latest = NULL;
+	}
+}
+
+/* A blob stays where it is (FIFO or latest slot) until it starts to go, so
+ * that a newer frame can still replace one in the latest slot; a TCP blob
+ * that went in part is held in c->sending and finished first. */
 void srv_client_flush(srv_server *srv, client *c)
 {
 	for (;;) {
 		if (c->dead)
 			return;
-		srv_queue_gap(srv, c);
-		blob *b = c->qn ? q_front(c) : c->latest;
-		if (!b)
-			break;
-		int rc = srv_send_blob(c, b);
+		int rc;
+		if (c->sending) {
+			rc = srv_tcp_send(c, c->sending, &c->sent);
+			if (rc == 1) {
+				srv_blob_unref(c->sending);
+				c->sending = NULL;
+			}
+		} else {
+			srv_queue_gap(srv, c);
+			blob *b = c->qn ? q_front(c) : c->latest;
+			if (!b)
+				break;
+			size_t sent = 0;
+			rc = send_one(c, b, &sent);
+			if (rc == 0 && sent > 0) {
+				c->sending = srv_blob_ref(b);
+				c->sent = sent;
+			}
+			if (rc == 1 || sent > 0)
+				take_front(c);
+		}
 		if (rc < 0) {
 			srv_client_close(srv, c);
 			return;
@@ -172,12 +209,6 @@ void srv_client_flush(srv_server *srv, client *c)
 		if (rc == 0) {
 			epoll_update(srv, c, true);
 			return;
-		}
-		if (c->qn)
-			srv_q_pop(c);
-		else {
-			srv_blob_unref(c->latest);
-			c->latest = NULL;
 		}
 	}
 	epoll_update(srv, c, false);
@@ -221,10 +252,12 @@ void srv_reply_error(srv_server *srv, client *c, uint32_t request_id, uint16_t r
 		srv_reply(srv, c, m);
 		return;
 	}
-	/* Last words: drop whatever was queued, try once, close. */
+	/* Last words: drop whatever was queued, try once, close (not in the
+	 * middle of a TCP message: the peer would read them as its rest). */
 	blob *b = srv_encode_blob(srv, m, false);
-	if (b)
-		srv_send_blob(c, b);
+	size_t sent = 0;
+	if (b && !c->sending)
+		send_one(c, b, &sent);
 	srv_blob_unref(b);
 	srv_client_close(srv, c);
 }

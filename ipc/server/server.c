@@ -63,7 +63,9 @@ static void *server_thread(void *arg)
 		for (int i = 0; i < n; i++) {
 			void *p = evs[i].data.ptr;
 			if (p == &srv->listen_fd) {
-				srv_accept_clients(srv);
+				srv_accept_clients(srv, srv->listen_fd, false);
+			} else if (p == &srv->tcp_fd) {
+				srv_accept_clients(srv, srv->tcp_fd, true);
 			} else if (p == &srv->wake_fd) {
 				uint64_t v;
 				if (read(srv->wake_fd, &v, sizeof(v)) < 0) {
@@ -110,7 +112,7 @@ srv_server *srv_create(const srv_config *cfg, mc_err *err)
 		return NULL;
 	}
 	srv->cfg = *cfg;
-	srv->listen_fd = srv->epfd = srv->wake_fd = srv->event_fd = -1;
+	srv->listen_fd = srv->tcp_fd = srv->epfd = srv->wake_fd = srv->event_fd = -1;
 	pthread_mutex_init(&srv->lock, NULL);
 	srv->keypoints.srv = srv;
 	srv->keypoints.ring = calloc(KEYPOINT_QUEUE_LEN, sizeof(*srv->keypoints.ring));
@@ -118,7 +120,7 @@ srv_server *srv_create(const srv_config *cfg, mc_err *err)
 		mc_err_set(err, "out of memory");
 		goto fail;
 	}
-	if (srv_listen_open(srv, err))
+	if (srv_listen_open(srv, err) || srv_tcp_open(srv, err))
 		goto fail;
 	srv->epfd = epoll_create1(EPOLL_CLOEXEC);
 	srv->wake_fd = eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC);
@@ -131,6 +133,10 @@ srv_server *srv_create(const srv_config *cfg, mc_err *err)
 	epoll_ctl(srv->epfd, EPOLL_CTL_ADD, srv->listen_fd, &ev);
 	ev.data.ptr = &srv->wake_fd;
 	epoll_ctl(srv->epfd, EPOLL_CTL_ADD, srv->wake_fd, &ev);
+	if (srv->tcp_fd >= 0) {
+		ev.data.ptr = &srv->tcp_fd;
+		epoll_ctl(srv->epfd, EPOLL_CTL_ADD, srv->tcp_fd, &ev);
+	}
 	srv->status.tracker_state = SRV_TRACKER_IDLE;
 	srv->status.start_ns = mc_now_ns();
 	int rc = pthread_create(&srv->thread, NULL, server_thread, srv);
@@ -159,6 +165,7 @@ void srv_destroy(srv_server *srv)
 		srv_reap_clients(srv);
 	}
 	srv_listen_close(srv);
+	srv_tcp_close(srv);
 	if (srv->epfd >= 0)
 		close(srv->epfd);
 	if (srv->wake_fd >= 0)

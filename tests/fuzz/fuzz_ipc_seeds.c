@@ -74,6 +74,9 @@ int main(int argc, char **argv)
 	start(MC_MSG_PING);
 	m.u.ping.value = 99;
 	bad |= write_seed(d, "ping");
+	start(MC_MSG_AUTH);
+	strcpy(m.u.auth.token, "0123456789abcdef0123456789abcdef");
+	bad |= write_seed(d, "auth");
 	/* Server messages: libmocap decodes them with the same code. */
 	start(MC_MSG_FRAME);
 	m.u.frame.seq = 5;
