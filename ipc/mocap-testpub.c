@@ -3,9 +3,10 @@
  * Python module's tests and anyone writing a client use it when no daemon
  * (or no camera) is at hand.
  *
- *   mocap-testpub --socket PATH [--rate HZ] [--frames N]
+ *   mocap-testpub --socket PATH [--rate HZ] [--frames N] [--tcp HOST:PORT --token T]
  *
- * Prints "ready" on stdout once clients can connect.  Stops after N frames
+ * Prints "ready" on stdout once clients can connect ("ready tcp=PORT" with
+ * a TCP listener: port 0 takes a free one).  Stops after N frames
  * (0: never) or on SIGINT/SIGTERM.  Answers control requests itself:
  * reload succeeds, recording fails with a message. */
 #include "base/mc_time.h"
@@ -98,8 +99,13 @@ int main(int argc, char **argv)
 			rate = atof(argv[++i]);
 		else if (!strcmp(argv[i], "--frames") && i + 1 < argc)
 			frames = atol(argv[++i]);
+		else if (!strcmp(argv[i], "--tcp") && i + 1 < argc)
+			snprintf(cfg.tcp_listen, sizeof(cfg.tcp_listen), "%s", argv[++i]);
+		else if (!strcmp(argv[i], "--token") && i + 1 < argc)
+			snprintf(cfg.tcp_token, sizeof(cfg.tcp_token), "%s", argv[++i]);
 		else {
-			fprintf(stderr, "usage: mocap-testpub [--socket PATH] [--rate HZ] [--frames N]\n");
+			fprintf(stderr, "usage: mocap-testpub [--socket PATH] [--rate HZ] [--frames N] "
+					"[--tcp HOST:PORT --token T]\n");
 			return 2;
 		}
 	}
@@ -131,7 +137,10 @@ int main(int argc, char **argv)
 	struct sigaction sa = {.sa_handler = on_signal};
 	sigaction(SIGINT, &sa, NULL);
 	sigaction(SIGTERM, &sa, NULL);
-	printf("ready\n");
+	if (srv_tcp_port(srv))
+		printf("ready tcp=%d\n", srv_tcp_port(srv));
+	else
+		printf("ready\n");
 	fflush(stdout);
 
 	srv_status st = {0};

@@ -50,22 +50,39 @@ def examples():
     return _program("MOCAP_EXAMPLES", "build/examples", "dir")
 
 
+TCP_TOKEN = "python-test-token-0123456789"
+
+
 @pytest.fixture(scope="session")
-def daemon():
-    """The socket path of a mocap-testpub publishing 200 frames/s, for the whole session."""
-    testpub = _program("MOCAP_TESTPUB", "build/ipc/mocap-testpub")
+def testpub():
+    """(socket path, tcp://127.0.0.1:PORT) of a mocap-testpub publishing 200 frames/s on
+    both, with TCP_TOKEN for TCP, for the whole session."""
+    program = _program("MOCAP_TESTPUB", "build/ipc/mocap-testpub")
     with tempfile.TemporaryDirectory(prefix="mocap-py-") as d:
         path = os.path.join(d, "mocapd.sock")
-        pub = subprocess.Popen([testpub, "--socket", path, "--rate", "200"], stdout=subprocess.PIPE, text=True)
+        pub = subprocess.Popen([program, "--socket", path, "--rate", "200", "--tcp", "127.0.0.1:0",
+                                "--token", TCP_TOKEN], stdout=subprocess.PIPE, text=True)
         try:
             line = pub.stdout.readline().strip()
-            if line != "ready":
+            if not line.startswith("ready tcp="):
                 pytest.fail("mocap-testpub did not start: %r" % line)
-            yield path
+            yield path, "tcp://127.0.0.1:%s" % line.split("=", 1)[1]
         finally:
             pub.terminate()
             pub.wait(timeout=10)
             pub.stdout.close()
+
+
+@pytest.fixture(scope="session")
+def daemon(testpub):
+    """The socket path of the session's mocap-testpub."""
+    return testpub[0]
+
+
+@pytest.fixture(scope="session")
+def tcp_daemon(testpub):
+    """The tcp:// address of the session's mocap-testpub (token TCP_TOKEN)."""
+    return testpub[1]
 
 
 # --- a scripted daemon, for what mocap-testpub cannot show ---

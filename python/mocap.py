@@ -1,8 +1,10 @@
 """mocap: a client of mocapd for lab scripts, in pure Python (standard library).
 
 Speaks protocol versions 1 and 2 of docs/PROTOCOL.md over the daemon's
-SOCK_SEQPACKET Unix socket.  One file: install it with `pip install ./python`
-or copy mocap.py next to a script.
+SOCK_SEQPACKET Unix socket, or over TCP to a daemon on another machine
+(path "tcp://HOST:PORT"; the daemon's token from token=, $MOCAP_TOKEN or
+the file $MOCAP_TOKEN_FILE).  One file: install it with `pip install
+./python` or copy mocap.py next to a script.
 
 Blocking (single-threaded: use one Client per thread):
 
@@ -373,6 +375,99 @@ def _header(data, path):
     return type_, rid
 
 
+# --- TCP: a daemon on another machine ([network] in its config) ---
+
+TCP_SCHEME = "tcp://"
+TOKEN_ENV, TOKEN_FILE_ENV = "MOCAP_TOKEN", "MOCAP_TOKEN_FILE"
+TCP_PREFIX = struct.Struct("<I")  # each message on the stream follows its length
+
+
+def _is_tcp(path):
+    return path.startswith(TCP_SCHEME)
+
+
+def _tcp_host_port(address):
+    host, sep, port = address[len(TCP_SCHEME):].rpartition(":")
+    if host.startswith("[") and host.endswith("]"):
+        host = host[1:-1]
+    if not sep or not host or not port.isdigit() or int(port) > 65535:
+        raise ArgumentError("argument", "%s: expected tcp://HOST:PORT" % address)
+    return host, int(port)
+
+
+def _tcp_token(token):
+    """The token: the argument, else $MOCAP_TOKEN, else the first line of $MOCAP_TOKEN_FILE."""
+    token = token or os.environ.get(TOKEN_ENV)
+    if token:
+        return token
+    path = os.environ.get(TOKEN_FILE_ENV)
+    if not path:
+        raise AccessDenied("access", "a TCP connection needs the daemon's token: give token= or set %s or %s"
+                           % (TOKEN_ENV, TOKEN_FILE_ENV))
+    try:
+        with open(path, encoding="utf-8") as f:
+            token = f.readline().strip("\r\n")
+    except OSError as e:
+        raise ArgumentError("argument", "%s=%s: %s" % (TOKEN_FILE_ENV, path, e.strerror or e)) from None
+    if not token:
+        raise ArgumentError("argument", "%s=%s: the file is empty" % (TOKEN_FILE_ENV, path))
+    return token
+
+
+def _tcp_socket(family):
+    sock = socket.socket(family, socket.SOCK_STREAM)
+    sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+    sock.setsockopt(socket.SOL_SOCKET, socket.SO_KEEPALIVE, 1)
+    return sock
+
+
+def _tcp_connect_error(address, e):
+    if isinstance(e, ConnectionRefusedError):
+        return NotRunning("not running", "daemon not running at %s (nobody listens there; is [network] listen "
+                          "set?)" % address)
+    if isinstance(e, socket.timeout):
+        return Timeout("timeout", "cannot connect to %s: timed out" % address)
+    return NotRunning("not running", "cannot connect to %s: %s" % (address, getattr(e, "strerror", None) or e))
+
+
+class _Stream:
+    """Messages out of a TCP byte stream: each is a u32 length, then the message."""
+
+    def __init__(self):
+        self._buf = bytearray()
+
+    def feed(self, data):
+        self._buf += data
+
+    def take(self):
+        """The next whole message, or None."""
+        if len(self._buf) < TCP_PREFIX.size:
+            return None
+        (n,) = TCP_PREFIX.unpack_from(self._buf)
+        if n < HEADER.size or n > MAX_MESSAGE:
+            raise ProtocolError("protocol", "mocapd sent a bad TCP length prefix (%d)" % n)
+        end = TCP_PREFIX.size + n
+        if len(self._buf) < end:
+            return None
+        data = bytes(self._buf[TCP_PREFIX.size:end])
+        del self._buf[:end]
+        return data
+
+    def has_message(self):
+        return len(self._buf) >= TCP_PREFIX.size and \
+            len(self._buf) >= TCP_PREFIX.size + TCP_PREFIX.unpack_from(self._buf)[0]
+
+    @staticmethod
+    def frame(message):
+        return TCP_PREFIX.pack(len(message)) + message
+
+
+def _auth_body(token):
+    if len(token.encode("utf-8")) > 255:
+        raise ArgumentError("argument", "the token is longer than 255 bytes")
+    return _str16(token)
+
+
 def _new_socket():
     try:
         return socket.socket(socket.AF_UNIX, socket.SOCK_SEQPACKET)
@@ -599,15 +694,21 @@ class _Session:
 class Client(_Session):
     """A connection to mocapd.  Blocking; use one Client per thread."""
 
-    def __init__(self, path=None, name="python", timeout=10.0):
+    def __init__(self, path=None, name="python", timeout=10.0, token=None):
         self._init_session(path, timeout)
-        self._sock = _new_socket()
+        self._stream = None
+        if _is_tcp(self.path):
+            self._connect_tcp(token)
+        else:
+            self._sock = _new_socket()
+            try:
+                self._sock.connect(self.path)
+            except OSError as e:
+                self._sock.close()
+                raise _connect_error(self.path, e) from None
         try:
-            self._sock.connect(self.path)
-        except OSError as e:
-            self._sock.close()
-            raise _connect_error(self.path, e) from None
-        try:
+            if self._stream is not None:
+                self._request(AUTH, _auth_body(self._token), OK)
             r = self._request(HELLO, _hello_body(name), WELCOME)
             self.version, self.privileged, self.server_pid, self.daemon_version = _parse_welcome(r)
         except BaseException:
@@ -623,26 +724,69 @@ class Client(_Session):
     def __exit__(self, *exc):
         self.close()
 
+    def _connect_tcp(self, token):
+        self._token = _tcp_token(token)
+        host, port = _tcp_host_port(self.path)
+        try:
+            family = socket.getaddrinfo(host, port, type=socket.SOCK_STREAM)[0][0]
+            self._sock = _tcp_socket(family)
+        except OSError as e:
+            raise _tcp_connect_error(self.path, e) from None
+        try:
+            self._sock.settimeout(self.timeout)
+            self._sock.connect((host, port))
+        except OSError as e:
+            self._sock.close()
+            raise _tcp_connect_error(self.path, e) from None
+        self._stream = _Stream()
+
     # --- transport ---
 
     def _send(self, type_, body=b"", request_id=0):
+        message = _message(type_, body, request_id)
+        if self._stream is not None:
+            message = _Stream.frame(message)
         try:
             self._sock.settimeout(self.timeout)
-            self._sock.sendall(_message(type_, body, request_id))
+            self._sock.sendall(message)
         except socket.timeout:
             raise Timeout("timeout", "mocapd does not read our messages") from None
         except OSError as e:
             raise Disconnected("disconnected", "sending to mocapd: %s" % (e.strerror or e)) from None
 
+    def _recv_stream(self, timeout):
+        """TCP: the next whole message and no fds, or None on timeout."""
+        deadline = None if timeout is None else time.monotonic() + timeout
+        while True:
+            data = self._stream.take()
+            if data is not None:
+                return data, []
+            self._sock.settimeout(None if deadline is None else max(0.0, deadline - time.monotonic()))
+            try:
+                chunk = self._sock.recv(MAX_MESSAGE)
+            except (socket.timeout, BlockingIOError):
+                return None
+            except OSError as e:
+                raise Disconnected("disconnected", "connection to mocapd lost: %s" % (e.strerror or e)) from None
+            if not chunk:
+                return b"", []  # _header says the daemon closed the connection
+            self._stream.feed(chunk)
+
     def _recv(self, timeout):
         """One message (type, request_id, bytes, fds), or None on timeout."""
-        self._sock.settimeout(timeout)
-        try:
-            data, fds, _flags, _addr = socket.recv_fds(self._sock, MAX_MESSAGE, MAX_FDS, _RECV_FLAGS)
-        except (socket.timeout, BlockingIOError):
-            return None
-        except OSError as e:
-            raise Disconnected("disconnected", "connection to mocapd lost: %s" % (e.strerror or e)) from None
+        if self._stream is not None:
+            got = self._recv_stream(timeout)
+            if got is None:
+                return None
+            data, fds = got
+        else:
+            self._sock.settimeout(timeout)
+            try:
+                data, fds, _flags, _addr = socket.recv_fds(self._sock, MAX_MESSAGE, MAX_FDS, _RECV_FLAGS)
+            except (socket.timeout, BlockingIOError):
+                return None
+            except OSError as e:
+                raise Disconnected("disconnected", "connection to mocapd lost: %s" % (e.strerror or e)) from None
         try:
             type_, rid = _header(data, self.path)
         except MocapError:
@@ -803,9 +947,11 @@ class AsyncClient(_Session):
     is in flight, so that the daemon's queue, not this process, holds the
     backlog (and counts what it drops in Frame.missed)."""
 
-    def __init__(self, path=None, name="python", timeout=10.0, max_queued=None):
+    def __init__(self, path=None, name="python", timeout=10.0, max_queued=None, token=None):
         self._init_session(path, timeout)
         self._name = name
+        self._token = token
+        self._stream = None           # TCP: messages out of the byte stream
         self._sock = None
         self._loop = None
         self._reading = False
@@ -821,25 +967,52 @@ class AsyncClient(_Session):
         self._loop = asyncio.get_running_loop()
         self._wakeup = asyncio.Event()
         self._send_lock = asyncio.Lock()
-        sock = _new_socket()
-        sock.setblocking(False)
-        try:
-            await self._loop.sock_connect(sock, self.path)
-        except OSError as e:
-            sock.close()
-            raise _connect_error(self.path, e) from None
-        except BaseException:
-            sock.close()
-            raise
+        if _is_tcp(self.path):
+            sock = await self._connect_tcp()
+        else:
+            sock = _new_socket()
+            sock.setblocking(False)
+            try:
+                await self._loop.sock_connect(sock, self.path)
+            except OSError as e:
+                sock.close()
+                raise _connect_error(self.path, e) from None
+            except BaseException:
+                sock.close()
+                raise
         self._sock = sock
         self._resume()
         try:
+            if self._stream is not None:
+                await self._ask(AUTH, _auth_body(self._token), OK)
             r = await self._ask(HELLO, _hello_body(self._name), WELCOME)
             self.version, self.privileged, self.server_pid, self.daemon_version = _parse_welcome(r)
         except BaseException:
             self.close()
             raise
         return self
+
+    async def _connect_tcp(self):
+        self._token = _tcp_token(self._token)
+        host, port = _tcp_host_port(self.path)
+        try:
+            family, _type, _proto, _name, addr = (await self._loop.getaddrinfo(host, port,
+                                                                               type=socket.SOCK_STREAM))[0]
+            sock = _tcp_socket(family)
+        except OSError as e:
+            raise _tcp_connect_error(self.path, e) from None
+        sock.setblocking(False)
+        try:
+            await asyncio.wait_for(self._loop.sock_connect(sock, addr), self.timeout)
+        except (OSError, asyncio.TimeoutError) as e:
+            sock.close()
+            raise _tcp_connect_error(self.path, socket.timeout() if isinstance(e, asyncio.TimeoutError) else e) \
+                from None
+        except BaseException:
+            sock.close()
+            raise
+        self._stream = _Stream()
+        return sock
 
     def close(self):
         """Closes the connection; requests and reads in progress raise Disconnected."""
@@ -868,6 +1041,8 @@ class AsyncClient(_Session):
         if not self._reading and self._sock is not None and self._dead is None:
             self._loop.add_reader(self._sock.fileno(), self._on_readable)
             self._reading = True
+            if self._stream is not None and self._stream.has_message():
+                self._loop.call_soon(self._on_readable)  # received before the pause
 
     def _pause(self):
         if self._reading:
@@ -898,22 +1073,42 @@ class AsyncClient(_Session):
         if self._dead is not None:
             raise self._dead_error()
 
-    def _on_readable(self):
-        """Reads what is there (up to a burst), filing each datagram."""
-        for _ in range(64):
-            if self._sock is None or self._dead is not None:
-                return
+    def _receive(self):
+        """The next message (data, fds) from the socket, or None when nothing
+        is there; the connection's end raises."""
+        if self._stream is not None:
+            data = self._stream.take()
+            if data is not None:
+                return data, []
+        while True:
             try:
-                data, fds, _flags, _addr = socket.recv_fds(self._sock, MAX_MESSAGE, MAX_FDS, _RECV_FLAGS)
+                if self._stream is None:
+                    data, fds, _flags, _addr = socket.recv_fds(self._sock, MAX_MESSAGE, MAX_FDS, _RECV_FLAGS)
+                    return data, fds
+                chunk = self._sock.recv(MAX_MESSAGE)
             except InterruptedError:
                 continue
             except BlockingIOError:
-                return
+                return None
             except OSError as e:
-                self._die(Disconnected("disconnected", "connection to mocapd lost: %s" % (e.strerror or e)))
+                raise Disconnected("disconnected", "connection to mocapd lost: %s" % (e.strerror or e)) from None
+            if not chunk:
+                return b"", []  # _header says the daemon closed the connection
+            self._stream.feed(chunk)
+            data = self._stream.take()
+            if data is not None:
+                return data, []
+
+    def _on_readable(self):
+        """Reads what is there (up to a burst), filing each message."""
+        for _ in range(64):
+            if self._sock is None or self._dead is not None or not self._reading:
                 return
             try:
-                self._dispatch(data, fds)
+                got = self._receive()
+                if got is None:
+                    return
+                self._dispatch(*got)
             except MocapError as e:
                 self._die(e)
                 return
@@ -923,6 +1118,8 @@ class AsyncClient(_Session):
                     and not self._waiters:
                 self._pause()
                 return
+        if self._stream is not None and self._stream.has_message():
+            self._loop.call_soon(self._on_readable)  # the burst ended with messages buffered
 
     def _dispatch(self, data, fds):
         try:
@@ -959,9 +1156,11 @@ class AsyncClient(_Session):
         if self._sock is None:
             raise Disconnected("disconnected", "the connection was closed (close())")
         try:
+            message = _message(type_, body, request_id)
+            if self._stream is not None:
+                message = _Stream.frame(message)
             async with self._send_lock:
-                await asyncio.wait_for(self._loop.sock_sendall(self._sock, _message(type_, body, request_id)),
-                                       self.timeout)
+                await asyncio.wait_for(self._loop.sock_sendall(self._sock, message), self.timeout)
         except asyncio.TimeoutError:
             raise Timeout("timeout", "mocapd does not read our messages") from None
         except OSError as e:
@@ -1125,10 +1324,12 @@ class _Connecting:
         self._client.close()
 
 
-def connect(path=None, name="python", timeout=10.0, max_queued=None):
+def connect(path=None, name="python", timeout=10.0, max_queued=None, token=None):
     """Connects an AsyncClient: `c = await mocap.aio.connect()`, or
-    `async with mocap.aio.connect() as c: ...` (closed at the end)."""
-    return _Connecting(path, name, timeout, max_queued)
+    `async with mocap.aio.connect() as c: ...` (closed at the end).
+    path may be "tcp://HOST:PORT" (token: the daemon's, else $MOCAP_TOKEN
+    or $MOCAP_TOKEN_FILE)."""
+    return _Connecting(path, name, timeout, max_queued, token)
 
 
 # mocap.aio: the asyncio API under its own name, importable as a submodule
