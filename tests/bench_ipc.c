@@ -1,6 +1,8 @@
 /* bench_ipc: latency from srv_publish() to the client library's
  * receipt of the frame (both CLOCK_MONOTONIC, same machine), at 60 Hz with
- * 1 and with 64 subscribers, each a libmocap client on its own thread.
+ * 1 and with 64 subscribers on the Unix socket, and with 1 and 16 over
+ * loopback TCP (the [network] listener), each a libmocap client on its own
+ * thread.
  * Also the time the publisher spends in srv_publish().  Target:
  * p99 < 1 ms.
  *
@@ -24,9 +26,12 @@
 
 #define NJ 18
 
-static char path[96];
+#define TOKEN "bench-ipc-token-0123456789"
+
+static char path[96], tcp_addr[64];
 
 typedef struct {
+	const char *address;
 	mocap_mode mode;
 	int max_samples, n;
 	double *lat_ms;
@@ -37,7 +42,7 @@ typedef struct {
 static void *subscriber(void *arg)
 {
 	sub_arg *s = arg;
-	mocap_client *c = mocap_connect(path, "bench");
+	mocap_client *c = mocap_connect_token(s->address, "bench", TOKEN);
 	if (!c || mocap_subscribe(c, s->mode, MOCAP_SPACE_RIG, 0) != 0) {
 		fprintf(stderr, "bench_ipc: %s\n", mocap_errmsg());
 		exit(1);
@@ -59,7 +64,7 @@ static void *subscriber(void *arg)
 /* The p-th percentile (0..100, nearest rank) of n sorted samples. */
 static double pct(const double *sorted, int n, double p) { return mc_stats_percentile(sorted, (size_t)n, p); }
 
-static bool run(srv_server *srv, int nsubs, mocap_mode mode, int frames)
+static bool run(srv_server *srv, const char *address, int nsubs, mocap_mode mode, int frames)
 {
 	static uint64_t seq = 0;
 	pthread_t th[64];
@@ -67,7 +72,7 @@ static bool run(srv_server *srv, int nsubs, mocap_mode mode, int frames)
 	atomic_int ready = 0;
 	atomic_bool stop = false;
 	for (int i = 0; i < nsubs; i++) {
-		args[i] = (sub_arg){mode, frames, 0, calloc((size_t)frames, sizeof(double)), &ready, &stop};
+		args[i] = (sub_arg){address, mode, frames, 0, calloc((size_t)frames, sizeof(double)), &ready, &stop};
 		pthread_create(&th[i], NULL, subscriber, &args[i]);
 	}
 	while (atomic_load(&ready) < nsubs)
@@ -110,8 +115,8 @@ static bool run(srv_server *srv, int nsubs, mocap_mode mode, int frames)
 	mc_stats_sort(all, (size_t)total);
 	mc_stats_sort(pub_us, (size_t)frames);
 	double p99 = pct(all, total, 99);
-	printf("  %3d   %-6s  %7d/%-7d  %7.3f  %7.3f  %7.3f   %6.1f %6.1f\n", nsubs, mode == MOCAP_LATEST ? "latest" : "all",
-	       total, frames * nsubs, pct(all, total, 50), p99, total ? all[total - 1] : 0.0, pct(pub_us, frames, 50),
+	printf("  %-4s  %3d   %-6s  %7d/%-7d  %7.3f  %7.3f  %7.3f   %6.1f %6.1f\n", address == path ? "unix" : "tcp",
+	       nsubs, mode == MOCAP_LATEST ? "latest" : "all", total, frames * nsubs, pct(all, total, 50), p99, total ? all[total - 1] : 0.0, pct(pub_us, frames, 50),
 	       pct(pub_us, frames, 99));
 	free(all);
 	free(pub_us);
@@ -149,12 +154,15 @@ int main(int argc, char **argv)
 	srv_config cfg;
 	srv_config_default(&cfg);
 	snprintf(cfg.path, sizeof(cfg.path), "%s", path);
+	snprintf(cfg.tcp_listen, sizeof(cfg.tcp_listen), "127.0.0.1:0");
+	snprintf(cfg.tcp_token, sizeof(cfg.tcp_token), "%s", TOKEN);
 	mc_err err;
 	srv_server *srv = srv_create(&cfg, &err);
 	if (!srv) {
 		fprintf(stderr, "bench_ipc: %s\n", err.msg);
 		return 1;
 	}
+	snprintf(tcp_addr, sizeof(tcp_addr), "tcp://127.0.0.1:%d", srv_tcp_port(srv));
 	srv_skeleton_def def = {0};
 	def.njoints = NJ;
 	for (int j = 0; j < NJ; j++) {
@@ -165,11 +173,15 @@ int main(int argc, char **argv)
 	long ncpu = sysconf(_SC_NPROCESSORS_ONLN);
 	printf("bench_ipc: publish -> client receive latency, 60 Hz, %d joints (%zu-byte frames), %d frames per run, "
 	       "%ld CPUs%s\n", NJ, (size_t)48 + 64 * NJ, frames, ncpu, rt ? ", SCHED_FIFO" : "");
-	printf("  subs  mode    received         p50 ms   p99 ms   max ms   publish us p50 p99\n");
-	bool ok = run(srv, 1, MOCAP_LATEST, frames);
-	ok &= run(srv, 64, MOCAP_LATEST, frames);
-	ok &= run(srv, 1, MOCAP_ALL, frames);
-	ok &= run(srv, 64, MOCAP_ALL, frames);
+	printf("  via   subs  mode    received         p50 ms   p99 ms   max ms   publish us p50 p99\n");
+	bool ok = run(srv, path, 1, MOCAP_LATEST, frames);
+	ok &= run(srv, path, 64, MOCAP_LATEST, frames);
+	ok &= run(srv, path, 1, MOCAP_ALL, frames);
+	ok &= run(srv, path, 64, MOCAP_ALL, frames);
+	ok &= run(srv, tcp_addr, 1, MOCAP_LATEST, frames);
+	ok &= run(srv, tcp_addr, 16, MOCAP_LATEST, frames);
+	ok &= run(srv, tcp_addr, 1, MOCAP_ALL, frames);
+	ok &= run(srv, tcp_addr, 16, MOCAP_ALL, frames);
 	double load[3] = {0};
 	FILE *la = fopen("/proc/loadavg", "r");
 	if (la) {
