@@ -103,6 +103,7 @@ typedef struct {
 	bool print;
 	double group_tolerance_ms;
 	double group_deadline_ms;
+	double max_frame_age_ms; /* 0: no budget */
 	double reopen_initial_ms;
 	double reopen_max_ms;
 	double stall_timeout_ms;

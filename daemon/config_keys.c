@@ -47,6 +47,7 @@ static const mcd_config_key keys[] = {
 	{MCD_SEC_DAEMON, "print", MCD_KEY_BOOL, D(print), 0, 0, NULL, "false", true},
 	{MCD_SEC_DAEMON, "group_tolerance_ms", MCD_KEY_REAL, D(group_tolerance_ms), 0, 1000, NULL, "10", true},
 	{MCD_SEC_DAEMON, "group_deadline_ms", MCD_KEY_POSITIVE, D(group_deadline_ms), 0, 10000, NULL, "100", true},
+	{MCD_SEC_DAEMON, "max_frame_age_ms", MCD_KEY_REAL, D(max_frame_age_ms), 0, 60000, NULL, "0", true},
 	{MCD_SEC_DAEMON, "reopen_initial_ms", MCD_KEY_POSITIVE, D(reopen_initial_ms), 0, 600000, NULL, "250", true},
 	{MCD_SEC_DAEMON, "reopen_max_ms", MCD_KEY_POSITIVE, D(reopen_max_ms), 0, 3600000, NULL, "10000", true},
 	{MCD_SEC_DAEMON, "stall_timeout_ms", MCD_KEY_POSITIVE, D(stall_timeout_ms), 0, 600000, NULL, "3000", true},

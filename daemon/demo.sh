@@ -96,6 +96,8 @@ if errors:
     print("mean joint error against the clip's ground truth: %.1f cm (%d joint estimates)"
           % (100 * sum(errors) / len(errors), len(errors)))
 PY
+# mocapd's own count: why sets were skipped, and the latency.
+grep -o "totals: .*" "$out/mocapd.log" | sed 's/^totals: /mocapd: /' || true
 
 # The tracked frame closest to each of a few frame numbers.
 nearest() {

@@ -87,15 +87,20 @@ bool mcd_grouper_pop(mcd_grouper *g, uint64_t now, uint32_t expect, mcd_group *o
 
 	memset(out, 0, sizeof(*out));
 	out->timestamp_ns = head_of(g, anchor)->timestamp_ns;
+	out->ready_ns = waiting ? first_arrival + g->deadline_ns : 0;
 	for (int c = 0; c < g->ncams; c++) {
 		if (has[c]) {
 			out->has[c] = true;
 			out->frame[c] = *head_of(g, c);
+			if (!waiting && out->frame[c].arrival_ns > out->ready_ns)
+				out->ready_ns = out->frame[c].arrival_ns;
 			out->present++;
 			drop_head(g, c);
 		} else
 			g->stats.missing[c]++;
 	}
+	if (out->ready_ns > now)
+		out->ready_ns = now;
 	g->stats.groups++;
 	if (out->present == g->ncams)
 		g->stats.complete++;

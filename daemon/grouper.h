@@ -36,6 +36,10 @@ typedef struct {
 
 typedef struct {
 	uint64_t timestamp_ns; /* the anchor's: the oldest member */
+	/* When the group became due: its last member's arrival, or its
+	 * deadline when it was released without a camera that may still
+	 * deliver (latency accounting: capture -> ready -> tracked). */
+	uint64_t ready_ns;
 	int present;
 	bool has[MC_MAX_CAMERAS];
 	mcd_frame_ref frame[MC_MAX_CAMERAS];

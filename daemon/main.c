@@ -456,6 +456,26 @@ static int poll_timeout_ms(const daemon_ctx *d, uint64_t now)
 	return timeout_ms > 1000 ? 1000 : timeout_ms;
 }
 
+/* The last word on the frame sets: how many were tracked, skipped and
+ * why, and the capture-to-publish latency (the demo's summary reads it). */
+static void log_totals(daemon_ctx *d)
+{
+	if (!d->pipe)
+		return;
+	mcd_pipeline_status *st = calloc(1, sizeof(*st));
+	if (!st)
+		return;
+	mcd_pipeline_get_status(d->pipe, st, false);
+	const srv_latency_status *l = &st->latency;
+	mcd_info("totals: %llu frame sets tracked; skipped: %llu behind (a newer set was due), %llu stale (over "
+		 "max_frame_age_ms); %llu without every camera; capture to publish %.1f ms p50, %.1f ms p99 "
+		 "(last %u sets)",
+		 (unsigned long long)st->track.tracked, (unsigned long long)l->skipped_behind,
+		 (unsigned long long)l->skipped_stale, (unsigned long long)l->incomplete, l->stage[SRV_LAT_TOTAL].p50,
+		 l->stage[SRV_LAT_TOTAL].p99, l->window);
+	free(st);
+}
+
 static int run(daemon_ctx *d)
 {
 	for (;;) {
@@ -574,6 +594,7 @@ int main(int argc, char **argv)
 		return 1;
 	}
 	rc = run(&d);
+	log_totals(&d);
 	shutdown_all(&d);
 	mcd_info("stopped");
 	return rc;

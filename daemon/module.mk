@@ -64,7 +64,7 @@ $(FAULTY_DIR)/bad/mocap-driver-noentry.so: tests/drivers/faulty/faulty.c drivers
 # The detector tests run mocapd with the test models of detect/tests/data;
 # the actor test with the shipped detector.
 DAEMON_CLIENT_TESTS := $(BUILD)/tests/test_daemon_keypoints $(BUILD)/tests/test_daemon_detector $(BUILD)/tests/test_daemon_actor \
-	$(BUILD)/tests/test_daemon_network
+	$(BUILD)/tests/test_daemon_network $(BUILD)/tests/test_daemon_latency
 $(DAEMON_CLIENT_TESTS): $(BUILD)/tests/%: tests/%.c $(DAEMON_LIB) $(DAEMON_DETECT_A) $(CORE_LIB) $(BUILD)/libmocap.a \
 		| $(DAEMON_TEST_NEEDS)
 	@mkdir -p $(@D)
@@ -78,6 +78,13 @@ $(BUILD)/tests/test_daemon_%: tests/test_daemon_%.c $(DAEMON_LIB) $(DAEMON_DETEC
 	@mkdir -p $(@D)
 	$(CC) $(CPPFLAGS) -Idaemon -Idetect $(DAEMON_CFLAGS) $(CFLAGS) -MMD -MP $< -o $@ $(LDFLAGS) $(DAEMON_LIB) \
 		$(DAEMON_LINK)
+
+# ---- capture-to-publish latency, stage by stage (docs/BENCHMARKS.md)
+BENCH_LATENCY_SECONDS ?= 60
+BENCHES += bench-latency
+.PHONY: bench-latency
+bench-latency: $(MOCAPD) $(BUILD)/bin/mocapctl
+	tests/bench/latency.sh $(BUILD) $(BENCH_LATENCY_SECONDS)
 
 # ---- the demo: mocapd on the bundled clip, no hardware (README's first command)
 .PHONY: demo

@@ -80,6 +80,7 @@ static int create_tracking_thread(mcd_pipeline *p, const mcd_config *cfg, mcd_tr
 		.keypoints = p->srv ? srv_keypoints_inbox(p->srv) : NULL,
 		.group_tolerance_ms = cfg->group_tolerance_ms,
 		.group_deadline_ms = cfg->group_deadline_ms,
+		.max_frame_age_ms = cfg->max_frame_age_ms,
 		.on_finished = wake_main,
 		.ctx = p,
 	};
@@ -315,8 +316,13 @@ void mcd_pipeline_get_status(mcd_pipeline *p, mcd_pipeline_status *st, bool rese
 	mcd_detector_thread_stats(p->detector, &st->detector, reset_max);
 	for (int c = 0; c < p->ncams; c++)
 		camera_status(p, c, &ts, &st->cams[c]);
-	if (p->pub)
+	if (p->pub) {
 		mcd_publisher_stats(p->pub, &st->publish);
+		mcd_publisher_latency(p->pub, &st->latency);
+	}
+	st->latency.skipped_behind = ts.total.skipped;
+	st->latency.skipped_stale = ts.total.stale;
+	st->latency.incomplete = ts.total.sets - ts.total.complete_sets;
 }
 
 int mcd_pipeline_check_cameras(mcd_pipeline *p, mc_err *err)
@@ -332,7 +338,8 @@ void mcd_pipeline_reload(mcd_pipeline *p, const mcd_config *cfg)
 	mc_tracker_settings settings = cfg->tracker.settings;
 	if (p->rig)
 		mcd_tracker_settings(cfg, p->rig, &settings);
-	mcd_tracking_thread_reload(p->tracker, cfg->group_tolerance_ms, cfg->group_deadline_ms, &settings);
+	mcd_tracking_thread_reload(p->tracker, cfg->group_tolerance_ms, cfg->group_deadline_ms, cfg->max_frame_age_ms,
+				   &settings);
 	mcd_detector_thread_reload(p->detector, &cfg->detector);
 	for (int c = 0; c < p->ncams; c++)
 		mcd_camera_set_limits(p->cams[c], cfg->reopen_initial_ms, cfg->reopen_max_ms, cfg->stall_timeout_ms);

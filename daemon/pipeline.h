@@ -40,6 +40,7 @@ typedef struct {
 	mcd_track_totals track;  /* track_ms_max: since the last mcd_pipeline_get_status(.., reset_max) */
 	mcd_detector_stats detector; /* ms_max: likewise */
 	mcd_publish_stats publish;
+	srv_latency_status latency; /* capture to publish, stage by stage, and the skipped sets */
 } mcd_pipeline_status;
 
 typedef struct mcd_pipeline mcd_pipeline;

@@ -1,5 +1,7 @@
 #include "publish.h"
 
+#include "latency.h"
+
 #include "log.h"
 #include "textbuf.h"
 #include "base/mc_thread.h"
@@ -23,6 +25,7 @@ struct mcd_publisher {
 	mcd_output queue[QUEUE_LEN];
 	int head, count;
 	mcd_publish_stats stats;
+	mcd_latency latency;    /* stage times of the newest published sets */
 	uint64_t t0_ns;
 	bool have_t0;
 	atomic_uint_fast64_t heartbeat;
@@ -70,20 +73,26 @@ static void save_pose(mcd_publisher *p, const mcd_output *o, const char *dir)
 		mcd_warn("save poses: %s: write error", path);
 }
 
-/* Returns 1 if the server refused the frame. Publisher thread only. */
-static int handle(mcd_publisher *p, const mcd_output *o, bool print, const char *pose_dir)
+/* Returns 1 if the server refused the frame; *published_ns: when a
+ * tracked skeleton was handed to the server (0: none was).  Publisher
+ * thread only. */
+static int handle(mcd_publisher *p, const mcd_output *o, bool print, const char *pose_dir, uint64_t *published_ns)
 {
-	if (o->tracked && pose_dir[0])
-		save_pose(p, o, pose_dir);
 	int failed = 0;
+	*published_ns = 0;
 	if (o->tracked && p->srv) {
 		mc_err err;
 		if (srv_publish(p->srv, &o->sk, ++p->server_seq, &err) != 0) {
 			failed = 1;
 			if (++p->logged_errors <= 3)
 				mcd_warn("publish: %s", err.msg);
+		} else {
+			*published_ns = mc_now_ns();
 		}
 	}
+	/* Clients first: the files and the text line can wait. */
+	if (o->tracked && pose_dir[0])
+		save_pose(p, o, pose_dir);
 	if (print) {
 		if (!p->have_t0) {
 			p->t0_ns = o->timestamp_ns;
@@ -119,10 +128,13 @@ static void *publish_main(void *arg)
 		char pose_dir[sizeof(p->pose_dir)];
 		memcpy(pose_dir, p->pose_dir, sizeof(pose_dir));
 		pthread_mutex_unlock(&p->lock);
-		int failed = o ? handle(p, o, print, pose_dir) : 0;
-		free(o);
+		uint64_t published_ns = 0;
+		int failed = o ? handle(p, o, print, pose_dir, &published_ns) : 0;
 		atomic_fetch_add(&p->heartbeat, 1);
 		pthread_mutex_lock(&p->lock);
+		if (published_ns)
+			mcd_latency_add(&p->latency, o, published_ns);
+		free(o);
 		p->stats.server_errors += (uint64_t)failed;
 		p->busy = false;
 		p->stats.published++;
@@ -193,6 +205,13 @@ void mcd_publisher_save_poses(mcd_publisher *p, const char *dir)
 {
 	pthread_mutex_lock(&p->lock);
 	snprintf(p->pose_dir, sizeof(p->pose_dir), "%s", dir ? dir : "");
+	pthread_mutex_unlock(&p->lock);
+}
+
+void mcd_publisher_latency(mcd_publisher *p, srv_latency_status *out)
+{
+	pthread_mutex_lock(&p->lock);
+	mcd_latency_summary(&p->latency, out);
 	pthread_mutex_unlock(&p->lock);
 }
 

@@ -17,6 +17,9 @@
 typedef struct {
 	uint64_t seq;          /* frame sets handled by the tracking thread */
 	uint64_t timestamp_ns; /* capture time */
+	/* CLOCK_MONOTONIC of the stages after capture (latency.h): the set
+	 * complete (or released at its deadline), tracking started, ended. */
+	uint64_t ready_ns, track_start_ns, track_end_ns;
 	uint64_t frame;        /* the driver's frame number (first camera present) */
 	int present, ncams;    /* cameras in the frame set */
 	bool tracked;          /* sk and pose are valid */
@@ -43,6 +46,9 @@ void mcd_publisher_set_print(mcd_publisher *p, bool print);
  * flow.  NULL stops it. */
 void mcd_publisher_save_poses(mcd_publisher *p, const char *dir);
 void mcd_publisher_stats(mcd_publisher *p, mcd_publish_stats *st);
+/* Stage times (capture to publish) of the newest published frame sets:
+ * p50, p99, max and the window (latency.h); skip counters untouched. */
+void mcd_publisher_latency(mcd_publisher *p, srv_latency_status *out);
 uint64_t mcd_publisher_heartbeat(mcd_publisher *p);
 /* True when nothing is queued or being handled. */
 bool mcd_publisher_idle(mcd_publisher *p);

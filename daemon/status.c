@@ -62,6 +62,12 @@ void mcd_status_line(const mcd_pipeline_status *now, const mcd_pipeline_status *
 			    now->track.track_ms_max, track_state_name(now->track.track_state));
 	else
 		mcd_appendf(buf, cap, &len, "tracker off, %.1f frame sets/s", rate(now->track.sets, prev->track.sets, dt_s));
+	const srv_latency_status *l = &now->latency;
+	if (l->window)
+		mcd_appendf(buf, cap, &len, ", capture to publish %.1f ms (p99 %.1f)", l->stage[SRV_LAT_TOTAL].p50,
+			    l->stage[SRV_LAT_TOTAL].p99);
+	if (l->skipped_stale)
+		mcd_appendf(buf, cap, &len, ", %llu stale sets skipped", (unsigned long long)l->skipped_stale);
 	detector_line(now, prev, dt_s, buf, cap, &len);
 	for (int c = 0; c < now->ncams; c++) {
 		const mcd_cam_status *cn = &now->cams[c], *cp = &prev->cams[c];
@@ -118,7 +124,7 @@ void mcd_status_to_server(const mcd_pipeline_status *now, const mcd_pipeline_sta
 	out->track_ms_mean = mean_track_ms(now, prev);
 	out->track_ms_max = now->track.track_ms_max;
 	out->frames_published = now->publish.published;
-	out->frames_dropped = now->track.skipped + now->publish.dropped;
+	out->frames_dropped = now->track.skipped + now->track.stale + now->publish.dropped;
 	out->start_ns = start_ns;
 	snprintf(out->device, sizeof(out->device), "%s", device ? device : "");
 	out->ncams = now->ncams < MC_MAX_CAMERAS ? now->ncams : MC_MAX_CAMERAS;
@@ -134,4 +140,5 @@ void mcd_status_to_server(const mcd_pipeline_status *now, const mcd_pipeline_sta
 		o->drops = mcd_cam_drops(cn);
 	}
 	detector_to_server(now, prev, dt_s, &out->detector);
+	out->latency = now->latency;
 }

@@ -31,6 +31,7 @@ struct mcd_tracking_thread {
 	pthread_mutex_t lock;
 	pthread_cond_t cond;
 	mcd_grouper grouper;
+	uint64_t max_age_ns; /* 0: no frame age budget */
 	bool stop, finished;
 	bool reload_pending;
 	mc_tracker_settings reload_budget;
@@ -260,13 +261,15 @@ static void track(mcd_tracking_thread *t, const mc_frame_view *views, int presen
 		mcd_warn("tracker: %s (%llu failures so far)", err.msg, (unsigned long long)errors);
 }
 
-static void process(mcd_tracking_thread *t, const mcd_group *g)
+static void process(mcd_tracking_thread *t, const mcd_group *g, uint64_t start_ns)
 {
 	mc_frame_view views[MC_MAX_CAMERAS];
 	memset(views, 0, sizeof(views));
 	mcd_output *o = calloc(1, sizeof(*o));
 	if (!o)
 		return;
+	o->ready_ns = g->ready_ns;
+	o->track_start_ns = start_ns;
 	int present = gather_views(t, g, views, &o->frame);
 	o->seq = ++t->seq;
 	o->timestamp_ns = g->timestamp_ns;
@@ -276,6 +279,7 @@ static void process(mcd_tracking_thread *t, const mcd_group *g)
 		track(t, views, present, o);
 	if (o->tracked)
 		o->sk.timestamp_ns = g->timestamp_ns;
+	o->track_end_ns = mc_now_ns();
 	mcd_publisher_push(t->pub, o);
 	free(o);
 }
@@ -319,7 +323,14 @@ static void apply_reload(mcd_tracking_thread *t)
 	pthread_mutex_lock(&t->lock);
 }
 
-/* Pops every frame set due now and tracks the newest; false if none was due. */
+/* Whether a set captured at ts is past the age budget at `now`. */
+static bool too_old(const mcd_tracking_thread *t, uint64_t ts, uint64_t now)
+{
+	return t->max_age_ns && now > ts && now - ts > t->max_age_ns;
+}
+
+/* Pops every frame set due now and tracks the newest, unless it is
+ * already older than the age budget; false if none was due. */
 static bool track_due(mcd_tracking_thread *t, uint64_t now)
 {
 	/* Camera states take their own locks; never the other way round. */
@@ -333,8 +344,19 @@ static bool track_due(mcd_tracking_thread *t, uint64_t now)
 	}
 	if (!due)
 		return false;
+	if (too_old(t, newest.timestamp_ns, now)) {
+		uint64_t n = ++t->st.total.stale;
+		double age_ms = (double)(now - newest.timestamp_ns) / 1e6, budget_ms = (double)t->max_age_ns / 1e6;
+		pthread_mutex_unlock(&t->lock);
+		if (mc_throttle_should_log(n))
+			mcd_warn("frame set skipped: %.1f ms old when tracking could start, over the %g ms budget "
+				 "([daemon] max_frame_age_ms; %llu so far)",
+				 age_ms, budget_ms, (unsigned long long)n);
+		pthread_mutex_lock(&t->lock);
+		return true;
+	}
 	pthread_mutex_unlock(&t->lock);
-	process(t, &newest);
+	process(t, &newest, now);
 	pthread_mutex_lock(&t->lock);
 	return true;
 }
@@ -404,6 +426,7 @@ mcd_tracking_thread *mcd_tracking_thread_create(const mcd_tracking_thread_config
 	mc_cond_init_monotonic(&t->cond);
 	mcd_grouper_init(&t->grouper, t->ncams, (uint64_t)(cfg->group_tolerance_ms * 1e6),
 			 (uint64_t)(cfg->group_deadline_ms * 1e6));
+	t->max_age_ns = (uint64_t)(cfg->max_frame_age_ms * 1e6);
 	t->conv = mc_image_conv_new(err);
 	if (!t->conv || alloc_keypoints(t, err)) {
 		mcd_tracking_thread_destroy(t);
@@ -494,10 +517,11 @@ void mcd_tracking_thread_wake(mcd_tracking_thread *t)
 }
 
 void mcd_tracking_thread_reload(mcd_tracking_thread *t, double group_tolerance_ms, double group_deadline_ms,
-				const mc_tracker_settings *budget)
+				double max_frame_age_ms, const mc_tracker_settings *budget)
 {
 	pthread_mutex_lock(&t->lock);
 	mcd_grouper_set_limits(&t->grouper, (uint64_t)(group_tolerance_ms * 1e6), (uint64_t)(group_deadline_ms * 1e6));
+	t->max_age_ns = (uint64_t)(max_frame_age_ms * 1e6);
 	if (budget && t->tracking) {
 		t->reload_budget = *budget;
 		t->reload_pending = true;

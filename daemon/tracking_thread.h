@@ -13,7 +13,9 @@
  *
  * With many frame sets due at once (the tracker is slower than the
  * cameras), only the newest is tracked and the older ones are counted as
- * skipped: a live pose is worth more than a complete but late one. */
+ * skipped: a live pose is worth more than a complete but late one.  With
+ * a frame age budget, a newest set already older than the budget when
+ * tracking could start is skipped too (counted as stale). */
 #ifndef MCD_TRACKING_THREAD_H
 #define MCD_TRACKING_THREAD_H
 
@@ -33,6 +35,7 @@ typedef struct {
 	uint64_t complete_sets; /* with every camera */
 	uint64_t tracked;       /* frame sets tracked */
 	uint64_t skipped;       /* frame sets skipped because newer ones were due */
+	uint64_t stale;         /* frame sets skipped: older than the age budget when tracking could start */
 	uint64_t track_errors;
 	double track_ms_total;  /* sum over all tracked sets */
 	double track_ms_max;    /* since the last mcd_tracking_thread_stats(.., reset_max) */
@@ -63,6 +66,7 @@ typedef struct {
 	 * come through mcd_tracking_thread_offer_keypoints). */
 	srv_keypoint_inbox *keypoints;
 	double group_tolerance_ms, group_deadline_ms;
+	double max_frame_age_ms; /* 0: no budget ([daemon] max_frame_age_ms) */
 	/* Called (on the tracking thread) once every stream has ended and
 	 * every frame set was handed on. */
 	void (*on_finished)(void *ctx);
@@ -89,10 +93,10 @@ void mcd_tracking_thread_offer_keypoints(mcd_tracking_thread *t, int rig_cam, ui
 					 const mc_keypoint *kp, int n);
 /* A camera changed state: look again at which cameras a frame set waits for. */
 void mcd_tracking_thread_wake(mcd_tracking_thread *t);
-/* Reload: new grouping limits now; the tracker's budget (`budget`, may be
- * NULL) between two frame sets. */
+/* Reload: new grouping limits and frame age budget now; the tracker's
+ * budget (`budget`, may be NULL) between two frame sets. */
 void mcd_tracking_thread_reload(mcd_tracking_thread *t, double group_tolerance_ms, double group_deadline_ms,
-				const mc_tracker_settings *budget);
+				double max_frame_age_ms, const mc_tracker_settings *budget);
 
 /* True once every stream ended and every frame set was handed on. */
 bool mcd_tracking_thread_finished(mcd_tracking_thread *t);

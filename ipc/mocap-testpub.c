@@ -161,6 +161,13 @@ int main(int argc, char **argv)
 	st.detector.views = 300;
 	st.detector.skipped = 3;
 	st.detector.used = 290;
+	st.latency.window = 600;
+	for (int s = 0; s < SRV_LAT_NSTAGES; s++)
+		st.latency.stage[s].p50 = st.latency.stage[s].p99 = st.latency.stage[s].max = s + 1;
+	st.latency.stage[SRV_LAT_TOTAL].p99 = 12.5;
+	st.latency.skipped_behind = 4;
+	st.latency.skipped_stale = 2;
+	st.latency.incomplete = 1;
 	snprintf(st.detector.model, sizeof(st.detector.model), "synthetic.onnx");
 	uint64_t period = (uint64_t)(1e9 / rate), next = mc_now_ns(), t0 = next;
 	for (uint64_t seq = 1; !stop && (frames <= 0 || seq <= (uint64_t)frames); seq++) {

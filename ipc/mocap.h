@@ -35,7 +35,7 @@ extern "C" {
 #endif
 
 #define MOCAP_LIB_VERSION "1.2.0" /* = IPC_SO_VERSION in ipc/module.mk */
-#define MOCAP_PROTOCOL_VERSION 2 /* the highest it speaks; it speaks 1 too */
+#define MOCAP_PROTOCOL_VERSION 3 /* the highest it speaks; it speaks 1 and 2 too */
 #define MOCAP_DEFAULT_SOCKET "/run/mocapd/mocapd.sock"
 #define MOCAP_SOCKET_ENV "MOCAP_SOCKET" /* a socket path or tcp://HOST:PORT */
 #define MOCAP_TOKEN_ENV "MOCAP_TOKEN"   /* the token for tcp:// addresses */
@@ -135,6 +135,27 @@ typedef struct {
 	char message[1024]; /* FAILED: why, naming the file and the mismatch */
 } mocap_detector_status;
 
+/* Where a frame set's time goes in the daemon, capture to publish. */
+typedef enum {
+	MOCAP_LAT_READY = 0,   /* capture -> the frame set complete (or released at its deadline) */
+	MOCAP_LAT_WAIT = 1,    /* -> tracking starts (the tracker was busy) */
+	MOCAP_LAT_TRACK = 2,   /* -> tracking ends */
+	MOCAP_LAT_PUBLISH = 3, /* -> handed to the socket server */
+	MOCAP_LAT_TOTAL = 4,   /* capture -> handed to the socket server */
+	MOCAP_LAT_NSTAGES = 5
+} mocap_latency_stage;
+
+typedef struct {
+	int known;    /* 0: the daemon speaks protocol version 2 or older */
+	unsigned window; /* the newest frame sets the figures are over */
+	struct {
+		double p50, p99, max; /* ms */
+	} stage[MOCAP_LAT_NSTAGES];
+	uint64_t skipped_behind; /* frame sets skipped: a newer one was due */
+	uint64_t skipped_stale;  /* skipped: older than the daemon's max_frame_age_ms */
+	uint64_t incomplete;     /* released at their deadline without every camera */
+} mocap_latency_status;
+
 typedef struct {
 	mocap_track_state tracker_state;
 	int recording;
@@ -149,6 +170,8 @@ typedef struct {
 	/* Since libmocap 1.1 (symbol version MOCAP_2 of mocap_get_status;
 	 * programs built against 1.0 keep the old layout without it). */
 	mocap_detector_status detector;
+	/* Since libmocap 1.2 (MOCAP_3; 1.1 programs get the layout above). */
+	mocap_latency_status latency;
 } mocap_daemon_status;
 
 typedef struct {

@@ -126,6 +126,40 @@ static void print_detector(const mocap_detector_status *d)
 	}
 }
 
+static const char *const latency_stage_names[MOCAP_LAT_NSTAGES] = {"ready", "wait", "track", "publish", "total"};
+
+/* "latency:    capture to publish 41.2 ms p50, 63.0 p99, 80.1 max over 900 frame sets"
+ * and a line per stage. */
+static void print_latency(const mocap_latency_status *l)
+{
+	static const char *const what[MOCAP_LAT_NSTAGES] = {
+		"capture -> set complete", "-> tracking starts", "-> tracking ends", "-> published", ""};
+	if (!l->known) {
+		printf("latency:    unknown (the daemon speaks protocol version 2 or older)\n");
+		return;
+	}
+	printf("latency:    capture to publish %.1f ms p50, %.1f p99, %.1f max over the last %u frame sets\n",
+	       l->stage[MOCAP_LAT_TOTAL].p50, l->stage[MOCAP_LAT_TOTAL].p99, l->stage[MOCAP_LAT_TOTAL].max, l->window);
+	for (int s = 0; s < MOCAP_LAT_TOTAL; s++)
+		printf("  %-8s %-24s %7.1f ms p50 %7.1f p99 %7.1f max\n", latency_stage_names[s], what[s], l->stage[s].p50,
+		       l->stage[s].p99, l->stage[s].max);
+	printf("            frame sets skipped: %llu behind (a newer one was due), %llu stale (over max_frame_age_ms); "
+	       "%llu without every camera\n",
+	       (unsigned long long)l->skipped_behind, (unsigned long long)l->skipped_stale,
+	       (unsigned long long)l->incomplete);
+}
+
+static void print_latency_json(const mocap_latency_status *l)
+{
+	printf(", \"latency\": {\"known\": %s, \"window\": %u", l->known ? "true" : "false", l->window);
+	for (int s = 0; s < MOCAP_LAT_NSTAGES; s++)
+		printf(", \"%s\": {\"p50_ms\": %.3f, \"p99_ms\": %.3f, \"max_ms\": %.3f}", latency_stage_names[s],
+		       l->stage[s].p50, l->stage[s].p99, l->stage[s].max);
+	printf(", \"skipped_behind\": %llu, \"skipped_stale\": %llu, \"incomplete\": %llu}",
+	       (unsigned long long)l->skipped_behind, (unsigned long long)l->skipped_stale,
+	       (unsigned long long)l->incomplete);
+}
+
 /* `status --json`: the same figures as one JSON object, for scripts. */
 static void print_status_json(const mocap_daemon_status *st, const char *path)
 {
@@ -150,7 +184,9 @@ static void print_status_json(const mocap_daemon_status *st, const char *path)
 	json_string(d->model);
 	printf(", \"message\": ");
 	json_string(d->message);
-	printf("}, \"cameras\": [");
+	printf("}");
+	print_latency_json(&st->latency);
+	printf(", \"cameras\": [");
 	for (int i = 0; i < st->ncams; i++) {
 		const mocap_camera_status *cs = &st->cams[i];
 		printf("%s{\"name\": ", i ? ", " : "");
@@ -181,6 +217,7 @@ static int cmd_status(mocap_client *c, const char *path, bool json)
 	       (unsigned long long)st.frames_published, st.publish_fps, (unsigned long long)st.frames_dropped);
 	printf("tracking:   %.2f ms mean, %.2f ms max per frame\n", st.track_ms_mean, st.track_ms_max);
 	print_detector(&st.detector);
+	print_latency(&st.latency);
 	printf("clients:    %d connected; frames dropped for slow clients: %llu\n", st.clients,
 	       (unsigned long long)st.client_drops);
 	printf("recording:  %s\n", st.recording ? "yes" : "no");

@@ -569,6 +569,19 @@ static void enc_status(writer *w, const mc_msg_status *m)
 		w_u64(w, d->counts[i]);
 	w_str(w, d->model, PROTO_TEXT_MAX);
 	w_str(w, d->message, PROTO_TEXT_MAX);
+	if (!m->has_latency)
+		return;
+	const mc_wire_latency_status *l = &m->latency; /* version 3 */
+	w_u32(w, l->window);
+	w_u32(w, 0);
+	for (int s = 0; s < PROTO_LATENCY_STAGES; s++) {
+		w_f64(w, l->stage[s].p50);
+		w_f64(w, l->stage[s].p99);
+		w_f64(w, l->stage[s].max);
+	}
+	w_u64(w, l->skipped_behind);
+	w_u64(w, l->skipped_stale);
+	w_u64(w, l->incomplete);
 }
 
 /* Version 2's detector block, when the message goes on after the names. */
@@ -591,6 +604,26 @@ static void dec_status_detector(reader *r, mc_msg_status *m)
 		d->counts[i] = r_u64(r, "detector counts");
 	r_str(r, d->model, PROTO_TEXT_MAX, "detector.model");
 	r_str(r, d->message, PROTO_TEXT_MAX, "detector.message");
+}
+
+/* Version 3's latency block, when the message goes on after the detector. */
+static void dec_status_latency(reader *r, mc_msg_status *m)
+{
+	m->has_latency = false;
+	if (r->bad || !m->has_detector || r->pos == r->len)
+		return;
+	mc_wire_latency_status *l = &m->latency;
+	m->has_latency = true;
+	l->window = r_u32(r, "latency.window");
+	r_u32(r, "latency.reserved");
+	for (int s = 0; s < PROTO_LATENCY_STAGES; s++) {
+		l->stage[s].p50 = r_f64(r, "latency.p50");
+		l->stage[s].p99 = r_f64(r, "latency.p99");
+		l->stage[s].max = r_f64(r, "latency.max");
+	}
+	l->skipped_behind = r_u64(r, "latency.skipped_behind");
+	l->skipped_stale = r_u64(r, "latency.skipped_stale");
+	l->incomplete = r_u64(r, "latency.incomplete");
 }
 static void dec_status(reader *r, mc_msg_status *m)
 {
@@ -626,6 +659,7 @@ static void dec_status(reader *r, mc_msg_status *m)
 	for (int c = 0; c < m->ncams && !r->bad; c++)
 		r_str(r, m->cams[c].name, PROTO_NAME_MAX, "cams.name");
 	dec_status_detector(r, m);
+	dec_status_latency(r, m);
 }
 
 static void enc_rig(writer *w, const mc_msg_rig *m)

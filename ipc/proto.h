@@ -18,8 +18,9 @@
 #include <stddef.h>
 #include <stdint.h>
 
-#define PROTO_VERSION 2        /* the highest version this code speaks */
-#define PROTO_MIN_VERSION 1    /* the lowest; 2 differs only in STATUS's detector block */
+#define PROTO_VERSION 3        /* the highest version this code speaks */
+#define PROTO_MIN_VERSION 1    /* the lowest; 2 adds STATUS's detector block, 3 its latency block */
+#define PROTO_LATENCY_STAGES 5 /* ready, wait, track, publish, total */
 #define PROTO_MAGIC 0x50434f4du /* "MOCP" as bytes 4d 4f 43 50 */
 #define PROTO_HEADER_SIZE 16
 #define PROTO_MAX_MESSAGE 65536
@@ -223,6 +224,15 @@ typedef struct {
 	char message[PROTO_TEXT_MAX + 1];
 } mc_wire_detector_status;
 
+/* Version 3: where a frame set's time goes, after the detector block. */
+typedef struct {
+	uint32_t window; /* frame sets the figures are over */
+	struct {
+		double p50, p99, max; /* ms */
+	} stage[PROTO_LATENCY_STAGES];
+	uint64_t skipped_behind, skipped_stale, incomplete;
+} mc_wire_latency_status;
+
 typedef struct {
 	uint64_t server_time_ns, start_ns;
 	uint64_t frames_published, frames_dropped, client_drops;
@@ -237,6 +247,8 @@ typedef struct {
 	 * version 2 connection; decoding: the message had it). */
 	bool has_detector;
 	mc_wire_detector_status detector;
+	bool has_latency; /* the same for version 3's latency block (needs the detector block) */
+	mc_wire_latency_status latency;
 } mc_msg_status;
 
 typedef struct {

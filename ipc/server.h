@@ -195,6 +195,28 @@ typedef struct {
 	char message[512];    /* FAILED: why (names the file and the mismatch) */
 } srv_detector_status;
 
+/* Where a frame set's time goes, from capture to publish (STATUS,
+ * protocol version 3): p50, p99 and max in ms of each stage over the
+ * newest `window` published frame sets. */
+typedef enum {
+	SRV_LAT_READY,   /* capture -> the set complete (or released at its deadline) */
+	SRV_LAT_WAIT,    /* -> tracking starts (the tracker was busy with an older set) */
+	SRV_LAT_TRACK,   /* -> tracking ends (copy, convert, keypoints, optimise) */
+	SRV_LAT_PUBLISH, /* -> handed to the socket server (the publishing thread) */
+	SRV_LAT_TOTAL,   /* capture -> handed to the socket server */
+	SRV_LAT_NSTAGES
+} srv_latency_stage;
+
+typedef struct {
+	uint32_t window;
+	struct {
+		double p50, p99, max;
+	} stage[SRV_LAT_NSTAGES];
+	uint64_t skipped_behind; /* frame sets skipped: a newer one was due when tracking could start */
+	uint64_t skipped_stale;  /* skipped: older than [daemon] max_frame_age_ms when tracking could start */
+	uint64_t incomplete;     /* sets released at their deadline without every camera */
+} srv_latency_status;
+
 typedef struct {
 	srv_tracker_state tracker_state;
 	bool recording;
@@ -208,6 +230,7 @@ typedef struct {
 	int ncams;
 	srv_cam_status cams[MC_MAX_CAMERAS];
 	srv_detector_status detector;
+	srv_latency_status latency;
 } srv_status;
 
 /* Replaces the snapshot that status requests are answered from (copied).

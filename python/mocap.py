@@ -49,13 +49,13 @@ from collections import namedtuple
 __version__ = "1.2.0"
 __all__ = [
     "Client", "AsyncClient", "connect", "aio", "Frame", "Joint", "Joints", "JointDef", "Skeleton", "Camera",
-    "Detector", "Status", "Ring", "MocapError", "Error", "NotRunning", "AccessDenied", "VersionMismatch",
+    "Detector", "Status", "Latency", "StageTime", "Ring", "MocapError", "Error", "NotRunning", "AccessDenied", "VersionMismatch",
     "ProtocolError", "Disconnected", "Timeout", "PermissionDenied", "Refused", "Unavailable", "CommandFailed",
     "ArgumentError", "SystemCallError", "LATEST", "ALL", "SPACE_RIG", "SPACE_WORLD", "CMD_RELOAD",
     "CMD_RECORD_START", "CMD_RECORD_STOP", "CMD_ACTOR_SAVE", "default_socket", "now_ns",
 ]
 
-PROTOCOL_VERSION = 2      # the highest spoken; 1 too (2 adds STATUS's detector block)
+PROTOCOL_VERSION = 3      # the highest spoken; 1 and 2 too (2 adds STATUS's detector block, 3 its latency)
 PROTOCOL_MIN_VERSION = 1
 MAGIC = 0x50434F4D
 HEADER = struct.Struct("<HHIII")  # type, flags, size, request_id, reserved
@@ -218,7 +218,12 @@ Camera = namedtuple("Camera", "name state width height fps frames drops")
 Detector = namedtuple("Detector", "state rate used_rate ms_mean ms_last ms_max views skipped used model message")
 Status = namedtuple("Status", "server_time_ns uptime_ns frames_published frames_dropped client_drops "
                               "publish_fps track_ms_mean track_ms_max tracker_state recording clients device cameras "
-                              "detector")
+                              "detector latency")
+# Where a frame set's time goes in the daemon (protocol version 3): per
+# stage (LATENCY_STAGES) a StageTime of ms, over the newest `window` sets.
+LATENCY_STAGES = ("ready", "wait", "track", "publish", "total")
+StageTime = namedtuple("StageTime", "p50 p99 max")
+Latency = namedtuple("Latency", "window ready wait track publish total skipped_behind skipped_stale incomplete")
 Ring = namedtuple("Ring", "camera fd size")
 
 
@@ -570,11 +575,16 @@ def _parse_status(r):
         figures = r.take("5d")
         counts = r.take("3Q")
         detector = Detector(DETECTOR_STATES.get(dstate, str(dstate)), *figures, *counts, r.string(), r.string())
+    latency = None  # a version 1 or 2 daemon: unknown
+    if r.pos < len(r.data):
+        window, _res = r.take("II")
+        stages = [StageTime(*r.take("3d")) for _ in LATENCY_STAGES]
+        latency = Latency(window, *stages, *r.take("3Q"))
     r.end()
     cameras = [Camera(n, CAMERA_STATES.get(c[3], str(c[3])), c[4], c[5], c[0], c[1], c[2])
                for n, c in zip(names, cams)]
     return Status(now, max(0, now - start), pub, dropped, cdrops, fps, tmean, tmax,
-                  TRACK_STATES.get(state, str(state)), bool(rec), nclients, device, cameras, detector)
+                  TRACK_STATES.get(state, str(state)), bool(rec), nclients, device, cameras, detector, latency)
 
 
 def _parse_rig(r):

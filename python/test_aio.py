@@ -25,7 +25,7 @@ def test_requests(daemon):
     async def main():
         async with connect(daemon, "py-aio") as c:
             assert isinstance(c, mocap.AsyncClient)
-            assert (c.version, c.privileged, c.daemon_version) == (2, True, "mocap-testpub")
+            assert (c.version, c.privileged, c.daemon_version) == (3, True, "mocap-testpub")
             st = await c.status()
             assert st.device == "synthetic" and st.detector.state == "running"
             sk = await c.skeleton()
@@ -47,7 +47,7 @@ def test_await_connect(daemon):
     async def main():
         c = await connect(daemon)
         try:
-            assert c.version == 2
+            assert c.version == 3
         finally:
             await c.aclose()
         with pytest.raises(mocap.Disconnected):

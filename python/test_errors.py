@@ -244,10 +244,10 @@ def test_access_denied():
 def test_version_mismatch(daemon, monkeypatch):
     monkeypatch.setattr(mocap, "PROTOCOL_MIN_VERSION", 7)
     monkeypatch.setattr(mocap, "PROTOCOL_VERSION", 9)
-    with pytest.raises(mocap.VersionMismatch, match="speaks 1..2") as e:
+    with pytest.raises(mocap.VersionMismatch, match="speaks 1..3") as e:
         mocap.Client(daemon)
     assert (e.value.code, e.value.server_code, e.value.fatal) == ("version", 1, True)
-    with pytest.raises(mocap.VersionMismatch, match="speaks 1..2"):
+    with pytest.raises(mocap.VersionMismatch, match="speaks 1..3"):
         connect_aio(daemon)
 
 

@@ -24,11 +24,14 @@ def test_requests(daemon):
         assert [cam.name for cam in st.cameras] == ["cam0"]
         assert st.cameras[0].width == 640
         assert st.clients >= 1
-        assert c.version == 2
+        assert c.version == 3
         d = st.detector
         assert (d.state, d.rate, d.ms_mean, d.ms_last, d.ms_max) == ("running", 30, 1.25, 1.5, 2.5)
         assert (d.views, d.skipped, d.used, d.used_rate) == (300, 3, 290, 29)
         assert (d.model, d.message) == ("synthetic.onnx", "")
+        lat = st.latency
+        assert lat.window == 600 and lat.ready == (1, 1, 1) and lat.publish.max == 4
+        assert lat.total == (5, 12.5, 5) and (lat.skipped_behind, lat.skipped_stale, lat.incomplete) == (4, 2, 1)
         sk = c.skeleton()
         names = [j.name for j in sk.joints]
         assert len(names) == 18
@@ -121,7 +124,7 @@ def test_version_1(daemon, monkeypatch):
     with mocap.Client(daemon, "py-v1") as c:
         assert c.version == 1
         st = c.status()
-        assert st.detector is None
+        assert st.detector is None and st.latency is None
         assert st.device == "synthetic"
 
 
@@ -135,7 +138,7 @@ def test_version_mismatch_raw(daemon):
     assert (typ, rid, size) == (mocap.ERROR, 1, len(data))
     code, req, fatal, n = struct.unpack_from("<IHHH", data, 16)
     assert (code, req, fatal) == (1, mocap.HELLO, 1)
-    assert "speaks 1..2" in data[26:26 + n].decode()
+    assert "speaks 1..3" in data[26:26 + n].decode()
     assert s.recv(65536) == b""  # then disconnected
     s.close()
 

@@ -39,7 +39,7 @@ def test_bad_address():
 def test_token_from_environment(tcp_daemon, monkeypatch, tmp_path):
     monkeypatch.setenv(mocap.TOKEN_ENV, TCP_TOKEN)
     with mocap.Client(tcp_daemon) as c:
-        assert c.version == 2 and c.ping() < 1.0
+        assert c.version == 3 and c.ping() < 1.0
     monkeypatch.delenv(mocap.TOKEN_ENV)
     f = tmp_path / "token"
     f.write_text(TCP_TOKEN + "\n")
@@ -50,7 +50,7 @@ def test_token_from_environment(tcp_daemon, monkeypatch, tmp_path):
 
 def test_requests(tcp_daemon):
     with mocap.Client(tcp_daemon, "py-tcp", token=TCP_TOKEN) as c:
-        assert (c.version, c.privileged, c.daemon_version) == (2, False, "mocap-testpub")
+        assert (c.version, c.privileged, c.daemon_version) == (3, False, "mocap-testpub")
         sk = c.skeleton()
         assert sk.names[0] == "pelvis" and len(sk.joints) == 18
         assert '"testpub"' in c.rig()
@@ -83,7 +83,7 @@ def test_same_frames_as_unix(daemon, tcp_daemon):
 def test_aio(tcp_daemon):
     async def main():
         async with mocap.aio.connect(tcp_daemon, "py-aio-tcp", token=TCP_TOKEN) as c:
-            assert c.version == 2 and not c.privileged
+            assert c.version == 3 and not c.privileged
             await c.subscribe(mocap.ALL, queue_len=64)
             frames = [f async for f in c.frames(count=100, timeout=5)]
             assert len(frames) == 100

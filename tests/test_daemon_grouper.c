@@ -30,6 +30,7 @@ static void test_complete_groups(void)
 	CHECK(out.present == 2 && out.has[0] && out.has[1]);
 	CHECK(out.timestamp_ns == 1000 * MS);
 	CHECK(out.frame[0].sequence == 0 && out.frame[1].sequence == 7);
+	CHECK(out.ready_ns == 1004 * MS); /* complete when its last view arrived */
 	CHECK(!mcd_grouper_pop(&g, 1004 * MS, 3, &out));
 	CHECK(g.stats.complete == 1 && g.stats.partial == 0);
 
@@ -61,6 +62,7 @@ static void test_deadline(void)
 	mcd_grouper_push(&g, 0, &a);
 	CHECK(!mcd_grouper_pop(&g, 1049 * MS, 3, &out));
 	CHECK(mcd_grouper_pop(&g, 1050 * MS, 3, &out)); /* emitted without camera 1 */
+	CHECK(out.ready_ns == 1050 * MS);                /* at its deadline */
 	CHECK(out.present == 1 && out.has[0] && !out.has[1]);
 	CHECK(g.stats.missing[1] == 1 && g.stats.partial == 1);
 	/* camera 1's frame of that instant comes too late: dropped, counted */

@@ -280,6 +280,23 @@ static void test_other_messages(void)
 	CHECK(rd32(buf + v1) == 2 && rdf64(buf + v1 + 24) == 1.25 && rd64(buf + v1 + 64) == 77);
 	CHECK(b.u.status.has_detector && b.u.status.detector.state == 2 && b.u.status.detector.used == 77);
 	CHECK(strcmp(b.u.status.detector.model, "m.onnx") == 0 && strcmp(b.u.status.detector.message, "m.onnx: bad") == 0);
+	CHECK(!b.u.status.has_latency);
+	/* Version 3: the latency block after the detector's. */
+	size_t v2 = n;
+	s->has_latency = true;
+	s->latency.window = 900;
+	s->latency.stage[4].p50 = 33.5;
+	s->latency.stage[1].max = 7.0;
+	s->latency.skipped_stale = 5;
+	n = roundtrip(PROTO_FROM_SERVER);
+	CHECK(n == v2 + 8 + 5 * 24 + 24);
+	CHECK(rd32(buf + v2) == 900 && rdf64(buf + v2 + 8 + 4 * 24) == 33.5 && rd64(buf + v2 + 8 + 120 + 8) == 5);
+	CHECK(b.u.status.has_latency && b.u.status.latency.window == 900 && b.u.status.latency.stage[1].max == 7.0 &&
+	      b.u.status.latency.skipped_stale == 5);
+	wr32(buf + 4, (uint32_t)(n - 1)); /* one byte short */
+	expect_refused(buf, n - 1, PROTO_FROM_SERVER, "latency");
+	s->has_latency = false;
+	n = roundtrip(PROTO_FROM_SERVER);
 	buf[v1] = 3;
 	expect_refused(buf, n, PROTO_FROM_SERVER, "detector.state: 3");
 	s->has_detector = false;

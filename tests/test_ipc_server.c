@@ -187,11 +187,11 @@ static void test_handshake(void)
 	/* A client speaking only newer versions is refused with a message
 	 * saying which versions each side speaks, then disconnected. */
 	int fd = raw_connect(path);
-	send_hello(fd, 3, 4);
+	send_hello(fd, 4, 5);
 	CHECK(raw_recv(fd, 2000) == 1 && rx.h.type == MC_MSG_ERROR);
 	CHECK(rx.u.error.code == PROTO_E_VERSION && rx.u.error.fatal == 1);
-	CHECK_MSG(strstr(rx.u.error.message, "client speaks versions 3..4") &&
-			  strstr(rx.u.error.message, "this mocapd speaks 1..2"),
+	CHECK_MSG(strstr(rx.u.error.message, "client speaks versions 4..5") &&
+			  strstr(rx.u.error.message, "this mocapd speaks 1..3"),
 		  "%s", rx.u.error.message);
 	CHECK(closed_by_server(fd));
 	close(fd);
@@ -200,10 +200,10 @@ static void test_handshake(void)
 	send_hello(fd, 2, 2);
 	CHECK(raw_recv(fd, 2000) == 1 && rx.h.type == MC_MSG_WELCOME && rx.u.welcome.version == 2);
 	close(fd);
-	/* A range that includes both is accepted with the highest, 2. */
+	/* A range that includes them all is accepted with the highest, 3. */
 	fd = raw_connect(path);
 	send_hello(fd, 1, 9);
-	CHECK(raw_recv(fd, 2000) == 1 && rx.h.type == MC_MSG_WELCOME && rx.u.welcome.version == 2);
+	CHECK(raw_recv(fd, 2000) == 1 && rx.h.type == MC_MSG_WELCOME && rx.u.welcome.version == 3);
 	CHECK(rx.u.welcome.flags & MC_WELCOME_PRIVILEGED); /* same user as the server */
 	/* A second HELLO is a protocol error. */
 	send_hello(fd, 1, 1);
@@ -593,8 +593,9 @@ static void test_requests(void)
 }
 
 /* mocap_daemon_status and its two symbol versions: the status with the
- * detector (MOCAP_2, what mocap.h declares), and for programs built
- * against libmocap 1.0 (MOCAP_1) the old layout, nothing written past it.
+ * detector and the latency (MOCAP_3, what mocap.h declares), for programs
+ * built against libmocap 1.1 (MOCAP_2) and 1.0 (MOCAP_1) their layouts,
+ * nothing written past them.
  * Through the shared library built beside this test (<build>/lib). */
 static void test_status_versions(void)
 {
@@ -613,12 +614,18 @@ static void test_status_versions(void)
 	st.detector.ms_mean = 1.5;
 	st.detector.used = 9;
 	snprintf(st.detector.model, sizeof(st.detector.model), "m.onnx");
+	st.latency.window = 300;
+	st.latency.stage[SRV_LAT_TOTAL].p99 = 21.5;
+	st.latency.stage[SRV_LAT_WAIT].max = 4.25;
+	st.latency.skipped_stale = 3;
 	srv_set_status(srv, &st);
 	mocap_client *c = mocap_connect(path, "status");
 	mocap_daemon_status *ds = calloc(1, sizeof(*ds));
 	CHECK(c && ds && mocap_get_status(c, ds) == 0);
 	CHECK(ds && ds->detector.state == MOCAP_DETECTOR_RUNNING && ds->detector.ms_mean == 1.5 && ds->detector.used == 9);
 	CHECK(ds && strcmp(ds->detector.model, "m.onnx") == 0 && strcmp(ds->cams[0].name, "left") == 0);
+	CHECK(ds && ds->latency.known && ds->latency.window == 300 && ds->latency.stage[MOCAP_LAT_TOTAL].p99 == 21.5 &&
+	      ds->latency.stage[MOCAP_LAT_WAIT].max == 4.25 && ds->latency.skipped_stale == 3);
 	mocap_close(c);
 
 	char so[PATH_MAX];
@@ -639,12 +646,13 @@ static void test_status_versions(void)
 		void (*cls)(mocap_client *) = (void (*)(mocap_client *))dlsym(h, "mocap_close");
 		status_fn v1 = (status_fn)dlvsym(h, "mocap_get_status", "MOCAP_1");
 		status_fn v2 = (status_fn)dlvsym(h, "mocap_get_status", "MOCAP_2");
-		CHECK(con && cls && v1 && v2 && (void *)v1 != (void *)v2);
-		CHECK((void *)dlsym(h, "mocap_get_status") == (void *)v2); /* the default */
+		status_fn v3 = (status_fn)dlvsym(h, "mocap_get_status", "MOCAP_3");
+		CHECK(con && cls && v1 && v2 && v3 && (void *)v1 != (void *)v2 && (void *)v2 != (void *)v3);
+		CHECK((void *)dlsym(h, "mocap_get_status") == (void *)v3); /* the default */
 		mocap_client *sc = con ? con(path, "status-so") : NULL;
-		size_t old = offsetof(mocap_daemon_status, detector);
-		unsigned char *buf = malloc(old + 64);
-		if (sc && buf && v1 && v2) {
+		size_t old = offsetof(mocap_daemon_status, detector), old2 = offsetof(mocap_daemon_status, latency);
+		unsigned char *buf = malloc(sizeof(*ds) + 64);
+		if (sc && buf && v1 && v2 && v3) {
 			memset(buf, 0xa5, old + 64);
 			CHECK(v1(sc, buf) == 0);
 			bool untouched = true;
@@ -654,8 +662,16 @@ static void test_status_versions(void)
 			int ncams;
 			memcpy(&ncams, buf + offsetof(mocap_daemon_status, ncams), sizeof(ncams));
 			CHECK(ncams == 1);
+			memset(buf, 0xa5, old2 + 64);
+			CHECK(v2(sc, buf) == 0);
+			untouched = true;
+			for (size_t i = old2; i < old2 + 64; i++)
+				untouched &= buf[i] == 0xa5;
+			CHECK_MSG(untouched, "mocap_get_status@MOCAP_2 wrote past the 1.1 layout");
+			memcpy(ds, buf, old2);
+			CHECK(ds->detector.used == 9);
 			memset(ds, 0, sizeof(*ds));
-			CHECK(v2(sc, ds) == 0 && ds->detector.used == 9);
+			CHECK(v3(sc, ds) == 0 && ds->detector.used == 9 && ds->latency.window == 300);
 		}
 		free(buf);
 		if (sc)

@@ -112,8 +112,9 @@ static inline int mcl_ms_until(uint64_t deadline)
 /* --- error.c --- */
 
 /* Sets the calling thread's error; returns code. */
-/* mocap_get_status's two symbol versions (request.c). */
-int mcl_get_status_v2(mocap_client *c, mocap_daemon_status *st);
+/* mocap_get_status's three symbol versions (request.c). */
+int mcl_get_status_v3(mocap_client *c, mocap_daemon_status *st);
+int mcl_get_status_v2(mocap_client *c, void *st);
 int mcl_get_status_v1(mocap_client *c, void *st);
 
 int mcl_set_err(int code, const char *fmt, ...) __attribute__((format(printf, 2, 3)));

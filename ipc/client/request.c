@@ -216,38 +216,71 @@ static void convert_status(const mc_msg_status *s, mocap_daemon_status *st)
 	snprintf(d->message, sizeof(d->message), "%s", w->message);
 }
 
-/* mocap_get_status@@MOCAP_2: the status with the detector. */
-int mcl_get_status_v2(mocap_client *c, mocap_daemon_status *st)
+static void convert_latency(const mc_msg_status *s, mocap_latency_status *l)
+{
+	l->known = s->has_latency;
+	if (!s->has_latency)
+		return;
+	const mc_wire_latency_status *w = &s->latency;
+	l->window = w->window;
+	for (int i = 0; i < MOCAP_LAT_NSTAGES; i++) {
+		l->stage[i].p50 = w->stage[i].p50;
+		l->stage[i].p99 = w->stage[i].p99;
+		l->stage[i].max = w->stage[i].max;
+	}
+	l->skipped_behind = w->skipped_behind;
+	l->skipped_stale = w->skipped_stale;
+	l->incomplete = w->incomplete;
+}
+
+/* mocap_get_status@@MOCAP_3: the status with the detector and the latency. */
+int mcl_get_status_v3(mocap_client *c, mocap_daemon_status *st)
 {
 	proto_msg *m = mcl_new_msg(MC_MSG_GET_STATUS);
 	if (!m)
 		return MOCAP_E_SYSTEM;
 	int rc = mcl_request(c, m, MC_MSG_STATUS, m, NULL, NULL, NULL);
-	if (rc == 0)
+	if (rc == 0) {
 		convert_status(&m->u.status, st);
+		convert_latency(&m->u.status, &st->latency);
+	}
 	free(m);
 	return rc;
 }
 
-/* mocap_get_status@MOCAP_1, for programs built against libmocap 1.0:
- * their mocap_daemon_status ends where `detector` begins. */
-int mcl_get_status_v1(mocap_client *c, void *st)
+/* The status in the layout of an older libmocap: the first `bytes` of it. */
+static int get_status_prefix(mocap_client *c, void *st, size_t bytes)
 {
 	mocap_daemon_status *full = malloc(sizeof(*full));
 	if (!full) {
 		mcl_set_err(MOCAP_E_SYSTEM, "out of memory");
 		return MOCAP_E_SYSTEM;
 	}
-	int rc = mcl_get_status_v2(c, full);
+	int rc = mcl_get_status_v3(c, full);
 	if (rc == 0)
-		memcpy(st, full, offsetof(mocap_daemon_status, detector));
+		memcpy(st, full, bytes);
 	free(full);
 	return rc;
 }
 
+/* mocap_get_status@MOCAP_2, for programs built against libmocap 1.1:
+ * their mocap_daemon_status ends where `latency` begins. */
+int mcl_get_status_v2(mocap_client *c, void *st)
+{
+	return get_status_prefix(c, st, offsetof(mocap_daemon_status, latency));
+}
+
+/* mocap_get_status@MOCAP_1, for programs built against libmocap 1.0:
+ * their mocap_daemon_status ends where `detector` begins. */
+int mcl_get_status_v1(mocap_client *c, void *st)
+{
+	return get_status_prefix(c, st, offsetof(mocap_daemon_status, detector));
+}
+
 /* In a static link the default version (@@) is plain mocap_get_status. */
 __asm__(".symver mcl_get_status_v1,mocap_get_status@MOCAP_1");
-__asm__(".symver mcl_get_status_v2,mocap_get_status@@MOCAP_2");
+__asm__(".symver mcl_get_status_v2,mocap_get_status@MOCAP_2");
+__asm__(".symver mcl_get_status_v3,mocap_get_status@@MOCAP_3");
 
 int mocap_get_rig(mocap_client *c, char **json, int *ncams)
 {

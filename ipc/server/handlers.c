@@ -99,6 +99,19 @@ static void handle_unsubscribe(srv_server *srv, client *c, const proto_msg *m)
 	srv_reply_ok(srv, c, m->h.request_id, m->h.type, 0);
 }
 
+static void latency_to_wire(const srv_latency_status *l, mc_wire_latency_status *w)
+{
+	w->window = l->window;
+	for (int s = 0; s < PROTO_LATENCY_STAGES; s++) {
+		w->stage[s].p50 = l->stage[s].p50;
+		w->stage[s].p99 = l->stage[s].p99;
+		w->stage[s].max = l->stage[s].max;
+	}
+	w->skipped_behind = l->skipped_behind;
+	w->skipped_stale = l->skipped_stale;
+	w->incomplete = l->incomplete;
+}
+
 static void handle_get_status(srv_server *srv, client *c, const proto_msg *m)
 {
 	proto_msg *o = &srv->out;
@@ -147,6 +160,9 @@ static void handle_get_status(srv_server *srv, client *c, const proto_msg *m)
 		srv_str_copy(d->model, sizeof(d->model), ds->model);
 		srv_str_copy(d->message, sizeof(d->message), ds->message);
 	}
+	s->has_latency = c->version >= 3;
+	if (s->has_latency)
+		latency_to_wire(&st->latency, &s->latency);
 	pthread_mutex_unlock(&srv->lock);
 	s->server_time_ns = mc_now_ns();
 	srv_reply(srv, c, o);

@@ -21,6 +21,7 @@ _Static_assert(SRV_NAME_MAX == PROTO_NAME_MAX + 1, "camera and device names are 
 _Static_assert(SRV_ARG_MAX == PROTO_ARG_MAX + 1, "the control argument is the wire's");
 _Static_assert(SRV_MAX_KEYPOINTS == PROTO_MAX_KEYPOINTS, "a keypoint batch is the wire's");
 _Static_assert(SRV_MAX_RINGS == PROTO_MAX_RINGS, "a RINGS reply carries every ring");
+_Static_assert(SRV_LAT_NSTAGES == PROTO_LATENCY_STAGES, "STATUS carries every latency stage");
 _Static_assert(SRV_TRACKER_IDLE == 3, "mc_msg_status.tracker_state: 3 is idle on the wire");
 _Static_assert(SRV_TRACKER_INITIALISING == 4 && MC_TRACK_INITIALISING == 4,
 	       "tracker_state and FRAME state: 4 is initialising on the wire");

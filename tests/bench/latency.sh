@@ -1,0 +1,72 @@
+#!/bin/sh
+# bench-latency: where a frame set's time goes in mocapd, capture to
+# publish, at 30 and 60 fps, on an idle machine and with a CPU hog on one
+# core.  mocapd plays the bundled clip (tests/data/ego_demo: two 256x256
+# MJPEG cameras) in a loop through the files driver, tracks it with the
+# default settings, and after SECONDS the stage figures of the newest 1024
+# frame sets come from `mocapctl status --json` (STATUS's latency block).
+#
+#   tests/bench/latency.sh BUILD [SECONDS per run, default 60]
+#
+# The files driver rather than the sim driver: sim renders each view on the
+# CPU (about a second at 256x256), so it cannot deliver 30 or 60 fps on two
+# cores without taking the tracker's time; the files driver decodes real
+# MJPEG, as a USB camera's frames are.
+set -eu
+build=${1:?usage: latency.sh BUILD [SECONDS]}
+secs=${2:-60}
+repo=$(pwd)
+[ -f tests/data/ego_demo/gt.json ] || { echo "bench-latency: run from the repository root"; exit 1; }
+py=/usr/bin/python3
+echo "bench-latency: $secs s per run; CPU: $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | sed 's/^ //'), $(nproc) cores"
+printf '%-4s %-5s %6s %8s  %-22s %-22s %-22s %-22s %-22s %s\n' fps load sets tracked/s \
+	"ready p50/p99/max" "wait" "track" "publish" "total" "skipped behind/stale, incomplete"
+for rate in 30 60; do
+	for load in idle hog; do
+		dir=$(mktemp -d /tmp/mocap-latency-XXXXXX)
+		cat > "$dir/mocapd.conf" <<CONF
+[daemon]
+plugin_dir = $repo/$build/drivers
+[camera left]
+driver = files
+rig_camera = left
+loop = true
+rate = $rate
+path = $repo/tests/data/ego_demo/left
+[camera right]
+driver = files
+rig_camera = right
+loop = true
+rate = $rate
+path = $repo/tests/data/ego_demo/right
+[tracker]
+rig = $repo/config/rigs/ego_stereo.json
+model = $repo/config/models/default.json
+init_joints = $repo/tests/data/ego_demo/gt.json
+[socket]
+path = $dir/mocapd.sock
+CONF
+		"$build/bin/mocapd" -c "$dir/mocapd.conf" > /dev/null 2> "$dir/mocapd.log" &
+		daemon=$!
+		hog=
+		if [ "$load" = hog ]; then
+			sh -c 'while :; do :; done' &
+			hog=$!
+		fi
+		sleep "$secs"
+		"$build/bin/mocapctl" --socket "$dir/mocapd.sock" status --json > "$dir/status.json" || true
+		[ -n "$hog" ] && kill "$hog"
+		kill "$daemon"
+		wait "$daemon" || true
+		$py - "$dir/status.json" "$rate" "$load" <<'PY' || { echo "bench-latency: no status ($dir)"; tail -n 5 "$dir/mocapd.log"; }
+import json, sys
+st = json.load(open(sys.argv[1]))
+lat = st["latency"]
+cell = lambda s: "%5.1f %5.1f %6.1f ms" % (lat[s]["p50_ms"], lat[s]["p99_ms"], lat[s]["max_ms"])
+print("%-4s %-5s %6d %8.1f  %-22s %-22s %-22s %-22s %-22s %d/%d, %d" % (
+    sys.argv[2], sys.argv[3], lat["window"], st["publish_fps"], cell("ready"), cell("wait"), cell("track"),
+    cell("publish"), cell("total"), lat["skipped_behind"], lat["skipped_stale"], lat["incomplete"]))
+PY
+		rm -rf "$dir"
+	done
+done
