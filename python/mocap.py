@@ -467,6 +467,16 @@ class _Stream:
         return TCP_PREFIX.pack(len(message)) + message
 
 
+def _recv_chunk(sock):
+    """TCP: the bytes that came, None when none came in time, b"" at the stream's end."""
+    try:
+        return sock.recv(MAX_MESSAGE)
+    except (socket.timeout, BlockingIOError):
+        return None
+    except OSError as e:
+        raise Disconnected("disconnected", "connection to mocapd lost: %s" % (e.strerror or e)) from None
+
+
 def _auth_body(token):
     if len(token.encode("utf-8")) > 255:
         raise ArgumentError("argument", "the token is longer than 255 bytes")
@@ -772,12 +782,9 @@ class Client(_Session):
             if data is not None:
                 return data, []
             self._sock.settimeout(None if deadline is None else max(0.0, deadline - time.monotonic()))
-            try:
-                chunk = self._sock.recv(MAX_MESSAGE)
-            except (socket.timeout, BlockingIOError):
+            chunk = _recv_chunk(self._sock)
+            if chunk is None:
                 return None
-            except OSError as e:
-                raise Disconnected("disconnected", "connection to mocapd lost: %s" % (e.strerror or e)) from None
             if not chunk:
                 return b"", []  # _header says the daemon closed the connection
             self._stream.feed(chunk)
@@ -1090,18 +1097,18 @@ class AsyncClient(_Session):
             data = self._stream.take()
             if data is not None:
                 return data, []
-        while True:
+        if self._stream is None:
             try:
-                if self._stream is None:
-                    data, fds, _flags, _addr = socket.recv_fds(self._sock, MAX_MESSAGE, MAX_FDS, _RECV_FLAGS)
-                    return data, fds
-                chunk = self._sock.recv(MAX_MESSAGE)
-            except InterruptedError:
-                continue
+                data, fds, _flags, _addr = socket.recv_fds(self._sock, MAX_MESSAGE, MAX_FDS, _RECV_FLAGS)
             except BlockingIOError:
                 return None
             except OSError as e:
                 raise Disconnected("disconnected", "connection to mocapd lost: %s" % (e.strerror or e)) from None
+            return data, fds
+        while True:
+            chunk = _recv_chunk(self._sock)
+            if chunk is None:
+                return None
             if not chunk:
                 return b"", []  # _header says the daemon closed the connection
             self._stream.feed(chunk)

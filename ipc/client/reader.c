@@ -162,19 +162,29 @@ static void set_dead_locked(mocap_client *c, ssize_t n, int err)
 	pthread_mutex_unlock(&c->lock);
 }
 
+/* What a receive call's result n means: 1 data, 0 try again (EINTR), -1
+ * stop: nothing more for now, or the connection ended (now marked dead). */
+static int received(mocap_client *c, ssize_t n)
+{
+	if (n > 0)
+		return 1;
+	if (n < 0 && errno == EINTR)
+		return 0;
+	if (n < 0 && (errno == EAGAIN || errno == EWOULDBLOCK))
+		return -1;
+	set_dead_locked(c, n, errno);
+	return -1;
+}
+
 /* TCP: reads what is there and files every whole message (lock not held). */
 static void read_stream_burst(mocap_client *c)
 {
 	for (int i = 0; i < RX_BURST; i++) {
-		ssize_t n = mcl_tcp_recv(c);
-		if (n < 0 && errno == EINTR)
+		int r = received(c, mcl_tcp_recv(c));
+		if (r == 0)
 			continue;
-		if (n < 0 && (errno == EAGAIN || errno == EWOULDBLOCK))
+		if (r < 0)
 			return;
-		if (n <= 0) {
-			set_dead_locked(c, n, errno);
-			return;
-		}
 		uint64_t t = mc_now_ns();
 		size_t len;
 		int rc, no_fds[1]; /* nothing comes with a message on TCP */
@@ -207,14 +217,11 @@ static void read_burst(mocap_client *c)
 		struct msghdr mh = {.msg_iov = &iov, .msg_iovlen = 1, .msg_control = ctl.buf,
 				    .msg_controllen = sizeof(ctl.buf)};
 		ssize_t n = recvmsg(c->fd, &mh, MSG_DONTWAIT | MSG_CMSG_CLOEXEC);
-		if (n < 0 && errno == EINTR)
+		int r = received(c, n);
+		if (r == 0)
 			continue;
-		if (n < 0 && (errno == EAGAIN || errno == EWOULDBLOCK))
+		if (r < 0)
 			return;
-		if (n <= 0) {
-			set_dead_locked(c, n, errno);
-			return;
-		}
 		uint64_t t = mc_now_ns();
 		int fds[MAX_RX_FDS];
 		int nfds = take_fds(&mh, fds);
