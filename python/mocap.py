@@ -458,6 +458,20 @@ class _Stream:
         del self._buf[:end]
         return data
 
+    def next_from(self, sock):
+        """The next message as (data, []), reading sock as long as it gives bytes (within its
+        timeout); None when no whole message came, (b"", []) at the stream's end."""
+        while True:
+            data = self.take()
+            if data is not None:
+                return data, []
+            chunk = _recv_chunk(sock)
+            if chunk is None:
+                return None
+            if not chunk:
+                return b"", []  # _header says the daemon closed the connection
+            self.feed(chunk)
+
     def has_message(self):
         return len(self._buf) >= TCP_PREFIX.size and \
             len(self._buf) >= TCP_PREFIX.size + TCP_PREFIX.unpack_from(self._buf)[0]
@@ -776,18 +790,8 @@ class Client(_Session):
 
     def _recv_stream(self, timeout):
         """TCP: the next whole message and no fds, or None on timeout."""
-        deadline = None if timeout is None else time.monotonic() + timeout
-        while True:
-            data = self._stream.take()
-            if data is not None:
-                return data, []
-            self._sock.settimeout(None if deadline is None else max(0.0, deadline - time.monotonic()))
-            chunk = _recv_chunk(self._sock)
-            if chunk is None:
-                return None
-            if not chunk:
-                return b"", []  # _header says the daemon closed the connection
-            self._stream.feed(chunk)
+        self._sock.settimeout(timeout)
+        return self._stream.next_from(self._sock)
 
     def _recv(self, timeout):
         """One message (type, request_id, bytes, fds), or None on timeout."""
@@ -1094,27 +1098,14 @@ class AsyncClient(_Session):
         """The next message (data, fds) from the socket, or None when nothing
         is there; the connection's end raises."""
         if self._stream is not None:
-            data = self._stream.take()
-            if data is not None:
-                return data, []
-        if self._stream is None:
-            try:
-                data, fds, _flags, _addr = socket.recv_fds(self._sock, MAX_MESSAGE, MAX_FDS, _RECV_FLAGS)
-            except BlockingIOError:
-                return None
-            except OSError as e:
-                raise Disconnected("disconnected", "connection to mocapd lost: %s" % (e.strerror or e)) from None
-            return data, fds
-        while True:
-            chunk = _recv_chunk(self._sock)
-            if chunk is None:
-                return None
-            if not chunk:
-                return b"", []  # _header says the daemon closed the connection
-            self._stream.feed(chunk)
-            data = self._stream.take()
-            if data is not None:
-                return data, []
+            return self._stream.next_from(self._sock)
+        try:
+            data, fds, _flags, _addr = socket.recv_fds(self._sock, MAX_MESSAGE, MAX_FDS, _RECV_FLAGS)
+        except BlockingIOError:
+            return None
+        except OSError as e:
+            raise Disconnected("disconnected", "connection to mocapd lost: %s" % (e.strerror or e)) from None
+        return data, fds
 
     def _on_readable(self):
         """Reads what is there (up to a burst), filing each message."""
