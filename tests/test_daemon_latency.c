@@ -86,28 +86,25 @@ static void check_stale(mcd_run *r)
 	mocap_close(c);
 }
 
+/* Runs mocapd with the [daemon] lines `extra`, checks it, stops it. */
+static void run(const char *extra, void (*check)(mcd_run *r), const char *what)
+{
+	mcd_run r;
+	CHECK(mcd_run_init(&r));
+	if (start(&r, extra)) {
+		check(&r);
+		mcd_run_signal(&r, SIGTERM);
+		CHECK(mcd_run_wait_exit(&r, 20000) == 0);
+	}
+	if (mc_test_failures)
+		mcd_run_dump(&r, what);
+	mcd_run_cleanup(&r);
+}
+
 int main(void)
 {
 	mcd_require_build_and_clip(repo, sizeof(repo));
-	mcd_run r;
-	CHECK(mcd_run_init(&r));
-	if (start(&r, "")) {
-		check_stages(&r);
-		mcd_run_signal(&r, SIGTERM);
-		CHECK(mcd_run_wait_exit(&r, 20000) == 0);
-	}
-	if (mc_test_failures)
-		mcd_run_dump(&r, "latency");
-	mcd_run_cleanup(&r);
-
-	CHECK(mcd_run_init(&r));
-	if (start(&r, "max_frame_age_ms = 0.001\n")) {
-		check_stale(&r);
-		mcd_run_signal(&r, SIGTERM);
-		CHECK(mcd_run_wait_exit(&r, 20000) == 0);
-	}
-	if (mc_test_failures)
-		mcd_run_dump(&r, "stale");
-	mcd_run_cleanup(&r);
+	run("", check_stages, "latency");
+	run("max_frame_age_ms = 0.001\n", check_stale, "stale");
 	return mc_test_finish("test_daemon_latency");
 }

@@ -24,21 +24,14 @@ printf '%-4s %-5s %6s %8s  %-22s %-22s %-22s %-22s %-22s %s\n' fps load sets tra
 for rate in 30 60; do
 	for load in idle hog; do
 		dir=$(mktemp -d /tmp/mocap-latency-XXXXXX)
-		cat > "$dir/mocapd.conf" <<CONF
-[daemon]
-plugin_dir = $repo/$build/drivers
-[camera left]
-driver = files
-rig_camera = left
-loop = true
-rate = $rate
-path = $repo/tests/data/ego_demo/left
-[camera right]
-driver = files
-rig_camera = right
-loop = true
-rate = $rate
-path = $repo/tests/data/ego_demo/right
+		{
+			printf '[daemon]\nplugin_dir = %s/%s/drivers\n' "$repo" "$build"
+			for cam in left right; do
+				printf '[camera %s]\ndriver = files\nrig_camera = %s\nloop = true\nrate = %s\npath = %s\n' \
+					$cam $cam $rate "$repo/tests/data/ego_demo/$cam"
+			done
+		} > "$dir/mocapd.conf"
+		cat >> "$dir/mocapd.conf" <<CONF
 [tracker]
 rig = $repo/config/rigs/ego_stereo.json
 model = $repo/config/models/default.json
