@@ -20,11 +20,12 @@ void mcd_latency_add(mcd_latency *l, const mcd_output *o, uint64_t publish_ns)
 	 * straight from capture to tracking. */
 	uint64_t ready = o->ready_ns ? o->ready_ns : o->timestamp_ns;
 	uint64_t start = o->track_start_ns ? o->track_start_ns : ready;
-	uint64_t end = o->track_end_ns ? o->track_end_ns : start;
+	uint64_t decoded = o->decoded_ns ? o->decoded_ns : start;
+	uint64_t end = o->track_end_ns ? o->track_end_ns : decoded;
 	double v[SRV_LAT_NSTAGES] = {
-		[SRV_LAT_READY] = span_ms(o->timestamp_ns, ready),  [SRV_LAT_WAIT] = span_ms(ready, start),
-		[SRV_LAT_TRACK] = span_ms(start, end),              [SRV_LAT_PUBLISH] = span_ms(end, publish_ns),
-		[SRV_LAT_TOTAL] = span_ms(o->timestamp_ns, publish_ns),
+		[SRV_LAT_READY] = span_ms(o->timestamp_ns, ready), [SRV_LAT_WAIT] = span_ms(ready, start),
+		[SRV_LAT_DECODE] = span_ms(start, decoded),        [SRV_LAT_TRACK] = span_ms(decoded, end),
+		[SRV_LAT_PUBLISH] = span_ms(end, publish_ns),      [SRV_LAT_TOTAL] = span_ms(o->timestamp_ns, publish_ns),
 	};
 	for (int s = 0; s < SRV_LAT_NSTAGES; s++)
 		l->ms[s][l->next] = v[s];

@@ -18,8 +18,9 @@ typedef struct {
 	uint64_t seq;          /* frame sets handled by the tracking thread */
 	uint64_t timestamp_ns; /* capture time */
 	/* CLOCK_MONOTONIC of the stages after capture (latency.h): the set
-	 * complete (or released at its deadline), tracking started, ended. */
-	uint64_t ready_ns, track_start_ns, track_end_ns;
+	 * complete (or released at its deadline), tracking started, the views
+	 * decoded, tracking ended. */
+	uint64_t ready_ns, track_start_ns, decoded_ns, track_end_ns;
 	uint64_t frame;        /* the driver's frame number (first camera present) */
 	int present, ncams;    /* cameras in the frame set */
 	bool tracked;          /* sk and pose are valid */

@@ -271,6 +271,7 @@ static void process(mcd_tracking_thread *t, const mcd_group *g, uint64_t start_n
 	o->ready_ns = g->ready_ns;
 	o->track_start_ns = start_ns;
 	int present = gather_views(t, g, views, &o->frame);
+	o->decoded_ns = mc_now_ns();
 	o->seq = ++t->seq;
 	o->timestamp_ns = g->timestamp_ns;
 	o->present = present;

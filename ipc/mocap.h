@@ -139,10 +139,11 @@ typedef struct {
 typedef enum {
 	MOCAP_LAT_READY = 0,   /* capture -> the frame set complete (or released at its deadline) */
 	MOCAP_LAT_WAIT = 1,    /* -> tracking starts (the tracker was busy) */
-	MOCAP_LAT_TRACK = 2,   /* -> tracking ends */
-	MOCAP_LAT_PUBLISH = 3, /* -> handed to the socket server */
-	MOCAP_LAT_TOTAL = 4,   /* capture -> handed to the socket server */
-	MOCAP_LAT_NSTAGES = 5
+	MOCAP_LAT_DECODE = 2,  /* -> the views copied out and converted to RGB */
+	MOCAP_LAT_TRACK = 3,   /* -> tracking ends (keypoints, the optimisation) */
+	MOCAP_LAT_PUBLISH = 4, /* -> handed to the socket server */
+	MOCAP_LAT_TOTAL = 5,   /* capture -> handed to the socket server */
+	MOCAP_LAT_NSTAGES = 6
 } mocap_latency_stage;
 
 typedef struct {

@@ -126,14 +126,16 @@ static void print_detector(const mocap_detector_status *d)
 	}
 }
 
-static const char *const latency_stage_names[MOCAP_LAT_NSTAGES] = {"ready", "wait", "track", "publish", "total"};
+static const char *const latency_stage_names[MOCAP_LAT_NSTAGES] = {"ready",	"wait",	   "decode",
+								    "track",	"publish", "total"};
 
 /* "latency:    capture to publish 41.2 ms p50, 63.0 p99, 80.1 max over 900 frame sets"
  * and a line per stage. */
 static void print_latency(const mocap_latency_status *l)
 {
 	static const char *const what[MOCAP_LAT_NSTAGES] = {
-		"capture -> set complete", "-> tracking starts", "-> tracking ends", "-> published", ""};
+		"capture -> set complete", "-> tracking starts", "-> views decoded", "-> tracking ends", "-> published",
+		""};
 	if (!l->known) {
 		printf("latency:    unknown (the daemon speaks protocol version 2 or older)\n");
 		return;

@@ -20,7 +20,7 @@
 
 #define PROTO_VERSION 3        /* the highest version this code speaks */
 #define PROTO_MIN_VERSION 1    /* the lowest; 2 adds STATUS's detector block, 3 its latency block */
-#define PROTO_LATENCY_STAGES 5 /* ready, wait, track, publish, total */
+#define PROTO_LATENCY_STAGES 6 /* ready, wait, decode, track, publish, total */
 #define PROTO_MAGIC 0x50434f4du /* "MOCP" as bytes 4d 4f 43 50 */
 #define PROTO_HEADER_SIZE 16
 #define PROTO_MAX_MESSAGE 65536

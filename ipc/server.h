@@ -201,7 +201,8 @@ typedef struct {
 typedef enum {
 	SRV_LAT_READY,   /* capture -> the set complete (or released at its deadline) */
 	SRV_LAT_WAIT,    /* -> tracking starts (the tracker was busy with an older set) */
-	SRV_LAT_TRACK,   /* -> tracking ends (copy, convert, keypoints, optimise) */
+	SRV_LAT_DECODE,  /* -> the views copied out of the rings and converted to RGB */
+	SRV_LAT_TRACK,   /* -> tracking ends (keypoints, the optimisation) */
 	SRV_LAT_PUBLISH, /* -> handed to the socket server (the publishing thread) */
 	SRV_LAT_TOTAL,   /* capture -> handed to the socket server */
 	SRV_LAT_NSTAGES

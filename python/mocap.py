@@ -221,9 +221,9 @@ Status = namedtuple("Status", "server_time_ns uptime_ns frames_published frames_
                               "detector latency")
 # Where a frame set's time goes in the daemon (protocol version 3): per
 # stage (LATENCY_STAGES) a StageTime of ms, over the newest `window` sets.
-LATENCY_STAGES = ("ready", "wait", "track", "publish", "total")
+LATENCY_STAGES = ("ready", "wait", "decode", "track", "publish", "total")
 StageTime = namedtuple("StageTime", "p50 p99 max")
-Latency = namedtuple("Latency", "window ready wait track publish total skipped_behind skipped_stale incomplete")
+Latency = namedtuple("Latency", "window ready wait decode track publish total skipped_behind skipped_stale incomplete")
 Ring = namedtuple("Ring", "camera fd size")
 
 

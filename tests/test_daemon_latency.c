@@ -46,10 +46,11 @@ static void check_stages(mcd_run *r)
 	mocap_daemon_status *st = calloc(1, sizeof(*st));
 	CHECK(status_after(c, 10, st));
 	const mocap_latency_status *l = &st->latency;
-	printf("capture to publish: %.1f ms p50, %.1f p99 over %u sets (ready %.1f, wait %.1f, track %.1f, "
+	printf("capture to publish: %.1f ms p50, %.1f p99 over %u sets (ready %.1f, wait %.1f, decode %.1f, track %.1f, "
 	       "publish %.2f); capture to receive %.1f ms (mean of 10)\n",
 	       l->stage[MOCAP_LAT_TOTAL].p50, l->stage[MOCAP_LAT_TOTAL].p99, l->window, l->stage[MOCAP_LAT_READY].p50,
-	       l->stage[MOCAP_LAT_WAIT].p50, l->stage[MOCAP_LAT_TRACK].p50, l->stage[MOCAP_LAT_PUBLISH].p50, receive_ms);
+	       l->stage[MOCAP_LAT_WAIT].p50, l->stage[MOCAP_LAT_DECODE].p50, l->stage[MOCAP_LAT_TRACK].p50,
+	       l->stage[MOCAP_LAT_PUBLISH].p50, receive_ms);
 	CHECK(l->known && l->window >= 10 && l->skipped_stale == 0);
 	CHECK(l->stage[MOCAP_LAT_TRACK].p50 > 0 && l->stage[MOCAP_LAT_TOTAL].p50 >= l->stage[MOCAP_LAT_TRACK].p50);
 	for (int s = 0; s < MOCAP_LAT_NSTAGES; s++)

@@ -285,12 +285,12 @@ static void test_other_messages(void)
 	size_t v2 = n;
 	s->has_latency = true;
 	s->latency.window = 900;
-	s->latency.stage[4].p50 = 33.5;
+	s->latency.stage[5].p50 = 33.5;
 	s->latency.stage[1].max = 7.0;
 	s->latency.skipped_stale = 5;
 	n = roundtrip(PROTO_FROM_SERVER);
-	CHECK(n == v2 + 8 + 5 * 24 + 24);
-	CHECK(rd32(buf + v2) == 900 && rdf64(buf + v2 + 8 + 4 * 24) == 33.5 && rd64(buf + v2 + 8 + 120 + 8) == 5);
+	CHECK(n == v2 + 8 + 6 * 24 + 24);
+	CHECK(rd32(buf + v2) == 900 && rdf64(buf + v2 + 8 + 5 * 24) == 33.5 && rd64(buf + v2 + 8 + 144 + 8) == 5);
 	CHECK(b.u.status.has_latency && b.u.status.latency.window == 900 && b.u.status.latency.stage[1].max == 7.0 &&
 	      b.u.status.latency.skipped_stale == 5);
 	wr32(buf + 4, (uint32_t)(n - 1)); /* one byte short */
