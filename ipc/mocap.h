@@ -258,6 +258,61 @@ int mocap_send_keypoints(mocap_client *c, uint64_t capture_ns, int camera, const
 int mocap_send_head_pose(mocap_client *c, uint64_t timestamp_ns, const double position[3],
 			 const double orientation_wxyz[4]);
 
+/* --- The latest-pose block (since libmocap 1.2) ------------------------
+ *
+ * The daemon writes every published skeleton (rig space) into a shared
+ * memory block; a client on the daemon's machine maps it once and reads
+ * the newest pose without a socket round trip (well under a microsecond),
+ * or waits for the next one on a futex.  Not over TCP.
+ *
+ *     mocap_pose_block *b = mocap_pose_block_map(c);
+ *     mocap_skeleton_frame f;
+ *     uint64_t seen = 0;
+ *     while (mocap_pose_block_wait(b, seen, &f, 1000) == 1) {
+ *             seen = f.seq;
+ *             mocap_pose_block_predict(b, display_time_ns, &f);   // the pose when the frame is shown
+ *             ...
+ *     }
+ *     mocap_pose_block_unmap(b);
+ *
+ * Frames read from the block have receive_ns set to the time of reading,
+ * missed = 0, space = MOCAP_SPACE_RIG; their joints follow the skeleton
+ * definition `skeleton_id` (mocap_get_skeleton).  Any thread may read a
+ * mapped block; unmap it after the client is closed or before, as you like. */
+typedef struct mocap_pose_block mocap_pose_block;
+
+/* Maps the daemon's block read-only; NULL on failure (MOCAP_E_UNAVAILABLE
+ * over TCP or from a daemon older than protocol version 3). */
+mocap_pose_block *mocap_pose_block_map(mocap_client *c);
+void mocap_pose_block_unmap(mocap_pose_block *b);
+/* The newest pose: 1 and *f filled, 0 when the daemon has published none
+ * yet.  Never blocks (retries while a write is in progress). */
+int mocap_pose_block_read(const mocap_pose_block *b, mocap_skeleton_frame *f);
+/* Waits until a pose newer than after_seq is there (timeout_ms -1: for
+ * ever): 1 and *f filled, 0 on timeout. */
+int mocap_pose_block_wait(const mocap_pose_block *b, uint64_t after_seq, mocap_skeleton_frame *f, int timeout_ms);
+/* The newest pose predicted to t_ns (mocap_predict from the two newest
+ * poses in the block): what mocap_predict returns, or MOCAP_E_UNAVAILABLE
+ * before the first pose. */
+int mocap_pose_block_predict(const mocap_pose_block *b, uint64_t t_ns, mocap_skeleton_frame *f);
+
+/* --- Prediction (since libmocap 1.2) ------------------------------------
+ *
+ * Extrapolates newer (a pose at newer->capture_ns) to t_ns from the
+ * motion between older and newer: constant velocity for positions,
+ * constant angular velocity for orientations.  out gets newer's fields
+ * with the predicted joints and capture_ns = t_ns (out may be newer).
+ * At most MOCAP_PREDICT_MAX_NS ahead of newer: further is clamped there
+ * (a pose is worth extrapolating over a display's latency, not over a
+ * lost tracker's gap).  t_ns before newer's time predicts backwards the
+ * same way.  Returns 0 predicted to t_ns, 1 clamped to the limit, 2 newer
+ * held as it is (older is not an earlier frame of the same skeleton, or
+ * more than MOCAP_PREDICT_MAX_GAP_NS older), or MOCAP_E_ARG. */
+#define MOCAP_PREDICT_MAX_NS 100000000ull     /* 100 ms ahead */
+#define MOCAP_PREDICT_MAX_GAP_NS 200000000ull /* older at most 200 ms before newer */
+int mocap_predict(const mocap_skeleton_frame *older, const mocap_skeleton_frame *newer, uint64_t t_ns,
+		  mocap_skeleton_frame *out);
+
 /* Round trip to the daemon; *server_time_ns may be NULL. */
 int mocap_ping(mocap_client *c, uint64_t *server_time_ns);
 

@@ -119,11 +119,23 @@ $(BUILD)/tests/bench_ipc: tests/bench_ipc.c $(IPC_LINK_DEPS)
 	@mkdir -p $(@D)
 	$(CC) $(CPPFLAGS) $(CFLAGS) -MMD -MP $< -o $@ $(LDFLAGS) $(IPC_LINK)
 
+$(BUILD)/tests/bench_predict: tests/bench_predict.c $(IPC_LINK_DEPS)
+	@mkdir -p $(@D)
+	$(CC) $(CPPFLAGS) $(CFLAGS) -MMD -MP $< -o $@ $(LDFLAGS) $(IPC_LINK)
+
 # Twice: with the default scheduler, then with SCHED_FIFO (where allowed),
-# which shows the IPC path without the load of other processes.
+# which shows the IPC path without the load of other processes.  Then the
+# prediction error on the evaluation clips' ground truth (DATA_DIR).
+BENCHES += bench-predict
+.PHONY: bench-predict
 bench-ipc: $(BUILD)/tests/bench_ipc
 	$(BUILD)/tests/bench_ipc
 	$(BUILD)/tests/bench_ipc --rt || [ $$? -eq 77 ]
+
+bench-predict: $(BUILD)/tests/bench_predict
+	@clips="$$(ls -d $(DATA_DIR)/ego/*/ $(DATA_DIR)/outside/*/ 2>/dev/null)"; \
+	if [ -n "$$clips" ]; then $(BUILD)/tests/bench_predict $$clips; \
+	else echo "bench-predict: no clips in $(DATA_DIR)/ego or $(DATA_DIR)/outside, skipped"; fi
 
 # Installs what the top-level install does not know about: the shared
 # library, its header and pkg-config file.

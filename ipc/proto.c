@@ -219,6 +219,8 @@ const char *proto_type_name(uint16_t type)
 	case MC_MSG_HEAD_POSE: return "HEAD_POSE";
 	case MC_MSG_PING: return "PING";
 	case MC_MSG_AUTH: return "AUTH";
+	case MC_MSG_GET_POSE_BLOCK: return "GET_POSE_BLOCK";
+	case MC_MSG_POSE_BLOCK: return "POSE_BLOCK";
 	case MC_MSG_WELCOME: return "WELCOME";
 	case MC_MSG_ERROR: return "ERROR";
 	case MC_MSG_OK: return "OK";
@@ -338,6 +340,19 @@ static void dec_control(reader *r, mc_msg_control *m)
 }
 
 static void enc_auth(writer *w, const mc_msg_auth *m) { w_str(w, m->token, PROTO_TOKEN_MAX); }
+
+static void enc_pose_block(writer *w, const mc_msg_pose_block *m)
+{
+	w_u32(w, m->version);
+	w_u32(w, 0);
+	w_u64(w, m->size);
+}
+static void dec_pose_block(reader *r, mc_msg_pose_block *m)
+{
+	m->version = r_u32(r, "version");
+	r_u32(r, "reserved");
+	m->size = r_u64(r, "size");
+}
 static void dec_auth(reader *r, mc_msg_auth *m) { r_str(r, m->token, PROTO_TOKEN_MAX, "token"); }
 
 static void enc_keypoints(writer *w, const mc_msg_keypoints *m)
@@ -754,6 +769,8 @@ size_t proto_encode(const proto_msg *msg, void *buf, size_t cap)
 	case MC_MSG_HEAD_POSE: enc_head_pose(&w, &msg->u.head_pose); break;
 	case MC_MSG_PING: enc_ping(&w, &msg->u.ping, false); break;
 	case MC_MSG_AUTH: enc_auth(&w, &msg->u.auth); break;
+	case MC_MSG_GET_POSE_BLOCK: break;
+	case MC_MSG_POSE_BLOCK: enc_pose_block(&w, &msg->u.pose_block); break;
 	case MC_MSG_WELCOME: enc_welcome(&w, &msg->u.welcome); break;
 	case MC_MSG_ERROR: enc_error(&w, &msg->u.error); break;
 	case MC_MSG_OK: enc_ok(&w, &msg->u.ok); break;
@@ -822,6 +839,8 @@ int proto_decode(const void *buf, size_t len, proto_direction from, proto_msg *m
 	case MC_MSG_HEAD_POSE: dec_head_pose(&r, &msg->u.head_pose); break;
 	case MC_MSG_PING: dec_ping(&r, &msg->u.ping, false); break;
 	case MC_MSG_AUTH: dec_auth(&r, &msg->u.auth); break;
+	case MC_MSG_GET_POSE_BLOCK: break;
+	case MC_MSG_POSE_BLOCK: dec_pose_block(&r, &msg->u.pose_block); break;
 	case MC_MSG_WELCOME: dec_welcome(&r, &msg->u.welcome); break;
 	case MC_MSG_ERROR: dec_error(&r, &msg->u.error); break;
 	case MC_MSG_OK: dec_ok(&r, &msg->u.ok); break;

@@ -51,6 +51,7 @@ typedef enum {
 	MC_MSG_HEAD_POSE = 0x000a,
 	MC_MSG_PING = 0x000b,
 	MC_MSG_AUTH = 0x000c, /* TCP connections only: the token, before HELLO */
+	MC_MSG_GET_POSE_BLOCK = 0x000d, /* version 3: the latest-pose block (pose_block.h) */
 	/* server -> client */
 	MC_MSG_WELCOME = 0x8001,
 	MC_MSG_ERROR = 0x8002,
@@ -63,6 +64,7 @@ typedef enum {
 	MC_MSG_CONTROL_RESULT = 0x8009,
 	MC_MSG_RINGS = 0x800a,
 	MC_MSG_PONG = 0x800b,
+	MC_MSG_POSE_BLOCK = 0x800c, /* its descriptor comes with it (SCM_RIGHTS) */
 } mc_msg_type;
 
 #define MC_MSG_FROM_SERVER 0x8000
@@ -151,6 +153,13 @@ typedef struct {
 	double position[3];
 	double orientation[4]; /* w, x, y, z */
 } mc_msg_head_pose;
+
+/* The latest-pose block: its layout version and size; the read-only
+ * descriptor comes with the datagram. */
+typedef struct {
+	uint32_t version;
+	uint64_t size;
+} mc_msg_pose_block;
 
 /* The access token of a TCP connection (docs/PROTOCOL.md, "TCP"). */
 typedef struct {
@@ -285,6 +294,7 @@ typedef struct {
 		mc_msg_head_pose head_pose;
 		mc_msg_ping ping;
 		mc_msg_auth auth;
+		mc_msg_pose_block pose_block;
 		mc_msg_skeleton skeleton;
 		mc_msg_frame frame;
 		mc_msg_gap gap;

@@ -1,8 +1,9 @@
 /* bench_ipc: latency from srv_publish() to the client library's
  * receipt of the frame (both CLOCK_MONOTONIC, same machine), at 60 Hz with
- * 1 and with 64 subscribers on the Unix socket, and with 1 and 16 over
- * loopback TCP (the [network] listener), each a libmocap client on its own
- * thread.
+ * 1 and with 64 readers of the latest-pose block (waiting on its futex)
+ * and subscribers on the Unix socket, and with 1 and 16 over loopback TCP
+ * (the [network] listener), each a libmocap client on its own thread; and
+ * the cost of a non-blocking read of the block.
  * Also the time the publisher spends in srv_publish().  Target:
  * p99 < 1 ms.
  *
@@ -39,9 +40,36 @@ typedef struct {
 	atomic_bool *stop;
 } sub_arg;
 
+/* A reader of the latest-pose block, waiting on its futex. */
+static void *block_reader(sub_arg *s)
+{
+	mocap_client *c = mocap_connect(path, "bench-block");
+	mocap_pose_block *b = c ? mocap_pose_block_map(c) : NULL;
+	if (!b) {
+		fprintf(stderr, "bench_ipc: %s\n", mocap_errmsg());
+		exit(1);
+	}
+	mocap_skeleton_frame *f = malloc(sizeof(*f));
+	uint64_t seen = mocap_pose_block_read(b, f) == 1 ? f->seq : 0;
+	atomic_fetch_add(s->ready, 1);
+	while (!atomic_load(s->stop)) {
+		if (mocap_pose_block_wait(b, seen, f, 100) != 1)
+			continue;
+		seen = f->seq;
+		if (s->n < s->max_samples)
+			s->lat_ms[s->n++] = (double)(f->receive_ns - f->publish_ns) * 1e-6;
+	}
+	free(f);
+	mocap_pose_block_unmap(b);
+	mocap_close(c);
+	return NULL;
+}
+
 static void *subscriber(void *arg)
 {
 	sub_arg *s = arg;
+	if (!strcmp(s->address, "block"))
+		return block_reader(s);
 	mocap_client *c = mocap_connect_token(s->address, "bench", TOKEN);
 	if (!c || mocap_subscribe(c, s->mode, MOCAP_SPACE_RIG, 0) != 0) {
 		fprintf(stderr, "bench_ipc: %s\n", mocap_errmsg());
@@ -115,14 +143,36 @@ static bool run(srv_server *srv, const char *address, int nsubs, mocap_mode mode
 	mc_stats_sort(all, (size_t)total);
 	mc_stats_sort(pub_us, (size_t)frames);
 	double p99 = pct(all, total, 99);
-	printf("  %-4s  %3d   %-6s  %7d/%-7d  %7.3f  %7.3f  %7.3f   %6.1f %6.1f\n", address == path ? "unix" : "tcp",
-	       nsubs, mode == MOCAP_LATEST ? "latest" : "all", total, frames * nsubs, pct(all, total, 50), p99, total ? all[total - 1] : 0.0, pct(pub_us, frames, 50),
+	const char *via = address == path ? "unix" : strcmp(address, "block") ? "tcp" : "block";
+	printf("  %-5s %3d   %-6s  %7d/%-7d  %7.3f  %7.3f  %7.3f   %6.1f %6.1f\n", via, nsubs,
+	       !strcmp(via, "block") ? "wait" : mode == MOCAP_LATEST ? "latest" : "all", total, frames * nsubs, pct(all, total, 50), p99, total ? all[total - 1] : 0.0, pct(pub_us, frames, 50),
 	       pct(pub_us, frames, 99));
 	free(all);
 	free(pub_us);
 	free(sk);
 	/* "latest" clients skip frames by design when they fall behind. */
 	return p99 < 1.0 && (mode == MOCAP_LATEST || total == frames * nsubs);
+}
+
+/* What a non-blocking read of the newest pose costs (18 joints). */
+static void read_cost(void)
+{
+	mocap_client *c = mocap_connect(path, "bench-read");
+	mocap_pose_block *b = c ? mocap_pose_block_map(c) : NULL;
+	mocap_skeleton_frame *f = malloc(sizeof(*f));
+	if (!b || !f || mocap_pose_block_read(b, f) != 1) {
+		fprintf(stderr, "bench_ipc: the pose block is not readable: %s\n", mocap_errmsg());
+		exit(1);
+	}
+	enum { N = 1000000 };
+	uint64_t t0 = mocap_now_ns();
+	for (int i = 0; i < N; i++)
+		mocap_pose_block_read(b, f);
+	double ns = (double)(mocap_now_ns() - t0) / N;
+	printf("  block: a non-blocking read of the newest pose costs %.0f ns (mean of %d); target < 1000 ns\n", ns, N);
+	free(f);
+	mocap_pose_block_unmap(b);
+	mocap_close(c);
 }
 
 int main(int argc, char **argv)
@@ -174,7 +224,11 @@ int main(int argc, char **argv)
 	printf("bench_ipc: publish -> client receive latency, 60 Hz, %d joints (%zu-byte frames), %d frames per run, "
 	       "%ld CPUs%s\n", NJ, (size_t)48 + 64 * NJ, frames, ncpu, rt ? ", SCHED_FIFO" : "");
 	printf("  via   subs  mode    received         p50 ms   p99 ms   max ms   publish us p50 p99\n");
-	bool ok = run(srv, path, 1, MOCAP_LATEST, frames);
+	/* The latest-pose block first: its target is 0.1 ms p99 with one reader. */
+	bool ok = run(srv, "block", 1, MOCAP_LATEST, frames);
+	ok &= run(srv, "block", 64, MOCAP_LATEST, frames);
+	read_cost();
+	ok &= run(srv, path, 1, MOCAP_LATEST, frames);
 	ok &= run(srv, path, 64, MOCAP_LATEST, frames);
 	ok &= run(srv, path, 1, MOCAP_ALL, frames);
 	ok &= run(srv, path, 64, MOCAP_ALL, frames);

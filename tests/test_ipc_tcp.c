@@ -364,6 +364,8 @@ static void test_privileges(srv_server *unpriv)
 	CHECK(t && mocap_is_privileged(t));
 	mocap_ring rings[4];
 	CHECK(t && mocap_get_rings(t, rings, 4) == MOCAP_E_UNAVAILABLE && strstr(mocap_errmsg(), "TCP"));
+	CHECK(t && mocap_pose_block_map(t) == NULL && mocap_errcode() == MOCAP_E_UNAVAILABLE &&
+	      strstr(mocap_errmsg(), "TCP"));
 	mocap_keypoint kp = {.joint = 3, .u = 10, .v = 20, .confidence = 0.9f};
 	CHECK(t && mocap_send_keypoints(t, 12345, 0, &kp, 1) == 0);
 	mc_err e2;

@@ -22,6 +22,8 @@
  *   request.c   sending, request/reply, and the simple requests
  *   frames.c    subscription, the frame queue, mocap_read_frame
  *   rings.c     camera ring descriptors
+ *   pose.c      the latest-pose block (../pose_block.h): mapping, reading, waiting
+ *   predict.c   mocap_predict: a pose extrapolated to a given time
  *   inputs.c    keypoints and head poses (one-way messages)
  *   error.c     per-thread errors, names of codes and states */
 #ifndef MCL_INTERNAL_H

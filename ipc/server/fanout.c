@@ -89,11 +89,14 @@ int srv_publish(srv_server *srv, const mc_skeleton *sk, uint64_t seq, mc_err *er
 			p->j[j].quat[3] = sj->orientation.z;
 			p->j[j].conf = sj->confidence;
 		}
+		srv_pose_write(srv, p);
 		srv->stats.frames_published++;
 	}
 	pthread_mutex_unlock(&srv->lock);
-	if (rc == 0)
+	if (rc == 0) {
+		srv_pose_wake(srv);
 		srv_wake(srv);
+	}
 	return rc;
 }
 

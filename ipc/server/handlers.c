@@ -347,6 +347,33 @@ static void handle_head_pose(srv_server *srv, client *c, const proto_msg *m)
 	srv_head_pose_store(srv, &hp);
 }
 
+/* The latest-pose block's read-only descriptor; any client may read
+ * skeletons, so no privilege is needed. */
+static void handle_get_pose_block(srv_server *srv, client *c, const proto_msg *m)
+{
+	if (c->tcp || srv->pose_fd < 0) {
+		srv_reply_error(srv, c, m->h.request_id, m->h.type, PROTO_E_UNAVAILABLE, false,
+				"the latest-pose block is shared memory on the daemon's machine: not available%s",
+				c->tcp ? " over TCP" : "");
+		return;
+	}
+	int fd = fcntl(srv->pose_fd, F_DUPFD_CLOEXEC, 0);
+	proto_msg *o = srv_out_msg(srv, MC_MSG_POSE_BLOCK, m->h.request_id);
+	o->u.pose_block.version = POSE_BLOCK_VERSION;
+	o->u.pose_block.size = POSE_BLOCK_SIZE;
+	blob *b = fd >= 0 ? srv_encode_blob(srv, o, false) : NULL;
+	if (!b) {
+		if (fd >= 0)
+			close(fd);
+		srv_reply_error(srv, c, m->h.request_id, m->h.type, PROTO_E_BUSY, false, "out of descriptors or memory");
+		return;
+	}
+	b->fds[0] = fd;
+	b->nfds = 1;
+	srv_client_send(srv, c, b);
+	srv_blob_unref(b);
+}
+
 /* TCP only, and first: the token (tcp.c compares it). */
 static void handle_auth(srv_server *srv, client *c, const proto_msg *m)
 {
@@ -435,6 +462,7 @@ void srv_handle_message(srv_server *srv, client *c, size_t len)
 	case MC_MSG_HEAD_POSE: handle_head_pose(srv, c, m); break;
 	case MC_MSG_PING: handle_ping(srv, c, m); break;
 	case MC_MSG_AUTH: handle_auth(srv, c, m); break;
+	case MC_MSG_GET_POSE_BLOCK: handle_get_pose_block(srv, c, m); break;
 	}
 }
 

@@ -17,6 +17,7 @@
  *
  * The files, in the order a message meets them:
  *   listen.c    the listening socket: creating or adopting it, accepting
+ *   pose.c      the latest-pose shared-memory block (../pose_block.h)
  *   tcp.c       the TCP listener for other machines: length-prefixed
  *               framing over a byte stream, the token (AUTH)
  *   peercred.c  who the peer is (SO_PEERCRED) and whether it is privileged
@@ -31,6 +32,7 @@
 #define SRV_INTERNAL_H
 
 #include "base/mc_time.h"
+#include "pose_block.h"
 #include "proto.h"
 #include "server.h"
 
@@ -150,6 +152,8 @@ struct srv_keypoint_inbox {
 struct srv_server {
 	srv_config cfg;
 	int listen_fd, tcp_fd, epfd, wake_fd, event_fd;
+	pose_block *pose; /* the latest-pose block, written under `lock` */
+	int pose_fd;      /* its read-only descriptor, duplicated for clients */
 	int tcp_port;
 	bool created_path;
 	dev_t path_dev;
@@ -206,6 +210,16 @@ void srv_listen_close(srv_server *srv);
 /* Accepts every waiting connection on listen_fd (the Unix socket or,
  * with tcp, the TCP listener) (server thread). */
 void srv_accept_clients(srv_server *srv, int listen_fd, bool tcp);
+
+/* --- pose.c --- */
+
+/* Creates the latest-pose block.  0 or -1 (err set). */
+int srv_pose_open(srv_server *srv, mc_err *err);
+void srv_pose_close(srv_server *srv);
+/* Writes a published frame into the block (lock held: one writer). */
+void srv_pose_write(srv_server *srv, const pending_frame *p);
+/* Wakes readers waiting on the block (lock not needed). */
+void srv_pose_wake(srv_server *srv);
 
 /* --- tcp.c --- */
 

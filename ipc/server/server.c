@@ -113,7 +113,7 @@ srv_server *srv_create(const srv_config *cfg, mc_err *err)
 		return NULL;
 	}
 	srv->cfg = *cfg;
-	srv->listen_fd = srv->tcp_fd = srv->epfd = srv->wake_fd = srv->event_fd = -1;
+	srv->listen_fd = srv->tcp_fd = srv->epfd = srv->wake_fd = srv->event_fd = srv->pose_fd = -1;
 	pthread_mutex_init(&srv->lock, NULL);
 	srv->keypoints.srv = srv;
 	srv->keypoints.ring = calloc(KEYPOINT_QUEUE_LEN, sizeof(*srv->keypoints.ring));
@@ -121,7 +121,7 @@ srv_server *srv_create(const srv_config *cfg, mc_err *err)
 		mc_err_set(err, "out of memory");
 		goto fail;
 	}
-	if (srv_listen_open(srv, err) || srv_tcp_open(srv, err))
+	if (srv_listen_open(srv, err) || srv_tcp_open(srv, err) || srv_pose_open(srv, err))
 		goto fail;
 	srv->epfd = epoll_create1(EPOLL_CLOEXEC);
 	srv->wake_fd = eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC);
@@ -167,6 +167,7 @@ void srv_destroy(srv_server *srv)
 	}
 	srv_listen_close(srv);
 	srv_tcp_close(srv);
+	srv_pose_close(srv);
 	if (srv->epfd >= 0)
 		close(srv->epfd);
 	if (srv->wake_fd >= 0)

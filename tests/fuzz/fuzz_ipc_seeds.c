@@ -74,6 +74,12 @@ int main(int argc, char **argv)
 	start(MC_MSG_PING);
 	m.u.ping.value = 99;
 	bad |= write_seed(d, "ping");
+	start(MC_MSG_GET_POSE_BLOCK);
+	bad |= write_seed(d, "get_pose_block");
+	start(MC_MSG_POSE_BLOCK);
+	m.u.pose_block.version = 1;
+	m.u.pose_block.size = 33088;
+	bad |= write_seed(d, "pose_block");
 	start(MC_MSG_AUTH);
 	strcpy(m.u.auth.token, "0123456789abcdef0123456789abcdef");
 	bad |= write_seed(d, "auth");
