@@ -111,8 +111,10 @@ static int handshake(mocap_client *c, const char *client_name)
 	m->u.hello.max_version = PROTO_VERSION;
 	snprintf(m->u.hello.client_name, sizeof(m->u.hello.client_name), "%s", client_name ? client_name : "");
 	int rc = mcl_request(c, m, MC_MSG_WELCOME, m, NULL, NULL, NULL);
-	if (rc == 0)
+	if (rc == 0) {
 		c->privileged = (m->u.welcome.flags & MC_WELCOME_PRIVILEGED) != 0;
+		c->version = m->u.welcome.version;
+	}
 	free(m);
 	return rc;
 }

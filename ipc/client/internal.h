@@ -68,6 +68,7 @@ struct mocap_client {
 	bool stream;          /* TCP: a byte stream, messages framed by tcp.c */
 	pthread_mutex_t send_lock; /* TCP: one message at a time on the stream */
 	bool privileged;
+	unsigned version;     /* the protocol version negotiated in HELLO */
 	int timeout_ms;
 	atomic_uint next_id;
 

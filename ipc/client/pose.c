@@ -55,6 +55,11 @@ static mocap_pose_block *map_fd(int fd, uint64_t size)
 
 mocap_pose_block *mocap_pose_block_map(mocap_client *c)
 {
+	if (c->version < 3) { /* an older daemon would take the request as malformed */
+		mcl_set_err(MOCAP_E_UNAVAILABLE, "the daemon speaks protocol version %u; the pose block needs 3",
+			    c->version);
+		return NULL;
+	}
 	proto_msg *m = mcl_new_msg(MC_MSG_GET_POSE_BLOCK);
 	if (!m)
 		return NULL;
