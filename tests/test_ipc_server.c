@@ -355,21 +355,25 @@ static void test_flood(void)
 	int fd = hello_client();
 	int flags = fcntl(fd, F_GETFL);
 	fcntl(fd, F_SETFL, flags | O_NONBLOCK);
-	int sent = 0;
-	for (int i = 0; i < 20000; i++) {
+	int sent = 0, full = 0;
+	for (int i = 0; i < 20000 && full < 200; i++) {
 		uint8_t req[16] = {0x04, 0, 0, 0, 16, 0, 0, 0, (uint8_t)i, (uint8_t)(i >> 8), 1};
 		ssize_t n = send(fd, req, sizeof(req), MSG_NOSIGNAL);
-		if (n < 0 && errno == EAGAIN) {
+		if (n < 0 && errno == EAGAIN) { /* the server stopped reading us */
+			full++;
 			sleep_ms_local(1);
 			continue;
 		}
 		if (n < 0)
-			break; /* EPIPE: the server has closed us */
+			break;
+		full = 0;
 		sent++;
 	}
 	fcntl(fd, F_SETFL, flags);
+	/* The replies the socket held, then the overload error, then the end:
+	 * the error waits for room and the connection closes after it. */
 	int replies = 0;
-	bool eof = false;
+	bool eof = false, overload = false;
 	for (;;) {
 		int r = raw_recv(fd, 3000);
 		if (r < 0) {
@@ -379,10 +383,13 @@ static void test_flood(void)
 		if (r == 0)
 			break;
 		replies++;
+		overload = rx.h.type == MC_MSG_ERROR && rx.u.error.code == PROTO_E_OVERLOAD && rx.u.error.fatal;
 	}
 	CHECK_MSG(eof, "the flooding client was not disconnected (%d sent, %d replies)", sent, replies);
+	CHECK_MSG(overload, "the last message before the end was not the overload error");
 	CHECK(replies < sent);
-	printf("flood: %d requests sent, %d replies read before the server closed the connection\n", sent, replies);
+	printf("flood: %d requests sent, %d replies read, the last the overload error, before the server closed the "
+	       "connection\n", sent, replies);
 	simple_request(other, MC_MSG_PING, 77);
 	CHECK(raw_expect(other, MC_MSG_PONG) && rx.h.request_id == 77);
 	close(fd);

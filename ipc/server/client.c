@@ -11,12 +11,24 @@
 #include <sys/socket.h>
 #include <unistd.h>
 
+/* Reads and drops what the client sent and the server did not read: a
+ * socket closed with unread data resets the connection (AF_UNIX sets
+ * ECONNRESET on the peer, TCP sends RST), and the peer would lose what it
+ * has not read yet, the server's last words among it. */
+static void drop_unread(srv_server *srv, int fd)
+{
+	for (int i = 0; i < 4096; i++)
+		if (recv(fd, srv->rxbuf, sizeof(srv->rxbuf), MSG_DONTWAIT) <= 0)
+			return;
+}
+
 void srv_client_close(srv_server *srv, client *c)
 {
 	if (c->dead)
 		return;
 	c->dead = true;
 	epoll_ctl(srv->epfd, EPOLL_CTL_DEL, c->fd, NULL);
+	drop_unread(srv, c->fd);
 	close(c->fd);
 	c->fd = -1;
 }
@@ -92,7 +104,7 @@ void srv_client_readable(srv_server *srv, client *c)
 		srv_tcp_readable(srv, c);
 		return;
 	}
-	for (int i = 0; i < READ_BURST && !c->dead; i++) {
+	for (int i = 0; i < READ_BURST && !c->dead && !c->closing; i++) {
 		struct iovec iov = {.iov_base = srv->rxbuf, .iov_len = sizeof(srv->rxbuf)};
 		union {
 			char buf[CMSG_SPACE(sizeof(int) * 16)];
@@ -125,17 +137,19 @@ void srv_client_readable(srv_server *srv, client *c)
 		/* What the daemon did before this message was sent must be
 		 * visible to it (e.g. a definition set just before). */
 		srv_drain_mailbox(srv);
-		if (!c->dead)
+		if (!c->dead && !c->closing)
 			srv_handle_message(srv, c, (size_t)n);
 	}
 }
 
-void srv_expire_handshakes(srv_server *srv)
+void srv_expire_clients(srv_server *srv)
 {
 	uint64_t t = mc_now_ns();
 	for (int i = 0; i < srv->nclients; i++) {
 		client *c = srv->clients[i];
-		if (!c->dead && !c->hello && t - c->accepted_ns > HANDSHAKE_TIMEOUT_NS)
+		if (c->closing && t > c->closing_by_ns) /* it never read its last words */
+			srv_client_close(srv, c);
+		else if (!c->dead && !c->closing && !c->hello && t - c->accepted_ns > HANDSHAKE_TIMEOUT_NS)
 			srv_reply_error(srv, c, 0, 0, PROTO_E_HANDSHAKE, true, "no HELLO within %llu s",
 					HANDSHAKE_TIMEOUT_NS / MC_NS_PER_S);
 	}

@@ -49,6 +49,7 @@
 #define CONTROL_QUEUE_LEN 16
 #define HEAD_POSE_HISTORY 64
 #define HANDSHAKE_TIMEOUT_NS 5000000000ull
+#define LAST_WORDS_NS 5000000000ull /* how long a fatal ERROR waits for the client to read it */
 #define READ_BURST 32             /* messages read from one client per wake-up, for fairness */
 
 /* Copies a C string into a fixed buffer, truncating. */
@@ -96,6 +97,11 @@ typedef struct client {
 	uint64_t serial;        /* unique per connection, for control tokens */
 	uint64_t accepted_ns;
 	bool hello, privileged, dead;
+	/* A fatal ERROR is queued as the last thing to send: nothing is read
+	 * from the client any more, and it is closed once the error is out
+	 * (or at closing_by_ns, if it never reads). */
+	bool closing;
+	uint64_t closing_by_ns;
 	uint16_t version;       /* the protocol version chosen in HELLO */
 	pid_t pid;
 	uid_t uid;
@@ -255,8 +261,9 @@ int srv_live_clients(const srv_server *srv);
 client *srv_find_client(srv_server *srv, uint64_t serial);
 /* Reads and handles up to READ_BURST datagrams. */
 void srv_client_readable(srv_server *srv, client *c);
-/* Closes connections that sent no HELLO in time. */
-void srv_expire_handshakes(srv_server *srv);
+/* Closes connections that sent no HELLO in time, and closing ones that
+ * did not read their last words in LAST_WORDS_NS. */
+void srv_expire_clients(srv_server *srv);
 
 /* --- handlers.c (server thread) --- */
 
@@ -323,8 +330,13 @@ void srv_client_flush(srv_server *srv, client *c);
 void srv_client_send(srv_server *srv, client *c, blob *b);
 /* Encodes and queues a reply; a NULL or unencodable message is skipped. */
 void srv_reply(srv_server *srv, client *c, const proto_msg *m);
+/* A fatal error is the client's last words (srv_last_words). */
 void srv_reply_error(srv_server *srv, client *c, uint32_t request_id, uint16_t request_type, uint32_t code,
 		     bool fatal, const char *fmt, ...) __attribute__((format(printf, 7, 8)));
+/* Queues b as the last message to c: the rest of its queue is dropped, its
+ * requests are no longer read, and it is closed once b is sent (or after
+ * LAST_WORDS_NS). */
+void srv_last_words(srv_server *srv, client *c, blob *b);
 void srv_reply_ok(srv_server *srv, client *c, uint32_t request_id, uint16_t request_type, uint32_t value);
 
 /* --- server.c --- */

@@ -50,11 +50,13 @@ blob *srv_encode_blob(srv_server *srv, const proto_msg *m, bool is_frame)
 
 /* --- The FIFO --- */
 
-static void epoll_update(srv_server *srv, client *c, bool want_out)
+/* Requests are read until the client is closing; EPOLLOUT while
+ * something waits for room in its socket. */
+static void epoll_update(srv_server *srv, client *c, bool want_out, bool force)
 {
-	if (c->epollout == want_out || c->dead)
+	if ((c->epollout == want_out && !force) || c->dead)
 		return;
-	struct epoll_event ev = {.events = EPOLLIN | (want_out ? EPOLLOUT : 0), .data.ptr = c};
+	struct epoll_event ev = {.events = (c->closing ? 0 : EPOLLIN) | (want_out ? EPOLLOUT : 0), .data.ptr = c};
 	epoll_ctl(srv->epfd, EPOLL_CTL_MOD, c->fd, &ev);
 	c->epollout = want_out;
 }
@@ -207,18 +209,22 @@ void srv_client_flush(srv_server *srv, client *c)
 			return;
 		}
 		if (rc == 0) {
-			epoll_update(srv, c, true);
+			epoll_update(srv, c, true, false);
 			return;
 		}
 	}
-	epoll_update(srv, c, false);
+	if (c->closing) { /* its last words are out */
+		srv_client_close(srv, c);
+		return;
+	}
+	epoll_update(srv, c, false, false);
 }
 
 /* --- Replies --- */
 
 void srv_client_send(srv_server *srv, client *c, blob *b)
 {
-	if (!b || c->dead)
+	if (!b || c->dead || c->closing) /* nothing goes after the last words */
 		return;
 	if (!srv_q_push(c, b)) {
 		srv_reply_error(srv, c, 0, 0, PROTO_E_OVERLOAD, true,
@@ -252,14 +258,33 @@ void srv_reply_error(srv_server *srv, client *c, uint32_t request_id, uint16_t r
 		srv_reply(srv, c, m);
 		return;
 	}
-	/* Last words: drop whatever was queued, try once, close (not in the
-	 * middle of a TCP message: the peer would read them as its rest). */
 	blob *b = srv_encode_blob(srv, m, false);
-	size_t sent = 0;
-	if (b && !c->sending)
-		send_one(c, b, &sent);
+	if (b)
+		srv_last_words(srv, c, b);
+	else
+		srv_client_close(srv, c);
 	srv_blob_unref(b);
-	srv_client_close(srv, c);
+}
+
+void srv_last_words(srv_server *srv, client *c, blob *b)
+{
+	if (c->dead || c->closing)
+		return;
+	/* Whatever was queued goes (a TCP message already under way is
+	 * finished first, or the peer would read the error as its rest); the
+	 * error is sent as soon as the socket has room, then the connection
+	 * closes.  No more requests are read meanwhile. */
+	while (c->qn)
+		srv_q_pop(c);
+	srv_blob_unref(c->latest);
+	c->latest = NULL;
+	c->mode = 0;
+	c->gap_count = 0;
+	c->closing = true;
+	c->closing_by_ns = mc_now_ns() + LAST_WORDS_NS;
+	srv_q_push(c, b);
+	epoll_update(srv, c, c->epollout, true);
+	srv_client_flush(srv, c);
 }
 
 void srv_reply_ok(srv_server *srv, client *c, uint32_t request_id, uint16_t request_type, uint32_t value)

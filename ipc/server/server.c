@@ -86,7 +86,7 @@ static void *server_thread(void *arg)
 		}
 		uint64_t t = mc_now_ns();
 		if (t - last_expiry > 500000000ull) {
-			srv_expire_handshakes(srv);
+			srv_expire_clients(srv);
 			last_expiry = t;
 		}
 		srv_reap_clients(srv);
@@ -160,9 +160,12 @@ void srv_destroy(srv_server *srv)
 		atomic_store(&srv->stop, true);
 		srv_wake(srv);
 		pthread_join(srv->thread, NULL);
-		for (int i = 0; i < srv->nclients; i++)
+		for (int i = 0; i < srv->nclients; i++) {
+			/* One try: the server thread is gone, nobody waits for room. */
 			if (!srv->clients[i]->dead)
 				srv_reply_error(srv, srv->clients[i], 0, 0, PROTO_E_SHUTDOWN, true, "mocapd is stopping");
+			srv_client_close(srv, srv->clients[i]);
+		}
 		srv_reap_clients(srv);
 	}
 	srv_listen_close(srv);

@@ -147,7 +147,7 @@ static uint32_t get_u32le(const uint8_t *p)
 static void handle_received(srv_server *srv, client *c)
 {
 	size_t at = 0;
-	while (!c->dead && c->srx_len - at >= PROTO_TCP_PREFIX) {
+	while (!c->dead && !c->closing && c->srx_len - at >= PROTO_TCP_PREFIX) {
 		uint32_t len = get_u32le(c->srx + at);
 		if (len < PROTO_HEADER_SIZE || len > PROTO_MAX_MESSAGE) {
 			char why[128];
@@ -161,7 +161,7 @@ static void handle_received(srv_server *srv, client *c)
 		memcpy(srv->rxbuf, c->srx + at + PROTO_TCP_PREFIX, len);
 		at += PROTO_TCP_PREFIX + len;
 		srv_drain_mailbox(srv); /* as for the Unix socket (client.c) */
-		if (!c->dead)
+		if (!c->dead && !c->closing)
 			srv_handle_message(srv, c, len);
 	}
 	if (!c->dead && at) {
