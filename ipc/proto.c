@@ -341,6 +341,8 @@ static void dec_control(reader *r, mc_msg_control *m)
 
 static void enc_auth(writer *w, const mc_msg_auth *m) { w_str(w, m->token, PROTO_TOKEN_MAX); }
 
+static void dec_auth(reader *r, mc_msg_auth *m) { r_str(r, m->token, PROTO_TOKEN_MAX, "token"); }
+
 static void enc_pose_block(writer *w, const mc_msg_pose_block *m)
 {
 	w_u32(w, m->version);
@@ -353,7 +355,6 @@ static void dec_pose_block(reader *r, mc_msg_pose_block *m)
 	r_u32(r, "reserved");
 	m->size = r_u64(r, "size");
 }
-static void dec_auth(reader *r, mc_msg_auth *m) { r_str(r, m->token, PROTO_TOKEN_MAX, "token"); }
 
 static void enc_keypoints(writer *w, const mc_msg_keypoints *m)
 {

@@ -10,6 +10,7 @@
 #include "pose_block.h"
 #include "proto.h"
 #include "server.h"
+#include "ipc_fixture.h"
 #include "test_util.h"
 
 #include <errno.h>
@@ -25,33 +26,12 @@
 
 static char dir[48], path[96];
 
-static void set_def(srv_server *srv)
-{
-	srv_skeleton_def def = {0};
-	def.njoints = NJ;
-	for (int j = 0; j < NJ; j++) {
-		snprintf(def.name[j], sizeof(def.name[j]), "j%d", j);
-		def.parent[j] = j - 1;
-	}
-	mc_err err;
-	CHECK(srv_set_skeleton_def(srv, &def, &err) == 0);
-}
+static void set_def(srv_server *srv) { ipc_set_chain_def(srv, NJ); }
 
 /* Every joint of frame `seq` at (seq, j, -seq): a torn read mixes them. */
-static int publish(srv_server *srv, uint64_t seq)
-{
-	mc_skeleton sk;
-	memset(&sk, 0, sizeof(sk));
-	sk.timestamp_ns = seq * 1000000;
-	sk.njoints = NJ;
-	for (int j = 0; j < NJ; j++) {
-		sk.joints[j].position = mc_v3((double)seq, j, -(double)seq);
-		sk.joints[j].orientation = mc_quat_identity();
-		sk.joints[j].confidence = 1;
-	}
-	mc_err err;
-	return srv_publish(srv, &sk, seq, &err);
-}
+static mc_vec3 seq_position(uint64_t seq, int j) { return mc_v3((double)seq, j, -(double)seq); }
+
+static int publish(srv_server *srv, uint64_t seq) { return ipc_publish(srv, seq, NJ, 1000000, seq_position); }
 
 static bool consistent(const mocap_skeleton_frame *f)
 {

@@ -8,6 +8,7 @@
 #include "mocap.h"
 #include "proto.h"
 #include "server.h"
+#include "ipc_fixture.h"
 #include "test_util.h"
 
 #include <dlfcn.h>
@@ -153,32 +154,13 @@ static srv_server *make_server(int max_clients, int listen_fd)
 	return srv;
 }
 
-static void set_def(srv_server *srv, int njoints)
-{
-	srv_skeleton_def def = {0};
-	def.njoints = njoints;
-	for (int j = 0; j < njoints; j++) {
-		snprintf(def.name[j], sizeof(def.name[j]), "j%d", j);
-		def.parent[j] = j - 1;
-		def.rest_offset[j] = mc_v3(0, 0.1 * j, 0);
-	}
-	mc_err err;
-	CHECK(srv_set_skeleton_def(srv, &def, &err) == 0);
-}
+static void set_def(srv_server *srv, int njoints) { ipc_set_chain_def(srv, njoints); }
+
+static mc_vec3 seq_position(uint64_t seq, int j) { return mc_v3((double)seq, j, 0); }
 
 static void publish(srv_server *srv, uint64_t seq, int njoints)
 {
-	mc_skeleton sk;
-	memset(&sk, 0, sizeof(sk));
-	sk.timestamp_ns = seq * 1000;
-	sk.njoints = njoints;
-	for (int j = 0; j < njoints; j++) {
-		sk.joints[j].position = mc_v3((double)seq, j, 0);
-		sk.joints[j].orientation = mc_quat_identity();
-		sk.joints[j].confidence = 1;
-	}
-	mc_err err;
-	CHECK(srv_publish(srv, &sk, seq, &err) == 0);
+	CHECK(ipc_publish(srv, seq, njoints, 1000, seq_position) == 0);
 }
 
 static void test_handshake(void)

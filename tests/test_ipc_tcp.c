@@ -12,6 +12,7 @@
 #include "mocap.h"
 #include "proto.h"
 #include "server.h"
+#include "ipc_fixture.h"
 #include "test_util.h"
 
 #include <arpa/inet.h>
@@ -47,36 +48,17 @@ static srv_server *make_server(bool privileged, const char *listen, const char *
 	return srv_create(&cfg, err);
 }
 
-static void set_def(srv_server *srv)
-{
-	srv_skeleton_def def = {0};
-	def.njoints = NJ;
-	for (int j = 0; j < NJ; j++) {
-		snprintf(def.name[j], sizeof(def.name[j]), "j%d", j);
-		def.parent[j] = j - 1;
-		def.rest_offset[j] = mc_v3(0, 0.1, 0);
-	}
-	mc_err err;
-	CHECK(srv_set_skeleton_def(srv, &def, &err) == 0);
-}
+static void set_def(srv_server *srv) { ipc_set_chain_def(srv, NJ); }
+
+static mc_vec3 odd_position(uint64_t seq, int j) { return mc_v3((double)seq, j * 0.25, -1.0 / (1 + (double)seq)); }
 
 static void publish(srv_server *srv, uint64_t seq)
 {
-	mc_skeleton sk;
-	memset(&sk, 0, sizeof(sk));
-	sk.timestamp_ns = seq * 1000;
-	sk.njoints = NJ;
-	for (int j = 0; j < NJ; j++) {
-		sk.joints[j].position = mc_v3((double)seq, j * 0.25, -1.0 / (1 + (double)seq));
-		sk.joints[j].orientation = mc_quat_identity();
-		sk.joints[j].confidence = 0.5f;
-	}
 	/* A full mailbox (the server thread 128 frames behind) drops the
 	 * frame: give the server thread time now and then. */
-	mc_err err;
 	if (seq % 64 == 0)
 		sleep_ms(2);
-	CHECK_MSG(srv_publish(srv, &sk, seq, &err) == 0, "%s", err.msg);
+	CHECK(ipc_publish(srv, seq, NJ, 1000, odd_position) == 0);
 }
 
 /* --- Raw TCP --- */
