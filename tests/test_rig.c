@@ -678,7 +678,7 @@ static void test_import_cameras_json_bad(void)
 	static const char *const cam =
 		"\"width\": 320, \"height\": 240, \"fx\": 280, \"fy\": 280, \"cx\": 159.5, \"cy\": 119.5,"
 		" \"world_to_camera\": [[1,0,0,0],[0,1,0,0],[0,0,1,4],[0,0,0,1]]";
-	char text[4][1024];
+	char text[5][1024];
 	snprintf(text[0], sizeof(text[0]), "{\"cameras\": [{\"name\": \"a\", \"model\": \"fisheye\", %s}]}", cam);
 	snprintf(text[1], sizeof(text[1]),
 		 "{\"cameras\": [{\"name\": \"a\", \"model\": \"pinhole\", %s}, {\"name\": \"a\", \"model\": \"pinhole\", %s}]}",
@@ -686,13 +686,16 @@ static void test_import_cameras_json_bad(void)
 	snprintf(text[2], sizeof(text[2]),
 		 "{\"cameras\": [{\"name\": \"a\", \"model\": \"pinhole\", \"dist\": [0, 0, 0], %s}]}", cam);
 	snprintf(text[3], sizeof(text[3]), "{\"cameras\": [{\"name\": \"a\", \"model\": \"pinhole\", \"fx\": 280}]}");
+	/* Found by the fuzzer: an unnamed camera, which no rig file may have. */
+	snprintf(text[4], sizeof(text[4]), "{\"cameras\": [{\"name\": \"\", \"model\": \"pinhole\", %s}]}", cam);
 	const char *const expect[][2] = {
 		{"cameras[0].model", "only 'pinhole'"},
 		{"cameras[1].name", "used twice"},
 		{"cameras[0].dist", "expected 4 or 5 numbers"},
 		{"cameras[0]", "missing"},
+		{"cameras[0].name", "must not be empty"},
 	};
-	for (int i = 0; i < 4; i++) {
+	for (int i = 0; i < 5; i++) {
 		char path[64];
 		mc_rig rig;
 		mc_err err = {0};

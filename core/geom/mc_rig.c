@@ -24,6 +24,14 @@ int mc_rig_find(const mc_rig *rig, const char *name)
 
 /* Re-labels a camera-level error ("fx: must be positive") with its place in
  * the file ("rig.json: cameras[0].fx: must be positive"). */
+int mc_rig_check_camera_name(const char *name, const char *where, mc_err *err)
+{
+	char p[384];
+	if (name[0] == 0)
+		return mc_err_set(err, "%s: must not be empty", mc_json_path(p, sizeof(p), where, "name"));
+	return 0;
+}
+
 static int camera_error(mc_err *err, const char *where)
 {
 	if (!err)
@@ -152,8 +160,8 @@ static int parse_camera(const json_t *jc, const char *where, mc_camera *cam, mc_
 	if (mc_json_string(jc, "name", where, cam->name, sizeof(cam->name), true, err) ||
 	    mc_json_string(jc, "model", where, model, sizeof(model), true, err))
 		return -1;
-	if (cam->name[0] == 0)
-		return mc_err_set(err, "%s: must not be empty", mc_json_path(p, sizeof(p), where, "name"));
+	if (mc_rig_check_camera_name(cam->name, where, err))
+		return -1;
 	if (mc_camera_model_parse(model, &cam->model))
 		return mc_err_set(err, "%s: unknown camera model '%s' (pinhole, equidistant or ocam)",
 				  mc_json_path(p, sizeof(p), where, "model"), model);

@@ -51,6 +51,9 @@ int mc_rig_import_ocamcalib(const char *path, double max_theta, mc_camera *cam, 
 
 /* Index of the camera called `name`, or -1. */
 int mc_rig_find(const mc_rig *rig, const char *name);
+/* The rule every rig reader applies to a camera's name (not empty); the
+ * error names `where`.name.  0 or -1. */
+int mc_rig_check_camera_name(const char *name, const char *where, mc_err *err);
 
 /* Rays of one camera at a working resolution, in the rig frame.
  * Working pixel (i, j) covers native pixels scaled by width/w, height/h and

@@ -278,7 +278,8 @@ static int opencv_camera(const json_t *jc, const char *where, mc_camera *cam, mc
 	memset(cam, 0, sizeof(*cam));
 	if (mc_json_check_keys(jc, where, keys, err) ||
 	    mc_json_string(jc, "name", where, cam->name, sizeof(cam->name), true, err) ||
-	    mc_json_string(jc, "model", where, model, sizeof(model), true, err))
+	    mc_json_string(jc, "model", where, model, sizeof(model), true, err) ||
+	    mc_rig_check_camera_name(cam->name, where, err)) /* what the rig loader refuses */
 		return -1;
 	if (strcmp(model, "pinhole") != 0)
 		return mc_err_set(err, "%s.model: only 'pinhole' cameras can be imported, got '%s'", where, model);
