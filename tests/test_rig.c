@@ -295,6 +295,9 @@ static void test_import_ego_calib_bad(void)
 		{"{\"width\": 256, \"height\": 256, \"f\": 81.5, \"cx\": 127.5, \"cy\": 127.5, \"fov_deg\": 180,"
 		 " \"right_from_left\": [[1,0.3,0,-0.3],[0,1,0,0],[0,0,1,0],[0,0,0,1]]}",
 		 ": right_from_left: not a rigid transform"},
+		/* Found by the fuzzer: a field of view no rig file may have. */
+		{"{\"width\": 256, \"height\": 256, \"f\": 81.5, \"cx\": 127.5, \"cy\": 127.5, \"fov_deg\": 11e-7}",
+		 ": fov_deg:"},
 	};
 	for (size_t i = 0; i < sizeof(cases) / sizeof(cases[0]); i++) {
 		char path[64];

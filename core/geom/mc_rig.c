@@ -73,11 +73,13 @@ static int parse_pose(const json_t *jc, const char *where, mc_xform *pose, mc_er
 static int parse_field_of_view(const json_t *jc, const char *where, double *max_theta, mc_err *err)
 {
 	double deg;
-	int r1 = mc_json_number_range(jc, "max_theta_deg", where, 1e-6, 180, &deg, false, err);
+	int r1 = mc_json_number_range(jc, "max_theta_deg", where, MC_RIG_MAX_THETA_MIN_DEG, MC_RIG_MAX_THETA_MAX_DEG, &deg,
+				      false, err);
 	if (r1 < 0)
 		return -1;
 	double fov;
-	int r2 = mc_json_number_range(jc, "fov_deg", where, 2e-6, 360, &fov, false, err);
+	int r2 = mc_json_number_range(jc, "fov_deg", where, 2 * MC_RIG_MAX_THETA_MIN_DEG, 2 * MC_RIG_MAX_THETA_MAX_DEG, &fov,
+				      false, err);
 	if (r2 < 0)
 		return -1;
 	char p[384];
@@ -279,7 +281,9 @@ static json_t *camera_to_json(const mc_camera *cam)
 		json_object_set_new(o, "cy", json_real(cam->cy));
 		json_object_set_new(o, "k", json_numbers(cam->k, cam->model == MC_CAM_PINHOLE ? 5 : 4));
 	}
-	json_object_set_new(o, "max_theta_deg", json_real(cam->max_theta / DEG));
+	/* Clamped: degrees from radians may round just past the range. */
+	double deg = fmin(fmax(cam->max_theta / DEG, MC_RIG_MAX_THETA_MIN_DEG), MC_RIG_MAX_THETA_MAX_DEG);
+	json_object_set_new(o, "max_theta_deg", json_real(deg));
 	json_object_set_new(o, "rig_from_cam", pose_to_json(&cam->rig_from_cam));
 	return o;
 }

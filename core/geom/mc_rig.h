@@ -49,6 +49,11 @@ int mc_rig_import_cameras_json(const char *path, mc_rig *rig, mc_err *err);
  * max_theta is given by the caller (the toolbox does not store it). */
 int mc_rig_import_ocamcalib(const char *path, double max_theta, mc_camera *cam, mc_err *err);
 
+/* The field of view every rig reader accepts: max_theta_deg (the half
+ * angle) within these, or fov_deg (the full angle) within twice them. */
+#define MC_RIG_MAX_THETA_MIN_DEG 1e-6
+#define MC_RIG_MAX_THETA_MAX_DEG 180.0
+
 /* Index of the camera called `name`, or -1. */
 int mc_rig_find(const mc_rig *rig, const char *name);
 /* The rule every rig reader applies to a camera's name (not empty); the

@@ -24,7 +24,8 @@ static int ego_lens(const json_t *root, const char *path, bool use_ocam, mc_came
 	    mc_json_int(root, "height", path, 1, MC_CAMERA_SIZE_MAX, &cam->height, true, err) ||
 	    mc_json_positive(root, "f", path, &f, true, err) || mc_json_number(root, "cx", path, &cam->cx, true, err) ||
 	    mc_json_number(root, "cy", path, &cam->cy, true, err) ||
-	    mc_json_number_range(root, "fov_deg", path, 1e-6, 360, &fov, true, err))
+	    mc_json_number_range(root, "fov_deg", path, 2 * MC_RIG_MAX_THETA_MIN_DEG, 2 * MC_RIG_MAX_THETA_MAX_DEG, &fov,
+				 true, err))
 		return -1;
 	cam->max_theta = fov / 2 * DEG;
 	if (!use_ocam) {
