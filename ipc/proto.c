@@ -745,6 +745,23 @@ static void dec_rings(reader *r, mc_msg_rings *m)
 		r_str(r, m->rings[i].name, PROTO_NAME_MAX, "name");
 }
 
+/* --- TCP framing --- */
+
+void proto_tcp_prefix(uint8_t out[PROTO_TCP_PREFIX], size_t message_len)
+{
+	put32(out, (uint32_t)message_len);
+}
+
+int proto_tcp_next(const uint8_t *p, size_t have, uint32_t *len)
+{
+	if (have < PROTO_TCP_PREFIX)
+		return 0;
+	*len = get32(p);
+	if (*len < PROTO_HEADER_SIZE || *len > PROTO_MAX_MESSAGE)
+		return -1;
+	return have - PROTO_TCP_PREFIX >= *len;
+}
+
 /* --- Dispatch --- */
 
 size_t proto_encode(const proto_msg *msg, void *buf, size_t cap)

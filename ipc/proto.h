@@ -323,6 +323,13 @@ int proto_decode(const void *buf, size_t len, proto_direction from, proto_msg *m
  * fit in cap or a field exceeds the protocol limits. */
 size_t proto_encode(const proto_msg *msg, void *buf, size_t cap);
 
+/* TCP framing (docs/PROTOCOL.md, "TCP"): a message's length prefix. */
+void proto_tcp_prefix(uint8_t out[PROTO_TCP_PREFIX], size_t message_len);
+/* What the `have` bytes at p hold: 1 when a whole message follows its
+ * prefix (*len its size), 0 when more bytes are needed, -1 when the prefix
+ * is out of the protocol's range (*len the value read). */
+int proto_tcp_next(const uint8_t *p, size_t have, uint32_t *len);
+
 /* Size of a FRAME message with n joints. */
 static inline size_t proto_frame_size(int njoints) { return 48 + 64 * (size_t)njoints; }
 

@@ -141,8 +141,7 @@ int mcl_tcp_send(mocap_client *c, const uint8_t *msg, size_t n, uint64_t deadlin
 	uint8_t buf[PROTO_TCP_PREFIX + 8192];
 	if (n > sizeof(buf) - PROTO_TCP_PREFIX)
 		return mcl_set_err(MOCAP_E_ARG, "message of %zu bytes is too long", n);
-	for (int i = 0; i < PROTO_TCP_PREFIX; i++)
-		buf[i] = (uint8_t)(n >> (8 * i));
+	proto_tcp_prefix(buf, n);
 	memcpy(buf + PROTO_TCP_PREFIX, msg, n);
 	size_t done = 0;
 	pthread_mutex_lock(&c->send_lock);
@@ -176,15 +175,11 @@ ssize_t mcl_tcp_recv(mocap_client *c)
 
 int mcl_tcp_take(mocap_client *c, size_t *len)
 {
-	size_t have = c->srx_len - c->srx_at;
-	if (have < PROTO_TCP_PREFIX)
-		return 0;
 	const uint8_t *p = c->srx + c->srx_at;
-	uint32_t n = (uint32_t)p[0] | ((uint32_t)p[1] << 8) | ((uint32_t)p[2] << 16) | ((uint32_t)p[3] << 24);
-	if (n < PROTO_HEADER_SIZE || n > PROTO_MAX_MESSAGE)
-		return -1;
-	if (have - PROTO_TCP_PREFIX < n)
-		return 0;
+	uint32_t n;
+	int whole = proto_tcp_next(p, c->srx_len - c->srx_at, &n);
+	if (whole <= 0)
+		return whole;
 	memcpy(c->rx, p + PROTO_TCP_PREFIX, n);
 	c->srx_at += PROTO_TCP_PREFIX + n;
 	*len = n;

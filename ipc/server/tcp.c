@@ -138,25 +138,21 @@ bool srv_tcp_setup_client(client *c, int fd)
 	return true;
 }
 
-static uint32_t get_u32le(const uint8_t *p)
-{
-	return (uint32_t)p[0] | ((uint32_t)p[1] << 8) | ((uint32_t)p[2] << 16) | ((uint32_t)p[3] << 24);
-}
-
 /* Handles every whole message at the start of c->srx; keeps the rest. */
 static void handle_received(srv_server *srv, client *c)
 {
 	size_t at = 0;
-	while (!c->dead && !c->closing && c->srx_len - at >= PROTO_TCP_PREFIX) {
-		uint32_t len = get_u32le(c->srx + at);
-		if (len < PROTO_HEADER_SIZE || len > PROTO_MAX_MESSAGE) {
+	while (!c->dead && !c->closing) {
+		uint32_t len;
+		int whole = proto_tcp_next(c->srx + at, c->srx_len - at, &len);
+		if (whole < 0) {
 			char why[128];
 			snprintf(why, sizeof(why), "TCP length prefix of %u bytes; a message has %d to %d", len,
 				 PROTO_HEADER_SIZE, PROTO_MAX_MESSAGE);
 			srv_protocol_error(srv, c, 0, 0, why);
 			return;
 		}
-		if (c->srx_len - at - PROTO_TCP_PREFIX < len)
+		if (!whole)
 			break;
 		memcpy(srv->rxbuf, c->srx + at + PROTO_TCP_PREFIX, len);
 		at += PROTO_TCP_PREFIX + len;
@@ -195,8 +191,7 @@ void srv_tcp_readable(srv_server *srv, client *c)
 int srv_tcp_send(client *c, const blob *b, size_t *sent)
 {
 	uint8_t prefix[PROTO_TCP_PREFIX];
-	for (int i = 0; i < PROTO_TCP_PREFIX; i++)
-		prefix[i] = (uint8_t)(b->len >> (8 * i));
+	proto_tcp_prefix(prefix, b->len);
 	size_t total = PROTO_TCP_PREFIX + b->len;
 	while (*sent < total) {
 		struct iovec iov[2];
