@@ -54,41 +54,7 @@ static void write_config(mcd_run *r)
 /* Runs mocap-detect with args (NULL-terminated) and its output in out. */
 static pid_t start_detect(const char *const *args, const char *out)
 {
-	pid_t pid = fork();
-	if (pid == 0) {
-		int fd = open(out, O_WRONLY | O_CREAT | O_TRUNC, 0644);
-		if (fd < 0)
-			_exit(126);
-		dup2(fd, 1);
-		dup2(fd, 2);
-		const char *argv[16] = {mocap_detect};
-		int n = 1;
-		for (int i = 0; args[i] && n < 15; i++)
-			argv[n++] = args[i];
-		argv[n] = NULL;
-		execv(mocap_detect, (char *const *)argv);
-		_exit(127);
-	}
-	return pid;
-}
-
-/* Waits for pid; its exit status, 128+signal, or -1 after timeout_ms (then
- * it is killed). */
-static int wait_detect(pid_t pid, int timeout_ms)
-{
-	uint64_t end = mcd_now_ms() + (uint64_t)timeout_ms;
-	int st;
-	for (;;) {
-		pid_t w = waitpid(pid, &st, WNOHANG);
-		if (w == pid)
-			return WIFEXITED(st) ? WEXITSTATUS(st) : 128 + WTERMSIG(st);
-		if (mcd_now_ms() >= end) {
-			kill(pid, SIGKILL);
-			waitpid(pid, &st, 0);
-			return -1;
-		}
-		mcd_sleep_ms(10);
-	}
+	return mcd_spawn(mocap_detect, args, out);
 }
 
 static void dump(const char *what, const char *path)
@@ -143,7 +109,7 @@ static void test_fixed(mcd_run *r, const mc_rig *rig)
 	mocap_daemon_status *st = calloc(1, sizeof(*st));
 	CHECK(st && mocap_get_status(c, st) == 0);
 	kill(pid, SIGTERM);
-	int rc = wait_detect(pid, 10000);
+	int rc = mcd_wait_pid(pid, 10000);
 	char *log = mcd_read_file(out);
 	printf("right wrist from the keypoint ray: %.1f cm before mocap-detect, then per frame (cm):%s\n"
 	       "%d of %d frames within 5 cm (closest %.1f cm); daemon: %llu skeletons published\n",
@@ -196,7 +162,7 @@ static void test_shipped(mcd_run *r)
 	pid_t pid = start_detect(args, out);
 	mcd_sleep_ms(4000);
 	kill(pid, SIGINT);
-	int rc = wait_detect(pid, 10000);
+	int rc = mcd_wait_pid(pid, 10000);
 	char *log = mcd_read_file(out);
 	printf("mocap-detect with %s:\n%s", model, log ? log : "");
 	CHECK_MSG(rc == 0, "mocap-detect exited with %d after SIGINT", rc);
@@ -234,7 +200,7 @@ static void test_errors(mcd_run *r)
 	};
 	for (size_t i = 0; i < sizeof(cases) / sizeof(cases[0]); i++) {
 		pid_t pid = start_detect(cases[i].args, out);
-		int rc = wait_detect(pid, 20000);
+		int rc = mcd_wait_pid(pid, 20000);
 		char *log = mcd_read_file(out);
 		printf("mocap-detect %s %s ... -> exit %d: %s", cases[i].args[0], cases[i].args[1], rc, log ? log : "\n");
 		CHECK_MSG(rc == cases[i].rc, "exit %d, expected %d", rc, cases[i].rc);

@@ -74,6 +74,47 @@ static inline bool mcd_find_build(void)
 	return mcd_find_build_up(2);
 }
 
+/* Runs prog with args (NULL-terminated, without argv[0]), stdout and
+ * stderr into the file out; the child's pid, or -1. */
+static inline pid_t mcd_spawn(const char *prog, const char *const *args, const char *out)
+{
+	pid_t pid = fork();
+	if (pid == 0) {
+		int fd = open(out, O_WRONLY | O_CREAT | O_TRUNC, 0644);
+		if (fd < 0)
+			_exit(126);
+		dup2(fd, 1);
+		dup2(fd, 2);
+		const char *argv[32] = {prog};
+		int n = 1;
+		for (int i = 0; args[i] && n < 31; i++)
+			argv[n++] = args[i];
+		argv[n] = NULL;
+		execv(prog, (char *const *)argv);
+		_exit(127);
+	}
+	return pid;
+}
+
+/* Waits for pid; its exit status, 128+signal, or -1 after timeout_ms (then
+ * it is killed). */
+static inline int mcd_wait_pid(pid_t pid, int timeout_ms)
+{
+	uint64_t end = mcd_now_ms() + (uint64_t)timeout_ms;
+	int st;
+	for (;;) {
+		pid_t w = waitpid(pid, &st, WNOHANG);
+		if (w == pid)
+			return WIFEXITED(st) ? WEXITSTATUS(st) : 128 + WTERMSIG(st);
+		if (mcd_now_ms() >= end) {
+			kill(pid, SIGKILL);
+			waitpid(pid, &st, 0);
+			return -1;
+		}
+		mcd_sleep_ms(10);
+	}
+}
+
 static inline char *mcd_read_file(const char *path)
 {
 	FILE *f = fopen(path, "rb");
