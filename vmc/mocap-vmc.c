@@ -44,8 +44,9 @@ static void usage(FILE *f)
 		"  --socket PATH    the daemon's socket or tcp://HOST:PORT (default: $MOCAP_SOCKET,\n"
 		"                   else %s)\n"
 		"  --config FILE    settings, section [vmc] (default: none, built-in defaults)\n"
-		"  --host HOST      the receiver (default 127.0.0.1)\n"
-		"  --port PORT      its UDP port (default %d)\n"
+		"  --target HOST:PORT  the receiver (default 127.0.0.1:%d; [IPV6]:PORT)\n"
+		"  --host HOST      the receiver's host alone\n"
+		"  --port PORT      its UDP port alone\n"
 		"  --rate HZ        bundles per second (default 0: one per tracked frame)\n"
 		"  --bones FILE     bone table overrides, section [bones]\n"
 		"  --set KEY=VALUE  any [vmc] setting (after --config)\n"
@@ -72,10 +73,11 @@ static void set_or_fail(vmc_settings *s, const char *key, const char *value)
 
 static void parse_options(int argc, char **argv, options *o)
 {
-	enum { OPT_SOCKET = 256, OPT_CONFIG, OPT_HOST, OPT_PORT, OPT_RATE, OPT_BONES, OPT_SET, OPT_FRAMES, OPT_QUIET };
+	enum { OPT_SOCKET = 256, OPT_CONFIG, OPT_TARGET, OPT_HOST, OPT_PORT, OPT_RATE, OPT_BONES, OPT_SET, OPT_FRAMES, OPT_QUIET };
 	static const struct option opts[] = {
 		{"socket", required_argument, NULL, OPT_SOCKET}, {"config", required_argument, NULL, OPT_CONFIG},
-		{"host", required_argument, NULL, OPT_HOST},     {"port", required_argument, NULL, OPT_PORT},
+		{"target", required_argument, NULL, OPT_TARGET}, {"host", required_argument, NULL, OPT_HOST},
+		{"port", required_argument, NULL, OPT_PORT},
 		{"rate", required_argument, NULL, OPT_RATE},     {"bones", required_argument, NULL, OPT_BONES},
 		{"set", required_argument, NULL, OPT_SET},       {"frames", required_argument, NULL, OPT_FRAMES},
 		{"quiet", no_argument, NULL, OPT_QUIET},         {"help", no_argument, NULL, 'h'},
@@ -95,6 +97,7 @@ static void parse_options(int argc, char **argv, options *o)
 		switch (c) {
 		case OPT_SOCKET: o->socket_path = optarg; break;
 		case OPT_CONFIG: break;
+		case OPT_TARGET: set_or_fail(&o->s, "target", optarg); break;
 		case OPT_HOST: set_or_fail(&o->s, "host", optarg); break;
 		case OPT_PORT: set_or_fail(&o->s, "port", optarg); break;
 		case OPT_RATE: set_or_fail(&o->s, "rate", optarg); break;

@@ -16,9 +16,13 @@ VMC_LINK_DEPS := $(VMC_LIB) $(BUILD)/libmocap.a $(CORE_LIB)
 VMC_UNITDIR ?= $(PREFIX)/lib/systemd/system
 VMC_DOCDIR ?= $(PREFIX)/share/doc/mocapd
 
+VMC_BENCH := $(BUILD)/vmc/bench_vmc
+
 LIBS += $(VMC_LIB)
 BINS += $(MOCAP_VMC)
 TESTS += $(VMC_TESTS)
+BENCHES += bench-vmc
+all: $(VMC_BENCH)
 
 $(BUILD)/vmc/%.o: CPPFLAGS += -Ivmc -Iipc
 
@@ -45,6 +49,16 @@ $(BUILD)/vmc/tests/test_mocap_vmc: vmc/tests/test_mocap_vmc.c $(VMC_LINK_DEPS) \
 $(BUILD)/vmc/tests/test_vmc_unit: vmc/tests/test_vmc_unit.c | $(MOCAP_VMC)
 	@mkdir -p $(@D) $(BUILD)/tests
 	$(CC) $(CPPFLAGS) -Itests $(CFLAGS) -MMD -MP $< -o $@ $(LDFLAGS)
+
+# Publish-to-datagram latency on loopback (mocap-testpub, mocap-vmc, a UDP
+# socket here), the socket's own beside it; docs/BENCHMARKS.md.
+$(VMC_BENCH): vmc/bench_vmc.c $(VMC_LINK_DEPS) | $(MOCAP_VMC) $(BUILD)/ipc/mocap-testpub
+	@mkdir -p $(@D)
+	$(CC) $(CPPFLAGS) -Iipc -Itests $(VMC_LO_CFLAGS) $(CFLAGS) -MMD -MP $< -o $@ $(LDFLAGS) $(VMC_LINK) $(VMC_LO_LIBS)
+
+.PHONY: bench-vmc
+bench-vmc: $(VMC_BENCH)
+	$(VMC_BENCH)
 
 # The unit (with the binary's path filled in), the example config and the
 # page.  mocap-vmc itself is in BINS.

@@ -40,6 +40,26 @@ static int parse_choice(const char *value, const char *const *names, int n)
 	return -1;
 }
 
+/* HOST:PORT or [IPV6]:PORT: host and port in one. */
+static int set_target(vmc_settings *s, const char *value, mc_err *err)
+{
+	const char *colon = strrchr(value, ':');
+	const char *host = value, *host_end = colon;
+	if (value[0] == '[') {
+		host = value + 1;
+		host_end = strchr(value, ']');
+		if (!host_end || host_end + 1 != colon)
+			host_end = NULL;
+	}
+	double port;
+	if (!colon || !host_end || host_end == host || (size_t)(host_end - host) >= sizeof(s->host) ||
+	    parse_number(colon + 1, 1, 65535, &port) < 0 || port != floor(port))
+		return mc_err_set(err, "target: '%s': expected HOST:PORT (or [IPV6]:PORT), port 1..65535", value);
+	snprintf(s->host, sizeof(s->host), "%.*s", (int)(host_end - host), host);
+	s->port = (int)port;
+	return 0;
+}
+
 int vmc_settings_set(vmc_settings *s, const char *key, const char *value, mc_err *err)
 {
 	double v;
@@ -48,6 +68,8 @@ int vmc_settings_set(vmc_settings *s, const char *key, const char *value, mc_err
 		if (!*value || strlen(value) >= sizeof(s->host))
 			return mc_err_set(err, "host: expected a host name or address");
 		snprintf(s->host, sizeof(s->host), "%s", value);
+	} else if (strcmp(key, "target") == 0) {
+		return set_target(s, value, err);
 	} else if (strcmp(key, "port") == 0) {
 		if (parse_number(value, 1, 65535, &v) < 0 || v != floor(v))
 			return mc_err_set(err, "port: '%s': expected a UDP port, 1..65535", value);

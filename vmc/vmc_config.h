@@ -15,7 +15,7 @@
 #define VMC_DEFAULT_RIG_FLOOR (-1.6)
 
 typedef struct {
-	char host[256];        /* the receiver */
+	char host[256];        /* the receiver (key `target` sets host and port) */
 	int port;
 	double rate;           /* bundles per second; 0: one per tracked frame */
 	mocap_space space;     /* subscribed space: world (falls back to rig) or rig */

@@ -268,7 +268,9 @@ static void test_testpub(void)
 	lo_server_thread rxs = start_receiver(&oport);
 	CHECK(rxs != NULL);
 	snprintf(port, sizeof(port), "%d", oport);
-	const char *const vmc_args[] = {"--socket", sock, "--port", port, "--frames", "40", "--quiet", NULL};
+	char target[32];
+	snprintf(target, sizeof(target), "127.0.0.1:%s", port);
+	const char *const vmc_args[] = {"--socket", sock, "--target", target, "--frames", "40", "--quiet", NULL};
 	int rc = collect(sock, vmc_args, vout);
 	CHECK_MSG(rc == 0, "mocap-vmc exited %d", rc);
 	/* testpub has no head joint: 17 bones, on an outside-in rig (z up) */
@@ -369,6 +371,7 @@ static void test_usage(void)
 		const char *says;
 	} cases[] = {
 		{{"--port", "0"}, "mocap-vmc: port: '0': expected a UDP port"},
+		{{"--target", "localhost"}, "mocap-vmc: target: 'localhost': expected HOST:PORT"},
 		{{"--set", "rest=relaxed"}, "mocap-vmc: rest: 'relaxed': expected tpose or model"},
 		{{"--config", "/nonexistent/vmc.conf"}, "/nonexistent/vmc.conf: cannot open the config file"},
 		{{"stray"}, "unexpected argument 'stray'"},

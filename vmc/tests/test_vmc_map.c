@@ -376,6 +376,18 @@ static void check_files(const char *dir)
 		vmc_settings_default(&s);
 		CHECK_MSG(vmc_settings_load(&s, path, &err) < 0 && strstr(err.msg, badconf[i].want), "got '%s'", err.msg);
 	}
+	/* target: host and port in one */
+	vmc_settings_default(&s);
+	CHECK(vmc_settings_set(&s, "target", "vr-pc.local:39540", &err) == 0 && strcmp(s.host, "vr-pc.local") == 0 &&
+	      s.port == 39540);
+	CHECK(vmc_settings_set(&s, "target", "[fe80::1]:9000", &err) == 0 && strcmp(s.host, "fe80::1") == 0 &&
+	      s.port == 9000);
+	static const char *const bad_targets[] = {"vr-pc", ":39539", "host:0", "host:port", "[::1]39539", "[]:1"};
+	for (size_t i = 0; i < sizeof(bad_targets) / sizeof(bad_targets[0]); i++)
+		CHECK_MSG(vmc_settings_set(&s, "target", bad_targets[i], &err) < 0 &&
+				  strstr(err.msg, "expected HOST:PORT (or [IPV6]:PORT)"),
+			  "target '%s' accepted", bad_targets[i]);
+	CHECK(strcmp(s.host, "fe80::1") == 0 && s.port == 9000); /* unchanged by the refusals */
 	/* auto: outside-in z up, a VR world y up, a head rig's own frame head up 1.6 m. */
 	vmc_settings_default(&s);
 	mocap_skeleton_frame *f = calloc(1, sizeof(*f));
