@@ -162,12 +162,14 @@ static void begin_section(parser *p, const char *name)
 		p->kind = MCD_SEC_DETECTOR;
 	else if (strcmp(name, "network") == 0)
 		p->kind = MCD_SEC_NETWORK;
+	else if (strcmp(name, "record") == 0)
+		p->kind = MCD_SEC_RECORD;
 	else if (strncmp(name, "camera", 6) == 0 && (name[6] == ' ' || name[6] == 0)) {
 		p->kind = MCD_SEC_CAMERA;
 		begin_camera(p, name);
 	} else {
 		p->known = false;
-		fail(p, "unknown section [%s] (expected [daemon], [camera NAME], [tracker], [socket], [detector] or [network])", name);
+		fail(p, "unknown section [%s] (expected [daemon], [camera NAME], [tracker], [socket], [detector], [network] or [record])", name);
 	}
 }
 

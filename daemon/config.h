@@ -1,7 +1,7 @@
 /* config: mocapd's INI configuration (inih), checked key by key.
  *
  * Sections: [daemon], one [camera NAME] per camera, [tracker], [socket],
- * [detector], [network].
+ * [detector], [network], [record].
  * Every error names the file, the line and the key, e.g.
  *   "mocapd.conf:12: [tracker] iterations: expected a positive integer, got 'abc'"
  * Unknown keys and sections are errors.  In a camera section the keys the
@@ -84,6 +84,16 @@ typedef struct {
 	bool privileged;           /* TCP clients may control and send inputs */
 } mcd_network_config;
 
+/* The [record] section: where takes go and what they keep
+ * (recorder.h, docs/RECORDING.md). */
+typedef struct {
+	char directory[PATH_MAX]; /* takes are DIRECTORY/NAME */
+	bool frames;              /* keep the camera frames (else skeletons only) */
+	double max_seconds;       /* stop a take after this long; 0: no limit */
+	double max_mb;            /* stop a take at this size (10^6 bytes); 0: no limit */
+	double sync_ms;           /* fdatasync period: what a power loss may cost */
+} mcd_record_config;
+
 /* The [detector] section: the in-process 2D joint detector
  * (detector_thread.h).  An empty model means no detector. */
 typedef struct {
@@ -116,6 +126,7 @@ typedef struct {
 	mcd_socket_config socket;
 	mcd_network_config network;
 	mcd_detector_config detector;
+	mcd_record_config record;
 
 	/* Where each key was given, for messages about values checked later
 	 * (a rig file that fails to load, a socket group that does not exist). */
@@ -155,8 +166,9 @@ typedef enum {
 	MCD_SEC_SOCKET,
 	MCD_SEC_DETECTOR,
 	MCD_SEC_NETWORK,
+	MCD_SEC_RECORD,
 } mcd_section;
-#define MCD_NSECTIONS 6
+#define MCD_NSECTIONS 7
 
 typedef enum {
 	MCD_KEY_BOOL,     /* true/false, yes/no, on/off, 1/0 */
@@ -201,7 +213,7 @@ typedef struct {
 const mcd_config_key *mcd_config_keys(size_t *n);
 /* The entry for `key` in a section, or NULL. */
 const mcd_config_key *mcd_config_key_find(mcd_section section, const char *key);
-/* "daemon", "camera", "tracker", "socket", "detector" or "network". */
+/* "daemon", "camera", "tracker", "socket", "detector", "network" or "record". */
 const char *mcd_section_name(mcd_section section);
 /* Parses `value` into the key's field of `base` (an mcd_config, or an
  * mcd_camera_config for camera keys).  On error returns -1 with why (no

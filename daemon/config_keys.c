@@ -38,6 +38,7 @@ static const mcd_key_choice backends[] = {
 #define C(member) FIELD(mcd_camera_config, member)
 #define K(member) FIELD(mcd_config, detector.member)
 #define N(member) FIELD(mcd_config, network.member)
+#define R(member) FIELD(mcd_config, record.member)
 #define TRACKER_DEFAULT NULL /* mc_tracker_settings_default */
 
 static const mcd_config_key keys[] = {
@@ -101,6 +102,13 @@ static const mcd_config_key keys[] = {
 	{MCD_SEC_NETWORK, "token_file", MCD_KEY_OPT_PATH, N(token_file), 0, 0, NULL, NULL, false},
 	{MCD_SEC_NETWORK, "privileged", MCD_KEY_BOOL, N(privileged), 0, 0, NULL, "false", false},
 
+	/* Read when a take starts: a reload changes the next take. */
+	{MCD_SEC_RECORD, "directory", MCD_KEY_PATH, R(directory), 0, 0, NULL, "/var/lib/mocapd/takes", false},
+	{MCD_SEC_RECORD, "frames", MCD_KEY_BOOL, R(frames), 0, 0, NULL, "true", false},
+	{MCD_SEC_RECORD, "max_seconds", MCD_KEY_REAL, R(max_seconds), 0, 1e7, NULL, "0", false},
+	{MCD_SEC_RECORD, "max_mb", MCD_KEY_REAL, R(max_mb), 0, 1e9, NULL, "0", false},
+	{MCD_SEC_RECORD, "sync_ms", MCD_KEY_POSITIVE, R(sync_ms), 0, 10000, NULL, "100", false},
+
 	/* A new model takes a restart; the rest is applied between detections. */
 	{MCD_SEC_DETECTOR, "model", MCD_KEY_OPT_PATH, K(model), 0, 0, NULL, NULL, false},
 	{MCD_SEC_DETECTOR, "rate", MCD_KEY_REAL, K(rate), 0, 1000, NULL, "0", true},
@@ -124,7 +132,8 @@ const mcd_config_key *mcd_config_key_find(mcd_section section, const char *key)
 
 const char *mcd_section_name(mcd_section section)
 {
-	static const char *const names[MCD_NSECTIONS] = {"daemon", "camera", "tracker", "socket", "detector", "network"};
+	static const char *const names[MCD_NSECTIONS] = {"daemon", "camera", "tracker", "socket", "detector", "network",
+								 "record"};
 	return (unsigned)section < MCD_NSECTIONS ? names[section] : "?";
 }
 
@@ -454,6 +463,8 @@ void mcd_config_defaults(mcd_config *cfg)
 	set_defaults(MCD_SEC_TRACKER, cfg);
 	set_defaults(MCD_SEC_SOCKET, cfg);
 	set_defaults(MCD_SEC_DETECTOR, cfg);
+	set_defaults(MCD_SEC_NETWORK, cfg);
+	set_defaults(MCD_SEC_RECORD, cfg);
 }
 
 void mcd_camera_config_defaults(mcd_camera_config *cam)

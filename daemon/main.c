@@ -331,6 +331,7 @@ static void refresh_status(daemon_ctx *d, uint64_t now)
 		srv_status ss;
 		mcd_status_to_server(&st, &d->prev, dt, d->start_ns,
 				     d->tracking ? mc_tracker_device_name(d->tracking->tracker) : "", &ss);
+		ss.recording = mcd_pipeline_recording(d->pipe);
 		srv_set_status(d->srv, &ss);
 	}
 	d->prev = st;
@@ -409,8 +410,11 @@ static void handle_requests(daemon_ctx *d)
 				 (unsigned)ctl.uid);
 			rc = mcd_actor_save(d->pipe, d->cfg, ctl.argument, msg, sizeof(msg));
 		} else {
-			rc = -1;
-			snprintf(msg, sizeof(msg), "recording is not available in this mocapd");
+			if (ctl.command == MC_CONTROL_RECORD_START || ctl.command == MC_CONTROL_RECORD_STOP)
+				mcd_info("record %s requested by pid %d (uid %u)",
+					 ctl.command == MC_CONTROL_RECORD_START ? "start" : "stop", (int)ctl.pid,
+					 (unsigned)ctl.uid);
+			rc = mcd_pipeline_record(d->pipe, (int)ctl.command, ctl.argument, msg, sizeof(msg));
 		}
 		srv_control_done(d->srv, ctl.token, rc, msg);
 	}

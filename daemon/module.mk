@@ -26,7 +26,9 @@ IPC_SERVER_A := $(BUILD)/libmocapipc.a
 # The detector runtime of detect/module.mk (also included later: its
 # library by path in prerequisites, $(DETECT_LIBS) only in recipes).
 DAEMON_DETECT_A := $(BUILD)/libmocapdetect.a
-DAEMON_LINK = $(DAEMON_DETECT_A) $(CORE_LIB) $(CORE_LIBS) $(DETECT_LIBS) $(DAEMON_LIBS)
+# The take files of record/module.mk (the recorder writes them).
+DAEMON_RECORD_A := $(BUILD)/libmocaprecord.a
+DAEMON_LINK = $(DAEMON_RECORD_A) $(DAEMON_DETECT_A) $(CORE_LIB) $(CORE_LIBS) $(DETECT_LIBS) $(DAEMON_LIBS) -lz
 
 # mocapd links the tracker (core) and the socket server (ipc); it is built
 # once both are in the tree.
@@ -35,7 +37,7 @@ BINS += $(MOCAPD)
 DAEMON_TEST_NEEDS := $(MOCAPD)
 endif
 
-$(BUILD)/daemon/%.o: CPPFLAGS += -Idaemon -Idetect $(DAEMON_CFLAGS) -DMOCAPD_VERSION='"$(MOCAPD_VERSION)"'
+$(BUILD)/daemon/%.o: CPPFLAGS += -Idaemon -Idetect -Irecord $(DAEMON_CFLAGS) -DMOCAPD_VERSION='"$(MOCAPD_VERSION)"'
 # the default plugin_dir follows LIBDIR (the top-level Makefile's install paths)
 $(BUILD)/daemon/config_keys.o $(BUILD)/daemon/main.o: $(INSTALL_PATHS_H)
 
@@ -43,7 +45,7 @@ $(DAEMON_LIB): $(DAEMON_OBJ)
 	@rm -f $@
 	ar rcs $@ $^
 
-$(MOCAPD): $(BUILD)/daemon/main.o $(DAEMON_LIB) $(IPC_SERVER_A) $(DAEMON_DETECT_A) $(CORE_LIB)
+$(MOCAPD): $(BUILD)/daemon/main.o $(DAEMON_LIB) $(IPC_SERVER_A) $(DAEMON_DETECT_A) $(DAEMON_RECORD_A) $(CORE_LIB)
 	@mkdir -p $(@D)
 	$(CC) $< -o $@ $(LDFLAGS) $(DAEMON_LIB) $(IPC_SERVER_A) $(DAEMON_LINK)
 
@@ -65,18 +67,19 @@ $(FAULTY_DIR)/bad/mocap-driver-noentry.so: tests/drivers/faulty/faulty.c drivers
 # the actor test with the shipped detector.
 DAEMON_CLIENT_TESTS := $(BUILD)/tests/test_daemon_keypoints $(BUILD)/tests/test_daemon_detector $(BUILD)/tests/test_daemon_actor \
 	$(BUILD)/tests/test_daemon_network $(BUILD)/tests/test_daemon_latency
-$(DAEMON_CLIENT_TESTS): $(BUILD)/tests/%: tests/%.c $(DAEMON_LIB) $(DAEMON_DETECT_A) $(CORE_LIB) $(BUILD)/libmocap.a \
+$(DAEMON_CLIENT_TESTS): $(BUILD)/tests/%: tests/%.c $(DAEMON_LIB) $(DAEMON_DETECT_A) $(DAEMON_RECORD_A) $(CORE_LIB) \
+		$(BUILD)/libmocap.a \
 		| $(DAEMON_TEST_NEEDS)
 	@mkdir -p $(@D)
-	$(CC) $(CPPFLAGS) -Idaemon -Idetect $(DAEMON_CFLAGS) $(CFLAGS) -MMD -MP $< -o $@ $(LDFLAGS) $(DAEMON_LIB) \
+	$(CC) $(CPPFLAGS) -Idaemon -Idetect -Irecord $(DAEMON_CFLAGS) $(CFLAGS) -MMD -MP $< -o $@ $(LDFLAGS) $(DAEMON_LIB) \
 		$(BUILD)/libmocap.a $(DAEMON_LINK)
 
 # Daemon tests link the daemon library; the integration tests run mocapd
 # and the fault driver, so those are built first.
-$(BUILD)/tests/test_daemon_%: tests/test_daemon_%.c $(DAEMON_LIB) $(DAEMON_DETECT_A) $(CORE_LIB) \
+$(BUILD)/tests/test_daemon_%: tests/test_daemon_%.c $(DAEMON_LIB) $(DAEMON_DETECT_A) $(DAEMON_RECORD_A) $(CORE_LIB) \
 		| $(DAEMON_TEST_NEEDS) $(FAULTY_SO) $(FAULTY_BAD)
 	@mkdir -p $(@D)
-	$(CC) $(CPPFLAGS) -Idaemon -Idetect $(DAEMON_CFLAGS) $(CFLAGS) -MMD -MP $< -o $@ $(LDFLAGS) $(DAEMON_LIB) \
+	$(CC) $(CPPFLAGS) -Idaemon -Idetect -Irecord $(DAEMON_CFLAGS) $(CFLAGS) -MMD -MP $< -o $@ $(LDFLAGS) $(DAEMON_LIB) \
 		$(DAEMON_LINK)
 
 # ---- capture-to-publish latency, stage by stage (docs/BENCHMARKS.md)

@@ -2,6 +2,7 @@
 
 #include "log.h"
 #include "plugin.h"
+#include "recorder.h"
 #include "tracking_thread.h"
 #include "base/mc_time.h"
 
@@ -27,6 +28,7 @@ struct mcd_pipeline {
 	mcd_detector_thread *detector; /* NULL: no [detector] model */
 	srv_server *srv;
 	mcd_publisher *pub;
+	mcd_recorder *recorder;
 	bool print;
 	bool tracking; /* a tracker is configured */
 	const mc_rig *rig; /* its rig (NULL: none), for the settings a reload gives it */
@@ -59,6 +61,7 @@ static void on_frame(void *ctx, int cam, uint64_t generation, const mc_ring_meta
 	atomic_store(&p->ring_generation[cam], generation);
 	mcd_tracking_thread_push(p->tracker, cam, generation, meta);
 	mcd_detector_thread_push(p->detector, cam, generation, meta);
+	mcd_recorder_push_frame(p->recorder, cam, generation, meta);
 }
 
 static void on_change(void *ctx, int cam)
@@ -115,6 +118,23 @@ static int create_detector_thread(mcd_pipeline *p, const mcd_config *cfg, mcd_tr
 	return p->detector ? 0 : -1;
 }
 
+/* The recording thread, idle until a take starts. */
+static int create_recorder(mcd_pipeline *p, const mcd_config *cfg, mcd_tracking *tracking, mc_err *err)
+{
+	static take_def def; /* one pipeline per process */
+	if (tracking)
+		mcd_take_def_from_model(mc_tracker_model(tracking->tracker), 1, &def);
+	mcd_recorder_setup rs = {
+		.cfg = &cfg->record,
+		.daemon_cfg = cfg,
+		.ncams = p->ncams,
+		.cams = p->cams,
+		.def = tracking ? &def : NULL,
+	};
+	p->recorder = mcd_recorder_create(&rs, err);
+	return p->recorder ? 0 : -1;
+}
+
 /* Loads the drivers and creates the cameras, all with one time origin. */
 static int create_cameras(mcd_pipeline *p, const mcd_config *cfg, mc_err *err)
 {
@@ -152,7 +172,7 @@ mcd_pipeline *mcd_pipeline_create(const mcd_config *cfg, mcd_tracking *tracking,
 	/* The cameras are created first (the tracking thread reads them), but
 	 * report to it only once started. */
 	if (create_cameras(p, cfg, err) || create_tracking_thread(p, cfg, tracking, err) ||
-	    create_detector_thread(p, cfg, tracking, err)) {
+	    create_detector_thread(p, cfg, tracking, err) || create_recorder(p, cfg, tracking, err)) {
 		mcd_pipeline_destroy(p);
 		return NULL;
 	}
@@ -166,6 +186,7 @@ int mcd_pipeline_start(mcd_pipeline *p, const char *pose_dir, mc_err *err)
 		return -1;
 	if (pose_dir)
 		mcd_publisher_save_poses(p->pub, pose_dir);
+	mcd_publisher_set_recorder(p->pub, p->recorder);
 	if (mcd_tracking_thread_start(p->tracker, p->pub, err))
 		return -1;
 	p->started = true;
@@ -209,6 +230,9 @@ void mcd_pipeline_stop(mcd_pipeline *p, int grace_ms)
 	}
 	mcd_publisher_destroy(p->pub);
 	p->pub = NULL;
+	/* After the publisher: the take gets the last skeletons, then ends. */
+	mcd_recorder_destroy(p->recorder);
+	p->recorder = NULL;
 }
 
 void mcd_pipeline_destroy(mcd_pipeline *p)
@@ -233,6 +257,25 @@ void mcd_pipeline_destroy(mcd_pipeline *p)
 }
 
 /* ---- queries for the main thread -------------------------------------------------------- */
+
+int mcd_pipeline_record(mcd_pipeline *p, int command, const char *argument, char *msg, size_t cap)
+{
+	if (!p->recorder) {
+		snprintf(msg, cap, "mocapd is stopping");
+		return -1;
+	}
+	switch (command) {
+	case MC_CONTROL_RECORD_START: return mcd_recorder_start(p->recorder, argument, msg, cap);
+	case MC_CONTROL_RECORD_STOP: return mcd_recorder_stop(p->recorder, msg, cap);
+	case MC_CONTROL_RECORD_STATUS: mcd_recorder_status(p->recorder, msg, cap); return 0;
+	default: snprintf(msg, cap, "%s", mcd_recorder_directory(p->recorder)); return 0;
+	}
+}
+
+bool mcd_pipeline_recording(mcd_pipeline *p)
+{
+	return mcd_recorder_active(p->recorder);
+}
 
 int mcd_pipeline_event_fd(mcd_pipeline *p)
 {

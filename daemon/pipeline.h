@@ -57,6 +57,11 @@ int mcd_pipeline_start(mcd_pipeline *p, const char *pose_dir, mc_err *err);
 void mcd_pipeline_stop(mcd_pipeline *p, int grace_ms);
 void mcd_pipeline_destroy(mcd_pipeline *p);
 
+/* Recording (recorder.h): command is MC_CONTROL_RECORD_START, _STOP,
+ * _STATUS or _LIST; msg gets the answer.  0, or -1 when refused or failed. */
+int mcd_pipeline_record(mcd_pipeline *p, int command, const char *argument, char *msg, size_t cap);
+bool mcd_pipeline_recording(mcd_pipeline *p);
+
 /* An eventfd that becomes readable when something the main thread cares
  * about changed: a camera's state or ring, or the end of all streams. */
 int mcd_pipeline_event_fd(mcd_pipeline *p);

@@ -3,6 +3,7 @@
 #include "latency.h"
 
 #include "log.h"
+#include "recorder.h"
 #include "textbuf.h"
 #include "base/mc_thread.h"
 
@@ -31,6 +32,7 @@ struct mcd_publisher {
 	atomic_uint_fast64_t heartbeat;
 	char pose_dir[4096];    /* "" = do not save poses */
 	uint64_t server_seq;    /* publisher thread only */
+	mcd_recorder *recorder; /* NULL: none; set before frames flow */
 	uint64_t logged_errors; /* publisher thread only */
 };
 
@@ -80,9 +82,10 @@ static int handle(mcd_publisher *p, const mcd_output *o, bool print, const char 
 {
 	int failed = 0;
 	*published_ns = 0;
+	uint64_t seq = o->tracked ? ++p->server_seq : p->server_seq;
 	if (o->tracked && p->srv) {
 		mc_err err;
-		if (srv_publish(p->srv, &o->sk, ++p->server_seq, &err) != 0) {
+		if (srv_publish(p->srv, &o->sk, seq, &err) != 0) {
 			failed = 1;
 			if (++p->logged_errors <= 3)
 				mcd_warn("publish: %s", err.msg);
@@ -90,7 +93,8 @@ static int handle(mcd_publisher *p, const mcd_output *o, bool print, const char 
 			*published_ns = mc_now_ns();
 		}
 	}
-	/* Clients first: the files and the text line can wait. */
+	/* Clients first: the take, the files and the text line can wait. */
+	mcd_recorder_push_pose(p->recorder, o, seq);
 	if (o->tracked && pose_dir[0])
 		save_pose(p, o, pose_dir);
 	if (print) {
@@ -198,6 +202,13 @@ void mcd_publisher_set_print(mcd_publisher *p, bool print)
 {
 	pthread_mutex_lock(&p->lock);
 	p->print = print;
+	pthread_mutex_unlock(&p->lock);
+}
+
+void mcd_publisher_set_recorder(mcd_publisher *p, mcd_recorder *r)
+{
+	pthread_mutex_lock(&p->lock);
+	p->recorder = r;
 	pthread_mutex_unlock(&p->lock);
 }
 

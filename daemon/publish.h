@@ -42,6 +42,10 @@ mcd_publisher *mcd_publisher_create(srv_server *srv, FILE *out, bool print, mc_e
 void mcd_publisher_destroy(mcd_publisher *p); /* stops the thread after draining */
 void mcd_publisher_push(mcd_publisher *p, const mcd_output *o);
 void mcd_publisher_set_print(mcd_publisher *p, bool print);
+/* Hands every tracked skeleton, with its publish counter, to the recorder
+ * (recorder.h).  Call before frames flow. */
+typedef struct mcd_recorder mcd_recorder;
+void mcd_publisher_set_recorder(mcd_publisher *p, mcd_recorder *r);
 /* Also writes every tracked pose to DIR/pose_<frame>.json ({"note", "pose"},
  * the format tools/mocap-render reads with --pose).  Call before frames
  * flow.  NULL stops it. */

@@ -72,9 +72,11 @@ typedef enum {
 } mocap_track_state;
 typedef enum {
 	MOCAP_CMD_RELOAD = 1,
-	MOCAP_CMD_RECORD_START = 2, /* argument: output path, "" = the daemon's default */
+	MOCAP_CMD_RECORD_START = 2, /* argument: a take name or an absolute path, "" = a name from the time */
 	MOCAP_CMD_RECORD_STOP = 3,
 	MOCAP_CMD_ACTOR_SAVE = 4, /* argument: a name; the daemon writes [tracker] actor_dir/NAME.json */
+	MOCAP_CMD_RECORD_STATUS = 5, /* msg: the take being recorded, or how the last one ended */
+	MOCAP_CMD_RECORD_LIST = 6,   /* msg: the directory the daemon records takes into */
 } mocap_command;
 
 typedef struct {

@@ -1,7 +1,9 @@
 /* mocapctl: command-line client of mocapd (status, watch, rig, skeleton,
  * reload, record, actor save).  Built on libmocap; see `mocapctl --help`. */
 #include "mocap.h"
+#include "take.h"
 
+#include <dirent.h>
 #include <errno.h>
 #include <signal.h>
 #include <stdbool.h>
@@ -35,8 +37,13 @@ static const char usage[] =
 	"  rig                    print the rig in use (JSON)\n"
 	"  skeleton               print the joints: names, parents, rest offsets\n"
 	"  reload                 reload configuration, rig and model (daemon's user or group)\n"
-	"  record start [PATH]    start recording (daemon's user or group)\n"
-	"  record stop            stop recording\n"
+	"  record start [--name NAME | PATH]\n"
+	"                         start recording a take: NAME in the daemon's [record] directory\n"
+	"                         (default: take-YYYYmmdd-HHMMSS) or an absolute PATH (daemon's user\n"
+	"                         or group)\n"
+	"  record stop            stop recording; prints how the take ended\n"
+	"  record status          the take being recorded, or how the last one ended\n"
+	"  record list            the takes, one per line: directory, state, duration, poses\n"
 	"  actor save NAME        save the calibrated actor (size, colours) as [tracker] actor_dir/NAME.json,\n"
 	"                         for [tracker] actor at the next start (daemon's user or group)\n"
 	"  ping                   round-trip time to the daemon\n"
@@ -363,6 +370,45 @@ static int cmd_control(mocap_client *c, mocap_command cmd, const char *arg, cons
 	return cmd == MOCAP_CMD_RELOAD && strstr(msg, "needs a restart: ") ? EXIT_RESTART : EXIT_OK;
 }
 
+/* The takes in the daemon's [record] directory, oldest first: the
+ * directory, then the state (complete, recording or cut: a crash or a
+ * power loss ended it), seconds and poses from its take.json. */
+static int by_name(const struct dirent **a, const struct dirent **b) { return strcmp((*a)->d_name, (*b)->d_name); }
+
+static int cmd_record_list(mocap_client *c)
+{
+	char dir[1024];
+	if (mocap_control(c, MOCAP_CMD_RECORD_LIST, NULL, dir, sizeof(dir)))
+		return fail("record list");
+	struct dirent **names = NULL;
+	int n = scandir(dir, &names, NULL, by_name);
+	if (n < 0) {
+		if (errno == ENOENT)
+			return EXIT_OK; /* nothing recorded yet */
+		fprintf(stderr, "mocapctl: record list: %s: %s\n", dir, strerror(errno));
+		return EXIT_FAILED;
+	}
+	char recording[1024] = "";
+	mocap_control(c, MOCAP_CMD_RECORD_STATUS, NULL, recording, sizeof(recording));
+	for (int i = 0; i < n; i++) {
+		char take[2200];
+		take_info t;
+		mc_err err;
+		snprintf(take, sizeof(take), "%s/%s", dir, names[i]->d_name);
+		if (names[i]->d_name[0] != '.' && take_info_read(take, &t, &err) == 0) {
+			char prefix[2300];
+			snprintf(prefix, sizeof(prefix), "recording %s:", take);
+			const char *state = t.complete ? "complete" : !strncmp(recording, prefix, strlen(prefix)) ? "recording" : "cut";
+			double secs = t.stop_realtime_ns > t.start_realtime_ns
+					      ? (double)(t.stop_realtime_ns - t.start_realtime_ns) * 1e-9 : 0;
+			printf("%s\t%s\t%.1f s\t%llu poses\n", take, state, secs, (unsigned long long)t.poses);
+		}
+		free(names[i]);
+	}
+	free(names);
+	return EXIT_OK;
+}
+
 static int cmd_ping(mocap_client *c)
 {
 	uint64_t t0 = mocap_now_ns();
@@ -377,6 +423,7 @@ int main(int argc, char **argv)
 	const char *path = NULL, *pos[4] = {0};
 	int npos = 0;
 	bool json = false, all = false, world = false;
+	const char *name = NULL;
 	long count = 0;
 	for (int i = 1; i < argc; i++) {
 		const char *a = argv[i];
@@ -394,6 +441,12 @@ int main(int argc, char **argv)
 			path = argv[i];
 		} else if (!strncmp(a, "--socket=", 9)) {
 			path = a + 9;
+		} else if (!strcmp(a, "--name")) {
+			if (++i >= argc) {
+				fprintf(stderr, "mocapctl: --name needs a take name\n%s", usage);
+				return EXIT_USAGE;
+			}
+			name = argv[i];
 		} else if (!strcmp(a, "--json")) {
 			json = true;
 		} else if (!strcmp(a, "--all")) {
@@ -427,11 +480,16 @@ int main(int argc, char **argv)
 	bool known = !strcmp(cmd, "status") || !strcmp(cmd, "watch") || !strcmp(cmd, "rig") ||
 		     !strcmp(cmd, "skeleton") || !strcmp(cmd, "reload") || !strcmp(cmd, "ping") ||
 		     (!strcmp(cmd, "record") && npos >= 2 &&
-		      (!strcmp(pos[1], "start") || (!strcmp(pos[1], "stop") && npos == 2))) ||
+		      (!strcmp(pos[1], "start") ||
+		       ((!strcmp(pos[1], "stop") || !strcmp(pos[1], "status") || !strcmp(pos[1], "list")) && npos == 2))) ||
 		     (!strcmp(cmd, "actor") && npos == 3 && !strcmp(pos[1], "save"));
 	int max_pos = !strcmp(cmd, "record") || !strcmp(cmd, "actor") ? 3 : 1;
 	if (!known || npos > max_pos) {
 		fprintf(stderr, "mocapctl: %s '%s'\n%s", known ? "too many arguments for" : "unknown command", cmd, usage);
+		return EXIT_USAGE;
+	}
+	if (name && (strcmp(cmd, "record") || strcmp(pos[1], "start") || npos > 2)) {
+		fprintf(stderr, "mocapctl: --name goes with record start (instead of a PATH)\n");
 		return EXIT_USAGE;
 	}
 	if (((all || world || count) && strcmp(cmd, "watch")) || (json && strcmp(cmd, "watch") && strcmp(cmd, "status"))) {
@@ -464,9 +522,13 @@ int main(int argc, char **argv)
 	else if (!strcmp(cmd, "actor"))
 		rc = cmd_control(c, MOCAP_CMD_ACTOR_SAVE, pos[2], "actor save");
 	else if (!strcmp(pos[1], "start"))
-		rc = cmd_control(c, MOCAP_CMD_RECORD_START, npos > 2 ? pos[2] : "", "record start");
-	else
+		rc = cmd_control(c, MOCAP_CMD_RECORD_START, name ? name : npos > 2 ? pos[2] : "", "record start");
+	else if (!strcmp(pos[1], "stop"))
 		rc = cmd_control(c, MOCAP_CMD_RECORD_STOP, NULL, "record stop");
+	else if (!strcmp(pos[1], "status"))
+		rc = cmd_control(c, MOCAP_CMD_RECORD_STATUS, NULL, "record status");
+	else
+		rc = cmd_record_list(c);
 	mocap_close(c);
 	return rc;
 }

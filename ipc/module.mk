@@ -59,9 +59,11 @@ $(IPC_PC):
 		'Version: $(IPC_SO_VERSION)' 'Libs: -L$${libdir} -lmocap' 'Libs.private: -pthread -lm' \
 		'Cflags: -I$${includedir}' > $@
 
-$(BUILD)/bin/mocapctl: ipc/mocapctl.c $(IPC_CLIENT_LIB)
+# `record list` reads take.json files (record/, literal path: included later).
+$(BUILD)/bin/mocapctl: ipc/mocapctl.c $(IPC_CLIENT_LIB) $(BUILD)/libmocaprecord.a $(CORE_LIB)
 	@mkdir -p $(@D)
-	$(CC) $(CPPFLAGS) $(CFLAGS) -MMD -MP $< -o $@ $(LDFLAGS) $(IPC_CLIENT_LIB) -lm
+	$(CC) $(CPPFLAGS) -Irecord $(CFLAGS) -MMD -MP $< -o $@ $(LDFLAGS) $(IPC_CLIENT_LIB) $(BUILD)/libmocaprecord.a \
+		$(CORE_LIB) -ljansson -lz -lm
 
 $(IPC_TESTPUB): ipc/mocap-testpub.c $(IPC_LINK_DEPS)
 	@mkdir -p $(@D)

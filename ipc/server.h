@@ -265,6 +265,8 @@ typedef enum {
 	MC_CONTROL_RECORD_START = 2,    /* argument: output path ("" = default) */
 	MC_CONTROL_RECORD_STOP = 3,
 	MC_CONTROL_ACTOR_SAVE = 4,      /* argument: the actor's name */
+	MC_CONTROL_RECORD_STATUS = 5,   /* the reply's message: the take in progress or the last one */
+	MC_CONTROL_RECORD_LIST = 6,     /* the reply's message: the directory takes go to */
 } mc_control_command;
 
 typedef struct {

@@ -203,7 +203,7 @@ static void test_structure_errors(void)
 	expect_error(CAM NOTRACK "iteratons = 5\n", "mocapd.conf:5: [tracker] iteratons: unknown key");
 	expect_error("[daemon]\nplugins = /x\n" CAM NOTRACK, "mocapd.conf:2: [daemon] plugins: unknown key");
 	expect_error("[deamon]\n" CAM NOTRACK,
-		     "mocapd.conf:1: unknown section [deamon] (expected [daemon], [camera NAME], [tracker], [socket], [detector] or [network])");
+		     "mocapd.conf:1: unknown section [deamon] (expected [daemon], [camera NAME], [tracker], [socket], [detector], [network] or [record])");
 	expect_error("log_level = info\n" CAM NOTRACK,
 		     "mocapd.conf:1: log_level: key outside any section (start with [daemon])");
 	expect_error(CAM NOTRACK "enabled = true\n",

@@ -1,0 +1,545 @@
+/* recorder: the recording thread (recorder.h, docs/RECORDING.md). */
+#include "recorder.h"
+
+#include "base/mc_time.h"
+#include "frame_ring.h"
+#include "log.h"
+
+#include <errno.h>
+#include <limits.h>
+#include <pthread.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <time.h>
+
+#define POSE_QUEUE 64   /* poses waiting for the thread (~0.5 MB) */
+#define FRAME_QUEUE 512 /* frame references waiting: the rings hold the bytes */
+
+typedef struct {
+	int cam;
+	uint64_t generation;
+	mc_ring_meta meta;
+} frame_ref;
+
+struct mcd_recorder {
+	mcd_record_config cfg;
+	char config_file[PATH_MAX], rig[PATH_MAX], model[PATH_MAX], actor[PATH_MAX];
+	int ncams;
+	mcd_camera *cams[MC_MAX_CAMERAS];
+	bool have_def;
+	take_def def;
+
+	pthread_t thread;
+	bool thread_started;
+	pthread_mutex_t lock;
+	pthread_cond_t wake, done;
+	bool quit;
+
+	/* Queues, under lock. */
+	take_pose *poses;
+	int pose_head, pose_count;
+	frame_ref frames[FRAME_QUEUE];
+	int frame_head, frame_count;
+
+	/* The take.  `active`, `info` and `last` under lock; the files are the
+	 * thread's once started. */
+	bool active, stop_requested;
+	char dir[PATH_MAX];
+	take_info info;
+	char last[PATH_MAX + 400]; /* what the last take ended with */
+	take_file poses_file;
+	take_file cam_files[MC_MAX_CAMERAS];
+	uint64_t last_seq;
+	int64_t realtime_offset_ns; /* CLOCK_REALTIME - CLOCK_MONOTONIC at the start */
+	uint64_t next_sync_ns;
+
+	uint8_t *buf; /* frame bytes copied out of a ring (thread only) */
+	size_t cap;
+	uint8_t pose_buf[64 + 64 * TAKE_MAX_JOINTS];
+};
+
+void mcd_take_def_from_model(const mc_model *model, uint32_t id, take_def *def)
+{
+	memset(def, 0, sizeof(*def));
+	def->id = id;
+	def->njoints = model->njoints;
+	for (int j = 0; j < model->njoints; j++) {
+		snprintf(def->joints[j].name, sizeof(def->joints[j].name), "%s", model->joints[j].name);
+		def->joints[j].parent = model->joints[j].parent;
+		double s = model->bone_scale[j] > 0 ? model->bone_scale[j] : 1.0;
+		def->joints[j].offset[0] = model->joints[j].offset.x * s;
+		def->joints[j].offset[1] = model->joints[j].offset.y * s;
+		def->joints[j].offset[2] = model->joints[j].offset.z * s;
+	}
+}
+
+static uint64_t realtime_ns(void)
+{
+	struct timespec ts;
+	clock_gettime(CLOCK_REALTIME, &ts);
+	return (uint64_t)ts.tv_sec * 1000000000ull + (uint64_t)ts.tv_nsec;
+}
+
+static uint64_t take_bytes(const mcd_recorder *r)
+{
+	uint64_t n = r->poses_file.bytes;
+	for (int c = 0; c < r->ncams; c++)
+		n += r->cam_files[c].bytes;
+	return n;
+}
+
+/* ---- starting ---- */
+
+static bool good_name(const char *name)
+{
+	if (!name[0] || name[0] == '.' || strlen(name) >= TAKE_NAME_MAX)
+		return false;
+	for (const char *p = name; *p; p++)
+		if (!((*p >= 'a' && *p <= 'z') || (*p >= 'A' && *p <= 'Z') || (*p >= '0' && *p <= '9') || *p == '.' ||
+		      *p == '_' || *p == '-'))
+			return false;
+	return true;
+}
+
+/* mkdir -p for the [record] directory. */
+static int make_dirs(const char *path, mc_err *err)
+{
+	char p[PATH_MAX];
+	snprintf(p, sizeof(p), "%s", path);
+	for (char *s = p + 1; *s; s++) {
+		if (*s != '/')
+			continue;
+		*s = 0;
+		if (mkdir(p, 0750) < 0 && errno != EEXIST)
+			return mc_err_set(err, "%s: %s", p, strerror(errno));
+		*s = '/';
+	}
+	if (mkdir(p, 0750) < 0 && errno != EEXIST)
+		return mc_err_set(err, "%s: %s", p, strerror(errno));
+	return 0;
+}
+
+/* The take's directory from the request: a name in [record] directory or
+ * an absolute path; it must not exist. */
+static int take_dir(mcd_recorder *r, const char *name, mc_err *err)
+{
+	char made[TAKE_NAME_MAX];
+	if (!name[0]) {
+		time_t now = time(NULL);
+		struct tm tm;
+		localtime_r(&now, &tm);
+		strftime(made, sizeof(made), "take-%Y%m%d-%H%M%S", &tm);
+		name = made;
+	}
+	if (name[0] == '/') {
+		snprintf(r->dir, sizeof(r->dir), "%s", name);
+	} else {
+		if (!good_name(name))
+			return mc_err_set(err, "'%s': a take name is letters, digits, '.', '_' and '-' (or an absolute path)",
+					  name);
+		if (make_dirs(r->cfg.directory, err) < 0)
+			return mc_err_prefix(err, "[record] directory");
+		if (strlen(r->cfg.directory) + 1 + strlen(name) >= sizeof(r->dir))
+			return mc_err_set(err, "[record] directory: too long a path");
+		snprintf(r->dir, sizeof(r->dir), "%.3000s/%.127s", r->cfg.directory, name);
+	}
+	if (mkdir(r->dir, 0750) < 0)
+		return mc_err_set(err, "%s: %s", r->dir, errno == EEXIST ? "exists already (takes are never overwritten)"
+								: strerror(errno));
+	const char *base = strrchr(r->dir, '/');
+	snprintf(r->info.name, sizeof(r->info.name), "%.127s", base ? base + 1 : r->dir);
+	return 0;
+}
+
+static int open_files(mcd_recorder *r, mc_err *err)
+{
+	char path[PATH_MAX + 96];
+	for (int c = 0; c < MC_MAX_CAMERAS; c++)
+		r->cam_files[c].fd = -1;
+	r->poses_file.fd = -1;
+	if (r->have_def) {
+		snprintf(path, sizeof(path), "%s/poses.mcr", r->dir);
+		if (take_file_create(&r->poses_file, path, err) < 0)
+			return -1;
+		size_t n = take_encode_def(&r->def, r->pose_buf, sizeof(r->pose_buf));
+		if (take_file_append(&r->poses_file, TAKE_DEF, r->pose_buf, n, NULL, 0, mc_now_ns(), err) < 0)
+			return -1;
+	}
+	r->info.ncams = r->ncams;
+	for (int c = 0; c < r->ncams; c++) {
+		snprintf(r->info.cams[c], sizeof(r->info.cams[c]), "%s", mcd_camera_name(r->cams[c]));
+		snprintf(path, sizeof(path), "%s/cam-%s.mcr", r->dir, r->info.cams[c]);
+		if (r->cfg.frames && take_file_create(&r->cam_files[c], path, err) < 0)
+			return -1;
+	}
+	return 0;
+}
+
+static void close_files(mcd_recorder *r)
+{
+	take_file_close(&r->poses_file);
+	for (int c = 0; c < r->ncams; c++)
+		take_file_close(&r->cam_files[c]);
+}
+
+int mcd_recorder_start(mcd_recorder *r, const char *name, char *msg, size_t cap)
+{
+	mc_err err = {""};
+	pthread_mutex_lock(&r->lock);
+	if (r->active) {
+		snprintf(msg, cap, "already recording %s", r->dir);
+		pthread_mutex_unlock(&r->lock);
+		return -1;
+	}
+	memset(&r->info, 0, sizeof(r->info));
+	int rc = take_dir(r, name ? name : "", &err);
+	if (rc == 0) {
+		r->info.start_monotonic_ns = mc_now_ns();
+		r->info.start_realtime_ns = realtime_ns();
+		r->realtime_offset_ns = (int64_t)(r->info.start_realtime_ns - r->info.start_monotonic_ns);
+		rc = open_files(r, &err);
+		if (rc == 0)
+			rc = take_copy_file(r->config_file, r->dir, "mocapd.conf", &err) ||
+			     take_copy_file(r->rig, r->dir, "rig.json", &err) ||
+			     take_copy_file(r->model, r->dir, "model.json", &err) ||
+			     take_copy_file(r->actor, r->dir, "actor.json", &err) ||
+			     take_info_write(r->dir, &r->info, &err);
+		if (rc != 0)
+			close_files(r);
+	}
+	if (rc != 0) {
+		snprintf(msg, cap, "cannot record: %s", err.msg);
+	} else {
+		r->active = true;
+		r->stop_requested = false;
+		r->pose_count = r->frame_count = 0; /* nothing from before the start */
+		r->last_seq = 0;
+		r->next_sync_ns = mc_now_ns() + (uint64_t)(r->cfg.sync_ms * 1e6);
+		snprintf(msg, cap, "recording %s", r->dir);
+		mcd_info("record: %s", msg);
+	}
+	pthread_mutex_unlock(&r->lock);
+	return rc == 0 ? 0 : -1;
+}
+
+/* ---- the thread ---- */
+
+/* Ends the take: files synced and closed, take.json final.  Under lock. */
+static void finish(mcd_recorder *r, const char *reason)
+{
+	mc_err err = {""};
+	bool synced = take_file_sync(&r->poses_file, &err) == 0;
+	for (int c = 0; c < r->ncams; c++)
+		synced = take_file_sync(&r->cam_files[c], &err) == 0 && synced;
+	r->info.bytes = take_bytes(r);
+	close_files(r);
+	r->info.stop_realtime_ns = realtime_ns();
+	r->info.complete = true;
+	snprintf(r->info.stop_reason, sizeof(r->info.stop_reason), "%s", reason);
+	bool written = synced && take_info_write(r->dir, &r->info, &err) == 0;
+	double secs = (double)(r->info.stop_realtime_ns - r->info.start_realtime_ns) * 1e-9;
+	snprintf(r->last, sizeof(r->last), "last take %s: %s after %.1f s, %llu poses%s%s", r->dir, reason, secs,
+		 (unsigned long long)r->info.poses, written ? "" : "; take.json not final: ", written ? "" : err.msg);
+	r->active = false;
+	if (strncmp(reason, "error", 5) == 0)
+		mcd_error("record: %s; tracking goes on", r->last);
+	else
+		mcd_info("record: %s", r->last);
+	pthread_cond_broadcast(&r->done);
+}
+
+static int write_pose(mcd_recorder *r, take_pose *p, mc_err *err)
+{
+	if (!r->have_def)
+		return 0;
+	uint64_t now = mc_now_ns();
+	if (r->last_seq && p->seq > r->last_seq + 1) {
+		size_t n = take_encode_gap(r->last_seq + 1, p->seq - r->last_seq - 1, r->pose_buf, sizeof(r->pose_buf));
+		if (take_file_append(&r->poses_file, TAKE_GAP, r->pose_buf, n, NULL, 0, now, err) < 0)
+			return -1;
+		r->info.pose_gaps += p->seq - r->last_seq - 1;
+	}
+	r->last_seq = p->seq;
+	p->realtime_ns = (uint64_t)((int64_t)p->capture_ns + r->realtime_offset_ns);
+	size_t n = take_encode_pose(p, r->pose_buf, sizeof(r->pose_buf));
+	if (take_file_append(&r->poses_file, TAKE_SKELETON, r->pose_buf, n, NULL, 0, now, err) < 0)
+		return -1;
+	r->info.poses++;
+	return 0;
+}
+
+static int write_frame(mcd_recorder *r, const frame_ref *f, mc_err *err)
+{
+	int c = f->cam;
+	if (r->cam_files[c].fd < 0)
+		return 0;
+	mc_ring_meta m;
+	mc_err rerr;
+	int got = mcd_frame_ring_read(mcd_camera_ring(r->cams[c]), f->generation, f->meta.sequence, &r->buf, &r->cap, &m,
+				      &rerr);
+	if (got != MC_RING_FRAME) { /* overwritten before we got to it */
+		r->info.frame_drops[c]++;
+		return 0;
+	}
+	take_frame_meta tm = {
+		.sequence = m.sequence,
+		.capture_ns = m.timestamp_ns,
+		.realtime_ns = (uint64_t)((int64_t)m.timestamp_ns + r->realtime_offset_ns),
+		.driver_sequence = m.driver_sequence,
+		.pixfmt = m.pixfmt,
+		.width = m.width,
+		.height = m.height,
+		.stride = m.stride,
+		.flags = m.flags,
+	};
+	uint8_t head[TAKE_FRAME_META_SIZE];
+	take_encode_frame_meta(&tm, head);
+	if (take_file_append(&r->cam_files[c], TAKE_FRAME, head, sizeof(head), r->buf, (size_t)m.bytesused, mc_now_ns(),
+			     err) < 0)
+		return -1;
+	r->info.frames[c]++;
+	return 0;
+}
+
+/* Limits and the periodic sync; a reason to stop, or NULL. */
+static const char *due(mcd_recorder *r, char *why, size_t cap, mc_err *err)
+{
+	uint64_t now = mc_now_ns();
+	if (now >= r->next_sync_ns) {
+		r->next_sync_ns = now + (uint64_t)(r->cfg.sync_ms * 1e6);
+		if (take_file_sync(&r->poses_file, err) < 0)
+			return NULL;
+		for (int c = 0; c < r->ncams; c++)
+			if (take_file_sync(&r->cam_files[c], err) < 0)
+				return NULL;
+	}
+	double secs = (double)(now - r->info.start_monotonic_ns) * 1e-9;
+	if (r->cfg.max_seconds > 0 && secs >= r->cfg.max_seconds) {
+		snprintf(why, cap, "limit: [record] max_seconds = %g reached", r->cfg.max_seconds);
+		return why;
+	}
+	if (r->cfg.max_mb > 0 && (double)take_bytes(r) >= r->cfg.max_mb * 1e6) {
+		snprintf(why, cap, "limit: [record] max_mb = %g reached", r->cfg.max_mb);
+		return why;
+	}
+	return NULL;
+}
+
+/* Takes one queued item (a pose first: they are small and what labs
+ * need most) into *pose or *frame; 1 pose, 2 frame, 0 none.  Under lock. */
+static int pop(mcd_recorder *r, take_pose *pose, frame_ref *frame)
+{
+	if (r->pose_count) {
+		*pose = r->poses[r->pose_head];
+		r->pose_head = (r->pose_head + 1) % POSE_QUEUE;
+		r->pose_count--;
+		return 1;
+	}
+	if (r->frame_count) {
+		*frame = r->frames[r->frame_head];
+		r->frame_head = (r->frame_head + 1) % FRAME_QUEUE;
+		r->frame_count--;
+		return 2;
+	}
+	return 0;
+}
+
+static void *recorder_main(void *arg)
+{
+	mcd_recorder *r = arg;
+	static take_pose pose; /* one recorder per process */
+	frame_ref frame;
+	pthread_mutex_lock(&r->lock);
+	while (!r->quit || r->active) { /* a take in progress is drained and finished first */
+		int what = r->active ? pop(r, &pose, &frame) : 0;
+		if (!what) {
+			if (r->active && (r->stop_requested || r->quit)) {
+				finish(r, r->quit ? "stopped: mocapd is stopping" : "stopped by request");
+				continue;
+			}
+			if (r->quit)
+				break;
+			struct timespec until;
+			clock_gettime(CLOCK_REALTIME, &until);
+			until.tv_nsec += 50 * 1000000L;
+			if (until.tv_nsec >= 1000000000L) {
+				until.tv_sec++;
+				until.tv_nsec -= 1000000000L;
+			}
+			pthread_cond_timedwait(&r->wake, &r->lock, &until);
+		}
+		if (!r->active)
+			continue;
+		/* Files are the thread's: write without the lock. */
+		pthread_mutex_unlock(&r->lock);
+		mc_err err = {""};
+		char why[160];
+		int rc = what == 1 ? write_pose(r, &pose, &err) : what == 2 ? write_frame(r, &frame, &err) : 0;
+		const char *stop = rc == 0 ? due(r, why, sizeof(why), &err) : NULL;
+		pthread_mutex_lock(&r->lock);
+		if (rc < 0 || err.msg[0]) {
+			char reason[600];
+			snprintf(reason, sizeof(reason), "error: %s", err.msg);
+			finish(r, reason);
+		} else if (stop)
+			finish(r, stop);
+	}
+	pthread_mutex_unlock(&r->lock);
+	return NULL;
+}
+
+/* ---- from the other threads ---- */
+
+void mcd_recorder_push_frame(mcd_recorder *r, int cam, uint64_t generation, const mc_ring_meta *meta)
+{
+	if (!r || !r->cfg.frames)
+		return;
+	pthread_mutex_lock(&r->lock);
+	if (r->active && !r->stop_requested && !r->quit) {
+		if (r->frame_count == FRAME_QUEUE)
+			r->info.frame_drops[cam]++;
+		else {
+			r->frames[(r->frame_head + r->frame_count++) % FRAME_QUEUE] = (frame_ref){cam, generation, *meta};
+			pthread_cond_signal(&r->wake);
+		}
+	}
+	pthread_mutex_unlock(&r->lock);
+}
+
+void mcd_recorder_push_pose(mcd_recorder *r, const mcd_output *o, uint64_t seq)
+{
+	if (!r || !r->have_def || !o->tracked)
+		return;
+	pthread_mutex_lock(&r->lock);
+	/* A full queue drops the pose: the gap shows in the take. */
+	if (r->active && !r->stop_requested && !r->quit && r->pose_count < POSE_QUEUE) {
+		take_pose *p = &r->poses[(r->pose_head + r->pose_count++) % POSE_QUEUE];
+		p->seq = seq;
+		p->capture_ns = o->timestamp_ns;
+		p->state = (int)o->sk.state;
+		p->def_id = r->def.id;
+		p->njoints = o->sk.njoints < TAKE_MAX_JOINTS ? o->sk.njoints : TAKE_MAX_JOINTS;
+		for (int j = 0; j < p->njoints; j++) {
+			const mc_skeleton_joint *s = &o->sk.joints[j];
+			take_joint *t = &p->joints[j];
+			t->position[0] = s->position.x;
+			t->position[1] = s->position.y;
+			t->position[2] = s->position.z;
+			t->orientation[0] = s->orientation.w;
+			t->orientation[1] = s->orientation.x;
+			t->orientation[2] = s->orientation.y;
+			t->orientation[3] = s->orientation.z;
+			t->confidence = s->confidence;
+		}
+		pthread_cond_signal(&r->wake);
+	}
+	pthread_mutex_unlock(&r->lock);
+}
+
+/* ---- main thread ---- */
+
+int mcd_recorder_stop(mcd_recorder *r, char *msg, size_t cap)
+{
+	pthread_mutex_lock(&r->lock);
+	if (!r->active) {
+		snprintf(msg, cap, "not recording");
+		pthread_mutex_unlock(&r->lock);
+		return -1;
+	}
+	r->stop_requested = true;
+	pthread_cond_signal(&r->wake);
+	while (r->active)
+		pthread_cond_wait(&r->done, &r->lock);
+	snprintf(msg, cap, "%s", r->last);
+	pthread_mutex_unlock(&r->lock);
+	return 0;
+}
+
+bool mcd_recorder_active(mcd_recorder *r)
+{
+	if (!r)
+		return false;
+	pthread_mutex_lock(&r->lock);
+	bool a = r->active;
+	pthread_mutex_unlock(&r->lock);
+	return a;
+}
+
+void mcd_recorder_status(mcd_recorder *r, char *msg, size_t cap)
+{
+	pthread_mutex_lock(&r->lock);
+	if (r->active) {
+		uint64_t frames = 0, drops = 0;
+		for (int c = 0; c < r->ncams; c++) {
+			frames += r->info.frames[c];
+			drops += r->info.frame_drops[c];
+		}
+		snprintf(msg, cap, "recording %s: %.1f s, %llu poses (%llu missed), %llu frames (%llu dropped), %.1f MB",
+			 r->dir, (double)(mc_now_ns() - r->info.start_monotonic_ns) * 1e-9,
+			 (unsigned long long)r->info.poses, (unsigned long long)r->info.pose_gaps,
+			 (unsigned long long)frames, (unsigned long long)drops, (double)take_bytes(r) * 1e-6);
+	} else
+		snprintf(msg, cap, "not recording%s%s%s", r->last[0] ? " (" : "", r->last, r->last[0] ? ")" : "");
+	pthread_mutex_unlock(&r->lock);
+}
+
+const char *mcd_recorder_directory(const mcd_recorder *r)
+{
+	return r->cfg.directory;
+}
+
+mcd_recorder *mcd_recorder_create(const mcd_recorder_setup *s, mc_err *err)
+{
+	mcd_recorder *r = calloc(1, sizeof(*r));
+	if (!r || !(r->poses = calloc(POSE_QUEUE, sizeof(take_pose)))) {
+		free(r);
+		mc_err_set(err, "out of memory");
+		return NULL;
+	}
+	r->cfg = *s->cfg;
+	snprintf(r->config_file, sizeof(r->config_file), "%s", s->daemon_cfg->file);
+	snprintf(r->rig, sizeof(r->rig), "%s", s->daemon_cfg->tracker.rig);
+	snprintf(r->model, sizeof(r->model), "%s", s->daemon_cfg->tracker.model);
+	snprintf(r->actor, sizeof(r->actor), "%s", s->daemon_cfg->tracker.actor);
+	r->ncams = s->ncams;
+	for (int c = 0; c < s->ncams; c++)
+		r->cams[c] = s->cams[c];
+	if (s->def) {
+		r->def = *s->def;
+		r->have_def = true;
+	}
+	r->poses_file.fd = -1;
+	for (int c = 0; c < MC_MAX_CAMERAS; c++)
+		r->cam_files[c].fd = -1;
+	pthread_mutex_init(&r->lock, NULL);
+	pthread_cond_init(&r->wake, NULL);
+	pthread_cond_init(&r->done, NULL);
+	if (pthread_create(&r->thread, NULL, recorder_main, r) != 0) {
+		mc_err_set(err, "recorder thread: %s", strerror(errno));
+		mcd_recorder_destroy(r);
+		return NULL;
+	}
+	r->thread_started = true;
+	return r;
+}
+
+void mcd_recorder_destroy(mcd_recorder *r)
+{
+	if (!r)
+		return;
+	if (r->thread_started) {
+		pthread_mutex_lock(&r->lock);
+		r->quit = true;
+		pthread_cond_signal(&r->wake);
+		pthread_mutex_unlock(&r->lock);
+		pthread_join(r->thread, NULL);
+	}
+	pthread_cond_destroy(&r->done);
+	pthread_cond_destroy(&r->wake);
+	pthread_mutex_destroy(&r->lock);
+	free(r->buf);
+	free(r->poses);
+	free(r);
+}

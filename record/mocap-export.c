@@ -1,0 +1,338 @@
+/* mocap-export: a recorded take (docs/RECORDING.md) as BVH, CSV or JSON
+ * joint positions, or one camera's frames as image files.
+ *
+ *   mocap-export --bvh OUT.bvh TAKE_DIR
+ *   mocap-export --csv OUT.csv TAKE_DIR
+ *   mocap-export --json OUT.json TAKE_DIR
+ *   mocap-export --frames OUT_DIR --camera NAME TAKE_DIR
+ *
+ * Only whole records are read: a take cut by a crash exports up to its last
+ * whole frame (and says so). */
+#include "base/mc_math.h"
+#include "image/mc_image.h"
+#include "image/mc_pixfmt.h"
+#include "mc_install_paths.h" /* generated: MC_VERSION */
+#include "take.h"
+
+#include <errno.h>
+#include <getopt.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+
+static void fail(int code, const char *fmt, ...)
+{
+	va_list ap;
+	va_start(ap, fmt);
+	fputs("mocap-export: ", stderr);
+	vfprintf(stderr, fmt, ap);
+	fputc('\n', stderr);
+	va_end(ap);
+	exit(code);
+}
+
+static void usage(FILE *f)
+{
+	fprintf(f, "usage: mocap-export (--bvh OUT.bvh | --csv OUT.csv | --json OUT.json |\n"
+		   "                     --frames OUT_DIR --camera NAME) TAKE_DIR\n"
+		   "Exports a take recorded by mocapd (docs/RECORDING.md).\n"
+		   "\n"
+		   "  --bvh FILE       the skeleton as BVH: the HIERARCHY from the take's skeleton\n"
+		   "                   (centimetres), one line of rotations per pose\n"
+		   "  --csv FILE       joint positions (metres) and confidences, a row per pose\n"
+		   "  --json FILE      the same as JSON\n"
+		   "  --frames DIR     one camera's frames as image files (JPEG as recorded,\n"
+		   "                   other formats encoded as JPEG), named by sequence\n"
+		   "  --camera NAME    the camera for --frames\n"
+		   "  -h, --help       this text\n"
+		   "  -V, --version    the version\n");
+}
+
+static FILE *open_out(const char *path)
+{
+	FILE *f = fopen(path, "w");
+	if (!f)
+		fail(1, "%s: %s", path, strerror(errno));
+	return f;
+}
+
+static void close_out(FILE *f, const char *path)
+{
+	if (ferror(f) | (fclose(f) != 0))
+		fail(1, "%s: write error", path);
+}
+
+/* ---- BVH ---- */
+
+static int nchildren(const take_def *d, int j)
+{
+	int n = 0;
+	for (int k = j + 1; k < d->njoints; k++)
+		n += d->joints[k].parent == j;
+	return n;
+}
+
+static void indent(FILE *f, int depth)
+{
+	for (int i = 0; i < depth; i++)
+		fputc('\t', f);
+}
+
+/* Joint j and its subtree; rest offsets in centimetres. */
+static void bvh_joint(FILE *f, const take_def *d, int j, int depth)
+{
+	const take_joint_def *jd = &d->joints[j];
+	indent(f, depth);
+	fprintf(f, "%s %s\n", jd->parent < 0 ? "ROOT" : "JOINT", jd->name);
+	indent(f, depth);
+	fprintf(f, "{\n");
+	indent(f, depth + 1);
+	fprintf(f, "OFFSET %.6f %.6f %.6f\n", jd->offset[0] * 100, jd->offset[1] * 100, jd->offset[2] * 100);
+	indent(f, depth + 1);
+	if (jd->parent < 0)
+		fprintf(f, "CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation\n");
+	else
+		fprintf(f, "CHANNELS 3 Zrotation Xrotation Yrotation\n");
+	for (int k = j + 1; k < d->njoints; k++)
+		if (d->joints[k].parent == j)
+			bvh_joint(f, d, k, depth + 1);
+	if (nchildren(d, j) == 0) {
+		indent(f, depth + 1);
+		fprintf(f, "End Site\n");
+		indent(f, depth + 1);
+		fprintf(f, "{\n");
+		indent(f, depth + 2);
+		fprintf(f, "OFFSET 0.000000 0.000000 0.000000\n");
+		indent(f, depth + 1);
+		fprintf(f, "}\n");
+	}
+	indent(f, depth);
+	fprintf(f, "}\n");
+}
+
+/* R = Rz(a) Rx(b) Ry(c), in degrees: the BVH channel order written above. */
+static void euler_zxy(mc_mat3 R, double *a, double *b, double *c)
+{
+	double sx = fmax(-1, fmin(1, R.m[2][1]));
+	*b = asin(sx);
+	if (fabs(sx) < 1 - 1e-9) {
+		*c = atan2(-R.m[2][0], R.m[2][2]);
+		*a = atan2(-R.m[0][1], R.m[1][1]);
+	} else { /* gimbal lock: the y turn folds into z */
+		*c = 0;
+		*a = atan2(R.m[1][0], R.m[0][0]);
+	}
+	*a *= 180 / M_PI;
+	*b *= 180 / M_PI;
+	*c *= 180 / M_PI;
+}
+
+static mc_mat3 joint_rot(const take_pose *p, int j)
+{
+	const double *q = p->joints[j].orientation;
+	return mc_quat_to_m3(mc_quat_normalize((mc_quat){q[0], q[1], q[2], q[3]}));
+}
+
+/* The channels of one pose, in HIERARCHY order (depth first from the root). */
+static void bvh_values(FILE *f, const take_def *d, const take_pose *p, int j)
+{
+	mc_mat3 r = joint_rot(p, j);
+	if (d->joints[j].parent < 0)
+		fprintf(f, "%.6f %.6f %.6f", p->joints[j].position[0] * 100, p->joints[j].position[1] * 100,
+			p->joints[j].position[2] * 100);
+	else /* relative to the parent: the rest pose has every frame aligned */
+		r = mc_m3_mul(mc_m3_transpose(joint_rot(p, d->joints[j].parent)), r);
+	double a, b, c;
+	euler_zxy(r, &a, &b, &c);
+	fprintf(f, " %.6f %.6f %.6f", a, b, c);
+	for (int k = j + 1; k < d->njoints; k++)
+		if (d->joints[k].parent == j)
+			bvh_values(f, d, p, k);
+}
+
+static double frame_time(const take_poses *t)
+{
+	if (t->nposes < 2)
+		return 1.0 / 30;
+	double span = (double)(t->poses[t->nposes - 1].capture_ns - t->poses[0].capture_ns) * 1e-9;
+	return span > 0 ? span / (t->nposes - 1) : 1.0 / 30;
+}
+
+static void export_bvh(const take_poses *t, const char *path)
+{
+	FILE *f = open_out(path);
+	fprintf(f, "HIERARCHY\n");
+	for (int j = 0; j < t->def.njoints; j++)
+		if (t->def.joints[j].parent < 0)
+			bvh_joint(f, &t->def, j, 0);
+	fprintf(f, "MOTION\nFrames: %d\nFrame Time: %.6f\n", t->nposes, frame_time(t));
+	for (int i = 0; i < t->nposes; i++) {
+		for (int j = 0; j < t->def.njoints; j++)
+			if (t->def.joints[j].parent < 0)
+				bvh_values(f, &t->def, &t->poses[i], j);
+		fputc('\n', f);
+	}
+	close_out(f, path);
+}
+
+/* ---- CSV and JSON ---- */
+
+static void export_csv(const take_poses *t, const char *path)
+{
+	FILE *f = open_out(path);
+	fprintf(f, "seq,capture_ns,realtime_ns,state");
+	for (int j = 0; j < t->def.njoints; j++) {
+		const char *n = t->def.joints[j].name;
+		fprintf(f, ",%s_x,%s_y,%s_z,%s_confidence", n, n, n, n);
+	}
+	fputc('\n', f);
+	for (int i = 0; i < t->nposes; i++) {
+		const take_pose *p = &t->poses[i];
+		fprintf(f, "%llu,%llu,%llu,%d", (unsigned long long)p->seq, (unsigned long long)p->capture_ns,
+			(unsigned long long)p->realtime_ns, p->state);
+		for (int j = 0; j < p->njoints; j++)
+			fprintf(f, ",%.6f,%.6f,%.6f,%.3f", p->joints[j].position[0], p->joints[j].position[1],
+				p->joints[j].position[2], p->joints[j].confidence);
+		fputc('\n', f);
+	}
+	close_out(f, path);
+}
+
+static void export_json(const take_poses *t, const char *path)
+{
+	FILE *f = open_out(path);
+	fprintf(f, "{\"joints\": [");
+	for (int j = 0; j < t->def.njoints; j++)
+		fprintf(f, "%s{\"name\": \"%s\", \"parent\": %d}", j ? ", " : "", t->def.joints[j].name,
+			t->def.joints[j].parent);
+	fprintf(f, "],\n \"poses\": [\n");
+	for (int i = 0; i < t->nposes; i++) {
+		const take_pose *p = &t->poses[i];
+		fprintf(f, "  {\"seq\": %llu, \"capture_ns\": %llu, \"realtime_ns\": %llu, \"state\": %d, \"positions\": [",
+			(unsigned long long)p->seq, (unsigned long long)p->capture_ns, (unsigned long long)p->realtime_ns,
+			p->state);
+		for (int j = 0; j < p->njoints; j++)
+			fprintf(f, "%s[%.6f, %.6f, %.6f]", j ? ", " : "", p->joints[j].position[0], p->joints[j].position[1],
+				p->joints[j].position[2]);
+		fprintf(f, "], \"confidence\": [");
+		for (int j = 0; j < p->njoints; j++)
+			fprintf(f, "%s%.3f", j ? ", " : "", p->joints[j].confidence);
+		fprintf(f, "]}%s\n", i + 1 < t->nposes ? "," : "");
+	}
+	fprintf(f, " ],\n \"gap_frames\": %llu}\n", (unsigned long long)t->gap_frames);
+	close_out(f, path);
+}
+
+/* ---- frames ---- */
+
+static void write_file(const char *path, const void *data, size_t n)
+{
+	FILE *f = open_out(path);
+	fwrite(data, 1, n, f);
+	close_out(f, path);
+}
+
+static int export_frames(const char *take, const char *camera, const char *dir)
+{
+	char path[4300];
+	snprintf(path, sizeof(path), "%s/cam-%s.mcr", take, camera);
+	take_reader r;
+	mc_err err = {""};
+	if (take_reader_open(&r, path, &err) < 0)
+		fail(1, "%s (is '%s' one of the take's cameras? take.json lists them)", err.msg, camera);
+	if (mkdir(dir, 0755) < 0 && errno != EEXIST)
+		fail(1, "%s: %s", dir, strerror(errno));
+	mc_image_conv *conv = mc_image_conv_new(&err);
+	if (!conv)
+		fail(1, "%s", err.msg);
+	take_record_type type;
+	const uint8_t *p;
+	size_t n;
+	int count = 0;
+	while (take_reader_next(&r, &type, &p, &n, NULL) == 1) {
+		take_frame_meta m;
+		if (type != TAKE_FRAME || take_decode_frame_meta(p, n, &m) < 0)
+			continue;
+		const uint8_t *bytes = p + TAKE_FRAME_META_SIZE;
+		size_t nbytes = n - TAKE_FRAME_META_SIZE;
+		snprintf(path, sizeof(path), "%s/%s_%08llu.jpg", dir, camera, (unsigned long long)m.sequence);
+		if (m.pixfmt == MC_PIXFMT_MJPEG) {
+			write_file(path, bytes, nbytes);
+		} else {
+			size_t rgb_bytes = (size_t)m.width * m.height * 3;
+			uint8_t *rgb = malloc(rgb_bytes ? rgb_bytes : 1), *jpeg = NULL;
+			size_t jpeg_bytes = 0;
+			mc_image_frame fr = {.pixfmt = m.pixfmt, .width = m.width, .height = m.height, .stride = m.stride,
+					     .data = bytes, .bytes = nbytes};
+			if (!rgb || mc_image_to_rgb24(conv, &fr, rgb, rgb_bytes, &err) < 0 ||
+			    mc_image_encode_jpeg(conv, rgb, (int)m.width, (int)m.height, 95, &jpeg, &jpeg_bytes, &err) < 0)
+				fail(1, "%s: frame %llu: %s", camera, (unsigned long long)m.sequence, err.msg);
+			write_file(path, jpeg, jpeg_bytes);
+			free(rgb);
+			free(jpeg);
+		}
+		count++;
+	}
+	if (r.torn)
+		fprintf(stderr, "mocap-export: %s/cam-%s.mcr ends in a torn record (the take was cut): %d whole frames\n",
+			take, camera, count);
+	printf("mocap-export: %d frames of %s into %s\n", count, camera, dir);
+	mc_image_conv_free(conv);
+	take_reader_close(&r);
+	return 0;
+}
+
+int main(int argc, char **argv)
+{
+	const char *bvh = NULL, *csv = NULL, *json = NULL, *frames = NULL, *camera = NULL;
+	static const struct option opts[] = {
+		{"bvh", required_argument, NULL, 'b'},    {"csv", required_argument, NULL, 'c'},
+		{"json", required_argument, NULL, 'j'},   {"frames", required_argument, NULL, 'f'},
+		{"camera", required_argument, NULL, 'C'}, {"help", no_argument, NULL, 'h'},
+		{"version", no_argument, NULL, 'V'},      {NULL, 0, NULL, 0},
+	};
+	int o;
+	while ((o = getopt_long(argc, argv, "hV", opts, NULL)) != -1) {
+		switch (o) {
+		case 'b': bvh = optarg; break;
+		case 'c': csv = optarg; break;
+		case 'j': json = optarg; break;
+		case 'f': frames = optarg; break;
+		case 'C': camera = optarg; break;
+		case 'h': usage(stdout); return 0;
+		case 'V': printf("mocap-export %s\n", MC_VERSION); return 0;
+		default: usage(stderr); return 2;
+		}
+	}
+	if (optind + 1 != argc || (!bvh && !csv && !json && !frames) || (frames && !camera)) {
+		usage(stderr);
+		return 2;
+	}
+	const char *take = argv[optind];
+	mc_err err = {""};
+	take_info info;
+	if (take_info_read(take, &info, &err) < 0)
+		fail(1, "%s", err.msg);
+	if (frames)
+		export_frames(take, camera, frames);
+	if (!bvh && !csv && !json)
+		return 0;
+	take_poses t;
+	if (take_poses_load(take, &t, &err) < 0)
+		fail(1, "%s", err.msg);
+	if (t.torn)
+		fprintf(stderr, "mocap-export: %s/poses.mcr ends in a torn record (the take was cut): %d whole poses\n",
+			take, t.nposes);
+	if (bvh)
+		export_bvh(&t, bvh);
+	if (csv)
+		export_csv(&t, csv);
+	if (json)
+		export_json(&t, json);
+	printf("mocap-export: %d poses (%llu missed by the recorder) of %s%s\n", t.nposes,
+	       (unsigned long long)t.gap_frames, take, info.complete ? "" : " (not stopped cleanly)");
+	take_poses_free(&t);
+	return 0;
+}

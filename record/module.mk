@@ -1,0 +1,35 @@
+# record/: the take format (take.h: append-only record files with CRCs,
+# take.json), written by mocapd's recorder (daemon/recorder.c) and read by
+# mocap-export; docs/RECORDING.md.
+
+RECORD_LIB := $(BUILD)/libmocaprecord.a
+RECORD_OBJ := $(BUILD)/record/take.o $(BUILD)/record/take_info.o
+MOCAP_EXPORT := $(BUILD)/bin/mocap-export
+RECORD_TESTS := $(patsubst record/tests/%.c,$(BUILD)/record/tests/%,$(wildcard record/tests/test_*.c))
+RECORD_LINK := $(RECORD_LIB) $(CORE_LIB) $(CORE_LIBS) -lz
+
+LIBS += $(RECORD_LIB)
+BINS += $(MOCAP_EXPORT)
+TESTS += $(RECORD_TESTS)
+
+$(BUILD)/record/%.o: CPPFLAGS += -Irecord
+
+$(RECORD_LIB): $(RECORD_OBJ)
+	@rm -f $@
+	ar rcs $@ $^
+
+$(MOCAP_EXPORT): record/mocap-export.c $(RECORD_LIB) $(CORE_LIB) $(INSTALL_PATHS_H)
+	@mkdir -p $(@D)
+	$(CC) $(CPPFLAGS) -Irecord $(CFLAGS) -MMD -MP $< -o $@ $(LDFLAGS) $(RECORD_LINK)
+
+# The format's unit test; the end-to-end test runs mocapd on the bundled
+# clip, records, kills it, and exports (daemon harness, libmocap).
+$(BUILD)/record/tests/test_take: record/tests/test_take.c $(RECORD_LIB) $(CORE_LIB)
+	@mkdir -p $(@D) $(BUILD)/tests
+	$(CC) $(CPPFLAGS) -Irecord -Itests $(CFLAGS) -MMD -MP $< -o $@ $(LDFLAGS) $(RECORD_LINK)
+
+$(BUILD)/record/tests/test_recording: record/tests/test_recording.c $(RECORD_LIB) $(BUILD)/libmocap.a $(CORE_LIB) \
+		| $(MOCAP_EXPORT) $(BUILD)/bin/mocapd $(BUILD)/bin/mocapctl $(BUILD)/drivers/mocap-driver-files.so
+	@mkdir -p $(@D) $(BUILD)/tests
+	$(CC) $(CPPFLAGS) -Irecord -Iipc -Itests $(CFLAGS) -MMD -MP $< -o $@ $(LDFLAGS) $(RECORD_LIB) $(BUILD)/libmocap.a \
+		$(CORE_LIB) $(CORE_LIBS) -lz

@@ -1,0 +1,357 @@
+/* take: record files of a take (docs/RECORDING.md, "Record files"). */
+#include "take.h"
+
+#include <endian.h>
+#include <errno.h>
+#include <fcntl.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <sys/uio.h>
+#include <unistd.h>
+#include <zlib.h>
+
+/* ---- little-endian fields ---- */
+
+static uint8_t *put_u16(uint8_t *p, uint16_t v) { v = htole16(v); memcpy(p, &v, 2); return p + 2; }
+static uint8_t *put_u32(uint8_t *p, uint32_t v) { v = htole32(v); memcpy(p, &v, 4); return p + 4; }
+static uint8_t *put_u64(uint8_t *p, uint64_t v) { v = htole64(v); memcpy(p, &v, 8); return p + 8; }
+static uint8_t *put_f64(uint8_t *p, double d) { uint64_t v; memcpy(&v, &d, 8); return put_u64(p, v); }
+static uint8_t *put_f32(uint8_t *p, float f) { uint32_t v; memcpy(&v, &f, 4); return put_u32(p, v); }
+static uint16_t get_u16(const uint8_t *p) { uint16_t v; memcpy(&v, p, 2); return le16toh(v); }
+static uint32_t get_u32(const uint8_t *p) { uint32_t v; memcpy(&v, p, 4); return le32toh(v); }
+static uint64_t get_u64(const uint8_t *p) { uint64_t v; memcpy(&v, p, 8); return le64toh(v); }
+static double get_f64(const uint8_t *p) { uint64_t v = get_u64(p); double d; memcpy(&d, &v, 8); return d; }
+static float get_f32(const uint8_t *p) { uint32_t v = get_u32(p); float f; memcpy(&f, &v, 4); return f; }
+
+/* ---- writing ---- */
+
+int take_file_create(take_file *f, const char *path, mc_err *err)
+{
+	memset(f, 0, sizeof(*f));
+	snprintf(f->path, sizeof(f->path), "%s", path);
+	f->fd = open(path, O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0640);
+	if (f->fd < 0)
+		return mc_err_set(err, "%s: %s", path, strerror(errno));
+	return 0;
+}
+
+int take_file_append(take_file *f, take_record_type type, const void *a, size_t an, const void *b, size_t bn,
+		     uint64_t now_ns, mc_err *err)
+{
+	size_t size = an + bn;
+	if (f->fd < 0)
+		return mc_err_set(err, "%s: closed", f->path);
+	if (size > TAKE_MAX_PAYLOAD)
+		return mc_err_set(err, "%s: a record of %zu bytes (at most %u)", f->path, size, TAKE_MAX_PAYLOAD);
+	uint8_t head[TAKE_HEADER_SIZE], *p = head;
+	p = put_u32(p, TAKE_RECORD_MAGIC);
+	p = put_u16(p, (uint16_t)type);
+	p = put_u16(p, 0);
+	p = put_u32(p, (uint32_t)size);
+	uLong crc = crc32(0L, a, (uInt)an);
+	p = put_u32(p, (uint32_t)(bn ? crc32(crc, b, (uInt)bn) : crc));
+	put_u64(p, now_ns);
+	struct iovec iov[3] = {{head, sizeof(head)}, {(void *)a, an}, {(void *)b, bn}};
+	size_t want = sizeof(head) + size, done = 0;
+	while (done < want) {
+		ssize_t n = writev(f->fd, iov, 3);
+		if (n < 0 && errno == EINTR)
+			continue;
+		if (n <= 0) {
+			int e = n < 0 ? errno : ENOSPC;
+			/* Cut back a partial record: the file stays whole records. */
+			if (done > 0 && ftruncate(f->fd, (off_t)f->bytes) == 0)
+				lseek(f->fd, (off_t)f->bytes, SEEK_SET);
+			return mc_err_set(err, "%s: %s", f->path, strerror(e));
+		}
+		done += (size_t)n;
+		for (int i = 0; i < 3; i++) { /* skip what was written */
+			size_t k = (size_t)n < iov[i].iov_len ? (size_t)n : iov[i].iov_len;
+			iov[i].iov_base = (uint8_t *)iov[i].iov_base + k;
+			iov[i].iov_len -= k;
+			n -= (ssize_t)k;
+		}
+	}
+	f->bytes += want;
+	return 0;
+}
+
+int take_file_sync(take_file *f, mc_err *err)
+{
+	if (f->fd < 0 || f->synced == f->bytes)
+		return 0;
+	if (fdatasync(f->fd) < 0)
+		return mc_err_set(err, "%s: fdatasync: %s", f->path, strerror(errno));
+	f->synced = f->bytes;
+	return 0;
+}
+
+void take_file_close(take_file *f)
+{
+	if (f->fd >= 0)
+		close(f->fd);
+	f->fd = -1;
+}
+
+/* ---- payloads ---- */
+
+#define DEF_HEAD 8
+#define DEF_JOINT (4 + 24 + TAKE_JOINT_NAME)
+#define POSE_HEAD 40
+#define POSE_JOINT 64
+
+size_t take_encode_def(const take_def *d, uint8_t *buf, size_t cap)
+{
+	size_t need = DEF_HEAD + (size_t)d->njoints * DEF_JOINT;
+	if (cap < need || d->njoints < 0 || d->njoints > TAKE_MAX_JOINTS)
+		return 0;
+	uint8_t *p = put_u32(buf, d->id);
+	p = put_u16(p, (uint16_t)d->njoints);
+	p = put_u16(p, 0);
+	for (int j = 0; j < d->njoints; j++) {
+		p = put_u32(p, (uint32_t)d->joints[j].parent);
+		for (int k = 0; k < 3; k++)
+			p = put_f64(p, d->joints[j].offset[k]);
+		memset(p, 0, TAKE_JOINT_NAME);
+		memcpy(p, d->joints[j].name, strnlen(d->joints[j].name, TAKE_JOINT_NAME - 1));
+		p += TAKE_JOINT_NAME;
+	}
+	return need;
+}
+
+int take_decode_def(const uint8_t *p, size_t size, take_def *d)
+{
+	if (size < DEF_HEAD)
+		return -1;
+	memset(d, 0, sizeof(*d));
+	d->id = get_u32(p);
+	d->njoints = get_u16(p + 4);
+	if (d->njoints > TAKE_MAX_JOINTS || size != DEF_HEAD + (size_t)d->njoints * DEF_JOINT)
+		return -1;
+	p += DEF_HEAD;
+	for (int j = 0; j < d->njoints; j++, p += DEF_JOINT) {
+		d->joints[j].parent = (int)get_u32(p);
+		if (d->joints[j].parent >= j || d->joints[j].parent < -1)
+			return -1; /* parents come first */
+		for (int k = 0; k < 3; k++)
+			d->joints[j].offset[k] = get_f64(p + 4 + 8 * k);
+		memcpy(d->joints[j].name, p + 28, TAKE_JOINT_NAME - 1);
+	}
+	return 0;
+}
+
+size_t take_encode_pose(const take_pose *o, uint8_t *buf, size_t cap)
+{
+	size_t need = POSE_HEAD + (size_t)o->njoints * POSE_JOINT;
+	if (cap < need || o->njoints < 0 || o->njoints > TAKE_MAX_JOINTS)
+		return 0;
+	uint8_t *p = put_u64(buf, o->seq);
+	p = put_u64(p, o->capture_ns);
+	p = put_u64(p, o->realtime_ns);
+	p = put_u32(p, (uint32_t)o->state);
+	p = put_u32(p, o->def_id);
+	p = put_u16(p, (uint16_t)o->njoints);
+	p = put_u16(p, 0);
+	p = put_u32(p, 0);
+	for (int j = 0; j < o->njoints; j++) {
+		for (int k = 0; k < 3; k++)
+			p = put_f64(p, o->joints[j].position[k]);
+		for (int k = 0; k < 4; k++)
+			p = put_f64(p, o->joints[j].orientation[k]);
+		p = put_f32(p, o->joints[j].confidence);
+		p = put_u32(p, 0);
+	}
+	return need;
+}
+
+int take_decode_pose(const uint8_t *p, size_t size, take_pose *o)
+{
+	if (size < POSE_HEAD)
+		return -1;
+	o->seq = get_u64(p);
+	o->capture_ns = get_u64(p + 8);
+	o->realtime_ns = get_u64(p + 16);
+	o->state = (int)get_u32(p + 24);
+	o->def_id = get_u32(p + 28);
+	o->njoints = get_u16(p + 32);
+	if (o->njoints > TAKE_MAX_JOINTS || size != POSE_HEAD + (size_t)o->njoints * POSE_JOINT)
+		return -1;
+	p += POSE_HEAD;
+	for (int j = 0; j < o->njoints; j++, p += POSE_JOINT) {
+		for (int k = 0; k < 3; k++)
+			o->joints[j].position[k] = get_f64(p + 8 * k);
+		for (int k = 0; k < 4; k++)
+			o->joints[j].orientation[k] = get_f64(p + 24 + 8 * k);
+		o->joints[j].confidence = get_f32(p + 56);
+	}
+	return 0;
+}
+
+size_t take_encode_gap(uint64_t first_seq, uint64_t count, uint8_t *buf, size_t cap)
+{
+	if (cap < 16)
+		return 0;
+	put_u64(put_u64(buf, first_seq), count);
+	return 16;
+}
+
+int take_decode_gap(const uint8_t *p, size_t size, uint64_t *first_seq, uint64_t *count)
+{
+	if (size != 16)
+		return -1;
+	*first_seq = get_u64(p);
+	*count = get_u64(p + 8);
+	return 0;
+}
+
+void take_encode_frame_meta(const take_frame_meta *m, uint8_t *buf)
+{
+	uint8_t *p = put_u64(buf, m->sequence);
+	p = put_u64(p, m->capture_ns);
+	p = put_u64(p, m->realtime_ns);
+	p = put_u64(p, m->driver_sequence);
+	p = put_u32(p, m->pixfmt);
+	p = put_u32(p, m->width);
+	p = put_u32(p, m->height);
+	p = put_u32(p, m->stride);
+	p = put_u32(p, m->flags);
+	put_u32(p, 0);
+}
+
+int take_decode_frame_meta(const uint8_t *p, size_t size, take_frame_meta *m)
+{
+	if (size < TAKE_FRAME_META_SIZE)
+		return -1;
+	m->sequence = get_u64(p);
+	m->capture_ns = get_u64(p + 8);
+	m->realtime_ns = get_u64(p + 16);
+	m->driver_sequence = get_u64(p + 24);
+	m->pixfmt = get_u32(p + 32);
+	m->width = get_u32(p + 36);
+	m->height = get_u32(p + 40);
+	m->stride = get_u32(p + 44);
+	m->flags = get_u32(p + 48);
+	return 0;
+}
+
+/* ---- reading ---- */
+
+int take_reader_open(take_reader *r, const char *path, mc_err *err)
+{
+	memset(r, 0, sizeof(*r));
+	snprintf(r->path, sizeof(r->path), "%s", path);
+	int fd = open(path, O_RDONLY | O_CLOEXEC);
+	struct stat st;
+	if (fd < 0 || fstat(fd, &st) < 0) {
+		int e = errno;
+		if (fd >= 0)
+			close(fd);
+		return mc_err_set(err, "%s: %s", path, strerror(e));
+	}
+	r->size = (size_t)st.st_size;
+	r->data = malloc(r->size ? r->size : 1);
+	size_t got = 0;
+	while (r->data && got < r->size) {
+		ssize_t n = read(fd, r->data + got, r->size - got);
+		if (n <= 0)
+			break;
+		got += (size_t)n;
+	}
+	close(fd);
+	if (!r->data || got != r->size) {
+		free(r->data);
+		r->data = NULL;
+		return mc_err_set(err, "%s: cannot read it whole", path);
+	}
+	return 0;
+}
+
+void take_reader_close(take_reader *r)
+{
+	free(r->data);
+	r->data = NULL;
+}
+
+int take_reader_next(take_reader *r, take_record_type *type, const uint8_t **payload, size_t *size,
+		     uint64_t *written_ns)
+{
+	r->valid_end = r->pos;
+	if (r->pos == r->size)
+		return 0;
+	const uint8_t *h = r->data + r->pos;
+	size_t left = r->size - r->pos;
+	uint32_t n = left >= TAKE_HEADER_SIZE ? get_u32(h + 8) : 0;
+	if (left < TAKE_HEADER_SIZE || get_u32(h) != TAKE_RECORD_MAGIC || n > TAKE_MAX_PAYLOAD ||
+	    n > left - TAKE_HEADER_SIZE || crc32(0L, h + TAKE_HEADER_SIZE, n) != get_u32(h + 12)) {
+		r->torn = true;
+		return 0;
+	}
+	*type = (take_record_type)get_u16(h + 4);
+	*payload = h + TAKE_HEADER_SIZE;
+	*size = n;
+	if (written_ns)
+		*written_ns = get_u64(h + 16);
+	r->pos += TAKE_HEADER_SIZE + n;
+	r->valid_end = r->pos;
+	return 1;
+}
+
+/* ---- poses of a take ---- */
+
+int take_poses_load(const char *dir, take_poses *out, mc_err *err)
+{
+	memset(out, 0, sizeof(*out));
+	char path[4200];
+	snprintf(path, sizeof(path), "%s/poses.mcr", dir);
+	take_reader r;
+	if (take_reader_open(&r, path, err) < 0)
+		return -1;
+	take_record_type type;
+	const uint8_t *p;
+	size_t n;
+	int cap = 0;
+	bool have_def = false;
+	while (take_reader_next(&r, &type, &p, &n, NULL) == 1) {
+		if (type == TAKE_DEF && !have_def) {
+			if (take_decode_def(p, n, &out->def) < 0)
+				goto bad;
+			have_def = true;
+		} else if (type == TAKE_SKELETON) {
+			if (out->nposes == cap) {
+				cap = cap ? cap * 2 : 256;
+				take_pose *grown = realloc(out->poses, (size_t)cap * sizeof(*grown));
+				if (!grown)
+					goto bad;
+				out->poses = grown;
+			}
+			if (take_decode_pose(p, n, &out->poses[out->nposes]) < 0)
+				goto bad;
+			out->nposes++;
+		} else if (type == TAKE_GAP) {
+			uint64_t first, count;
+			if (take_decode_gap(p, n, &first, &count) < 0)
+				goto bad;
+			out->gap_frames += count;
+		}
+	}
+	out->torn = r.torn;
+	take_reader_close(&r);
+	if (!have_def) {
+		take_poses_free(out);
+		return mc_err_set(err, "%s: no skeleton definition (an empty take?)", path);
+	}
+	return 0;
+bad:
+	take_reader_close(&r);
+	take_poses_free(out);
+	return mc_err_set(err, "%s: the record ending at byte %zu does not decode", path, r.valid_end);
+}
+
+void take_poses_free(take_poses *t)
+{
+	free(t->poses);
+	t->poses = NULL;
+	t->nposes = 0;
+}
