@@ -1,0 +1,259 @@
+/* Recording end to end: mocapd tracks the bundled clip and records a take
+ * while this test subscribes to every frame; mocapd is killed with SIGKILL
+ * in the middle; the take opens, holds every skeleton this test received
+ * (bar at most the last one) with the same joints, and its camera files
+ * open.  Restarted, mocapd lists the take as cut, records and stops a new
+ * one cleanly, and mocap-export exports it.  A file-size limit standing in
+ * for a full disk (a small tmpfs when this test may mount one) stops a
+ * take with the reason in the record status and the log, while tracking
+ * goes on. */
+#include "daemon/harness.h"
+#include "mocap.h"
+#include "take.h"
+#include "test_util.h"
+
+#include <sys/mount.h>
+#include <sys/resource.h>
+
+static char repo[PATH_MAX], mocapctl[PATH_MAX + 32], export_bin[PATH_MAX + 32];
+
+static void write_config(mcd_run *r, const char *takes, const char *record_extra)
+{
+	static char conf[65536];
+	char extra[PATH_MAX + 512];
+	snprintf(extra, sizeof(extra), "[record]\ndirectory = %s\n%s", takes, record_extra);
+	mcd_demo_clip_config(conf, sizeof(conf), repo, 15, "", "", NULL, extra);
+	mcd_run_config(r, conf);
+}
+
+static int control(mocap_client *c, mocap_command cmd, const char *arg, char *msg, size_t cap)
+{
+	return mocap_control(c, cmd, arg, msg, cap);
+}
+
+static mocap_skeleton_frame seen[64]; /* the newest frames received, by seq % 64 */
+static uint64_t seen_seq[64];
+
+/* Reads frames for ms milliseconds; the last seq received. */
+static uint64_t read_for(mocap_client *c, int ms, uint64_t *first)
+{
+	static mocap_skeleton_frame f;
+	uint64_t end = mcd_now_ms() + (uint64_t)ms, last = 0;
+	while (mcd_now_ms() < end)
+		if (mocap_read_frame(c, &f, 50) == 1) {
+			seen[f.seq % 64] = f;
+			seen_seq[f.seq % 64] = f.seq;
+			if (first && !*first)
+				*first = f.seq;
+			last = f.seq;
+		}
+	return last;
+}
+
+/* The take of a daemon killed mid-take. */
+static void check_killed_take(const char *take, uint64_t last_received)
+{
+	take_info info;
+	mc_err err = {""};
+	CHECK_MSG(take_info_read(take, &info, &err) == 0, "%s", err.msg);
+	CHECK_MSG(!info.complete, "a killed take says complete");
+	take_poses t;
+	if (take_poses_load(take, &t, &err) < 0) {
+		CHECK_MSG(false, "the killed take does not open: %s", err.msg);
+		return;
+	}
+	uint64_t last = t.nposes ? t.poses[t.nposes - 1].seq : 0;
+	printf("killed take: %d poses (seq %llu..%llu), torn tail %d; the test received up to seq %llu\n", t.nposes,
+	       t.nposes ? (unsigned long long)t.poses[0].seq : 0ull, (unsigned long long)last, t.torn,
+	       (unsigned long long)last_received);
+	CHECK_MSG(t.nposes > 10 && last + 1 >= last_received, "the take ends at %llu, %llu was published",
+		  (unsigned long long)last, (unsigned long long)last_received);
+	CHECK(t.gap_frames == 0);
+	/* Every pose the test also received holds the same joints. */
+	int compared = 0;
+	for (int i = 0; i < t.nposes; i++) {
+		const take_pose *p = &t.poses[i];
+		if (seen_seq[p->seq % 64] != p->seq)
+			continue;
+		const mocap_skeleton_frame *f = &seen[p->seq % 64];
+		CHECK(p->njoints == f->njoints && p->capture_ns == f->capture_ns);
+		for (int j = 0; j < p->njoints && j < f->njoints; j++)
+			for (int k = 0; k < 3; k++)
+				CHECK_NEAR(p->joints[j].position[k], f->joints[j].position[k], 1e-12);
+		if (i > 0)
+			CHECK(p->seq == t.poses[i - 1].seq + 1);
+		compared++;
+	}
+	CHECK_MSG(compared > 5, "only %d poses compared", compared);
+	take_poses_free(&t);
+	/* the camera files open and hold whole frames */
+	for (int c = 0; c < 2; c++) {
+		char path[PATH_MAX + 64];
+		snprintf(path, sizeof(path), "%s/cam-%s.mcr", take, c ? "right" : "left");
+		take_reader r;
+		CHECK_MSG(take_reader_open(&r, path, &err) == 0, "%s", err.msg);
+		take_record_type type;
+		const uint8_t *p;
+		size_t n;
+		int frames = 0;
+		while (take_reader_next(&r, &type, &p, &n, NULL) == 1) {
+			take_frame_meta m;
+			CHECK(type == TAKE_FRAME && take_decode_frame_meta(p, n, &m) == 0 && m.pixfmt != 0);
+			frames++;
+		}
+		CHECK_MSG(frames > 10, "%s: %d frames", path, frames);
+		take_reader_close(&r);
+	}
+}
+
+static char *run_ctl(const char *sock, const char *args, int *rc)
+{
+	char cmd[PATH_MAX * 2 + 256];
+	static char out[8192];
+	snprintf(cmd, sizeof(cmd), "%s --socket %s %s 2>&1", mocapctl, sock, args);
+	*rc = mc_test_run(cmd, out, sizeof(out));
+	return out;
+}
+
+/* Restarted: the cut take is listed; a new take starts and stops cleanly
+ * and exports. */
+static void check_restart(mcd_run *r, const char *takes)
+{
+	int rc;
+	char *out = run_ctl(r->sock, "record list", &rc);
+	char want[PATH_MAX + 64];
+	snprintf(want, sizeof(want), "%s/killed\tcut\t", takes);
+	CHECK_MSG(rc == 0 && strstr(out, want), "record list (exit %d): %s", rc, out);
+	out = run_ctl(r->sock, "record start --name second", &rc);
+	CHECK_MSG(rc == 0 && strstr(out, "recording ") && strstr(out, "/second"), "exit %d: %s", rc, out);
+	mcd_sleep_ms(1500);
+	out = run_ctl(r->sock, "record status", &rc);
+	CHECK_MSG(rc == 0 && strstr(out, "recording ") && strstr(out, " poses"), "exit %d: %s", rc, out);
+	out = run_ctl(r->sock, "record start --name third", &rc);
+	CHECK_MSG(rc == 1 && strstr(out, "already recording"), "exit %d: %s", rc, out);
+	out = run_ctl(r->sock, "record stop", &rc);
+	CHECK_MSG(rc == 0 && strstr(out, "stopped by request"), "exit %d: %s", rc, out);
+	out = run_ctl(r->sock, "record stop", &rc);
+	CHECK_MSG(rc == 1 && strstr(out, "not recording"), "exit %d: %s", rc, out);
+	out = run_ctl(r->sock, "record start --name second", &rc);
+	CHECK_MSG(rc == 1 && strstr(out, "exists already"), "exit %d: %s", rc, out);
+	out = run_ctl(r->sock, "record start --name ../escape", &rc);
+	CHECK_MSG(rc == 1 && strstr(out, "a take name is letters"), "exit %d: %s", rc, out);
+	char take[PATH_MAX + 16];
+	snprintf(take, sizeof(take), "%s/second", takes);
+	take_info info;
+	mc_err err = {""};
+	CHECK(take_info_read(take, &info, &err) == 0 && info.complete && info.poses > 5 &&
+	      strcmp(info.stop_reason, "stopped by request") == 0);
+	char cmd[PATH_MAX * 3 + 128], res[4096];
+	snprintf(cmd, sizeof(cmd), "%s --bvh %s/second.bvh --json %s/second.json %s 2>&1", export_bin, r->dir, r->dir,
+		 take);
+	rc = mc_test_run(cmd, res, sizeof(res));
+	CHECK_MSG(rc == 0 && strstr(res, " poses (0 missed by the recorder)"), "mocap-export: exit %d: %s", rc, res);
+}
+
+/* A take that outgrows what the disk takes stops, saying why; tracking
+ * goes on.  A 1 MB tmpfs when mount(2) is allowed, else RLIMIT_FSIZE. */
+static void check_full_disk(void)
+{
+	mcd_run r;
+	CHECK(mcd_run_init(&r));
+	char small[128];
+	snprintf(small, sizeof(small), "%s/small", r.dir);
+	mkdir(small, 0755);
+	bool tmpfs = mount("tmpfs", small, "tmpfs", 0, "size=1m") == 0;
+	struct rlimit old;
+	getrlimit(RLIMIT_FSIZE, &old);
+	if (!tmpfs) {
+		printf("no tmpfs (mount: %s): a 1 MB file-size limit stands in for the full disk\n", strerror(errno));
+		struct rlimit lim = {1 << 20, old.rlim_max};
+		signal(SIGXFSZ, SIG_IGN); /* inherited: write() then fails with EFBIG */
+		setrlimit(RLIMIT_FSIZE, &lim);
+	}
+	write_config(&r, small, "");
+	const char *const args[] = {NULL};
+	bool up = mcd_run_start_ready(&r, args);
+	setrlimit(RLIMIT_FSIZE, &old);
+	if (!up) {
+		if (tmpfs)
+			umount(small);
+		return;
+	}
+	mocap_client *c = mocap_connect(r.sock, "test_recording");
+	char msg[1024] = "";
+	CHECK(c && mocap_subscribe(c, MOCAP_LATEST, MOCAP_SPACE_RIG, 0) == 0);
+	CHECK_MSG(c && control(c, MOCAP_CMD_RECORD_START, "big", msg, sizeof(msg)) == 0, "%s", msg);
+	uint64_t end = mcd_now_ms() + 20000;
+	while (c && mcd_now_ms() < end) {
+		control(c, MOCAP_CMD_RECORD_STATUS, NULL, msg, sizeof(msg));
+		if (strncmp(msg, "not recording", 13) == 0)
+			break;
+		mcd_sleep_ms(200);
+	}
+	const char *why = tmpfs ? "No space left on device" : "File too large";
+	printf("full disk: %s\n", msg);
+	CHECK_MSG(strstr(msg, "error: ") && strstr(msg, why), "record status: %s", msg);
+	CHECK_MSG(mcd_run_wait_log(&r, "record: last take", 5000), "the log does not say the take stopped");
+	uint64_t first = 0, last = c ? read_for(c, 1500, &first) : 0;
+	CHECK_MSG(last > first && first > 0, "tracking stopped with the take (%llu..%llu)", (unsigned long long)first,
+		  (unsigned long long)last);
+	char take[256];
+	snprintf(take, sizeof(take), "%s/big", small);
+	take_poses t;
+	mc_err err = {""};
+	CHECK_MSG(take_poses_load(take, &t, &err) == 0 && t.nposes > 0, "the stopped take: %s", err.msg);
+	take_poses_free(&t);
+	mocap_close(c);
+	mcd_run_signal(&r, SIGTERM);
+	CHECK(mcd_run_wait_exit(&r, 20000) == 0);
+	if (mc_test_failures)
+		mcd_run_dump(&r, "full disk");
+	if (tmpfs)
+		umount(small);
+	mcd_run_cleanup(&r);
+}
+
+int main(void)
+{
+	if (!mcd_find_build_up(3)) /* <build>/record/tests/test_recording */
+		TEST_SKIP("mocapd is not built");
+	if (!getcwd(repo, sizeof(repo)) || access("tests/data/ego_demo/gt.json", R_OK) != 0)
+		TEST_SKIP("run from the repository root (tests/data/ego_demo not found)");
+	snprintf(mocapctl, sizeof(mocapctl), "%s/bin/mocapctl", mcd_build_dir);
+	snprintf(export_bin, sizeof(export_bin), "%s/bin/mocap-export", mcd_build_dir);
+	mcd_run r;
+	CHECK(mcd_run_init(&r));
+	char takes[160];
+	snprintf(takes, sizeof(takes), "%s/takes", r.dir);
+	write_config(&r, takes, "");
+	const char *const args[] = {NULL};
+	if (!mcd_run_start_ready(&r, args))
+		return mc_test_finish("test_recording");
+	mocap_client *c = mocap_connect(r.sock, "test_recording");
+	char msg[1024] = "";
+	CHECK(c && mocap_subscribe(c, MOCAP_ALL, MOCAP_SPACE_RIG, 0) == 0);
+	CHECK_MSG(c && control(c, MOCAP_CMD_RECORD_START, "killed", msg, sizeof(msg)) == 0, "%s", msg);
+	uint64_t last = c ? read_for(c, 2500, NULL) : 0;
+	mcd_run_signal(&r, SIGKILL);
+	mcd_run_wait_exit(&r, 10000);
+	/* Frames already in this client's socket were published before the
+	 * kill: the take must hold them too (bar the last). */
+	static mocap_skeleton_frame late;
+	while (c && mocap_read_frame(c, &late, 0) == 1)
+		last = late.seq > last ? late.seq : last;
+	mocap_close(c);
+	char take[200];
+	snprintf(take, sizeof(take), "%s/killed", takes);
+	check_killed_take(take, last);
+
+	CHECK(mcd_run_start_ready(&r, args));
+	check_restart(&r, takes);
+	mcd_run_signal(&r, SIGTERM);
+	CHECK(mcd_run_wait_exit(&r, 20000) == 0);
+	if (mc_test_failures)
+		mcd_run_dump(&r, "recording");
+	mcd_run_cleanup(&r);
+
+	check_full_disk();
+	return mc_test_finish("test_recording");
+}
