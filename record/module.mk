@@ -33,3 +33,11 @@ $(BUILD)/record/tests/test_recording: record/tests/test_recording.c $(RECORD_LIB
 	@mkdir -p $(@D) $(BUILD)/tests
 	$(CC) $(CPPFLAGS) -Irecord -Iipc -Itests $(CFLAGS) -MMD -MP $< -o $@ $(LDFLAGS) $(RECORD_LIB) $(BUILD)/libmocap.a \
 		$(CORE_LIB) $(CORE_LIBS) -lz
+
+# The recorder's cost with two test cameras (tests/bench/record.sh):
+# RECORD_SIZE (1280x1024), RECORD_FPS (60), RECORD_FORMAT (yuyv),
+# RECORD_SECONDS (5), RECORD_DIR (a temporary folder).
+BENCHES += bench-record
+.PHONY: bench-record
+bench-record: $(BUILD)/bin/mocapd $(BUILD)/bin/mocapctl $(BUILD)/tests/faulty/mocap-driver-faulty.so
+	tests/bench/record.sh $(BUILD)
