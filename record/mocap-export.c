@@ -22,16 +22,7 @@
 #include <string.h>
 #include <sys/stat.h>
 
-static void fail(int code, const char *fmt, ...)
-{
-	va_list ap;
-	va_start(ap, fmt);
-	fputs("mocap-export: ", stderr);
-	vfprintf(stderr, fmt, ap);
-	fputc('\n', stderr);
-	va_end(ap);
-	exit(code);
-}
+#define fail(code, ...) mc_fail_exit("mocap-export", code, __VA_ARGS__)
 
 static void usage(FILE *f)
 {

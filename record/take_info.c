@@ -89,6 +89,8 @@ int take_info_read(const char *dir, take_info *t, mc_err *err)
 	json_error_t je;
 	json_t *root = json_load_file(path, 0, &je);
 	memset(t, 0, sizeof(*t));
+	if (!root && je.line < 1) /* could not open it: jansson names the file itself */
+		return mc_err_set(err, "%s (not a take?)", je.text);
 	if (!root)
 		return mc_err_set(err, "%s: line %d: %s", path, je.line, je.text);
 	const char *format = json_string_value(json_object_get(root, "format"));

@@ -24,16 +24,7 @@ static void on_signal(int sig) { (void)sig; stop = 1; }
 
 /* Exit codes: 1 mocapd went away or the network failed (systemd restarts
  * the unit), 2 bad usage, config or bone table (it would fail again). */
-static void fail(int code, const char *fmt, ...)
-{
-	va_list ap;
-	va_start(ap, fmt);
-	fputs("mocap-vmc: ", stderr);
-	vfprintf(stderr, fmt, ap);
-	fputc('\n', stderr);
-	va_end(ap);
-	exit(code);
-}
+#define fail(code, ...) mc_fail_exit("mocap-vmc", code, __VA_ARGS__)
 
 static void usage(FILE *f)
 {

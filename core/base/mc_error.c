@@ -2,6 +2,7 @@
 
 #include <stdarg.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
 int mc_err_set(mc_err *err, const char *fmt, ...)
@@ -36,4 +37,15 @@ int mc_err_prefix(mc_err *err, const char *fmt, ...)
 	memcpy(err->msg + n + 2, old, m);
 	err->msg[n + 2 + m] = 0;
 	return -1;
+}
+
+void mc_fail_exit(const char *prog, int code, const char *fmt, ...)
+{
+	va_list ap;
+	va_start(ap, fmt);
+	fprintf(stderr, "%s: ", prog);
+	vfprintf(stderr, fmt, ap);
+	fputc('\n', stderr);
+	va_end(ap);
+	exit(code);
 }

@@ -18,4 +18,9 @@ int mc_err_set(mc_err *err, const char *fmt, ...) __attribute__((format(printf, 
 /* Prefixes the existing message with "prefix: ". Returns -1. */
 int mc_err_prefix(mc_err *err, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
 
+/* For command-line programs: prints "prog: message" on stderr and exits
+ * with code. */
+void mc_fail_exit(const char *prog, int code, const char *fmt, ...)
+	__attribute__((format(printf, 3, 4), noreturn));
+
 #endif

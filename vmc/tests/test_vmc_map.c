@@ -321,6 +321,34 @@ static void write_file(const char *path, const char *text)
 	}
 }
 
+typedef struct {
+	const char *text, *want;
+} bad_file;
+
+static int load_bones(const char *path, mc_err *err)
+{
+	vmc_bone_table t;
+	vmc_bone_table_default(&t);
+	return vmc_bone_table_load(&t, path, err);
+}
+
+static int load_settings(const char *path, mc_err *err)
+{
+	vmc_settings s;
+	vmc_settings_default(&s);
+	return vmc_settings_load(&s, path, err);
+}
+
+/* Each text, written to path, is refused with a message holding `want`. */
+static void check_refused(const char *path, const bad_file *cases, size_t n, int (*load)(const char *, mc_err *))
+{
+	for (size_t i = 0; i < n; i++) {
+		mc_err err = {""};
+		write_file(path, cases[i].text);
+		CHECK_MSG(load(path, &err) < 0 && strstr(err.msg, cases[i].want), "got '%s'", err.msg);
+	}
+}
+
 static void check_files(const char *dir)
 {
 	char path[256];
@@ -333,17 +361,13 @@ static void check_files(const char *dir)
 	CHECK_MSG(vmc_bone_table_load(&t, path, &err) == 0, "%s", err.msg);
 	CHECK(strcmp(t.pos[VMC_SPINE], "spine") == 0 && strcmp(t.rot[VMC_SPINE], "neck") == 0);
 	CHECK(t.pos[VMC_LEFT_TOES][0] == 0 && strcmp(t.pos[VMC_RIGHT_TOES], "right_toe") == 0);
-	static const struct { const char *text, *want; } bad[] = {
+	static const bad_file bad[] = {
 		{"[bones]\nLeftArm = left_shoulder\n", "bones.ini: [bones] LeftArm: not a Unity humanoid bone"},
 		{"[bone]\nHips = pelvis\n", "bones.ini: [bone] Hips: unknown section"},
 		{"[bones]\nHips = pelvis spine extra\n", "bones.ini: [bones] Hips: expected `joint [rotation_joint]`"},
 		{"[bones]\nHips pelvis\n", "bones.ini: line 2: not `Bone = joint"},
 	};
-	for (size_t i = 0; i < sizeof(bad) / sizeof(bad[0]); i++) {
-		write_file(path, bad[i].text);
-		vmc_bone_table_default(&t);
-		CHECK_MSG(vmc_bone_table_load(&t, path, &err) < 0 && strstr(err.msg, bad[i].want), "got '%s'", err.msg);
-	}
+	check_refused(path, bad, sizeof(bad) / sizeof(bad[0]), load_bones);
 	/* A joint the skeleton lacks, named explicitly: refused at build. */
 	mocap_skeleton_def sk = {.id = 1, .njoints = 1};
 	snprintf(sk.joints[0].name, sizeof(sk.joints[0].name), "pelvis");
@@ -365,17 +389,13 @@ static void check_files(const char *dir)
 	CHECK(strcmp(s.host, "192.0.2.7") == 0 && s.port == 39540 && s.rate == 60 && s.space == MOCAP_SPACE_RIG);
 	CHECK(s.up == VMC_UP_Z && !s.floor_auto && s.floor_height == 0.1 && s.rest == VMC_REST_MODEL);
 	CHECK(s.min_confidence == 0.5f && s.low == VMC_LOW_REST && s.ease_s == 1);
-	static const struct { const char *text, *want; } badconf[] = {
+	static const bad_file badconf[] = {
 		{"[vmc]\nport = 70000\n", "vmc.conf: line 2: [vmc]: port: '70000': expected a UDP port"},
 		{"[vmc]\n\nspeed = 3\n", "vmc.conf: line 3: [vmc]: speed: unknown key"},
 		{"[daemon]\nrate = 3\n", "vmc.conf: line 2: [daemon] rate: unknown section"},
 		{"[vmc]\nup = x\n", "up: 'x': expected auto, y, z or head"},
 	};
-	for (size_t i = 0; i < sizeof(badconf) / sizeof(badconf[0]); i++) {
-		write_file(path, badconf[i].text);
-		vmc_settings_default(&s);
-		CHECK_MSG(vmc_settings_load(&s, path, &err) < 0 && strstr(err.msg, badconf[i].want), "got '%s'", err.msg);
-	}
+	check_refused(path, badconf, sizeof(badconf) / sizeof(badconf[0]), load_settings);
 	/* target: host and port in one */
 	vmc_settings_default(&s);
 	CHECK(vmc_settings_set(&s, "target", "vr-pc.local:39540", &err) == 0 && strcmp(s.host, "vr-pc.local") == 0 &&
