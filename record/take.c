@@ -242,36 +242,32 @@ int take_reader_open(take_reader *r, const char *path, mc_err *err)
 {
 	memset(r, 0, sizeof(*r));
 	snprintf(r->path, sizeof(r->path), "%s", path);
-	int fd = open(path, O_RDONLY | O_CLOEXEC);
+	r->f = fopen(path, "rb");
 	struct stat st;
-	if (fd < 0 || fstat(fd, &st) < 0) {
+	if (!r->f || fstat(fileno(r->f), &st) < 0) {
 		int e = errno;
-		if (fd >= 0)
-			close(fd);
+		if (r->f)
+			fclose(r->f);
+		r->f = NULL;
 		return mc_err_set(err, "%s: %s", path, strerror(e));
 	}
-	r->size = (size_t)st.st_size;
-	r->data = malloc(r->size ? r->size : 1);
-	size_t got = 0;
-	while (r->data && got < r->size) {
-		ssize_t n = read(fd, r->data + got, r->size - got);
-		if (n <= 0)
-			break;
-		got += (size_t)n;
-	}
-	close(fd);
-	if (!r->data || got != r->size) {
-		free(r->data);
-		r->data = NULL;
-		return mc_err_set(err, "%s: cannot read it whole", path);
-	}
+	r->size = (uint64_t)st.st_size;
 	return 0;
 }
 
 void take_reader_close(take_reader *r)
 {
-	free(r->data);
-	r->data = NULL;
+	if (r->f)
+		fclose(r->f);
+	r->f = NULL;
+	free(r->buf);
+	r->buf = NULL;
+}
+
+/* Reads n bytes at the current position; false at the end of the file. */
+static bool read_exact(take_reader *r, void *dst, size_t n)
+{
+	return n == 0 || fread(dst, 1, n, r->f) == n;
 }
 
 int take_reader_next(take_reader *r, take_record_type *type, const uint8_t **payload, size_t *size,
@@ -280,16 +276,24 @@ int take_reader_next(take_reader *r, take_record_type *type, const uint8_t **pay
 	r->valid_end = r->pos;
 	if (r->pos == r->size)
 		return 0;
-	const uint8_t *h = r->data + r->pos;
-	size_t left = r->size - r->pos;
-	uint32_t n = left >= TAKE_HEADER_SIZE ? get_u32(h + 8) : 0;
-	if (left < TAKE_HEADER_SIZE || get_u32(h) != TAKE_RECORD_MAGIC || n > TAKE_MAX_PAYLOAD ||
-	    n > left - TAKE_HEADER_SIZE || crc32(0L, h + TAKE_HEADER_SIZE, n) != get_u32(h + 12)) {
+	uint8_t h[TAKE_HEADER_SIZE];
+	uint32_t n = 0;
+	bool ok = read_exact(r, h, sizeof(h)) && get_u32(h) == TAKE_RECORD_MAGIC &&
+		  (n = get_u32(h + 8)) <= TAKE_MAX_PAYLOAD && n <= r->size - r->pos - TAKE_HEADER_SIZE;
+	if (ok && n > r->cap) {
+		uint8_t *grown = realloc(r->buf, n);
+		ok = grown != NULL;
+		if (ok) {
+			r->buf = grown;
+			r->cap = n;
+		}
+	}
+	if (!ok || !read_exact(r, r->buf, n) || crc32(0L, r->buf, n) != get_u32(h + 12)) {
 		r->torn = true;
 		return 0;
 	}
 	*type = (take_record_type)get_u16(h + 4);
-	*payload = h + TAKE_HEADER_SIZE;
+	*payload = r->buf;
 	*size = n;
 	if (written_ns)
 		*written_ns = get_u64(h + 16);
@@ -346,7 +350,8 @@ int take_poses_load(const char *dir, take_poses *out, mc_err *err)
 bad:
 	take_reader_close(&r);
 	take_poses_free(out);
-	return mc_err_set(err, "%s: the record ending at byte %zu does not decode", path, r.valid_end);
+	return mc_err_set(err, "%s: the record ending at byte %llu does not decode", path,
+			  (unsigned long long)r.valid_end);
 }
 
 void take_poses_free(take_poses *t)

@@ -22,6 +22,7 @@
 #include <stdbool.h>
 #include <stddef.h>
 #include <stdint.h>
+#include <stdio.h>
 
 #define TAKE_RECORD_MAGIC 0x3152434du /* "MCR1" */
 #define TAKE_HEADER_SIZE 24
@@ -103,18 +104,21 @@ void take_encode_frame_meta(const take_frame_meta *m, uint8_t *buf);
 /* ---- reading ---- */
 
 typedef struct {
-	uint8_t *data;      /* the whole file (read in once) */
-	size_t size;
-	size_t pos;
-	size_t valid_end;   /* after the reader stopped: where the good records end */
+	FILE *f;
+	uint8_t *buf;       /* the current record's payload */
+	size_t cap;
+	uint64_t size;      /* the file's size when opened */
+	uint64_t pos;       /* offset of the next record */
+	uint64_t valid_end; /* after the reader stopped: where the good records end */
 	char path[4096];
 	bool torn;          /* stopped at a torn or foreign record, not at the end */
 } take_reader;
 
+/* Streams a record file: one record in memory at a time. */
 int take_reader_open(take_reader *r, const char *path, mc_err *err);
 void take_reader_close(take_reader *r);
-/* The next whole record: 1 with type, payload and size, 0 at the end (or
- * at a torn record: r->torn says which). */
+/* The next whole record: 1 with type, payload (valid until the next call)
+ * and size, 0 at the end (or at a torn record: r->torn says which). */
 int take_reader_next(take_reader *r, take_record_type *type, const uint8_t **payload, size_t *size,
 		     uint64_t *written_ns);
 
