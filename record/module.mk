@@ -29,7 +29,8 @@ $(BUILD)/record/tests/test_take: record/tests/test_take.c $(RECORD_LIB) $(CORE_L
 	$(CC) $(CPPFLAGS) -Irecord -Itests $(CFLAGS) -MMD -MP $< -o $@ $(LDFLAGS) $(RECORD_LINK)
 
 $(BUILD)/record/tests/test_recording: record/tests/test_recording.c $(RECORD_LIB) $(BUILD)/libmocap.a $(CORE_LIB) \
-		| $(MOCAP_EXPORT) $(BUILD)/bin/mocapd $(BUILD)/bin/mocapctl $(BUILD)/drivers/mocap-driver-files.so
+		| $(MOCAP_EXPORT) $(BUILD)/bin/mocapd $(BUILD)/bin/mocapctl $(BUILD)/drivers/mocap-driver-files.so \
+		$(BUILD)/drivers/mocap-driver-take.so
 	@mkdir -p $(@D) $(BUILD)/tests
 	$(CC) $(CPPFLAGS) -Irecord -Iipc -Itests $(CFLAGS) -MMD -MP $< -o $@ $(LDFLAGS) $(RECORD_LIB) $(BUILD)/libmocap.a \
 		$(CORE_LIB) $(CORE_LIBS) -lz

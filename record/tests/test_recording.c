@@ -152,6 +152,95 @@ static void check_restart(mcd_run *r, const char *takes)
 	CHECK_MSG(rc == 0 && strstr(res, " poses (0 missed by the recorder)"), "mocap-export: exit %d: %s", rc, res);
 }
 
+/* The frames of a camera file: their capture times, and a hash of their
+ * bytes each. */
+static int read_frames(const char *take, const char *cam, uint64_t *t, uint64_t *hash, int max)
+{
+	char path[PATH_MAX + 64];
+	snprintf(path, sizeof(path), "%s/cam-%s.mcr", take, cam);
+	take_reader r;
+	mc_err err = {""};
+	if (take_reader_open(&r, path, &err) < 0) {
+		CHECK_MSG(false, "%s", err.msg);
+		return 0;
+	}
+	take_record_type type;
+	const uint8_t *p;
+	size_t n;
+	int k = 0;
+	while (k < max && take_reader_next(&r, &type, &p, &n, NULL) == 1) {
+		take_frame_meta m;
+		if (type != TAKE_FRAME || take_decode_frame_meta(p, n, &m) < 0)
+			continue;
+		uint64_t h = 1469598103934665603ull; /* FNV-1a */
+		for (size_t i = TAKE_FRAME_META_SIZE; i < n; i++)
+			h = (h ^ p[i]) * 1099511628211ull;
+		t[k] = m.capture_ns;
+		hash[k++] = h;
+	}
+	take_reader_close(&r);
+	return k;
+}
+
+/* The take driver plays a take's frames, as recorded and with their
+ * timing, through mocapd, which tracks them; recording the replay gives
+ * the same frames back. */
+static void check_replay(const char *takes)
+{
+	mcd_run r;
+	CHECK(mcd_run_init(&r));
+	static char conf[65536];
+	char source[PATH_MAX];
+	snprintf(source, sizeof(source), "%s/second", takes);
+	snprintf(conf, sizeof(conf),
+		 "[daemon]\nplugin_dir = %s/drivers\n"
+		 "[camera left]\ndriver = take\nrig_camera = left\ntake = %s\ncamera = left\n"
+		 "[camera right]\ndriver = take\nrig_camera = right\ntake = %s\ncamera = right\n"
+		 "[tracker]\nrig = %s/config/rigs/ego_stereo.json\nmodel = %s/config/models/default.json\n"
+		 "init_joints = %s/tests/data/ego_demo/gt.json\n[socket]\npath = @SOCK@\n"
+		 "[record]\ndirectory = %s/takes\n",
+		 mcd_build_dir, source, source, repo, repo, repo, r.dir);
+	mcd_run_config(&r, conf);
+	const char *const args[] = {NULL};
+	if (!mcd_run_start_ready(&r, args))
+		return;
+	mocap_client *c = mocap_connect(r.sock, "test_recording");
+	char msg[1024] = "";
+	CHECK(c && mocap_subscribe(c, MOCAP_LATEST, MOCAP_SPACE_RIG, 0) == 0);
+	CHECK_MSG(c && control(c, MOCAP_CMD_RECORD_START, "replayed", msg, sizeof(msg)) == 0, "%s", msg);
+	uint64_t first = 0, last = c ? read_for(c, 1000, &first) : 0;
+	CHECK_MSG(last > first && first > 0, "the replay is not tracked (%llu..%llu)", (unsigned long long)first,
+		  (unsigned long long)last);
+	CHECK(c && control(c, MOCAP_CMD_RECORD_STOP, NULL, msg, sizeof(msg)) == 0);
+	mocap_close(c);
+	mcd_run_signal(&r, SIGTERM);
+	CHECK(mcd_run_wait_exit(&r, 20000) == 0);
+
+	static uint64_t t0[512], h0[512], t1[512], h1[512];
+	char replayed[PATH_MAX];
+	snprintf(replayed, sizeof(replayed), "%s/takes/replayed", r.dir);
+	int n0 = read_frames(source, "left", t0, h0, 512), n1 = read_frames(replayed, "left", t1, h1, 512);
+	CHECK_MSG(n1 >= 5 && n1 <= n0, "%d frames replayed of %d", n1, n0);
+	/* The replayed frames are a run of the recorded ones, in order, with
+	 * the recorded intervals. */
+	int at = -1;
+	for (int k = 0; k < n0 && at < 0 && n1 > 0; k++)
+		at = h0[k] == h1[0] ? k : -1;
+	CHECK_MSG(at >= 0, "the first replayed frame is none of the recorded ones");
+	double worst = 0;
+	for (int k = 1; at >= 0 && k < n1 && at + k < n0; k++) {
+		CHECK_MSG(h1[k] == h0[at + k], "replayed frame %d differs from recorded frame %d", k, at + k);
+		double d = fabs(((double)(t1[k] - t1[k - 1]) - (double)(t0[at + k] - t0[at + k - 1])) * 1e-6);
+		worst = d > worst ? d : worst;
+	}
+	printf("replay: %d frames, the same bytes as recorded; intervals within %.2f ms of the recorded ones\n", n1,
+	       worst);
+	CHECK_MSG(worst < 1.0, "intervals %.2f ms off", worst);
+	if (mc_test_failures)
+		mcd_run_dump(&r, "replay");
+	mcd_run_cleanup(&r);
+}
+
 /* A take that outgrows what the disk takes stops, saying why; tracking
  * goes on.  A 1 MB tmpfs when mount(2) is allowed, else RLIMIT_FSIZE. */
 static void check_full_disk(void)
@@ -252,6 +341,7 @@ int main(void)
 	CHECK(mcd_run_wait_exit(&r, 20000) == 0);
 	if (mc_test_failures)
 		mcd_run_dump(&r, "recording");
+	check_replay(takes);
 	mcd_run_cleanup(&r);
 
 	check_full_disk();
