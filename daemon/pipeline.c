@@ -265,7 +265,13 @@ int mcd_pipeline_record(mcd_pipeline *p, int command, const char *argument, char
 		return -1;
 	}
 	switch (command) {
-	case MC_CONTROL_RECORD_START: return mcd_recorder_start(p->recorder, argument, msg, cap);
+	case MC_CONTROL_RECORD_START: {
+		mc_model *actor = malloc(sizeof(*actor)); /* the tracker's, for the take */
+		bool have = actor && mcd_pipeline_actor(p, actor);
+		int rc = mcd_recorder_start(p->recorder, argument, have ? actor : NULL, msg, cap);
+		free(actor);
+		return rc;
+	}
 	case MC_CONTROL_RECORD_STOP: return mcd_recorder_stop(p->recorder, msg, cap);
 	case MC_CONTROL_RECORD_STATUS: mcd_recorder_status(p->recorder, msg, cap); return 0;
 	default: snprintf(msg, cap, "%s", mcd_recorder_directory(p->recorder)); return 0;

@@ -28,6 +28,7 @@ struct mcd_recorder {
 	char config_file[PATH_MAX], rig[PATH_MAX], model[PATH_MAX], actor[PATH_MAX];
 	int ncams;
 	mcd_camera *cams[MC_MAX_CAMERAS];
+	char rig_cams[MC_MAX_CAMERAS][MCD_NAME_MAX];
 	bool have_def;
 	take_def def;
 
@@ -170,6 +171,7 @@ static int open_files(mcd_recorder *r, mc_err *err)
 	r->info.ncams = r->ncams;
 	for (int c = 0; c < r->ncams; c++) {
 		snprintf(r->info.cams[c], sizeof(r->info.cams[c]), "%s", mcd_camera_name(r->cams[c]));
+		snprintf(r->info.rig_cams[c], sizeof(r->info.rig_cams[c]), "%s", r->rig_cams[c]);
 		snprintf(path, sizeof(path), "%s/cam-%s.mcr", r->dir, r->info.cams[c]);
 		if (r->cfg.frames && take_file_create(&r->cam_files[c], path, err) < 0)
 			return -1;
@@ -184,7 +186,19 @@ static void close_files(mcd_recorder *r)
 		take_file_close(&r->cam_files[c]);
 }
 
-int mcd_recorder_start(mcd_recorder *r, const char *name, char *msg, size_t cap)
+/* actor.json: the tracker's actor as it is now (its bone scales, head
+ * placement and colours: what the take's poses were tracked with), else
+ * the config's actor file. */
+static int save_actor(mcd_recorder *r, const mc_model *actor, mc_err *err)
+{
+	char path[PATH_MAX + 16];
+	snprintf(path, sizeof(path), "%s/actor.json", r->dir);
+	if (!actor)
+		return take_copy_file(r->actor, r->dir, "actor.json", err);
+	return mc_model_save(actor, path, err);
+}
+
+int mcd_recorder_start(mcd_recorder *r, const char *name, const mc_model *actor, char *msg, size_t cap)
 {
 	mc_err err = {""};
 	pthread_mutex_lock(&r->lock);
@@ -204,8 +218,7 @@ int mcd_recorder_start(mcd_recorder *r, const char *name, char *msg, size_t cap)
 			rc = take_copy_file(r->config_file, r->dir, "mocapd.conf", &err) ||
 			     take_copy_file(r->rig, r->dir, "rig.json", &err) ||
 			     take_copy_file(r->model, r->dir, "model.json", &err) ||
-			     take_copy_file(r->actor, r->dir, "actor.json", &err) ||
-			     take_info_write(r->dir, &r->info, &err);
+			     save_actor(r, actor, &err) || take_info_write(r->dir, &r->info, &err);
 		if (rc != 0)
 			close_files(r);
 	}
@@ -421,6 +434,8 @@ void mcd_recorder_push_pose(mcd_recorder *r, const mcd_output *o, uint64_t seq)
 		p->state = (int)o->sk.state;
 		p->def_id = r->def.id;
 		p->njoints = o->sk.njoints < TAKE_MAX_JOINTS ? o->sk.njoints : TAKE_MAX_JOINTS;
+		p->ndof = o->ndof > 0 && o->ndof <= TAKE_MAX_DOF ? o->ndof : 0;
+		memcpy(p->dofs, o->pose, sizeof(double) * (size_t)p->ndof);
 		for (int j = 0; j < p->njoints; j++) {
 			const mc_skeleton_joint *s = &o->sk.joints[j];
 			take_joint *t = &p->joints[j];
@@ -504,8 +519,10 @@ mcd_recorder *mcd_recorder_create(const mcd_recorder_setup *s, mc_err *err)
 	snprintf(r->model, sizeof(r->model), "%s", s->daemon_cfg->tracker.model);
 	snprintf(r->actor, sizeof(r->actor), "%s", s->daemon_cfg->tracker.actor);
 	r->ncams = s->ncams;
-	for (int c = 0; c < s->ncams; c++)
+	for (int c = 0; c < s->ncams; c++) {
 		r->cams[c] = s->cams[c];
+		snprintf(r->rig_cams[c], sizeof(r->rig_cams[c]), "%s", s->daemon_cfg->cams[c].rig_camera);
+	}
 	if (s->def) {
 		r->def = *s->def;
 		r->have_def = true;

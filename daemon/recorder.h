@@ -34,8 +34,9 @@ void mcd_recorder_destroy(mcd_recorder *r);
 
 /* Main thread.  name: a take name (letters, digits, '.', '_', '-') in
  * [record] directory, an absolute path, or "" for take-YYYYmmdd-HHMMSS.
- * 0 and msg "recording DIR", or -1 and msg saying why. */
-int mcd_recorder_start(mcd_recorder *r, const char *name, char *msg, size_t cap);
+ * actor (may be NULL): the tracker's actor now, saved as the take's
+ * actor.json.  0 and msg "recording DIR", or -1 and msg saying why. */
+int mcd_recorder_start(mcd_recorder *r, const char *name, const mc_model *actor, char *msg, size_t cap);
 int mcd_recorder_stop(mcd_recorder *r, char *msg, size_t cap);
 bool mcd_recorder_active(mcd_recorder *r);
 /* "recording DIR: 12.3 s, 370 poses, ..." or "not recording (last take

@@ -37,6 +37,8 @@ static void usage(FILE *f)
 		   "  --frames DIR     one camera's frames as image files (JPEG as recorded,\n"
 		   "                   other formats encoded as JPEG), named by sequence\n"
 		   "  --camera NAME    the camera for --frames\n"
+		   "  --track NAME     the skeletons of mocap-track's poses-NAME.mcr instead of\n"
+		   "                   those tracked live\n"
 		   "  -h, --help       this text\n"
 		   "  -V, --version    the version\n");
 }
@@ -277,11 +279,12 @@ static int export_frames(const char *take, const char *camera, const char *dir)
 
 int main(int argc, char **argv)
 {
-	const char *bvh = NULL, *csv = NULL, *json = NULL, *frames = NULL, *camera = NULL;
+	const char *bvh = NULL, *csv = NULL, *json = NULL, *frames = NULL, *camera = NULL, *track = NULL;
 	static const struct option opts[] = {
 		{"bvh", required_argument, NULL, 'b'},    {"csv", required_argument, NULL, 'c'},
 		{"json", required_argument, NULL, 'j'},   {"frames", required_argument, NULL, 'f'},
-		{"camera", required_argument, NULL, 'C'}, {"help", no_argument, NULL, 'h'},
+		{"camera", required_argument, NULL, 'C'}, {"track", required_argument, NULL, 't'},
+		{"help", no_argument, NULL, 'h'},
 		{"version", no_argument, NULL, 'V'},      {NULL, 0, NULL, 0},
 	};
 	int o;
@@ -292,6 +295,7 @@ int main(int argc, char **argv)
 		case 'j': json = optarg; break;
 		case 'f': frames = optarg; break;
 		case 'C': camera = optarg; break;
+		case 't': track = optarg; break;
 		case 'h': usage(stdout); return 0;
 		case 'V': printf("mocap-export %s\n", MC_VERSION); return 0;
 		default: usage(stderr); return 2;
@@ -311,7 +315,7 @@ int main(int argc, char **argv)
 	if (!bvh && !csv && !json)
 		return 0;
 	take_poses t;
-	if (take_poses_load(take, &t, &err) < 0)
+	if (take_poses_load(take, track, &t, &err) < 0)
 		fail(1, "%s", err.msg);
 	if (t.torn)
 		fprintf(stderr, "mocap-export: %s/poses.mcr ends in a torn record (the take was cut): %d whole poses\n",

@@ -5,11 +5,12 @@
 RECORD_LIB := $(BUILD)/libmocaprecord.a
 RECORD_OBJ := $(BUILD)/record/take.o $(BUILD)/record/take_info.o
 MOCAP_EXPORT := $(BUILD)/bin/mocap-export
+MOCAP_TRACK := $(BUILD)/bin/mocap-track
 RECORD_TESTS := $(patsubst record/tests/%.c,$(BUILD)/record/tests/%,$(wildcard record/tests/test_*.c))
 RECORD_LINK := $(RECORD_LIB) $(CORE_LIB) $(CORE_LIBS) -lz
 
 LIBS += $(RECORD_LIB)
-BINS += $(MOCAP_EXPORT)
+BINS += $(MOCAP_EXPORT) $(MOCAP_TRACK)
 TESTS += $(RECORD_TESTS)
 
 $(BUILD)/record/%.o: CPPFLAGS += -Irecord
@@ -22,6 +23,11 @@ $(MOCAP_EXPORT): record/mocap-export.c $(RECORD_LIB) $(CORE_LIB) $(INSTALL_PATHS
 	@mkdir -p $(@D)
 	$(CC) $(CPPFLAGS) -Irecord $(CFLAGS) -MMD -MP $< -o $@ $(LDFLAGS) $(RECORD_LINK)
 
+# mocap-track runs the tracker (the core, OpenCL).
+$(MOCAP_TRACK): record/mocap-track.c $(RECORD_LIB) $(CORE_LIB) $(INSTALL_PATHS_H)
+	@mkdir -p $(@D)
+	$(CC) $(CPPFLAGS) -Irecord $(CFLAGS) -MMD -MP $< -o $@ $(LDFLAGS) $(RECORD_LINK)
+
 # The format's unit test; the end-to-end test runs mocapd on the bundled
 # clip, records, kills it, and exports (daemon harness, libmocap).
 $(BUILD)/record/tests/test_take: record/tests/test_take.c $(RECORD_LIB) $(CORE_LIB)
@@ -29,7 +35,7 @@ $(BUILD)/record/tests/test_take: record/tests/test_take.c $(RECORD_LIB) $(CORE_L
 	$(CC) $(CPPFLAGS) -Irecord -Itests $(CFLAGS) -MMD -MP $< -o $@ $(LDFLAGS) $(RECORD_LINK)
 
 $(BUILD)/record/tests/test_recording: record/tests/test_recording.c $(RECORD_LIB) $(BUILD)/libmocap.a $(CORE_LIB) \
-		| $(MOCAP_EXPORT) $(BUILD)/bin/mocapd $(BUILD)/bin/mocapctl $(BUILD)/drivers/mocap-driver-files.so \
+		| $(MOCAP_EXPORT) $(MOCAP_TRACK) $(BUILD)/bin/mocapd $(BUILD)/bin/mocapctl $(BUILD)/drivers/mocap-driver-files.so \
 		$(BUILD)/drivers/mocap-driver-take.so
 	@mkdir -p $(@D) $(BUILD)/tests
 	$(CC) $(CPPFLAGS) -Irecord -Iipc -Itests $(CFLAGS) -MMD -MP $< -o $@ $(LDFLAGS) $(RECORD_LIB) $(BUILD)/libmocap.a \

@@ -144,8 +144,9 @@ int take_decode_def(const uint8_t *p, size_t size, take_def *d)
 
 size_t take_encode_pose(const take_pose *o, uint8_t *buf, size_t cap)
 {
-	size_t need = POSE_HEAD + (size_t)o->njoints * POSE_JOINT;
-	if (cap < need || o->njoints < 0 || o->njoints > TAKE_MAX_JOINTS)
+	size_t joints_end = POSE_HEAD + (size_t)o->njoints * POSE_JOINT;
+	size_t need = joints_end + (o->ndof > 0 ? 4 + 8 * (size_t)o->ndof : 0);
+	if (cap < need || o->njoints < 0 || o->njoints > TAKE_MAX_JOINTS || o->ndof < 0 || o->ndof > TAKE_MAX_DOF)
 		return 0;
 	uint8_t *p = put_u64(buf, o->seq);
 	p = put_u64(p, o->capture_ns);
@@ -163,6 +164,12 @@ size_t take_encode_pose(const take_pose *o, uint8_t *buf, size_t cap)
 		p = put_f32(p, o->joints[j].confidence);
 		p = put_u32(p, 0);
 	}
+	if (o->ndof > 0) { /* optional: the tracker's pose vector */
+		p = put_u16(p, (uint16_t)o->ndof);
+		p = put_u16(p, 0);
+		for (int k = 0; k < o->ndof; k++)
+			p = put_f64(p, o->dofs[k]);
+	}
 	return need;
 }
 
@@ -176,8 +183,17 @@ int take_decode_pose(const uint8_t *p, size_t size, take_pose *o)
 	o->state = (int)get_u32(p + 24);
 	o->def_id = get_u32(p + 28);
 	o->njoints = get_u16(p + 32);
-	if (o->njoints > TAKE_MAX_JOINTS || size != POSE_HEAD + (size_t)o->njoints * POSE_JOINT)
+	size_t joints_end = POSE_HEAD + (size_t)o->njoints * POSE_JOINT;
+	o->ndof = 0;
+	if (o->njoints > TAKE_MAX_JOINTS || size < joints_end)
 		return -1;
+	if (size > joints_end) {
+		o->ndof = size >= joints_end + 4 ? get_u16(p + joints_end) : -1;
+		if (o->ndof < 1 || o->ndof > TAKE_MAX_DOF || size != joints_end + 4 + 8 * (size_t)o->ndof)
+			return -1;
+		for (int k = 0; k < o->ndof; k++)
+			o->dofs[k] = get_f64(p + joints_end + 4 + 8 * k);
+	}
 	p += POSE_HEAD;
 	for (int j = 0; j < o->njoints; j++, p += POSE_JOINT) {
 		for (int k = 0; k < 3; k++)
@@ -304,11 +320,14 @@ int take_reader_next(take_reader *r, take_record_type *type, const uint8_t **pay
 
 /* ---- poses of a take ---- */
 
-int take_poses_load(const char *dir, take_poses *out, mc_err *err)
+int take_poses_load(const char *dir, const char *track, take_poses *out, mc_err *err)
 {
 	memset(out, 0, sizeof(*out));
-	char path[4200];
-	snprintf(path, sizeof(path), "%s/poses.mcr", dir);
+	char path[4300];
+	if (track)
+		snprintf(path, sizeof(path), "%s/poses-%.64s.mcr", dir, track);
+	else
+		snprintf(path, sizeof(path), "%s/poses.mcr", dir);
 	take_reader r;
 	if (take_reader_open(&r, path, err) < 0)
 		return -1;

@@ -30,6 +30,7 @@
 #define TAKE_NAME_MAX 128
 #define TAKE_JOINT_NAME 32
 #define TAKE_MAX_JOINTS 128
+#define TAKE_MAX_DOF 96 /* the tracker's pose vector (body/mc_model.h MC_MAX_DOF) */
 
 typedef enum {
 	TAKE_DEF = 1,      /* a skeleton definition: joints' names, parents, rest offsets */
@@ -64,6 +65,8 @@ typedef struct {
 	uint32_t def_id;
 	int njoints;
 	take_joint joints[TAKE_MAX_JOINTS];
+	int ndof;              /* the tracker's pose vector (0: not recorded), for the actor.json of the take */
+	double dofs[TAKE_MAX_DOF];
 } take_pose;
 
 typedef struct {
@@ -130,7 +133,8 @@ int take_decode_frame_meta(const uint8_t *p, size_t size, take_frame_meta *m);
 /* ---- the take as a whole ---- */
 
 /* Poses of a take with the definition each follows, as read from
- * DIR/poses.mcr (whole records only). */
+ * DIR/poses.mcr, or with track != NULL from DIR/poses-TRACK.mcr (a track
+ * mocap-track wrote); whole records only. */
 typedef struct {
 	take_def def;          /* the first definition (a take with several: the first) */
 	take_pose *poses;
@@ -139,7 +143,7 @@ typedef struct {
 	bool torn;             /* the file ended in a torn record (a crash) */
 } take_poses;
 
-int take_poses_load(const char *dir, take_poses *out, mc_err *err);
+int take_poses_load(const char *dir, const char *track, take_poses *out, mc_err *err);
 void take_poses_free(take_poses *t);
 
 /* ---- take.json ---- */
@@ -154,6 +158,7 @@ typedef struct {
 	char stop_reason[256];     /* "stopped by request", "limit: ...", "error: ..." */
 	int ncams;
 	char cams[TAKE_MAX_CAMERAS][64];
+	char rig_cams[TAKE_MAX_CAMERAS][64]; /* the rig camera each one is ("" = not tracked) */
 	uint64_t poses, pose_gaps; /* skeletons written, and not received by the recorder */
 	uint64_t frames[TAKE_MAX_CAMERAS], frame_drops[TAKE_MAX_CAMERAS];
 	uint64_t bytes;

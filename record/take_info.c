@@ -51,9 +51,9 @@ int take_info_write(const char *dir, const take_info *t, mc_err *err)
 {
 	json_t *cams = json_array();
 	for (int c = 0; c < t->ncams; c++)
-		json_array_append_new(cams, json_pack("{s:s, s:s, s:I, s:I}", "name", t->cams[c], "file",
-						      "", "frames", (json_int_t)t->frames[c], "dropped",
-						      (json_int_t)t->frame_drops[c]));
+		json_array_append_new(cams, json_pack("{s:s, s:s, s:s, s:I, s:I}", "name", t->cams[c], "rig_camera",
+						      t->rig_cams[c], "file", "", "frames", (json_int_t)t->frames[c],
+						      "dropped", (json_int_t)t->frame_drops[c]));
 	for (int c = 0; c < t->ncams; c++) {
 		char file[96];
 		snprintf(file, sizeof(file), "cam-%s.mcr", t->cams[c]);
@@ -112,6 +112,8 @@ int take_info_read(const char *dir, take_info *t, mc_err *err)
 	for (size_t c = 0; c < json_array_size(cams) && c < TAKE_MAX_CAMERAS; c++) {
 		json_t *cam = json_array_get(cams, c);
 		snprintf(t->cams[c], sizeof(t->cams[c]), "%s", json_string_value(json_object_get(cam, "name")) ?: "");
+		snprintf(t->rig_cams[c], sizeof(t->rig_cams[c]), "%s",
+			 json_string_value(json_object_get(cam, "rig_camera")) ?: "");
 		t->frames[c] = get_u64(cam, "frames");
 		t->frame_drops[c] = get_u64(cam, "dropped");
 		t->ncams++;

@@ -240,7 +240,7 @@ int main(void)
 	}
 	write_poses(dir, &def, poses, 8);
 	take_poses t;
-	CHECK_MSG(take_poses_load(dir, &t, &err) == 0, "%s", err.msg);
+	CHECK_MSG(take_poses_load(dir, NULL, &t, &err) == 0, "%s", err.msg);
 	CHECK(t.nposes == 8 && t.gap_frames == 2 && !t.torn && t.def.njoints == model.njoints);
 	CHECK(strcmp(t.def.joints[4].name, model.joints[4].name) == 0);
 	CHECK_NEAR(t.def.joints[4].offset[1], model.joints[4].offset.y * 1.1, 1e-12);
