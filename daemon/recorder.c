@@ -171,7 +171,8 @@ static int open_files(mcd_recorder *r, mc_err *err)
 	r->info.ncams = r->ncams;
 	for (int c = 0; c < r->ncams; c++) {
 		snprintf(r->info.cams[c], sizeof(r->info.cams[c]), "%s", mcd_camera_name(r->cams[c]));
-		snprintf(r->info.rig_cams[c], sizeof(r->info.rig_cams[c]), "%s", r->rig_cams[c]);
+		_Static_assert(sizeof(r->info.rig_cams[c]) == sizeof(r->rig_cams[c]), "rig camera names");
+		memcpy(r->info.rig_cams[c], r->rig_cams[c], sizeof(r->info.rig_cams[c])); /* NUL-terminated */
 		snprintf(path, sizeof(path), "%s/cam-%s.mcr", r->dir, r->info.cams[c]);
 		if (r->cfg.frames && take_file_create(&r->cam_files[c], path, err) < 0)
 			return -1;
@@ -253,7 +254,7 @@ static void finish(mcd_recorder *r, const char *reason)
 	snprintf(r->info.stop_reason, sizeof(r->info.stop_reason), "%s", reason);
 	bool written = synced && take_info_write(r->dir, &r->info, &err) == 0;
 	double secs = (double)(r->info.stop_realtime_ns - r->info.start_realtime_ns) * 1e-9;
-	snprintf(r->last, sizeof(r->last), "last take %s: %s after %.1f s, %llu poses%s%s", r->dir, reason, secs,
+	snprintf(r->last, sizeof(r->last), "last take %.2048s: %.600s after %.1f s, %llu poses%s%.600s", r->dir, reason, secs,
 		 (unsigned long long)r->info.poses, written ? "" : "; take.json not final: ", written ? "" : err.msg);
 	r->active = false;
 	if (strncmp(reason, "error", 5) == 0)

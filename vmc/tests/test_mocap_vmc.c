@@ -84,6 +84,22 @@ static int on_bundle_end(void *user)
 	return 0;
 }
 
+/* liblo's arguments are 4-byte aligned, its lo_arg union wants 8: read
+ * them by their bytes (UBSan: misaligned member access). */
+static float arg_f(const lo_arg *a)
+{
+	float f;
+	memcpy(&f, a, sizeof(f));
+	return f;
+}
+
+static int32_t arg_i(const lo_arg *a)
+{
+	int32_t i;
+	memcpy(&i, a, sizeof(i));
+	return i;
+}
+
 static int on_message(const char *path, const char *types, lo_arg **argv, int argc, lo_message m, void *user)
 {
 	(void)m, (void)user;
@@ -92,20 +108,20 @@ static int on_message(const char *path, const char *types, lo_arg **argv, int ar
 	if (b && strcmp(path, "/VMC/Ext/Bone/Pos") == 0 && strcmp(types, "sfffffff") == 0) {
 		int k = -1;
 		for (int i = 0; i < NEXPECT; i++)
-			k = strcmp(&argv[0]->s, expect[i].bone) == 0 ? i : k;
+			k = strcmp((const char *)argv[0], expect[i].bone) == 0 ? i : k;
 		if (k < 0)
 			b->unknown++;
 		else {
 			b->have[k] = true;
-			b->pos[k] = mc_v3(argv[1]->f, argv[2]->f, argv[3]->f);
-			b->rot[k] = (mc_quat){argv[7]->f, argv[4]->f, argv[5]->f, argv[6]->f};
+			b->pos[k] = mc_v3(arg_f(argv[1]), arg_f(argv[2]), arg_f(argv[3]));
+			b->rot[k] = (mc_quat){arg_f(argv[7]), arg_f(argv[4]), arg_f(argv[5]), arg_f(argv[6])};
 		}
 	} else if (b && strcmp(path, "/VMC/Ext/Root/Pos") == 0 && strcmp(types, "sfffffff") == 0 &&
-		   strcmp(&argv[0]->s, "root") == 0 && argv[7]->f == 1.0f)
+		   strcmp((const char *)argv[0], "root") == 0 && arg_f(argv[7]) == 1.0f)
 		b->roots++;
 	else if (b && strcmp(path, "/VMC/Ext/OK") == 0 && argc == 4 && strcmp(types, "iiii") == 0) {
 		b->oks++;
-		b->tracking = argv[3]->i;
+		b->tracking = arg_i(argv[3]);
 	} else if (b && strcmp(path, "/VMC/Ext/T") == 0 && strcmp(types, "f") == 0)
 		b->times++;
 	else if (b)
