@@ -14,6 +14,8 @@
 #include <stdint.h>
 #include <stdio.h>
 
+#define MCD_OUTPUT_KEYPOINTS 256 /* 8 cameras x 32 joints */
+
 typedef struct {
 	uint64_t seq;          /* frame sets handled by the tracking thread */
 	uint64_t timestamp_ns; /* capture time */
@@ -27,6 +29,10 @@ typedef struct {
 	mc_skeleton sk;
 	int ndof;
 	double pose[MC_MAX_DOF];
+	/* The 2D keypoints tracked with (clients' and the detector's), for
+	 * the recorder; at most MCD_OUTPUT_KEYPOINTS. */
+	int nkp;
+	mc_keypoint kp[MCD_OUTPUT_KEYPOINTS];
 } mcd_output;
 
 typedef struct {

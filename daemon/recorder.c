@@ -14,7 +14,7 @@
 #include <sys/stat.h>
 #include <time.h>
 
-#define POSE_QUEUE 64   /* poses waiting for the thread (~0.5 MB) */
+#define POSE_QUEUE 64   /* poses waiting for the thread (~0.9 MB) */
 #define FRAME_QUEUE 512 /* frame references waiting: the rings hold the bytes */
 
 typedef struct {
@@ -22,6 +22,13 @@ typedef struct {
 	uint64_t generation;
 	mc_ring_meta meta;
 } frame_ref;
+
+/* A skeleton waiting for the thread, with the keypoints it was tracked with. */
+typedef struct {
+	take_pose pose;
+	int nkp;
+	take_keypoint kp[MCD_OUTPUT_KEYPOINTS];
+} queued_pose;
 
 struct mcd_recorder {
 	mcd_record_config cfg;
@@ -39,7 +46,7 @@ struct mcd_recorder {
 	bool quit;
 
 	/* Queues, under lock. */
-	take_pose *poses;
+	queued_pose *poses;
 	int pose_head, pose_count;
 	frame_ref frames[FRAME_QUEUE];
 	int frame_head, frame_count;
@@ -58,7 +65,7 @@ struct mcd_recorder {
 
 	uint8_t *buf; /* frame bytes copied out of a ring (thread only) */
 	size_t cap;
-	uint8_t pose_buf[64 + 64 * TAKE_MAX_JOINTS];
+	uint8_t pose_buf[64 + 64 * TAKE_MAX_JOINTS + 8 * TAKE_MAX_DOF + 16 * MCD_OUTPUT_KEYPOINTS];
 };
 
 void mcd_take_def_from_model(const mc_model *model, uint32_t id, take_def *def)
@@ -264,8 +271,9 @@ static void finish(mcd_recorder *r, const char *reason)
 	pthread_cond_broadcast(&r->done);
 }
 
-static int write_pose(mcd_recorder *r, take_pose *p, mc_err *err)
+static int write_pose(mcd_recorder *r, queued_pose *q, mc_err *err)
 {
+	take_pose *p = &q->pose;
 	if (!r->have_def)
 		return 0;
 	uint64_t now = mc_now_ns();
@@ -281,7 +289,10 @@ static int write_pose(mcd_recorder *r, take_pose *p, mc_err *err)
 	if (take_file_append(&r->poses_file, TAKE_SKELETON, r->pose_buf, n, NULL, 0, now, err) < 0)
 		return -1;
 	r->info.poses++;
-	return 0;
+	if (q->nkp == 0)
+		return 0;
+	n = take_encode_keypoints(p->seq, p->capture_ns, q->kp, q->nkp, r->pose_buf, sizeof(r->pose_buf));
+	return take_file_append(&r->poses_file, TAKE_KEYPOINTS, r->pose_buf, n, NULL, 0, now, err);
 }
 
 static int write_frame(mcd_recorder *r, const frame_ref *f, mc_err *err)
@@ -343,7 +354,7 @@ static const char *due(mcd_recorder *r, char *why, size_t cap, mc_err *err)
 
 /* Takes one queued item (a pose first: they are small and what labs
  * need most) into *pose or *frame; 1 pose, 2 frame, 0 none.  Under lock. */
-static int pop(mcd_recorder *r, take_pose *pose, frame_ref *frame)
+static int pop(mcd_recorder *r, queued_pose *pose, frame_ref *frame)
 {
 	if (r->pose_count) {
 		*pose = r->poses[r->pose_head];
@@ -363,7 +374,7 @@ static int pop(mcd_recorder *r, take_pose *pose, frame_ref *frame)
 static void *recorder_main(void *arg)
 {
 	mcd_recorder *r = arg;
-	static take_pose pose; /* one recorder per process */
+	static queued_pose pose; /* one recorder per process */
 	frame_ref frame;
 	pthread_mutex_lock(&r->lock);
 	while (!r->quit || r->active) { /* a take in progress is drained and finished first */
@@ -429,7 +440,12 @@ void mcd_recorder_push_pose(mcd_recorder *r, const mcd_output *o, uint64_t seq)
 	pthread_mutex_lock(&r->lock);
 	/* A full queue drops the pose: the gap shows in the take. */
 	if (r->active && !r->stop_requested && !r->quit && r->pose_count < POSE_QUEUE) {
-		take_pose *p = &r->poses[(r->pose_head + r->pose_count++) % POSE_QUEUE];
+		queued_pose *q = &r->poses[(r->pose_head + r->pose_count++) % POSE_QUEUE];
+		take_pose *p = &q->pose;
+		q->nkp = o->nkp > 0 && o->nkp <= MCD_OUTPUT_KEYPOINTS ? o->nkp : 0;
+		for (int k = 0; k < q->nkp; k++)
+			q->kp[k] = (take_keypoint){(uint16_t)o->kp[k].cam, (uint16_t)o->kp[k].joint, (float)o->kp[k].u,
+						   (float)o->kp[k].v, (float)o->kp[k].conf};
 		p->seq = seq;
 		p->capture_ns = o->timestamp_ns;
 		p->state = (int)o->sk.state;
@@ -509,7 +525,7 @@ const char *mcd_recorder_directory(const mcd_recorder *r)
 mcd_recorder *mcd_recorder_create(const mcd_recorder_setup *s, mc_err *err)
 {
 	mcd_recorder *r = calloc(1, sizeof(*r));
-	if (!r || !(r->poses = calloc(POSE_QUEUE, sizeof(take_pose)))) {
+	if (!r || !(r->poses = calloc(POSE_QUEUE, sizeof(queued_pose)))) {
 		free(r);
 		mc_err_set(err, "out of memory");
 		return NULL;

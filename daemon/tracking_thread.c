@@ -249,6 +249,8 @@ static void track(mcd_tracking_thread *t, const mc_frame_view *views, int presen
 	int nkp = collect_keypoints(t, views, nviews);
 	mc_err err = {{0}};
 	int rc = mc_tracker_track(tr->tracker, views, nviews, nkp ? t->kp : NULL, nkp, &o->sk, &err);
+	o->nkp = nkp < MCD_OUTPUT_KEYPOINTS ? nkp : MCD_OUTPUT_KEYPOINTS;
+	memcpy(o->kp, t->kp, sizeof(*o->kp) * (size_t)o->nkp);
 	if (rc == 0) {
 		o->tracked = true;
 		o->ndof = mc_tracker_model(tr->tracker)->ndof;

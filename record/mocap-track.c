@@ -158,6 +158,61 @@ static int open_cameras(const char *take, const take_info *info, const mc_rig *r
 	return 0;
 }
 
+/* ---- the keypoints tracked with live ---- */
+
+typedef struct {
+	uint64_t capture_ns;
+	int n;
+	mc_keypoint *kp;
+} keypoint_set;
+
+/* Every KEYPOINTS record of poses.mcr, in order. */
+static int load_keypoints(const char *take, keypoint_set **out)
+{
+	char path[4300];
+	snprintf(path, sizeof(path), "%s/poses.mcr", take);
+	take_reader r;
+	mc_err err = {""};
+	*out = NULL;
+	if (take_reader_open(&r, path, &err) < 0)
+		return 0;
+	static take_keypoint kp[TAKE_MAX_KEYPOINTS];
+	take_record_type type;
+	const uint8_t *p;
+	size_t size;
+	int n = 0, cap = 0;
+	while (take_reader_next(&r, &type, &p, &size, NULL) == 1) {
+		uint64_t seq, t;
+		int k;
+		if (type != TAKE_KEYPOINTS || take_decode_keypoints(p, size, &seq, &t, kp, TAKE_MAX_KEYPOINTS, &k) < 0)
+			continue;
+		if (n == cap) {
+			cap = cap ? 2 * cap : 256;
+			keypoint_set *grown = realloc(*out, (size_t)cap * sizeof(**out));
+			if (!grown)
+				fail(1, "out of memory");
+			*out = grown;
+		}
+		keypoint_set *s = &(*out)[n++];
+		s->capture_ns = t;
+		s->n = k;
+		if (!(s->kp = malloc(sizeof(*s->kp) * (size_t)(k ? k : 1))))
+			fail(1, "out of memory");
+		for (int i = 0; i < k; i++)
+			s->kp[i] = (mc_keypoint){kp[i].cam, kp[i].joint, kp[i].u, kp[i].v, kp[i].confidence};
+	}
+	take_reader_close(&r);
+	return n;
+}
+
+/* The set captured at t (sets are in time order; *at moves forward). */
+static const keypoint_set *keypoints_at(const keypoint_set *sets, int n, int *at, uint64_t t)
+{
+	while (*at < n && sets[*at].capture_ns < t)
+		(*at)++;
+	return *at < n && sets[*at].capture_ns == t ? &sets[*at] : NULL;
+}
+
 /* ---- the tracker ---- */
 
 /* The live tracker's actor, as far as the take has it: bone scales from the
@@ -271,6 +326,8 @@ int main(int argc, char **argv)
 	mc_image_conv *conv = mc_image_conv_new(&err);
 	if (!conv)
 		fail(1, "%s", err.msg);
+	keypoint_set *kps = NULL;
+	int nkps = load_keypoints(o.take, &kps), kp_at = 0, kp_used = 0;
 	uint64_t start = mc_now_ns();
 	int done = 0, states[MC_TRACK_INITIALISING + 1] = {0};
 	while (cams[ref].have) {
@@ -290,7 +347,9 @@ int main(int argc, char **argv)
 			views[cam->rig_index] = (mc_frame_view){cam->w, cam->h, cam->w * 3, cam->rgb, cam->m.capture_ns};
 		}
 		mc_skeleton sk;
-		if (mc_tracker_track(t, views, rig.ncams, NULL, 0, &sk, &err) < 0)
+		const keypoint_set *ks = keypoints_at(kps, nkps, &kp_at, t0);
+		kp_used += ks != NULL;
+		if (mc_tracker_track(t, views, rig.ncams, ks ? ks->kp : NULL, ks ? ks->n : 0, &sk, &err) < 0)
 			fail(1, "%s: frame set %d: %s", o.take, done, err.msg);
 		take_pose p = {.seq = (uint64_t)done + 1, .capture_ns = t0, .realtime_ns = cams[ref].m.realtime_ns,
 			       .state = (int)sk.state, .def_id = live.def.id, .njoints = sk.njoints};
@@ -316,8 +375,13 @@ int main(int argc, char **argv)
 		fail(1, "%s", err.msg);
 	take_file_close(&out);
 	double secs = (double)(mc_now_ns() - start) * 1e-9;
-	printf("mocap-track: %d frame sets in %.1f s (%.1f per s) into %s: %d ok, %d uncertain, %d lost\n", done, secs,
-	       secs > 0 ? done / secs : 0.0, path, states[MC_TRACK_OK], states[MC_TRACK_UNCERTAIN], states[MC_TRACK_LOST]);
+	printf("mocap-track: %d frame sets in %.1f s (%.1f per s) into %s: %d ok, %d uncertain, %d lost; "
+	       "%d with the keypoints recorded live\n",
+	       done, secs, secs > 0 ? done / secs : 0.0, path, states[MC_TRACK_OK], states[MC_TRACK_UNCERTAIN],
+	       states[MC_TRACK_LOST], kp_used);
+	for (int i = 0; i < nkps; i++)
+		free(kps[i].kp);
+	free(kps);
 	for (int c = 0; c < info.ncams; c++) {
 		take_reader_close(&cams[c].r);
 		free(cams[c].rgb);

@@ -222,6 +222,42 @@ int take_decode_gap(const uint8_t *p, size_t size, uint64_t *first_seq, uint64_t
 	return 0;
 }
 
+#define KP_HEAD 24
+#define KP_SIZE 16
+
+size_t take_encode_keypoints(uint64_t seq, uint64_t capture_ns, const take_keypoint *kp, int n, uint8_t *buf,
+			     size_t cap)
+{
+	size_t need = KP_HEAD + (size_t)n * KP_SIZE;
+	if (n < 0 || n > TAKE_MAX_KEYPOINTS || cap < need)
+		return 0;
+	uint8_t *p = put_u64(put_u64(buf, seq), capture_ns);
+	p = put_u32(put_u32(p, (uint32_t)n), 0);
+	for (int k = 0; k < n; k++) {
+		p = put_u16(put_u16(p, kp[k].cam), kp[k].joint);
+		p = put_f32(put_f32(put_f32(p, kp[k].u), kp[k].v), kp[k].confidence);
+	}
+	return need;
+}
+
+int take_decode_keypoints(const uint8_t *p, size_t size, uint64_t *seq, uint64_t *capture_ns, take_keypoint *kp,
+			  int cap, int *n)
+{
+	if (size < KP_HEAD)
+		return -1;
+	uint32_t count = get_u32(p + 16);
+	if (count > TAKE_MAX_KEYPOINTS || size != KP_HEAD + (size_t)count * KP_SIZE)
+		return -1;
+	*seq = get_u64(p);
+	*capture_ns = get_u64(p + 8);
+	*n = (int)count < cap ? (int)count : cap;
+	for (int k = 0; k < *n; k++) {
+		const uint8_t *e = p + KP_HEAD + (size_t)k * KP_SIZE;
+		kp[k] = (take_keypoint){get_u16(e), get_u16(e + 2), get_f32(e + 4), get_f32(e + 8), get_f32(e + 12)};
+	}
+	return 0;
+}
+
 void take_encode_frame_meta(const take_frame_meta *m, uint8_t *buf)
 {
 	uint8_t *p = put_u64(buf, m->sequence);

@@ -37,7 +37,16 @@ typedef enum {
 	TAKE_SKELETON = 2, /* one pose */
 	TAKE_GAP = 3,      /* poses the recorder did not get */
 	TAKE_FRAME = 4,    /* one camera frame */
+	TAKE_KEYPOINTS = 5, /* the 2D keypoints a skeleton was tracked with */
 } take_record_type;
+
+#define TAKE_MAX_KEYPOINTS 1024
+
+typedef struct {
+	uint16_t cam, joint; /* rig camera, skeleton joint */
+	float u, v;          /* native pixels */
+	float confidence;
+} take_keypoint;
 
 typedef struct {
 	char name[TAKE_JOINT_NAME];
@@ -100,6 +109,9 @@ void take_file_close(take_file *f);
 size_t take_encode_def(const take_def *d, uint8_t *buf, size_t cap);
 size_t take_encode_pose(const take_pose *p, uint8_t *buf, size_t cap);
 size_t take_encode_gap(uint64_t first_seq, uint64_t count, uint8_t *buf, size_t cap);
+/* Keypoints of the skeleton `seq` (captured at capture_ns). */
+size_t take_encode_keypoints(uint64_t seq, uint64_t capture_ns, const take_keypoint *kp, int n, uint8_t *buf,
+			     size_t cap);
 /* Frame records: the meta (56 bytes) then the bytes as delivered. */
 #define TAKE_FRAME_META_SIZE 56
 void take_encode_frame_meta(const take_frame_meta *m, uint8_t *buf);
@@ -129,6 +141,9 @@ int take_decode_def(const uint8_t *p, size_t size, take_def *d);
 int take_decode_pose(const uint8_t *p, size_t size, take_pose *o);
 int take_decode_gap(const uint8_t *p, size_t size, uint64_t *first_seq, uint64_t *count);
 int take_decode_frame_meta(const uint8_t *p, size_t size, take_frame_meta *m);
+/* *n keypoints (at most cap) into kp; -1 when the record does not decode. */
+int take_decode_keypoints(const uint8_t *p, size_t size, uint64_t *seq, uint64_t *capture_ns, take_keypoint *kp,
+			  int cap, int *n);
 
 /* ---- the take as a whole ---- */
 

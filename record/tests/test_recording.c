@@ -22,7 +22,10 @@ static void write_config(mcd_run *r, const char *takes, const char *record_extra
 {
 	static char conf[65536];
 	char extra[PATH_MAX + 512];
-	snprintf(extra, sizeof(extra), "[record]\ndirectory = %s\n%s", takes, record_extra);
+	/* The test detector (a fixed keypoint) feeds the tracker: its
+	 * keypoints go into the take. */
+	snprintf(extra, sizeof(extra), "[record]\ndirectory = %s\n%s[detector]\nmodel = %s/detect/tests/data/fixed_wrist.onnx\n",
+		 takes, record_extra, repo);
 	mcd_demo_clip_config(conf, sizeof(conf), repo, 15, "", "", NULL, extra);
 	mcd_run_config(r, conf);
 }
@@ -230,6 +233,9 @@ static void check_retrack(const char *take, const char *scratch)
 	snprintf(cmd, sizeof(cmd), "%s %s 2>&1", track_bin, take);
 	int rc = mc_test_run(cmd, out, sizeof(out));
 	CHECK_MSG(rc == 0 && strstr(out, "mocap-track: ") && strstr(out, " ok, "), "mocap-track: exit %d: %s", rc, out);
+	const char *used = strstr(out, "; ");
+	CHECK_MSG(used && atoi(used + 2) > 0 && strstr(out, " with the keypoints recorded live"),
+		  "the recorded keypoints were not used: %s", out);
 	take_poses live, again;
 	take_info info;
 	mc_err err = {""};
@@ -248,9 +254,11 @@ static void check_retrack(const char *take, const char *scratch)
 	printf("retrack: %d poses; error against the clip's ground truth over %d frame sets: live %.2f cm, "
 	       "offline at the default budget %.2f cm\n",
 	       again.nposes, n, live_cm, again_cm);
-	/* A bound for "it tracks": mocap-bench puts this clip at 9-10 cm, and a
-	 * few frame sets of one stochastic run spread by 2-3 cm either way. */
-	CHECK_MSG(n > 5 && again_cm < 12.0, "retracked %.2f cm, live %.2f cm (%d sets)", again_cm, live_cm, n);
+	/* "It tracks as well as live", within what a few frame sets of the
+	 * stochastic optimiser spread (2-4 cm here); both use the test
+	 * detector's keypoints, a fixed point that pulls one wrist off, so
+	 * neither is near mocap-bench's 9-10 cm for this clip. */
+	CHECK_MSG(n > 5 && again_cm < live_cm + 4.0, "retracked %.2f cm, live %.2f cm (%d sets)", again_cm, live_cm, n);
 	take_poses_free(&live);
 	take_poses_free(&again);
 	snprintf(cmd, sizeof(cmd), "%s --track retrack --csv %s/retrack.csv %s 2>&1", export_bin, scratch, take);

@@ -35,6 +35,11 @@ static void write_poses(const char *take, const take_def *def, const take_pose *
 		}
 		k = take_encode_pose(&poses[i], buf, sizeof(buf));
 		CHECK(k > 0 && take_file_append(&f, TAKE_SKELETON, buf, k, NULL, 0, 3, &err) == 0);
+		if (i == 1) { /* the keypoints pose 1 was tracked with */
+			take_keypoint kp[2] = {{0, 5, 100.5f, 200.25f, 0.9f}, {1, 17, 3.f, 4.f, 0.25f}};
+			k = take_encode_keypoints(poses[i].seq, poses[i].capture_ns, kp, 2, buf, sizeof(buf));
+			CHECK(k > 0 && take_file_append(&f, TAKE_KEYPOINTS, buf, k, NULL, 0, 3, &err) == 0);
+		}
 	}
 	CHECK(take_file_sync(&f, &err) == 0);
 	take_file_close(&f);
@@ -114,6 +119,35 @@ static void check_torn(const char *take, int nrecords)
 	take_reader_close(&r);
 	free(data);
 	unlink(cut);
+}
+
+/* The keypoints record reads back, tied to its pose. */
+static void check_keypoints(const char *take, const take_pose *pose)
+{
+	char path[256];
+	snprintf(path, sizeof(path), "%s/poses.mcr", take);
+	take_reader r;
+	mc_err err = {""};
+	CHECK(take_reader_open(&r, path, &err) == 0);
+	take_record_type type;
+	const uint8_t *p;
+	size_t n;
+	int found = 0;
+	while (take_reader_next(&r, &type, &p, &n, NULL) == 1) {
+		if (type != TAKE_KEYPOINTS)
+			continue;
+		take_keypoint kp[4];
+		uint64_t seq, t;
+		int k;
+		CHECK(take_decode_keypoints(p, n, &seq, &t, kp, 4, &k) == 0 && k == 2);
+		CHECK(seq == pose->seq && t == pose->capture_ns);
+		CHECK(kp[0].cam == 0 && kp[0].joint == 5 && kp[0].u == 100.5f && kp[0].v == 200.25f && kp[0].confidence == 0.9f);
+		CHECK(kp[1].cam == 1 && kp[1].joint == 17 && kp[1].confidence == 0.25f);
+		CHECK(take_decode_keypoints(p, n - 1, &seq, &t, kp, 4, &k) < 0);
+		found++;
+	}
+	CHECK(found == 1);
+	take_reader_close(&r);
 }
 
 /* A full disk: the append fails, saying so; what is there stays whole. */
@@ -248,7 +282,8 @@ int main(void)
 	      t.poses[7].seq == 10);
 	take_poses_free(&t);
 
-	check_torn(dir, 10);
+	check_torn(dir, 11);
+	check_keypoints(dir, &poses[1]);
 	check_disk_full();
 	check_info(dir);
 	check_bvh(dir, &model, poses, 8);
