@@ -5,6 +5,7 @@
  *   mocap-export --csv OUT.csv TAKE_DIR
  *   mocap-export --json OUT.json TAKE_DIR
  *   mocap-export --frames OUT_DIR --camera NAME TAKE_DIR
+ *   mocap-export --video OUT.mkv --camera NAME TAKE_DIR
  *
  * Only whole records are read: a take cut by a crash exports up to its last
  * whole frame (and says so). */
@@ -15,6 +16,9 @@
 #include "take.h"
 
 #include <errno.h>
+#include <libavcodec/avcodec.h>
+#include <libavformat/avformat.h>
+#include <libavutil/pixfmt.h>
 #include <getopt.h>
 #include <stdarg.h>
 #include <stdio.h>
@@ -27,7 +31,7 @@
 static void usage(FILE *f)
 {
 	fprintf(f, "usage: mocap-export (--bvh OUT.bvh | --csv OUT.csv | --json OUT.json |\n"
-		   "                     --frames OUT_DIR --camera NAME) TAKE_DIR\n"
+		   "                     --frames OUT_DIR --camera NAME | --video OUT.mkv --camera NAME) TAKE_DIR\n"
 		   "Exports a take recorded by mocapd (docs/RECORDING.md).\n"
 		   "\n"
 		   "  --bvh FILE       the skeleton as BVH: the HIERARCHY from the take's skeleton\n"
@@ -36,7 +40,9 @@ static void usage(FILE *f)
 		   "  --json FILE      the same as JSON\n"
 		   "  --frames DIR     one camera's frames as image files (JPEG as recorded,\n"
 		   "                   other formats encoded as JPEG), named by sequence\n"
-		   "  --camera NAME    the camera for --frames\n"
+		   "  --video FILE     one camera's frames as a Matroska video, nothing re-encoded\n"
+		   "                   (JPEG as MJPEG, raw formats as uncompressed video)\n"
+		   "  --camera NAME    the camera for --frames and --video\n"
 		   "  --track NAME     the skeletons of mocap-track's poses-NAME.mcr instead of\n"
 		   "                   those tracked live\n"
 		   "  -h, --help       this text\n"
@@ -277,13 +283,122 @@ static int export_frames(const char *take, const char *camera, const char *dir)
 	return 0;
 }
 
+/* ---- video ---- */
+
+/* The pixel format libav calls a raw format; AV_PIX_FMT_NONE: not one. */
+static enum AVPixelFormat av_format_of(uint32_t pixfmt)
+{
+	switch (pixfmt) {
+	case MC_PIXFMT_RGB24: return AV_PIX_FMT_RGB24;
+	case MC_PIXFMT_GRAY8: return AV_PIX_FMT_GRAY8;
+	case MC_PIXFMT_YUYV: return AV_PIX_FMT_YUYV422;
+	case MC_PIXFMT_BAYER_RGGB8: return AV_PIX_FMT_BAYER_RGGB8;
+	case MC_PIXFMT_BAYER_GRBG8: return AV_PIX_FMT_BAYER_GRBG8;
+	case MC_PIXFMT_BAYER_GBRG8: return AV_PIX_FMT_BAYER_GBRG8;
+	case MC_PIXFMT_BAYER_BGGR8: return AV_PIX_FMT_BAYER_BGGR8;
+	case MC_PIXFMT_DEPTH16: return AV_PIX_FMT_GRAY16LE;
+	default: return AV_PIX_FMT_NONE;
+	}
+}
+
+/* The video stream for the first frame: JPEG as MJPEG, raw formats as
+ * uncompressed video (both stored as recorded, nothing re-encoded). */
+static AVFormatContext *open_video(const char *out, const take_frame_meta *m)
+{
+	AVFormatContext *oc = NULL;
+	if (avformat_alloc_output_context2(&oc, NULL, "matroska", out) < 0 || !oc)
+		fail(1, "%s: cannot make a Matroska file", out);
+	AVStream *st = avformat_new_stream(oc, NULL);
+	if (!st)
+		fail(1, "%s: out of memory", out);
+	AVCodecParameters *cp = st->codecpar;
+	cp->codec_type = AVMEDIA_TYPE_VIDEO;
+	cp->width = (int)m->width;
+	cp->height = (int)m->height;
+	if (m->pixfmt == MC_PIXFMT_MJPEG) {
+		cp->codec_id = AV_CODEC_ID_MJPEG;
+	} else {
+		enum AVPixelFormat f = av_format_of(m->pixfmt);
+		if (f == AV_PIX_FMT_NONE)
+			fail(1, "%s: pixel format %u has no uncompressed video counterpart", out, m->pixfmt);
+		cp->codec_id = AV_CODEC_ID_RAWVIDEO;
+		cp->format = f;
+		cp->codec_tag = avcodec_pix_fmt_to_codec_tag(f);
+	}
+	st->time_base = (AVRational){1, 1000000000};
+	if (avio_open(&oc->pb, out, AVIO_FLAG_WRITE) < 0)
+		fail(1, "%s: %s", out, strerror(errno));
+	if (avformat_write_header(oc, NULL) < 0)
+		fail(1, "%s: cannot write the Matroska header", out);
+	return oc;
+}
+
+/* Rows of a raw frame packed (the ring may pad them to `stride`). */
+static size_t packed_copy(const take_frame_meta *m, const uint8_t *src, size_t n, uint8_t *dst)
+{
+	int bpp = m->pixfmt == MC_PIXFMT_MJPEG ? 0 : mc_image_bytes_per_pixel(m->pixfmt);
+	size_t row = (size_t)m->width * (size_t)bpp;
+	if (!bpp || !m->stride || m->stride == row) {
+		memcpy(dst, src, n);
+		return n;
+	}
+	for (uint32_t y = 0; y < m->height && (size_t)(y + 1) * m->stride <= n + m->stride - row; y++)
+		memcpy(dst + y * row, src + (size_t)y * m->stride, row);
+	return row * m->height;
+}
+
+static void export_video(const char *take, const char *camera, const char *out)
+{
+	char path[4300];
+	snprintf(path, sizeof(path), "%s/cam-%s.mcr", take, camera);
+	take_reader r;
+	mc_err err = {""};
+	if (take_reader_open(&r, path, &err) < 0)
+		fail(1, "%s (is '%s' one of the take's cameras? take.json lists them)", err.msg, camera);
+	AVFormatContext *oc = NULL;
+	uint64_t t0 = 0;
+	int count = 0;
+	take_record_type type;
+	const uint8_t *p;
+	size_t n;
+	while (take_reader_next(&r, &type, &p, &n, NULL) == 1) {
+		take_frame_meta m;
+		if (type != TAKE_FRAME || take_decode_frame_meta(p, n, &m) < 0)
+			continue;
+		if (!oc) {
+			oc = open_video(out, &m);
+			t0 = m.capture_ns;
+		}
+		AVPacket *pkt = av_packet_alloc();
+		size_t bytes = n - TAKE_FRAME_META_SIZE;
+		if (!pkt || av_new_packet(pkt, (int)bytes) < 0)
+			fail(1, "out of memory");
+		pkt->size = (int)packed_copy(&m, p + TAKE_FRAME_META_SIZE, bytes, pkt->data);
+		pkt->pts = pkt->dts = av_rescale_q((int64_t)(m.capture_ns - t0), (AVRational){1, 1000000000},
+						   oc->streams[0]->time_base);
+		pkt->flags |= AV_PKT_FLAG_KEY;
+		if (av_write_frame(oc, pkt) < 0)
+			fail(1, "%s: cannot write frame %llu", out, (unsigned long long)m.sequence);
+		av_packet_free(&pkt);
+		count++;
+	}
+	take_reader_close(&r);
+	if (!oc)
+		fail(1, "%s: no whole frame", path);
+	if (av_write_trailer(oc) < 0 || avio_closep(&oc->pb) < 0)
+		fail(1, "%s: write error", out);
+	avformat_free_context(oc);
+	printf("mocap-export: %d frames of %s into %s\n", count, camera, out);
+}
+
 int main(int argc, char **argv)
 {
-	const char *bvh = NULL, *csv = NULL, *json = NULL, *frames = NULL, *camera = NULL, *track = NULL;
+	const char *bvh = NULL, *csv = NULL, *json = NULL, *frames = NULL, *camera = NULL, *track = NULL, *video = NULL;
 	static const struct option opts[] = {
 		{"bvh", required_argument, NULL, 'b'},    {"csv", required_argument, NULL, 'c'},
 		{"json", required_argument, NULL, 'j'},   {"frames", required_argument, NULL, 'f'},
 		{"camera", required_argument, NULL, 'C'}, {"track", required_argument, NULL, 't'},
+		{"video", required_argument, NULL, 'v'},
 		{"help", no_argument, NULL, 'h'},
 		{"version", no_argument, NULL, 'V'},      {NULL, 0, NULL, 0},
 	};
@@ -296,12 +411,13 @@ int main(int argc, char **argv)
 		case 'f': frames = optarg; break;
 		case 'C': camera = optarg; break;
 		case 't': track = optarg; break;
+		case 'v': video = optarg; break;
 		case 'h': usage(stdout); return 0;
 		case 'V': printf("mocap-export %s\n", MC_VERSION); return 0;
 		default: usage(stderr); return 2;
 		}
 	}
-	if (optind + 1 != argc || (!bvh && !csv && !json && !frames) || (frames && !camera)) {
+	if (optind + 1 != argc || (!bvh && !csv && !json && !frames && !video) || ((frames || video) && !camera)) {
 		usage(stderr);
 		return 2;
 	}
@@ -312,6 +428,8 @@ int main(int argc, char **argv)
 		fail(1, "%s", err.msg);
 	if (frames)
 		export_frames(take, camera, frames);
+	if (video)
+		export_video(take, camera, video);
 	if (!bvh && !csv && !json)
 		return 0;
 	take_poses t;

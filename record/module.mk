@@ -8,6 +8,9 @@ MOCAP_EXPORT := $(BUILD)/bin/mocap-export
 MOCAP_TRACK := $(BUILD)/bin/mocap-track
 RECORD_TESTS := $(patsubst record/tests/%.c,$(BUILD)/record/tests/%,$(wildcard record/tests/test_*.c))
 RECORD_LINK := $(RECORD_LIB) $(CORE_LIB) $(CORE_LIBS) -lz
+# mocap-export writes Matroska through libavformat (Debian's FFmpeg libraries).
+RECORD_AV_CFLAGS := $(shell $(PKG_CONFIG) --cflags libavformat libavcodec libavutil 2>/dev/null)
+RECORD_AV_LIBS := $(or $(shell $(PKG_CONFIG) --libs libavformat libavcodec libavutil 2>/dev/null),-lavformat -lavcodec -lavutil)
 
 LIBS += $(RECORD_LIB)
 BINS += $(MOCAP_EXPORT) $(MOCAP_TRACK)
@@ -21,7 +24,7 @@ $(RECORD_LIB): $(RECORD_OBJ)
 
 $(MOCAP_EXPORT): record/mocap-export.c $(RECORD_LIB) $(CORE_LIB) $(INSTALL_PATHS_H)
 	@mkdir -p $(@D)
-	$(CC) $(CPPFLAGS) -Irecord $(CFLAGS) -MMD -MP $< -o $@ $(LDFLAGS) $(RECORD_LINK)
+	$(CC) $(CPPFLAGS) -Irecord $(RECORD_AV_CFLAGS) $(CFLAGS) -MMD -MP $< -o $@ $(LDFLAGS) $(RECORD_LINK) $(RECORD_AV_LIBS)
 
 # mocap-track runs the tracker (the core, OpenCL).
 $(MOCAP_TRACK): record/mocap-track.c $(RECORD_LIB) $(CORE_LIB) $(INSTALL_PATHS_H)
@@ -32,14 +35,15 @@ $(MOCAP_TRACK): record/mocap-track.c $(RECORD_LIB) $(CORE_LIB) $(INSTALL_PATHS_H
 # clip, records, kills it, and exports (daemon harness, libmocap).
 $(BUILD)/record/tests/test_take: record/tests/test_take.c $(RECORD_LIB) $(CORE_LIB)
 	@mkdir -p $(@D) $(BUILD)/tests
-	$(CC) $(CPPFLAGS) -Irecord -Itests $(CFLAGS) -MMD -MP $< -o $@ $(LDFLAGS) $(RECORD_LINK)
+	$(CC) $(CPPFLAGS) -Irecord -Itests $(RECORD_AV_CFLAGS) $(CFLAGS) -MMD -MP $< -o $@ $(LDFLAGS) $(RECORD_LINK) \
+		$(RECORD_AV_LIBS)
 
 $(BUILD)/record/tests/test_recording: record/tests/test_recording.c $(RECORD_LIB) $(BUILD)/libmocap.a $(CORE_LIB) \
 		| $(MOCAP_EXPORT) $(MOCAP_TRACK) $(BUILD)/bin/mocapd $(BUILD)/bin/mocapctl $(BUILD)/drivers/mocap-driver-files.so \
 		$(BUILD)/drivers/mocap-driver-take.so
 	@mkdir -p $(@D) $(BUILD)/tests
-	$(CC) $(CPPFLAGS) -Irecord -Iipc -Itests $(CFLAGS) -MMD -MP $< -o $@ $(LDFLAGS) $(RECORD_LIB) $(BUILD)/libmocap.a \
-		$(CORE_LIB) $(CORE_LIBS) -lz
+	$(CC) $(CPPFLAGS) -Irecord -Iipc -Itests $(RECORD_AV_CFLAGS) $(CFLAGS) -MMD -MP $< -o $@ $(LDFLAGS) $(RECORD_LIB) \
+		$(BUILD)/libmocap.a $(CORE_LIB) $(CORE_LIBS) -lz $(RECORD_AV_LIBS)
 
 # The recorder's cost with two test cameras (tests/bench/record.sh):
 # RECORD_SIZE (1280x1024), RECORD_FPS (60), RECORD_FORMAT (yuyv),

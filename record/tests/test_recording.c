@@ -9,6 +9,7 @@
  * goes on. */
 #include "daemon/harness.h"
 #include "eval/mc_gt.h"
+#include <libavformat/avformat.h>
 #include "mocap.h"
 #include "take.h"
 #include "test_util.h"
@@ -154,6 +155,26 @@ static void check_restart(mcd_run *r, const char *takes)
 		 take);
 	rc = mc_test_run(cmd, res, sizeof(res));
 	CHECK_MSG(rc == 0 && strstr(res, " poses (0 missed by the recorder)"), "mocap-export: exit %d: %s", rc, res);
+	/* The left camera as a video: MJPEG in Matroska, every frame. */
+	snprintf(cmd, sizeof(cmd), "%s --video %s/left.mkv --camera left %s 2>&1", export_bin, r->dir, take);
+	rc = mc_test_run(cmd, res, sizeof(res));
+	CHECK_MSG(rc == 0, "mocap-export --video: exit %d: %s", rc, res);
+	char mkv[PATH_MAX + 16];
+	snprintf(mkv, sizeof(mkv), "%s/left.mkv", r->dir);
+	AVFormatContext *ic = NULL;
+	int packets = 0;
+	if (avformat_open_input(&ic, mkv, NULL, NULL) == 0 && avformat_find_stream_info(ic, NULL) >= 0) {
+		CHECK(ic->streams[0]->codecpar->codec_id == AV_CODEC_ID_MJPEG && ic->streams[0]->codecpar->width == 256);
+		AVPacket *pkt = av_packet_alloc();
+		while (pkt && av_read_frame(ic, pkt) == 0) {
+			packets++;
+			av_packet_unref(pkt);
+		}
+		av_packet_free(&pkt);
+		avformat_close_input(&ic);
+	}
+	CHECK_MSG(packets > 5 && (uint64_t)packets == info.frames[0], "%s: %d packets for %llu frames", mkv, packets,
+		  (unsigned long long)info.frames[0]);
 }
 
 /* Mean joint error (cm) of a track's pose against the clip's ground truth

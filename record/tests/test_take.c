@@ -6,12 +6,14 @@
  * reproduces the recorded joint positions of mocapd's default model at
  * random poses within 1 mm (within 1e-5 m: printed precision). */
 #include "base/mc_file.h"
+#include "image/mc_pixfmt.h"
 #include "body/mc_bvh.h"
 #include "body/mc_model.h"
 #include "take.h"
 #include "test_util.h"
 
 #include <fcntl.h>
+#include <libavformat/avformat.h>
 #include <limits.h>
 #include <string.h>
 #include <unistd.h>
@@ -240,6 +242,62 @@ static void check_bvh(const char *take, const mc_model *model, const take_pose *
 	free(text);
 }
 
+/* A camera of raw YUYV frames (8x4, rows padded to 20 bytes) exported
+ * with --video: libavformat reads back an uncompressed YUYV Matroska
+ * stream with every frame, rows packed, in order, timed as captured. */
+static void check_video(const char *take, const char *bin)
+{
+	char path[256];
+	snprintf(path, sizeof(path), "%s/cam-x.mcr", take);
+	take_file f;
+	mc_err err = {""};
+	CHECK(take_file_create(&f, path, &err) == 0);
+	uint8_t frame[3][4 * 20];
+	for (int k = 0; k < 3; k++) {
+		for (int i = 0; i < 4 * 20; i++)
+			frame[k][i] = (uint8_t)(k * 50 + i);
+		take_frame_meta m = {.sequence = (uint64_t)k, .capture_ns = 1000000000ull + (uint64_t)k * 40000000ull,
+				     .pixfmt = MC_PIXFMT_YUYV, .width = 8, .height = 4, .stride = 20};
+		uint8_t head[TAKE_FRAME_META_SIZE];
+		take_encode_frame_meta(&m, head);
+		CHECK(take_file_append(&f, TAKE_FRAME, head, sizeof(head), frame[k], sizeof(frame[k]), 1, &err) == 0);
+	}
+	take_file_close(&f);
+	take_info t = {.ncams = 1};
+	snprintf(t.cams[0], sizeof(t.cams[0]), "x");
+	CHECK(take_info_write(take, &t, &err) == 0);
+	char cmd[PATH_MAX + 600], out[2048], mkv[256];
+	snprintf(mkv, sizeof(mkv), "%s/x.mkv", take);
+	snprintf(cmd, sizeof(cmd), "%s/bin/mocap-export --video %s --camera x %s 2>&1", bin, mkv, take);
+	int rc = mc_test_run(cmd, out, sizeof(out));
+	CHECK_MSG(rc == 0 && strstr(out, "3 frames of x"), "exit %d: %s", rc, out);
+	AVFormatContext *ic = NULL;
+	if (avformat_open_input(&ic, mkv, NULL, NULL) < 0 || avformat_find_stream_info(ic, NULL) < 0) {
+		CHECK_MSG(false, "libavformat cannot open %s", mkv);
+		return;
+	}
+	const AVCodecParameters *cp = ic->streams[0]->codecpar;
+	CHECK(ic->nb_streams == 1 && cp->codec_id == AV_CODEC_ID_RAWVIDEO && cp->format == AV_PIX_FMT_YUYV422 &&
+	      cp->width == 8 && cp->height == 4);
+	AVPacket *pkt = av_packet_alloc();
+	int n = 0;
+	double last_s = -1;
+	while (pkt && av_read_frame(ic, pkt) == 0) {
+		bool packed = pkt->size == 4 * 16;
+		for (int y = 0; packed && y < 4 && n < 3; y++)
+			packed = memcmp(pkt->data + y * 16, frame[n] + y * 20, 16) == 0;
+		CHECK_MSG(packed, "packet %d is not frame %d with its rows packed", n, n);
+		double s = (double)pkt->pts * av_q2d(ic->streams[0]->time_base);
+		CHECK_MSG(fabs(s - 0.04 * n) < 0.002, "packet %d at %.3f s", n, s);
+		last_s = s;
+		n++;
+		av_packet_unref(pkt);
+	}
+	CHECK_MSG(n == 3 && last_s > 0, "%d packets", n);
+	av_packet_free(&pkt);
+	avformat_close_input(&ic);
+}
+
 int main(void)
 {
 	const char *model_path = "config/models/default.json";
@@ -287,6 +345,9 @@ int main(void)
 	check_disk_full();
 	check_info(dir);
 	check_bvh(dir, &model, poses, 8);
+	char build[PATH_MAX];
+	if (mc_test_build_dir(3, build, sizeof(build)))
+		check_video(dir, build);
 	char cmd[64];
 	snprintf(cmd, sizeof(cmd), "rm -rf %s", dir);
 	CHECK(system(cmd) == 0);
