@@ -13,6 +13,7 @@
 #include "test_util.h"
 
 #include <fcntl.h>
+#include <jansson.h>
 #include <libavformat/avformat.h>
 #include <limits.h>
 #include <string.h>
@@ -191,6 +192,47 @@ static void check_info(const char *take)
 	CHECK(take_info_read("/nonexistent", &u, &err) < 0 && strstr(err.msg, "/nonexistent/take.json"));
 }
 
+/* Blender's own BVH importer (record/tests/blender_bvh.py) puts every bone
+ * head where the take has the joint, within 1 mm; skipped without
+ * Blender (`make deps-train`). */
+static void check_blender(const char *bvh_path, const mc_model *model, const take_pose *poses, int n)
+{
+	char cmd[1024], out[8192], json_path[300];
+	if (mc_test_run("command -v blender 2>&1", out, sizeof(out)) != 0) {
+		printf("SKIP part: Blender is not installed (make deps-train): the BVH is not imported into Blender\n");
+		return;
+	}
+	snprintf(json_path, sizeof(json_path), "%s.json", bvh_path);
+	snprintf(cmd, sizeof(cmd), "blender -b --factory-startup --python record/tests/blender_bvh.py -- %s %s 2>&1",
+		 bvh_path, json_path);
+	int rc = mc_test_run(cmd, out, sizeof(out));
+	json_error_t je;
+	json_t *frames = json_load_file(json_path, 0, &je);
+	if (rc != 0 || !json_is_array(frames)) {
+		CHECK_MSG(false, "blender: exit %d, %s: %s\n%s", rc, json_path, je.text, out);
+		json_decref(frames);
+		return;
+	}
+	CHECK_MSG((int)json_array_size(frames) == n, "Blender has %zu frames, the take %d", json_array_size(frames), n);
+	double worst = 0;
+	int compared = 0;
+	for (int i = 0; i < n && i < (int)json_array_size(frames); i++)
+		for (int j = 0; j < model->njoints; j++) {
+			json_t *head = json_object_get(json_array_get(frames, (size_t)i), model->joints[j].name);
+			if (!json_is_array(head))
+				continue; /* a joint Blender made no bone of */
+			const double *want = poses[i].joints[j].position;
+			mc_vec3 got = mc_v3(json_number_value(json_array_get(head, 0)), json_number_value(json_array_get(head, 1)),
+					    json_number_value(json_array_get(head, 2)));
+			double e = mc_v3_norm(mc_v3_sub(got, mc_v3(want[0], want[1], want[2])));
+			worst = e > worst ? e : worst;
+			compared++;
+		}
+	printf("Blender BVH import: %d joint positions compared, largest miss %.2e m\n", compared, worst);
+	CHECK_MSG(compared >= n * (model->njoints - 2) && worst < 1e-3, "%d compared, worst %.3g m", compared, worst);
+	json_decref(frames);
+}
+
 /* mocap-export --bvh, read back with mc_bvh: the joints where recorded. */
 static void check_bvh(const char *take, const mc_model *model, const take_pose *poses, int n)
 {
@@ -229,6 +271,7 @@ static void check_bvh(const char *take, const mc_model *model, const take_pose *
 	CHECK_MSG(worst < 1e-5, "BVH joints %.3g m from the recorded ones", worst);
 	free(w);
 	mc_bvh_free(&bvh);
+	check_blender(bvh_path, model, poses, n);
 	/* CSV: a header and a row per pose */
 	char csv[256];
 	snprintf(csv, sizeof(csv), "%s/out.csv", take);
