@@ -132,6 +132,8 @@ static int create_recorder(mcd_pipeline *p, const mcd_config *cfg, mcd_tracking 
 		.def = tracking ? &def : NULL,
 	};
 	p->recorder = mcd_recorder_create(&rs, err);
+	if (p->recorder && p->srv)
+		srv_set_head_pose_tap(p->srv, mcd_recorder_push_head_pose, p->recorder);
 	return p->recorder ? 0 : -1;
 }
 
@@ -231,6 +233,8 @@ void mcd_pipeline_stop(mcd_pipeline *p, int grace_ms)
 	mcd_publisher_destroy(p->pub);
 	p->pub = NULL;
 	/* After the publisher: the take gets the last skeletons, then ends. */
+	if (p->srv)
+		srv_set_head_pose_tap(p->srv, NULL, NULL);
 	mcd_recorder_destroy(p->recorder);
 	p->recorder = NULL;
 }

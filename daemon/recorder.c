@@ -16,6 +16,7 @@
 
 #define POSE_QUEUE 64   /* poses waiting for the thread (~0.9 MB) */
 #define FRAME_QUEUE 512 /* frame references waiting: the rings hold the bytes */
+#define HEAD_QUEUE 256  /* head poses waiting (a VR runtime sends 90-1000 per s) */
 
 typedef struct {
 	int cam;
@@ -50,6 +51,9 @@ struct mcd_recorder {
 	int pose_head, pose_count;
 	frame_ref frames[FRAME_QUEUE];
 	int frame_head, frame_count;
+	take_head_pose heads[HEAD_QUEUE];
+	int head_head, head_count;
+	uint64_t head_drops;
 
 	/* The take.  `active`, `info` and `last` under lock; the files are the
 	 * thread's once started. */
@@ -235,7 +239,7 @@ int mcd_recorder_start(mcd_recorder *r, const char *name, const mc_model *actor,
 	} else {
 		r->active = true;
 		r->stop_requested = false;
-		r->pose_count = r->frame_count = 0; /* nothing from before the start */
+		r->pose_count = r->frame_count = r->head_count = 0; /* nothing from before the start */
 		r->last_seq = 0;
 		r->next_sync_ns = mc_now_ns() + (uint64_t)(r->cfg.sync_ms * 1e6);
 		snprintf(msg, cap, "recording %s", r->dir);
@@ -328,6 +332,15 @@ static int write_frame(mcd_recorder *r, const frame_ref *f, mc_err *err)
 	return 0;
 }
 
+static int write_head_pose(mcd_recorder *r, const take_head_pose *h, mc_err *err)
+{
+	if (r->poses_file.fd < 0)
+		return 0;
+	uint8_t buf[TAKE_HEAD_POSE_SIZE];
+	take_encode_head_pose(h, buf);
+	return take_file_append(&r->poses_file, TAKE_HEAD_POSE, buf, sizeof(buf), NULL, 0, mc_now_ns(), err);
+}
+
 /* Limits and the periodic sync; a reason to stop, or NULL. */
 static const char *due(mcd_recorder *r, char *why, size_t cap, mc_err *err)
 {
@@ -352,10 +365,17 @@ static const char *due(mcd_recorder *r, char *why, size_t cap, mc_err *err)
 	return NULL;
 }
 
-/* Takes one queued item (a pose first: they are small and what labs
- * need most) into *pose or *frame; 1 pose, 2 frame, 0 none.  Under lock. */
-static int pop(mcd_recorder *r, queued_pose *pose, frame_ref *frame)
+/* Takes one queued item (head poses and skeletons first: they are small
+ * and what labs need most) into *head, *pose or *frame; 3 head pose, 1
+ * pose, 2 frame, 0 none.  Under lock. */
+static int pop(mcd_recorder *r, take_head_pose *head, queued_pose *pose, frame_ref *frame)
 {
+	if (r->head_count) {
+		*head = r->heads[r->head_head];
+		r->head_head = (r->head_head + 1) % HEAD_QUEUE;
+		r->head_count--;
+		return 3;
+	}
 	if (r->pose_count) {
 		*pose = r->poses[r->pose_head];
 		r->pose_head = (r->pose_head + 1) % POSE_QUEUE;
@@ -376,9 +396,10 @@ static void *recorder_main(void *arg)
 	mcd_recorder *r = arg;
 	static queued_pose pose; /* one recorder per process */
 	frame_ref frame;
+	take_head_pose head;
 	pthread_mutex_lock(&r->lock);
 	while (!r->quit || r->active) { /* a take in progress is drained and finished first */
-		int what = r->active ? pop(r, &pose, &frame) : 0;
+		int what = r->active ? pop(r, &head, &pose, &frame) : 0;
 		if (!what) {
 			if (r->active && (r->stop_requested || r->quit)) {
 				finish(r, r->quit ? "stopped: mocapd is stopping" : "stopped by request");
@@ -401,7 +422,10 @@ static void *recorder_main(void *arg)
 		pthread_mutex_unlock(&r->lock);
 		mc_err err = {""};
 		char why[160];
-		int rc = what == 1 ? write_pose(r, &pose, &err) : what == 2 ? write_frame(r, &frame, &err) : 0;
+		int rc = what == 1   ? write_pose(r, &pose, &err)
+			 : what == 2 ? write_frame(r, &frame, &err)
+			 : what == 3 ? write_head_pose(r, &head, &err)
+				     : 0;
 		const char *stop = rc == 0 ? due(r, why, sizeof(why), &err) : NULL;
 		pthread_mutex_lock(&r->lock);
 		if (rc < 0 || err.msg[0]) {
@@ -427,6 +451,24 @@ void mcd_recorder_push_frame(mcd_recorder *r, int cam, uint64_t generation, cons
 			r->info.frame_drops[cam]++;
 		else {
 			r->frames[(r->frame_head + r->frame_count++) % FRAME_QUEUE] = (frame_ref){cam, generation, *meta};
+			pthread_cond_signal(&r->wake);
+		}
+	}
+	pthread_mutex_unlock(&r->lock);
+}
+
+void mcd_recorder_push_head_pose(void *ctx, const mc_pose *hp)
+{
+	mcd_recorder *r = ctx;
+	pthread_mutex_lock(&r->lock);
+	if (r->active && !r->stop_requested && !r->quit) {
+		if (r->head_count == HEAD_QUEUE)
+			r->head_drops++;
+		else {
+			take_head_pose *h = &r->heads[(r->head_head + r->head_count++) % HEAD_QUEUE];
+			*h = (take_head_pose){hp->timestamp_ns,
+					      {hp->position.x, hp->position.y, hp->position.z},
+					      {hp->orientation.w, hp->orientation.x, hp->orientation.y, hp->orientation.z}};
 			pthread_cond_signal(&r->wake);
 		}
 	}

@@ -13,6 +13,7 @@
 #include "capture.h"
 #include "config.h"
 #include "publish.h"
+#include "geom/mc_pose.h"
 #include "ring/mc_ring.h"
 #include "take.h"
 
@@ -48,6 +49,9 @@ const char *mcd_recorder_directory(const mcd_recorder *r);
 /* From the capture threads and the publishing thread: never block. */
 void mcd_recorder_push_frame(mcd_recorder *r, int cam, uint64_t generation, const mc_ring_meta *meta);
 void mcd_recorder_push_pose(mcd_recorder *r, const mcd_output *o, uint64_t seq);
+/* A VR runtime's head pose (the socket server's head pose tap, on the
+ * server's thread: ctx is the recorder). */
+void mcd_recorder_push_head_pose(void *ctx, const mc_pose *hp);
 
 /* The skeleton definition of a model (offsets scaled by the bone scales),
  * as the socket's SKELETON message has it. */

@@ -320,6 +320,10 @@ typedef mc_pose srv_head_pose;
 /* 1 and the newest head pose received, else 0 (none yet).  The server itself
  * uses the head poses to send world-frame skeletons to clients that ask. */
 int srv_latest_head_pose(srv_server *srv, srv_head_pose *out);
+/* Calls fn(ctx, pose) on the server's thread for every head pose accepted
+ * (e.g. the recorder: it must not block); fn NULL stops it.  Returns once
+ * no call of the previous fn is running. */
+void srv_set_head_pose_tap(srv_server *srv, void (*fn)(void *ctx, const srv_head_pose *hp), void *ctx);
 
 /* --- Camera rings ------------------------------------------------------ */
 

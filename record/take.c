@@ -258,6 +258,27 @@ int take_decode_keypoints(const uint8_t *p, size_t size, uint64_t *seq, uint64_t
 	return 0;
 }
 
+void take_encode_head_pose(const take_head_pose *h, uint8_t *buf)
+{
+	uint8_t *p = put_u64(buf, h->timestamp_ns);
+	for (int k = 0; k < 3; k++)
+		p = put_f64(p, h->position[k]);
+	for (int k = 0; k < 4; k++)
+		p = put_f64(p, h->orientation[k]);
+}
+
+int take_decode_head_pose(const uint8_t *p, size_t size, take_head_pose *h)
+{
+	if (size != TAKE_HEAD_POSE_SIZE)
+		return -1;
+	h->timestamp_ns = get_u64(p);
+	for (int k = 0; k < 3; k++)
+		h->position[k] = get_f64(p + 8 + 8 * k);
+	for (int k = 0; k < 4; k++)
+		h->orientation[k] = get_f64(p + 32 + 8 * k);
+	return 0;
+}
+
 void take_encode_frame_meta(const take_frame_meta *m, uint8_t *buf)
 {
 	uint8_t *p = put_u64(buf, m->sequence);

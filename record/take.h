@@ -38,7 +38,14 @@ typedef enum {
 	TAKE_GAP = 3,      /* poses the recorder did not get */
 	TAKE_FRAME = 4,    /* one camera frame */
 	TAKE_KEYPOINTS = 5, /* the 2D keypoints a skeleton was tracked with */
+	TAKE_HEAD_POSE = 6, /* a VR runtime's head pose (world_from_rig) */
 } take_record_type;
+
+typedef struct {
+	uint64_t timestamp_ns;  /* CLOCK_MONOTONIC */
+	double position[3];     /* metres */
+	double orientation[4];  /* w, x, y, z */
+} take_head_pose;
 
 #define TAKE_MAX_KEYPOINTS 1024
 
@@ -112,6 +119,9 @@ size_t take_encode_gap(uint64_t first_seq, uint64_t count, uint8_t *buf, size_t 
 /* Keypoints of the skeleton `seq` (captured at capture_ns). */
 size_t take_encode_keypoints(uint64_t seq, uint64_t capture_ns, const take_keypoint *kp, int n, uint8_t *buf,
 			     size_t cap);
+#define TAKE_HEAD_POSE_SIZE 64
+void take_encode_head_pose(const take_head_pose *h, uint8_t *buf);
+int take_decode_head_pose(const uint8_t *p, size_t size, take_head_pose *h);
 /* Frame records: the meta (56 bytes) then the bytes as delivered. */
 #define TAKE_FRAME_META_SIZE 56
 void take_encode_frame_meta(const take_frame_meta *m, uint8_t *buf);

@@ -182,6 +182,18 @@ void srv_head_pose_store(srv_server *srv, const srv_head_pose *hp)
 		srv->latest_head_pose = *hp;
 	srv->have_head_pose = true;
 	pthread_mutex_unlock(&srv->lock);
+	pthread_mutex_lock(&srv->tap_lock);
+	if (srv->head_pose_tap)
+		srv->head_pose_tap(srv->head_pose_tap_ctx, hp);
+	pthread_mutex_unlock(&srv->tap_lock);
+}
+
+void srv_set_head_pose_tap(srv_server *srv, void (*fn)(void *ctx, const srv_head_pose *hp), void *ctx)
+{
+	pthread_mutex_lock(&srv->tap_lock);
+	srv->head_pose_tap = fn;
+	srv->head_pose_tap_ctx = ctx;
+	pthread_mutex_unlock(&srv->tap_lock);
 }
 
 int srv_latest_head_pose(srv_server *srv, srv_head_pose *out)

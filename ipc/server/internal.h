@@ -199,6 +199,10 @@ struct srv_server {
 	blob *def_blob;
 	bool def_rig_is_world;
 	srv_head_pose head_hist[HEAD_POSE_HISTORY];
+	/* srv_set_head_pose_tap; under tap_lock, held while it is called */
+	pthread_mutex_t tap_lock;
+	void (*head_pose_tap)(void *ctx, const srv_head_pose *hp);
+	void *head_pose_tap_ctx;
 	int head_n, head_next;
 	pending_frame drained[MAILBOX_LEN];
 	srv_skeleton_def def_copy;

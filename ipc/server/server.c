@@ -115,6 +115,7 @@ srv_server *srv_create(const srv_config *cfg, mc_err *err)
 	srv->cfg = *cfg;
 	srv->listen_fd = srv->tcp_fd = srv->epfd = srv->wake_fd = srv->event_fd = srv->pose_fd = -1;
 	pthread_mutex_init(&srv->lock, NULL);
+	pthread_mutex_init(&srv->tap_lock, NULL);
 	srv->keypoints.srv = srv;
 	srv->keypoints.ring = calloc(KEYPOINT_QUEUE_LEN, sizeof(*srv->keypoints.ring));
 	if (!srv->keypoints.ring) {
@@ -184,6 +185,7 @@ void srv_destroy(srv_server *srv)
 	free(srv->clients);
 	free(srv->keypoints.ring);
 	pthread_mutex_destroy(&srv->lock);
+	pthread_mutex_destroy(&srv->tap_lock);
 	free(srv);
 }
 

@@ -120,6 +120,36 @@ static char *run_ctl(const char *sock, const char *args, int *rc)
 	return out;
 }
 
+static void check_head_poses(const char *take)
+{
+	char path[PATH_MAX + 32];
+	snprintf(path, sizeof(path), "%s/poses.mcr", take);
+	take_reader r;
+	mc_err err = {""};
+	int n = 0, keypoint_sets = 0;
+	if (take_reader_open(&r, path, &err) < 0) {
+		CHECK_MSG(false, "%s", err.msg);
+		return;
+	}
+	take_record_type type;
+	const uint8_t *p;
+	size_t size;
+	while (take_reader_next(&r, &type, &p, &size, NULL) == 1) {
+		take_head_pose h;
+		keypoint_sets += type == TAKE_KEYPOINTS;
+		if (type != TAKE_HEAD_POSE)
+			continue;
+		CHECK(take_decode_head_pose(p, size, &h) == 0);
+		CHECK_NEAR(h.position[0], 0.1 * n, 1e-12);
+		CHECK_NEAR(h.position[1], 1.6, 1e-12);
+		CHECK(h.orientation[0] == 1 && h.timestamp_ns > 0);
+		n++;
+	}
+	take_reader_close(&r);
+	CHECK_MSG(n == 3, "%d head poses in the take, 3 sent", n);
+	CHECK_MSG(keypoint_sets > 0, "no keypoints in the take (the test detector ran)");
+}
+
 /* Restarted: the cut take is listed; a new take starts and stops cleanly
  * and exports. */
 static void check_restart(mcd_run *r, const char *takes)
@@ -131,6 +161,15 @@ static void check_restart(mcd_run *r, const char *takes)
 	CHECK_MSG(rc == 0 && strstr(out, want), "record list (exit %d): %s", rc, out);
 	out = run_ctl(r->sock, "record start --name second", &rc);
 	CHECK_MSG(rc == 0 && strstr(out, "recording ") && strstr(out, "/second"), "exit %d: %s", rc, out);
+	/* A VR runtime's head poses go into the take. */
+	mocap_client *vr = mocap_connect(r->sock, "test_recording vr");
+	CHECK(vr != NULL);
+	for (int k = 0; vr && k < 3; k++) {
+		double pos[3] = {0.1 * k, 1.6, -0.2}, q[4] = {1, 0, 0, 0};
+		CHECK(mocap_send_head_pose(vr, mocap_now_ns(), pos, q) == 0);
+	}
+	CHECK(vr && mocap_ping(vr, NULL) == 0); /* the poses are in before this returns */
+	mocap_close(vr);
 	mcd_sleep_ms(1500);
 	out = run_ctl(r->sock, "record status", &rc);
 	CHECK_MSG(rc == 0 && strstr(out, "recording ") && strstr(out, " poses"), "exit %d: %s", rc, out);
@@ -146,6 +185,7 @@ static void check_restart(mcd_run *r, const char *takes)
 	CHECK_MSG(rc == 1 && strstr(out, "a take name is letters"), "exit %d: %s", rc, out);
 	char take[PATH_MAX + 16];
 	snprintf(take, sizeof(take), "%s/second", takes);
+	check_head_poses(take);
 	take_info info;
 	mc_err err = {""};
 	CHECK(take_info_read(take, &info, &err) == 0 && info.complete && info.poses > 5 &&
@@ -249,7 +289,7 @@ static int compare_to_truth(const char *take, const take_poses *live, const take
  * to those tracked live; mocap-export exports that track. */
 static void check_retrack(const char *take, const char *scratch)
 {
-	char cmd[PATH_MAX * 3 + 200], out[8192], track_bin[PATH_MAX + 32];
+	char cmd[PATH_MAX * 6], out[8192], track_bin[PATH_MAX + 32];
 	snprintf(track_bin, sizeof(track_bin), "%s/bin/mocap-track", mcd_build_dir);
 	snprintf(cmd, sizeof(cmd), "%s %s 2>&1", track_bin, take);
 	int rc = mc_test_run(cmd, out, sizeof(out));
@@ -285,6 +325,16 @@ static void check_retrack(const char *take, const char *scratch)
 	snprintf(cmd, sizeof(cmd), "%s --track retrack --csv %s/retrack.csv %s 2>&1", export_bin, scratch, take);
 	rc = mc_test_run(cmd, out, sizeof(out));
 	CHECK_MSG(rc == 0, "mocap-export --track: exit %d: %s", rc, out);
+	/* Offline tracking is deterministic: two runs give the same skeletons. */
+	for (int run = 0; run < 2; run++) {
+		snprintf(cmd, sizeof(cmd), "%s --quiet --iterations 20 --name det%d %s 2>&1 && %s --track det%d --csv %s/det%d.csv %s 2>&1",
+			 track_bin, run, take, export_bin, run, scratch, run, take);
+		rc = mc_test_run(cmd, out, sizeof(out));
+		CHECK_MSG(rc == 0, "run %d: exit %d: %s", run, rc, out);
+	}
+	snprintf(cmd, sizeof(cmd), "cmp %s/det0.csv %s/det1.csv 2>&1", scratch, scratch);
+	rc = mc_test_run(cmd, out, sizeof(out));
+	CHECK_MSG(rc == 0, "two offline tracks of one take differ: %s", out);
 	snprintf(cmd, sizeof(cmd), "%s --track nosuch --csv %s/x.csv %s 2>&1", export_bin, scratch, take);
 	rc = mc_test_run(cmd, out, sizeof(out));
 	CHECK_MSG(rc == 1 && strstr(out, "poses-nosuch.mcr"), "exit %d: %s", rc, out);
