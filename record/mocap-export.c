@@ -233,14 +233,22 @@ static void write_file(const char *path, const void *data, size_t n)
 	close_out(f, path);
 }
 
-static int export_frames(const char *take, const char *camera, const char *dir)
+/* The record file of one camera of the take; exits when there is none. */
+static void open_camera(const char *take, const char *camera, take_reader *r)
 {
 	char path[4300];
 	snprintf(path, sizeof(path), "%s/cam-%s.mcr", take, camera);
+	mc_err err = {""};
+	if (take_reader_open(r, path, &err) < 0)
+		fail(1, "%s (is '%s' one of the take's cameras? take.json lists them)", err.msg, camera);
+}
+
+static int export_frames(const char *take, const char *camera, const char *dir)
+{
+	char path[4300];
 	take_reader r;
 	mc_err err = {""};
-	if (take_reader_open(&r, path, &err) < 0)
-		fail(1, "%s (is '%s' one of the take's cameras? take.json lists them)", err.msg, camera);
+	open_camera(take, camera, &r);
 	if (mkdir(dir, 0755) < 0 && errno != EEXIST)
 		fail(1, "%s: %s", dir, strerror(errno));
 	mc_image_conv *conv = mc_image_conv_new(&err);
@@ -349,12 +357,8 @@ static size_t packed_copy(const take_frame_meta *m, const uint8_t *src, size_t n
 
 static void export_video(const char *take, const char *camera, const char *out)
 {
-	char path[4300];
-	snprintf(path, sizeof(path), "%s/cam-%s.mcr", take, camera);
 	take_reader r;
-	mc_err err = {""};
-	if (take_reader_open(&r, path, &err) < 0)
-		fail(1, "%s (is '%s' one of the take's cameras? take.json lists them)", err.msg, camera);
+	open_camera(take, camera, &r);
 	AVFormatContext *oc = NULL;
 	uint64_t t0 = 0;
 	int count = 0;
@@ -384,7 +388,7 @@ static void export_video(const char *take, const char *camera, const char *out)
 	}
 	take_reader_close(&r);
 	if (!oc)
-		fail(1, "%s: no whole frame", path);
+		fail(1, "%s/cam-%s.mcr: no whole frame", take, camera);
 	if (av_write_trailer(oc) < 0 || avio_closep(&oc->pb) < 0)
 		fail(1, "%s: write error", out);
 	avformat_free_context(oc);

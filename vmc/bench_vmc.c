@@ -14,9 +14,9 @@
 #include "base/mc_time.h"
 #include "daemon/harness.h"
 #include "mocap.h"
+#include "tests/lo_args.h"
 
 #include <getopt.h>
-#include <lo/lo.h>
 #include <netinet/in.h>
 #include <pthread.h>
 
@@ -57,20 +57,11 @@ static void *read_frames(void *arg)
 	return NULL;
 }
 
-/* liblo's arguments are 4-byte aligned, its lo_arg union wants 8: read
- * them by their bytes (UBSan: misaligned member access). */
-static float arg_f(const lo_arg *a)
-{
-	float f;
-	memcpy(&f, a, sizeof(f));
-	return f;
-}
-
 static int on_bone(const char *path, const char *types, lo_arg **argv, int argc, lo_message m, void *user)
 {
 	(void)path, (void)types, (void)argc, (void)m, (void)user;
 	if (strcmp((const char *)argv[0], "Hips") == 0) {
-		hips_x = arg_f(argv[1]);
+		hips_x = lo_arg_float(argv[1]);
 		have_hips = true;
 	}
 	return 0;

@@ -12,7 +12,7 @@
 #include "mocap.h"
 #include "test_util.h"
 
-#include <lo/lo.h>
+#include "lo_args.h"
 #include <pthread.h>
 
 static char vmc_bin[PATH_MAX + 32], testpub_bin[PATH_MAX + 32], repo[PATH_MAX];
@@ -84,22 +84,6 @@ static int on_bundle_end(void *user)
 	return 0;
 }
 
-/* liblo's arguments are 4-byte aligned, its lo_arg union wants 8: read
- * them by their bytes (UBSan: misaligned member access). */
-static float arg_f(const lo_arg *a)
-{
-	float f;
-	memcpy(&f, a, sizeof(f));
-	return f;
-}
-
-static int32_t arg_i(const lo_arg *a)
-{
-	int32_t i;
-	memcpy(&i, a, sizeof(i));
-	return i;
-}
-
 static int on_message(const char *path, const char *types, lo_arg **argv, int argc, lo_message m, void *user)
 {
 	(void)m, (void)user;
@@ -113,15 +97,15 @@ static int on_message(const char *path, const char *types, lo_arg **argv, int ar
 			b->unknown++;
 		else {
 			b->have[k] = true;
-			b->pos[k] = mc_v3(arg_f(argv[1]), arg_f(argv[2]), arg_f(argv[3]));
-			b->rot[k] = (mc_quat){arg_f(argv[7]), arg_f(argv[4]), arg_f(argv[5]), arg_f(argv[6])};
+			b->pos[k] = mc_v3(lo_arg_float(argv[1]), lo_arg_float(argv[2]), lo_arg_float(argv[3]));
+			b->rot[k] = (mc_quat){lo_arg_float(argv[7]), lo_arg_float(argv[4]), lo_arg_float(argv[5]), lo_arg_float(argv[6])};
 		}
 	} else if (b && strcmp(path, "/VMC/Ext/Root/Pos") == 0 && strcmp(types, "sfffffff") == 0 &&
-		   strcmp((const char *)argv[0], "root") == 0 && arg_f(argv[7]) == 1.0f)
+		   strcmp((const char *)argv[0], "root") == 0 && lo_arg_float(argv[7]) == 1.0f)
 		b->roots++;
 	else if (b && strcmp(path, "/VMC/Ext/OK") == 0 && argc == 4 && strcmp(types, "iiii") == 0) {
 		b->oks++;
-		b->tracking = arg_i(argv[3]);
+		b->tracking = lo_arg_int(argv[3]);
 	} else if (b && strcmp(path, "/VMC/Ext/T") == 0 && strcmp(types, "f") == 0)
 		b->times++;
 	else if (b)

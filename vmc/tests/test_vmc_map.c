@@ -97,6 +97,16 @@ static int joint(const mocap_skeleton_def *sk, const char *name)
 	return -1;
 }
 
+/* The model's skeleton definition and its map with the default table, T-pose. */
+static void build_map(const mc_model *model, mocap_skeleton_def *sk, vmc_map *m)
+{
+	vmc_bone_table t;
+	mc_err err = {""};
+	def_from_model(model, sk);
+	vmc_bone_table_default(&t);
+	CHECK_MSG(vmc_map_build(m, sk, &t, VMC_REST_TPOSE, &err) == 0, "%s", err.msg);
+}
+
 /* Random poses of a model: FK of the bones lands on the joints. */
 static void check_model_poses(mc_model *model, const char *what)
 {
@@ -144,11 +154,8 @@ static void check_default_model(const char *path)
 		return;
 	}
 	mocap_skeleton_def sk;
-	def_from_model(&model, &sk);
-	vmc_bone_table t;
-	vmc_bone_table_default(&t);
 	vmc_map m;
-	CHECK(vmc_map_build(&m, &sk, &t, VMC_REST_TPOSE, &err) == 0);
+	build_map(&model, &sk, &m);
 	/* The spine bones turn with the joint above: the tree runs down from the head. */
 	CHECK(bone(&m, VMC_HIPS)->rot_joint == joint(&sk, "pelvis"));
 	CHECK(bone(&m, VMC_SPINE)->rot_joint == joint(&sk, "neck"));
@@ -232,11 +239,8 @@ static void check_pelvis_root(void)
 		return;
 	}
 	mocap_skeleton_def sk;
-	def_from_model(&model, &sk);
-	vmc_bone_table t;
-	vmc_bone_table_default(&t);
 	vmc_map m;
-	CHECK(vmc_map_build(&m, &sk, &t, VMC_REST_TPOSE, &err) == 0);
+	build_map(&model, &sk, &m);
 	CHECK(m.nbones == 17 && !bone(&m, VMC_HEAD));
 	CHECK(bone(&m, VMC_SPINE)->rot_joint == joint(&sk, "spine"));
 	CHECK(bone(&m, VMC_NECK)->rot_joint == joint(&sk, "neck"));
@@ -268,11 +272,8 @@ static void check_hold(const char *path)
 	if (mc_model_load(path, &model, &err) < 0)
 		return;
 	mocap_skeleton_def sk;
-	def_from_model(&model, &sk);
-	vmc_bone_table t;
-	vmc_bone_table_default(&t);
 	vmc_map m;
-	CHECK(vmc_map_build(&m, &sk, &t, VMC_REST_TPOSE, &err) == 0);
+	build_map(&model, &sk, &m);
 	static mocap_skeleton_frame f;
 	double pose[MC_MAX_DOF];
 	uint64_t rng = 3;
