@@ -91,7 +91,7 @@ typedef struct {
 	bool frames;              /* keep the camera frames (else skeletons only) */
 	double max_seconds;       /* stop a take after this long; 0: no limit */
 	double max_mb;            /* stop a take at this size (10^6 bytes); 0: no limit */
-	double sync_ms;           /* fdatasync period: what a power loss may cost */
+	double sync_ms;           /* fdatasync period: what a power loss may cost; 0: every record */
 } mcd_record_config;
 
 /* The [detector] section: the in-process 2D joint detector

@@ -107,7 +107,7 @@ static const mcd_config_key keys[] = {
 	{MCD_SEC_RECORD, "frames", MCD_KEY_BOOL, R(frames), 0, 0, NULL, "true", false},
 	{MCD_SEC_RECORD, "max_seconds", MCD_KEY_REAL, R(max_seconds), 0, 1e7, NULL, "0", false},
 	{MCD_SEC_RECORD, "max_mb", MCD_KEY_REAL, R(max_mb), 0, 1e9, NULL, "0", false},
-	{MCD_SEC_RECORD, "sync_ms", MCD_KEY_POSITIVE, R(sync_ms), 0, 10000, NULL, "100", false},
+	{MCD_SEC_RECORD, "sync_ms", MCD_KEY_REAL, R(sync_ms), 0, 10000, NULL, "100", false},
 
 	/* A new model takes a restart; the rest is applied between detections. */
 	{MCD_SEC_DETECTOR, "model", MCD_KEY_OPT_PATH, K(model), 0, 0, NULL, NULL, false},
