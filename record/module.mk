@@ -46,7 +46,7 @@ $(BUILD)/record/tests/test_recording: record/tests/test_recording.c $(RECORD_LIB
 		$(BUILD)/libmocap.a $(CORE_LIB) $(CORE_LIBS) -lz $(RECORD_AV_LIBS)
 
 # The recorder's cost with two test cameras (tests/bench/record.sh):
-# RECORD_SIZE (1280x1024), RECORD_FPS (60), RECORD_FORMAT (yuyv),
+# RECORD_SIZE (1280x1024), RECORD_FPS (60), RECORD_FORMAT (yuyv), RECORD_SYNC_MS (100),
 # RECORD_SECONDS (5), RECORD_DIR (a temporary folder).
 BENCHES += bench-record
 .PHONY: bench-record

@@ -39,6 +39,7 @@ enabled = false
 path = $tmp/s.sock
 [record]
 directory = ${RECORD_DIR:-$tmp/takes}
+sync_ms = ${RECORD_SYNC_MS:-100}
 CONF
 "$build/bin/mocapd" -c "$tmp/r.conf" >"$tmp/out.txt" 2>"$tmp/err.txt" &
 pid=$!
@@ -55,7 +56,7 @@ cpu_idle=$(echo "$t0 $t1 $hz $secs" | awk '{printf "%.0f", 100 * ($2 - $1) / $3 
 cpu_rec=$(echo "$t2 $t3 $hz $secs" | awk '{printf "%.0f", 100 * ($2 - $1) / $3 / $4}')
 bytes=$(du -sb "$take" | cut -f1)
 echo "bench-record: $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | sed 's/^ //'), $(nproc) cores"
-echo "bench-record: 2 cameras $size $format at $fps fps, $secs s recorded into $(df -P "$take" | tail -1 | awk '{print $1}')"
+echo "bench-record: 2 cameras $size $format at $fps fps, sync_ms ${RECORD_SYNC_MS:-100}, $secs s recorded into $(df -P "$take" | tail -1 | awk '{print $1}')"
 awk -v secs="$secs" -v fps="$fps" '
 	/"name": "[ab]"/ { gsub(/[",]/, "", $2); name = $2 }
 	/"frames":/ { gsub(",", "", $2); frames = $2 }
