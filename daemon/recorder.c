@@ -55,11 +55,15 @@ struct mcd_recorder {
 	int head_head, head_count;
 	uint64_t head_drops;
 
-	/* The take.  `active`, `info` and `last` under lock; the files are the
-	 * thread's once started. */
-	bool active, stop_requested;
+	/* The take.  Under lock: `active` (items are taken), `busy` (a start or
+	 * a finish is doing its file work, without the lock, so that the
+	 * threads that hand items in never wait on the disk), `shown` (the
+	 * counts for status), `queue_drops` and `last`.  `dir` and `info` are
+	 * the starting thread's, then the recorder thread's. */
+	bool active, busy, stop_requested;
 	char dir[PATH_MAX];
-	take_info info;
+	take_info info, shown;
+	uint64_t queue_drops[MC_MAX_CAMERAS]; /* frames refused with a full queue */
 	char last[PATH_MAX + 400]; /* what the last take ended with */
 	take_file poses_file;
 	take_file cam_files[MC_MAX_CAMERAS];
@@ -214,11 +218,15 @@ int mcd_recorder_start(mcd_recorder *r, const char *name, const mc_model *actor,
 {
 	mc_err err = {""};
 	pthread_mutex_lock(&r->lock);
-	if (r->active) {
-		snprintf(msg, cap, "already recording %s", r->dir);
+	if (r->active || r->busy) {
+		snprintf(msg, cap, r->active ? "already recording %s" : "the last take %s is still being closed", r->dir);
 		pthread_mutex_unlock(&r->lock);
 		return -1;
 	}
+	r->busy = true;
+	pthread_mutex_unlock(&r->lock);
+
+	/* The directory and its files: the recorder thread is idle now. */
 	memset(&r->info, 0, sizeof(r->info));
 	int rc = take_dir(r, name ? name : "", &err);
 	if (rc == 0) {
@@ -234,26 +242,40 @@ int mcd_recorder_start(mcd_recorder *r, const char *name, const mc_model *actor,
 		if (rc != 0)
 			close_files(r);
 	}
+
+	pthread_mutex_lock(&r->lock);
+	r->busy = false;
 	if (rc != 0) {
 		snprintf(msg, cap, "cannot record: %s", err.msg);
 	} else {
 		r->active = true;
 		r->stop_requested = false;
 		r->pose_count = r->frame_count = r->head_count = 0; /* nothing from before the start */
+		memset(r->queue_drops, 0, sizeof(r->queue_drops));
+		r->shown = r->info;
 		r->last_seq = 0;
 		r->next_sync_ns = mc_now_ns() + (uint64_t)(r->cfg.sync_ms * 1e6);
 		snprintf(msg, cap, "recording %s", r->dir);
 		mcd_info("record: %s", msg);
 	}
+	pthread_cond_broadcast(&r->done);
 	pthread_mutex_unlock(&r->lock);
 	return rc == 0 ? 0 : -1;
 }
 
 /* ---- the thread ---- */
 
-/* Ends the take: files synced and closed, take.json final.  Under lock. */
+/* Ends the take: files synced and closed, take.json final.  Called with
+ * the lock held; the file work runs without it (`busy`), so that nobody
+ * handing items in waits for the disk. */
 static void finish(mcd_recorder *r, const char *reason)
 {
+	r->active = false;
+	r->busy = true;
+	for (int c = 0; c < r->ncams; c++)
+		r->info.frame_drops[c] += r->queue_drops[c];
+	pthread_mutex_unlock(&r->lock);
+
 	mc_err err = {""};
 	bool synced = take_file_sync(&r->poses_file, &err) == 0;
 	for (int c = 0; c < r->ncams; c++)
@@ -265,9 +287,12 @@ static void finish(mcd_recorder *r, const char *reason)
 	snprintf(r->info.stop_reason, sizeof(r->info.stop_reason), "%s", reason);
 	bool written = synced && take_info_write(r->dir, &r->info, &err) == 0;
 	double secs = (double)(r->info.stop_realtime_ns - r->info.start_realtime_ns) * 1e-9;
+
+	pthread_mutex_lock(&r->lock);
 	snprintf(r->last, sizeof(r->last), "last take %.2048s: %.600s after %.1f s, %llu poses%s%.600s", r->dir, reason, secs,
 		 (unsigned long long)r->info.poses, written ? "" : "; take.json not final: ", written ? "" : err.msg);
-	r->active = false;
+	r->shown = r->info;
+	r->busy = false;
 	if (strncmp(reason, "error", 5) == 0)
 		mcd_error("record: %s; tracking goes on", r->last);
 	else
@@ -427,7 +452,9 @@ static void *recorder_main(void *arg)
 			 : what == 3 ? write_head_pose(r, &head, &err)
 				     : 0;
 		const char *stop = rc == 0 ? due(r, why, sizeof(why), &err) : NULL;
+		r->info.bytes = take_bytes(r);
 		pthread_mutex_lock(&r->lock);
+		r->shown = r->info; /* the counts, for status */
 		if (rc < 0 || err.msg[0]) {
 			char reason[600];
 			snprintf(reason, sizeof(reason), "error: %s", err.msg);
@@ -448,7 +475,7 @@ void mcd_recorder_push_frame(mcd_recorder *r, int cam, uint64_t generation, cons
 	pthread_mutex_lock(&r->lock);
 	if (r->active && !r->stop_requested && !r->quit) {
 		if (r->frame_count == FRAME_QUEUE)
-			r->info.frame_drops[cam]++;
+			r->queue_drops[cam]++;
 		else {
 			r->frames[(r->frame_head + r->frame_count++) % FRAME_QUEUE] = (frame_ref){cam, generation, *meta};
 			pthread_cond_signal(&r->wake);
@@ -517,6 +544,8 @@ void mcd_recorder_push_pose(mcd_recorder *r, const mcd_output *o, uint64_t seq)
 int mcd_recorder_stop(mcd_recorder *r, char *msg, size_t cap)
 {
 	pthread_mutex_lock(&r->lock);
+	while (r->busy && !r->active) /* a take ending (an error, a limit) or starting */
+		pthread_cond_wait(&r->done, &r->lock);
 	if (!r->active) {
 		snprintf(msg, cap, "not recording");
 		pthread_mutex_unlock(&r->lock);
@@ -524,7 +553,7 @@ int mcd_recorder_stop(mcd_recorder *r, char *msg, size_t cap)
 	}
 	r->stop_requested = true;
 	pthread_cond_signal(&r->wake);
-	while (r->active)
+	while (r->active || r->busy)
 		pthread_cond_wait(&r->done, &r->lock);
 	snprintf(msg, cap, "%s", r->last);
 	pthread_mutex_unlock(&r->lock);
@@ -545,15 +574,19 @@ void mcd_recorder_status(mcd_recorder *r, char *msg, size_t cap)
 {
 	pthread_mutex_lock(&r->lock);
 	if (r->active) {
-		uint64_t frames = 0, drops = 0;
+		const take_info *i = &r->shown;
+		uint64_t frames = 0, drops = 0, bytes = 0;
 		for (int c = 0; c < r->ncams; c++) {
-			frames += r->info.frames[c];
-			drops += r->info.frame_drops[c];
+			frames += i->frames[c];
+			drops += i->frame_drops[c] + r->queue_drops[c];
 		}
+		bytes = i->bytes;
 		snprintf(msg, cap, "recording %s: %.1f s, %llu poses (%llu missed), %llu frames (%llu dropped), %.1f MB",
-			 r->dir, (double)(mc_now_ns() - r->info.start_monotonic_ns) * 1e-9,
-			 (unsigned long long)r->info.poses, (unsigned long long)r->info.pose_gaps,
-			 (unsigned long long)frames, (unsigned long long)drops, (double)take_bytes(r) * 1e-6);
+			 r->dir, (double)(mc_now_ns() - i->start_monotonic_ns) * 1e-9, (unsigned long long)i->poses,
+			 (unsigned long long)i->pose_gaps, (unsigned long long)frames, (unsigned long long)drops,
+			 (double)bytes * 1e-6);
+	} else if (r->busy) {
+		snprintf(msg, cap, "opening or closing the take %s", r->dir);
 	} else
 		snprintf(msg, cap, "not recording%s%s%s", r->last[0] ? " (" : "", r->last, r->last[0] ? ")" : "");
 	pthread_mutex_unlock(&r->lock);
