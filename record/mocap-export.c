@@ -254,16 +254,11 @@ static int export_frames(const char *take, const char *camera, const char *dir)
 	mc_image_conv *conv = mc_image_conv_new(&err);
 	if (!conv)
 		fail(1, "%s", err.msg);
-	take_record_type type;
-	const uint8_t *p;
-	size_t n;
+	take_frame_meta m;
+	const uint8_t *bytes;
+	size_t nbytes;
 	int count = 0;
-	while (take_reader_next(&r, &type, &p, &n, NULL) == 1) {
-		take_frame_meta m;
-		if (type != TAKE_FRAME || take_decode_frame_meta(p, n, &m) < 0)
-			continue;
-		const uint8_t *bytes = p + TAKE_FRAME_META_SIZE;
-		size_t nbytes = n - TAKE_FRAME_META_SIZE;
+	while (take_reader_next_frame(&r, &m, &bytes, &nbytes) == 1) {
 		snprintf(path, sizeof(path), "%s/%s_%08llu.jpg", dir, camera, (unsigned long long)m.sequence);
 		if (m.pixfmt == MC_PIXFMT_MJPEG) {
 			write_file(path, bytes, nbytes);
@@ -362,22 +357,18 @@ static void export_video(const char *take, const char *camera, const char *out)
 	AVFormatContext *oc = NULL;
 	uint64_t t0 = 0;
 	int count = 0;
-	take_record_type type;
-	const uint8_t *p;
-	size_t n;
-	while (take_reader_next(&r, &type, &p, &n, NULL) == 1) {
-		take_frame_meta m;
-		if (type != TAKE_FRAME || take_decode_frame_meta(p, n, &m) < 0)
-			continue;
+	take_frame_meta m;
+	const uint8_t *frame;
+	size_t bytes;
+	while (take_reader_next_frame(&r, &m, &frame, &bytes) == 1) {
 		if (!oc) {
 			oc = open_video(out, &m);
 			t0 = m.capture_ns;
 		}
 		AVPacket *pkt = av_packet_alloc();
-		size_t bytes = n - TAKE_FRAME_META_SIZE;
 		if (!pkt || av_new_packet(pkt, (int)bytes) < 0)
 			fail(1, "out of memory");
-		pkt->size = (int)packed_copy(&m, p + TAKE_FRAME_META_SIZE, bytes, pkt->data);
+		pkt->size = (int)packed_copy(&m, frame, bytes, pkt->data);
 		pkt->pts = pkt->dts = av_rescale_q((int64_t)(m.capture_ns - t0), (AVRational){1, 1000000000},
 						   oc->streams[0]->time_base);
 		pkt->flags |= AV_PKT_FLAG_KEY;

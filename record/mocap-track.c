@@ -103,17 +103,7 @@ typedef struct {
 
 static bool advance(camera *c)
 {
-	take_record_type type;
-	const uint8_t *p;
-	size_t n;
-	c->have = false;
-	while (take_reader_next(&c->r, &type, &p, &n, NULL) == 1)
-		if (type == TAKE_FRAME && take_decode_frame_meta(p, n, &c->m) == 0) {
-			c->bytes = p + TAKE_FRAME_META_SIZE;
-			c->n = n - TAKE_FRAME_META_SIZE;
-			c->have = true;
-			break;
-		}
+	c->have = take_reader_next_frame(&c->r, &c->m, &c->bytes, &c->n) == 1;
 	return c->have;
 }
 

@@ -375,6 +375,20 @@ int take_reader_next(take_reader *r, take_record_type *type, const uint8_t **pay
 	return 1;
 }
 
+int take_reader_next_frame(take_reader *r, take_frame_meta *m, const uint8_t **bytes, size_t *n)
+{
+	take_record_type type;
+	const uint8_t *p;
+	size_t size;
+	while (take_reader_next(r, &type, &p, &size, NULL) == 1)
+		if (type == TAKE_FRAME && take_decode_frame_meta(p, size, m) == 0) {
+			*bytes = p + TAKE_FRAME_META_SIZE;
+			*n = size - TAKE_FRAME_META_SIZE;
+			return 1;
+		}
+	return 0;
+}
+
 /* ---- poses of a take ---- */
 
 int take_poses_load(const char *dir, const char *track, take_poses *out, mc_err *err)

@@ -147,6 +147,11 @@ void take_reader_close(take_reader *r);
 int take_reader_next(take_reader *r, take_record_type *type, const uint8_t **payload, size_t *size,
 		     uint64_t *written_ns);
 
+/* The next whole camera frame record of a camera file (other records are
+ * skipped): 1 with its meta and its bytes (valid until the next call), 0
+ * at the end or at a torn record. */
+int take_reader_next_frame(take_reader *r, take_frame_meta *m, const uint8_t **bytes, size_t *n);
+
 int take_decode_def(const uint8_t *p, size_t size, take_def *d);
 int take_decode_pose(const uint8_t *p, size_t size, take_pose *o);
 int take_decode_gap(const uint8_t *p, size_t size, uint64_t *first_seq, uint64_t *count);

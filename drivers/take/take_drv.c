@@ -86,21 +86,18 @@ static int scan(take_dev *d, char *err, size_t errlen)
 	if (take_reader_open(&d->r, d->path, &e) < 0)
 		return drv_errf(err, errlen, MDRV_ERR_CONFIG, "%s: %s (the take was recorded with frames = false?)", DRV,
 				e.msg);
-	take_record_type type;
-	const uint8_t *p;
+	take_frame_meta m;
+	const uint8_t *bytes;
 	size_t n;
 	uint64_t last = 0;
-	while (take_reader_next(&d->r, &type, &p, &n, NULL) == 1) {
-		take_frame_meta m;
-		if (type != TAKE_FRAME || take_decode_frame_meta(p, n, &m) < 0)
-			continue;
+	while (take_reader_next_frame(&d->r, &m, &bytes, &n) == 1) {
 		if (d->nframes++ == 0) {
 			d->first_capture_ns = m.capture_ns;
 			d->fmt = (mdrv_format){.pixfmt = m.pixfmt, .width = m.width, .height = m.height, .stride = m.stride};
 		}
 		last = m.capture_ns;
-		if (n - TAKE_FRAME_META_SIZE > d->fmt.max_bytes)
-			d->fmt.max_bytes = n - TAKE_FRAME_META_SIZE;
+		if (n > d->fmt.max_bytes)
+			d->fmt.max_bytes = n;
 	}
 	take_reader_close(&d->r);
 	if (d->nframes == 0)
@@ -187,15 +184,8 @@ static void take_stop(void *dev) { ((take_dev *)dev)->started = false; }
 static int next_record(take_dev *d, take_frame_meta *m, const uint8_t **bytes, size_t *n, char *err, size_t errlen)
 {
 	for (int pass = 0; pass < 2; pass++) {
-		take_record_type type;
-		const uint8_t *p;
-		size_t k;
-		while (take_reader_next(&d->r, &type, &p, &k, NULL) == 1)
-			if (type == TAKE_FRAME && take_decode_frame_meta(p, k, m) == 0) {
-				*bytes = p + TAKE_FRAME_META_SIZE;
-				*n = k - TAKE_FRAME_META_SIZE;
-				return 1;
-			}
+		if (take_reader_next_frame(&d->r, m, bytes, n) == 1)
+			return 1;
 		if (!d->loop || pass == 1)
 			return 0;
 		/* Over again, one frame interval after the last frame. */

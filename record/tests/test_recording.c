@@ -252,15 +252,13 @@ static int compare_to_truth(const char *take, const take_poses *live, const take
 	snprintf(path, sizeof(path), "%s/cam-left.mcr", take);
 	take_reader r;
 	if (take_reader_open(&r, path, &err) == 0) {
-		take_record_type type;
-		const uint8_t *p;
-		size_t k;
 		take_frame_meta m;
-		while (nf < 1024 && take_reader_next(&r, &type, &p, &k, NULL) == 1)
-			if (type == TAKE_FRAME && take_decode_frame_meta(p, k, &m) == 0) {
-				t[nf] = m.capture_ns;
-				seq[nf++] = m.driver_sequence;
-			}
+		const uint8_t *bytes;
+		size_t k;
+		while (nf < 1024 && take_reader_next_frame(&r, &m, &bytes, &k) == 1) {
+			t[nf] = m.capture_ns;
+			seq[nf++] = m.driver_sequence;
+		}
 		take_reader_close(&r);
 	}
 	for (int i = 0; i < again->nposes; i++)
@@ -352,16 +350,13 @@ static int read_frames(const char *take, const char *cam, uint64_t *t, uint64_t 
 		CHECK_MSG(false, "%s", err.msg);
 		return 0;
 	}
-	take_record_type type;
+	take_frame_meta m;
 	const uint8_t *p;
 	size_t n;
 	int k = 0;
-	while (k < max && take_reader_next(&r, &type, &p, &n, NULL) == 1) {
-		take_frame_meta m;
-		if (type != TAKE_FRAME || take_decode_frame_meta(p, n, &m) < 0)
-			continue;
+	while (k < max && take_reader_next_frame(&r, &m, &p, &n) == 1) {
 		uint64_t h = 1469598103934665603ull; /* FNV-1a */
-		for (size_t i = TAKE_FRAME_META_SIZE; i < n; i++)
+		for (size_t i = 0; i < n; i++)
 			h = (h ^ p[i]) * 1099511628211ull;
 		t[k] = m.capture_ns;
 		hash[k++] = h;
