@@ -1,6 +1,7 @@
 /* recorder: the recording thread (recorder.h, docs/RECORDING.md). */
 #include "recorder.h"
 
+#include "base/mc_thread.h"
 #include "base/mc_time.h"
 #include "frame_ring.h"
 #include "log.h"
@@ -89,13 +90,6 @@ void mcd_take_def_from_model(const mc_model *model, uint32_t id, take_def *def)
 		def->joints[j].offset[1] = model->joints[j].offset.y * s;
 		def->joints[j].offset[2] = model->joints[j].offset.z * s;
 	}
-}
-
-static uint64_t realtime_ns(void)
-{
-	struct timespec ts;
-	clock_gettime(CLOCK_REALTIME, &ts);
-	return (uint64_t)ts.tv_sec * 1000000000ull + (uint64_t)ts.tv_nsec;
 }
 
 static uint64_t take_bytes(const mcd_recorder *r)
@@ -231,7 +225,7 @@ int mcd_recorder_start(mcd_recorder *r, const char *name, const mc_model *actor,
 	int rc = take_dir(r, name ? name : "", &err);
 	if (rc == 0) {
 		r->info.start_monotonic_ns = mc_now_ns();
-		r->info.start_realtime_ns = realtime_ns();
+		r->info.start_realtime_ns = mc_realtime_ns();
 		r->realtime_offset_ns = (int64_t)(r->info.start_realtime_ns - r->info.start_monotonic_ns);
 		rc = open_files(r, &err);
 		if (rc == 0)
@@ -282,7 +276,7 @@ static void finish(mcd_recorder *r, const char *reason)
 		synced = take_file_sync(&r->cam_files[c], &err) == 0 && synced;
 	r->info.bytes = take_bytes(r);
 	close_files(r);
-	r->info.stop_realtime_ns = realtime_ns();
+	r->info.stop_realtime_ns = mc_realtime_ns();
 	r->info.complete = true;
 	snprintf(r->info.stop_reason, sizeof(r->info.stop_reason), "%s", reason);
 	bool written = synced && take_info_write(r->dir, &r->info, &err) == 0;
@@ -432,13 +426,7 @@ static void *recorder_main(void *arg)
 			}
 			if (r->quit)
 				break;
-			struct timespec until;
-			clock_gettime(CLOCK_REALTIME, &until);
-			until.tv_nsec += 50 * 1000000L;
-			if (until.tv_nsec >= 1000000000L) {
-				until.tv_sec++;
-				until.tv_nsec -= 1000000000L;
-			}
+			struct timespec until = mc_cond_deadline(50 * MC_NS_PER_MS);
 			pthread_cond_timedwait(&r->wake, &r->lock, &until);
 		}
 		if (!r->active)
@@ -623,7 +611,7 @@ mcd_recorder *mcd_recorder_create(const mcd_recorder_setup *s, mc_err *err)
 	for (int c = 0; c < MC_MAX_CAMERAS; c++)
 		r->cam_files[c].fd = -1;
 	pthread_mutex_init(&r->lock, NULL);
-	pthread_cond_init(&r->wake, NULL);
+	mc_cond_init_monotonic(&r->wake);
 	pthread_cond_init(&r->done, NULL);
 	if (pthread_create(&r->thread, NULL, recorder_main, r) != 0) {
 		mc_err_set(err, "recorder thread: %s", strerror(errno));
