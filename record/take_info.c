@@ -3,61 +3,28 @@
 #include "base/mc_file.h"
 #include "take.h"
 
-#include <errno.h>
-#include <fcntl.h>
 #include <jansson.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
-#include <unistd.h>
 
-/* Writes data to DIR/NAME through a temporary file, synced, renamed, and
- * the directory synced. */
-static int write_atomic(const char *dir, const char *name, const void *data, size_t n, mc_err *err)
+/* DIR/NAME, written atomically and synced (mc_file_write_atomic). */
+static int write_in(const char *dir, const char *name, const void *data, size_t n, mc_err *err)
 {
-	char tmp[4300], path[4300];
+	char path[4300];
 	snprintf(path, sizeof(path), "%s/%s", dir, name);
-	snprintf(tmp, sizeof(tmp), "%s/.%s.tmp", dir, name);
-	int fd = open(tmp, O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0640);
-	if (fd < 0)
-		return mc_err_set(err, "%s: %s", tmp, strerror(errno));
-	size_t done = 0;
-	while (done < n) {
-		ssize_t w = write(fd, (const char *)data + done, n - done);
-		if (w < 0 && errno == EINTR)
-			continue;
-		if (w <= 0) {
-			int e = w < 0 ? errno : ENOSPC;
-			close(fd);
-			unlink(tmp);
-			return mc_err_set(err, "%s: %s", tmp, strerror(e));
-		}
-		done += (size_t)w;
-	}
-	if (fsync(fd) < 0 || close(fd) < 0) {
-		unlink(tmp);
-		return mc_err_set(err, "%s: %s", tmp, strerror(errno));
-	}
-	if (rename(tmp, path) < 0)
-		return mc_err_set(err, "%s: %s", path, strerror(errno));
-	int dfd = open(dir, O_RDONLY | O_DIRECTORY | O_CLOEXEC);
-	if (dfd >= 0) {
-		fsync(dfd);
-		close(dfd);
-	}
-	return 0;
+	return mc_file_write_atomic(path, data, n, err);
 }
 
 int take_info_write(const char *dir, const take_info *t, mc_err *err)
 {
 	json_t *cams = json_array();
-	for (int c = 0; c < t->ncams; c++)
-		json_array_append_new(cams, json_pack("{s:s, s:s, s:s, s:I, s:I}", "name", t->cams[c], "rig_camera",
-						      t->rig_cams[c], "file", "", "frames", (json_int_t)t->frames[c],
-						      "dropped", (json_int_t)t->frame_drops[c]));
 	for (int c = 0; c < t->ncams; c++) {
 		char file[96];
 		snprintf(file, sizeof(file), "cam-%s.mcr", t->cams[c]);
-		json_object_set_new(json_array_get(cams, (size_t)c), "file", json_string(file));
+		json_array_append_new(cams, json_pack("{s:s, s:s, s:s, s:I, s:I}", "name", t->cams[c], "rig_camera",
+						      t->rig_cams[c], "file", file, "frames", (json_int_t)t->frames[c],
+						      "dropped", (json_int_t)t->frame_drops[c]));
 	}
 	json_t *root = json_pack("{s:s, s:i, s:s, s:I, s:I, s:I, s:b, s:s, s:I, s:I, s:I, s:o}", "format", "mocapd-take",
 				 "version", 1, "name", t->name, "start_realtime_ns", (json_int_t)t->start_realtime_ns,
@@ -71,7 +38,7 @@ int take_info_write(const char *dir, const take_info *t, mc_err *err)
 		return mc_err_set(err, "%s/take.json: out of memory", dir);
 	size_t n = strlen(text);
 	text[n] = '\n'; /* json_dumps leaves room for its NUL: replace it */
-	int rc = write_atomic(dir, "take.json", text, n + 1, err);
+	int rc = write_in(dir, "take.json", text, n + 1, err);
 	free(text);
 	return rc;
 }
@@ -130,7 +97,7 @@ int take_copy_file(const char *src, const char *dir, const char *name, mc_err *e
 	size_t n = 0;
 	if (mc_file_read(src, 64u << 20, &data, &n, err) < 0)
 		return -1;
-	int rc = write_atomic(dir, name, data, n, err);
+	int rc = write_in(dir, name, data, n, err);
 	free(data);
 	return rc;
 }

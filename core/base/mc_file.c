@@ -4,7 +4,10 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <fcntl.h>
+#include <libgen.h>
 #include <sys/stat.h>
+#include <unistd.h>
 
 static const char *file_kind(mode_t m)
 {
@@ -59,5 +62,50 @@ int mc_file_read(const char *path, size_t max_bytes, uint8_t **data, size_t *byt
 	buf[n] = 0;
 	*data = buf;
 	*bytes = n;
+	return 0;
+}
+
+/* Writes all of data to fd; 0, or the errno. */
+static int write_all(int fd, const void *data, size_t n)
+{
+	size_t done = 0;
+	while (done < n) {
+		ssize_t w = write(fd, (const char *)data + done, n - done);
+		if (w < 0 && errno == EINTR)
+			continue;
+		if (w <= 0)
+			return w < 0 ? errno : ENOSPC;
+		done += (size_t)w;
+	}
+	return 0;
+}
+
+int mc_file_write_atomic(const char *path, const void *data, size_t n, mc_err *err)
+{
+	char tmp[4096], dir[4096];
+	if ((size_t)snprintf(tmp, sizeof(tmp), "%s.tmp.%ld", path, (long)getpid()) >= sizeof(tmp))
+		return mc_err_set(err, "%s: path too long", path);
+	int fd = open(tmp, O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0640);
+	int e = fd < 0 ? errno : write_all(fd, data, n);
+	if (!e && fsync(fd) < 0)
+		e = errno;
+	if (fd >= 0 && close(fd) < 0 && !e)
+		e = errno;
+	if (e) {
+		unlink(tmp);
+		return mc_err_set(err, "%s: cannot write: %s", path, strerror(e));
+	}
+	if (rename(tmp, path) != 0) {
+		e = errno;
+		unlink(tmp);
+		return mc_err_set(err, "%s: cannot rename %s into place: %s", path, tmp, strerror(e));
+	}
+	/* the rename itself, durable */
+	snprintf(dir, sizeof(dir), "%s", path);
+	int dfd = open(dirname(dir), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+	if (dfd >= 0) {
+		fsync(dfd);
+		close(dfd);
+	}
 	return 0;
 }

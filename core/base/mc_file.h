@@ -1,4 +1,5 @@
-/* mc_file: reading a whole file, for every loader that does.
+/* mc_file: reading a whole file, for every loader that does, and writing
+ * one atomically, for every saver.
  *
  * Refuses what is not a regular file (a directory, /dev/zero, a FIFO) and
  * anything larger than the caller's bound before allocating, so that no
@@ -17,5 +18,10 @@
  * a regular file (a directory)", "x.jpg: 70000000 bytes, more than the
  * 67108864 accepted". */
 int mc_file_read(const char *path, size_t max_bytes, uint8_t **data, size_t *bytes, mc_err *err);
+
+/* Writes n bytes to path through a temporary file beside it, synced and
+ * renamed into place, and syncs the directory: a crash leaves the old file
+ * or the new one, whole.  Errors name the file. */
+int mc_file_write_atomic(const char *path, const void *data, size_t n, mc_err *err);
 
 #endif

@@ -1,8 +1,10 @@
 #include "base/mc_json.h"
+#include "base/mc_file.h"
 
 #include <errno.h>
 #include <math.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 #include <unistd.h>
 
@@ -325,18 +327,10 @@ int mc_json_check_keys(const json_t *obj, const char *where, const char *const *
 
 int mc_json_save_file(const json_t *root, const char *path, mc_err *err)
 {
-	char tmp[4096];
-	if ((size_t)snprintf(tmp, sizeof(tmp), "%s.tmp.%ld", path, (long)getpid()) >= sizeof(tmp))
-		return mc_err_set(err, "%s: path too long", path);
-	if (json_dump_file(root, tmp, JSON_INDENT(2) | JSON_PRESERVE_ORDER | JSON_REAL_PRECISION(17)) != 0) {
-		int e = errno;
-		unlink(tmp);
-		return mc_err_set(err, "%s: cannot write: %s", path, strerror(e));
-	}
-	if (rename(tmp, path) != 0) {
-		int e = errno;
-		unlink(tmp);
-		return mc_err_set(err, "%s: cannot rename %s into place: %s", path, tmp, strerror(e));
-	}
-	return 0;
+	char *text = json_dumps(root, JSON_INDENT(2) | JSON_PRESERVE_ORDER | JSON_REAL_PRECISION(17));
+	if (!text)
+		return mc_err_set(err, "%s: cannot write: out of memory", path);
+	int rc = mc_file_write_atomic(path, text, strlen(text), err);
+	free(text);
+	return rc;
 }

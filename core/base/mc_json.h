@@ -78,7 +78,7 @@ int mc_json_object(const json_t *obj, const char *key, const char *where, json_t
 int mc_json_check_keys(const json_t *obj, const char *where, const char *const *allowed, mc_err *err);
 
 /* Writes root to path (pretty-printed, keys in insertion order), atomically
- * through a temporary file. */
+ * and synced (mc_file_write_atomic). */
 int mc_json_save_file(const json_t *root, const char *path, mc_err *err);
 
 #endif
