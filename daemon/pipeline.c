@@ -121,15 +121,12 @@ static int create_detector_thread(mcd_pipeline *p, const mcd_config *cfg, mcd_tr
 /* The recording thread, idle until a take starts. */
 static int create_recorder(mcd_pipeline *p, const mcd_config *cfg, mcd_tracking *tracking, mc_err *err)
 {
-	static take_def def; /* one pipeline per process */
-	if (tracking)
-		mcd_take_def_from_model(mc_tracker_model(tracking->tracker), 1, &def);
 	mcd_recorder_setup rs = {
 		.cfg = &cfg->record,
 		.daemon_cfg = cfg,
 		.ncams = p->ncams,
 		.cams = p->cams,
-		.def = tracking ? &def : NULL,
+		.model = tracking ? mc_tracker_model(tracking->tracker) : NULL,
 	};
 	p->recorder = mcd_recorder_create(&rs, err);
 	if (p->recorder && p->srv)

@@ -77,7 +77,9 @@ struct mcd_recorder {
 	uint8_t pose_buf[64 + 64 * TAKE_MAX_JOINTS + 8 * TAKE_MAX_DOF + 16 * MCD_OUTPUT_KEYPOINTS];
 };
 
-void mcd_take_def_from_model(const mc_model *model, uint32_t id, take_def *def)
+/* The skeleton definition of a model (offsets scaled by the bone scales),
+ * as the socket's SKELETON message has it. */
+static void def_from_model(const mc_model *model, uint32_t id, take_def *def)
 {
 	memset(def, 0, sizeof(*def));
 	def->id = id;
@@ -603,8 +605,8 @@ mcd_recorder *mcd_recorder_create(const mcd_recorder_setup *s, mc_err *err)
 		r->cams[c] = s->cams[c];
 		snprintf(r->rig_cams[c], sizeof(r->rig_cams[c]), "%s", s->daemon_cfg->cams[c].rig_camera);
 	}
-	if (s->def) {
-		r->def = *s->def;
+	if (s->model) {
+		def_from_model(s->model, 1, &r->def);
 		r->have_def = true;
 	}
 	r->poses_file.fd = -1;

@@ -26,7 +26,7 @@ typedef struct {
 	const mcd_config *daemon_cfg; /* its file and the tracker's files, copied into each take */
 	int ncams;
 	mcd_camera **cams;
-	const take_def *def;          /* the skeleton; NULL: no tracker (frames only) */
+	const mc_model *model;        /* the tracker's, for the skeleton definition; NULL: no tracker (frames only) */
 } mcd_recorder_setup;
 
 mcd_recorder *mcd_recorder_create(const mcd_recorder_setup *s, mc_err *err);
@@ -52,9 +52,5 @@ void mcd_recorder_push_pose(mcd_recorder *r, const mcd_output *o, uint64_t seq);
 /* A VR runtime's head pose (the socket server's head pose tap, on the
  * server's thread: ctx is the recorder). */
 void mcd_recorder_push_head_pose(void *ctx, const mc_pose *hp);
-
-/* The skeleton definition of a model (offsets scaled by the bone scales),
- * as the socket's SKELETON message has it. */
-void mcd_take_def_from_model(const mc_model *model, uint32_t id, take_def *def);
 
 #endif
