@@ -210,8 +210,9 @@ uninstall:
 	rm -f $(addprefix $(DESTDIR)$(PREFIX)/bin/,$(notdir $(TOOLS) $(BINS)))
 	rm -rf $(DESTDIR)$(LIBDIR)/mocapd $(DESTDIR)$(DATADIR)/mocapd
 
-# Every Debian package the build, the tests and the benchmarks need.
-DEB_PACKAGES := build-essential pkg-config xxd clang llvm libclang-rt-14-dev \
+# Every Debian package the build, the tests and the benchmarks need
+# (component folders add their own in their module.mk: DEB_PACKAGES +=).
+DEB_PACKAGES += build-essential pkg-config xxd clang llvm libclang-rt-14-dev \
 	libjansson-dev libinih-dev libpng-dev libjpeg62-turbo-dev libturbojpeg0-dev \
 	libsystemd-dev systemd ocl-icd-opencl-dev opencl-headers pocl-opencl-icd clinfo \
 	libaravis-dev aravis-tools libusb-1.0-0-dev libcamera-dev libopenni2-dev \
