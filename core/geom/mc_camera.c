@@ -340,22 +340,35 @@ static bool ocam_project(const mc_camera *cam, mc_vec3 p, double *u, double *v)
 
 /* ---- dispatch ---------------------------------------------------------- */
 
+/* The lens formula alone: max_theta is lifted for the pinhole and
+ * equidistant models when the caller asks for an unbounded projection. */
+static bool project_model(const mc_camera *cam, mc_vec3 p_cam, bool bounded, double *u, double *v)
+{
+	if (!mc_v3_isfinite(p_cam))
+		return false;
+	mc_camera open = *cam;
+	if (!bounded && cam->model != MC_CAM_OCAM)
+		open.max_theta = cam->model == MC_CAM_PINHOLE ? M_PI / 2 : M_PI;
+	switch (cam->model) {
+	case MC_CAM_PINHOLE: return pinhole_project(&open, p_cam, u, v);
+	case MC_CAM_EQUIDISTANT: return equidistant_project(&open, p_cam, u, v);
+	case MC_CAM_OCAM: return ocam_project(cam, p_cam, u, v);
+	default: return false;
+	}
+}
+
 bool mc_camera_project(const mc_camera *cam, mc_vec3 p_cam, double *u, double *v)
 {
 	double pu, pv;
-	bool ok;
-	if (!mc_v3_isfinite(p_cam))
-		return false;
-	switch (cam->model) {
-	case MC_CAM_PINHOLE: ok = pinhole_project(cam, p_cam, &pu, &pv); break;
-	case MC_CAM_EQUIDISTANT: ok = equidistant_project(cam, p_cam, &pu, &pv); break;
-	case MC_CAM_OCAM: ok = ocam_project(cam, p_cam, &pu, &pv); break;
-	default: return false;
-	}
-	if (!ok || !in_image(cam, pu, pv))
+	if (!project_model(cam, p_cam, true, &pu, &pv) || !in_image(cam, pu, pv))
 		return false;
 	*u = pu, *v = pv;
 	return true;
+}
+
+bool mc_camera_project_unbounded(const mc_camera *cam, mc_vec3 p_cam, double *u, double *v)
+{
+	return project_model(cam, p_cam, false, u, v);
 }
 
 bool mc_camera_unproject(const mc_camera *cam, double u, double v, mc_vec3 *ray)
@@ -511,4 +524,30 @@ int mc_camera_validate(const mc_camera *cam, mc_err *err)
 	if (r)
 		return r;
 	return validate_pose(&cam->rig_from_cam, err);
+}
+
+/* The widest image corner's angle with a 10% margin (below 89 degrees for
+ * a pinhole, 179 for a fisheye), narrowed by 5% steps while the distortion
+ * folds back inside it.  The corner's angle ignores the distortion, which
+ * the margin and the narrowing absorb. */
+int mc_camera_fit_max_theta(mc_camera *cam, mc_err *err)
+{
+	const double deg = M_PI / 180;
+	double widest = 0;
+	for (int corner = 0; corner < 4; corner++) {
+		double u = (corner & 1) ? cam->width - 0.5 : -0.5, v = (corner & 2) ? cam->height - 0.5 : -0.5;
+		double x = (u - cam->cx) / cam->fx, y = (v - cam->cy) / cam->fy;
+		double r = sqrt(x * x + y * y);
+		widest = fmax(widest, cam->model == MC_CAM_PINHOLE ? atan(r) : r);
+	}
+	double limit = cam->model == MC_CAM_PINHOLE ? 89 * deg : 179 * deg;
+	cam->max_theta = fmin(1.1 * widest, limit);
+	for (int tries = 0; tries < 40; tries++) {
+		if (mc_camera_validate(cam, err) == 0)
+			return 0;
+		if (!strstr(err->msg, "folds back"))
+			return -1;
+		cam->max_theta *= 0.95;
+	}
+	return -1;
 }

@@ -79,6 +79,12 @@ typedef struct {
  * lands outside the image. */
 bool mc_camera_project(const mc_camera *cam, mc_vec3 p_cam, double *u, double *v);
 
+/* The same formula without the field-of-view and image-bounds checks
+ * (pinhole: any point in front; equidistant: any direction; ocam as
+ * mc_camera_project without the image bounds), for calibration, whose
+ * parameters move while corners near the edge must keep a residual. */
+bool mc_camera_project_unbounded(const mc_camera *cam, mc_vec3 p_cam, double *u, double *v);
+
 /* Unit ray in camera coordinates through pixel (u, v). Returns false if the
  * pixel is outside the valid image (e.g. outside a fisheye's image circle). */
 bool mc_camera_unproject(const mc_camera *cam, double u, double v, mc_vec3 *ray);
@@ -90,6 +96,13 @@ bool mc_camera_unproject(const mc_camera *cam, double u, double v, mc_vec3 *ray)
  * pixels, got -1"), for loaders to prefix with file and path. Returns 0 or
  * -1. */
 int mc_camera_validate(const mc_camera *cam, mc_err *err);
+
+/* Sets max_theta of a pinhole or equidistant camera whose source gave no
+ * field of view (an OpenCV calibration): the widest image corner's angle
+ * with a 10% margin, narrowed while the distortion folds back inside it, so
+ * that every pixel has exactly one ray.  Validates the camera; returns 0 or
+ * -1 with the validation message. */
+int mc_camera_fit_max_theta(mc_camera *cam, mc_err *err);
 
 const char *mc_camera_model_name(mc_camera_model m);
 /* Returns 0 and sets *m, or -1 for an unknown name. */

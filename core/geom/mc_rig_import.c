@@ -247,28 +247,6 @@ int mc_rig_import_ocamcalib(const char *path, double max_theta, mc_camera *cam, 
 
 /* ---- import: outside-in cameras.json (OpenCV intrinsics, world_to_camera) -- */
 
-/* A pinhole file says nothing of the field of view: take the widest image
- * corner's angle with a 10% margin (below 89 degrees), and narrow it while
- * the distortion folds back inside it, so that every pixel has one ray. */
-static int pinhole_field_of_view(mc_camera *cam, mc_err *err)
-{
-	double widest = 0;
-	for (int corner = 0; corner < 4; corner++) {
-		double u = (corner & 1) ? cam->width - 0.5 : -0.5, v = (corner & 2) ? cam->height - 0.5 : -0.5;
-		double x = (u - cam->cx) / cam->fx, y = (v - cam->cy) / cam->fy;
-		widest = fmax(widest, atan(sqrt(x * x + y * y)));
-	}
-	cam->max_theta = fmin(1.1 * widest, 89 * DEG);
-	for (int tries = 0; tries < 40; tries++) {
-		if (mc_camera_validate(cam, err) == 0)
-			return 0;
-		if (!strstr(err->msg, "folds back"))
-			return -1;
-		cam->max_theta *= 0.95;
-	}
-	return -1;
-}
-
 static int opencv_camera(const json_t *jc, const char *where, mc_camera *cam, mc_err *err)
 {
 	static const char *const keys[] = {"name", "model", "width", "height", "fx", "fy", "cx", "cy",
@@ -303,7 +281,7 @@ static int opencv_camera(const json_t *jc, const char *where, mc_camera *cam, mc
 	 * Blender or float tools: made exact). */
 	cam->rig_from_cam = mc_xform_inverse(mc_xform_from_4x4((const double(*)[4])m));
 	cam->rig_from_cam.R = mc_m3_orthonormalize(cam->rig_from_cam.R);
-	if (pinhole_field_of_view(cam, err) < 0)
+	if (mc_camera_fit_max_theta(cam, err) < 0)
 		return mc_err_prefix(err, "%s", where);
 	return 0;
 }
