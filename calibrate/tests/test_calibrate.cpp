@@ -56,9 +56,10 @@ std::string save_board(const calib_board &b, const std::string &name)
 	return path;
 }
 
-calib_board board(int sx, int sy, double square_mm, double marker_mm)
+calib_board board(int sx, int sy, double square_mm, double marker_mm, const char *dictionary = "5x5_100")
 {
 	calib_board b;
+	b.dictionary = dictionary;
 	b.squares_x = sx, b.squares_y = sy, b.square_m = square_mm / 1000, b.marker_m = marker_mm / 1000;
 	mc_err err = {};
 	if (calib_board_init(&b, &err) < 0)
@@ -287,6 +288,183 @@ void test_ocam_lens()
 		    std::hypot(est.cx - truth.ocam_xc, est.cy - truth.ocam_yc), lens, rms);
 }
 
+/* Three cameras over a room, 2 m up, looking at its middle; each sees
+ * the board close up for its lens, all see it in the middle of the room,
+ * and it lies on the floor once: the rig's world frame. */
+mc_camera room_camera(int i)
+{
+	mc_camera c = pinhole_truth();
+	std::snprintf(c.name, sizeof c.name, "cam%d", i);
+	c.width = 800, c.height = 600;
+	c.fx = 583 + 6 * i, c.fy = 581 + 4 * i, c.cx = 402.5 - 3 * i, c.cy = 297.25 + 2 * i;
+	c.k[0] = -0.12 + 0.03 * i, c.k[1] = 0.05;
+	double a = (i - 1) * 45 * deg;
+	mc_vec3 pos = mc_v3(2.0 * std::cos(a), 2.0 * std::sin(a), 2.0), target = mc_v3(0.2, 0, 0.7);
+	mc_vec3 z = mc_v3_normalize(mc_v3_sub(target, pos));
+	mc_vec3 x = mc_v3_normalize(mc_v3_cross(z, mc_v3(0, 0, 1))), y = mc_v3_cross(z, x);
+	for (int r = 0; r < 3; r++)
+		c.rig_from_cam.R.m[r][0] = mc_v3_get(x, r), c.rig_from_cam.R.m[r][1] = mc_v3_get(y, r),
+		c.rig_from_cam.R.m[r][2] = mc_v3_get(z, r);
+	c.rig_from_cam.t = pos;
+	return c;
+}
+
+void test_outside_in()
+{
+	calib_board b = board(8, 6, 110, 80, "4x4_50");
+	std::string bpath = save_board(b, "board_room");
+	std::vector<mc_camera> truth;
+	std::vector<std::string> dirs;
+	std::mt19937 rng(7);
+	/* The board in the middle of the room, as the middle camera sees it. */
+	mc_camera mid = room_camera(1);
+	std::vector<mc_xform> shared = spread_poses(b, mid, 8, 0.3, 2.0, 2.6, 25 * deg, 8);
+	/* On the floor, face up, its first corner away from the world's origin. */
+	mc_xform world_from_floor = mc_xform_identity();
+	world_from_floor.R.m[1][1] = world_from_floor.R.m[2][2] = -1;
+	world_from_floor.t = mc_v3(-0.3, 0.3, 0);
+	std::string args = "--board " + bpath + " --floor floor --out " + tmp + "/room.json";
+	for (int i = 0; i < 3; i++) {
+		truth.push_back(room_camera(i));
+		dirs.push_back(make_dir("room" + std::to_string(i)));
+		board_renderer r(&b, truth[i]);
+		mc_xform cam_from_world = mc_xform_inverse(truth[i].rig_from_cam);
+		std::vector<mc_xform> near = spread_poses(b, truth[i], 16, 0.9, 1.1, 1.6, 35 * deg, 10 + i);
+		for (size_t k = 0; k < near.size(); k++)
+			write_view(dirs[i], 100 * (i + 1) + (int)k, r.render(near[k], rng));
+		for (size_t k = 0; k < shared.size(); k++)
+			write_view(dirs[i], (int)k,
+				   r.render(mc_xform_compose(cam_from_world, mc_xform_compose(mid.rig_from_cam, shared[k])), rng));
+		cv::imwrite(dirs[i] + "/floor.png", r.render(mc_xform_compose(cam_from_world, world_from_floor), rng));
+		args += " --camera cam" + std::to_string(i) + ",pinhole=" + dirs[i];
+	}
+	int st;
+	std::string out = run(args, &st);
+	std::printf("%s", out.c_str());
+	CHECK_MSG(st == 0, "exit %d", st);
+	mc_rig rig;
+	if (st != 0 || !load_rig(tmp + "/room.json", &rig))
+		return;
+	CHECK(rig.kind == MC_RIG_OUTSIDE_IN && rig.ncams == 3);
+	for (int i = 0; i < 3 && i < rig.ncams; i++) {
+		char what[32];
+		std::snprintf(what, sizeof what, "room cam%d", i);
+		check_intrinsics(what, truth[i], rig.cams[i], 40 * deg);
+		/* The floor frame is the board's, flipped to z up: floor_from_board. */
+		mc_xform floor_from_board = mc_xform_identity();
+		floor_from_board.R.m[1][1] = floor_from_board.R.m[2][2] = -1;
+		mc_xform expect = mc_xform_compose(floor_from_board, mc_xform_compose(mc_xform_inverse(world_from_floor),
+											    truth[i].rig_from_cam));
+		double off = mc_v3_norm(mc_v3_sub(rig.cams[i].rig_from_cam.t, expect.t));
+		double turn = mc_v3_norm(mc_m3_to_rotvec(mc_m3_mul(mc_m3_transpose(expect.R), rig.cams[i].rig_from_cam.R)));
+		CHECK_MSG(off < 0.005 && turn < 0.1 * deg, "%s: %.2f mm, %.3f deg off in the floor frame", what,
+			  off * 1000, turn / deg);
+		std::printf("%s: %.2f mm, %.4f deg from the truth in the floor frame\n", what, off * 1000, turn / deg);
+	}
+}
+
+/* The PDF's rectangles, filled here at 2 px per point, and the PNG: each
+ * must show the whole board. */
+void test_board_print()
+{
+	calib_board b = board(7, 5, 40, 30);
+	std::string prefix = tmp + "/print";
+	int st;
+	std::string out = run("board --out " + prefix + " --squares 7x5 --square-mm 40 --marker-mm 30", &st);
+	CHECK_MSG(st == 0, "board: exit %d: %s", st, out.c_str());
+	std::ifstream pdf(prefix + ".pdf");
+	std::string line;
+	double page_w = 0, page_h = 0;
+	std::vector<cv::Rect2d> rects;
+	while (std::getline(pdf, line)) {
+		size_t mb = line.find("/MediaBox [0 0 ");
+		if (mb != std::string::npos)
+			std::sscanf(line.c_str() + mb + 15, "%lf %lf", &page_w, &page_h);
+		double x, y, w, h;
+		char op[4];
+		if (std::sscanf(line.c_str(), "%lf %lf %lf %lf %3s", &x, &y, &w, &h, op) == 5 && std::string(op) == "re")
+			rects.push_back(cv::Rect2d(x, y, w, h));
+	}
+	CHECK_NEAR(page_w, (0.28 + 0.02) / 0.0254 * 72, 0.01); /* 7 x 40 mm and 10 mm margins, in points */
+	cv::Mat page((int)(2 * page_h), (int)(2 * page_w), CV_8U, cv::Scalar(255));
+	for (const cv::Rect2d &r : rects)
+		cv::rectangle(page, cv::Point2d(2 * r.x, 2 * (page_h - r.y - r.height)),
+			      cv::Point2d(2 * (r.x + r.width), 2 * (page_h - r.y)), cv::Scalar(0), cv::FILLED, cv::LINE_AA, 0);
+	calib_corners from_pdf = calib_board_detect(&b, page);
+	CHECK_MSG(from_pdf.ids.size() == 24, "PDF: %zu of 24 corners found", from_pdf.ids.size());
+	calib_corners from_png = calib_board_detect(&b, cv::imread(prefix + ".png", cv::IMREAD_GRAYSCALE));
+	CHECK_MSG(from_png.ids.size() == 24, "PNG: %zu of 24 corners found", from_png.ids.size());
+	/* The square size: 40 mm is 113.4 points, corner to corner. */
+	if (from_pdf.ids.size() == 24) {
+		int a = -1, c = -1;
+		for (size_t i = 0; i < 24; i++)
+			a = from_pdf.ids[i] == 0 ? (int)i : a, c = from_pdf.ids[i] == 1 ? (int)i : c;
+		CHECK_NEAR(cv::norm(from_pdf.px[a] - from_pdf.px[c]) / 2, 0.04 / 0.0254 * 72, 0.5);
+	}
+	CHECK(run("board --out " + prefix + " --squares 40x40", &st).find("dictionary") != std::string::npos && st == 2);
+	CHECK(run("board --out " + prefix + " --square-mm 30 --marker-mm 30", &st).find("marker_mm") != std::string::npos &&
+	      st == 2);
+}
+
+/* Writes n views of a pinhole camera with the board at `poses`. */
+std::string views_dir(const std::string &name, const calib_board &b, const mc_camera &cam,
+		      const std::vector<mc_xform> &poses)
+{
+	std::string dir = make_dir(name);
+	board_renderer r(&b, cam);
+	std::mt19937 rng(11);
+	for (size_t i = 0; i < poses.size(); i++)
+		write_view(dir, (int)i, r.render(poses[i], rng));
+	return dir;
+}
+
+void expect_failure(const std::string &args, int code, const char *needle)
+{
+	int st;
+	std::string out = run(args, &st);
+	CHECK_MSG(st == code && out.find(needle) != std::string::npos, "'%s': exit %d, expected %d and '%s' in: %s",
+		  args.c_str(), st, code, needle, out.c_str());
+}
+
+void test_bad_input()
+{
+	calib_board b = board(7, 5, 40, 30);
+	std::string bpath = save_board(b, "board_bad"), out = " --out " + tmp + "/bad.json";
+	mc_camera cam = pinhole_truth();
+	cam.width = 320, cam.height = 240, cam.fx = 260, cam.fy = 258, cam.cx = 160, cam.cy = 120;
+	std::mt19937 rng(12);
+	/* No board: the room alone. */
+	std::vector<mc_xform> away(5, board_pose_along(b, mc_v3(0, 0, -1), 1, 0, 0, 0));
+	expect_failure("--board " + bpath + " --camera c,pinhole=" + views_dir("blank", b, cam, away) + out, 1,
+		       "found in 0 of 5 images");
+	/* Too few views. */
+	std::vector<mc_xform> two = spread_poses(b, cam, 2, 0.3, 0.5, 0.6, 20 * deg, 13);
+	expect_failure("--board " + bpath + " --camera c,pinhole=" + views_dir("two", b, cam, two) + out, 1,
+		       "at least 4 needed");
+	/* Every view in the top-left corner (a 640x480 camera). */
+	mc_camera wide = pinhole_truth();
+	std::vector<mc_xform> corner;
+	for (int i = 0; i < 6; i++) {
+		mc_vec3 ray;
+		mc_camera_unproject(&wide, 100 + 4 * i, 80 + 3 * i, &ray);
+		corner.push_back(board_pose_along(b, ray, 0.9 + 0.03 * i, 0.1 * i, -0.05 * i, 0));
+	}
+	expect_failure("--board " + bpath + " --camera c,pinhole=" + views_dir("corner", b, wide, corner) + out, 1,
+		       "of 16 parts of the image");
+	/* Mixed sizes. */
+	std::string mixed = views_dir("mixed", b, cam, two);
+	cv::imwrite(mixed + "/small.png", cv::Mat(100, 100, CV_8U, cv::Scalar(128)));
+	expect_failure("--board " + bpath + " --camera c,pinhole=" + mixed + out, 2, "must all have its size");
+	/* Command line and files. */
+	expect_failure("--board " + tmp + "/none.json --camera c,pinhole=" + mixed + out, 2, "none.json");
+	std::ofstream(tmp + "/badboard.json") << "{\"squares\": [7, 5], \"square_mm\": 40}";
+	expect_failure("--board " + tmp + "/badboard.json --camera c,pinhole=" + mixed + out, 2, "marker_mm");
+	expect_failure("--board " + bpath + " --camera c,fisheye=" + mixed + out, 2, "pinhole or equidistant");
+	expect_failure("--board " + bpath + " --camera c=" + mixed + out, 2, "NAME,MODEL");
+	expect_failure("--board " + bpath + " --camera c,pinhole=" + tmp + "/nowhere" + out, 2, "nowhere");
+	expect_failure("--board " + bpath + " --camera c,pinhole=" + mixed + " --out " + tmp + "/rig.txt", 2, ".json");
+}
+
 } // namespace
 
 int main(int argc, char **argv)
@@ -306,6 +484,9 @@ int main(int argc, char **argv)
 	test_pinhole();
 	test_stereo_fisheye();
 	test_ocam_lens();
+	test_outside_in();
+	test_board_print();
+	test_bad_input();
 	if (mc_test_failures == 0)
 		mc_test_run(("rm -rf " + tmp).c_str(), build, sizeof build);
 	else
