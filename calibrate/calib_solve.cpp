@@ -560,8 +560,34 @@ calib_view *find_view(calib_cam &c, const std::string &name)
 	return nullptr;
 }
 
+/* How far apart two poses are: metres plus radians (a board's pose
+ * seen from two cameras agrees to millimetres and tenths of a degree). */
+double pose_distance(const mc_xform &a, const mc_xform &b)
+{
+	return mc_v3_norm(mc_v3_sub(a.t, b.t)) + mc_v3_norm(mc_m3_to_rotvec(mc_m3_mul(mc_m3_transpose(a.R), b.R)));
+}
+
+/* The candidate closest to all the others (the medoid): a view set whose
+ * images were not taken at one instant gives a candidate far from the
+ * rest, which does not pull the choice as an average would. */
+mc_xform medoid(const std::vector<mc_xform> &candidates)
+{
+	size_t best = 0;
+	double best_sum = INFINITY;
+	for (size_t i = 0; i < candidates.size(); i++) {
+		std::vector<double> d;
+		for (const mc_xform &o : candidates)
+			d.push_back(pose_distance(candidates[i], o));
+		std::nth_element(d.begin(), d.begin() + d.size() / 2, d.end());
+		if (d[d.size() / 2] < best_sum)
+			best_sum = d[d.size() / 2], best = i;
+	}
+	return candidates[best];
+}
+
 /* Places every camera relative to camera 0 through the view sets that a
- * placed camera shares with it (breadth first). */
+ * placed camera shares with it (breadth first), from the medoid of the
+ * poses the shared sets give. */
 int place_cameras(std::vector<calib_cam> &cams, std::vector<mc_xform> &rig_from_cam, mc_err *err)
 {
 	std::vector<bool> placed(cams.size(), false);
@@ -569,22 +595,25 @@ int place_cameras(std::vector<calib_cam> &cams, std::vector<mc_xform> &rig_from_
 	rig_from_cam.assign(cams.size(), mc_xform_identity());
 	for (bool progress = true; progress;) {
 		progress = false;
-		for (size_t c = 1; c < cams.size(); c++)
+		for (size_t c = 1; c < cams.size(); c++) {
+			std::vector<mc_xform> candidates;
 			for (size_t k = 0; k < cams.size() && !placed[c]; k++) {
 				if (!placed[k] || k == c)
 					continue;
 				for (calib_view &vc : cams[c].views) {
 					calib_view *vk = vc.used ? find_view(cams[k], vc.name) : nullptr;
-					if (!vk)
-						continue;
 					/* rig_from_cam_c = rig_from_cam_k * k_from_board * board_from_c */
-					rig_from_cam[c] = mc_xform_compose(
-						rig_from_cam[k],
-						mc_xform_compose(vk->cam_from_board, mc_xform_inverse(vc.cam_from_board)));
-					placed[c] = progress = true;
-					break;
+					if (vk)
+						candidates.push_back(mc_xform_compose(
+							rig_from_cam[k],
+							mc_xform_compose(vk->cam_from_board, mc_xform_inverse(vc.cam_from_board))));
 				}
 			}
+			if (!placed[c] && !candidates.empty()) {
+				rig_from_cam[c] = medoid(candidates);
+				placed[c] = progress = true;
+			}
+		}
 	}
 	for (size_t c = 1; c < cams.size(); c++)
 		if (!placed[c])
@@ -617,14 +646,13 @@ int apply_floor(std::vector<calib_cam> &cams, const std::map<std::string, int> &
 	return 0;
 }
 
-} // namespace
-
-int calib_extrinsics(std::vector<calib_cam> &cams, const calib_options *opt, mc_err *err)
+/* The joint problem over every used view: the cameras placed from the
+ * shared sets, each set's board pose from the first camera that sees it. */
+problem joint_problem(std::vector<calib_cam> &cams, std::map<std::string, int> &sets,
+		      const std::vector<mc_xform> &rig_from_cam)
 {
-	std::map<std::string, int> sets = view_sets(cams);
 	problem pb;
-	if (place_cameras(cams, pb.rig_from_cam, err) < 0)
-		return -1;
+	pb.rig_from_cam = rig_from_cam;
 	pb.rig_from_board.assign(sets.size(), mc_xform_identity());
 	std::vector<bool> seen(sets.size(), false);
 	for (size_t c = 0; c < cams.size(); c++) {
@@ -635,15 +663,41 @@ int calib_extrinsics(std::vector<calib_cam> &cams, const calib_options *opt, mc_
 			int s = sets[v.name];
 			pb.obs.push_back(observation{(int)c, s, &v, 0});
 			if (!seen[s])
-				pb.rig_from_board[s] = mc_xform_compose(pb.rig_from_cam[c], v.cam_from_board);
+				pb.rig_from_board[s] = mc_xform_compose(rig_from_cam[c], v.cam_from_board);
 			seen[s] = true;
 		}
 	}
-	if (cams.size() > 1)
-		adjust(pb);
-	for (calib_cam &c : cams)
-		c.cam.rig_from_cam = pb.rig_from_cam[&c - &cams[0]];
-	if (!opt->floor_view.empty() && apply_floor(cams, sets, pb.rig_from_board, opt->floor_view, err) < 0)
+	return pb;
+}
+
+} // namespace
+
+int calib_extrinsics(std::vector<calib_cam> &cams, const calib_options *opt, mc_err *err)
+{
+	std::map<std::string, int> sets = view_sets(cams);
+	std::vector<mc_xform> rig_from_cam, rig_from_board;
+	if (place_cameras(cams, rig_from_cam, err) < 0)
+		return -1;
+	/* Views that disagree with the others once the cameras are tied
+	 * together (a set whose images were not taken at one instant) are
+	 * rejected like any other, and the adjustment runs again. */
+	for (int round = 0; round < 4; round++) {
+		problem pb = joint_problem(cams, sets, rig_from_cam);
+		if (cams.size() > 1)
+			adjust(pb);
+		rig_from_cam = pb.rig_from_cam;
+		rig_from_board = pb.rig_from_board;
+		int rejected = 0;
+		for (calib_cam &c : cams)
+			rejected += cams.size() > 1 ? reject_outliers(&c, opt) : 0;
+		if (rejected == 0)
+			break;
+	}
+	for (calib_cam &c : cams) {
+		c.cam.rig_from_cam = rig_from_cam[&c - &cams[0]];
+		c.used_views = count_used(&c);
+	}
+	if (!opt->floor_view.empty() && apply_floor(cams, sets, rig_from_board, opt->floor_view, err) < 0)
 		return -1;
 	for (calib_cam &c : cams)
 		if (set_field_of_view(&c, err) < 0)

@@ -10,6 +10,7 @@
  * Exit codes: 0 done, 1 the calibration failed (the message says what to
  * do), 2 bad command line or input files. */
 #include "calib_board.hpp"
+#include "calib_live.hpp"
 #include "calib_report.hpp"
 #include "calib_solve.hpp"
 
@@ -21,10 +22,12 @@ extern "C" {
 
 #include <dirent.h>
 #include <getopt.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <cstdio>
 #include <cstdlib>
+#include <cmath>
 #include <cstring>
 
 namespace {
@@ -38,9 +41,12 @@ void usage(FILE *out)
 		     "                 [--dictionary D] [--margin-mm M] [--dpi N]\n"
 		     "       %s --board BOARD.json --camera NAME,MODEL[,FOV_DEG]=DIR [--camera ...] --out RIG.json\n"
 		     "                 [--name RIG] [--kind egocentric|outside-in] [--floor IMAGE] [--k3] [--tangential] [--verbose]\n"
+		     "       %s --live [--socket PATH] [--views N] [--seconds S] [--snapshot NAME]\n"
+		     "                 --board BOARD.json --camera NAME,MODEL[,FOV_DEG] ... --out RIG.json [...]\n"
 		     "MODEL is pinhole or equidistant (fisheye). Images of one instant carry the same file\n"
-		     "name in every camera's folder. See mocap-calibrate(1) and docs/CALIBRATION.md.\n",
-		     prog, prog);
+		     "name in every camera's folder; --live collects them from mocapd's cameras into\n"
+		     "RIG.views/CAMERA/. See mocap-calibrate(1) and docs/CALIBRATION.md.\n",
+		     prog, prog, prog);
 }
 
 [[noreturn]] void bad_usage(const char *fmt, const char *arg)
@@ -133,14 +139,15 @@ struct camera_arg {
 	std::string dir;
 };
 
+/* NAME,MODEL[,FOV_DEG]=DIR; without =DIR for --live (checked later). */
 camera_arg parse_camera(const char *arg)
 {
 	camera_arg c;
 	const char *eq = std::strchr(arg, '=');
-	if (!eq || eq == arg || !eq[1])
+	if (eq == arg || (eq && !eq[1]))
 		bad_usage("--camera: expected NAME,MODEL[,FOV_DEG]=DIR, got '%s'", arg);
-	c.dir = eq + 1;
-	std::string spec(arg, eq);
+	c.dir = eq ? eq + 1 : "";
+	std::string spec(arg, eq ? eq : arg + std::strlen(arg));
 	std::vector<std::string> parts;
 	for (size_t start = 0;;) {
 		size_t comma = spec.find(',', start);
@@ -241,6 +248,8 @@ struct calibrate_args {
 	mc_rig_kind kind = MC_RIG_EGOCENTRIC;
 	bool kind_given = false, k3 = false, tangential = false, verbose = false;
 	std::vector<camera_arg> cams;
+	bool live = false;
+	calib_live_options live_opt;
 };
 
 calibrate_args parse_calibrate(int argc, char **argv)
@@ -255,10 +264,28 @@ calibrate_args parse_calibrate(int argc, char **argv)
 				      {"k3", no_argument, nullptr, '3'},
 				      {"tangential", no_argument, nullptr, 't'},
 				      {"verbose", no_argument, nullptr, 'v'},
+				      {"live", no_argument, nullptr, 'L'},
+				      {"socket", required_argument, nullptr, 'S'},
+				      {"views", required_argument, nullptr, 'V'},
+				      {"seconds", required_argument, nullptr, 'T'},
+				      {"snapshot", required_argument, nullptr, 'P'},
 				      {"help", no_argument, nullptr, 'h'},
 				      {nullptr, 0, nullptr, 0}};
+	double v;
 	for (int o; (o = getopt_long(argc, argv, "", opts, nullptr)) != -1;) {
 		switch (o) {
+		case 'L': a.live = true; break;
+		case 'S': a.live_opt.socket = optarg; break;
+		case 'V':
+			if (!parse_number(optarg, &v) || v < 4 || v > 500 || v != std::floor(v))
+				bad_usage("--views: expected a whole number 4..500, got '%s'", optarg);
+			a.live_opt.views = (int)v;
+			break;
+		case 'T':
+			if (!parse_number(optarg, &a.live_opt.seconds) || a.live_opt.seconds <= 0)
+				bad_usage("--seconds: expected a positive number, got '%s'", optarg);
+			break;
+		case 'P': a.live_opt.snapshot = optarg; break;
 		case 'b': a.board = optarg; break;
 		case 'c': a.cams.push_back(parse_camera(optarg)); break;
 		case 'o': a.out = optarg; break;
@@ -288,7 +315,46 @@ calibrate_args parse_calibrate(int argc, char **argv)
 	/* A board on the floor defines a world frame: an outside-in rig. */
 	if (!a.kind_given && !a.floor.empty())
 		a.kind = MC_RIG_OUTSIDE_IN;
+	/* Live: the views go to RIG.views/CAMERA/ and are calibrated from there. */
+	a.live_opt.dir = a.out.substr(0, a.out.size() - 5) + ".views";
+	for (camera_arg &c : a.cams) {
+		if (a.live && !c.dir.empty())
+			bad_usage("--camera: with --live, give NAME,MODEL[,FOV_DEG] without a folder, got '=%s'", c.dir.c_str());
+		if (!a.live && c.dir.empty())
+			bad_usage("--camera %s: expected NAME,MODEL[,FOV_DEG]=DIR (or --live)", c.cam.name.c_str());
+		if (a.live)
+			c.dir = a.live_opt.dir + "/" + c.cam.name;
+	}
+	if (!a.live && (!a.live_opt.socket.empty() || !a.live_opt.snapshot.empty() || a.live_opt.seconds > 0))
+		bad_usage("--socket, --seconds and --snapshot go with --live%s", "");
 	return a;
+}
+
+/* Collects views from mocapd; returns 1 after a snapshot (nothing more
+ * to do), 0 when the views are there to calibrate. */
+int collect_live(calibrate_args &a, const calib_board &board)
+{
+	std::vector<calib_cam> cams;
+	for (camera_arg &c : a.cams) {
+		c.cam.pinhole_k3 = a.k3;
+		c.cam.pinhole_tangential = a.tangential;
+		cams.push_back(c.cam);
+	}
+	mc_err err = {};
+	if (calib_live_collect(board, cams, a.live_opt, &err) < 0)
+		mc_fail_exit(prog, 1, "%s", err.msg);
+	if (!a.live_opt.snapshot.empty()) {
+		std::printf("saved %s.png of every camera that saw the board, in %s/\n", a.live_opt.snapshot.c_str(),
+			    a.live_opt.dir.c_str());
+		return 1;
+	}
+	for (camera_arg &c : a.cams)
+		if (access(c.dir.c_str(), F_OK) != 0)
+			mc_fail_exit(prog, 1,
+				     "camera %s: no view was kept (the board was never seen held still): hold the "
+				     "whole board still in front of it for a moment, in good light",
+				     c.cam.name.c_str());
+	return 0;
 }
 
 int cmd_calibrate(int argc, char **argv)
@@ -301,6 +367,8 @@ int cmd_calibrate(int argc, char **argv)
 	calib_options opt;
 	opt.floor_view = a.floor;
 	opt.verbose = a.verbose;
+	if (a.live && collect_live(a, board) != 0)
+		return 0; /* a snapshot: nothing to calibrate yet */
 	std::vector<calib_cam> cams;
 	std::vector<std::vector<cv::Mat>> images(a.cams.size());
 	for (size_t i = 0; i < a.cams.size(); i++) {

@@ -1,4 +1,4 @@
-/* Runs mocapd as a child process for the integration tests.
+/* Runs mocapd as a child process for the integration tests (C and C++).
  *
  * Each run gets a scratch directory under /tmp with its config, the
  * daemon's stdout and stderr, its socket, and a datagram socket standing in
@@ -119,11 +119,11 @@ static inline char *mcd_read_file(const char *path)
 {
 	FILE *f = fopen(path, "rb");
 	if (!f)
-		return calloc(1, 1);
+		return (char *)calloc(1, 1);
 	fseek(f, 0, SEEK_END);
 	long n = ftell(f);
 	fseek(f, 0, SEEK_SET);
-	char *s = calloc(1, (size_t)(n > 0 ? n : 0) + 1);
+	char *s = (char *)calloc(1, (size_t)(n > 0 ? n : 0) + 1);
 	if (s && n > 0 && fread(s, 1, (size_t)n, f) != (size_t)n)
 		s[0] = 0;
 	fclose(f);
@@ -153,7 +153,9 @@ static inline bool mcd_run_init(mcd_run *r)
 	snprintf(r->sock, sizeof(r->sock), "%s/mocapd.sock", r->dir);
 	snprintf(r->notify, sizeof(r->notify), "%s/notify", r->dir);
 	r->notify_fd = socket(AF_UNIX, SOCK_DGRAM | SOCK_CLOEXEC | SOCK_NONBLOCK, 0);
-	struct sockaddr_un a = {.sun_family = AF_UNIX};
+	struct sockaddr_un a;
+	memset(&a, 0, sizeof(a));
+	a.sun_family = AF_UNIX;
 	snprintf(a.sun_path, sizeof(a.sun_path), "%.100s", r->notify);
 	return r->notify_fd >= 0 && bind(r->notify_fd, (struct sockaddr *)&a, sizeof(a)) == 0;
 }
@@ -237,7 +239,7 @@ static inline void mcd_run_read_notify(mcd_run *r)
 	while ((n = recv(r->notify_fd, buf, sizeof(buf) - 1, 0)) > 0) {
 		if (r->notes_len + (size_t)n + 8 > r->notes_cap) {
 			size_t cap = (r->notes_len + (size_t)n + 8) * 2;
-			char *grown = realloc(r->notes, cap);
+			char *grown = (char *)realloc(r->notes, cap);
 			if (!grown)
 				return;
 			r->notes = grown;
@@ -297,7 +299,7 @@ static inline bool mcd_run_wait_notify(mcd_run *r, const char *needle, int timeo
 			return true;
 		if (mcd_now_ms() >= end)
 			return false;
-		struct pollfd p = {.fd = r->notify_fd, .events = POLLIN};
+		struct pollfd p = {r->notify_fd, POLLIN, 0};
 		poll(&p, 1, 20);
 	}
 }
@@ -382,7 +384,9 @@ static inline bool mcd_run_start_ready(mcd_run *r, const char *const *args)
 static inline bool mcd_can_connect(const char *path)
 {
 	int fd = socket(AF_UNIX, SOCK_SEQPACKET | SOCK_CLOEXEC, 0);
-	struct sockaddr_un a = {.sun_family = AF_UNIX};
+	struct sockaddr_un a;
+	memset(&a, 0, sizeof(a));
+	a.sun_family = AF_UNIX;
 	snprintf(a.sun_path, sizeof(a.sun_path), "%.100s", path);
 	bool ok = fd >= 0 && connect(fd, (struct sockaddr *)&a, sizeof(a)) == 0;
 	if (fd >= 0)
