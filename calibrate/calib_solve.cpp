@@ -585,6 +585,35 @@ mc_xform medoid(const std::vector<mc_xform> &candidates)
 	return candidates[best];
 }
 
+/* A view set whose images were not taken at one instant places camera c
+ * away from where the other sets put it: its view of c is not used.  The
+ * threshold (3 cm plus radians) is far above what a synchronised set
+ * disagrees by (about a millimetre and a tenth of a degree). */
+void reject_unsynchronised(std::vector<calib_cam> &cams, size_t c, const std::vector<bool> &placed,
+			   const std::vector<mc_xform> &rig_from_cam)
+{
+	for (calib_view &vc : cams[c].views)
+		for (size_t k = 0; k < cams.size() && vc.used; k++) {
+			calib_view *vk = k != c && placed[k] ? find_view(cams[k], vc.name) : nullptr;
+			if (!vk)
+				continue;
+			mc_xform here = mc_xform_compose(rig_from_cam[k], mc_xform_compose(vk->cam_from_board,
+											  mc_xform_inverse(vc.cam_from_board)));
+			double off = pose_distance(here, rig_from_cam[c]);
+			if (off > 0.03) {
+				char why[200];
+				std::snprintf(why, sizeof why,
+					      "with camera %s's view of this set it puts the camera %.0f mm / %.1f deg away from "
+					      "the other sets: the images were not taken at one instant (board moving?)",
+					      cams[k].name.c_str(), 1000 * mc_v3_norm(mc_v3_sub(here.t, rig_from_cam[c].t)),
+					      mc_v3_norm(mc_m3_to_rotvec(mc_m3_mul(mc_m3_transpose(here.R), rig_from_cam[c].R))) *
+						      180 / M_PI);
+				vc.used = false;
+				vc.why = why;
+			}
+		}
+}
+
 /* Places every camera relative to camera 0 through the view sets that a
  * placed camera shares with it (breadth first), from the medoid of the
  * poses the shared sets give. */
@@ -612,6 +641,7 @@ int place_cameras(std::vector<calib_cam> &cams, std::vector<mc_xform> &rig_from_
 			if (!placed[c] && !candidates.empty()) {
 				rig_from_cam[c] = medoid(candidates);
 				placed[c] = progress = true;
+				reject_unsynchronised(cams, c, placed, rig_from_cam);
 			}
 		}
 	}
