@@ -107,7 +107,8 @@ void test_pinhole()
 }
 
 /* A head-mounted pair: two fisheyes 12 cm apart, the right one turned out
- * by 8 degrees; boards in front of the rig, seen by both. */
+ * by 8 degrees; boards in front of the rig, seen by both, two of the sets
+ * mixed up. */
 void test_stereo_fisheye()
 {
 	calib_board b = board(6, 4, 60, 45);
@@ -123,7 +124,10 @@ void test_stereo_fisheye()
 	mc_xform right_from_rig = mc_xform_inverse(right.rig_from_cam);
 	for (size_t i = 0; i < poses.size(); i++) {
 		write_view(left_dir, (int)i, rl.render(poses[i], rng));
-		write_view(right_dir, (int)i, rr.render(mc_xform_compose(right_from_rig, poses[i]), rng));
+		/* Views 3 and 4 of the right camera swapped: two sets whose images
+		 * were not taken at one instant, to be found and left out. */
+		size_t j = i == 3 ? 4 : (i == 4 ? 3 : i);
+		write_view(right_dir, (int)i, rr.render(mc_xform_compose(right_from_rig, poses[j]), rng));
 	}
 	int st;
 	std::string out = run("--board " + bpath + " --camera left,equidistant,180=" + left_dir +
@@ -135,6 +139,9 @@ void test_stereo_fisheye()
 	if (st != 0 || !load_rig(tmp + "/stereo.json", &rig))
 		return;
 	CHECK(rig.kind == MC_RIG_EGOCENTRIC);
+	CHECK_MSG(out.find("view view003 not used: with camera left's view") != std::string::npos &&
+			  out.find("view view004 not used: with camera left's view") != std::string::npos,
+		  "the swapped views were not found");
 	check_intrinsics("fisheye left", left, rig.cams[0], 85 * deg);
 	check_intrinsics("fisheye right", right, rig.cams[1], 85 * deg);
 	double base = mc_v3_norm(mc_v3_sub(rig.cams[1].rig_from_cam.t, right.rig_from_cam.t));
