@@ -14,7 +14,7 @@ CALIB_CV_LIBS := $(filter -L% -lopencv_aruco -lopencv_calib3d -lopencv_imgcodecs
 # The live collector is a client of mocapd (libmocap) and maps its rings (the core).
 CALIB_LINK := $(CALIB_LIB) $(BUILD)/libmocap.a $(CORE_LIB) $(CORE_LIBS) $(CALIB_CV_LIBS) -lstdc++
 
-DEB_PACKAGES += libopencv-dev libopencv-contrib-dev
+DEB_PACKAGES += libopencv-contrib-dev
 LIBS += $(CALIB_LIB)
 BINS += $(MOCAP_CALIBRATE)
 TESTS += $(CALIB_TESTS)

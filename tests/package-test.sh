@@ -79,12 +79,12 @@ fi
 installed=1
 DEBIAN_FRONTEND=noninteractive apt-get install -y $debs >"$tmp/install.log" 2>&1 ||
 	{ tail -n 30 "$tmp/install.log"; fail "apt-get install of the packages"; }
-for f in /usr/bin/mocapd /usr/bin/mocapctl /usr/bin/mocap-bench /usr/bin/mocap-detect \
+for f in /usr/bin/mocapd /usr/bin/mocapctl /usr/bin/mocap-bench /usr/bin/mocap-detect /usr/bin/mocap-calibrate \
 	/usr/lib/$ma/mocapd/drivers/mocap-driver-files.so /usr/lib/$ma/libmocap.so.1 /usr/lib/$ma/libmocap.so \
 	/usr/include/mocap.h /usr/lib/$ma/pkgconfig/mocap.pc /usr/share/mocapd/models/default.json \
 	/usr/share/mocapd/rigs/ego_stereo.json /lib/systemd/system/mocapd.service \
 	/lib/systemd/system/mocapd.socket /usr/lib/sysusers.d/mocapd.conf /usr/lib/tmpfiles.d/mocapd.conf \
-	/usr/lib/udev/rules.d/70-mocapd.rules /usr/share/man/man8/mocapd.8.gz /usr/share/doc/mocapd/SYSTEMD.md \
+	/usr/lib/udev/rules.d/70-mocapd.rules /usr/share/man/man8/mocapd.8.gz /usr/share/man/man1/mocap-calibrate.1.gz /usr/share/doc/mocapd/SYSTEMD.md \
 	/usr/share/doc/mocapd/PROTOCOL.md.gz; do
 	[ -e "$f" ] || fail "$f is not installed"
 done
