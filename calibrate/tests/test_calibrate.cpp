@@ -82,27 +82,45 @@ double report_rms(const std::string &rig_path, int i)
 	return root ? rms : -1;
 }
 
+/* Renders the board at `poses` through cam into the folder NAME. */
+std::string views_dir(const std::string &name, const calib_board &b, const mc_camera &cam,
+		      const std::vector<mc_xform> &poses)
+{
+	std::string dir = make_dir(name);
+	board_renderer r(&b, cam);
+	std::mt19937 rng(11);
+	for (size_t i = 0; i < poses.size(); i++)
+		write_view(dir, (int)i, r.render(poses[i], rng));
+	return dir;
+}
+
+/* Renders the board at `poses` through truth, calibrates that folder as
+ * camera NAME of model `model` ("pinhole", "equidistant,180") and loads
+ * the rig NAME.json. */
+bool calibrate_views(const calib_board &b, const mc_camera &truth, const std::vector<mc_xform> &poses,
+		     const std::string &name, const std::string &model, mc_rig *rig)
+{
+	std::string dir = views_dir(name, b, truth, poses);
+	int st;
+	std::string out = run("--board " + save_board(b, "board_" + name) + " --camera " + name + "," + model + "=" + dir +
+				      " --out " + tmp + "/" + name + ".json",
+			      &st);
+	std::printf("%s", out.c_str());
+	CHECK_MSG(st == 0, "%s: exit %d", name.c_str(), st);
+	return st == 0 && load_rig(tmp + "/" + name + ".json", rig);
+}
+
 void test_pinhole()
 {
 	calib_board b = board(9, 7, 40, 30);
-	std::string bpath = save_board(b, "board_pin"), dir = make_dir("pin");
 	mc_camera truth = pinhole_truth();
-	board_renderer r(&b, truth);
-	std::mt19937 rng(1);
-	std::vector<mc_xform> poses = spread_poses(b, truth, 36, 0.9, 0.4, 0.65, 45 * deg, 2);
-	for (size_t i = 0; i < poses.size(); i++)
-		write_view(dir, (int)i, r.render(poses[i], rng));
-	int st;
-	std::string out = run("--board " + bpath + " --camera cam,pinhole=" + dir + " --out " + tmp + "/pin.json", &st);
-	std::printf("%s", out.c_str());
-	CHECK_MSG(st == 0, "exit %d", st);
 	mc_rig rig;
-	if (st != 0 || !load_rig(tmp + "/pin.json", &rig))
+	if (!calibrate_views(b, truth, spread_poses(b, truth, 36, 0.9, 0.4, 0.65, 45 * deg, 2), "pin", "pinhole", &rig))
 		return;
 	check_intrinsics("pinhole", truth, rig.cams[0], 40 * deg);
 	double rms = report_rms(tmp + "/pin.json", 0);
 	CHECK_MSG(rms >= 0 && rms < 0.3, "pinhole RMS %.3f px", rms);
-	for (const char *f : {"/pin.report.json", "/pin.coverage-cam.png", "/pin.overlay-cam.png"})
+	for (const char *f : {"/pin.report.json", "/pin.coverage-pin.png", "/pin.overlay-pin.png"})
 		CHECK_MSG(access((tmp + f).c_str(), R_OK) == 0, "%s missing", f);
 }
 
@@ -161,7 +179,6 @@ void test_stereo_fisheye()
 void test_ocam_lens()
 {
 	calib_board b = board(6, 4, 60, 45);
-	std::string dir = make_dir("ocam");
 	mc_camera truth{};
 	std::snprintf(truth.name, sizeof truth.name, "ocam");
 	truth.model = MC_CAM_OCAM;
@@ -178,19 +195,9 @@ void test_ocam_lens()
 	truth.rig_from_cam = mc_xform_identity();
 	mc_err err = {};
 	CHECK_MSG(mc_camera_validate(&truth, &err) == 0, "%s", err.msg);
-	board_renderer r(&b, truth);
-	std::mt19937 rng(5);
-	std::vector<mc_xform> poses = spread_poses(b, truth, 28, 0.8, 0.28, 0.45, 30 * deg, 6);
-	for (size_t i = 0; i < poses.size(); i++)
-		write_view(dir, (int)i, r.render(poses[i], rng));
-	int st;
-	std::string out = run("--board " + save_board(b, "board_ocam") + " --camera ocam,equidistant,180=" + dir +
-				      " --out " + tmp + "/ocam.json",
-			      &st);
-	std::printf("%s", out.c_str());
-	CHECK_MSG(st == 0, "exit %d", st);
 	mc_rig rig;
-	if (st != 0 || !load_rig(tmp + "/ocam.json", &rig))
+	if (!calibrate_views(b, truth, spread_poses(b, truth, 28, 0.8, 0.28, 0.45, 30 * deg, 6), "ocam", "equidistant,180",
+			     &rig))
 		return;
 	const mc_camera &est = rig.cams[0];
 	CHECK_MSG(std::hypot(est.cx - truth.ocam_xc, est.cy - truth.ocam_yc) < 1, "ocam centre %.3f %.3f", est.cx, est.cy);
@@ -318,18 +325,6 @@ void test_board_print()
 	CHECK(run("board --out " + prefix + " --squares 40x40", &st).find("dictionary") != std::string::npos && st == 2);
 	CHECK(run("board --out " + prefix + " --square-mm 30 --marker-mm 30", &st).find("marker_mm") != std::string::npos &&
 	      st == 2);
-}
-
-/* Writes n views of a pinhole camera with the board at `poses`. */
-std::string views_dir(const std::string &name, const calib_board &b, const mc_camera &cam,
-		      const std::vector<mc_xform> &poses)
-{
-	std::string dir = make_dir(name);
-	board_renderer r(&b, cam);
-	std::mt19937 rng(11);
-	for (size_t i = 0; i < poses.size(); i++)
-		write_view(dir, (int)i, r.render(poses[i], rng));
-	return dir;
 }
 
 void expect_failure(const std::string &args, int code, const char *needle)
