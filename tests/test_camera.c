@@ -581,8 +581,44 @@ static void test_validate(void)
 	CHECK(strcmp(mc_camera_model_name(MC_CAM_PINHOLE), "pinhole") == 0);
 }
 
+/* The unbounded projection (calibration): the same formula past the field
+ * of view and the image, where the bounded one refuses. */
+static void test_unbounded(void)
+{
+	mc_camera eq = ego_equidistant();
+	eq.max_theta = 80 * DEG;
+	double u, v, ub, vb;
+	for (int ti = 0; ti <= 34; ti++) {
+		double theta = ti * 5 * DEG, phi = 0.7;
+		mc_vec3 p = mc_v3(sin(theta) * cos(phi), sin(theta) * sin(phi), cos(theta));
+		CHECK(mc_camera_project_unbounded(&eq, p, &u, &v));
+		CHECK_NEAR(u, EGO_C + EGO_F * theta * cos(phi), 1e-9);
+		CHECK_NEAR(v, EGO_C + EGO_F * theta * sin(phi), 1e-9);
+		bool bounded = mc_camera_project(&eq, p, &ub, &vb);
+		CHECK(bounded == (theta <= 80 * DEG + 1e-12));
+	}
+	mc_camera pin = eq;
+	pin.model = MC_CAM_PINHOLE;
+	pin.max_theta = 30 * DEG;
+	CHECK(mc_camera_project_unbounded(&pin, mc_v3(3, 0, 1), &u, &v) && fabs(u - (EGO_C + 3 * EGO_F)) < 1e-9);
+	CHECK(!mc_camera_project(&pin, mc_v3(3, 0, 1), &u, &v));
+	CHECK(!mc_camera_project_unbounded(&pin, mc_v3(1, 0, -1), &u, &v)); /* behind a pinhole */
+}
+
+/* The field of view fitted to a calibration without one. */
+static void test_fit_max_theta(void)
+{
+	mc_err err = {{0}};
+	mc_camera eq = ego_equidistant();
+	CHECK(mc_camera_fit_max_theta(&eq, &err) == 0);
+	/* the image corner is sqrt(2) * 128 px from the centre: 1.1 x that angle, below 179 degrees */
+	CHECK_NEAR(eq.max_theta, fmin(1.1 * sqrt(2) * 128 / EGO_F, 179 * DEG), 0.01);
+}
+
 int main(void)
 {
+	test_unbounded();
+	test_fit_max_theta();
 	test_roundtrips();
 	test_opencv_references();
 	test_ego_formulas();

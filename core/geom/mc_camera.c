@@ -63,9 +63,11 @@ static void pinhole_distort(const double k[5], double x, double y, double *xd, d
 	}
 }
 
-static bool pinhole_project(const mc_camera *cam, mc_vec3 p, double *u, double *v)
+/* max_theta: the field to project within (the camera's, or wider for an
+ * unbounded projection). */
+static bool pinhole_project(const mc_camera *cam, mc_vec3 p, double max_theta, double *u, double *v)
 {
-	if (!(p.z > 0) || ray_angle(p) > cam->max_theta)
+	if (!(p.z > 0) || ray_angle(p) > max_theta)
 		return false;
 	double xd, yd;
 	pinhole_distort(cam->k, p.x / p.z, p.y / p.z, &xd, &yd, NULL);
@@ -137,13 +139,13 @@ static double kb_dtheta_d(const double k[5], double t)
 	return 1 + t2 * (3 * k[0] + t2 * (5 * k[1] + t2 * (7 * k[2] + t2 * 9 * k[3])));
 }
 
-static bool equidistant_project(const mc_camera *cam, mc_vec3 p, double *u, double *v)
+static bool equidistant_project(const mc_camera *cam, mc_vec3 p, double max_theta, double *u, double *v)
 {
 	double rxy = hypot(p.x, p.y);
 	if (rxy == 0 && !(p.z > 0))
 		return false;
 	double theta = atan2(rxy, p.z);
-	if (theta > cam->max_theta)
+	if (theta > max_theta)
 		return false;
 	double td = kb_theta_d(cam->k, theta);
 	/* td / rxy scales the unit direction in the image plane; at the axis the
@@ -340,18 +342,15 @@ static bool ocam_project(const mc_camera *cam, mc_vec3 p, double *u, double *v)
 
 /* ---- dispatch ---------------------------------------------------------- */
 
-/* The lens formula alone: max_theta is lifted for the pinhole and
- * equidistant models when the caller asks for an unbounded projection. */
+/* The lens formula alone; an unbounded projection lifts max_theta for the
+ * pinhole (to 90 degrees) and equidistant (to 180) models. */
 static bool project_model(const mc_camera *cam, mc_vec3 p_cam, bool bounded, double *u, double *v)
 {
 	if (!mc_v3_isfinite(p_cam))
 		return false;
-	mc_camera open = *cam;
-	if (!bounded && cam->model != MC_CAM_OCAM)
-		open.max_theta = cam->model == MC_CAM_PINHOLE ? M_PI / 2 : M_PI;
 	switch (cam->model) {
-	case MC_CAM_PINHOLE: return pinhole_project(&open, p_cam, u, v);
-	case MC_CAM_EQUIDISTANT: return equidistant_project(&open, p_cam, u, v);
+	case MC_CAM_PINHOLE: return pinhole_project(cam, p_cam, bounded ? cam->max_theta : M_PI / 2, u, v);
+	case MC_CAM_EQUIDISTANT: return equidistant_project(cam, p_cam, bounded ? cam->max_theta : M_PI, u, v);
 	case MC_CAM_OCAM: return ocam_project(cam, p_cam, u, v);
 	default: return false;
 	}
