@@ -58,18 +58,27 @@ static mc_mat3 axes(void)
 	return C;
 }
 
+/* The output skeleton: the 18 joints and a head joint at the neck that
+ * carries head_top (the neck's own frame carries the shoulders). */
+#define OUT_JOINTS (MC_MOTION_JOINTS + 1)
+#define OUT_HEAD 3
+static int src_of(int o) { return o < OUT_HEAD ? o : (o == OUT_HEAD ? -1 : o - 1); }
+static int out_of(int j) { return j < OUT_HEAD ? j : j + 1; }
+
 void motion_take_def(const mc_motion_skel *s, take_def *d)
 {
 	memset(d, 0, sizeof(*d));
 	d->id = 1;
-	d->njoints = MC_MOTION_JOINTS;
-	for (int j = 0; j < MC_MOTION_JOINTS; j++) {
-		snprintf(d->joints[j].name, sizeof(d->joints[j].name), "%s", mc_motion_joint_name(j));
-		d->joints[j].parent = s->parent[j];
-		mc_vec3 o = to_bvh(s->offset[j]);
-		d->joints[j].offset[0] = o.x;
-		d->joints[j].offset[1] = o.y;
-		d->joints[j].offset[2] = o.z;
+	d->njoints = OUT_JOINTS;
+	for (int o = 0; o < OUT_JOINTS; o++) {
+		int j = src_of(o);
+		take_joint_def *jd = &d->joints[o];
+		snprintf(jd->name, sizeof(jd->name), "%s", j < 0 ? "head" : mc_motion_joint_name(j));
+		jd->parent = j < 0 ? out_of(MC_MJ_NECK) : (j == MC_MJ_HEAD_TOP ? OUT_HEAD : (s->parent[j] < 0 ? -1 : out_of(s->parent[j])));
+		mc_vec3 off = to_bvh(j < 0 ? mc_v3(0, 0, 0) : s->offset[j]);
+		jd->offset[0] = off.x;
+		jd->offset[1] = off.y;
+		jd->offset[2] = off.z;
 	}
 }
 
@@ -77,18 +86,21 @@ void motion_take_pose(const mc_motion_skel *s, const mc_vec3 *pose, take_pose *o
 {
 	mc_mat3 R[MC_MOTION_JOINTS], C = axes(), Ct = mc_m3_transpose(C);
 	mc_motion_orientations(s, pose, R);
-	out->njoints = MC_MOTION_JOINTS;
+	mc_mat3 head = mc_motion_head_rotation(s, pose);
+	out->njoints = OUT_JOINTS;
 	out->def_id = 1;
-	for (int j = 0; j < MC_MOTION_JOINTS; j++) {
-		mc_vec3 p = to_bvh(pose[j]);
-		out->joints[j].position[0] = p.x;
-		out->joints[j].position[1] = p.y;
-		out->joints[j].position[2] = p.z;
-		mc_quat q = mc_quat_from_m3(mc_m3_mul(C, mc_m3_mul(R[j], Ct)));
-		out->joints[j].orientation[0] = q.w;
-		out->joints[j].orientation[1] = q.x;
-		out->joints[j].orientation[2] = q.y;
-		out->joints[j].orientation[3] = q.z;
-		out->joints[j].confidence = 1;
+	for (int o = 0; o < OUT_JOINTS; o++) {
+		int j = src_of(o);
+		mc_vec3 p = to_bvh(pose[j < 0 ? MC_MJ_NECK : j]);
+		out->joints[o].position[0] = p.x;
+		out->joints[o].position[1] = p.y;
+		out->joints[o].position[2] = p.z;
+		mc_mat3 Rw = j < 0 || j == MC_MJ_HEAD_TOP ? head : R[j];
+		mc_quat q = mc_quat_from_m3(mc_m3_mul(C, mc_m3_mul(Rw, Ct)));
+		out->joints[o].orientation[0] = q.w;
+		out->joints[o].orientation[1] = q.x;
+		out->joints[o].orientation[2] = q.y;
+		out->joints[o].orientation[3] = q.z;
+		out->joints[o].confidence = 1;
 	}
 }

@@ -122,21 +122,11 @@ mc_vec3 mc_floor_from_world(mc_floor_frame f, mc_vec3 w)
 	return mc_v3(c * x + s * y, -s * x + c * y, w.z);
 }
 
-void mc_motion_fix_lengths(const mc_motion_skel *s, mc_vec3 *pose)
-{
-	/* Each bone keeps the direction it had before its parent moved. */
-	mc_vec3 orig[MC_MOTION_JOINTS];
-	memcpy(orig, pose, sizeof(orig));
-	for (int j = 1; j < MC_MOTION_JOINTS; j++) {
-		int p = s->parent[j];
-		mc_vec3 d = mc_v3_sub(orig[j], orig[p]);
-		double n = mc_v3_norm(d), len = mc_v3_norm(s->offset[j]);
-		d = n > 1e-9 ? mc_v3_scale(d, len / n) : s->offset[j];
-		pose[j] = mc_v3_add(pose[p], d);
-	}
-}
-
-/* ---- orientations ---- */
+/* ---- joint frames ----
+ * A joint's frame is built from its primary direction (the bone to its
+ * first child; for the neck, the spine's continuation, so that the neck
+ * carries the shoulders like a chest) and the body's left-right line (the
+ * hips for the legs and pelvis, the shoulders for the upper body). */
 
 static int first_child(const mc_motion_skel *s, int j)
 {
@@ -162,14 +152,45 @@ static mc_mat3 frame_of(mc_vec3 a, mc_vec3 b, mc_vec3 c)
 	return F;
 }
 
-static void reference_dirs(const mc_vec3 *p, int j, mc_vec3 *side, mc_vec3 *fwd)
+static mc_vec3 primary_dir(const mc_motion_skel *s, const mc_vec3 *p, int j)
 {
-	if (lower_body(j))
-		*side = mc_v3_sub(p[MC_MJ_LHIP], p[MC_MJ_RHIP]);
-	else
-		*side = mc_v3_sub(p[MC_MJ_LSHOULDER], p[MC_MJ_RSHOULDER]);
-	mc_vec3 up = mc_v3_sub(p[MC_MJ_NECK], p[MC_MJ_PELVIS]);
-	*fwd = mc_v3_cross(*side, up); /* left x up = forward */
+	if (j == MC_MJ_NECK)
+		return mc_v3_sub(p[MC_MJ_NECK], p[MC_MJ_SPINE]);
+	return mc_v3_sub(p[first_child(s, j)], p[j]);
+}
+
+/* The rotation of joint j's frame from rest to pose: primary direction
+ * dir0 at rest, dir1 in the pose; the left-right line from `sides`. */
+static mc_mat3 joint_rotation(const mc_vec3 *rest, const mc_vec3 *sides, int j, mc_vec3 dir0, mc_vec3 dir1)
+{
+	int l = lower_body(j) ? MC_MJ_LHIP : MC_MJ_LSHOULDER, r = lower_body(j) ? MC_MJ_RHIP : MC_MJ_RSHOULDER;
+	mc_vec3 side0 = mc_v3_sub(rest[l], rest[r]), side1 = mc_v3_sub(sides[l], sides[r]);
+	mc_vec3 fwd0 = mc_v3_cross(side0, mc_v3_sub(rest[MC_MJ_NECK], rest[MC_MJ_PELVIS]));
+	mc_vec3 fwd1 = mc_v3_cross(side1, mc_v3_sub(sides[MC_MJ_NECK], sides[MC_MJ_PELVIS]));
+	return mc_m3_mul(frame_of(dir1, side1, fwd1), mc_m3_transpose(frame_of(dir0, side0, fwd0)));
+}
+
+void mc_motion_fix_lengths(const mc_motion_skel *s, mc_vec3 *pose)
+{
+	/* Each bone keeps the direction it had before its parent moved; the
+	 * hips and shoulders, second children of the pelvis and the neck, sit
+	 * rigidly in their parent's frame, so that one rotation per joint
+	 * poses the whole skeleton (mc_motion_orientations, BVH). */
+	mc_vec3 orig[MC_MOTION_JOINTS], rest[MC_MOTION_JOINTS];
+	memcpy(orig, pose, sizeof(orig));
+	mc_motion_skel_rest(s, rest);
+	for (int j = 1; j < MC_MOTION_JOINTS; j++) {
+		int p = s->parent[j];
+		if (first_child(s, p) != j) {
+			mc_mat3 R = joint_rotation(rest, orig, p, primary_dir(s, rest, p), primary_dir(s, pose, p));
+			pose[j] = mc_v3_add(pose[p], mc_m3_apply(R, s->offset[j]));
+			continue;
+		}
+		mc_vec3 d = mc_v3_sub(orig[j], orig[p]);
+		double n = mc_v3_norm(d), len = mc_v3_norm(s->offset[j]);
+		d = n > 1e-9 ? mc_v3_scale(d, len / n) : s->offset[j];
+		pose[j] = mc_v3_add(pose[p], d);
+	}
 }
 
 void mc_motion_orientations(const mc_motion_skel *s, const mc_vec3 *pose, mc_mat3 *R)
@@ -177,18 +198,19 @@ void mc_motion_orientations(const mc_motion_skel *s, const mc_vec3 *pose, mc_mat
 	mc_vec3 rest[MC_MOTION_JOINTS];
 	mc_motion_skel_rest(s, rest);
 	for (int j = 0; j < MC_MOTION_JOINTS; j++) {
-		int c = first_child(s, j);
-		if (c < 0) {
+		if (j != MC_MJ_NECK && first_child(s, j) < 0)
 			R[j] = R[s->parent[j]];
-			continue;
-		}
-		mc_vec3 side0, fwd0, side1, fwd1;
-		reference_dirs(rest, j, &side0, &fwd0);
-		reference_dirs(pose, j, &side1, &fwd1);
-		mc_mat3 F0 = frame_of(mc_v3_sub(rest[c], rest[j]), side0, fwd0);
-		mc_mat3 F1 = frame_of(mc_v3_sub(pose[c], pose[j]), side1, fwd1);
-		R[j] = mc_m3_mul(F1, mc_m3_transpose(F0));
+		else
+			R[j] = joint_rotation(rest, pose, j, primary_dir(s, rest, j), primary_dir(s, pose, j));
 	}
+}
+
+mc_mat3 mc_motion_head_rotation(const mc_motion_skel *s, const mc_vec3 *pose)
+{
+	mc_vec3 rest[MC_MOTION_JOINTS];
+	mc_motion_skel_rest(s, rest);
+	return joint_rotation(rest, pose, MC_MJ_NECK, mc_v3_sub(rest[MC_MJ_HEAD_TOP], rest[MC_MJ_NECK]),
+			      mc_v3_sub(pose[MC_MJ_HEAD_TOP], pose[MC_MJ_NECK]));
 }
 
 /* ---- adding clips ---- */
@@ -199,6 +221,14 @@ static double leg_length(const mc_vec3 *p)
 	       mc_v3_norm(mc_v3_sub(p[MC_MJ_LANKLE], p[MC_MJ_LKNEE])) +
 	       mc_v3_norm(mc_v3_sub(p[MC_MJ_RKNEE], p[MC_MJ_RHIP])) +
 	       mc_v3_norm(mc_v3_sub(p[MC_MJ_RANKLE], p[MC_MJ_RKNEE]));
+}
+
+static double max_step(const mc_vec3 *a, const mc_vec3 *b)
+{
+	double m = 0;
+	for (int j = 0; j < MC_MOTION_JOINTS; j++)
+		m = fmax(m, mc_v3_norm(mc_v3_sub(b[j], a[j])));
+	return m;
 }
 
 static int grow(mc_motion_db *db, int nnew, mc_err *err)
@@ -223,20 +253,26 @@ int mc_motion_db_add_positions(mc_motion_db *db, const char *name, const char *c
 {
 	if (nsrc < 2 || !(src_dt > 0))
 		return mc_err_set(err, "%s: needs at least 2 frames and a positive frame time", name);
-	double duration = (nsrc - 1) * src_dt;
-	int n = (int)floor(duration * db->fps + 1e-9) + 1;
-	if (n < 2)
-		return mc_err_set(err, "%s: shorter than two frames at %g fps", name, db->fps);
-	if (grow(db, n, err))
-		return -1;
 	/* One scale for the clip: the target's leg length over the source's
-	 * (median-free: the first frame's, bones are rigid in the sources). */
+	 * (the first frame's: bones are rigid in the sources). */
 	mc_vec3 rest[MC_MOTION_JOINTS];
 	mc_motion_skel_rest(&db->skel, rest);
 	double src_leg = leg_length(src);
 	if (!(src_leg > 0))
 		return mc_err_set(err, "%s: degenerate legs in frame 0", name);
 	double scale = leg_length(rest) / src_leg;
+	/* A converter's stock pose in front of the motion (01_01's first
+	 * frame) is no motion: drop leading frames that jump to the next. */
+	while (nsrc > 2 && max_step(src, src + MC_MOTION_JOINTS) * scale > MC_MOTION_LEAD_JUMP_M) {
+		src += MC_MOTION_JOINTS;
+		nsrc--;
+	}
+	double duration = (nsrc - 1) * src_dt;
+	int n = (int)floor(duration * db->fps + 1e-9) + 1;
+	if (n < 2)
+		return mc_err_set(err, "%s: shorter than two frames at %g fps", name, db->fps);
+	if (grow(db, n, err))
+		return -1;
 	mc_vec3 *out = db->pos + (size_t)db->nframes * MC_MOTION_JOINTS;
 	for (int k = 0; k < n; k++) {
 		double t = k / db->fps / src_dt;

@@ -75,6 +75,10 @@ static inline const mc_vec3 *mc_motion_frame(const mc_motion_db *db, int f)
 	return db->pos + (size_t)f * MC_MOTION_JOINTS;
 }
 
+/* Leading source frames whose joints move more than this to the next
+ * frame (metres, after scaling) are dropped: a converter's stock pose. */
+#define MC_MOTION_LEAD_JUMP_M 0.3
+
 /* Adds a clip given as source joint positions, world axes z up, in any
  * length unit (scaled by the leg ratio): src[k * MC_MOTION_JOINTS + j] at
  * time k * src_dt.  It is retargeted, resampled and put on the floor. */
@@ -100,14 +104,22 @@ mc_floor_frame mc_motion_floor_frame(const mc_vec3 *pose);
 mc_vec3 mc_floor_to_world(mc_floor_frame f, mc_vec3 local);
 mc_vec3 mc_floor_from_world(mc_floor_frame f, mc_vec3 world);
 /* Re-imposes the skeleton's bone lengths on pose (from the root out),
- * keeping each bone's direction. */
+ * keeping each bone's direction; the hips and the shoulders are set
+ * rigidly in the frame of their parent (the pelvis, the neck), so that the
+ * pose is one of the skeleton's: mc_motion_orientations then reproduces it
+ * by forward kinematics. */
 void mc_motion_fix_lengths(const mc_motion_skel *s, mc_vec3 *pose);
 
-/* World orientations of every joint of a pose, for output (skeleton
- * streams, BVH): the rotation taking the rest skeleton's frame of the joint
- * to the pose's, each frame built from the joint's bone to its first child
- * and the body's left-right line (hips for the legs and pelvis, shoulders
- * for the upper body).  A joint without children takes its parent's. */
+/* World orientations of every joint of a pose (after mc_motion_fix_lengths),
+ * for output (skeleton streams, BVH): the rotation taking the rest
+ * skeleton's frame of the joint to the pose's.  A joint's frame is built
+ * from its bone to its first child (for the neck: the spine's direction,
+ * the neck carrying the shoulders like a chest) and the body's left-right
+ * line (hips for the legs and pelvis, shoulders for the upper body).  A
+ * joint without children takes its parent's.  With these rotations and
+ * the rest offsets, forward kinematics gives back every joint but head_top,
+ * which needs a head joint at the neck turned by mc_motion_head_rotation. */
 void mc_motion_orientations(const mc_motion_skel *s, const mc_vec3 *pose, mc_mat3 *R);
+mc_mat3 mc_motion_head_rotation(const mc_motion_skel *s, const mc_vec3 *pose);
 
 #endif

@@ -294,7 +294,7 @@ static int read_header(rd *r, mc_motion_graph *g, uint32_t *counts)
 					   MC_MOTION_CLASS_MAX + 4, 20};
 	for (int i = 0; i < 5; i++)
 		if (counts[i] > left / min_size[i])
-			return fail(r, "%ld is more than the file holds", names[i], (long)counts[i]);
+			return fail(r, "%ld is more than the file holds (truncated or damaged)", names[i], (long)counts[i]);
 	return 0;
 }
 
@@ -403,18 +403,22 @@ int mc_graph_load(const char *path, mc_motion_graph *g, mc_err *err)
 	rd r = {data, n, 0, path, err, 0};
 	uint32_t counts[5];
 	int rc = read_header(&r, g, counts);
-	if (!rc)
-		rc = read_body(&r, g, counts);
+	/* the checksum before the body: a damaged file is told as such, not
+	 * by whatever field the damage happens to hit */
+	if (!rc && n < r.at + 4)
+		rc = mc_err_set(err, "%s: truncated after the header (%zu bytes)", path, n);
 	if (!rc) {
-		size_t body = r.at;
-		uint32_t crc = get_u32(&r, "checksum");
-		if (r.bad)
-			rc = -1;
-		else if (crc != crc32_update(0, data, body))
-			rc = mc_err_set(err, "%s: checksum: does not match the contents (a damaged file)", path);
-		else if (r.at != n)
-			rc = mc_err_set(err, "%s: %zu bytes after the checksum", path, n - r.at);
+		const uint8_t *t = data + n - 4;
+		uint32_t crc = (uint32_t)t[0] | (uint32_t)t[1] << 8 | (uint32_t)t[2] << 16 | (uint32_t)t[3] << 24;
+		if (crc != crc32_update(0, data, n - 4))
+			rc = mc_err_set(err, "%s: checksum: does not match the contents (a damaged or truncated file)", path);
 	}
+	if (!rc) {
+		r.n = n - 4;
+		rc = read_body(&r, g, counts);
+	}
+	if (!rc && r.at != r.n)
+		rc = mc_err_set(err, "%s: %zu bytes between the last section and the checksum", path, r.n - r.at);
 	free(data);
 	if (rc)
 		mc_graph_free(g);
