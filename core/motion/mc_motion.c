@@ -330,23 +330,54 @@ static const char *base_name(const char *path)
 	return s ? s + 1 : path;
 }
 
+/* The Daz-friendly conversion of the CMU database (shared/data/mocap-train
+ * cmu_daz/), in the order of joint_names.  It has no joint at the top of
+ * the head: head_top is put 10 file units (about 0.1 m) above the head
+ * joint, along the head's rest up axis. */
+static const char *const daz_names[MC_MOTION_JOINTS] = {
+	"hip", "chest", "head", NULL,
+	"lShldr", "lForeArm", "lHand", "rShldr", "rForeArm", "rHand",
+	"lThigh", "lShin", "lFoot", "lFoot_End", "rThigh", "rShin", "rFoot", "rFoot_End",
+};
+#define DAZ_HEAD_TOP_UNITS 10.0
+
+/* map[j]: the BVH joint of joint j, -1 for the Daz head top.  The two CMU
+ * namings of body/mc_bvh.h first, then the Daz one. */
+static int map_joints(const mc_bvh *b, int *map, mc_err *err)
+{
+	int idx[MC_BVH_CMU_JOINTS];
+	mc_err cmu_err;
+	if (mc_bvh_map_cmu(b, idx, &cmu_err) == 0) {
+		for (int j = 0; j < MC_MOTION_JOINTS; j++)
+			for (int i = 0; i < MC_BVH_CMU_JOINTS; i++)
+				if (strcmp(mc_bvh_cmu_joint_name(i), joint_names[j]) == 0)
+					map[j] = idx[i];
+		return 0;
+	}
+	if (mc_bvh_find(b, "hip") < 0) /* not Daz either: the CMU message */
+		return mc_err_set(err, "%s (nor the Daz naming: no joint 'hip')", cmu_err.msg);
+	for (int j = 0; j < MC_MOTION_JOINTS; j++) {
+		map[j] = daz_names[j] ? mc_bvh_find(b, daz_names[j]) : -1;
+		if (daz_names[j] && map[j] < 0)
+			return mc_err_set(err, "no joint '%s' (for %s) in this skeleton of the Daz naming", daz_names[j],
+					  joint_names[j]);
+	}
+	return 0;
+}
+
 int mc_motion_db_add_bvh(mc_motion_db *db, const char *path, const char *cls, mc_err *err)
 {
 	mc_bvh b;
 	if (mc_bvh_load(path, &b, err))
 		return -1;
-	int idx[MC_BVH_CMU_JOINTS], map[MC_MOTION_JOINTS];
+	int map[MC_MOTION_JOINTS];
 	int rc = -1;
 	mc_vec3 *src = NULL;
 	mc_xform *x = NULL;
-	if (mc_bvh_map_cmu(&b, idx, err)) {
+	if (map_joints(&b, map, err)) {
 		mc_err_prefix(err, "%s", path);
 		goto out;
 	}
-	for (int j = 0; j < MC_MOTION_JOINTS; j++)
-		for (int i = 0; i < MC_BVH_CMU_JOINTS; i++)
-			if (strcmp(mc_bvh_cmu_joint_name(i), joint_names[j]) == 0)
-				map[j] = idx[i];
 	int f0 = 0;
 	while (f0 < b.nframes && rest_frame(&b, f0))
 		f0++;
@@ -357,10 +388,13 @@ int mc_motion_db_add_bvh(mc_motion_db *db, const char *path, const char *cls, mc
 		mc_err_set(err, "%s: out of memory", path);
 		goto out;
 	}
+	int head = map[MC_MJ_NECK];
 	for (int f = 0; f < n; f++) {
 		mc_bvh_fk(&b, f0 + f, x);
-		for (int j = 0; j < MC_MOTION_JOINTS; j++)
-			src[(size_t)f * MC_MOTION_JOINTS + j] = bvh_to_world(x[map[j]].t);
+		for (int j = 0; j < MC_MOTION_JOINTS; j++) {
+			mc_vec3 p = map[j] >= 0 ? x[map[j]].t : mc_xform_apply(x[head], mc_v3(0, DAZ_HEAD_TOP_UNITS, 0));
+			src[(size_t)f * MC_MOTION_JOINTS + j] = bvh_to_world(p);
+		}
 	}
 	rc = mc_motion_db_add_positions(db, base_name(path), cls, src, n, b.frame_time, err);
 	if (rc)

@@ -84,7 +84,8 @@ static inline const mc_vec3 *mc_motion_frame(const mc_motion_db *db, int f)
  * time k * src_dt.  It is retargeted, resampled and put on the floor. */
 int mc_motion_db_add_positions(mc_motion_db *db, const char *name, const char *cls, const mc_vec3 *src, int nsrc,
 			       double src_dt, mc_err *err);
-/* Adds a BVH file with either CMU joint naming (body/mc_bvh.h).  Leading
+/* Adds a BVH file with either CMU joint naming (body/mc_bvh.h) or the
+ * naming of the Daz-friendly CMU conversion (hip, chest, lThigh, ...).  Leading
  * frames whose rotation channels are all zero (the converters' T-pose) are
  * skipped.  Errors name the file. */
 int mc_motion_db_add_bvh(mc_motion_db *db, const char *path, const char *cls, mc_err *err);
