@@ -11,6 +11,8 @@
 #include "motion/mc_motion_synth.h"
 #include "test_util.h"
 
+static char graph_bin[4200]; /* BUILD/bin/mocap-graph, beside this test's BUILD */
+
 #define J MC_MOTION_JOINTS
 #define FPS 10.0
 
@@ -149,13 +151,13 @@ static void test_command_lines(void)
 	char dir[] = "/tmp/test_motion_data.XXXXXX";
 	if (!mkdtemp(dir))
 		return;
-	char cmd[4096], out[8192];
+	char cmd[16384], out[8192];
 	snprintf(cmd, sizeof(cmd),
-		 "build/bin/mocap-graph build --fps 10 --out %s/g.mg %s/mocap/131_01.bvh %s/mocap/01_01.bvh 2>&1", dir,
+		 "%s build --fps 10 --out %s/g.mg %s/mocap/131_01.bvh %s/mocap/01_01.bvh 2>&1", graph_bin, dir,
 		 data, data);
 	int rc = mc_test_run(cmd, out, sizeof(out));
 	CHECK_MSG(rc == 0 && strstr(out, "costs 100%"), "%s: %d %s", cmd, rc, out);
-	snprintf(cmd, sizeof(cmd), "build/bin/mocap-graph walk %s/g.mg --seconds 12 --bvh %s/w.bvh --seed 4 --rate 30 2>&1",
+	snprintf(cmd, sizeof(cmd), "%s walk %s/g.mg --seconds 12 --bvh %s/w.bvh --seed 4 --rate 30 2>&1", graph_bin,
 		 dir, dir);
 	rc = mc_test_run(cmd, out, sizeof(out));
 	CHECK_MSG(rc == 0, "%s: %d %s", cmd, rc, out);
@@ -167,7 +169,7 @@ static void test_command_lines(void)
 	CHECK(b.nframes == 360 && fabs(b.frame_time - 1 / 30.0) < 1e-6 && mc_bvh_find(&b, "left_toe") >= 0);
 	if (b.nframes == 360)
 		mc_bvh_free(&b);
-	snprintf(cmd, sizeof(cmd), "build/bin/mocap-graph check %s/g.mg --seconds 600 --seed 3 2>&1", dir);
+	snprintf(cmd, sizeof(cmd), "%s check %s/g.mg --seconds 600 --seed 3 2>&1", graph_bin, dir);
 	rc = mc_test_run(cmd, out, sizeof(out));
 	printf("%s", out);
 	CHECK_MSG(rc == 0 && strstr(out, "continuous"), "%s: %d", cmd, rc);
@@ -178,6 +180,12 @@ static void test_command_lines(void)
 
 int main(void)
 {
+	char build[4096];
+	if (!mc_test_build_dir(3, build, sizeof(build)))
+		TEST_SKIP("cannot tell the build folder from /proc/self/exe");
+	snprintf(graph_bin, sizeof(graph_bin), "%s/bin/mocap-graph", build);
+	if (access(graph_bin, X_OK) != 0)
+		TEST_SKIP("%s is not built", graph_bin);
 	const char *d = mc_test_data_dir();
 	if (!d)
 		return 77;

@@ -9,6 +9,8 @@
 #include "motion_fixture.h"
 #include "test_util.h"
 
+static char graph_bin[4200]; /* BUILD/bin/mocap-graph, beside this test's BUILD */
+
 #include <stdint.h>
 
 #define J MC_MOTION_JOINTS
@@ -310,16 +312,16 @@ static void test_walks(const mc_motion_graph *g)
  * forward kinematics, matches the CSV of the same walk. */
 static void test_command_line(void)
 {
-	char cmd[2048], out[4096], g[300], bvh[300], csv[300], a[300], c[300];
+	char cmd[16384], out[4096], g[300], bvh[300], csv[300], a[300], c[300];
 	path_in(g, sizeof(g), "cli.mg");
 	path_in(bvh, sizeof(bvh), "walk.bvh");
 	path_in(csv, sizeof(csv), "walk.csv");
 	path_in(a, sizeof(a), "straight.bvh");
 	path_in(c, sizeof(c), "turn.bvh");
-	snprintf(cmd, sizeof(cmd), "build/bin/mocap-graph build --quiet --fps 10 --threads 2 --out %s walk=%s turn=%s", g, a, c);
+	snprintf(cmd, sizeof(cmd), "%s build --quiet --fps 10 --threads 2 --out %s walk=%s turn=%s", graph_bin, g, a, c);
 	int rc = mc_test_run(cmd, out, sizeof(out));
 	CHECK_MSG(rc == 0 && strstr(out, "Essential"), "%s: %d %s", cmd, rc, out);
-	snprintf(cmd, sizeof(cmd), "build/bin/mocap-graph walk %s --seconds 30 --bvh %s --csv %s --seed 5 2>&1", g, bvh, csv);
+	snprintf(cmd, sizeof(cmd), "%s walk %s --seconds 30 --bvh %s --csv %s --seed 5 2>&1", graph_bin, g, bvh, csv);
 	rc = mc_test_run(cmd, out, sizeof(out));
 	CHECK_MSG(rc == 0, "%s: %d %s", cmd, rc, out);
 	mc_bvh b;
@@ -361,19 +363,25 @@ static void test_command_line(void)
 	f = fopen(badbvh, "w");
 	fputs("HIERARCHY\nROOT Hips\n{\n OFFSET 0 0\n}\n", f);
 	fclose(f);
-	snprintf(cmd, sizeof(cmd), "build/bin/mocap-graph build --quiet --out %s/x.mg %s 2>&1", dir, badbvh);
+	snprintf(cmd, sizeof(cmd), "%s build --quiet --out %s/x.mg %s 2>&1", graph_bin, dir, badbvh);
 	rc = mc_test_run(cmd, out, sizeof(out));
 	CHECK_MSG(rc == 1 && strstr(out, "bad.bvh:5"), "bad BVH: %d '%s'", rc, out);
-	snprintf(cmd, sizeof(cmd), "build/bin/mocap-graph walk %s --seconds 1 --bvh %s/y.bvh 2>&1", badbvh, dir);
+	snprintf(cmd, sizeof(cmd), "%s walk %s --seconds 1 --bvh %s/y.bvh 2>&1", graph_bin, badbvh, dir);
 	rc = mc_test_run(cmd, out, sizeof(out));
 	CHECK_MSG(rc == 1 && strstr(out, "bad.bvh") && strstr(out, "magic"), "not a graph: %d '%s'", rc, out);
-	snprintf(cmd, sizeof(cmd), "build/bin/mocap-graph walk %s --seconds 1 2>&1", g);
+	snprintf(cmd, sizeof(cmd), "%s walk %s --seconds 1 2>&1", graph_bin, g);
 	rc = mc_test_run(cmd, out, sizeof(out));
 	CHECK_MSG(rc == 2 && strstr(out, "--bvh"), "no output: %d '%s'", rc, out);
 }
 
 int main(void)
 {
+	char build[4096];
+	if (!mc_test_build_dir(3, build, sizeof(build)))
+		TEST_SKIP("cannot tell the build folder from /proc/self/exe");
+	snprintf(graph_bin, sizeof(graph_bin), "%s/bin/mocap-graph", build);
+	if (access(graph_bin, X_OK) != 0)
+		TEST_SKIP("%s is not built", graph_bin);
 	snprintf(dir, sizeof(dir), "/tmp/test_motion_unit.XXXXXX");
 	if (!mkdtemp(dir)) {
 		perror("mkdtemp");
