@@ -35,3 +35,11 @@ BENCHES += bench-graph
 .PHONY: bench-graph
 bench-graph: $(MOCAP_GRAPH)
 	tests/bench/graph.sh $(BUILD)
+
+# mocapd's graph source end to end: mocapd with [source] graph, a libmocap
+# client (its own rule: it links libmocap and needs mocapd built).
+$(BUILD)/motion/tests/test_graph_source: motion/tests/test_graph_source.c $(MOTION_LINK_DEPS) $(BUILD)/libmocap.a \
+		| $(BUILD)/bin/mocapd
+	@mkdir -p $(@D) $(BUILD)/tests
+	$(CC) $(CPPFLAGS) -Imotion -Irecord -Iipc -Itests $(CFLAGS) -MMD -MP $< -o $@ $(LDFLAGS) $(BUILD)/libmocap.a \
+		$(MOTION_LINK)
