@@ -3,6 +3,7 @@
  *
  *   mocap-graph build --out GRAPH [options] [CLASS=]FILE.bvh|TAKE_DIR...
  *   mocap-graph walk GRAPH --seconds S --bvh OUT.bvh [--seed N] [steering]
+ *   mocap-graph blend GRAPH --class C --speed V --bvh OUT.bvh
  *   mocap-graph info GRAPH
  *   mocap-graph check GRAPH [--seconds S] [--seed N]
  *   mocap-graph compare [--alpha A,B,...] [options] [CLASS=]FILE...
@@ -10,6 +11,7 @@
 #include "base/mc_time.h"
 #include "body/mc_model.h"
 #include "mc_install_paths.h" /* generated: MC_VERSION */
+#include "motion/mc_motion_param.h"
 #include "motion/mc_motion_synth.h"
 #include "motion_take.h"
 
@@ -29,6 +31,7 @@ static void usage(FILE *f)
 	fprintf(f,
 		"usage: mocap-graph build --out GRAPH [options] [CLASS=]FILE.bvh|TAKE_DIR...\n"
 		"       mocap-graph walk GRAPH --seconds S --bvh OUT.bvh [--seed N] [walk options]\n"
+		"       mocap-graph blend GRAPH --class C --speed V --bvh OUT.bvh\n"
 		"       mocap-graph info GRAPH\n"
 		"       mocap-graph check GRAPH [--seconds S] [--seed N] [--graph KIND]\n"
 		"       mocap-graph compare [--alpha A,B,...] [options] [CLASS=]FILE...\n"
@@ -56,7 +59,8 @@ static void usage(FILE *f)
 		"  --class C          reach motion class C and stay in it\n"
 		"  --frame N          reach database frame N\n"
 		"  --direction DEG    head towards DEG, counter-clockwise from +x\n"
-		"  --speed V          with --direction: at about V m/s\n"
+		"  --speed V          with --direction: at about V m/s; blend: the speed to\n"
+		"                     blend the parametric node of --class to\n"
 		"  -h, --help         this text\n"
 		"  -V, --version      the version\n");
 }
@@ -300,6 +304,62 @@ static void close_out(FILE *f, const char *path)
 		fail(1, "%s: write error", path);
 }
 
+/* The BVH and CSV outputs of walk and blend. */
+typedef struct {
+	const options *o;
+	const mc_motion_skel *skel;
+	FILE *bvh, *csv;
+	take_def *def;
+	take_pose *tp;
+} writer;
+
+static void writer_open(writer *wr, const options *o, const mc_motion_skel *skel, long n, double rate)
+{
+	*wr = (writer){.o = o, .skel = skel};
+	wr->bvh = o->bvh ? open_out(o->bvh) : NULL;
+	wr->csv = o->csv ? open_out(o->csv) : NULL;
+	wr->def = malloc(sizeof(*wr->def));
+	wr->tp = calloc(1, sizeof(*wr->tp));
+	if (!wr->def || !wr->tp)
+		fail(1, "out of memory");
+	motion_take_def(skel, wr->def);
+	if (wr->bvh) {
+		take_bvh_write_hierarchy(wr->bvh, wr->def);
+		take_bvh_write_motion(wr->bvh, (int)n, 1 / rate);
+	}
+	if (wr->csv) {
+		fprintf(wr->csv, "time,transition");
+		for (int j = 0; j < MC_MOTION_JOINTS; j++)
+			fprintf(wr->csv, ",%s_x,%s_y,%s_z", mc_motion_joint_name(j), mc_motion_joint_name(j),
+				mc_motion_joint_name(j));
+		fputc('\n', wr->csv);
+	}
+}
+
+static void writer_pose(writer *wr, double t, int synthetic, const mc_vec3 *pose)
+{
+	if (wr->bvh) {
+		motion_take_pose(wr->skel, pose, wr->tp);
+		take_bvh_write_pose(wr->bvh, wr->def, wr->tp);
+	}
+	if (wr->csv) {
+		fprintf(wr->csv, "%.6f,%d", t, synthetic);
+		for (int j = 0; j < MC_MOTION_JOINTS; j++)
+			fprintf(wr->csv, ",%.5f,%.5f,%.5f", pose[j].x, pose[j].y, pose[j].z);
+		fputc('\n', wr->csv);
+	}
+}
+
+static void writer_close(writer *wr)
+{
+	if (wr->bvh)
+		close_out(wr->bvh, wr->o->bvh);
+	if (wr->csv)
+		close_out(wr->csv, wr->o->csv);
+	free(wr->def);
+	free(wr->tp);
+}
+
 static int cmd_walk(const options *o, const char *graph)
 {
 	if (!(o->seconds > 0) || (!o->bvh && !o->csv))
@@ -308,23 +368,8 @@ static int cmd_walk(const options *o, const char *graph)
 	mc_walker *w = start_walk(o, g);
 	double rate = o->rate > 0 ? o->rate : g->db.fps;
 	long n = lround(o->seconds * rate);
-	FILE *bvh = o->bvh ? open_out(o->bvh) : NULL, *csv = o->csv ? open_out(o->csv) : NULL;
-	take_def *def = malloc(sizeof(*def));
-	take_pose *tp = calloc(1, sizeof(*tp));
-	if (!def || !tp)
-		fail(1, "out of memory");
-	motion_take_def(&g->db.skel, def);
-	if (bvh) {
-		take_bvh_write_hierarchy(bvh, def);
-		take_bvh_write_motion(bvh, (int)n, 1 / rate);
-	}
-	if (csv) {
-		fprintf(csv, "time,transition");
-		for (int j = 0; j < MC_MOTION_JOINTS; j++)
-			fprintf(csv, ",%s_x,%s_y,%s_z", mc_motion_joint_name(j), mc_motion_joint_name(j),
-				mc_motion_joint_name(j));
-		fputc('\n', csv);
-	}
+	writer wr;
+	writer_open(&wr, o, &g->db.skel, n, rate);
 	/* the walker steps at the graph's rate; output frames interpolate */
 	mc_vec3 a[MC_MOTION_JOINTS], b[MC_MOTION_JOINTS], out[MC_MOTION_JOINTS];
 	int syn = mc_walker_next(w, a);
@@ -340,25 +385,39 @@ static int cmd_walk(const options *o, const char *graph)
 		double x = 1 - (tb - t) * g->db.fps;
 		for (int j = 0; j < MC_MOTION_JOINTS; j++)
 			out[j] = mc_v3_add(mc_v3_scale(a[j], 1 - x), mc_v3_scale(b[j], x));
-		if (bvh) {
-			motion_take_pose(&g->db.skel, out, tp);
-			take_bvh_write_pose(bvh, def, tp);
-		}
-		if (csv) {
-			fprintf(csv, "%.6f,%d", t, syn);
-			for (int j = 0; j < MC_MOTION_JOINTS; j++)
-				fprintf(csv, ",%.5f,%.5f,%.5f", out[j].x, out[j].y, out[j].z);
-			fputc('\n', csv);
-		}
+		writer_pose(&wr, t, syn, out);
 	}
-	if (bvh)
-		close_out(bvh, o->bvh);
-	if (csv)
-		close_out(csv, o->csv);
+	writer_close(&wr);
 	fprintf(stderr, "%s: %ld frames at %g Hz, %ld transitions\n", PROG, n, rate, mc_walker_transitions(w));
-	free(def);
-	free(tp);
 	mc_walker_free(w);
+	mc_graph_free(g);
+	free(g);
+	return 0;
+}
+
+/* A parametric node's motion at a speed (Casas): BVH and/or CSV at the
+ * graph's rate, one pass of the aligned members. */
+static int cmd_blend(const options *o, const char *graph)
+{
+	if (!o->cls || !(o->speed >= 0) || (!o->bvh && !o->csv))
+		fail(2, "blend: --class C, --speed V and --bvh OUT.bvh (or --csv) are required");
+	mc_motion_graph *g = load_graph(graph);
+	int node = mc_param_find(g, o->cls);
+	if (node < 0)
+		fail(1, "%s: no parametric node of class '%s' (a class needs two clips or more)", graph, o->cls);
+	mc_param_motion pm;
+	mc_err err;
+	if (mc_param_blend(g, node, o->speed, &pm, &err))
+		fail(1, "%s", err.msg);
+	writer wr;
+	writer_open(&wr, o, &g->db.skel, pm.nframes, g->db.fps);
+	for (int k = 0; k < pm.nframes; k++)
+		writer_pose(&wr, k / g->db.fps, 1, pm.poses + (size_t)k * MC_MOTION_JOINTS);
+	writer_close(&wr);
+	printf("class '%s' at %.3f m/s: %s and %s, weight %.3f; %d frames (%.1f s) at %.3f m/s\n", o->cls, o->speed,
+	       g->db.clips[pm.clip_a].name, g->db.clips[pm.clip_b].name, pm.w, pm.nframes, (pm.nframes - 1) / g->db.fps,
+	       pm.speed);
+	free(pm.poses);
 	mc_graph_free(g);
 	free(g);
 	return 0;
@@ -525,7 +584,9 @@ int main(int argc, char **argv)
 		return cmd_walk(&o, rest[0]);
 	if (strcmp(cmd, "info") == 0)
 		return cmd_info(rest[0]);
+	if (strcmp(cmd, "blend") == 0)
+		return cmd_blend(&o, rest[0]);
 	if (strcmp(cmd, "check") == 0)
 		return cmd_check(&o, rest[0]);
-	fail(2, "'%s' is not a command (build, walk, info, check, compare)", cmd);
+	fail(2, "'%s' is not a command (build, walk, blend, info, check, compare)", cmd);
 }

@@ -8,6 +8,7 @@
  *     walk node, steering to a class;
  *   - the command lines scripts rely on. */
 #include "body/mc_bvh.h"
+#include "motion/mc_motion_param.h"
 #include "motion/mc_motion_synth.h"
 #include "test_util.h"
 
@@ -126,6 +127,14 @@ static void test_train(void)
 			hi = fmaxf(hi, g.params[0].speed[i]);
 		}
 		CHECK(lo > 0.3 && hi < 2.5);
+		/* Casas: a walk at a speed between the members' */
+		double target = (lo + hi) / 2;
+		mc_param_motion pm;
+		CHECK_MSG(mc_param_blend(&g, 0, target, &pm, &err) == 0, "%s", err.msg);
+		printf("walk blended to %.2f m/s: %s and %s, weight %.2f, %.3f m/s over %d frames\n", target,
+		       g.db.clips[pm.clip_a].name, g.db.clips[pm.clip_b].name, pm.w, pm.speed, pm.nframes);
+		CHECK_MSG(fabs(pm.speed - target) < 0.05 * target, "%g m/s for %g", pm.speed, target);
+		free(pm.poses);
 	}
 	mc_walker *w = mc_walker_new(&g, MC_EDGE_ESSENTIAL, 5, &err);
 	CHECK_MSG(w, "%s", err.msg);

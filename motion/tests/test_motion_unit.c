@@ -5,6 +5,7 @@
  * errors, walks (continuity, floor, bone lengths, steering), and the
  * command line's BVH against its CSV. */
 #include "body/mc_bvh.h"
+#include "motion/mc_motion_param.h"
 #include "motion/mc_motion_synth.h"
 #include "motion_fixture.h"
 #include "test_util.h"
@@ -308,6 +309,53 @@ static void test_walks(const mc_motion_graph *g)
 	mc_walker_free(w);
 }
 
+/* Casas' parametric node: the two walks blended to a speed between
+ * theirs reach it, continuously, on the floor, bones whole. */
+static void test_param(const mc_motion_graph *g)
+{
+	mc_err err;
+	int node = mc_param_find(g, "walk");
+	CHECK(node == 0 && mc_param_find(g, "turn") == -1);
+	if (node < 0)
+		return;
+	const mc_param_node *pn = &g->params[node];
+	double lo = fmin(pn->speed[0], pn->speed[1]), hi = fmax(pn->speed[0], pn->speed[1]);
+	double clip_v, clip_a, max_step = 0;
+	mc_motion_db_jumps(&g->db, &clip_v, &clip_a);
+	for (int f = 1; f < g->db.nframes; f++)
+		if (g->db.clip_of[f] == g->db.clip_of[f - 1] && strcmp(g->db.clips[g->db.clip_of[f]].cls, "walk") == 0)
+			for (int j = 0; j < J; j++)
+				max_step = fmax(max_step, mc_v3_norm(mc_v3_sub(mc_motion_frame(&g->db, f)[j],
+									mc_motion_frame(&g->db, f - 1)[j])));
+	for (int i = 0; i < 3; i++) {
+		double target = lo + (hi - lo) * (0.25 + 0.25 * i);
+		mc_param_motion pm;
+		CHECK_MSG(mc_param_blend(g, node, target, &pm, &err) == 0, "%s", err.msg);
+		double step = 0, zmin = INFINITY;
+		for (int k = 0; k < pm.nframes; k++) {
+			const mc_vec3 *p = pm.poses + (size_t)k * J;
+			check_lengths(&g->db.skel, p, 1e-6, "blend");
+			for (int j = 0; j < J; j++) {
+				zmin = fmin(zmin, p[j].z);
+				if (k > 0)
+					step = fmax(step, mc_v3_norm(mc_v3_sub(p[j], p[j - J])));
+			}
+		}
+		printf("blend to %.3f m/s: weight %.3f, %.3f m/s, %d frames, largest step %.3f m (clips %.3f)\n", target,
+		       pm.w, pm.speed, pm.nframes, step, max_step);
+		CHECK(pm.clip_a != pm.clip_b && pm.w > 0.05 && pm.w < 0.95);
+		CHECK_MSG(fabs(pm.speed - target) < 0.05 * target, "blend: %g m/s for %g", pm.speed, target);
+		CHECK_MSG(step < 1.25 * max_step, "blend: a joint steps %g m, the clips %g at most", step, max_step);
+		CHECK(zmin >= -1e-9);
+		free(pm.poses);
+	}
+	/* outside the members: the nearest alone, no extrapolation */
+	mc_param_motion pm;
+	CHECK(mc_param_blend(g, node, 3 * hi, &pm, &err) == 0 && pm.clip_a == pm.clip_b && pm.w == 0);
+	free(pm.poses);
+	CHECK(mc_param_blend(g, 5, 1, &pm, &err) == -1 && strstr(err.msg, "node 5"));
+}
+
 /* mocap-graph end to end: the BVH it writes, read back and posed by
  * forward kinematics, matches the CSV of the same walk. */
 static void test_command_line(void)
@@ -410,6 +458,7 @@ int main(void)
 	mc_cost_matrix_free(&m);
 	test_file(&g);
 	test_walks(&g);
+	test_param(&g);
 	mc_graph_free(&g);
 	test_command_line();
 	char cmd[300];
