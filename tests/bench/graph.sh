@@ -4,7 +4,8 @@
 #      mean and variance of the shortest-path cost over all frame pairs and
 #      the density, Essential graph against motion graph, over alpha;
 #   2. continuity of 10-minute walks on both graphs (mocap-graph check);
-#   3. build time and peak memory against the number of frames (clips of
+#   3. parametric blending of three walks to speeds between theirs;
+#   4. build time and peak memory against the number of frames (clips of
 #      shared/data/mocap and mocap-train added in turn).
 # GRAPH_FPS (15), GRAPH_THREADS (0: every CPU), MOCAP_DATA_DIR (../shared/data).
 # Usage: tests/bench/graph.sh BUILD_DIR   (from the repository root)
@@ -29,7 +30,17 @@ for kind in essential motion; do
 	$bin check "$tmp/g.mg" --seconds 600 --seed 1 --graph $kind || true
 done
 echo
-echo "== 3. build time and memory against frames =="
+echo "== 3. parametric blending (Casas): three walks of mocap-train =="
+t=$data/mocap-train
+if [ -d "$t" ]; then
+	$bin build --quiet --fps "$fps" --threads "$threads" --out "$tmp/w.mg" walk="$t/cmu_mb/02_01.bvh" \
+		walk="$t/cmu_daz/05_01.bvh" walk="$t/cmu_daz/07_03.bvh"
+	for v in 1.1 1.3 1.4; do
+		$bin blend "$tmp/w.mg" --class walk --speed $v --csv "$tmp/b.csv"
+	done
+fi
+echo
+echo "== 4. build time and memory against frames =="
 t=$data/mocap-train
 set -- "$data/mocap/131_01.bvh"
 sets="1"
