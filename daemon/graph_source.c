@@ -108,15 +108,15 @@ static void *source_thread(void *arg)
 		mcd_error("graph source: out of memory");
 		return NULL;
 	}
-	uint64_t period = (uint64_t)(1e9 / gs->rate), next = mc_now_ns();
+	uint64_t period = (uint64_t)(1e9 / gs->rate), next = mc_now_ns(), failures = 0;
 	mc_vec3 pose[J];
 	for (uint64_t seq = 1; !atomic_load(&gs->stop); seq++) {
 		uint64_t now = mc_now_ns();
 		pose_at(gs, (double)(now - gs->start_ns) * 1e-9, pose);
 		make_skeleton(&gs->graph.db.skel, pose, now, sk);
 		mc_err err;
-		if (gs->srv && srv_publish(gs->srv, sk, seq, &err))
-			mcd_warn("graph source: %s", err.msg);
+		if (gs->srv && srv_publish(gs->srv, sk, seq, &err) && failures++ % 1000 == 0) /* not every frame */
+			mcd_warn("graph source: %s (%llu times)", err.msg, (unsigned long long)failures);
 		atomic_store(&gs->published, seq);
 		next += period;
 		now = mc_now_ns();

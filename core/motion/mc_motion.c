@@ -268,7 +268,7 @@ int mc_motion_db_add_positions(mc_motion_db *db, const char *name, const char *c
 		nsrc--;
 	}
 	double duration = (nsrc - 1) * src_dt;
-	int n = (int)floor(duration * db->fps + 1e-9) + 1;
+	int n = (int)floor(duration * db->fps + 1e-6) + 1; /* timestamps round to ns */
 	if (n < 2)
 		return mc_err_set(err, "%s: shorter than two frames at %g fps", name, db->fps);
 	if (grow(db, n, err))
@@ -279,7 +279,7 @@ int mc_motion_db_add_positions(mc_motion_db *db, const char *name, const char *c
 		int a = (int)floor(t);
 		if (a >= nsrc - 1)
 			a = nsrc - 2;
-		double w = t - a;
+		double w = fmin(t - a, 1);
 		mc_vec3 *o = out + (size_t)k * MC_MOTION_JOINTS;
 		for (int j = 0; j < MC_MOTION_JOINTS; j++) {
 			mc_vec3 p = mc_v3_add(mc_v3_scale(src[(size_t)a * MC_MOTION_JOINTS + j], 1 - w),

@@ -8,6 +8,7 @@
 #include "motion/mc_motion_param.h"
 #include "motion/mc_motion_synth.h"
 #include "motion_fixture.h"
+#include "motion_take.h"
 #include "test_util.h"
 
 static char graph_bin[4200]; /* BUILD/bin/mocap-graph, beside this test's BUILD */
@@ -309,6 +310,75 @@ static void test_walks(const mc_motion_graph *g)
 	mc_walker_free(w);
 }
 
+/* A take recorded by mocapd (poses.mcr: a definition, then poses at the
+ * camera rate) becomes a clip: here the first clip's frames written as a
+ * take at the database's rate come back as they were. */
+static void write_take(const char *take, const mc_motion_db *db, int nframes, bool drop_toe)
+{
+	mkdir(take, 0755);
+	char path[400];
+	snprintf(path, sizeof(path), "%s/poses.mcr", take);
+	take_file f;
+	mc_err err;
+	static uint8_t buf[64 + 64 * TAKE_MAX_JOINTS];
+	static take_def def;
+	static take_pose pose;
+	memset(&def, 0, sizeof(def));
+	def.id = 1;
+	def.njoints = drop_toe ? J - 1 : J;
+	for (int j = 0; j < def.njoints; j++) {
+		snprintf(def.joints[j].name, sizeof(def.joints[j].name), "%s", mc_motion_joint_name(j));
+		def.joints[j].parent = db->skel.parent[j];
+	}
+	CHECK_MSG(take_file_create(&f, path, &err) == 0, "%s", err.msg);
+	size_t k = take_encode_def(&def, buf, sizeof(buf));
+	CHECK(k > 0 && take_file_append(&f, TAKE_DEF, buf, k, NULL, 0, 1, &err) == 0);
+	for (int i = 0; i < nframes; i++) {
+		memset(&pose, 0, sizeof(pose));
+		pose.seq = (uint64_t)i + 1;
+		pose.capture_ns = 1000000000ull + (uint64_t)llround(i * 1e9 / db->fps);
+		pose.def_id = 1;
+		pose.njoints = def.njoints;
+		for (int j = 0; j < def.njoints; j++) {
+			mc_vec3 p = mc_motion_frame(db, i)[j];
+			pose.joints[j].position[0] = p.x;
+			pose.joints[j].position[1] = p.y;
+			pose.joints[j].position[2] = p.z;
+			pose.joints[j].orientation[0] = 1;
+		}
+		k = take_encode_pose(&pose, buf, sizeof(buf));
+		CHECK(k > 0 && take_file_append(&f, TAKE_SKELETON, buf, k, NULL, 0, 2, &err) == 0);
+	}
+	take_file_close(&f);
+}
+
+static void test_take(const mc_motion_db *src)
+{
+	char take[300], bad[300];
+	path_in(take, sizeof(take), "take1");
+	path_in(bad, sizeof(bad), "take2");
+	int n = src->clips[0].nframes;
+	write_take(take, src, n, false);
+	write_take(bad, src, n, true);
+	mc_motion_db db;
+	mc_err err;
+	mc_motion_db_init(&db, src->fps, NULL);
+	CHECK_MSG(motion_db_add_take(&db, take, "walk", &err) == 0, "%s", err.msg);
+	CHECK(db.nclips == 1 && strcmp(db.clips[0].name, "take1") == 0 && strcmp(db.clips[0].cls, "walk") == 0);
+	CHECK_MSG(db.nframes == n, "%d frames from a take of %d", db.nframes, n);
+	double worst = 0;
+	for (int f = 0; f < db.nframes && f < n; f++)
+		for (int j = 0; j < J; j++)
+			worst = fmax(worst, mc_v3_norm(mc_v3_sub(mc_motion_frame(&db, f)[j], mc_motion_frame(src, f)[j])));
+	CHECK_MSG(worst < 1e-6, "take frames %g m from the clip's", worst);
+	CHECK(motion_db_add_take(&db, bad, "", &err) == -1 && strstr(err.msg, "take2") && strstr(err.msg, "right_toe"));
+	CHECK(motion_db_add_take(&db, "/nonexistent/take", "", &err) == -1 && strstr(err.msg, "/nonexistent/take"));
+	mc_motion_db_free(&db);
+	char cmd[700];
+	snprintf(cmd, sizeof(cmd), "rm -rf %s %s", take, bad);
+	CHECK(system(cmd) == 0);
+}
+
 /* Casas' parametric node: the two walks blended to a speed between
  * theirs reach it, continuously, on the floor, bones whole. */
 static void test_param(const mc_motion_graph *g)
@@ -439,6 +509,7 @@ int main(void)
 	mc_motion_db db;
 	make_db(&db, 15);
 	test_database(&db);
+	test_take(&db);
 	mc_cost_params p;
 	mc_cost_params_default(&p, db.fps);
 	p.threads = 2;
