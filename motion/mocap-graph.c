@@ -147,13 +147,23 @@ static void parse(int argc, char **argv, options *o)
 
 /* ---- building ---- */
 
-static void progress(void *ctx, int done, int total)
+/* Progress lines on stderr, every 5% of a stage. */
+typedef struct {
+	const char *stage;
+	int last;
+} progress_state;
+
+static void progress(void *ctx, const char *stage, int done, int total)
 {
-	int *last = ctx;
+	progress_state *ps = ctx;
+	if (ps->stage != stage) {
+		ps->stage = stage;
+		ps->last = -5;
+	}
 	int pct = (int)(100.0 * done / total);
-	if (pct >= *last + 5 || done == total) {
-		*last = pct;
-		fprintf(stderr, "%s: costs %d%% (%d of %d rows)\n", PROG, pct, done, total);
+	if (pct >= ps->last + 5 || done == total) {
+		ps->last = pct;
+		fprintf(stderr, "%s: %s %d%% (%d of %d)\n", PROG, stage, pct, done, total);
 	}
 }
 
@@ -221,10 +231,10 @@ static int cmd_build(const options *o, char **files, int nfiles)
 	load_db(o, files, nfiles, &db);
 	mc_cost_params p;
 	cost_params(o, &p);
-	int last = -5;
+	progress_state ps = {NULL, -5};
 	if (!o->quiet) {
 		p.progress = progress;
-		p.progress_ctx = &last;
+		p.progress_ctx = &ps;
 		fprintf(stderr, "%s: %d clips, %d frames at %g fps, %d threads\n", PROG, db.nclips, db.nframes, db.fps,
 			mc_motion_threads(p.threads));
 	}

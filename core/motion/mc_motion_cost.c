@@ -196,7 +196,7 @@ static void row_done(job *jb)
 	pthread_mutex_lock(&jb->lock);
 	jb->rows_done++;
 	if (jb->p->progress)
-		jb->p->progress(jb->p->progress_ctx, jb->rows_done, 2 * jb->m->n);
+		jb->p->progress(jb->p->progress_ctx, "costs", jb->rows_done, 2 * jb->m->n);
 	pthread_mutex_unlock(&jb->lock);
 }
 

@@ -43,9 +43,10 @@ typedef struct {
 	double tau;       /* velocity weight, seconds (default 0.1) */
 	int lmin, lmax, lstep; /* window lengths, frames */
 	int threads;      /* 0: every online CPU */
-	/* Called now and then from the threads with rows done / total (under a
+	/* Called from the threads as work gets done: the stage ("costs", then
+	 * "shortest paths" in mc_graph_build), units done and in all (under a
 	 * lock: keep it short). */
-	void (*progress)(void *ctx, int done, int total);
+	void (*progress)(void *ctx, const char *stage, int done, int total);
 	void *progress_ctx;
 } mc_cost_params;
 

@@ -36,6 +36,9 @@ typedef struct {
 	uint8_t *keep;          /* essential: written; stats: read */
 	const int *start, *adj; /* stats: CSR of the graph */
 	const float *w;         /* stats: edge weights along adj */
+	void (*progress)(void *ctx, const char *stage, int done, int total);
+	void *progress_ctx;
+	int done;
 	pthread_mutex_t lock;
 	int next;
 	int failed;
@@ -71,6 +74,9 @@ static void add_stats(sp_job *jb, int u, const double *dist)
 	jb->sum2 += s2;
 	jb->count += c;
 	jb->unreachable += un;
+	jb->done++;
+	if (jb->progress)
+		jb->progress(jb->progress_ctx, "shortest paths", jb->done, jb->db->nframes);
 	pthread_mutex_unlock(&jb->lock);
 }
 
@@ -262,12 +268,14 @@ static void set_density(const mc_motion_db *db, const uint8_t *keep, mc_graph_st
 	st->density = n > 1 ? (double)st->edges / (n * (n - 1)) : 0;
 }
 
-int mc_graph_essential(const mc_motion_db *db, const mc_cost_matrix *m, int lmax, double alpha, int threads,
-		       uint8_t *keep, mc_graph_stats *st, mc_err *err)
+static int essential(const mc_motion_db *db, const mc_cost_matrix *m, int lmax, double alpha, const mc_cost_params *p,
+		     uint8_t *keep, mc_graph_stats *st, mc_err *err)
 {
 	if (!(alpha > 0))
 		return mc_err_set(err, "alpha %g: must be positive (weights must be positive)", alpha);
-	sp_job jb = {.db = db, .m = m, .lmax = lmax, .alpha = alpha, .keep = keep};
+	sp_job jb = {.db = db, .m = m, .lmax = lmax, .alpha = alpha, .keep = keep, .progress = p->progress,
+		     .progress_ctx = p->progress_ctx};
+	int threads = p->threads;
 	pthread_mutex_init(&jb.lock, NULL);
 	int rc = run_threads(&jb, essential_worker, threads, err);
 	pthread_mutex_destroy(&jb.lock);
@@ -278,6 +286,13 @@ int mc_graph_essential(const mc_motion_db *db, const mc_cost_matrix *m, int lmax
 		set_density(db, keep, st);
 	}
 	return 0;
+}
+
+int mc_graph_essential(const mc_motion_db *db, const mc_cost_matrix *m, int lmax, double alpha, int threads,
+		       uint8_t *keep, mc_graph_stats *st, mc_err *err)
+{
+	mc_cost_params p = {.threads = threads};
+	return essential(db, m, lmax, alpha, &p, keep, st, err);
 }
 
 void mc_graph_motion(const mc_motion_db *db, const mc_cost_matrix *m, int lmax, uint8_t *keep)
@@ -361,7 +376,7 @@ int mc_graph_build(mc_motion_db *db, const mc_cost_matrix *m, const mc_cost_para
 		mc_err_set(err, "out of memory for %d x %d edge flags", n, n);
 		goto out;
 	}
-	if (mc_graph_essential(db, m, p->lmax, alpha, p->threads, ess, &st, err))
+	if (essential(db, m, p->lmax, alpha, p, ess, &st, err))
 		goto out;
 	if (stats_ess)
 		*stats_ess = st;
