@@ -174,11 +174,10 @@ static double blend(const mc_motion_db *db, const mc_motion_clip *ca, const mc_m
 	return N > 1 ? dist / ((N - 1) / db->fps) : 0;
 }
 
-static int frames_at(const mc_motion_db *db, const mc_motion_clip *ca, const mc_motion_clip *cb, double w)
+/* Samples of the blend at weight w: its duration in frames, plus one. */
+static int frames_at(const mc_motion_clip *ca, const mc_motion_clip *cb, double w)
 {
-	double T = (1 - w) * (ca->nframes - 1) + w * (cb->nframes - 1);
-	(void)db;
-	return (int)lround(T) + 1;
+	return (int)lround((1 - w) * (ca->nframes - 1) + w * (cb->nframes - 1)) + 1;
 }
 
 int mc_param_blend(const mc_motion_graph *g, int node, double speed, mc_param_motion *out, mc_err *err)
@@ -215,14 +214,14 @@ int mc_param_blend(const mc_motion_graph *g, int node, double speed, mc_param_mo
 		double a = 0, b = 1;
 		for (int it = 0; it < 30; it++) {
 			double m = (a + b) / 2;
-			if (blend(db, ca, cb, (const double(*)[2])path, L, m, frames_at(db, ca, cb, m), NULL) < speed)
+			if (blend(db, ca, cb, (const double(*)[2])path, L, m, frames_at(ca, cb, m), NULL) < speed)
 				a = m;
 			else
 				b = m;
 		}
 		w = (a + b) / 2;
 	}
-	int N = frames_at(db, ca, cb, w);
+	int N = frames_at(ca, cb, w);
 	out->poses = malloc(sizeof(mc_vec3) * (size_t)N * J);
 	if (!out->poses) {
 		free(path);
