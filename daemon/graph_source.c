@@ -229,6 +229,14 @@ int mcd_graph_steer_parse(const char *arg, mc_steer *s, char *msg, size_t cap)
 		}
 		s->kind = MC_STEER_FRAME;
 		s->frame = (int)v;
+	} else if (n == 2 && strcmp(w[0], "speed") == 0) {
+		if (!number(w[1], &v) || v < 0 || v > 20) {
+			snprintf(msg, cap, "speed '%s' is not a speed of 0..20 m/s", w[1]);
+			return -1;
+		}
+		s->kind = MC_STEER_DIRECTION;
+		s->direction_deg = NAN; /* any direction */
+		s->speed = v;
 	} else if ((n == 2 || n == 4) && strcmp(w[0], "direction") == 0) {
 		if (!number(w[1], &v)) {
 			snprintf(msg, cap, "direction '%s' is not a number of degrees", w[1]);
@@ -245,7 +253,7 @@ int mcd_graph_steer_parse(const char *arg, mc_steer *s, char *msg, size_t cap)
 			s->speed = v;
 		}
 	} else {
-		snprintf(msg, cap, "'%s' is not a target (class NAME, frame N, direction DEG [speed M/S], none)",
+		snprintf(msg, cap, "'%s' is not a target (class NAME, frame N, direction DEG [speed M/S], speed M/S, none)",
 			 arg ? arg : "");
 		return -1;
 	}

@@ -22,7 +22,7 @@ mcd_graph_source *mcd_graph_source_start(const mcd_config *cfg, srv_server *srv,
 void mcd_graph_source_stop(mcd_graph_source *gs);
 
 /* Parses a STEER argument: "none", "class NAME", "frame N",
- * "direction DEG" or "direction DEG speed M/S".  On error msg says why. */
+ * "direction DEG", "direction DEG speed M/S" or "speed M/S".  On error msg says why. */
 int mcd_graph_steer_parse(const char *arg, mc_steer *s, char *msg, size_t cap);
 /* Applies a STEER request; 0 and msg saying what the walk now does, or -1
  * and why not (a bad argument, a target the graph cannot reach). */

@@ -59,8 +59,8 @@ static void usage(FILE *f)
 		"  --class C          reach motion class C and stay in it\n"
 		"  --frame N          reach database frame N\n"
 		"  --direction DEG    head towards DEG, counter-clockwise from +x\n"
-		"  --speed V          with --direction: at about V m/s; blend: the speed to\n"
-		"                     blend the parametric node of --class to\n"
+		"  --speed V          walk: move at about V m/s (with --direction or alone);\n"
+		"                     blend: the speed to blend the node of --class to\n"
 		"  -h, --help         this text\n"
 		"  -V, --version      the version\n");
 }
@@ -291,9 +291,9 @@ static mc_walker *start_walk(const options *o, const mc_motion_graph *g)
 	} else if (o->frame >= 0) {
 		s.kind = MC_STEER_FRAME;
 		s.frame = o->frame;
-	} else if (isfinite(o->direction)) {
+	} else if (isfinite(o->direction) || o->speed >= 0) {
 		s.kind = MC_STEER_DIRECTION;
-		s.direction_deg = o->direction;
+		s.direction_deg = o->direction; /* NAN: any direction, at a speed */
 	}
 	if (mc_walker_steer(w, &s, &err))
 		fail(1, "%s", err.msg);

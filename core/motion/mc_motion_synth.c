@@ -344,8 +344,9 @@ static double steer_score(const mc_walker *w, place P, int f)
 	int ahead = f + (int)lround(LOOKAHEAD_S * w->g->db.fps);
 	if (ahead > clip_end(w, f))
 		ahead = clip_end(w, f);
-	double target = w->steer.direction_deg * M_PI / 180;
-	double score = fabs(remainder(heading_at(w, P, ahead) - target, 2 * M_PI));
+	double score = 0;
+	if (isfinite(w->steer.direction_deg))
+		score = fabs(remainder(heading_at(w, P, ahead) - w->steer.direction_deg * M_PI / 180, 2 * M_PI));
 	if (w->steer.speed >= 0)
 		score += fabs(speed_at(w, ahead) - w->steer.speed);
 	return score;

@@ -20,7 +20,7 @@
  * Steering: with no target the walk is random (seeded): at each node with
  * transitions it takes one with probability 1 - exp(-dt / 2 s).  A target
  * frame or motion class is reached along a shortest path (weights E); a
- * direction (degrees counter-clockwise from +x) or a speed (m/s) is
+ * direction (degrees counter-clockwise from +x) and/or a speed (m/s) is
  * followed greedily: at each node the option (go on, or a transition) whose
  * pose one second later is nearest the target heading and speed is taken. */
 #ifndef MC_MOTION_SYNTH_H
@@ -32,14 +32,14 @@ typedef enum {
 	MC_STEER_NONE,
 	MC_STEER_FRAME,     /* reach a frame */
 	MC_STEER_CLASS,     /* reach and stay in a motion class */
-	MC_STEER_DIRECTION, /* head towards a direction (and speed, if set) */
+	MC_STEER_DIRECTION, /* head towards a direction and/or move at a speed */
 } mc_steer_kind;
 
 typedef struct {
 	mc_steer_kind kind;
 	int frame;                     /* MC_STEER_FRAME */
 	char cls[MC_MOTION_CLASS_MAX]; /* MC_STEER_CLASS */
-	double direction_deg;          /* MC_STEER_DIRECTION */
+	double direction_deg;          /* MC_STEER_DIRECTION; NAN: any direction */
 	double speed;                  /* m/s, < 0: any */
 } mc_steer;
 

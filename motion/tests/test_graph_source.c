@@ -93,11 +93,14 @@ static void test_stream(mcd_run *r)
 	CHECK_MSG(rc == 0 && strstr(msg, "class turn"), "%d '%s'", rc, msg);
 	rc = control(c, "direction -90 speed 1.2", msg, sizeof(msg));
 	CHECK_MSG(rc == 0, "%d '%s'", rc, msg);
+	rc = control(c, "speed 1.5", msg, sizeof(msg));
+	CHECK_MSG(rc == 0, "%d '%s'", rc, msg);
 	const struct {
 		const char *arg, *want;
 	} bad[] = {
 		{"class dance", "dance"},     {"frame 99999", "99999"},        {"frame -3", "frame"},
-		{"direction north", "north"}, {"direction 0 speed 99", "speed"}, {"jump", "not a target"},
+		{"direction north", "north"}, {"direction 0 speed 99", "speed"}, {"speed fast", "fast"},
+		{"jump", "not a target"},
 		{"", "not a target"},
 	};
 	for (size_t i = 0; i < sizeof(bad) / sizeof(bad[0]); i++) {

@@ -307,6 +307,25 @@ static void test_walks(const mc_motion_graph *g)
 	}
 	printf("steered towards -90 deg: mean heading error %.1f deg\n", err_sum / cnt * 180 / M_PI);
 	CHECK_MSG(err_sum / cnt < 45 * M_PI / 180, "mean heading error %g deg", err_sum / cnt * 180 / M_PI);
+	/* a speed alone: that of the fast walk, the fastest clip */
+	float fast, turn;
+	mc_clip_params(&g->db, 1, &fast, &turn);
+	s = (mc_steer){.kind = MC_STEER_DIRECTION, .direction_deg = NAN, .speed = fast};
+	CHECK(mc_walker_steer(w, &s, &err) == 0);
+	mc_vec3 prev[J];
+	double dist = 0;
+	int frames = 0;
+	for (int k = 0; k < 40 * g->db.fps; k++) {
+		memcpy(prev, pose, sizeof(prev));
+		mc_walker_next(w, pose);
+		if (k > 20 * g->db.fps) {
+			dist += hypot(pose[0].x - prev[0].x, pose[0].y - prev[0].y);
+			frames++;
+		}
+	}
+	double speed = dist / (frames / g->db.fps);
+	printf("steered to %.2f m/s: %.2f m/s over the last 20 s\n", fast, speed);
+	CHECK_MSG(fabs(speed - fast) < 0.1 * fast, "steered to %g m/s, moves at %g", fast, speed);
 	mc_walker_free(w);
 }
 
