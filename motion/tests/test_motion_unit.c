@@ -70,6 +70,22 @@ static void test_database(const mc_motion_db *db)
 	CHECK_MSG(fabs(turn) < 1, "turn %g deg/s", turn);
 	mc_clip_params(db, 2, &speed, &turn);
 	CHECK_MSG(fabs(turn - 40) < 2, "turning clip: %g deg/s, want 40", turn);
+	/* the built-in skeleton is the default body model's */
+	mc_model *model = malloc(sizeof(*model));
+	mc_motion_skel from_model, builtin;
+	mc_err err;
+	mc_motion_skel_default(&builtin);
+	if (mc_model_load("config/models/default.json", model, &err) == 0) {
+		CHECK_MSG(mc_motion_skel_from_model(model, &from_model, &err) == 0, "%s", err.msg);
+		for (int j = 0; j < J; j++)
+			CHECK(mc_v3_norm(mc_v3_sub(from_model.offset[j], builtin.offset[j])) < 1e-12 &&
+			      from_model.parent[j] == builtin.parent[j]);
+		snprintf(model->joints[5].name, sizeof(model->joints[5].name), "wrist");
+		CHECK(mc_motion_skel_from_model(model, &from_model, &err) == -1 && strstr(err.msg, "left_wrist"));
+	} else {
+		printf("config/models/default.json: %s (not run from the repository root?)\n", err.msg);
+	}
+	free(model);
 	/* floor frames: there and back */
 	mc_floor_frame ff = {0.3, -1.2, 0.7};
 	mc_vec3 p = mc_v3(1, 2, 3), q = mc_floor_to_world(ff, mc_floor_from_world(ff, p));
