@@ -36,6 +36,7 @@ typedef struct {
 	uint8_t *keep;          /* essential: written; stats: read */
 	const int *start, *adj; /* stats: CSR of the graph */
 	const float *w;         /* stats: edge weights along adj */
+	const float *W;         /* essential: n x n transition weights, INFINITY for none */
 	void (*progress)(void *ctx, const char *stage, int done, int total);
 	void *progress_ctx;
 	int done;
@@ -80,7 +81,9 @@ static void add_stats(sp_job *jb, int u, const double *dist)
 	pthread_mutex_unlock(&jb->lock);
 }
 
-/* Dijkstra over the complete digraph from u: O(n^2), no heap needed. */
+/* Dijkstra over the complete digraph from u: O(n^2), no heap needed; one
+ * pass per settled node both relaxes its edges (row a of W, the weights,
+ * INFINITY where there is no transition) and finds the next node. */
 static void dense_dijkstra(sp_job *jb, int u, double *dist, uint8_t *done)
 {
 	const int n = jb->db->nframes;
@@ -89,23 +92,26 @@ static void dense_dijkstra(sp_job *jb, int u, double *dist, uint8_t *done)
 		done[v] = 0;
 	}
 	dist[u] = 0;
-	for (;;) {
-		int a = -1;
-		for (int v = 0; v < n; v++)
-			if (!done[v] && isfinite(dist[v]) && (a < 0 || dist[v] < dist[a]))
-				a = v;
-		if (a < 0)
-			break;
+	for (int a = u; a >= 0;) {
 		done[a] = 1;
-		if (original_ok(jb->db, a, a + 1) && dist[a] + jb->alpha < dist[a + 1])
-			dist[a + 1] = dist[a] + jb->alpha;
+		double da = dist[a];
+		if (original_ok(jb->db, a, a + 1) && da + jb->alpha < dist[a + 1])
+			dist[a + 1] = da + jb->alpha;
+		const float *w = jb->W + (size_t)a * n;
+		int next = -1;
+		double best = INFINITY;
 		for (int v = 0; v < n; v++) {
-			if (done[v] || !transition_ok(jb->db, jb->m, jb->lmax, a, v))
+			if (done[v])
 				continue;
-			double d = dist[a] + tr_weight(jb->m, jb->alpha, a, v);
+			double d = da + w[v];
 			if (d < dist[v])
 				dist[v] = d;
+			if (dist[v] < best) {
+				best = dist[v];
+				next = v;
+			}
 		}
+		a = next;
 	}
 }
 
@@ -122,9 +128,9 @@ static void *essential_worker(void *arg)
 			dense_dijkstra(jb, u, dist, done);
 			/* u -> v is on a shortest path iff its weight is the
 			 * distance from u to v (positive weights). */
+			const float *w = jb->W + (size_t)u * n;
 			for (int v = 0; v < n; v++)
-				jb->keep[(size_t)u * n + v] = transition_ok(jb->db, jb->m, jb->lmax, u, v) &&
-							      tr_weight(jb->m, jb->alpha, u, v) <= dist[v] * (1 + 1e-9);
+				jb->keep[(size_t)u * n + v] = isfinite(w[v]) && w[v] <= dist[v] * (1 + 1e-9);
 			add_stats(jb, u, dist);
 		}
 	}
@@ -273,12 +279,20 @@ static int essential(const mc_motion_db *db, const mc_cost_matrix *m, int lmax, 
 {
 	if (!(alpha > 0))
 		return mc_err_set(err, "alpha %g: must be positive (weights must be positive)", alpha);
-	sp_job jb = {.db = db, .m = m, .lmax = lmax, .alpha = alpha, .keep = keep, .progress = p->progress,
+	const int n = db->nframes;
+	float *W = malloc(sizeof(float) * (size_t)n * n);
+	if (!W)
+		return mc_err_set(err, "out of memory for %d x %d weights", n, n);
+	for (int a = 0; a < n; a++)
+		for (int v = 0; v < n; v++)
+			W[(size_t)a * n + v] =
+				transition_ok(db, m, lmax, a, v) ? (float)tr_weight(m, alpha, a, v) : (float)INFINITY;
+	sp_job jb = {.db = db, .m = m, .lmax = lmax, .alpha = alpha, .keep = keep, .W = W, .progress = p->progress,
 		     .progress_ctx = p->progress_ctx};
-	int threads = p->threads;
 	pthread_mutex_init(&jb.lock, NULL);
-	int rc = run_threads(&jb, essential_worker, threads, err);
+	int rc = run_threads(&jb, essential_worker, p->threads, err);
 	pthread_mutex_destroy(&jb.lock);
+	free(W);
 	if (rc)
 		return -1;
 	if (st) {
