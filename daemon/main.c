@@ -436,7 +436,7 @@ static void handle_requests(daemon_ctx *d)
 			if (d->graph) {
 				rc = mcd_graph_source_steer(d->graph, ctl.argument, msg, sizeof(msg));
 			} else {
-				snprintf(msg, sizeof(msg), "steer: this mocapd has no [source] graph to steer");
+				snprintf(msg, sizeof(msg), "this mocapd has no [source] graph to steer");
 				rc = -1;
 			}
 		} else if (ctl.command == MC_CONTROL_RELOAD) {
