@@ -164,12 +164,14 @@ static void begin_section(parser *p, const char *name)
 		p->kind = MCD_SEC_NETWORK;
 	else if (strcmp(name, "record") == 0)
 		p->kind = MCD_SEC_RECORD;
+	else if (strcmp(name, "source") == 0)
+		p->kind = MCD_SEC_SOURCE;
 	else if (strncmp(name, "camera", 6) == 0 && (name[6] == ' ' || name[6] == 0)) {
 		p->kind = MCD_SEC_CAMERA;
 		begin_camera(p, name);
 	} else {
 		p->known = false;
-		fail(p, "unknown section [%s] (expected [daemon], [camera NAME], [tracker], [socket], [detector], [network] or [record])", name);
+		fail(p, "unknown section [%s] (expected [daemon], [camera NAME], [tracker], [socket], [detector], [network], [record] or [source])", name);
 	}
 }
 
@@ -319,8 +321,15 @@ static int on_key(void *user, const char *section, const char *key, const char *
 
 static int check_cameras(mcd_config *cfg, mc_err *err)
 {
+	if (cfg->source.graph[0]) { /* a graph source replaces cameras and tracker */
+		if (cfg->ncams > 0)
+			return mc_err_set(err, "%s:%d: [camera %s]: [source] graph replaces the cameras; remove one or the other",
+					  cfg->file, cfg->cams[0].line, cfg->cams[0].name);
+		return 0;
+	}
 	if (cfg->ncams == 0)
-		return mc_err_set(err, "%s: no [camera NAME] section; at least one camera is needed", cfg->file);
+		return mc_err_set(err, "%s: no [camera NAME] section; at least one camera is needed (or a [source] graph)",
+				  cfg->file);
 	for (int i = 0; i < cfg->ncams; i++) {
 		mcd_camera_config *c = &cfg->cams[i];
 		for (int j = 0; j < i; j++)
@@ -351,6 +360,13 @@ static int check_tracker(mcd_config *cfg, mc_err *err)
 	mcd_tracker_config *t = &cfg->tracker;
 	if (!t->enabled)
 		return 0;
+	if (cfg->source.graph[0]) { /* the graph source tracks nothing */
+		if (t->line)
+			return mc_err_set(err, "%s:%d: [tracker]: [source] graph replaces the tracker; remove one or the other",
+					  cfg->file, t->line);
+		t->enabled = false;
+		return 0;
+	}
 	if (!t->line)
 		return mc_err_set(err, "%s: no [tracker] section (give rig and model, or enabled = false)", cfg->file);
 	if (!t->rig[0])

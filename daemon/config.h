@@ -103,6 +103,15 @@ typedef struct {
 	double min_confidence; /* keypoints below it are dropped; < 0: the model's threshold */
 } mcd_detector_config;
 
+/* The [source] section: a synthetic source instead of cameras and tracker
+ * (graph_source.h, docs/MOTION_GRAPH.md): graph walks as skeletons. */
+typedef struct {
+	char graph[PATH_MAX]; /* a mocap-graph file; "" = cameras and tracker */
+	int kind;             /* MC_EDGE_ESSENTIAL or MC_EDGE_MOTION */
+	double rate;          /* skeletons per second */
+	int seed;
+} mcd_source_config;
+
 typedef struct {
 	char file[PATH_MAX]; /* as given, for messages */
 	char dir[PATH_MAX];  /* its directory, for relative paths */
@@ -127,6 +136,7 @@ typedef struct {
 	mcd_network_config network;
 	mcd_detector_config detector;
 	mcd_record_config record;
+	mcd_source_config source;
 
 	/* Where each key was given, for messages about values checked later
 	 * (a rig file that fails to load, a socket group that does not exist). */
@@ -167,8 +177,9 @@ typedef enum {
 	MCD_SEC_DETECTOR,
 	MCD_SEC_NETWORK,
 	MCD_SEC_RECORD,
+	MCD_SEC_SOURCE,
 } mcd_section;
-#define MCD_NSECTIONS 7
+#define MCD_NSECTIONS 8
 
 typedef enum {
 	MCD_KEY_BOOL,     /* true/false, yes/no, on/off, 1/0 */

@@ -4,6 +4,7 @@
 #include "config.h"
 
 #include "log.h"
+#include "motion/mc_motion_graph.h" /* MC_EDGE_ESSENTIAL, MC_EDGE_MOTION */
 
 #include <ctype.h>
 #include <errno.h>
@@ -27,6 +28,8 @@ static const mcd_key_choice log_levels[] = {
 static const mcd_key_choice rig_formats[] = {
 	{"json", MCD_RIG_JSON, false}, {"ego-calib", MCD_RIG_EGO_CALIB, false},
 	{"cameras-json", MCD_RIG_CAMERAS_JSON, false}, {NULL, 0, false}};
+static const mcd_key_choice graph_kinds[] = {
+	{"essential", MC_EDGE_ESSENTIAL, false}, {"motion", MC_EDGE_MOTION, false}, {NULL, 0, false}};
 static const mcd_key_choice backends[] = {
 	{"opencl", MC_BACKEND_OPENCL, false}, {"reference", MC_BACKEND_REFERENCE, false}, {NULL, 0, false}};
 
@@ -39,6 +42,7 @@ static const mcd_key_choice backends[] = {
 #define K(member) FIELD(mcd_config, detector.member)
 #define N(member) FIELD(mcd_config, network.member)
 #define R(member) FIELD(mcd_config, record.member)
+#define G(member) FIELD(mcd_config, source.member)
 #define TRACKER_DEFAULT NULL /* mc_tracker_settings_default */
 
 static const mcd_config_key keys[] = {
@@ -109,6 +113,11 @@ static const mcd_config_key keys[] = {
 	{MCD_SEC_RECORD, "max_mb", MCD_KEY_REAL, R(max_mb), 0, 1e9, NULL, "0", false},
 	{MCD_SEC_RECORD, "sync_ms", MCD_KEY_REAL, R(sync_ms), 0, 10000, NULL, "100", false},
 
+	{MCD_SEC_SOURCE, "graph", MCD_KEY_OPT_PATH, G(graph), 0, 0, NULL, NULL, false},
+	{MCD_SEC_SOURCE, "graph_kind", MCD_KEY_ENUM, G(kind), 0, 0, graph_kinds, "essential", false},
+	{MCD_SEC_SOURCE, "rate", MCD_KEY_POSITIVE, G(rate), 0, 1000, NULL, "30", false},
+	{MCD_SEC_SOURCE, "seed", MCD_KEY_INT, G(seed), 0, 2147483647, NULL, "1", false},
+
 	/* A new model takes a restart; the rest is applied between detections. */
 	{MCD_SEC_DETECTOR, "model", MCD_KEY_OPT_PATH, K(model), 0, 0, NULL, NULL, false},
 	{MCD_SEC_DETECTOR, "rate", MCD_KEY_REAL, K(rate), 0, 1000, NULL, "0", true},
@@ -133,7 +142,7 @@ const mcd_config_key *mcd_config_key_find(mcd_section section, const char *key)
 const char *mcd_section_name(mcd_section section)
 {
 	static const char *const names[MCD_NSECTIONS] = {"daemon", "camera", "tracker", "socket", "detector", "network",
-								 "record"};
+								 "record", "source"};
 	return (unsigned)section < MCD_NSECTIONS ? names[section] : "?";
 }
 
@@ -465,6 +474,7 @@ void mcd_config_defaults(mcd_config *cfg)
 	set_defaults(MCD_SEC_DETECTOR, cfg);
 	set_defaults(MCD_SEC_NETWORK, cfg);
 	set_defaults(MCD_SEC_RECORD, cfg);
+	set_defaults(MCD_SEC_SOURCE, cfg);
 }
 
 void mcd_camera_config_defaults(mcd_camera_config *cam)

@@ -7,10 +7,15 @@
  * events, and once per status interval refreshes STATUS=, the server's
  * status snapshot and, when every pipeline thread made progress, the
  * watchdog.  SIGTERM/SIGINT stop cleanly; SIGHUP (or `mocapctl reload`)
- * reloads what can change safely (docs/CONFIG.md). */
+ * reloads what can change safely (docs/CONFIG.md).
+ *
+ * With [source] graph (docs/MOTION_GRAPH.md) there are no cameras, tracker
+ * or pipeline: a graph source publishes graph walks, steered by STEER
+ * control requests, and the main loop is the same. */
 #include "actor.h"
 #include "config.h"
 #include "detector_thread.h"
+#include "graph_source.h"
 #include "log.h"
 #include "network.h"
 #include "server.h"
@@ -58,6 +63,8 @@ typedef struct {
 	srv_server *srv;
 	mcd_tracking *tracking;
 	mcd_pipeline *pipe;
+	mcd_graph_source *graph; /* [source] graph instead of pipe */
+	uint64_t graph_seen;     /* skeletons it had published at the last watchdog feed */
 	int sigfd;
 	uint64_t start_ns;
 	bool ready;
@@ -316,6 +323,16 @@ static int start_tracking(daemon_ctx *d, mc_err *err)
 
 static void refresh_status(daemon_ctx *d, uint64_t now)
 {
+	if (d->graph) {
+		srv_status ss;
+		mcd_graph_source_status(d->graph, &ss);
+		char line[160];
+		snprintf(line, sizeof(line), "%llu skeletons from the graph", (unsigned long long)ss.frames_published);
+		mcd_notify_status(line);
+		if (d->srv)
+			srv_set_status(d->srv, &ss);
+		return;
+	}
 	mcd_pipeline_status st;
 	bool log_now = d->cfg->stats_log_interval_s > 0 && now >= d->next_stats_log_ns;
 	mcd_pipeline_get_status(d->pipe, &st, true);
@@ -340,6 +357,17 @@ static void refresh_status(daemon_ctx *d, uint64_t now)
 
 static void feed_watchdog(daemon_ctx *d)
 {
+	if (d->graph) { /* progress: skeletons published since the last feed */
+		uint64_t n = mcd_graph_source_published(d->graph);
+		if (n != d->graph_seen) {
+			mcd_notify_watchdog();
+			d->watchdog_misses = 0;
+		} else if (d->watchdog_misses++ == 0) {
+			mcd_error("watchdog: the graph source made no progress; not feeding the watchdog");
+		}
+		d->graph_seen = n;
+		return;
+	}
 	char stuck[128];
 	if (mcd_pipeline_progress(d->pipe, stuck, sizeof(stuck))) {
 		mcd_notify_watchdog();
@@ -366,7 +394,8 @@ static int reload(daemon_ctx *d, char *msg, size_t cap)
 		char changes[780];
 		mcd_config_take_reloadable(d->cfg, neu, changes, sizeof(changes));
 		mcd_log_set_level(d->cfg->log_level);
-		mcd_pipeline_reload(d->pipe, d->cfg);
+		if (d->pipe)
+			mcd_pipeline_reload(d->pipe, d->cfg);
 		mcd_info("reload: %s applied (log level %s)", d->opt.config_path, mcd_log_level_name(neu->log_level));
 		snprintf(msg, cap, "reloaded %.200s: %.780s", d->opt.config_path, changes);
 		free(neu);
@@ -402,9 +431,20 @@ static void handle_requests(daemon_ctx *d)
 	while (srv_poll_control(d->srv, &ctl) == 1) {
 		char msg[1024]; /* a control reply: PROTO_TEXT_MAX + 1 */
 		int rc;
-		if (ctl.command == MC_CONTROL_RELOAD) {
+		if (ctl.command == MC_CONTROL_STEER) {
+			mcd_info("steer '%s' requested by pid %d (uid %u)", ctl.argument, (int)ctl.pid, (unsigned)ctl.uid);
+			if (d->graph) {
+				rc = mcd_graph_source_steer(d->graph, ctl.argument, msg, sizeof(msg));
+			} else {
+				snprintf(msg, sizeof(msg), "this mocapd has no [source] graph to steer");
+				rc = -1;
+			}
+		} else if (ctl.command == MC_CONTROL_RELOAD) {
 			mcd_info("reload requested by pid %d (uid %u)", (int)ctl.pid, (unsigned)ctl.uid);
 			rc = reload(d, msg, sizeof(msg));
+		} else if (!d->pipe) {
+			snprintf(msg, sizeof(msg), "this mocapd streams a [source] graph: no tracker, no cameras to record");
+			rc = -1;
 		} else if (ctl.command == MC_CONTROL_ACTOR_SAVE) {
 			mcd_info("actor save '%s' requested by pid %d (uid %u)", ctl.argument, (int)ctl.pid,
 				 (unsigned)ctl.uid);
@@ -424,6 +464,12 @@ static void maybe_ready(daemon_ctx *d, uint64_t now)
 {
 	if (d->ready)
 		return;
+	if (d->graph) { /* no cameras to wait for */
+		d->ready = true;
+		mcd_notify_ready("streaming graph walks");
+		mcd_info("ready: streaming graph walks");
+		return;
+	}
 	bool timed_out = (double)(now - d->start_ns) / 1e9 > READY_TIMEOUT_S;
 	if (!mcd_pipeline_cameras_attempted(d->pipe) && !timed_out)
 		return;
@@ -485,13 +531,13 @@ static int run(daemon_ctx *d)
 	for (;;) {
 		uint64_t now = mc_now_ns();
 		do_timers(d, now);
-		if (d->opt.exit_at_end && mcd_pipeline_finished(d->pipe)) {
+		if (d->opt.exit_at_end && d->pipe && mcd_pipeline_finished(d->pipe)) {
 			mcd_info("every stream has ended; exiting (--exit-at-end)");
 			return 0;
 		}
 		struct pollfd fds[3] = {
 			{.fd = d->sigfd, .events = POLLIN},
-			{.fd = mcd_pipeline_event_fd(d->pipe), .events = POLLIN},
+			{.fd = d->pipe ? mcd_pipeline_event_fd(d->pipe) : -1, .events = POLLIN},
 			{.fd = d->srv ? srv_event_fd(d->srv) : -1, .events = POLLIN},
 		};
 		if (poll(fds, 3, poll_timeout_ms(d, now)) < 0 && errno != EINTR) {
@@ -510,6 +556,7 @@ static int run(daemon_ctx *d)
 static void shutdown_all(daemon_ctx *d)
 {
 	mcd_notify_stopping();
+	mcd_graph_source_stop(d->graph); /* before the server it publishes to */
 	if (d->pipe) {
 		mcd_pipeline_stop(d->pipe, STOP_GRACE_MS);
 		mcd_pipeline_destroy(d->pipe);
@@ -533,6 +580,10 @@ static int start(daemon_ctx *d, mc_err *err)
 		return -1;
 	if (d->watchdog_usec)
 		mcd_notify_watchdog(); /* start-up progress (building OpenCL kernels takes a while) */
+	if (d->cfg->source.graph[0]) {
+		d->graph = mcd_graph_source_start(d->cfg, d->srv, err);
+		return d->graph ? 0 : -1;
+	}
 	if (start_tracking(d, err))
 		return -1;
 	if (d->watchdog_usec)
@@ -552,6 +603,14 @@ static int check_only(const daemon_ctx *d)
 {
 	mc_err err = {{0}};
 	char where[PATH_MAX + 64];
+	if (d->cfg->source.graph[0]) {
+		int rc = mcd_graph_source_check(d->cfg, &err);
+		if (rc)
+			mcd_error("%s", err.msg);
+		else
+			printf("%s: ok\n", d->opt.config_path);
+		return rc ? 1 : 0;
+	}
 	bool ok = !d->cfg->tracker.enabled || mcd_tracking_check(d->cfg, &err) == 0;
 	char token[SRV_TOKEN_MAX];
 	ok = ok && (!d->cfg->network.listen[0] || mcd_network_read_token(d->cfg, token, sizeof(token), &err) == 0);

@@ -77,6 +77,8 @@ typedef enum {
 	MOCAP_CMD_ACTOR_SAVE = 4, /* argument: a name; the daemon writes [tracker] actor_dir/NAME.json */
 	MOCAP_CMD_RECORD_STATUS = 5, /* msg: the take being recorded, or how the last one ended */
 	MOCAP_CMD_RECORD_LIST = 6,   /* msg: the directory the daemon records takes into */
+	MOCAP_CMD_STEER = 7,         /* argument: a graph source's target, e.g. "class walk",
+				      * "direction 90 speed 1.2", "frame 120", "none" */
 } mocap_command;
 
 typedef struct {

@@ -3,6 +3,7 @@
 #include "mocap.h"
 #include "take.h"
 
+#include <ctype.h>
 #include <dirent.h>
 #include <errno.h>
 #include <signal.h>
@@ -46,6 +47,9 @@ static const char usage[] =
 	"  record list            the takes, one per line: directory, state, duration, poses\n"
 	"  actor save NAME        save the calibrated actor (size, colours) as [tracker] actor_dir/NAME.json,\n"
 	"                         for [tracker] actor at the next start (daemon's user or group)\n"
+	"  steer TARGET...        steer a [source] graph walk: class NAME, frame N,\n"
+	"                         direction DEG [speed M/S], speed M/S, or none (daemon's user or\n"
+	"                         group)\n"
 	"  ping                   round-trip time to the daemon\n"
 	"\n"
 	"The socket is --socket PATH, else $MOCAP_SOCKET, else " MOCAP_DEFAULT_SOCKET ".\n"
@@ -420,7 +424,7 @@ static int cmd_ping(mocap_client *c)
 
 int main(int argc, char **argv)
 {
-	const char *path = NULL, *pos[4] = {0};
+	const char *path = NULL, *pos[5] = {0};
 	int npos = 0;
 	bool json = false, all = false, world = false;
 	const char *name = NULL;
@@ -462,10 +466,10 @@ int main(int argc, char **argv)
 				fprintf(stderr, "mocapctl: --count needs a positive number\n");
 				return EXIT_USAGE;
 			}
-		} else if (a[0] == '-' && a[1]) {
+		} else if (a[0] == '-' && a[1] && !isdigit((unsigned char)a[1]) && a[1] != '.') { /* -90: a number */
 			fprintf(stderr, "mocapctl: unknown option %s\n%s", a, usage);
 			return EXIT_USAGE;
-		} else if (npos < 4) {
+		} else if (npos < 5) {
 			pos[npos++] = a;
 		} else {
 			fprintf(stderr, "mocapctl: too many arguments\n%s", usage);
@@ -482,8 +486,9 @@ int main(int argc, char **argv)
 		     (!strcmp(cmd, "record") && npos >= 2 &&
 		      (!strcmp(pos[1], "start") ||
 		       ((!strcmp(pos[1], "stop") || !strcmp(pos[1], "status") || !strcmp(pos[1], "list")) && npos == 2))) ||
-		     (!strcmp(cmd, "actor") && npos == 3 && !strcmp(pos[1], "save"));
-	int max_pos = !strcmp(cmd, "record") || !strcmp(cmd, "actor") ? 3 : 1;
+		     (!strcmp(cmd, "actor") && npos == 3 && !strcmp(pos[1], "save")) ||
+		     (!strcmp(cmd, "steer") && npos >= 2);
+	int max_pos = !strcmp(cmd, "record") || !strcmp(cmd, "actor") ? 3 : (!strcmp(cmd, "steer") ? 5 : 1);
 	if (!known || npos > max_pos) {
 		fprintf(stderr, "mocapctl: %s '%s'\n%s", known ? "too many arguments for" : "unknown command", cmd, usage);
 		return EXIT_USAGE;
@@ -521,6 +526,12 @@ int main(int argc, char **argv)
 		rc = cmd_ping(c);
 	else if (!strcmp(cmd, "actor"))
 		rc = cmd_control(c, MOCAP_CMD_ACTOR_SAVE, pos[2], "actor save");
+	else if (!strcmp(cmd, "steer")) {
+		char target[256] = ""; /* the words after steer, one argument */
+		for (int i = 1; i < npos; i++)
+			snprintf(target + strlen(target), sizeof(target) - strlen(target), "%s%s", i > 1 ? " " : "", pos[i]);
+		rc = cmd_control(c, MOCAP_CMD_STEER, target, "steer");
+	}
 	else if (!strcmp(pos[1], "start"))
 		rc = cmd_control(c, MOCAP_CMD_RECORD_START, name ? name : npos > 2 ? pos[2] : "", "record start");
 	else if (!strcmp(pos[1], "stop"))

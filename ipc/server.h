@@ -267,6 +267,7 @@ typedef enum {
 	MC_CONTROL_ACTOR_SAVE = 4,      /* argument: the actor's name */
 	MC_CONTROL_RECORD_STATUS = 5,   /* the reply's message: the take in progress or the last one */
 	MC_CONTROL_RECORD_LIST = 6,     /* the reply's message: the directory takes go to */
+	MC_CONTROL_STEER = 7,           /* argument: a graph source's target (docs/MOTION_GRAPH.md) */
 } mc_control_command;
 
 typedef struct {

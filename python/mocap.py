@@ -54,7 +54,7 @@ __all__ = [
     "Detector", "Status", "Latency", "StageTime", "Ring", "PoseBlock", "predict", "MocapError", "Error", "NotRunning", "AccessDenied", "VersionMismatch",
     "ProtocolError", "Disconnected", "Timeout", "PermissionDenied", "Refused", "Unavailable", "CommandFailed",
     "ArgumentError", "SystemCallError", "LATEST", "ALL", "SPACE_RIG", "SPACE_WORLD", "CMD_RELOAD",
-    "CMD_RECORD_START", "CMD_RECORD_STOP", "CMD_ACTOR_SAVE", "CMD_RECORD_STATUS", "CMD_RECORD_LIST", "default_socket", "now_ns",
+    "CMD_RECORD_START", "CMD_RECORD_STOP", "CMD_ACTOR_SAVE", "CMD_RECORD_STATUS", "CMD_RECORD_LIST", "CMD_STEER", "default_socket", "now_ns",
 ]
 
 PROTOCOL_VERSION = 3      # the highest spoken; 1 and 2 too (2 adds STATUS's detector block, 3 its latency)
@@ -69,6 +69,7 @@ LATEST, ALL = 1, 2
 SPACE_RIG, SPACE_WORLD = 0, 1
 CMD_RELOAD, CMD_RECORD_START, CMD_RECORD_STOP, CMD_ACTOR_SAVE = 1, 2, 3, 4
 CMD_RECORD_STATUS, CMD_RECORD_LIST = 5, 6
+CMD_STEER = 7  # a [source] graph walk: "class NAME", "frame N", "direction DEG [speed M/S]", "none"
 TRACK_STATES = {0: "ok", 1: "uncertain", 2: "lost", 3: "idle", 4: "initialising"}
 CAMERA_STATES = {0: "ok", 1: "stalled", 2: "error", 3: "off"}
 DETECTOR_STATES = {0: "off", 1: "running", 2: "failed"}
@@ -1036,7 +1037,7 @@ class Client(_Session):
 
     def control(self, command, argument=""):
         """Runs CMD_RELOAD / CMD_RECORD_START / CMD_RECORD_STOP / CMD_ACTOR_SAVE / CMD_RECORD_STATUS /
-        CMD_RECORD_LIST; returns the daemon's message.
+        CMD_RECORD_LIST / CMD_STEER; returns the daemon's message.
         Raises CommandFailed when the command ran and failed."""
         return _parse_control_result(self._request(CONTROL, _control_body(command, argument), CONTROL_RESULT))
 

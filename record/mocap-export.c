@@ -65,92 +65,6 @@ static void close_out(FILE *f, const char *path)
 
 /* ---- BVH ---- */
 
-static int nchildren(const take_def *d, int j)
-{
-	int n = 0;
-	for (int k = j + 1; k < d->njoints; k++)
-		n += d->joints[k].parent == j;
-	return n;
-}
-
-static void indent(FILE *f, int depth)
-{
-	for (int i = 0; i < depth; i++)
-		fputc('\t', f);
-}
-
-/* Joint j and its subtree; rest offsets in centimetres. */
-static void bvh_joint(FILE *f, const take_def *d, int j, int depth)
-{
-	const take_joint_def *jd = &d->joints[j];
-	indent(f, depth);
-	fprintf(f, "%s %s\n", jd->parent < 0 ? "ROOT" : "JOINT", jd->name);
-	indent(f, depth);
-	fprintf(f, "{\n");
-	indent(f, depth + 1);
-	fprintf(f, "OFFSET %.6f %.6f %.6f\n", jd->offset[0] * 100, jd->offset[1] * 100, jd->offset[2] * 100);
-	indent(f, depth + 1);
-	if (jd->parent < 0)
-		fprintf(f, "CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation\n");
-	else
-		fprintf(f, "CHANNELS 3 Zrotation Xrotation Yrotation\n");
-	for (int k = j + 1; k < d->njoints; k++)
-		if (d->joints[k].parent == j)
-			bvh_joint(f, d, k, depth + 1);
-	if (nchildren(d, j) == 0) {
-		indent(f, depth + 1);
-		fprintf(f, "End Site\n");
-		indent(f, depth + 1);
-		fprintf(f, "{\n");
-		indent(f, depth + 2);
-		fprintf(f, "OFFSET 0.000000 0.000000 0.000000\n");
-		indent(f, depth + 1);
-		fprintf(f, "}\n");
-	}
-	indent(f, depth);
-	fprintf(f, "}\n");
-}
-
-/* R = Rz(a) Rx(b) Ry(c), in degrees: the BVH channel order written above. */
-static void euler_zxy(mc_mat3 R, double *a, double *b, double *c)
-{
-	double sx = fmax(-1, fmin(1, R.m[2][1]));
-	*b = asin(sx);
-	if (fabs(sx) < 1 - 1e-9) {
-		*c = atan2(-R.m[2][0], R.m[2][2]);
-		*a = atan2(-R.m[0][1], R.m[1][1]);
-	} else { /* gimbal lock: the y turn folds into z */
-		*c = 0;
-		*a = atan2(R.m[1][0], R.m[0][0]);
-	}
-	*a *= 180 / M_PI;
-	*b *= 180 / M_PI;
-	*c *= 180 / M_PI;
-}
-
-static mc_mat3 joint_rot(const take_pose *p, int j)
-{
-	const double *q = p->joints[j].orientation;
-	return mc_quat_to_m3(mc_quat_normalize((mc_quat){q[0], q[1], q[2], q[3]}));
-}
-
-/* The channels of one pose, in HIERARCHY order (depth first from the root). */
-static void bvh_values(FILE *f, const take_def *d, const take_pose *p, int j)
-{
-	mc_mat3 r = joint_rot(p, j);
-	if (d->joints[j].parent < 0)
-		fprintf(f, "%.6f %.6f %.6f", p->joints[j].position[0] * 100, p->joints[j].position[1] * 100,
-			p->joints[j].position[2] * 100);
-	else /* relative to the parent: the rest pose has every frame aligned */
-		r = mc_m3_mul(mc_m3_transpose(joint_rot(p, d->joints[j].parent)), r);
-	double a, b, c;
-	euler_zxy(r, &a, &b, &c);
-	fprintf(f, " %.6f %.6f %.6f", a, b, c);
-	for (int k = j + 1; k < d->njoints; k++)
-		if (d->joints[k].parent == j)
-			bvh_values(f, d, p, k);
-}
-
 static double frame_time(const take_poses *t)
 {
 	if (t->nposes < 2)
@@ -162,17 +76,10 @@ static double frame_time(const take_poses *t)
 static void export_bvh(const take_poses *t, const char *path)
 {
 	FILE *f = open_out(path);
-	fprintf(f, "HIERARCHY\n");
-	for (int j = 0; j < t->def.njoints; j++)
-		if (t->def.joints[j].parent < 0)
-			bvh_joint(f, &t->def, j, 0);
-	fprintf(f, "MOTION\nFrames: %d\nFrame Time: %.6f\n", t->nposes, frame_time(t));
-	for (int i = 0; i < t->nposes; i++) {
-		for (int j = 0; j < t->def.njoints; j++)
-			if (t->def.joints[j].parent < 0)
-				bvh_values(f, &t->def, &t->poses[i], j);
-		fputc('\n', f);
-	}
+	take_bvh_write_hierarchy(f, &t->def);
+	take_bvh_write_motion(f, t->nposes, frame_time(t));
+	for (int i = 0; i < t->nposes; i++)
+		take_bvh_write_pose(f, &t->def, &t->poses[i]);
 	close_out(f, path);
 }
 

@@ -3,7 +3,7 @@
 # mocap-export; docs/RECORDING.md.
 
 RECORD_LIB := $(BUILD)/libmocaprecord.a
-RECORD_OBJ := $(BUILD)/record/take.o $(BUILD)/record/take_info.o
+RECORD_OBJ := $(BUILD)/record/take.o $(BUILD)/record/take_info.o $(BUILD)/record/take_bvh.o
 MOCAP_EXPORT := $(BUILD)/bin/mocap-export
 MOCAP_TRACK := $(BUILD)/bin/mocap-track
 RECORD_TESTS := $(patsubst record/tests/%.c,$(BUILD)/record/tests/%,$(wildcard record/tests/test_*.c))

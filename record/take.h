@@ -176,6 +176,15 @@ typedef struct {
 int take_poses_load(const char *dir, const char *track, take_poses *out, mc_err *err);
 void take_poses_free(take_poses *t);
 
+/* ---- BVH (take_bvh.c) ----
+ * A skeleton definition and its poses as BVH: the HIERARCHY (rest offsets
+ * in centimetres), the MOTION header, then one line per pose (the root's
+ * position in centimetres, every joint's rotation relative to its parent as
+ * Z X Y Euler angles in degrees).  Write errors show in ferror(f). */
+void take_bvh_write_hierarchy(FILE *f, const take_def *d);
+void take_bvh_write_motion(FILE *f, int nframes, double frame_time);
+void take_bvh_write_pose(FILE *f, const take_def *d, const take_pose *p);
+
 /* ---- take.json ---- */
 
 #define TAKE_MAX_CAMERAS 16

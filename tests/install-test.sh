@@ -17,7 +17,8 @@ cleanup() { rm -rf "$tmp"; }
 trap cleanup EXIT
 
 make -s $vars install >"$tmp/install.log" 2>&1 || { tail -n 30 "$tmp/install.log"; fail "make install"; }
-for f in bin/mocapd bin/mocapctl bin/mocap-bench bin/mocap-vmc bin/mocap-export bin/mocap-track bin/mocap-calibrate lib/mocapd/drivers/mocap-driver-take.so lib/mocapd/drivers/mocap-driver-files.so \
+for f in bin/mocapd bin/mocapctl bin/mocap-bench bin/mocap-vmc bin/mocap-export bin/mocap-track bin/mocap-calibrate bin/mocap-graph \
+	lib/mocapd/drivers/mocap-driver-take.so lib/mocapd/drivers/mocap-driver-files.so \
 	share/mocapd/models/default.json share/mocapd/rigs/ego_stereo.json lib/libmocap.so.1; do
 	[ -e "$prefix/$f" ] || fail "$prefix/$f was not installed"
 done
@@ -28,7 +29,8 @@ grep -q "^ExecStart=$prefix/bin/mocap-vmc .*--config $tmp/etc/mocapd/vmc.conf" "
 "$prefix/bin/mocap-vmc" --config "$tmp/etc/mocapd/vmc.conf" --socket "$tmp/none.sock" >"$tmp/vmc.log" 2>&1
 [ $? -eq 1 ] && grep -q "cannot connect to mocapd" "$tmp/vmc.log" || fail "installed mocap-vmc with the installed vmc.conf: $(cat "$tmp/vmc.log")"
 if command -v scdoc >/dev/null; then
-	for m in man8/mocapd.8 man5/mocapd.conf.5 man1/mocapctl.1 man1/mocap-bench.1 man1/mocap-vmc.1 man1/mocap-export.1 man1/mocap-track.1 man1/mocap-calibrate.1; do
+	for m in man8/mocapd.8 man5/mocapd.conf.5 man1/mocapctl.1 man1/mocap-bench.1 man1/mocap-vmc.1 man1/mocap-export.1 \
+		man1/mocap-track.1 man1/mocap-calibrate.1 man1/mocap-graph.1; do
 		[ -s "$prefix/share/man/$m" ] || fail "no man page $prefix/share/man/$m"
 	done
 fi

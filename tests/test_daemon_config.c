@@ -1,6 +1,7 @@
 /* mocapd's config parser: every value type, every refusal, and the exact
  * "file:line: [section] key: why" form of the messages. */
 #include "config.h"
+#include "motion/mc_motion_graph.h"
 #include "log.h"
 #include "network.h"
 #include "test_util.h"
@@ -203,7 +204,7 @@ static void test_structure_errors(void)
 	expect_error(CAM NOTRACK "iteratons = 5\n", "mocapd.conf:5: [tracker] iteratons: unknown key");
 	expect_error("[daemon]\nplugins = /x\n" CAM NOTRACK, "mocapd.conf:2: [daemon] plugins: unknown key");
 	expect_error("[deamon]\n" CAM NOTRACK,
-		     "mocapd.conf:1: unknown section [deamon] (expected [daemon], [camera NAME], [tracker], [socket], [detector], [network] or [record])");
+		     "mocapd.conf:1: unknown section [deamon] (expected [daemon], [camera NAME], [tracker], [socket], [detector], [network], [record] or [source])");
 	expect_error("log_level = info\n" CAM NOTRACK,
 		     "mocapd.conf:1: log_level: key outside any section (start with [daemon])");
 	expect_error(CAM NOTRACK "enabled = true\n",
@@ -244,7 +245,7 @@ static void test_structure_errors(void)
 
 static void test_cross_checks(void)
 {
-	expect_error(NOTRACK, "mocapd.conf: no [camera NAME] section; at least one camera is needed");
+	expect_error(NOTRACK, "mocapd.conf: no [camera NAME] section; at least one camera is needed (or a [source] graph)");
 	expect_error("[camera left]\nfps = 30\n" NOTRACK, "mocapd.conf:1: [camera left]: missing key 'driver'");
 	expect_error(CAM, "mocapd.conf: no [tracker] section (give rig and model, or enabled = false)");
 	expect_error(CAM "rig_camera = l\n[tracker]\nmodel = m.json\n", "mocapd.conf:4: [tracker]: missing key 'rig'");
@@ -255,6 +256,26 @@ static void test_cross_checks(void)
 	expect_error("[camera a]\ndriver = x\nrig_camera = left\n[camera b]\ndriver = x\nrig_camera = left\n"
 		     "[tracker]\nrig = r.json\nmodel = m.json\n",
 		     "mocapd.conf:6: [camera b] rig_camera: 'left' is already taken by [camera a] (line 3)");
+}
+
+/* [source] graph: instead of cameras and tracker (docs/MOTION_GRAPH.md). */
+static void test_source(void)
+{
+	mc_err err;
+	CHECK_MSG(parse("[source]\ngraph = walks.mg\nrate = 60\ngraph_kind = motion\nseed = 9\n", &err) == 0, "%s",
+		  err.msg);
+	CHECK(strcmp(cfg.source.graph, "/etc/mocapd/walks.mg") == 0 && cfg.source.rate == 60 &&
+	      cfg.source.kind == MC_EDGE_MOTION && cfg.source.seed == 9 && !cfg.tracker.enabled && cfg.ncams == 0);
+	CHECK(parse("[source]\ngraph = walks.mg\n", &err) == 0 && cfg.source.rate == 30 &&
+	      cfg.source.kind == MC_EDGE_ESSENTIAL && cfg.source.seed == 1);
+	expect_error(CAM "[source]\ngraph = walks.mg\n",
+		     "mocapd.conf:1: [camera left]: [source] graph replaces the cameras; remove one or the other");
+	expect_error("[tracker]\nrig = r.json\nmodel = m.json\n[source]\ngraph = walks.mg\n",
+		     "mocapd.conf:1: [tracker]: [source] graph replaces the tracker; remove one or the other");
+	CHECK(parse("[source]\ngraph = walks.mg\ngraph_kind = best\n", &err) == -1 && strstr(err.msg, "graph_kind"));
+	CHECK(parse("[source]\ngraph = walks.mg\nrate = 0\n", &err) == -1 && strstr(err.msg, "rate"));
+	/* no graph: cameras as usual */
+	CHECK(parse(CAM NOTRACK "[source]\nrate = 60\n", &err) == 0 && !cfg.source.graph[0]);
 }
 
 static void test_load_file(void)
@@ -443,6 +464,7 @@ static void test_reload(void)
 
 int main(void)
 {
+	test_source();
 	test_full_config();
 	test_defaults();
 	test_value_errors();

@@ -36,9 +36,9 @@ static int ticks(const char *text, size_t len, char out[][128], int max)
 static int section_of(const char *line)
 {
 	static const char *const heads[] = {"## [daemon]", "## [camera NAME]", "## [tracker]", "## [socket]",
-					    "## [detector]", "## [network]", "## [record]"};
+					    "## [detector]", "## [network]", "## [record]", "## [source]"};
 	static const mcd_section secs[] = {MCD_SEC_DAEMON, MCD_SEC_CAMERA, MCD_SEC_TRACKER, MCD_SEC_SOCKET,
-					   MCD_SEC_DETECTOR, MCD_SEC_NETWORK, MCD_SEC_RECORD};
+					   MCD_SEC_DETECTOR, MCD_SEC_NETWORK, MCD_SEC_RECORD, MCD_SEC_SOURCE};
 	for (int i = 0; i < MCD_NSECTIONS; i++)
 		if (strncmp(line, heads[i], strlen(heads[i])) == 0)
 			return (int)secs[i];

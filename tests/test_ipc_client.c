@@ -35,7 +35,7 @@
 /* The client library's public header cannot include the server's (it is
  * installed without the core): what both name must agree. */
 _Static_assert((int)MOCAP_CMD_RELOAD == MC_CONTROL_RELOAD && (int)MOCAP_CMD_RECORD_START == MC_CONTROL_RECORD_START &&
-		       (int)MOCAP_CMD_RECORD_STOP == MC_CONTROL_RECORD_STOP,
+		       (int)MOCAP_CMD_RECORD_STOP == MC_CONTROL_RECORD_STOP && (int)MOCAP_CMD_STEER == MC_CONTROL_STEER,
 	       "control commands");
 _Static_assert((int)MOCAP_TRACK_OK == SRV_TRACKER_OK && (int)MOCAP_TRACK_UNCERTAIN == SRV_TRACKER_UNCERTAIN &&
 		       (int)MOCAP_TRACK_LOST == SRV_TRACKER_LOST && (int)MOCAP_TRACK_IDLE == SRV_TRACKER_IDLE,

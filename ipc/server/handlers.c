@@ -228,10 +228,10 @@ static void handle_control(srv_server *srv, client *c, const proto_msg *m)
 	const mc_msg_control *ctl = &m->u.control;
 	if (!require_privilege(srv, c, m, "control"))
 		return;
-	if (ctl->command < MC_CONTROL_RELOAD || ctl->command > MC_CONTROL_RECORD_LIST) {
+	if (ctl->command < MC_CONTROL_RELOAD || ctl->command > MC_CONTROL_STEER) {
 		srv_reply_error(srv, c, m->h.request_id, m->h.type, PROTO_E_INVALID, false,
 				"unknown control command %u (1 reload, 2 record start, 3 record stop, 4 actor save, "
-				"5 record status, 6 record list)",
+				"5 record status, 6 record list, 7 steer)",
 				ctl->command);
 		return;
 	}

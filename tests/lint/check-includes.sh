@@ -5,7 +5,7 @@
 # drivers/ or tools/.  Exit 0 when the tree keeps the rule, 1 with every
 # offending line otherwise.  Usage: check-includes.sh [ROOT]
 cd "${1:-$(dirname "$0")/../..}" || exit 2
-order="base geom body image ring energy track eval"
+order="base geom body image ring energy track eval motion"
 rank() { i=0; for d in $order; do [ "$d" = "$1" ] && { echo $i; return; }; i=$((i + 1)); done; echo -1; }
 bad=0
 for dir in $order; do
