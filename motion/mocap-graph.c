@@ -8,6 +8,7 @@
  *   mocap-graph check GRAPH [--seconds S] [--seed N]
  *   mocap-graph compare [--alpha A,B,...] [options] [CLASS=]FILE...
  */
+#include "base/mc_file.h"
 #include "base/mc_time.h"
 #include "body/mc_model.h"
 #include "mc_install_paths.h" /* generated: MC_VERSION */
@@ -231,27 +232,39 @@ static double cpu_seconds(void)
 	return (double)(ru.ru_utime.tv_sec + ru.ru_stime.tv_sec) + (ru.ru_utime.tv_usec + ru.ru_stime.tv_usec) * 1e-6;
 }
 
+
+/* Loads the files into a database and builds its cost matrix (with
+ * progress on stderr when `progress` and not --quiet); returns the
+ * seconds the costs took. */
+static double build_costs(const options *o, char **files, int nfiles, bool progress_on, mc_motion_db *db,
+			  mc_cost_params *p, mc_cost_matrix *m)
+{
+	load_db(o, files, nfiles, db);
+	cost_params(o, p);
+	/* static: the graph build after this reports through the same callback */
+	static progress_state ps = {NULL, -5};
+	if (progress_on && !o->quiet) {
+		p->progress = progress;
+		p->progress_ctx = &ps;
+		fprintf(stderr, "%s: %d clips, %d frames at %g fps, %d threads\n", PROG, db->nclips, db->nframes, db->fps,
+			mc_motion_threads(p->threads));
+	}
+	mc_err err;
+	uint64_t t0 = mc_now_ns();
+	if (mc_cost_matrix_build(db, p, m, &err))
+		fail(1, "%s", err.msg);
+	return mc_ms_since(t0) / 1000;
+}
+
 static int cmd_build(const options *o, char **files, int nfiles)
 {
 	if (!o->out)
 		fail(2, "build: --out GRAPH is required");
 	mc_motion_db db;
-	load_db(o, files, nfiles, &db);
 	mc_cost_params p;
-	cost_params(o, &p);
-	progress_state ps = {NULL, -5};
-	if (!o->quiet) {
-		p.progress = progress;
-		p.progress_ctx = &ps;
-		fprintf(stderr, "%s: %d clips, %d frames at %g fps, %d threads\n", PROG, db.nclips, db.nframes, db.fps,
-			mc_motion_threads(p.threads));
-	}
-	mc_err err;
 	mc_cost_matrix m;
-	uint64_t t0 = mc_now_ns();
-	if (mc_cost_matrix_build(&db, &p, &m, &err))
-		fail(1, "%s", err.msg);
-	double t_cost = mc_ms_since(t0) / 1000;
+	mc_err err;
+	double t_cost = build_costs(o, files, nfiles, true, &db, &p, &m);
 	mc_motion_graph g;
 	mc_graph_stats st;
 	uint64_t t1 = mc_now_ns();
@@ -308,20 +321,6 @@ static mc_walker *start_walk(const options *o, const mc_motion_graph *g)
 	return w;
 }
 
-static FILE *open_out(const char *path)
-{
-	FILE *f = fopen(path, "w");
-	if (!f)
-		fail(1, "%s: %s", path, strerror(errno));
-	return f;
-}
-
-static void close_out(FILE *f, const char *path)
-{
-	if (ferror(f) | (fclose(f) != 0))
-		fail(1, "%s: write error", path);
-}
-
 /* The BVH and CSV outputs of walk and blend. */
 typedef struct {
 	const options *o;
@@ -334,8 +333,8 @@ typedef struct {
 static void writer_open(writer *wr, const options *o, const mc_motion_skel *skel, long n, double rate)
 {
 	*wr = (writer){.o = o, .skel = skel};
-	wr->bvh = o->bvh ? open_out(o->bvh) : NULL;
-	wr->csv = o->csv ? open_out(o->csv) : NULL;
+	wr->bvh = o->bvh ? mc_file_create_or_exit(PROG, o->bvh) : NULL;
+	wr->csv = o->csv ? mc_file_create_or_exit(PROG, o->csv) : NULL;
 	wr->def = malloc(sizeof(*wr->def));
 	wr->tp = calloc(1, sizeof(*wr->tp));
 	if (!wr->def || !wr->tp)
@@ -371,9 +370,9 @@ static void writer_pose(writer *wr, double t, int synthetic, const mc_vec3 *pose
 static void writer_close(writer *wr)
 {
 	if (wr->bvh)
-		close_out(wr->bvh, wr->o->bvh);
+		mc_file_close_or_exit(PROG, wr->bvh, wr->o->bvh);
 	if (wr->csv)
-		close_out(wr->csv, wr->o->csv);
+		mc_file_close_or_exit(PROG, wr->csv, wr->o->csv);
 	free(wr->def);
 	free(wr->tp);
 }
@@ -535,15 +534,10 @@ static int cmd_check(const options *o, const char *graph)
 static int cmd_compare(const options *o, char **files, int nfiles)
 {
 	mc_motion_db db;
-	load_db(o, files, nfiles, &db);
 	mc_cost_params p;
-	cost_params(o, &p);
-	mc_err err;
 	mc_cost_matrix m;
-	uint64_t t0 = mc_now_ns();
-	if (mc_cost_matrix_build(&db, &p, &m, &err))
-		fail(1, "%s", err.msg);
-	double t_cost = mc_ms_since(t0) / 1000;
+	mc_err err;
+	double t_cost = build_costs(o, files, nfiles, false, &db, &p, &m);
 	size_t n = (size_t)db.nframes;
 	uint8_t *keep = malloc(n * n);
 	if (!keep)

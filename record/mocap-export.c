@@ -9,6 +9,7 @@
  *
  * Only whole records are read: a take cut by a crash exports up to its last
  * whole frame (and says so). */
+#include "base/mc_file.h"
 #include "base/mc_math.h"
 #include "image/mc_image.h"
 #include "image/mc_pixfmt.h"
@@ -49,20 +50,6 @@ static void usage(FILE *f)
 		   "  -V, --version    the version\n");
 }
 
-static FILE *open_out(const char *path)
-{
-	FILE *f = fopen(path, "w");
-	if (!f)
-		fail(1, "%s: %s", path, strerror(errno));
-	return f;
-}
-
-static void close_out(FILE *f, const char *path)
-{
-	if (ferror(f) | (fclose(f) != 0))
-		fail(1, "%s: write error", path);
-}
-
 /* ---- BVH ---- */
 
 static double frame_time(const take_poses *t)
@@ -75,19 +62,19 @@ static double frame_time(const take_poses *t)
 
 static void export_bvh(const take_poses *t, const char *path)
 {
-	FILE *f = open_out(path);
+	FILE *f = mc_file_create_or_exit("mocap-export", path);
 	take_bvh_write_hierarchy(f, &t->def);
 	take_bvh_write_motion(f, t->nposes, frame_time(t));
 	for (int i = 0; i < t->nposes; i++)
 		take_bvh_write_pose(f, &t->def, &t->poses[i]);
-	close_out(f, path);
+	mc_file_close_or_exit("mocap-export", f, path);
 }
 
 /* ---- CSV and JSON ---- */
 
 static void export_csv(const take_poses *t, const char *path)
 {
-	FILE *f = open_out(path);
+	FILE *f = mc_file_create_or_exit("mocap-export", path);
 	fprintf(f, "seq,capture_ns,realtime_ns,state");
 	for (int j = 0; j < t->def.njoints; j++) {
 		const char *n = t->def.joints[j].name;
@@ -103,12 +90,12 @@ static void export_csv(const take_poses *t, const char *path)
 				p->joints[j].position[2], p->joints[j].confidence);
 		fputc('\n', f);
 	}
-	close_out(f, path);
+	mc_file_close_or_exit("mocap-export", f, path);
 }
 
 static void export_json(const take_poses *t, const char *path)
 {
-	FILE *f = open_out(path);
+	FILE *f = mc_file_create_or_exit("mocap-export", path);
 	fprintf(f, "{\"joints\": [");
 	for (int j = 0; j < t->def.njoints; j++)
 		fprintf(f, "%s{\"name\": \"%s\", \"parent\": %d}", j ? ", " : "", t->def.joints[j].name,
@@ -128,16 +115,16 @@ static void export_json(const take_poses *t, const char *path)
 		fprintf(f, "]}%s\n", i + 1 < t->nposes ? "," : "");
 	}
 	fprintf(f, " ],\n \"gap_frames\": %llu}\n", (unsigned long long)t->gap_frames);
-	close_out(f, path);
+	mc_file_close_or_exit("mocap-export", f, path);
 }
 
 /* ---- frames ---- */
 
 static void write_file(const char *path, const void *data, size_t n)
 {
-	FILE *f = open_out(path);
+	FILE *f = mc_file_create_or_exit("mocap-export", path);
 	fwrite(data, 1, n, f);
-	close_out(f, path);
+	mc_file_close_or_exit("mocap-export", f, path);
 }
 
 /* The record file of one camera of the take; exits when there is none. */

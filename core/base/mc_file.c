@@ -109,3 +109,17 @@ int mc_file_write_atomic(const char *path, const void *data, size_t n, mc_err *e
 	}
 	return 0;
 }
+
+FILE *mc_file_create_or_exit(const char *prog, const char *path)
+{
+	FILE *f = fopen(path, "w");
+	if (!f)
+		mc_fail_exit(prog, 1, "%s: %s", path, strerror(errno));
+	return f;
+}
+
+void mc_file_close_or_exit(const char *prog, FILE *f, const char *path)
+{
+	if (ferror(f) | (fclose(f) != 0))
+		mc_fail_exit(prog, 1, "%s: write error", path);
+}

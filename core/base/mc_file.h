@@ -12,6 +12,7 @@
 
 #include <stddef.h>
 #include <stdint.h>
+#include <stdio.h>
 
 /* Reads path into *data (malloc'ed, with a NUL byte after the *bytes read,
  * so that text can be parsed in place).  Errors name the file: "x.bvh: not
@@ -23,5 +24,11 @@ int mc_file_read(const char *path, size_t max_bytes, uint8_t **data, size_t *byt
  * renamed into place, and syncs the directory: a crash leaves the old file
  * or the new one, whole.  Errors name the file. */
 int mc_file_write_atomic(const char *path, const void *data, size_t n, mc_err *err);
+
+/* For command-line programs writing an output file: fopen(path, "w"), or
+ * exit 1 with "prog: path: reason"; and its fclose, exiting 1 with "prog:
+ * path: write error" when any write or the close failed (a full disk). */
+FILE *mc_file_create_or_exit(const char *prog, const char *path);
+void mc_file_close_or_exit(const char *prog, FILE *f, const char *path);
 
 #endif
