@@ -1,11 +1,25 @@
-/* Synthetic BVH clips for the motion tests: a CMU-named skeleton (the
+/* The motion tests' helpers: where mocap-graph is, and synthetic BVH clips: a CMU-named skeleton (the
  * older 131_01 naming) walking with swinging legs and arms, straight or
  * turning, written to a file.  No shared data needed. */
 #ifndef MOTION_FIXTURE_H
 #define MOTION_FIXTURE_H
 
+#include "test_util.h"
+
 #include <math.h>
 #include <stdio.h>
+
+/* BUILD/bin/mocap-graph beside this test's BUILD (BUILD/motion/tests/),
+ * into out; skips the test when it is not built. */
+static inline void find_graph_bin(char *out, size_t cap)
+{
+	char build[4096];
+	if (!mc_test_build_dir(3, build, sizeof(build)))
+		TEST_SKIP("cannot tell the build folder from /proc/self/exe");
+	snprintf(out, cap, "%s/bin/mocap-graph", build);
+	if (access(out, X_OK) != 0)
+		TEST_SKIP("%s is not built", out);
+}
 
 static const char fixture_hierarchy[] =
 	"HIERARCHY\n"
@@ -37,7 +51,7 @@ static const char fixture_hierarchy[] =
  * Channel order follows the hierarchy: Hips(6), LeftHip..LeftToe (4 x 3),
  * RightHip..RightToe (4 x 3), Chest, Head, LeftShoulder..LeftWrist,
  * RightShoulder..RightWrist (8 x 3): 6 + 16 x 3 = 54 values. */
-static int fixture_write(const char *path, double seconds, double fps, double period, double speed, double turn)
+static inline int fixture_write(const char *path, double seconds, double fps, double period, double speed, double turn)
 {
 	FILE *f = fopen(path, "w");
 	if (!f)

@@ -10,6 +10,7 @@
 #include "body/mc_bvh.h"
 #include "motion/mc_motion_param.h"
 #include "motion/mc_motion_synth.h"
+#include "motion_fixture.h"
 #include "test_util.h"
 
 static char graph_bin[4200]; /* BUILD/bin/mocap-graph, beside this test's BUILD */
@@ -189,12 +190,7 @@ static void test_command_lines(void)
 
 int main(void)
 {
-	char build[4096];
-	if (!mc_test_build_dir(3, build, sizeof(build)))
-		TEST_SKIP("cannot tell the build folder from /proc/self/exe");
-	snprintf(graph_bin, sizeof(graph_bin), "%s/bin/mocap-graph", build);
-	if (access(graph_bin, X_OK) != 0)
-		TEST_SKIP("%s is not built", graph_bin);
+	find_graph_bin(graph_bin, sizeof(graph_bin));
 	const char *d = mc_test_data_dir();
 	if (!d)
 		return 77;

@@ -529,12 +529,7 @@ static void test_command_line(void)
 
 int main(void)
 {
-	char build[4096];
-	if (!mc_test_build_dir(3, build, sizeof(build)))
-		TEST_SKIP("cannot tell the build folder from /proc/self/exe");
-	snprintf(graph_bin, sizeof(graph_bin), "%s/bin/mocap-graph", build);
-	if (access(graph_bin, X_OK) != 0)
-		TEST_SKIP("%s is not built", graph_bin);
+	find_graph_bin(graph_bin, sizeof(graph_bin));
 	snprintf(dir, sizeof(dir), "/tmp/test_motion_unit.XXXXXX");
 	if (!mkdtemp(dir)) {
 		perror("mkdtemp");
