@@ -258,6 +258,9 @@ int main(int argc, char **argv)
 		     .rate = 10, .width = 480, .quality = 75, .verbose = true};
 	parse_options(argc, argv, &o);
 	setvbuf(stdout, NULL, _IOLBF, 0);
+	int port = 0;
+	bool loopback = false;
+	int fd = listen_on(o.listen, &port, &loopback);
 	char index[4200];
 	snprintf(index, sizeof(index), "%s/index.html", o.www);
 	if (access(index, R_OK) != 0)
@@ -267,10 +270,6 @@ int main(int argc, char **argv)
 	load_model(&o, &model, &use_model);
 	char token[256];
 	bool show_token = load_token(o.token_file, token, sizeof(token));
-
-	int port = 0;
-	bool loopback = false;
-	int fd = listen_on(o.listen, &port, &loopback);
 
 	struct sigaction sa = {.sa_handler = on_signal};
 	sigemptyset(&sa.sa_mask);

@@ -3,6 +3,7 @@
 #include "preview_http.h"
 
 #include <fcntl.h>
+#include <stdarg.h>
 #include <microhttpd.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -192,14 +193,12 @@ static enum MHD_Result serve_control(struct MHD_Connection *conn, const http_con
 
 /* ---- routing ---- */
 
-/* On a loopback address only a loopback Host (DNS rebinding). */
-static bool host_ok(struct MHD_Connection *conn, const http_config *cfg)
+/* On a loopback address only a loopback Host (DNS rebinding).  host is
+ * the request's Host header. */
+static bool host_ok(const char *host, const http_config *cfg)
 {
 	if (!cfg->loopback)
 		return true;
-	const char *host = MHD_lookup_connection_value(conn, MHD_HEADER_KIND, "Host");
-	if (!host)
-		return false;
 	static const char *const names[] = {"127.0.0.1", "localhost", "[::1]"};
 	for (size_t i = 0; i < sizeof(names) / sizeof(names[0]); i++) {
 		size_t n = strlen(names[i]);
@@ -217,7 +216,7 @@ static bool is_control(const char *url)
 static enum MHD_Result on_request(void *cls, struct MHD_Connection *conn, const char *url, const char *method,
 				  const char *version, const char *upload_data, size_t *upload_data_size, void **con_cls)
 {
-	(void)version, (void)upload_data;
+	(void)upload_data;
 	const http_config *cfg = cls;
 	static int marker;
 	if (*con_cls == NULL) { /* headers only so far: wait for the body */
@@ -228,7 +227,11 @@ static enum MHD_Result on_request(void *cls, struct MHD_Connection *conn, const 
 		*upload_data_size = 0;
 		return MHD_YES;
 	}
-	if (!host_ok(conn, cfg))
+	/* HTTP/1.1 requires Host (RFC 9112 3.2); HTTP/1.0 clients may omit it. */
+	const char *host = MHD_lookup_connection_value(conn, MHD_HEADER_KIND, "Host");
+	if (!host && !strcmp(version, MHD_HTTP_VERSION_1_1))
+		return reply_error(conn, MHD_HTTP_BAD_REQUEST, "no Host header");
+	if (host && !host_ok(host, cfg))
 		return reply_error(conn, MHD_HTTP_FORBIDDEN, "Host not allowed");
 	bool get = !strcmp(method, MHD_HTTP_METHOD_GET) || !strcmp(method, MHD_HTTP_METHOD_HEAD);
 	if (is_control(url))
@@ -246,8 +249,12 @@ static enum MHD_Result on_request(void *cls, struct MHD_Connection *conn, const 
 static void log_mhd(void *cls, const char *fmt, va_list ap)
 {
 	(void)cls;
-	fprintf(stderr, "mocap-preview: http: ");
-	vfprintf(stderr, fmt, ap);
+	char msg[1024];
+	vsnprintf(msg, sizeof(msg), fmt, ap);
+	/* A page closed while its event stream was open: routine, not news. */
+	if (strstr(msg, "no longer available for sending"))
+		return;
+	fprintf(stderr, "mocap-preview: http: %s", msg);
 }
 
 preview_http *http_start(int listen_fd, const http_config *cfg, mc_err *err)
