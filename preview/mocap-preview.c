@@ -277,7 +277,7 @@ int main(int argc, char **argv)
 	sigaction(SIGTERM, &sa, NULL);
 	signal(SIGPIPE, SIG_IGN);
 
-	preview_hub *hub = hub_new();
+	preview_hub *hub = hub_new(o.verbose);
 	control_ctx cc = {.socket = o.socket};
 	http_config hc = {.www_dir = o.www, .three_dir = o.three, .token = token, .loopback = loopback, .port = port,
 			  .hub = hub, .control = control, .control_ctx = &cc};

@@ -35,13 +35,13 @@ $(MOCAP_PREVIEW): preview/mocap-preview.c $(PREVIEW_LINK_DEPS) $(INSTALL_PATHS_H
 # The tests run mocapd on the bundled clip (files driver) and mocap-preview.
 $(BUILD)/preview/tests/%: preview/tests/%.c $(PREVIEW_LINK_DEPS) \
 		| $(MOCAP_PREVIEW) $(BUILD)/bin/mocapd $(BUILD)/drivers/mocap-driver-files.so
-	@mkdir -p $(@D)
+	@mkdir -p $(@D) $(BUILD)/tests
 	$(CC) $(CPPFLAGS) -Ipreview -Iipc -Itests $(CFLAGS) -MMD -MP $< -o $@ $(LDFLAGS) $(PREVIEW_LINK)
 
 # The daemon's tracking time with and without one open page (docs/BENCHMARKS.md).
 .PHONY: bench-preview
 bench-preview: $(MOCAP_PREVIEW) $(BUILD)/bin/mocapd $(BUILD)/bin/mocapctl $(BUILD)/drivers/mocap-driver-files.so
-	preview/bench_preview.sh $(BUILD)
+	/usr/bin/python3 preview/bench_preview.py $(BUILD)
 
 .PHONY: install-preview uninstall-preview
 install: install-preview

@@ -22,7 +22,7 @@ struct preview_hub {
 	hub_slot slot[HUB_MAX_SLOTS];
 	uint64_t version;
 	int readers;
-	bool stopped;
+	bool stopped, log_pages;
 };
 
 struct hub_reader {
@@ -32,11 +32,12 @@ struct hub_reader {
 	size_t len, off;
 };
 
-preview_hub *hub_new(void)
+preview_hub *hub_new(bool log_pages)
 {
 	preview_hub *h = calloc(1, sizeof(*h));
 	if (!h)
 		return NULL;
+	h->log_pages = log_pages;
 	pthread_mutex_init(&h->lock, NULL);
 	pthread_condattr_t a;
 	pthread_condattr_init(&a);
@@ -98,8 +99,10 @@ hub_reader *hub_reader_new(preview_hub *h)
 		return NULL;
 	r->hub = h;
 	pthread_mutex_lock(&h->lock);
-	h->readers++;
+	int n = ++h->readers;
 	pthread_mutex_unlock(&h->lock);
+	if (h->log_pages)
+		printf("mocap-preview: a page opened (%d open)\n", n);
 	/* A page asks for its first events at once: "retry" tells the browser
 	 * how soon to reconnect if the stream breaks. */
 	r->pending = strdup("retry: 1000\n\n");
@@ -112,8 +115,10 @@ void hub_reader_free(hub_reader *r)
 	if (!r)
 		return;
 	pthread_mutex_lock(&r->hub->lock);
-	r->hub->readers--;
+	int n = --r->hub->readers;
 	pthread_mutex_unlock(&r->hub->lock);
+	if (r->hub->log_pages)
+		printf("mocap-preview: a page closed (%d open)\n", n);
 	free(r->pending);
 	free(r);
 }

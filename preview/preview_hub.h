@@ -10,6 +10,7 @@
 #ifndef PREVIEW_HUB_H
 #define PREVIEW_HUB_H
 
+#include <stdbool.h>
 #include <stddef.h>
 #include <stdint.h>
 
@@ -18,7 +19,8 @@
 typedef struct preview_hub preview_hub;
 typedef struct hub_reader hub_reader;
 
-preview_hub *hub_new(void);
+/* log_pages: say on stdout when a page opens or closes its stream. */
+preview_hub *hub_new(bool log_pages);
 /* Wakes every reader (they end their streams); hub_free after the HTTP
  * server stopped. */
 void hub_stop(preview_hub *h);
