@@ -3,16 +3,18 @@
 
 mocapd tracks the bundled clip (tests/data/ego_demo, files driver, both
 cameras at 15 fps, looping) with mocap-preview connected throughout.  The
-run alternates phases without a page and with one open page (headless
-Chromium kept open on http://127.0.0.1:PORT/, so mocap-preview encodes the
-camera views and the browser draws them and the 3D view on this machine
-too).  Each second `mocapctl status --json` gives the daemon's mean
-tracking time over that second; a phase's figure is their mean weighted by
-the frames tracked.  Alternating phases spreads the load of anything else
-on the machine over both conditions.  Also printed: the CPU time of
-mocap-preview and of Chromium (all its processes) per second of phase.
+run cycles through three phases: no page open; one open page (headless
+Chromium kept open on http://127.0.0.1:PORT/, so that mocap-preview
+encodes the camera views and the browser draws them and the 3D view, on
+this machine too); and the same page in a browser run at nice 10 (as
+docs/PREVIEW.md suggests for a browser on the tracking machine).  Each
+second `mocapctl status --json` gives the daemon's mean tracking time over
+that second; a phase's figure is their mean weighted by the frames
+tracked.  Cycling spreads the load of anything else on the machine over
+the conditions.  Also printed: the CPU time of mocap-preview and of
+Chromium (all its processes) per second of phase.
 
-usage: preview/bench_preview.py BUILD [--phases N] [--seconds S]
+usage: preview/bench_preview.py BUILD [--rounds N] [--seconds S]
 (run from the repository root; `make bench-preview` does).
 """
 import argparse
@@ -81,10 +83,11 @@ def cpu_model():
 
 
 def main():
+    sys.stdout.reconfigure(line_buffering=True)  # each phase as it ends, also into a pipe
     ap = argparse.ArgumentParser()
     ap.add_argument("build")
-    ap.add_argument("--phases", type=int, default=3, help="pairs of phases (without, with a page)")
-    ap.add_argument("--seconds", type=int, default=20, help="seconds measured per phase")
+    ap.add_argument("--rounds", type=int, default=4, help="rounds of the three phases")
+    ap.add_argument("--seconds", type=int, default=15, help="seconds measured per phase")
     a = ap.parse_args()
     build, repo = os.path.abspath(a.build), os.getcwd()
     chromium = shutil.which("chromium") or shutil.which("chromium-browser")
@@ -121,7 +124,7 @@ path = {sock}
         daemon = subprocess.Popen([f"{build}/bin/mocapd", "-c", f"{tmp}/t.conf"],
                                   stdout=subprocess.DEVNULL, stderr=open(f"{tmp}/mocapd.txt", "w"))
         procs.append(daemon)
-        wait_for(lambda: os.path.exists(sock) and (status(build, sock) or {}).get("tracker") == "ok", 120,
+        wait_for(lambda: os.path.exists(sock) and (status(build, sock) or {}).get("tracker_state") == "ok", 120,
                  "mocapd did not start tracking")
         out = open(f"{tmp}/preview.txt", "w+")
         preview = subprocess.Popen([f"{build}/bin/mocap-preview", "--socket", sock, "--listen", "127.0.0.1:0",
@@ -136,15 +139,16 @@ path = {sock}
         port = int(log().split("serving http://127.0.0.1:")[1].split("/")[0])
         time.sleep(3)
         print(f"bench-preview: {cpu_model()}, {os.cpu_count()} CPUs; mocapd on tests/data/ego_demo (2 cameras, "
-              f"15 fps, 256x256 MJPEG); {a.phases} x 2 phases of {a.seconds} s")
-        results = {"without": [], "with": []}
-        for i in range(2 * a.phases):
-            cond = "with" if i % 2 else "without"
+              f"15 fps, 256x256 MJPEG); {a.rounds} x 3 phases of {a.seconds} s")
+        conds = ["without", "with", "with-nice"]
+        results = {k: [] for k in conds}
+        for i in range(3 * a.rounds):
+            cond = conds[i % 3]
             browser = None
-            if cond == "with":
+            if cond != "without":
                 opened = log().count("a page opened")
                 browser = subprocess.Popen(
-                    [chromium, "--headless=new", "--no-sandbox", "--disable-gpu", "--enable-unsafe-swiftshader",
+                    (["nice", "-n", "10"] if cond == "with-nice" else []) + [chromium, "--headless=new", "--no-sandbox", "--disable-gpu", "--enable-unsafe-swiftshader",
                      f"--user-data-dir={tmp}/chromium", "--no-first-run", "--disable-extensions",
                      "--disable-background-networking", "--window-size=1400,900", "--remote-debugging-port=0",
                      f"http://127.0.0.1:{port}/"],
@@ -168,7 +172,7 @@ path = {sock}
             mean = sum(ms * f for ms, f in samples) / w if w else float("nan")
             fps = w / len(samples) if samples else 0
             results[cond].append(mean)
-            print(f"phase {i + 1} {cond:7s} a page: tracking {mean:7.1f} ms mean, {fps:4.1f} fps tracked; "
+            print(f"phase {i + 1:2d} {cond:9s} a page: tracking {mean:7.1f} ms mean, {fps:4.1f} fps tracked; "
                   f"mocap-preview {100 * pcpu:4.1f}% of a CPU, chromium {100 * bcpu:5.1f}%")
             if browser:
                 os.killpg(browser.pid, signal.SIGTERM)
@@ -177,8 +181,10 @@ path = {sock}
                 time.sleep(2)
         off = sum(results["without"]) / len(results["without"])
         on = sum(results["with"]) / len(results["with"])
-        print(f"RESULT bench-preview: tracking {off:.1f} ms without a page, {on:.1f} ms with one open page: "
-              f"{100 * (on - off) / off:+.1f}%")
+        nice = sum(results["with-nice"]) / len(results["with-nice"])
+        print(f"RESULT bench-preview: tracking {off:.1f} ms without a page, {on:.1f} ms with one open page "
+              f"({100 * (on - off) / off:+.1f}%), {nice:.1f} ms with the browser at nice 10 "
+              f"({100 * (nice - off) / off:+.1f}%)")
     finally:
         for p in reversed(procs):
             if p.poll() is None:

@@ -26,6 +26,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <sys/random.h>
+#include <sys/resource.h>
 #include <sys/socket.h>
 #include <sys/stat.h>
 #include <unistd.h>
@@ -35,6 +36,7 @@
 #define DEFAULT_THREE "/usr/share/javascript/three"
 #define DEFAULT_MODEL MC_INSTALL_DATA_DIR "/models/default.json"
 #define TOKEN_ENV "MOCAP_PREVIEW_TOKEN"
+#define PREVIEW_NICE 10
 
 static volatile sig_atomic_t stop;
 static void on_signal(int sig) { (void)sig; stop = 1; }
@@ -258,6 +260,10 @@ int main(int argc, char **argv)
 		     .rate = 10, .width = 480, .quality = 75, .verbose = true};
 	parse_options(argc, argv, &o);
 	setvbuf(stdout, NULL, _IOLBF, 0);
+	/* The preview yields the CPU to the daemon: where both want it, the
+	 * tracking goes first (nice 10; threads made later inherit it). */
+	if (setpriority(PRIO_PROCESS, 0, PREVIEW_NICE) != 0 && o.verbose)
+		fprintf(stderr, "mocap-preview: cannot lower its priority: %s\n", strerror(errno));
 	int port = 0;
 	bool loopback = false;
 	int fd = listen_on(o.listen, &port, &loopback);

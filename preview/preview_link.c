@@ -215,24 +215,29 @@ static void post_frames(link_state *s)
 
 static uint64_t min_u64(uint64_t a, uint64_t b) { return a < b ? a : b; }
 
-/* Connected: frames, status, views until the daemon goes away. */
+/* Connected: frames, status, views until the daemon goes away.  Sleeps
+ * in mocap_read_frame until a skeleton comes or the next status, view or
+ * held-back skeleton is due: never spins. */
 static void serve(link_state *s)
 {
 	const link_config *cfg = s->cfg;
 	const uint64_t frame_period = (uint64_t)(1e9 / cfg->rate), skeleton_period = MC_NS_PER_S / 20;
 	uint64_t now = mc_now_ns(), next_status = now, next_frames = now, next_skeleton = now;
+	bool skeleton_held = false; /* a skeleton came sooner than skeleton_period after the last one */
 	static mocap_skeleton_frame f; /* 9 KB: not on the stack */
 	while (!*cfg->stop) {
 		now = mc_now_ns();
-		uint64_t due = min_u64(next_status, hub_readers(cfg->hub) > 0 ? min_u64(next_frames, next_skeleton) : next_status);
-		int wait_ms = due > now ? (int)((due - now) / MC_NS_PER_MS) : 0;
+		bool readers = hub_readers(cfg->hub) > 0;
+		uint64_t due = next_status;
+		if (readers)
+			due = min_u64(due, skeleton_held ? min_u64(next_frames, next_skeleton) : next_frames);
+		int wait_ms = due > now ? (int)((due - now + MC_NS_PER_MS - 1) / MC_NS_PER_MS) : 0;
 		int rc = mocap_read_frame(s->c, &f, wait_ms > 200 ? 200 : wait_ms);
 		if (rc < 0 || (rc == 1 && take_frame(s, &f) < 0)) {
 			set_message(s, "lost mocapd: %s; connecting again", mocap_errmsg());
 			return;
 		}
 		now = mc_now_ns();
-		bool readers = hub_readers(cfg->hub) > 0;
 		if (now >= next_status || atomic_exchange(cfg->status_now, 0)) {
 			static mocap_daemon_status st;
 			if (mocap_get_status(s->c, &st) < 0) {
@@ -245,8 +250,12 @@ static void serve(link_state *s)
 			}
 			post_status(s, &st);
 		}
-		if (readers && s->have_frame && rc == 1 && now >= next_skeleton) {
+		skeleton_held |= rc == 1;
+		if (!readers)
+			skeleton_held = false;
+		if (skeleton_held && now >= next_skeleton) {
 			post_skeleton(s);
+			skeleton_held = false;
 			next_skeleton = now + skeleton_period;
 		}
 		if (readers && now >= next_frames) {

@@ -84,9 +84,11 @@ void preview_overlay_set(preview_overlay *ov, const mocap_skeleton_def *def, con
 }
 
 /* The outline of a sphere as the camera sees it: the circle of its radius
- * about its centre, square to the ray from the camera (a fisheye bends it,
- * so it goes through mc_draw_segment). */
-static void draw_sphere_outline(mc_canvas *im, const mc_camera *cam, mc_vec3 c, double radius)
+ * about its centre, square to the ray from the camera, through 16 points.
+ * Each piece is short, so it is drawn straight even through a fisheye
+ * (projecting every piece in steps, as mc_draw_segment does, cost the most
+ * CPU of the whole preview). */
+static void draw_sphere_outline(mc_canvas *im, const mc_camera *cam, mc_xform cam_from_rig, mc_vec3 c, double radius)
 {
 	mc_vec3 ray = mc_v3_sub(c, cam->rig_from_cam.t);
 	if (mc_v3_norm(ray) < 1e-6)
@@ -95,19 +97,24 @@ static void draw_sphere_outline(mc_canvas *im, const mc_camera *cam, mc_vec3 c, 
 	mc_vec3 any = fabs(ray.x) < 0.9 ? mc_v3(1, 0, 0) : mc_v3(0, 1, 0);
 	mc_vec3 e1 = mc_v3_normalize(mc_v3_cross(ray, any)), e2 = mc_v3_cross(ray, e1);
 	const int pieces = 16;
-	mc_vec3 prev = mc_v3_axpy(radius, e1, c);
-	for (int i = 1; i <= pieces; i++) {
-		double a = 2 * M_PI * i / pieces;
+	double px = 0, py = 0;
+	bool prev = false;
+	for (int i = 0; i <= pieces; i++) {
+		double a = 2 * M_PI * i / pieces, u, v;
 		mc_vec3 p = mc_v3_add(c, mc_v3_add(mc_v3_scale(e1, radius * cos(a)), mc_v3_scale(e2, radius * sin(a))));
-		mc_draw_segment(im, cam, prev, p, 1.0, PREVIEW_GAUSS_COLOR);
-		prev = p;
+		bool ok = mc_camera_project(cam, mc_xform_apply(cam_from_rig, p), &u, &v);
+		double x = (u + 0.5) * im->width / cam->width - 0.5, y = (v + 0.5) * im->height / cam->height - 0.5;
+		if (ok && prev)
+			mc_draw_line(im, px, py, x, y, 1.0, PREVIEW_GAUSS_COLOR);
+		prev = ok, px = x, py = y;
 	}
 }
 
 static void draw_overlay(mc_canvas *im, const mc_camera *cam, const preview_overlay *ov)
 {
+	mc_xform cam_from_rig = mc_xform_inverse(cam->rig_from_cam);
 	for (int g = 0; g < ov->ngauss; g++)
-		draw_sphere_outline(im, cam, ov->gauss_centre[g], ov->gauss_radius[g]);
+		draw_sphere_outline(im, cam, cam_from_rig, ov->gauss_centre[g], ov->gauss_radius[g]);
 	const char *names[MC_MAX_JOINTS];
 	for (int j = 0; j < ov->njoints; j++)
 		names[j] = ov->names[j];

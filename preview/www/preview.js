@@ -13,7 +13,9 @@ if (params.get('token')) {
 const token = sessionStorage.getItem('mocap-token') || '';
 
 const $ = (id) => document.getElementById(id);
-const confColour = (c) => `hsl(${Math.round(120 * Math.max(0, Math.min(1, c)))}, 75%, 50%)`;
+/* Confidence in ten steps: the page changes only when a step does (each
+ * change costs the browser a repaint). */
+const confColour = (c) => `hsl(${12 * Math.round(10 * Math.max(0, Math.min(1, c)))}, 75%, 50%)`;
 
 /* ---- camera views ---- */
 const camViews = [];
@@ -47,7 +49,8 @@ function toView(p) {
 }
 
 function makeWebGLView(el) {
-  const renderer = new THREE.WebGLRenderer({ antialias: true, preserveDrawingBuffer: true });
+  /* No antialiasing: without a GPU (SwiftShader) it is most of the page's CPU. */
+  const renderer = new THREE.WebGLRenderer({ antialias: false });
   renderer.setClearColor(0x0e1014);
   el.append(renderer.domElement);
   const scene = new THREE.Scene();
@@ -165,16 +168,20 @@ function onSkeleton(d) {
     });
   }
   d.joints.forEach((j, i) => {
-    jointCells[i].style.background = confColour(j.c);
-    jointCells[i].title = `${j.name}: confidence ${j.c.toFixed(2)}`;
+    const colour = confColour(j.c);
+    if (jointCells[i].dataset.colour !== colour) {
+      jointCells[i].dataset.colour = colour;
+      jointCells[i].style.background = colour;
+      jointCells[i].title = `${j.name}: confidence ${j.c.toFixed(1)}`;
+    }
   });
   setBadge($('tracker'), 'tracker: ' + d.state, { ok: 'ok', uncertain: 'warn', lost: 'bad' }[d.state] || 'off');
 }
 
 /* ---- status ---- */
 function setBadge(el, text, kind) {
-  el.textContent = text;
-  el.className = 'badge ' + kind;
+  if (el.textContent !== text) el.textContent = text;
+  if (el.className !== 'badge ' + kind) el.className = 'badge ' + kind;
 }
 
 function onStatus(d) {
