@@ -2,17 +2,28 @@
 """bench-preview: what one open preview page costs mocapd's tracking.
 
 mocapd tracks the bundled clip (tests/data/ego_demo, files driver, both
-cameras at 15 fps, looping) with mocap-preview connected throughout.  The
-run cycles through three phases: no page open; one open page (headless
-Chromium kept open on http://127.0.0.1:PORT/, so that mocap-preview
-encodes the camera views and the browser draws them and the 3D view, on
-this machine too); and the same page in a browser run at nice 10 (as
-docs/PREVIEW.md suggests for a browser on the tracking machine).  Each
-second `mocapctl status --json` gives the daemon's mean tracking time over
-that second; a phase's figure is their mean weighted by the frames
-tracked.  Cycling spreads the load of anything else on the machine over
-the conditions.  Also printed: the CPU time of mocap-preview and of
-Chromium (all its processes) per second of phase.
+cameras at 15 fps, looping) with mocap-preview connected throughout.  Each
+round has four phases:
+
+  without   no page open: mocap-preview only follows the skeleton and the
+            status;
+  stream    one open event stream read by curl, which draws nothing: what
+            mocap-preview itself costs when the page is shown on another
+            machine (it encodes the camera views as for a page);
+  browser   one open page in headless Chromium on this machine (it decodes
+            and shows the views and draws the 3D view);
+  nice      the same page in a Chromium run at nice 10, as docs/PREVIEW.md
+            suggests for a browser on the tracking machine.
+
+Each second `mocapctl status --json` gives the daemon's mean tracking time
+over that second; a phase's figure is their mean weighted by the frames
+tracked.  Each condition is compared with the "without" phase of its own
+round (the median of the rounds is the result), so that a load elsewhere
+on the machine that comes and goes weighs on both sides.  Also printed:
+the CPU time of mocap-preview and of the browser (all its processes) per
+second of phase.  Everything runs in this process's session, so that nice
+values count against the daemon's (the kernel's autogroups would otherwise
+give each session an equal share whatever its nice value).
 
 usage: preview/bench_preview.py BUILD [--rounds N] [--seconds S]
 (run from the repository root; `make bench-preview` does).
@@ -86,7 +97,7 @@ def main():
     sys.stdout.reconfigure(line_buffering=True)  # each phase as it ends, also into a pipe
     ap = argparse.ArgumentParser()
     ap.add_argument("build")
-    ap.add_argument("--rounds", type=int, default=4, help="rounds of the three phases")
+    ap.add_argument("--rounds", type=int, default=4, help="rounds of the four phases")
     ap.add_argument("--seconds", type=int, default=15, help="seconds measured per phase")
     a = ap.parse_args()
     build, repo = os.path.abspath(a.build), os.getcwd()
@@ -139,25 +150,30 @@ path = {sock}
         port = int(log().split("serving http://127.0.0.1:")[1].split("/")[0])
         time.sleep(3)
         print(f"bench-preview: {cpu_model()}, {os.cpu_count()} CPUs; mocapd on tests/data/ego_demo (2 cameras, "
-              f"15 fps, 256x256 MJPEG); {a.rounds} x 3 phases of {a.seconds} s")
-        conds = ["without", "with", "with-nice"]
+              f"15 fps, 256x256 MJPEG); {a.rounds} rounds of 4 phases of {a.seconds} s")
+        conds = ["without", "stream", "browser", "nice"]
         results = {k: [] for k in conds}
-        for i in range(3 * a.rounds):
-            cond = conds[i % 3]
-            browser = None
-            if cond != "without":
-                opened = log().count("a page opened")
-                browser = subprocess.Popen(
-                    (["nice", "-n", "10"] if cond == "with-nice" else []) + [chromium, "--headless=new", "--no-sandbox", "--disable-gpu", "--enable-unsafe-swiftshader",
-                     f"--user-data-dir={tmp}/chromium", "--no-first-run", "--disable-extensions",
-                     "--disable-background-networking", "--window-size=1400,900", "--remote-debugging-port=0",
-                     f"http://127.0.0.1:{port}/"],
-                    stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
-                procs.append(browser)
+        for i in range(len(conds) * a.rounds):
+            cond = conds[i % len(conds)]
+            client = None
+            opened = log().count("a page opened")
+            if cond == "stream":
+                client = subprocess.Popen(["curl", "-sN", f"http://127.0.0.1:{port}/events"],
+                                          stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+            elif cond in ("browser", "nice"):
+                client = subprocess.Popen(
+                    (["nice", "-n", "10"] if cond == "nice" else []) + [
+                        chromium, "--headless=new", "--no-sandbox", "--disable-gpu", "--enable-unsafe-swiftshader",
+                        f"--user-data-dir={tmp}/chromium", "--no-first-run", "--disable-extensions",
+                        "--disable-background-networking", "--window-size=1400,900", "--remote-debugging-port=0",
+                        f"http://127.0.0.1:{port}/"],
+                    stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+            if client:
+                procs.append(client)
                 wait_for(lambda: log().count("a page opened") > opened, 60, "the page did not open")
                 time.sleep(3)  # the page loaded and drawing
             c0 = cpu_seconds(preview.pid)
-            b0 = sum(cpu_seconds(p) for p in tree(browser.pid)) if browser else 0
+            b0 = sum(cpu_seconds(p) for p in tree(client.pid)) if client else 0
             samples = []
             t0 = time.monotonic()
             while time.monotonic() - t0 < a.seconds:
@@ -167,24 +183,33 @@ path = {sock}
                     samples.append((s["track_ms_mean"], s["publish_fps"]))
             dt = time.monotonic() - t0
             pcpu = (cpu_seconds(preview.pid) - c0) / dt
-            bcpu = (sum(cpu_seconds(p) for p in tree(browser.pid)) - b0) / dt if browser else 0
+            bcpu = (sum(cpu_seconds(p) for p in tree(client.pid)) - b0) / dt if client else 0
             w = sum(f for _, f in samples)
             mean = sum(ms * f for ms, f in samples) / w if w else float("nan")
             fps = w / len(samples) if samples else 0
             results[cond].append(mean)
-            print(f"phase {i + 1:2d} {cond:9s} a page: tracking {mean:7.1f} ms mean, {fps:4.1f} fps tracked; "
-                  f"mocap-preview {100 * pcpu:4.1f}% of a CPU, chromium {100 * bcpu:5.1f}%")
-            if browser:
-                os.killpg(browser.pid, signal.SIGTERM)
-                browser.wait(timeout=20)
-                procs.remove(browser)
+            print(f"round {i // len(conds) + 1} {cond:8s}: tracking {mean:6.1f} ms mean, {fps:4.1f} fps tracked; "
+                  f"mocap-preview {100 * pcpu:4.1f}% of a CPU, the page's client {100 * bcpu:5.1f}%")
+            if client:
+                pids = tree(client.pid)
+                for p in reversed(pids):  # the browser's helpers too, by their pids
+                    try:
+                        os.kill(p, signal.SIGTERM)
+                    except OSError:
+                        pass
+                client.wait(timeout=20)
+                procs.remove(client)
+                wait_for(lambda: log().count("a page closed") >= log().count("a page opened"), 20,
+                         "the page did not close")
                 time.sleep(2)
-        off = sum(results["without"]) / len(results["without"])
-        on = sum(results["with"]) / len(results["with"])
-        nice = sum(results["with-nice"]) / len(results["with-nice"])
-        print(f"RESULT bench-preview: tracking {off:.1f} ms without a page, {on:.1f} ms with one open page "
-              f"({100 * (on - off) / off:+.1f}%), {nice:.1f} ms with the browser at nice 10 "
-              f"({100 * (nice - off) / off:+.1f}%)")
+        base = results["without"]
+        line = []
+        for cond in conds[1:]:
+            rel = sorted(100 * (x - b) / b for x, b in zip(results[cond], base))
+            med = rel[len(rel) // 2] if len(rel) % 2 else (rel[len(rel) // 2 - 1] + rel[len(rel) // 2]) / 2
+            line.append(f"{cond} {med:+.1f}% (rounds: {', '.join(f'{r:+.0f}' for r in rel)})")
+        print(f"RESULT bench-preview: tracking {sum(base) / len(base):.1f} ms without a page; median change per round: "
+              + "; ".join(line))
     finally:
         for p in reversed(procs):
             if p.poll() is None:
