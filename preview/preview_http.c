@@ -241,6 +241,8 @@ static enum MHD_Result on_request(void *cls, struct MHD_Connection *conn, const 
 		if (!strcmp(url, files[i].path))
 			return get ? serve_file(conn, cfg, &files[i])
 				   : reply_error(conn, MHD_HTTP_METHOD_NOT_ALLOWED, "use GET");
+	if (!strcmp(url, "/favicon.ico")) /* browsers ask; none, and no error for it */
+		return reply_text(conn, MHD_HTTP_NO_CONTENT, "image/x-icon", "");
 	if (!strcmp(url, "/events"))
 		return get ? serve_events(conn, cfg) : reply_error(conn, MHD_HTTP_METHOD_NOT_ALLOWED, "use GET");
 	return reply_error(conn, MHD_HTTP_NOT_FOUND, "not found");

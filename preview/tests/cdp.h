@@ -2,7 +2,8 @@
  * headless Chromium with --remote-debugging-pipe (commands on its fd 3,
  * replies and events on its fd 4, JSON messages ending in a NUL byte), so
  * that no WebSocket is needed.  Records the URL of every request the page
- * makes (Network.requestWillBeSent). */
+ * makes (Network.requestWillBeSent), and the page's exceptions and console
+ * errors (a Content-Security-Policy violation is one). */
 #ifndef PREVIEW_CDP_H
 #define PREVIEW_CDP_H
 
@@ -17,6 +18,7 @@ typedef struct {
 	size_t len, cap;
 	int next_id;
 	json_t *urls; /* every request's URL */
+	json_t *errors; /* exceptions thrown in the page, and console errors */
 } cdp;
 
 /* Moves fd to a descriptor number above 10 (so that dup2 onto 3 and 4
@@ -35,6 +37,7 @@ static inline bool cdp_start(cdp *c, const char *chromium, const char *const *ar
 	if (pipe(in) != 0 || pipe(out) != 0)
 		return false;
 	c->urls = json_array();
+	c->errors = json_array();
 	c->pid = fork();
 	if (c->pid == 0) {
 		int r = cdp_high_fd(in[0]), w = cdp_high_fd(out[1]);
@@ -96,10 +99,17 @@ static inline json_t *cdp_next(cdp *c, int ms)
 static inline void cdp_event(cdp *c, json_t *m)
 {
 	const char *method = json_string_value(json_object_get(m, "method"));
+	json_t *params = json_object_get(m, "params");
 	if (method && !strcmp(method, "Network.requestWillBeSent")) {
-		json_t *url = json_object_get(json_object_get(json_object_get(m, "params"), "request"), "url");
+		json_t *url = json_object_get(json_object_get(params, "request"), "url");
 		if (json_is_string(url))
 			json_array_append(c->urls, url);
+	} else if (method && !strcmp(method, "Runtime.exceptionThrown")) {
+		json_array_append(c->errors, json_object_get(params, "exceptionDetails"));
+	} else if (method && !strcmp(method, "Log.entryAdded")) {
+		json_t *entry = json_object_get(params, "entry");
+		if (!strcmp(json_string_value(json_object_get(entry, "level")) ?: "", "error"))
+			json_array_append(c->errors, entry);
 	}
 }
 
@@ -159,6 +169,7 @@ static inline int cdp_close(cdp *c)
 	int rc = mcd_wait_pid(c->pid, 15000);
 	free(c->buf);
 	json_decref(c->urls);
+	json_decref(c->errors);
 	return rc;
 }
 

@@ -7,7 +7,9 @@
  * views (it is live).  The page needs no network: every request it makes
  * goes to mocap-preview's own origin, and Chromium runs with a proxy that
  * leads nowhere, so anything else would fail.  With the token in its
- * address the page's Record and Stop buttons start and stop a take.
+ * address the page's Record and Stop buttons start and stop a take.  The
+ * page throws no exception and logs no error (nor a Content-Security-Policy
+ * violation).
  *
  * MOCAP_PREVIEW_SHOT=FILE keeps the first screenshot (docs/images). */
 #include "cdp.h"
@@ -261,6 +263,8 @@ int main(void)
 	if (session) {
 		json_decref(cdp_call(&c, session, "Network.enable", NULL, 20000));
 		json_decref(cdp_call(&c, session, "Page.enable", NULL, 20000));
+		json_decref(cdp_call(&c, session, "Runtime.enable", NULL, 20000));
+		json_decref(cdp_call(&c, session, "Log.enable", NULL, 20000));
 		char url[256];
 		snprintf(url, sizeof(url), "http://127.0.0.1:%d/?token=%s", p.port, p.token);
 		json_decref(cdp_call(&c, session, "Page.navigate", json_pack("{s:s}", "url", url), 30000));
@@ -280,6 +284,9 @@ int main(void)
 		free(s2.rgb);
 		check_buttons(&c, session, layout, r.sock);
 		check_requests(&c, p.port);
+		char *errors = json_dumps(c.errors, JSON_COMPACT);
+		CHECK_MSG(json_array_size(c.errors) == 0, "the page reported errors: %s", errors);
+		free(errors);
 		json_decref(layout);
 	}
 	json_decref(t);
