@@ -3,6 +3,7 @@
 #include "preview_http.h"
 
 #include <fcntl.h>
+#include <jansson.h>
 #include <stdarg.h>
 #include <microhttpd.h>
 #include <stdio.h>
@@ -173,22 +174,14 @@ static enum MHD_Result serve_control(struct MHD_Connection *conn, const http_con
 		cmd = MOCAP_CMD_RELOAD;
 	char msg[1024] = "";
 	int rc = cfg->control(cfg->control_ctx, cmd, arg ? arg : "", msg, sizeof(msg));
-	char body[1400];
-	/* The message is the daemon's, JSON-escaped by hand: quotes, backslashes, controls. */
-	char esc[1100];
-	size_t k = 0;
-	for (const char *p = msg; *p && k + 7 < sizeof(esc); p++) {
-		unsigned char ch = (unsigned char)*p;
-		if (ch == '"' || ch == '\\')
-			k += (size_t)snprintf(esc + k, sizeof(esc) - k, "\\%c", ch);
-		else if (ch < 0x20)
-			k += (size_t)snprintf(esc + k, sizeof(esc) - k, "\\u%04x", ch);
-		else
-			esc[k++] = (char)ch;
-	}
-	esc[k] = 0;
-	snprintf(body, sizeof(body), "{\"ok\":%s,\"message\":\"%s\"}\n", rc == 0 ? "true" : "false", esc);
-	return reply_text(conn, status_for(rc), "application/json", body);
+	json_t *o = json_pack("{s:b, s:s}", "ok", rc == 0, "message", msg);
+	char *body = o ? json_dumps(o, JSON_COMPACT) : NULL;
+	json_decref(o);
+	if (!body)
+		return MHD_NO;
+	enum MHD_Result r = reply_text(conn, status_for(rc), "application/json", body);
+	free(body);
+	return r;
 }
 
 /* ---- routing ---- */
