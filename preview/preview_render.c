@@ -151,13 +151,17 @@ int render_frame(preview_renderer *r, const mc_ring_meta *meta, const uint8_t *d
 	int sw = w > r->max_width ? r->max_width : w;
 	int sh = (int)lround((double)h * sw / w);
 	sh = sh < 1 ? 1 : sh;
-	if (grow(&r->small, &r->small_cap, (size_t)sw * sh * 3, err) < 0 ||
-	    mc_image_resize_rgb24(r->full, w, h, r->small, sw, sh, err) < 0)
-		return -1;
-	mc_canvas im = {.rgb = r->small, .width = sw, .height = sh};
+	uint8_t *shown = r->full; /* a frame small enough already is shown as it is */
+	if (sw != w) {
+		if (grow(&r->small, &r->small_cap, (size_t)sw * sh * 3, err) < 0 ||
+		    mc_image_resize_rgb24(r->full, w, h, r->small, sw, sh, err) < 0)
+			return -1;
+		shown = r->small;
+	}
+	mc_canvas im = {.rgb = shown, .width = sw, .height = sh};
 	if (cam && ov && ov->valid)
 		draw_overlay(&im, cam, ov);
 	*width = sw;
 	*height = sh;
-	return mc_image_encode_jpeg(r->conv, r->small, sw, sh, r->quality, jpeg, bytes, err);
+	return mc_image_encode_jpeg(r->conv, shown, sw, sh, r->quality, jpeg, bytes, err);
 }
