@@ -12,8 +12,11 @@ round has four phases:
             machine (it encodes the camera views as for a page);
   browser   one open page in headless Chromium on this machine (it decodes
             and shows the views and draws the 3D view);
-  nice      the same page in a Chromium run at nice 10, as docs/PREVIEW.md
-            suggests for a browser on the tracking machine.
+  idle      the same page in a Chromium run at idle priority (chrt --idle
+            0, SCHED_IDLE), as docs/PREVIEW.md suggests for a browser on
+            the tracking machine (nice 10 did not help: the tracker on
+            OpenCL waits for its slowest worker thread, and a niced
+            browser still preempts them).
 
 Each second `mocapctl status --json` gives the daemon's mean tracking time
 over that second; a phase's figure is their mean weighted by the frames
@@ -21,9 +24,9 @@ tracked.  Each condition is compared with the "without" phase of its own
 round (the median of the rounds is the result), so that a load elsewhere
 on the machine that comes and goes weighs on both sides.  Also printed:
 the CPU time of mocap-preview and of the browser (all its processes) per
-second of phase.  Everything runs in this process's session, so that nice
-values count against the daemon's (the kernel's autogroups would otherwise
-give each session an equal share whatever its nice value).
+second of phase.  Everything runs in this process's session, so that
+priorities count against the daemon's (the kernel's autogroups would
+otherwise give each session an equal share whatever its nice value).
 
 usage: preview/bench_preview.py BUILD [--rounds N] [--seconds S]
 (run from the repository root; `make bench-preview` does).
@@ -151,7 +154,7 @@ path = {sock}
         time.sleep(3)
         print(f"bench-preview: {cpu_model()}, {os.cpu_count()} CPUs; mocapd on tests/data/ego_demo (2 cameras, "
               f"15 fps, 256x256 MJPEG); {a.rounds} rounds of 4 phases of {a.seconds} s")
-        conds = ["without", "stream", "browser", "nice"]
+        conds = ["without", "stream", "browser", "idle"]
         results = {k: [] for k in conds}
         for i in range(len(conds) * a.rounds):
             cond = conds[i % len(conds)]
@@ -160,9 +163,9 @@ path = {sock}
             if cond == "stream":
                 client = subprocess.Popen(["curl", "-sN", f"http://127.0.0.1:{port}/events"],
                                           stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-            elif cond in ("browser", "nice"):
+            elif cond in ("browser", "idle"):
                 client = subprocess.Popen(
-                    (["nice", "-n", "10"] if cond == "nice" else []) + [
+                    (["chrt", "--idle", "0"] if cond == "idle" else []) + [
                         chromium, "--headless=new", "--no-sandbox", "--disable-gpu", "--enable-unsafe-swiftshader",
                         f"--user-data-dir={tmp}/chromium", "--no-first-run", "--disable-extensions",
                         "--disable-background-networking", "--window-size=1400,900", "--remote-debugging-port=0",
