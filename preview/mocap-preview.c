@@ -20,7 +20,6 @@
 #include <getopt.h>
 #include <netdb.h>
 #include <netinet/in.h>
-#include <sched.h>
 #include <signal.h>
 #include <stdatomic.h>
 #include <stdio.h>
@@ -38,6 +37,7 @@
 #define DEFAULT_MODEL MC_INSTALL_DATA_DIR "/models/default.json"
 #define TOKEN_ENV "MOCAP_PREVIEW_TOKEN"
 #define PREVIEW_NICE 10
+#define RENDER_NICE 19
 
 static volatile sig_atomic_t stop;
 static void on_signal(int sig) { (void)sig; stop = 1; }
@@ -300,14 +300,14 @@ int main(int argc, char **argv)
 		printf("mocap-preview: to control recording, open http://%s%s%s:%d/?token=%s\n", bracket, host,
 		       *bracket ? "]" : "", port, token);
 
-	/* The thread that draws and encodes the camera views runs only on CPU
-	 * time nothing else wants (SCHED_IDLE): a tracker on OpenCL waits for
-	 * the slowest of its worker threads, so even nice work that preempts
-	 * one of them costs the tracking several times its own CPU time.  The
-	 * HTTP threads, made above, stay at nice 10. */
-	struct sched_param sp = {0};
-	if (sched_setscheduler(0, SCHED_IDLE, &sp) != 0 && o.verbose)
-		fprintf(stderr, "mocap-preview: cannot run its renderer at idle priority: %s\n", strerror(errno));
+	/* The thread that draws and encodes the camera views runs at nice 19:
+	 * a tracker on OpenCL waits for the slowest of its worker threads, so
+	 * work that preempts one of them costs the tracking several times its
+	 * own CPU time.  (SCHED_IDLE starved it whenever anything else kept
+	 * the CPUs busy: the page froze.)  The HTTP threads, made above, stay
+	 * at nice 10.  On Linux a nice value is per thread. */
+	if (setpriority(PRIO_PROCESS, (id_t)gettid(), RENDER_NICE) != 0 && o.verbose)
+		fprintf(stderr, "mocap-preview: cannot lower its renderer's priority: %s\n", strerror(errno));
 	link_config lc = {.socket = o.socket, .model = use_model, .rate = o.rate, .width = o.width,
 			  .quality = o.quality, .verbose = o.verbose, .hub = hub, .stop = &stop,
 			  .status_now = &cc.status_now};
