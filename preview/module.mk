@@ -16,7 +16,7 @@ PREVIEW_LINK := $(PREVIEW_LIB) $(BUILD)/libmocap.a $(CORE_LIB) $(CORE_LIBS) $(PR
 PREVIEW_LINK_DEPS := $(PREVIEW_LIB) $(BUILD)/libmocap.a $(CORE_LIB)
 PREVIEW_WWW_DIR ?= $(DATADIR)/mocapd/preview
 
-DEB_PACKAGES += libmicrohttpd-dev libjs-three chromium
+DEB_PACKAGES += libmicrohttpd-dev libjs-three chromium curl
 LIBS += $(PREVIEW_LIB)
 BINS += $(MOCAP_PREVIEW)
 TESTS += $(PREVIEW_TESTS)
