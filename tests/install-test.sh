@@ -17,7 +17,8 @@ cleanup() { rm -rf "$tmp"; }
 trap cleanup EXIT
 
 make -s $vars install >"$tmp/install.log" 2>&1 || { tail -n 30 "$tmp/install.log"; fail "make install"; }
-for f in bin/mocapd bin/mocapctl bin/mocap-bench bin/mocap-vmc bin/mocap-export bin/mocap-track bin/mocap-calibrate bin/mocap-graph \
+for f in bin/mocapd bin/mocapctl bin/mocap-bench bin/mocap-vmc bin/mocap-export bin/mocap-track bin/mocap-calibrate \
+	bin/mocap-graph bin/mocap-preview share/mocapd/preview/index.html \
 	lib/mocapd/drivers/mocap-driver-take.so lib/mocapd/drivers/mocap-driver-files.so \
 	share/mocapd/models/default.json share/mocapd/rigs/ego_stereo.json lib/libmocap.so.1; do
 	[ -e "$prefix/$f" ] || fail "$prefix/$f was not installed"
@@ -30,7 +31,7 @@ grep -q "^ExecStart=$prefix/bin/mocap-vmc .*--config $tmp/etc/mocapd/vmc.conf" "
 [ $? -eq 1 ] && grep -q "cannot connect to mocapd" "$tmp/vmc.log" || fail "installed mocap-vmc with the installed vmc.conf: $(cat "$tmp/vmc.log")"
 if command -v scdoc >/dev/null; then
 	for m in man8/mocapd.8 man5/mocapd.conf.5 man1/mocapctl.1 man1/mocap-bench.1 man1/mocap-vmc.1 man1/mocap-export.1 \
-		man1/mocap-track.1 man1/mocap-calibrate.1 man1/mocap-graph.1; do
+		man1/mocap-track.1 man1/mocap-calibrate.1 man1/mocap-graph.1 man1/mocap-preview.1; do
 		[ -s "$prefix/share/man/$m" ] || fail "no man page $prefix/share/man/$m"
 	done
 fi
@@ -39,6 +40,20 @@ fi
 	fail "installed mocap-calibrate board: $(cat "$tmp/board.log")"
 grep -q "$prefix/share/mocapd" "$tmp/etc/mocapd/mocapd.conf" || fail "the installed config does not name $prefix/share/mocapd"
 grep -q "plugin_dir = $prefix/lib/mocapd/drivers" "$tmp/etc/mocapd/mocapd.conf" || fail "the installed config does not name $prefix/lib/mocapd/drivers"
+
+# mocap-preview with its compiled-in paths: the installed page and model;
+# it serves the page while it waits for a daemon that is not there
+"$prefix/bin/mocap-preview" --socket "$tmp/none.sock" --listen 127.0.0.1:0 >"$tmp/preview.log" 2>&1 &
+preview=$!
+i=0
+while ! grep -q "serving http://127.0.0.1:" "$tmp/preview.log" && [ $i -lt 100 ]; do sleep 0.1; i=$((i + 1)); done
+port=$(sed -n 's|.*serving http://127.0.0.1:\([0-9]*\)/.*|\1|p' "$tmp/preview.log")
+page=$(/usr/bin/python3 -c "import urllib.request,sys; print(urllib.request.urlopen('http://127.0.0.1:$port/').read().decode())" 2>&1)
+kill $preview
+wait $preview
+echo "$page" | grep -q 'id="plot"' || fail "installed mocap-preview did not serve the installed page: $page $(cat "$tmp/preview.log")"
+! grep -q "no body model" "$tmp/preview.log" || fail "installed mocap-preview did not find the installed model: $(cat "$tmp/preview.log")"
+grep -q "waiting for mocapd" "$tmp/preview.log" || fail "installed mocap-preview: $(cat "$tmp/preview.log")"
 
 # bash completion of mocapctl, from the install
 comp=$prefix/share/bash-completion/completions/mocapctl
