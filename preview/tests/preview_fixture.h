@@ -6,6 +6,7 @@
 #define PREVIEW_FIXTURE_H
 
 #include "daemon/harness.h"
+#include "mocap.h"
 
 #include <arpa/inet.h>
 #include <netinet/in.h>
@@ -185,6 +186,29 @@ static inline int pv_count_colour(const uint8_t *rgb, int w, int h, const uint8_
 	for (int i = 0; i < w * h; i++)
 		n += abs(rgb[3 * i] - c[0]) <= tol && abs(rgb[3 * i + 1] - c[1]) <= tol && abs(rgb[3 * i + 2] - c[2]) <= tol;
 	return n;
+}
+
+/* Whether mocapd records (its status), -1 when it cannot be asked. */
+static inline int pv_recording(const char *sock)
+{
+	mocap_client *c = mocap_connect(sock, "test_preview");
+	static mocap_daemon_status st;
+	int rc = c && mocap_get_status(c, &st) == 0 ? st.recording : -1;
+	if (c)
+		mocap_close(c);
+	return rc;
+}
+
+/* The daemon's status says `want` within ms milliseconds (the recorder
+ * thread opens and closes the take after the control request returned). */
+static inline bool pv_recording_becomes(const char *sock, int want, int ms)
+{
+	for (int waited = 0; waited < ms; waited += 100) {
+		if (pv_recording(sock) == want)
+			return true;
+		mcd_sleep_ms(100);
+	}
+	return false;
 }
 
 #endif

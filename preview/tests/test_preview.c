@@ -173,28 +173,6 @@ static void check_malformed(int port)
 	free(resp);
 }
 
-static int recording(const char *sock)
-{
-	mocap_client *c = mocap_connect(sock, "test_preview");
-	static mocap_daemon_status st;
-	int rc = c && mocap_get_status(c, &st) == 0 ? st.recording : -1;
-	if (c)
-		mocap_close(c);
-	return rc;
-}
-
-/* The daemon's status says `want` within 5 s (the recorder thread opens
- * and closes the take after the control request returned). */
-static bool recording_becomes(const char *sock, int want)
-{
-	for (int i = 0; i < 50; i++) {
-		if (recording(sock) == want)
-			return true;
-		mcd_sleep_ms(100);
-	}
-	return false;
-}
-
 /* State changes need the token. */
 static void check_token(const pv_run *p, const mcd_run *r)
 {
@@ -209,7 +187,7 @@ static void check_token(const pv_run *p, const mcd_run *r)
 	CHECK_MSG(pv_http(p->port, "POST", "/api/reload", hdr, &resp) == 403, "%.120s", resp);
 	free(resp);
 	mcd_sleep_ms(300);
-	CHECK_MSG(recording(r->sock) == 0, "a request without the token started a recording");
+	CHECK_MSG(pv_recording(r->sock) == 0, "a request without the token started a recording");
 	char dir[256];
 	snprintf(dir, sizeof(dir), "%s/takes/no-token", r->dir);
 	CHECK(access(dir, F_OK) != 0);
@@ -220,13 +198,13 @@ static void check_token(const pv_run *p, const mcd_run *r)
 	int st = pv_http(p->port, "POST", "/api/record/start?name=pv-take", hdr, &resp);
 	CHECK_MSG(st == 200 && strstr(pv_body(resp), "\"ok\":true"), "record start: %d %s", st, pv_body(resp));
 	free(resp);
-	CHECK_MSG(recording_becomes(r->sock, 1), "record start with the token: not recording");
+	CHECK_MSG(pv_recording_becomes(r->sock, 1, 5000), "record start with the token: not recording");
 	CHECK_MSG(sse_wait_for(p->port, "\"recording\":true", 5000), "the page is not told about the recording");
 	mcd_sleep_ms(500);
 	st = pv_http(p->port, "POST", "/api/record/stop", hdr, &resp);
 	CHECK_MSG(st == 200, "record stop: %d %s", st, pv_body(resp));
 	free(resp);
-	CHECK_MSG(recording_becomes(r->sock, 0), "record stop with the token: still recording");
+	CHECK_MSG(pv_recording_becomes(r->sock, 0, 5000), "record stop with the token: still recording");
 	snprintf(dir, sizeof(dir), "%s/takes/pv-take/take.json", r->dir);
 	CHECK_MSG(access(dir, R_OK) == 0, "no %s", dir);
 	/* Stopping again is the daemon's refusal, passed on. */

@@ -193,36 +193,16 @@ static void check_requests(const cdp *c, int port)
 	CHECK(own >= 5); /* the page, its script and style, three.js, the controls, the events */
 }
 
-static int recording(const char *sock)
-{
-	mocap_client *c = mocap_connect(sock, "test_preview_browser");
-	static mocap_daemon_status st;
-	int rc = c && mocap_get_status(c, &st) == 0 ? st.recording : -1;
-	if (c)
-		mocap_close(c);
-	return rc;
-}
-
-static bool recording_becomes(const char *sock, int want)
-{
-	for (int i = 0; i < 100; i++) {
-		if (recording(sock) == want)
-			return true;
-		mcd_sleep_ms(100);
-	}
-	return false;
-}
-
 /* The page's own buttons, with the token it was opened with. */
 static void check_buttons(cdp *c, const char *session, json_t *layout, const char *sock)
 {
 	CHECK_MSG(json_is_true(json_object_get(layout, "record")), "the Record button is hidden");
 	json_decref(cdp_eval(c, session, "document.getElementById('takename').value = 'from-the-page';"
 					 " document.getElementById('recstart').click(); true"));
-	CHECK_MSG(recording_becomes(sock, 1), "the Record button did not start a take");
+	CHECK_MSG(pv_recording_becomes(sock, 1, 10000), "the Record button did not start a take");
 	mcd_sleep_ms(1500); /* the page hears of it, enables Stop */
 	json_decref(cdp_eval(c, session, "document.getElementById('recstop').click(); true"));
-	CHECK_MSG(recording_becomes(sock, 0), "the Stop button did not stop the take");
+	CHECK_MSG(pv_recording_becomes(sock, 0, 10000), "the Stop button did not stop the take");
 }
 
 int main(void)
