@@ -15,6 +15,7 @@
 #include "calib_solve.hpp"
 
 extern "C" {
+#include "base/mc_parse.h"
 #include "geom/mc_rig.h"
 }
 
@@ -58,14 +59,6 @@ void usage(FILE *out)
 	std::exit(2);
 }
 
-bool parse_number(const char *s, double *out)
-{
-	char *end;
-	errno = 0;
-	*out = std::strtod(s, &end);
-	return errno == 0 && end != s && *end == '\0' && std::isfinite(*out);
-}
-
 /* ---- board ---------------------------------------------------------------- */
 
 int cmd_board(int argc, char **argv)
@@ -91,22 +84,22 @@ int cmd_board(int argc, char **argv)
 				bad_usage("--squares: expected COLUMNSxROWS, e.g. 8x6, got '%s'", optarg);
 			break;
 		case 'q':
-			if (!parse_number(optarg, &v))
+			if (!mc_parse_double(optarg, &v))
 				bad_usage("--square-mm: not a number: '%s'", optarg);
 			b.square_m = v / 1000;
 			break;
 		case 'm':
-			if (!parse_number(optarg, &v))
+			if (!mc_parse_double(optarg, &v))
 				bad_usage("--marker-mm: not a number: '%s'", optarg);
 			b.marker_m = v / 1000;
 			break;
 		case 'd': b.dictionary = optarg; break;
 		case 'g':
-			if (!parse_number(optarg, &margin_mm) || margin_mm < 0)
+			if (!mc_parse_double(optarg, &margin_mm) || margin_mm < 0)
 				bad_usage("--margin-mm: expected a number of millimetres >= 0, got '%s'", optarg);
 			break;
 		case 'p':
-			if (!parse_number(optarg, &dpi) || dpi < 30 || dpi > 2400)
+			if (!mc_parse_double(optarg, &dpi) || dpi < 30 || dpi > 2400)
 				bad_usage("--dpi: expected 30..2400, got '%s'", optarg);
 			break;
 		case 'h': usage(stdout); return 0;
@@ -164,7 +157,7 @@ camera_arg parse_camera(const char *arg)
 		mc_fail_exit(prog, 2, "%s", err.msg);
 	if (mc_camera_model_parse(parts[1].c_str(), &c.cam.model) < 0 || c.cam.model == MC_CAM_OCAM)
 		bad_usage("--camera: MODEL must be pinhole or equidistant, got '%s'", parts[1].c_str());
-	if (parts.size() == 3 && (!parse_number(parts[2].c_str(), &c.cam.fov_deg) || c.cam.fov_deg <= 0 ||
+	if (parts.size() == 3 && (!mc_parse_double(parts[2].c_str(), &c.cam.fov_deg) || c.cam.fov_deg <= 0 ||
 				  c.cam.fov_deg >= 360))
 		bad_usage("--camera: FOV_DEG must be a field of view in degrees (0, 360), got '%s'", parts[2].c_str());
 	return c;
@@ -277,12 +270,12 @@ calibrate_args parse_calibrate(int argc, char **argv)
 		case 'L': a.live = true; break;
 		case 'S': a.live_opt.socket = optarg; break;
 		case 'V':
-			if (!parse_number(optarg, &v) || v < 4 || v > 500 || v != std::floor(v))
+			if (!mc_parse_double(optarg, &v) || v < 4 || v > 500 || v != std::floor(v))
 				bad_usage("--views: expected a whole number 4..500, got '%s'", optarg);
 			a.live_opt.views = (int)v;
 			break;
 		case 'T':
-			if (!parse_number(optarg, &a.live_opt.seconds) || a.live_opt.seconds <= 0)
+			if (!mc_parse_double(optarg, &a.live_opt.seconds) || a.live_opt.seconds <= 0)
 				bad_usage("--seconds: expected a positive number, got '%s'", optarg);
 			break;
 		case 'P': a.live_opt.snapshot = optarg; break;

@@ -2,6 +2,7 @@
 #include "graph_source.h"
 
 #include "log.h"
+#include "base/mc_parse.h"
 #include "base/mc_time.h"
 
 #include <errno.h>
@@ -190,13 +191,6 @@ void mcd_graph_source_stop(mcd_graph_source *gs)
 
 /* ---- steering ---- */
 
-static bool number(const char *s, double *v)
-{
-	char *end;
-	errno = 0;
-	*v = strtod(s, &end);
-	return s[0] && !errno && !*end && isfinite(*v);
-}
 
 int mcd_graph_steer_parse(const char *arg, mc_steer *s, char *msg, size_t cap)
 {
@@ -223,14 +217,14 @@ int mcd_graph_steer_parse(const char *arg, mc_steer *s, char *msg, size_t cap)
 		s->kind = MC_STEER_CLASS;
 		snprintf(s->cls, sizeof(s->cls), "%s", w[1]);
 	} else if (n == 2 && strcmp(w[0], "frame") == 0) {
-		if (!number(w[1], &v) || v < 0 || v != floor(v) || v > 2e9) {
+		if (!mc_parse_double(w[1], &v) || v < 0 || v != floor(v) || v > 2e9) {
 			snprintf(msg, cap, "frame '%s' is not a frame number", w[1]);
 			return -1;
 		}
 		s->kind = MC_STEER_FRAME;
 		s->frame = (int)v;
 	} else if (n == 2 && strcmp(w[0], "speed") == 0) {
-		if (!number(w[1], &v) || v < 0 || v > 20) {
+		if (!mc_parse_double(w[1], &v) || v < 0 || v > 20) {
 			snprintf(msg, cap, "speed '%s' is not a speed of 0..20 m/s", w[1]);
 			return -1;
 		}
@@ -238,14 +232,14 @@ int mcd_graph_steer_parse(const char *arg, mc_steer *s, char *msg, size_t cap)
 		s->direction_deg = NAN; /* any direction */
 		s->speed = v;
 	} else if ((n == 2 || n == 4) && strcmp(w[0], "direction") == 0) {
-		if (!number(w[1], &v)) {
+		if (!mc_parse_double(w[1], &v)) {
 			snprintf(msg, cap, "direction '%s' is not a number of degrees", w[1]);
 			return -1;
 		}
 		s->kind = MC_STEER_DIRECTION;
 		s->direction_deg = v;
 		if (n == 4) {
-			if (strcmp(w[2], "speed") != 0 || !number(w[3], &v) || v < 0 || v > 20) {
+			if (strcmp(w[2], "speed") != 0 || !mc_parse_double(w[3], &v) || v < 0 || v > 20) {
 				snprintf(msg, cap, "expected 'speed M/S' (0..20) after the direction, got '%s %s'", w[2],
 					 w[3]);
 				return -1;

@@ -9,6 +9,7 @@
  *   mocap-graph compare [--alpha A,B,...] [options] [CLASS=]FILE...
  */
 #include "base/mc_file.h"
+#include "base/mc_parse.h"
 #include "base/mc_time.h"
 #include "body/mc_model.h"
 #include "mc_install_paths.h" /* generated: MC_VERSION */
@@ -77,10 +78,8 @@ typedef struct {
 
 static double number(const char *s, const char *opt)
 {
-	char *end;
-	errno = 0;
-	double v = strtod(s, &end);
-	if (errno || end == s || *end || !isfinite(v))
+	double v;
+	if (!mc_parse_double(s, &v))
 		fail(2, "%s: '%s' is not a number", opt, s);
 	return v;
 }

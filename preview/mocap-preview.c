@@ -9,6 +9,7 @@
  * event stream), preview_link (the daemon), preview_render (frames and
  * overlay as JPEG), preview_status (the JSON the page reads). */
 #include "base/mc_error.h"
+#include "base/mc_parse.h"
 #include "mc_install_paths.h" /* generated: MC_VERSION, MC_INSTALL_DATA_DIR */
 #include "mocap.h"
 #include "preview_http.h"
@@ -78,9 +79,8 @@ typedef struct {
 
 static double number_arg(const char *opt, const char *s, double lo, double hi)
 {
-	char *end = NULL;
-	double v = strtod(s, &end);
-	if (!*s || *end || !(v >= lo && v <= hi))
+	double v;
+	if (!mc_parse_double(s, &v) || !(v >= lo && v <= hi))
 		fail(2, "%s %s: expected a number from %g to %g", opt, s, lo, hi);
 	return v;
 }

@@ -9,6 +9,7 @@
  * frame, or the world frame outside-in), with no alignment.  The last line
  * is machine-readable:
  *   RESULT clip=NAME frames=N mpjpe_cm=X fps=Y ms_p99=Z device=DEV cameras=C */
+#include "base/mc_parse.h"
 #include "base/mc_stats.h"
 #include "base/mc_time.h"
 #include "energy/mc_energy.h"
@@ -562,9 +563,8 @@ static void usage(FILE *f)
 
 static int parse_number(const char *opt, const char *arg, double lo, double hi, double *out)
 {
-	char *end;
-	double v = strtod(arg, &end);
-	if (end == arg || *end || !isfinite(v) || v < lo || v > hi) {
+	double v;
+	if (!mc_parse_double(arg, &v) || v < lo || v > hi) {
 		fprintf(stderr, "mocap-bench: %s: expected a number in [%g, %g], got '%s'\n", opt, lo, hi, arg);
 		return -1;
 	}

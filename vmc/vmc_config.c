@@ -1,6 +1,8 @@
 /* vmc_config: mocap-vmc's settings (docs/VMC.md, "Configuration"). */
 #include "vmc_config.h"
 
+#include "base/mc_parse.h"
+
 #include <ini.h>
 #include <math.h>
 #include <stdio.h>
@@ -23,9 +25,8 @@ void vmc_settings_default(vmc_settings *s)
 
 static int parse_number(const char *value, double lo, double hi, double *out)
 {
-	char *end = NULL;
-	double v = strtod(value, &end);
-	if (!*value || *end || !isfinite(v) || v < lo || v > hi)
+	double v;
+	if (!mc_parse_double(value, &v) || v < lo || v > hi)
 		return -1;
 	*out = v;
 	return 0;
