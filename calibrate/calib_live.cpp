@@ -43,7 +43,7 @@ struct live_cam {
 	cv::Mat grey;
 	calib_corners now, before, earlier, last_kept; /* this look, the one before, the one before that */
 	bool fresh = false;      /* a new frame in this look */
-	int cells[grid][grid] = {};
+	int cells[grid * grid] = {}; /* corners kept in each cell of a grid x grid grid over the image */
 	std::string rms = "-";   /* of the views so far, at rms_views views */
 	int rms_views = -1;
 };
@@ -152,13 +152,12 @@ bool still(const live_cam &lc, int min_corners)
 /* Corners of this detection in grid cells that hold fewer than two views. */
 int novelty(const live_cam &lc)
 {
-	bool counted[grid][grid] = {};
+	bool counted[grid * grid] = {};
 	int n = 0;
 	for (const cv::Point2f &q : lc.now.px) {
-		int i = std::clamp((int)(grid * q.x / lc.cam.width), 0, grid - 1);
-		int j = std::clamp((int)(grid * q.y / lc.cam.height), 0, grid - 1);
-		if (lc.cells[j][i] < 2 && !counted[j][i])
-			counted[j][i] = true, n++;
+		int cell = calib_grid_cell(q, lc.cam.width, lc.cam.height, grid);
+		if (lc.cells[cell] < 2 && !counted[cell])
+			counted[cell] = true, n++;
 	}
 	return n;
 }
@@ -220,8 +219,7 @@ int collector::save(std::vector<live_cam> &cams, const std::string &name, mc_err
 		lc.cam.views.push_back(v);
 		lc.last_kept = lc.now;
 		for (const cv::Point2f &q : lc.now.px)
-			lc.cells[std::clamp((int)(grid * q.y / lc.cam.height), 0, grid - 1)]
-				 [std::clamp((int)(grid * q.x / lc.cam.width), 0, grid - 1)]++;
+			lc.cells[calib_grid_cell(q, lc.cam.width, lc.cam.height, grid)]++;
 		seeing++;
 	}
 	shared_ += seeing > 1;
@@ -295,12 +293,12 @@ int collector::run(std::vector<live_cam> &cams, mc_err *err)
 			if (snapshot)
 				break;
 		}
-		if (!snapshot && (now - last_print_ns_ > MC_NS_PER_S || done(cams))) {
+		if (!snapshot && done(cams))
+			break; /* the final progress line follows */
+		if (!snapshot && now - last_print_ns_ > MC_NS_PER_S) {
 			progress(cams, false);
 			last_print_ns_ = now;
 		}
-		if (!snapshot && done(cams))
-			break;
 		mc_sleep_until_ns(now + 100 * MC_NS_PER_MS);
 	}
 	if (opt_.snapshot.empty())

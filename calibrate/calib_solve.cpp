@@ -28,20 +28,16 @@ std::vector<int> distortion_terms(const calib_cam &c)
 	return terms;
 }
 
-int n_intrinsics(const calib_cam &c) { return 4 + (int)distortion_terms(c).size(); }
-
-void put_intrinsics(const calib_cam &c, const mc_camera &cam, double *p)
+void put_intrinsics(const std::vector<int> &terms, const mc_camera &cam, double *p)
 {
 	p[0] = cam.fx, p[1] = cam.fy, p[2] = cam.cx, p[3] = cam.cy;
-	std::vector<int> terms = distortion_terms(c);
 	for (size_t i = 0; i < terms.size(); i++)
 		p[4 + i] = cam.k[terms[i]];
 }
 
-void get_intrinsics(const calib_cam &c, const double *p, mc_camera *cam)
+void get_intrinsics(const std::vector<int> &terms, const double *p, mc_camera *cam)
 {
 	cam->fx = p[0], cam->fy = p[1], cam->cx = p[2], cam->cy = p[3];
-	std::vector<int> terms = distortion_terms(c);
 	for (size_t i = 0; i < terms.size(); i++)
 		cam->k[terms[i]] = p[4 + i];
 }
@@ -90,22 +86,13 @@ struct problem {
 	std::vector<mc_xform> rig_from_board; /* start values per set */
 	std::vector<observation> obs;
 	std::vector<int> intr_off, extr_off, set_off; /* parameter offsets; -1: fixed */
+	std::vector<std::vector<int>> terms;          /* each camera's distortion_terms */
 	std::vector<std::vector<int>> obs_of_cam, obs_of_set;
+	std::vector<const std::vector<int> *> moved_by; /* per parameter: the observations it moves */
 	int nparams = 0, rows = 0;
 
 	void layout()
 	{
-		nparams = 0;
-		for (size_t c = 0; c < cams.size(); c++) {
-			intr_off.push_back(nparams);
-			nparams += n_intrinsics(*cams[c]);
-			extr_off.push_back(c == 0 ? -1 : nparams);
-			nparams += c == 0 ? 0 : 6;
-		}
-		for (size_t s = 0; s < rig_from_board.size(); s++) {
-			set_off.push_back(nparams);
-			nparams += 6;
-		}
 		obs_of_cam.assign(cams.size(), {});
 		obs_of_set.assign(rig_from_board.size(), {});
 		rows = 0;
@@ -115,12 +102,26 @@ struct problem {
 			obs_of_cam[obs[i].cam].push_back((int)i);
 			obs_of_set[obs[i].set].push_back((int)i);
 		}
+		nparams = 0;
+		for (size_t c = 0; c < cams.size(); c++) {
+			terms.push_back(distortion_terms(*cams[c]));
+			int n = 4 + (int)terms[c].size() + (c == 0 ? 0 : 6);
+			intr_off.push_back(nparams);
+			extr_off.push_back(c == 0 ? -1 : nparams + n - 6);
+			moved_by.insert(moved_by.end(), n, &obs_of_cam[c]);
+			nparams += n;
+		}
+		for (size_t s = 0; s < rig_from_board.size(); s++) {
+			set_off.push_back(nparams);
+			moved_by.insert(moved_by.end(), 6, &obs_of_set[s]);
+			nparams += 6;
+		}
 	}
 
 	void start(double *p) const
 	{
 		for (size_t c = 0; c < cams.size(); c++) {
-			put_intrinsics(*cams[c], cams[c]->cam, p + intr_off[c]);
+			put_intrinsics(terms[c], cams[c]->cam, p + intr_off[c]);
 			if (extr_off[c] >= 0)
 				put_pose(rig_from_cam[c], p + extr_off[c]);
 		}
@@ -131,7 +132,7 @@ struct problem {
 	mc_camera camera(int c, const double *p) const
 	{
 		mc_camera cam = cams[c]->cam;
-		get_intrinsics(*cams[c], p + intr_off[c], &cam);
+		get_intrinsics(terms[c], p + intr_off[c], &cam);
 		cam.rig_from_cam = extr_off[c] >= 0 ? get_pose(p + extr_off[c]) : rig_from_cam[0];
 		return cam;
 	}
@@ -156,18 +157,6 @@ struct problem {
 			else
 				r[2 * i] = r[2 * i + 1] = 0;
 		}
-	}
-
-	/* The observations a parameter moves. */
-	const std::vector<int> &affected(int j) const
-	{
-		for (size_t s = 0; s < set_off.size(); s++)
-			if (j >= set_off[s] && j < set_off[s] + 6)
-				return obs_of_set[s];
-		int c = 0;
-		while (c + 1 < (int)cams.size() && j >= intr_off[c + 1])
-			c++;
-		return obs_of_cam[c];
 	}
 };
 
@@ -194,7 +183,7 @@ public:
 		for (int j = 0; j < pb_.nparams; j++) {
 			double keep = x[j], h = 1e-7 * std::max(1.0, std::fabs(keep));
 			x[j] = keep + h;
-			for (int oi : pb_.affected(j)) {
+			for (int oi : *pb_.moved_by[j]) {
 				const observation &o = pb_.obs[oi];
 				int n = 2 * (int)o.view->corners.ids.size();
 				pb_.residuals(o, x.data(), r.data() + o.row);
@@ -340,10 +329,9 @@ int check_coverage(const calib_cam *c, mc_err *err)
 
 /* The used views' corners, as OpenCV wants them. */
 template <typename P3, typename P2>
-void cv_points(const calib_cam *c, std::vector<std::vector<P3>> &obj, std::vector<std::vector<P2>> &img,
-	       std::vector<calib_view *> &views)
+void cv_points(const calib_cam *c, std::vector<std::vector<P3>> &obj, std::vector<std::vector<P2>> &img)
 {
-	for (calib_view &v : const_cast<calib_cam *>(c)->views)
+	for (const calib_view &v : c->views)
 		if (v.used) {
 			std::vector<P3> o;
 			std::vector<P2> i;
@@ -353,7 +341,6 @@ void cv_points(const calib_cam *c, std::vector<std::vector<P3>> &obj, std::vecto
 			}
 			obj.push_back(o);
 			img.push_back(i);
-			views.push_back(&v);
 		}
 }
 
@@ -371,8 +358,7 @@ void opencv_pinhole(calib_cam *c, std::vector<mc_xform> &poses)
 {
 	std::vector<std::vector<cv::Point3f>> obj;
 	std::vector<std::vector<cv::Point2f>> img;
-	std::vector<calib_view *> views;
-	cv_points(c, obj, img, views);
+	cv_points(c, obj, img);
 	cv::Mat K, D;
 	std::vector<cv::Mat> rv, tv;
 	int flags = (c->pinhole_k3 ? 0 : cv::CALIB_FIX_K3) | (c->pinhole_tangential ? 0 : cv::CALIB_ZERO_TANGENT_DIST);
@@ -423,8 +409,7 @@ void opencv_fisheye(calib_cam *c, std::vector<mc_xform> &poses, bool verbose)
 {
 	std::vector<std::vector<cv::Point3d>> obj;
 	std::vector<std::vector<cv::Point2d>> img;
-	std::vector<calib_view *> views;
-	cv_points(c, obj, img, views);
+	cv_points(c, obj, img);
 	cv::Matx33d K;
 	cv::Vec4d D;
 	std::vector<cv::Mat> rv, tv;
@@ -485,19 +470,19 @@ int count_used(const calib_cam *c)
 
 } // namespace
 
+int calib_grid_cell(cv::Point2f q, int width, int height, int n)
+{
+	return std::clamp((int)(n * q.y / height), 0, n - 1) * n + std::clamp((int)(n * q.x / width), 0, n - 1);
+}
+
 int calib_coverage_cells(const calib_cam &c)
 {
-	bool cell[4][4] = {};
+	bool cell[16] = {};
 	for (const calib_view &v : c.views)
 		if (v.used)
 			for (const cv::Point2f &q : v.corners.px)
-				cell[std::clamp((int)(4 * q.y / c.height), 0, 3)][std::clamp((int)(4 * q.x / c.width), 0, 3)] =
-					true;
-	int n = 0;
-	for (auto &row : cell)
-		for (bool b : row)
-			n += b;
-	return n;
+				cell[calib_grid_cell(q, c.width, c.height, 4)] = true;
+	return (int)std::count(cell, cell + 16, true);
 }
 
 int calib_intrinsics(calib_cam *c, const calib_options *opt, mc_err *err)
@@ -560,11 +545,24 @@ calib_view *find_view(calib_cam &c, const std::string &name)
 	return nullptr;
 }
 
+/* The angle of the rotation between two poses, radians. */
+double turn_between(const mc_xform &a, const mc_xform &b)
+{
+	return mc_v3_norm(mc_m3_to_rotvec(mc_m3_mul(mc_m3_transpose(a.R), b.R)));
+}
+
 /* How far apart two poses are: metres plus radians (a board's pose
  * seen from two cameras agrees to millimetres and tenths of a degree). */
 double pose_distance(const mc_xform &a, const mc_xform &b)
 {
-	return mc_v3_norm(mc_v3_sub(a.t, b.t)) + mc_v3_norm(mc_m3_to_rotvec(mc_m3_mul(mc_m3_transpose(a.R), b.R)));
+	return mc_v3_norm(mc_v3_sub(a.t, b.t)) + turn_between(a, b);
+}
+
+/* Camera c's pose in the rig as a view set shows it, through camera k's
+ * view of the same board: rig_from_k * k_from_board * board_from_c. */
+mc_xform placed_by(const mc_xform &rig_from_k, const calib_view &vk, const calib_view &vc)
+{
+	return mc_xform_compose(rig_from_k, mc_xform_compose(vk.cam_from_board, mc_xform_inverse(vc.cam_from_board)));
 }
 
 /* The candidate closest to all the others (the medoid): a view set whose
@@ -597,8 +595,7 @@ void reject_unsynchronised(std::vector<calib_cam> &cams, size_t c, const std::ve
 			calib_view *vk = k != c && placed[k] ? find_view(cams[k], vc.name) : nullptr;
 			if (!vk)
 				continue;
-			mc_xform here = mc_xform_compose(rig_from_cam[k], mc_xform_compose(vk->cam_from_board,
-											  mc_xform_inverse(vc.cam_from_board)));
+			mc_xform here = placed_by(rig_from_cam[k], *vk, vc);
 			double off = pose_distance(here, rig_from_cam[c]);
 			if (off > 0.03) {
 				char why[200];
@@ -606,8 +603,7 @@ void reject_unsynchronised(std::vector<calib_cam> &cams, size_t c, const std::ve
 					      "with camera %s's view of this set it puts the camera %.0f mm / %.1f deg away from "
 					      "the other sets: the images were not taken at one instant (board moving?)",
 					      cams[k].name.c_str(), 1000 * mc_v3_norm(mc_v3_sub(here.t, rig_from_cam[c].t)),
-					      mc_v3_norm(mc_m3_to_rotvec(mc_m3_mul(mc_m3_transpose(here.R), rig_from_cam[c].R))) *
-						      180 / M_PI);
+					      turn_between(here, rig_from_cam[c]) * 180 / M_PI);
 				vc.used = false;
 				vc.why = why;
 			}
@@ -631,11 +627,8 @@ int place_cameras(std::vector<calib_cam> &cams, std::vector<mc_xform> &rig_from_
 					continue;
 				for (calib_view &vc : cams[c].views) {
 					calib_view *vk = vc.used ? find_view(cams[k], vc.name) : nullptr;
-					/* rig_from_cam_c = rig_from_cam_k * k_from_board * board_from_c */
 					if (vk)
-						candidates.push_back(mc_xform_compose(
-							rig_from_cam[k],
-							mc_xform_compose(vk->cam_from_board, mc_xform_inverse(vc.cam_from_board))));
+						candidates.push_back(placed_by(rig_from_cam[k], *vk, vc));
 				}
 			}
 			if (!placed[c] && !candidates.empty()) {
@@ -704,14 +697,17 @@ problem joint_problem(std::vector<calib_cam> &cams, std::map<std::string, int> &
 
 int calib_extrinsics(std::vector<calib_cam> &cams, const calib_options *opt, mc_err *err)
 {
-	std::map<std::string, int> sets = view_sets(cams);
+	std::map<std::string, int> sets;
 	std::vector<mc_xform> rig_from_cam, rig_from_board;
 	if (place_cameras(cams, rig_from_cam, err) < 0)
 		return -1;
 	/* Views that disagree with the others once the cameras are tied
 	 * together (a set whose images were not taken at one instant) are
-	 * rejected like any other, and the adjustment runs again. */
+	 * rejected like any other, and the adjustment runs again.  The sets
+	 * are numbered from the views still used, so that a set none of
+	 * whose views is left has no pose in the problem (nor a floor). */
 	for (int round = 0; round < 4; round++) {
+		sets = view_sets(cams);
 		problem pb = joint_problem(cams, sets, rig_from_cam);
 		if (cams.size() > 1)
 			adjust(pb);

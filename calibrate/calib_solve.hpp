@@ -75,6 +75,10 @@ int calib_extrinsics(std::vector<calib_cam> &cams, const calib_options *opt, mc_
  * (pixels; false where the corner does not project). */
 bool calib_reproject(const calib_cam &c, const calib_view &v, std::vector<cv::Point2f> &px);
 
+/* The cell of an n x n grid over a width x height image that pixel q
+ * falls in, row by row (0 .. n*n - 1; pixels outside go to the nearest). */
+int calib_grid_cell(cv::Point2f q, int width, int height, int n);
+
 /* The cells of a 4x4 grid over the image that hold used corners (0..16). */
 int calib_coverage_cells(const calib_cam &c);
 
