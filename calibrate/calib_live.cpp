@@ -204,7 +204,9 @@ int collector::save(std::vector<live_cam> &cams, const std::string &name, mc_err
 {
 	int seeing = 0;
 	for (live_cam &lc : cams) {
-		if (!lc.fresh || lc.now.ids.empty())
+		/* Only a still board: a camera whose board moved may show another
+		 * pose than the others of this set. */
+		if (!still(lc, opt_.solve.min_corners))
 			continue;
 		std::string dir = opt_.dir + "/" + lc.cam.name;
 		mkdir(opt_.dir.c_str(), 0755);
