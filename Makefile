@@ -78,6 +78,14 @@ bench-tracker: $(BUILD)/bin/mocap-bench
 		for c in $(DATA_DIR)/ego/*/; do $(BUILD)/bin/mocap-bench --clip $$c --quiet || exit 1; done; \
 	else echo "bench-tracker: $(DATA_DIR)/ego not found, skipped"; fi
 
+# The tracker's accuracy over seeds 1-10 on every clip (ego and outside-in):
+# each clip's mean MPJPE and its standard error, for judging a tracker
+# change against the seed-to-seed spread (docs/BENCHMARKS.md).
+BENCHES += bench-tracker-seeds
+.PHONY: bench-tracker-seeds
+bench-tracker-seeds: $(BUILD)/bin/mocap-bench
+	DATA_DIR=$(DATA_DIR) tests/bench/tracker_seeds.sh -n 10 -j 2 -b $(BUILD)/bin/mocap-bench
+
 # The shipped detector inside the protocol on every evaluation clip: 2D
 # error and cost, and the tracker's MPJPE and fps with detection, with and
 # without the colour term, and started from the detections alone (--init

@@ -253,8 +253,9 @@ static void test_culling_edge(void)
 	memset(&sc, 0, sizeof(sc));
 	sc.n = 3;
 	sc.background = false;
-	/* c0 = C at r = sigma sqrt(2 ln(c / C)) = 0.5257 m, 2C at 0.5122 m */
-	sc.mu[0] = mc_v3(0.519, 0, 2.0), sc.sigma[0] = 0.1, sc.c[0] = 10;
+	/* c0 = C at r = sigma sqrt(2 ln(c / C)), 2C a little nearer: placed
+	 * where c0 = 1.5 C, mid-band for every ray */
+	sc.mu[0] = mc_v3(0.1 * sqrt(2 * log(10 / (1.5 * MC_CULL_MAGNITUDE))), 0, 2.0), sc.sigma[0] = 0.1, sc.c[0] = 10;
 	sc.mu[1] = mc_v3(0.01, 0, 1.5), sc.sigma[1] = 0.3, sc.c[1] = 2;
 	sc.mu[2] = mc_v3(0, 0.02, 2.5), sc.sigma[2] = 0.1, sc.c[2] = 10;
 	for (int q = 0; q < 3; q++)

@@ -524,20 +524,23 @@ static void test_visibility_budget(void)
 	double ksum = 0;
 	for (int k = 0; k <= 4; k++)
 		ksum += exp(-0.5 * k * k);
-	s.c[0] = 1e-4 / 0.1;
+	/* (a narrow Gaussian, so that c' stays clear of the culling band) */
+	s.c[0] = 4 * MC_CULL_MAGNITUDE;
+	s.sigma[0] = 1e-4 / s.c[0];
 	mc_ray_visibility(&s, o, n, &v, &b);
 	CHECK_NEAR(v / 1e-4, ksum, 1e-3);
 	CHECK_NEAR((1 - b) / 1e-4, sqrt(2 * M_PI), 1e-3);
+	s.sigma[0] = 0.1;
 	/* A single Gaussian from thin to dense (sigma c' up to 10, beyond the
 	 * opacity of the thesis' m = 0.1 model): 0.87 <= V + B <= 1 */
 	double lo = 2, hi = 0;
-	for (double x = 1e-3; x <= 10; x *= 1.05) {
+	for (double x = fmax(1e-3, 2.5 * MC_CULL_MAGNITUDE * 0.1); x <= 10; x *= 1.05) {
 		s.c[0] = x / 0.1;
 		mc_ray_visibility(&s, o, n, &v, &b);
 		lo = fmin(lo, v + b), hi = fmax(hi, v + b);
 		CHECK(v > 0 && b > 0 && b < 1);
 	}
-	printf("single Gaussian, sigma c' in [1e-3, 10]: V + B in [%.4f, %.4f]\n", lo, hi);
+	printf("single Gaussian, sigma c' in [%g, 10]: V + B in [%.4f, %.4f]\n", fmax(1e-3, 2.5 * MC_CULL_MAGNITUDE * 0.1), lo, hi);
 	CHECK(lo > 0.87 && hi <= 1.0);
 	/* an opaque occluder passes on almost nothing: the Gaussians behind it
 	 * and the background are all but invisible, V_occluder + B ~ 1 */
@@ -616,10 +619,12 @@ static void test_culling_edge(void)
 	s.mu[1] = mc_v3(OFFSET_AT(2.01), 0, 1.0);
 	mc_ray_visibility(&s, o, n, vis, &b);
 	double full = 2.01 * MC_CULL_MAGNITUDE * 0.1; /* sigma c' */
-	double ksum = 0;
-	for (int k = 0; k <= 4; k++)
-		ksum += exp(-0.5 * k * k);
-	CHECK_NEAR(vis[1], ksum * full, 1e-3 * ksum * full);
+	/* alone on the ray: V = sum_k a e^{-k^2/2} T(s_k), T(s_k) = exp(-a
+	 * sqrt(pi/2) (1 + erf(k / sqrt2))) */
+	double expect = 0;
+	for (int k = -4; k <= 0; k++)
+		expect += full * exp(-0.5 * k * k) * exp(-full * sqrt(M_PI / 2) * (1 + erf(k / sqrt(2.0))));
+	CHECK_NEAR(vis[1], expect, 1e-3 * expect);
 	/* across the band, finely sampled: continuous value and derivative */
 	double x0 = OFFSET_AT(2.2), x1 = OFFSET_AT(0.9);
 	double prev_v = -1, prev_d = 0, max_jump_v = 0, max_jump_d = 0, dmax = 0;

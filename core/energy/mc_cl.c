@@ -247,8 +247,10 @@ static int build_program(mc_cl_energy *e, mc_err *err)
 	e->prog = clCreateProgramWithSource(e->ctx, 1, &src, &len, &rc);
 	if (rc != CL_SUCCESS)
 		return cl_fail(err, "clCreateProgramWithSource", rc);
-	char options[128];
-	snprintf(options, sizeof(options), "-cl-std=CL1.2 -cl-mad-enable -DVW=%d", e->vw);
+	char options[160];
+	/* the culling threshold comes from mc_energy.h, so that host and kernel agree */
+	snprintf(options, sizeof(options), "-cl-std=CL1.2 -cl-mad-enable -DVW=%d -DCULL_MAGNITUDE=%.9gf", e->vw,
+		 MC_CULL_MAGNITUDE);
 	rc = clBuildProgram(e->prog, 1, &e->dev, options, NULL, NULL);
 	if (rc != CL_SUCCESS) {
 		size_t loglen = 0;

@@ -6,7 +6,7 @@
  *
  * One work-item handles one sampled pixel at a time (a strided loop over
  * the pixel list).  Per pixel it
- *   1. culls the Gaussians whose ray magnitude c0_q < 1e-5 (a test on the
+ *   1. culls the Gaussians whose ray magnitude c0_q < CULL_MAGNITUDE (a test on the
  *      squared distance to the ray, VW Gaussians at a time) and those
  *      dropped at random, keeping a compact private list of the n
  *      survivors, which it projects onto the ray (mu', c' with the smooth
@@ -23,7 +23,9 @@
  * adds the work-group rows in double.  No atomics. */
 
 #define MAXG 128            /* MC_MAX_GAUSSIANS */
-#define CULL_MAGNITUDE 1e-5f /* MC_CULL_MAGNITUDE */
+#ifndef CULL_MAGNITUDE /* set by the host: MC_CULL_MAGNITUDE */
+#define CULL_MAGNITUDE 1e-5f
+#endif
 #define SQRT_HALF_PI 1.25331413732f
 #define SQRT2 1.41421356237f
 #define INV_SQRT2 0.70710678118f
@@ -189,7 +191,7 @@ typedef struct {
 	float sumA;       /* sum_p A_p: tau(infinity) = sumA - base */
 } mc_ray_set;
 
-/* The culling test, VW Gaussians at a time (c0 > 1e-5 <=> the squared
+/* The culling test, VW Gaussians at a time (c0 > CULL_MAGNITUDE <=> the squared
  * distance of mu from the ray < r2_max), and dropout.  The survivors'
  * records are gathered into rs and the scratch g; returns their count. */
 typedef struct {
