@@ -314,10 +314,13 @@ static void check_retrack(const char *take, const char *scratch)
 	       "offline at the default budget %.2f cm\n",
 	       again.nposes, n, live_cm, again_cm);
 	/* "It tracks as well as live", within what a few frame sets of the
-	 * stochastic optimiser spread (2-4 cm here); both use the test
-	 * detector's keypoints, a fixed point that pulls one wrist off, so
-	 * neither is near mocap-bench's 9-10 cm for this clip. */
-	CHECK_MSG(n > 5 && again_cm < live_cm + 4.0, "retracked %.2f cm, live %.2f cm (%d sets)", again_cm, live_cm, n);
+	 * stochastic optimiser spread: offline minus live was +0.2 to +2.4 cm
+	 * over 14 runs here, and +4.2 cm once under the sanitizers while the
+	 * rest of `make check` loaded the machine (live had its best run,
+	 * 13.2 cm; which sets live tracks depends on the timing).  Both use
+	 * the test detector's keypoints, a fixed point that pulls one wrist
+	 * off, so neither is near mocap-bench's 9-10 cm for this clip. */
+	CHECK_MSG(n > 5 && again_cm < live_cm + 5.0, "retracked %.2f cm, live %.2f cm (%d sets)", again_cm, live_cm, n);
 	take_poses_free(&live);
 	take_poses_free(&again);
 	snprintf(cmd, sizeof(cmd), "%s --track retrack --csv %s/retrack.csv %s 2>&1", export_bin, scratch, take);

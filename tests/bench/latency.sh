@@ -3,7 +3,8 @@
 # publish, at 30 and 60 fps, on an idle machine and with a CPU hog on one
 # core.  mocapd plays the bundled clip (tests/data/ego_demo: two 256x256
 # MJPEG cameras) in a loop through the files driver, tracks it with the
-# default settings, and after SECONDS the stage figures of the newest 1024
+# default settings and the colours learnt on the first frame set (as
+# mocap-bench does, so that the two track the same way), and after SECONDS the stage figures of the newest 1024
 # frame sets come from `mocapctl status --json` (STATUS's latency block).
 #
 #   tests/bench/latency.sh BUILD [SECONDS per run, default 60]
@@ -39,6 +40,7 @@ for rate in ${LATENCY_RATES:-30 60}; do
 rig = $repo/config/rigs/ego_stereo.json
 model = $repo/config/models/default.json
 init_joints = $repo/tests/data/ego_demo/gt.json
+calibrate_colors = true
 [socket]
 path = $dir/mocapd.sock
 CONF
