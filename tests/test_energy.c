@@ -534,13 +534,14 @@ static void test_visibility_budget(void)
 	/* A single Gaussian from thin to dense (sigma c' up to 10, beyond the
 	 * opacity of the thesis' m = 0.1 model): 0.87 <= V + B <= 1 */
 	double lo = 2, hi = 0;
-	for (double x = fmax(1e-3, 2.5 * MC_CULL_MAGNITUDE * 0.1); x <= 10; x *= 1.05) {
+	const double x_min = fmax(1e-3, 2.5 * MC_CULL_MAGNITUDE * 0.1); /* clear of the culling band */
+	for (double x = x_min; x <= 10; x *= 1.05) {
 		s.c[0] = x / 0.1;
 		mc_ray_visibility(&s, o, n, &v, &b);
 		lo = fmin(lo, v + b), hi = fmax(hi, v + b);
 		CHECK(v > 0 && b > 0 && b < 1);
 	}
-	printf("single Gaussian, sigma c' in [%g, 10]: V + B in [%.4f, %.4f]\n", fmax(1e-3, 2.5 * MC_CULL_MAGNITUDE * 0.1), lo, hi);
+	printf("single Gaussian, sigma c' in [%g, 10]: V + B in [%.4f, %.4f]\n", x_min, lo, hi);
 	CHECK(lo > 0.87 && hi <= 1.0);
 	/* an opaque occluder passes on almost nothing: the Gaussians behind it
 	 * and the background are all but invisible, V_occluder + B ~ 1 */

@@ -712,10 +712,16 @@ static int parse_options(int argc, char **argv, options *o, bool *thesis)
 
 /* ---- main -------------------------------------------------------------- */
 
+/* Gradient iterations per frame set, averaged over the clip. */
+static double iterations_per_set(const run_stats *st)
+{
+	return st->frames ? (double)st->iterations / st->frames : 0;
+}
+
 static void print_speed(const options *o, const mc_clip *clip, const run_stats *st, mc_err *err)
 {
 	timing tm = timing_of(st->ms, st->frames);
-	double iterations = st->frames ? (double)st->iterations / st->frames : 0;
+	double iterations = iterations_per_set(st);
 	printf("speed: per frame median %.2f ms, p95 %.2f ms, p99 %.2f ms, mean %.2f ms; %.1f frames/s, "
 	       "%.1f iterations per frame set, %.0f iterations/s\n",
 	       tm.median, tm.p95, tm.p99, tm.mean, 1e3 / tm.mean, iterations, iterations * 1e3 / tm.mean);
@@ -802,7 +808,7 @@ static int run(const options *cmdline, bool thesis, mc_err *err)
 		printf("RESULT clip=%s frames=%d mpjpe_cm=%.2f fps=%.1f ms_p99=%.2f device=%s cameras=%d "
 		       "iterations=%.1f\n",
 		       clip.name, st.frames, 100.0 * mpjpe_of(&st), 1e3 / tm.mean, tm.p99, device, clip.rig.ncams,
-		       st.frames ? (double)st.iterations / st.frames : 0);
+		       iterations_per_set(&st));
 	}
 	if (bd)
 		bench_detector_close(bd);

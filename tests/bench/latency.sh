@@ -4,8 +4,8 @@
 # core.  mocapd plays the bundled clip (tests/data/ego_demo: two 256x256
 # MJPEG cameras) in a loop through the files driver, tracks it with the
 # default settings and the colours learnt on the first frame set (as
-# mocap-bench does, so that the two track the same way), and after SECONDS the stage figures of the newest 1024
-# frame sets come from `mocapctl status --json` (STATUS's latency block).
+# mocap-bench does, so that the two track the same way), and after SECONDS
+# the stage figures of the newest 1024 frame sets come from `mocapctl status --json` (STATUS's latency block).
 #
 #   tests/bench/latency.sh BUILD [SECONDS per run, default 60]
 #

@@ -6,8 +6,8 @@
  *
  * One work-item handles one sampled pixel at a time (a strided loop over
  * the pixel list).  Per pixel it
- *   1. culls the Gaussians whose ray magnitude c0_q < CULL_MAGNITUDE (a test on the
- *      squared distance to the ray, VW Gaussians at a time) and those
+ *   1. culls the Gaussians whose ray magnitude c0_q < CULL_MAGNITUDE (a
+ *      test on the squared distance to the ray, VW Gaussians at a time) and those
  *      dropped at random, keeping a compact private list of the n
  *      survivors, which it projects onto the ray (mu', c' with the smooth
  *      culling edge, dissimilarity to the pixel) VW at a time;
@@ -23,8 +23,8 @@
  * adds the work-group rows in double.  No atomics. */
 
 #define MAXG 128            /* MC_MAX_GAUSSIANS */
-#ifndef CULL_MAGNITUDE /* set by the host: MC_CULL_MAGNITUDE */
-#define CULL_MAGNITUDE 1e-5f
+#ifndef CULL_MAGNITUDE /* MC_CULL_MAGNITUDE, passed by mc_cl.c: no second copy here */
+#error "CULL_MAGNITUDE must be defined by the host (-DCULL_MAGNITUDE=...)"
 #endif
 #define SQRT_HALF_PI 1.25331413732f
 #define SQRT2 1.41421356237f
@@ -191,8 +191,8 @@ typedef struct {
 	float sumA;       /* sum_p A_p: tau(infinity) = sumA - base */
 } mc_ray_set;
 
-/* The culling test, VW Gaussians at a time (c0 > CULL_MAGNITUDE <=> the squared
- * distance of mu from the ray < r2_max), and dropout.  The survivors'
+/* The culling test, VW Gaussians at a time (c0 > CULL_MAGNITUDE <=> the
+ * squared distance of mu from the ray < r2_max), and dropout.  The survivors'
  * records are gathered into rs and the scratch g; returns their count. */
 typedef struct {
 	float mx[MAXG], my[MAXG], mz[MAXG], h[MAXG], s[MAXG], v[MAXG], ws[MAXG], wd[MAXG], wg[MAXG];
