@@ -69,16 +69,35 @@ bool mc_dropped(uint seed_mix, uint cam, uint pixel, uint q, uint thr24)
 #define intv int
 #define VLOAD(i, p) ((p)[i])
 #define VSTORE(v, i, p) ((p)[i] = (v))
-#define VSTOREI(v, i, p) ((p)[i] = (v))
-#define ANY(x) ((x) != 0) /* scalar comparisons give 1, vector ones -1 */
 #else
 #define floatv CAT(float, VW)
 #define intv CAT(int, VW)
 #define VLOAD(i, p) CAT(vload, VW)(i, p)
 #define VSTORE(v, i, p) CAT(vstore, VW)(v, i, p)
-#define VSTOREI(v, i, p) CAT(vstore, VW)(v, i, p)
-#define ANY(x) any(x)
 #endif
+
+/* The lanes of a comparison result (-1 or 0 per lane) as a bit mask, lane
+ * l at bit l: loops visit only the set bits, and a test of the whole
+ * vector is one comparison with 0 (any() compiled to a chain of branches). */
+uint lane_mask(intv pass)
+{
+#if VW == 1
+	return pass ? 1u : 0u;
+#else
+#if VW == 16
+	intv m = pass & (intv)(1, 2, 4, 8, 16, 32, 64, 128, 256, 512, 1024, 2048, 4096, 8192, 16384, 32768);
+	int8 a = m.lo | m.hi;
+	int4 b = a.lo | a.hi;
+#elif VW == 8
+	intv m = pass & (intv)(1, 2, 4, 8, 16, 32, 64, 128);
+	int4 b = m.lo | m.hi;
+#elif VW == 4
+	int4 b = pass & (intv)(1, 2, 4, 8);
+#endif
+	int2 c = b.lo | b.hi;
+	return (uint)(c.x | c.y);
+#endif
+}
 
 float hsum(floatv v)
 {
@@ -206,14 +225,11 @@ int mc_ray_cull(global const float4 *gauss, int ngauss, float3 o, float3 n, uint
 	for (int v = 0; v * VW < ngauss; v++) {
 		floatv dx = VLOAD(v, soa) - o.x, dy = VLOAD(v, soa + MAXG) - o.y, dz = VLOAD(v, soa + 2 * MAXG) - o.z;
 		floatv mq = dx * n.x + dy * n.y + dz * n.z;
-		intv pass = dx * dx + dy * dy + dz * dz - mq * mq < VLOAD(v, soa + 3 * MAXG);
-		if (!ANY(pass))
-			continue;
-		int passes[VW];
-		VSTOREI(pass, 0, passes);
-		for (int l = 0; l < VW; l++) {
-			int q = v * VW + l;
-			if (!passes[l] || (thr24 && mc_dropped(seed_mix, cam, pixel, (uint)q, thr24)))
+		uint mask = lane_mask(dx * dx + dy * dy + dz * dz - mq * mq < VLOAD(v, soa + 3 * MAXG));
+		while (mask) {
+			int q = v * VW + (31 - clz(mask & (~mask + 1u)));
+			mask &= mask - 1u;
+			if (thr24 && mc_dropped(seed_mix, cam, pixel, (uint)q, thr24))
 				continue;
 			float4 ms = gauss[4 * q], cw = gauss[4 * q + 1], alb = gauss[4 * q + 2], wdg = gauss[4 * q + 3];
 			rs->idx[na] = q;
@@ -339,7 +355,15 @@ void mc_samples_forward(const mc_ray_set *rs, mc_sample_set *ss, bool keep, floa
 	floatv wtotv = 0.0f;
 	for (int J = 0; J < ss->nv; J++) {
 		floatv s = VLOAD(J, ss->s);
-		mc_samples sp = mc_near_camera(s, VLOAD(J, ss->x), VLOAD(J, ss->l), VLOAD(J, ss->il));
+		floatv x = VLOAD(J, ss->x);
+		mc_samples sp;
+		if (lane_mask(x < 1.0f)) {
+			sp = mc_near_camera(s, x, VLOAD(J, ss->l), VLOAD(J, ss->il));
+		} else { /* the common case: no sample near the camera */
+			sp.h = sp.dt_ds = 1.0f;
+			sp.dh_ds = sp.dh_dl = sp.dt_dl = 0.0f;
+			sp.t = s;
+		}
 		floatv tau = -rs->base, dens = 0.0f;
 		for (int p = 0; p < rs->n; p++) {
 			floatv e;
