@@ -2,7 +2,8 @@
  * bundled clip (tests/data/ego_demo): the RESULT line's format, the --out
  * estimates scored here independently against the clip's gt.json (they must
  * give the MPJPE the tool printed), the simulated-detector warning, bad
- * command lines, and the outside-in layout (tests/data/outside_demo). */
+ * command lines, the outside-in layout (tests/data/outside_demo), and the
+ * detector run beside the tracker or before it (same estimates). */
 #include "eval/mc_clip.h"
 #include "test_util.h"
 
@@ -169,6 +170,52 @@ static void test_outside_in(void)
 	      strstr(out, "expected distinct camera indices"));
 }
 
+/* The whole of a file, NUL-terminated, in buf; false when unreadable or
+ * longer than cap - 1. */
+static bool slurp(const char *path, char *buf, size_t cap)
+{
+	FILE *f = fopen(path, "r");
+	size_t n = f ? fread(buf, 1, cap, f) : 0;
+	if (f)
+		fclose(f);
+	if (!f || n >= cap)
+		return false;
+	buf[n] = 0;
+	return true;
+}
+
+/* --detector: the detection of frame set k + 1 runs on its own thread while
+ * k is tracked (as in mocapd), or before it with --detector-serial; the
+ * keypoints are the same, so the estimates must be identical. */
+static void test_detector_pipelined(void)
+{
+	static char out[1 << 16], a[1 << 18], b[1 << 18];
+	const char *model = "config/models/ego_detector.onnx";
+	if (access(model, R_OK) != 0) {
+		printf("test_detector_pipelined: %s not found, skipped\n", model);
+		return;
+	}
+	char args[512], path[2][128];
+	for (int serial = 0; serial < 2; serial++) {
+		snprintf(path[serial], sizeof(path[serial]), "%s/detector%d.jsonl", tmpdir, serial);
+		snprintf(args, sizeof(args),
+			 "--clip tests/data/ego_demo --frames 8 --reference-frames 0 --no-thesis --quiet --detector %s "
+			 "--out %s%s",
+			 model, path[serial], serial ? " --detector-serial" : "");
+		int rc = run_tool(args, out, sizeof(out));
+		CHECK_MSG(rc == 0, "exit %d:\n%s", rc, out);
+		CHECK_MSG(strstr(out, serial ? "serial (detect, then track)" : "pipelined (as in mocapd)") &&
+				  strstr(out, "DETECT2D clip=ego_demo") && strstr(last_line(out), "RESULT clip=ego_demo frames=8"),
+			  "%s", out);
+	}
+	CHECK(slurp(path[0], a, sizeof(a)) && slurp(path[1], b, sizeof(b)));
+	CHECK_MSG(strlen(a) > 100 && strcmp(a, b) == 0, "pipelined and serial estimates differ:\n%s\n---\n%s", a, b);
+	unlink(path[0]);
+	unlink(path[1]);
+	CHECK(run_tool("--clip tests/data/ego_demo --detector /nonexistent/model.onnx", out, sizeof(out)) != 0 &&
+	      strstr(out, "/nonexistent/model.onnx"));
+}
+
 static void test_bad_command_lines(void)
 {
 	static char out[1 << 14];
@@ -200,6 +247,7 @@ int main(int argc, char **argv)
 	test_bad_command_lines();
 	test_run();
 	test_outside_in();
+	test_detector_pipelined();
 	rmdir(tmpdir);
 	return mc_test_finish("test_bench_tool");
 }

@@ -22,6 +22,7 @@
 #include "mc_install_paths.h" /* generated: MC_INSTALL_DATA_DIR */
 
 #include <errno.h>
+#include <pthread.h>
 #include <getopt.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -36,6 +37,7 @@ static const char *const eval_joints[] = {
 	"right_knee", "right_ankle",  "right_toe",
 };
 #define NEVAL ((int)(sizeof(eval_joints) / sizeof(eval_joints[0])))
+#define BENCH_MAX_KEYPOINTS (MC_MAX_CAMERAS * MC_DETECTOR_MAX_JOINTS)
 
 typedef struct {
 	const char *clip;
@@ -54,6 +56,7 @@ typedef struct {
 	double simulated_detector_px;
 	const char *detector_path; /* --detector MODEL: the 2D joint detector feeds the tracker */
 	int detector_every;        /* detect on every Nth frame set */
+	bool detector_serial;      /* detect and track one after the other (default: pipelined) */
 	double detector_threshold; /* < 0: the model's own */
 	/* --init detect: start from the detections alone, nothing from gt.json
 	 * (not even frame 0); false: frame 0's ground truth (the protocol's gt0) */
@@ -225,24 +228,43 @@ static int frame_keypoints(const options *o, bench_detector *bd, mc_tracker *t, 
 	return 0;
 }
 
-static int track_clip(const options *o, mc_tracker *t, bench_detector *bd, const mc_clip *clip, int nframes,
-		      FILE *out, run_stats *st, mc_err *err)
+/* A tracked frame set: scored against the ground truth (and the pose held
+ * still), written, counted, and shown every 30 frame sets. */
+static void record_frame(const options *o, const mc_clip *clip, int k, int nframes, const mc_skeleton *sk,
+			 const mc_skeleton *still, FILE *out, run_stats *st)
 {
-	st->ms = calloc(nframes, sizeof(double));
-	if (!st->ms)
-		return mc_err_set(err, "out of memory");
+	st->states[sk->state]++;
+	st->iterations += sk->iterations;
+	if (st->first_tracked < 0 && sk->state != MC_TRACK_INITIALISING)
+		st->first_tracked = k;
+	score(clip, k, sk, st->err_sum);
+	score_confidence(clip, k, sk, st);
+	score(clip, k, still, st->still_sum);
+	st->err_n++;
+	if (out)
+		write_estimate(out, k, sk);
+	if (!o->quiet && (k % 30 == 0 || k == nframes - 1))
+		printf("  frame %4d  %-9s  %6.1f ms  running mpjpe %.2f cm\n", k, mc_track_state_name(sk->state), st->ms[k],
+		       100.0 * mpjpe_of(st));
+	st->frames++;
+}
+
+/* One frame set after another: keypoints (when any), then tracking, both
+ * on the clock. */
+static int track_serial(const options *o, mc_tracker *t, bench_detector *bd, const mc_clip *clip, int nframes,
+			FILE *out, run_stats *st, mc_err *err)
+{
 	mc_skeleton still;
 	current_skeleton(t, &still);
-	st->first_tracked = -1;
 	uint64_t rng = o->s.seed + 1;
 	for (int k = 0; k < nframes; k++) {
 		mc_frame_view views[MC_MAX_CAMERAS];
 		mc_skeleton sk;
-		mc_keypoint kp[MC_MAX_CAMERAS * MC_DETECTOR_MAX_JOINTS];
+		mc_keypoint kp[BENCH_MAX_KEYPOINTS];
 		if (mc_clip_load_frame(clip, k, views, err) < 0)
 			return -1;
 		uint64_t t0 = mc_now_ns();
-		int nkp = frame_keypoints(o, bd, t, clip, k, views, &rng, kp, MC_MAX_CAMERAS * MC_DETECTOR_MAX_JOINTS, err);
+		int nkp = frame_keypoints(o, bd, t, clip, k, views, &rng, kp, BENCH_MAX_KEYPOINTS, err);
 		int rc = nkp < 0 ? -1 : mc_tracker_track(t, views, clip->rig.ncams, kp, nkp, &sk, err);
 		st->ms[k] = mc_ms_since(t0);
 		if (rc == 0 && o->overlay_dir && k % o->overlay_every == 0)
@@ -250,22 +272,116 @@ static int track_clip(const options *o, mc_tracker *t, bench_detector *bd, const
 		mc_clip_free_frame(views);
 		if (rc < 0)
 			return -1;
-		st->states[sk.state]++;
-		st->iterations += sk.iterations;
-		if (st->first_tracked < 0 && sk.state != MC_TRACK_INITIALISING)
-			st->first_tracked = k;
-		score(clip, k, &sk, st->err_sum);
-		score_confidence(clip, k, &sk, st);
-		score(clip, k, &still, st->still_sum);
-		st->err_n++;
-		if (out)
-			write_estimate(out, k, &sk);
-		if (!o->quiet && (k % 30 == 0 || k == nframes - 1))
-			printf("  frame %4d  %-9s  %6.1f ms  running mpjpe %.2f cm\n", k, mc_track_state_name(sk.state),
-			       st->ms[k], 100.0 * mpjpe_of(st));
-		st->frames++;
+		record_frame(o, clip, k, nframes, &sk, &still, out, st);
 	}
 	return 0;
+}
+
+/* A frame set whose detection runs on a thread of its own. */
+typedef struct {
+	bench_detector *bd;
+	const mc_clip *clip;
+	int k;
+	mc_frame_view views[MC_MAX_CAMERAS];
+	bool loaded, running;
+	pthread_t thread;
+	mc_keypoint kp[BENCH_MAX_KEYPOINTS];
+	int nkp; /* -1: failed, with err */
+	mc_err err;
+} detect_slot;
+
+static void *detect_slot_run(void *arg)
+{
+	detect_slot *d = arg;
+	d->nkp = bench_detector_run(d->bd, d->clip, d->k, d->views, d->clip->rig.ncams, d->kp, BENCH_MAX_KEYPOINTS,
+				    &d->err);
+	return NULL;
+}
+
+/* Loads frame set k and starts its detection. */
+static int detect_slot_start(detect_slot *d, int k, mc_err *err)
+{
+	d->k = k;
+	if (mc_clip_load_frame(d->clip, k, d->views, err) < 0)
+		return -1;
+	d->loaded = true;
+	int rc = pthread_create(&d->thread, NULL, detect_slot_run, d);
+	if (rc != 0)
+		return mc_err_set(err, "mocap-bench: detector thread: %s", strerror(rc));
+	d->running = true;
+	return 0;
+}
+
+/* Waits for the detection; -1 (with err) if it failed. */
+static int detect_slot_join(detect_slot *d, mc_err *err)
+{
+	if (d->running)
+		pthread_join(d->thread, NULL);
+	d->running = false;
+	if (d->nkp < 0) {
+		*err = d->err;
+		return -1;
+	}
+	return 0;
+}
+
+static void detect_slot_unload(detect_slot *d)
+{
+	if (d->running)
+		pthread_join(d->thread, NULL);
+	d->running = false;
+	if (d->loaded)
+		mc_clip_free_frame(d->views);
+	d->loaded = false;
+}
+
+/* As mocapd runs the detector (its own threads, on the newest frame set,
+ * while the tracking thread tracks the one before): frame set k + 1 is
+ * detected while k is tracked.  The clock runs while the tracker works and
+ * while it waits for the detection it needs; frame loading (off the clock,
+ * as in track_serial) happens while nothing else runs, so it gives the
+ * detector no head start.  Same keypoints as track_serial, so the same
+ * estimates; only the time differs. */
+static int track_pipelined(const options *o, mc_tracker *t, bench_detector *bd, const mc_clip *clip, int nframes,
+			   FILE *out, run_stats *st, mc_err *err)
+{
+	mc_skeleton still;
+	current_skeleton(t, &still);
+	detect_slot slot[2] = {{.bd = bd, .clip = clip}, {.bd = bd, .clip = clip}};
+	int rc = nframes > 0 ? detect_slot_start(&slot[0], 0, err) : 0;
+	for (int k = 0; rc == 0 && k < nframes; k++) {
+		detect_slot *cur = &slot[k % 2];
+		uint64_t t0 = mc_now_ns();
+		rc = detect_slot_join(cur, err);
+		double waited = mc_ms_since(t0);
+		if (rc == 0 && k + 1 < nframes)
+			rc = detect_slot_start(&slot[(k + 1) % 2], k + 1, err);
+		mc_skeleton sk;
+		t0 = mc_now_ns();
+		if (rc == 0)
+			rc = mc_tracker_track(t, cur->views, clip->rig.ncams, cur->kp, cur->nkp, &sk, err);
+		st->ms[k] = waited + mc_ms_since(t0);
+		if (rc == 0 && o->overlay_dir && k % o->overlay_every == 0)
+			write_overlay(o, clip, k, &cur->views[0], &sk);
+		if (rc == 0)
+			record_frame(o, clip, k, nframes, &sk, &still, out, st);
+		detect_slot_unload(cur);
+	}
+	detect_slot_unload(&slot[0]);
+	detect_slot_unload(&slot[1]);
+	return rc;
+}
+
+static int track_clip(const options *o, mc_tracker *t, bench_detector *bd, const mc_clip *clip, int nframes,
+		      FILE *out, run_stats *st, mc_err *err)
+{
+	st->ms = calloc(nframes, sizeof(double));
+	if (!st->ms)
+		return mc_err_set(err, "out of memory");
+	st->first_tracked = -1;
+	if (bd && !o->detector_serial)
+		return track_pipelined(o, t, bd, clip, nframes, out, st, err);
+	return track_serial(o, t, bd, clip, nframes, out, st, err);
 }
 
 /* ---- report ------------------------------------------------------------ */
@@ -566,8 +682,11 @@ static void usage(FILE *f)
 		   "                        pixels of noise (15%% missed), standing in for a 2D detector; NOT the\n"
 		   "                        evaluation protocol, which uses no ground truth after frame 0\n"
 		   "  --lambda-detection L  weight of the keypoint term\n"
-		   "  --detector MODEL      the 2D joint detector (ONNX, docs/DETECTOR.md) feeds the tracker; its\n"
-		   "                        time counts in the reported speed, and a 2D report follows\n"
+		   "  --detector MODEL      the 2D joint detector (ONNX, docs/DETECTOR.md) feeds the tracker, and a\n"
+		   "                        2D report follows; as in mocapd, frame set k + 1 is detected on a\n"
+		   "                        thread of its own while k is tracked, and the speed counts the\n"
+		   "                        tracking and any wait for the detection\n"
+		   "  --detector-serial     detect, then track, one frame set after the other (both timed)\n"
 		   "  --detector-every N    detect on every Nth frame set only (default 1)\n"
 		   "  --detector-threshold T  keypoints below confidence T are dropped (default: the model's)\n"
 		   "  --lambda-color L      weight of the colour term (default 1; 0: detections and priors only)\n"
@@ -592,7 +711,7 @@ enum { OPT_MODEL = 256, OPT_OUT, OPT_FRAMES, OPT_BACKEND, OPT_WIDTH, OPT_HEIGHT,
        OPT_STEP, OPT_MOM, OPT_LSMOOTH, OPT_LPOSE, OPT_LLIMIT, OPT_PLAT, OPT_DEV, OPT_SEED, OPT_OCAM, OPT_REF,
        OPT_NOTHESIS, OPT_QUIET, OPT_CLIP, OPT_HELP, OPT_OVERLAY, OPT_OVERLAY_EVERY, OPT_LANCHOR,
        OPT_SIMDET, OPT_LDET, OPT_DETECTOR, OPT_DET_EVERY, OPT_LCOLOR, OPT_DET_THRESHOLD, OPT_INIT,
-       OPT_NORECOVER, OPT_CAMERAS, OPT_LFLOOR, OPT_VERSION = 'V' };
+       OPT_NORECOVER, OPT_CAMERAS, OPT_LFLOOR, OPT_DET_SERIAL, OPT_VERSION = 'V' };
 
 static int apply_option(options *o, int c, const char *name, const char *arg, bool *thesis)
 {
@@ -609,6 +728,7 @@ static int apply_option(options *o, int c, const char *name, const char *arg, bo
 	case OPT_NOTHESIS: *thesis = false; return 0;
 	case OPT_QUIET: o->quiet = true; return 0;
 	case OPT_NORECOVER: o->s.recover = false; return 0;
+	case OPT_DET_SERIAL: o->detector_serial = true; return 0;
 	case OPT_INIT:
 		if (!strcmp(arg, "gt0") || !strcmp(arg, "detect")) {
 			o->init_detect = !strcmp(arg, "detect");
@@ -671,7 +791,8 @@ static int parse_options(int argc, char **argv, options *o, bool *thesis)
 		{"no-thesis", 0, 0, OPT_NOTHESIS}, {"overlay-dir", 1, 0, OPT_OVERLAY},
 		{"overlay-every", 1, 0, OPT_OVERLAY_EVERY}, {"quiet", 0, 0, OPT_QUIET}, {"help", 0, 0, OPT_HELP},
 		{"init", 1, 0, OPT_INIT}, {"no-recover", 0, 0, OPT_NORECOVER}, {"cameras", 1, 0, OPT_CAMERAS},
-		{"lambda-floor", 1, 0, OPT_LFLOOR}, {"version", 0, 0, OPT_VERSION},
+		{"lambda-floor", 1, 0, OPT_LFLOOR}, {"detector-serial", 0, 0, OPT_DET_SERIAL},
+		{"version", 0, 0, OPT_VERSION},
 		{0, 0, 0, 0}};
 	int c, idx;
 	while ((c = getopt_long(argc, argv, "hV", longopts, &idx)) != -1) {
@@ -782,8 +903,10 @@ static int run(const options *cmdline, bool thesis, mc_err *err)
 		bd = &det;
 		if (o->detector_threshold >= 0)
 			mc_detector_set_threshold(det.det, (float)o->detector_threshold);
-		printf("detector: %s, every %d frame set(s), lambda_detection %.3g, lambda_color %.3g\n",
-		       o->detector_path, det.every, o->s.lambda_detection, o->s.lambda_color);
+		printf("detector: %s, every %d frame set(s), %s, lambda_detection %.3g, lambda_color %.3g\n",
+		       o->detector_path, det.every,
+		       o->detector_serial ? "serial (detect, then track)" : "pipelined (as in mocapd)",
+		       o->s.lambda_detection, o->s.lambda_color);
 	}
 	run_stats st = {0};
 	int rc = track_clip(o, t, bd, &clip, nframes, out, &st, err);

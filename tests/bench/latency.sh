@@ -10,7 +10,9 @@
 #   tests/bench/latency.sh BUILD [SECONDS per run, default 60]
 #
 # LATENCY_RATES and LATENCY_LOADS choose the runs (default "30 60" and
-# "idle hog").
+# "idle hog detector"; detector: idle, with the shipped 2D joint detector
+# in-process, config/models/ego_detector.onnx, on every frame of both
+# cameras).
 #
 # The files driver rather than the sim driver: sim renders each view on the
 # CPU (about a second at 256x256), so it cannot deliver 30 or 60 fps on two
@@ -23,10 +25,10 @@ repo=$(pwd)
 [ -f tests/data/ego_demo/gt.json ] || { echo "bench-latency: run from the repository root"; exit 1; }
 py=/usr/bin/python3
 echo "bench-latency: $secs s per run; CPU: $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | sed 's/^ //'), $(nproc) cores"
-printf '%-4s %-5s %6s %8s  %-22s %-22s %-22s %-22s %-22s %-22s %s\n' fps load sets tracked/s \
+printf '%-4s %-8s %6s %8s  %-22s %-22s %-22s %-22s %-22s %-22s %s\n' fps load sets tracked/s \
 	"ready p50/p99/max" "wait" "decode" "track" "publish" "total" "skipped behind/stale, incomplete"
 for rate in ${LATENCY_RATES:-30 60}; do
-	for load in ${LATENCY_LOADS:-idle hog}; do
+	for load in ${LATENCY_LOADS:-idle hog detector}; do
 		dir=$(mktemp -d /tmp/mocap-latency-XXXXXX)
 		{
 			printf '[daemon]\nplugin_dir = %s/%s/drivers\n' "$repo" "$build"
@@ -44,6 +46,9 @@ calibrate_colors = true
 [socket]
 path = $dir/mocapd.sock
 CONF
+		if [ "$load" = detector ]; then
+			printf '[detector]\nmodel = %s/config/models/ego_detector.onnx\n' "$repo" >> "$dir/mocapd.conf"
+		fi
 		"$build/bin/mocapd" -c "$dir/mocapd.conf" > /dev/null 2> "$dir/mocapd.log" &
 		daemon=$!
 		hog=
@@ -61,9 +66,18 @@ import json, sys
 st = json.load(open(sys.argv[1]))
 lat = st["latency"]
 cell = lambda s: "%5.1f %5.1f %6.1f ms" % (lat[s]["p50_ms"], lat[s]["p99_ms"], lat[s]["max_ms"])
-print("%-4s %-5s %6d %8.1f  %-22s %-22s %-22s %-22s %-22s %-22s %d/%d, %d" % (
+print("%-4s %-8s %6d %8.1f  %-22s %-22s %-22s %-22s %-22s %-22s %d/%d, %d" % (
     sys.argv[2], sys.argv[3], lat["window"], st["publish_fps"], cell("ready"), cell("wait"), cell("decode"),
-    cell("track"), cell("publish"), cell("total"), lat["skipped_behind"], lat["skipped_stale"], lat["incomplete"]))
+    cell("track"), cell("publish"), cell("total"), lat["skipped_behind"], lat["skipped_stale"], lat["incomplete"]),
+    end="")
+det = st.get("detector", {})
+if det.get("state") == "running":
+    # used: views whose keypoints came in time for their frame set's tracking
+    print("; detector %.1f views/s, %.2f ms per view, %.1f used/s" % (det["views_per_s"], det["ms_mean"],
+                                                                     det["used_per_s"]), end="")
+elif det.get("state") == "failed":
+    print("; detector failed: %s" % det.get("message"), end="")
+print()
 PY
 		rm -rf "$dir"
 	done
