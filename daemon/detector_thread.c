@@ -2,10 +2,11 @@
  *
  * Why it reads the rings itself instead of taking the frame sets the
  * tracking thread decodes: the tracking thread never waits for the
- * detector, so keypoints are only of use for a frame set if they are ready
- * when the tracking thread starts on it.  Frames the tracking thread has
- * decoded are already being tracked; detections made on them would always
- * come one frame set too late (another capture time).  So the detector
+ * detector, so keypoints are only of use for a frame set if they come
+ * before its last gradient iteration (they join between iterations), and
+ * the sooner they come, the more iterations use them.  Detections made on
+ * the frames the tracking thread has decoded would start only as their
+ * tracking starts.  So the detector
  * starts on each frame the moment its capture thread commits it, in
  * parallel with the grouping (which waits for the other cameras) and the
  * tracking thread's own decoding, and pays for a second JPEG decoding

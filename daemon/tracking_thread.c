@@ -61,6 +61,12 @@ struct mcd_tracking_thread {
 	uint64_t det_serial[MC_MAX_CAMERAS];
 	srv_keypoints *det_latest;
 	uint64_t det_seen[MC_MAX_CAMERAS];
+	/* The frame set being tracked: how many keypoints t->kp holds, and per
+	 * rig camera the capture time whose detection is still awaited (0:
+	 * none), with the tolerance that matches it (late_detections). */
+	int nkp;
+	uint64_t awaited_ns[MC_MAX_CAMERAS];
+	uint64_t kp_tol_ns;
 };
 
 /* ---- one frame set ---------------------------------------------------------------- */
@@ -142,9 +148,28 @@ static void take_detected(mcd_tracking_thread *t, int r)
 	pthread_mutex_unlock(&t->det_lock);
 }
 
+/* Appends batch b of rig camera r to the frame set's keypoints (t->kp). */
+static void append_keypoints(mcd_tracking_thread *t, const srv_keypoints *b, int r)
+{
+	for (int k = 0; k < b->nkeypoints; k++) {
+		t->kp[t->nkp] = b->keypoints[k];
+		t->kp[t->nkp++].cam = r;
+	}
+}
+
+static void count_detected(mcd_tracking_thread *t, int views)
+{
+	if (!views)
+		return;
+	pthread_mutex_lock(&t->lock);
+	t->st.total.detector_views += (uint64_t)views;
+	pthread_mutex_unlock(&t->lock);
+}
+
 /* Keypoints for the frames of this set: per rig camera, the newest batch
  * of the in-process detector if its capture time is that of the camera's
- * view, else the newest batch a client sent, on the same condition. */
+ * view, else the newest batch a client sent, on the same condition.  A
+ * camera with neither awaits its detection (late_detections). */
 static int collect_keypoints(mcd_tracking_thread *t, const mc_frame_view *views, int nviews)
 {
 	while (t->inbox && srv_inbox_pop_keypoints(t->inbox, t->kp_batch) == 1)
@@ -155,26 +180,55 @@ static int collect_keypoints(mcd_tracking_thread *t, const mc_frame_view *views,
 	if (t->st.total.track_state == MC_TRACK_INITIALISING && tol < INIT_KEYPOINT_AGE_NS)
 		tol = INIT_KEYPOINT_AGE_NS;
 	pthread_mutex_unlock(&t->lock);
-	int n = 0, detected = 0;
-	for (int r = 0; r < nviews; r++) {
-		take_detected(t, r);
-		if (!views[r].rgb)
+	t->nkp = 0;
+	t->kp_tol_ns = tol;
+	int detected = 0;
+	for (int r = 0; r < MC_MAX_CAMERAS; r++) {
+		t->awaited_ns[r] = 0;
+		if (r >= nviews || !views[r].rgb)
 			continue;
+		take_detected(t, r);
 		const srv_keypoints *b = &t->det_latest[r];
 		if (same_instant(b, views[r].timestamp_ns, tol))
 			detected++;
-		else if (!same_instant(b = &t->kp_latest[r], views[r].timestamp_ns, tol))
+		else if (!same_instant(b = &t->kp_latest[r], views[r].timestamp_ns, tol)) {
+			t->awaited_ns[r] = views[r].timestamp_ns;
 			continue;
-		for (int k = 0; k < b->nkeypoints; k++) {
-			t->kp[n] = b->keypoints[k];
-			t->kp[n++].cam = r;
 		}
+		append_keypoints(t, b, r);
 	}
-	if (detected) {
-		pthread_mutex_lock(&t->lock);
-		t->st.total.detector_views += (uint64_t)detected;
-		pthread_mutex_unlock(&t->lock);
+	count_detected(t, detected);
+	return t->nkp;
+}
+
+/* The tracker's keypoint poll (mc_tracker_set_keypoint_poll), between its
+ * gradient iterations: the in-process detector's batches that came for
+ * this frame set after its tracking began.  The tracking thread does not
+ * wait for the detector (a pose should not wait), but a detection takes
+ * a few milliseconds, so when the tracker starts on a frame set at once
+ * (cameras at 30 fps on an idle machine) the keypoints would otherwise
+ * come too late for nearly every frame set (5 of 60 views a second in
+ * bench-latency); now they join the remaining iterations. */
+static int late_detections(void *ctx, int iteration, mc_keypoint *kp, int cap)
+{
+	mcd_tracking_thread *t = ctx;
+	(void)iteration;
+	int n = 0, detected = 0;
+	for (int r = 0; r < MC_MAX_CAMERAS; r++) {
+		if (!t->awaited_ns[r])
+			continue;
+		take_detected(t, r);
+		const srv_keypoints *b = &t->det_latest[r];
+		if (!same_instant(b, t->awaited_ns[r], t->kp_tol_ns) || b->nkeypoints > cap - n)
+			continue;
+		t->awaited_ns[r] = 0;
+		int first = t->nkp;
+		append_keypoints(t, b, r);
+		memcpy(kp + n, t->kp + first, sizeof(*kp) * (size_t)b->nkeypoints);
+		n += b->nkeypoints;
+		detected++;
 	}
+	count_detected(t, detected);
 	return n;
 }
 
@@ -248,7 +302,9 @@ static void track(mcd_tracking_thread *t, const mc_frame_view *views, int presen
 	calibrate_once(t, views, present);
 	int nkp = collect_keypoints(t, views, nviews);
 	mc_err err = {{0}};
+	mc_tracker_set_keypoint_poll(tr->tracker, late_detections, t);
 	int rc = mc_tracker_track(tr->tracker, views, nviews, nkp ? t->kp : NULL, nkp, &o->sk, &err);
+	nkp = t->nkp; /* with the late ones */
 	o->nkp = nkp < MCD_OUTPUT_KEYPOINTS ? nkp : MCD_OUTPUT_KEYPOINTS;
 	memcpy(o->kp, t->kp, sizeof(*o->kp) * (size_t)o->nkp);
 	if (rc == 0) {

@@ -11,12 +11,14 @@
  *   sets: the keypoints
  *   reached the tracker with the right capture time, camera and joint;
  *   a reload with `rate = 1` detects 1 view per second and camera.
- *   Only some: the tracking thread never waits for the detector, and at
- *   5 fps it is idle when a frame set completes, so it starts at once and
- *   a detection that ends a millisecond later is not used for that set
- *   (counted: `used` against `views`; docs/CONFIG.md, [detector]).  The
- *   same pixel on the right camera is another ray, so where both cameras'
- *   keypoints are used the wrist settles between the two rays;
+ *   The tracking thread never waits for the detector, and at 5 fps it is
+ *   idle when a frame set completes, so it starts at once and the
+ *   detection ends a millisecond later: those keypoints join the tracking
+ *   between its iterations (mc_tracker_set_keypoint_poll), so most views
+ *   are `used` and the wrist is on the rays in most frame sets (before
+ *   they could join, only a few were).  The same pixel on the right camera
+ *   is another ray, so where both cameras' keypoints are used the wrist
+ *   settles between the two rays;
  * - bad models (wrong output shape, not ONNX, a missing file): mocapd
  *   starts anyway, keeps publishing skeletons and reports the detector
  *   failed with the file and the mismatch in its status and log;
@@ -107,7 +109,7 @@ static void check_tracking(mocap_client *c, mocap_skeleton_frame *f, int wrist)
 	       100 * gap, 100 * before, series, on, frames, 100 * closest);
 	CHECK(frames == FRAMES);
 	CHECK_MSG(before > 0.15, "the clip's wrist comes within %.1f cm of the rays", 100 * before);
-	CHECK_MSG(on >= 5, "the wrist came within 5 cm of the keypoints' rays in %d of %d frames", on, frames);
+	CHECK_MSG(on >= FRAMES / 2, "the wrist came within 5 cm of the keypoints' rays in %d of %d frames", on, frames);
 }
 
 static void check_running_status(mcd_run *r, mocap_client *c)
@@ -119,7 +121,7 @@ static void check_running_status(mcd_run *r, mocap_client *c)
 	}
 	const mocap_detector_status *d = &st->detector;
 	printf("detector in mocapd: %s, %.1f views/s, %.3f ms per view (last %.3f, max %.3f), %llu views, %llu skipped, "
-	       "%llu tracked with its keypoints (%.1f/s; the others came too late for their frame set)\n",
+	       "%llu tracked with its keypoints (%.1f/s; any others came too late for their frame set)\n",
 	       d->state == MOCAP_DETECTOR_RUNNING ? "running" : "NOT RUNNING", d->rate, d->ms_mean, d->ms_last, d->ms_max,
 	       (unsigned long long)d->views, (unsigned long long)d->skipped, (unsigned long long)d->used, d->used_rate);
 	CHECK(d->state == MOCAP_DETECTOR_RUNNING && d->message[0] == 0);
@@ -128,8 +130,10 @@ static void check_running_status(mcd_run *r, mocap_client *c)
 	CHECK_MSG(d->views >= 2 * FRAMES * 8 / 10, "%llu views detected", (unsigned long long)d->views);
 	CHECK(d->rate > 2 * RATE * 0.5 && d->rate < 2 * RATE * 1.5);
 	CHECK(d->ms_mean > 0 && d->ms_last > 0 && d->ms_max >= d->ms_last);
-	CHECK_MSG(d->used >= 3 && d->used <= d->views, "only %llu views were tracked with the detector's keypoints",
-		  (unsigned long long)d->used);
+	/* most: a detection that ends after the tracking of its frame set began joins it */
+	CHECK_MSG(d->used >= d->views / 2 && d->used <= d->views,
+		  "only %llu of %llu views were tracked with the detector's keypoints", (unsigned long long)d->used,
+		  (unsigned long long)d->views);
 	free(st);
 	mcd_run_read_notify(r);
 	CHECK_MSG(r->notes && strstr(r->notes, "| detector ") && strstr(r->notes, "ms per view"),

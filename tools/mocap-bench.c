@@ -57,6 +57,7 @@ typedef struct {
 	const char *detector_path; /* --detector MODEL: the 2D joint detector feeds the tracker */
 	int detector_every;        /* detect on every Nth frame set */
 	bool detector_serial;      /* detect and track one after the other (default: pipelined) */
+	int keypoints_at_iteration; /* > 0: keypoints join the tracking at this iteration */
 	double detector_threshold; /* < 0: the model's own */
 	/* --init detect: start from the detections alone, nothing from gt.json
 	 * (not even frame 0); false: frame 0's ground truth (the protocol's gt0) */
@@ -249,6 +250,37 @@ static void record_frame(const options *o, const mc_clip *clip, int k, int nfram
 	st->frames++;
 }
 
+/* --keypoints-at-iteration N: the frame set's keypoints join the tracking
+ * at gradient iteration N, as in mocapd when the detector finishes while
+ * the tracker already works on its frame set. */
+typedef struct {
+	const mc_keypoint *kp;
+	int nkp, at;
+} late_keypoints;
+
+static int late_keypoints_poll(void *ctx, int iteration, mc_keypoint *kp, int cap)
+{
+	late_keypoints *l = ctx;
+	if (iteration < l->at || l->nkp == 0)
+		return 0;
+	int n = l->nkp < cap ? l->nkp : cap;
+	memcpy(kp, l->kp, sizeof(*kp) * (size_t)n);
+	l->nkp = 0;
+	return n;
+}
+
+static int track_frame(const options *o, mc_tracker *t, const mc_clip *clip, const mc_frame_view *views,
+		       const mc_keypoint *kp, int nkp, mc_skeleton *sk, mc_err *err)
+{
+	if (o->keypoints_at_iteration <= 0)
+		return mc_tracker_track(t, views, clip->rig.ncams, kp, nkp, sk, err);
+	late_keypoints late = {kp, nkp, o->keypoints_at_iteration};
+	mc_tracker_set_keypoint_poll(t, late_keypoints_poll, &late);
+	int rc = mc_tracker_track(t, views, clip->rig.ncams, NULL, 0, sk, err);
+	mc_tracker_set_keypoint_poll(t, NULL, NULL);
+	return rc;
+}
+
 /* One frame set after another: keypoints (when any), then tracking, both
  * on the clock. */
 static int track_serial(const options *o, mc_tracker *t, bench_detector *bd, const mc_clip *clip, int nframes,
@@ -265,7 +297,7 @@ static int track_serial(const options *o, mc_tracker *t, bench_detector *bd, con
 			return -1;
 		uint64_t t0 = mc_now_ns();
 		int nkp = frame_keypoints(o, bd, t, clip, k, views, &rng, kp, BENCH_MAX_KEYPOINTS, err);
-		int rc = nkp < 0 ? -1 : mc_tracker_track(t, views, clip->rig.ncams, kp, nkp, &sk, err);
+		int rc = nkp < 0 ? -1 : track_frame(o, t, clip, views, kp, nkp, &sk, err);
 		st->ms[k] = mc_ms_since(t0);
 		if (rc == 0 && o->overlay_dir && k % o->overlay_every == 0)
 			write_overlay(o, clip, k, &views[0], &sk);
@@ -359,7 +391,7 @@ static int track_pipelined(const options *o, mc_tracker *t, bench_detector *bd, 
 		mc_skeleton sk;
 		t0 = mc_now_ns();
 		if (rc == 0)
-			rc = mc_tracker_track(t, cur->views, clip->rig.ncams, cur->kp, cur->nkp, &sk, err);
+			rc = track_frame(o, t, clip, cur->views, cur->kp, cur->nkp, &sk, err);
 		st->ms[k] = waited + mc_ms_since(t0);
 		if (rc == 0 && o->overlay_dir && k % o->overlay_every == 0)
 			write_overlay(o, clip, k, &cur->views[0], &sk);
@@ -687,6 +719,9 @@ static void usage(FILE *f)
 		   "                        thread of its own while k is tracked, and the speed counts the\n"
 		   "                        tracking and any wait for the detection\n"
 		   "  --detector-serial     detect, then track, one frame set after the other (both timed)\n"
+		   "  --keypoints-at-iteration N  the keypoints (detector or simulated) join the tracking at\n"
+		   "                        gradient iteration N instead of before it, as in mocapd when the\n"
+		   "                        detection finishes after the tracking of its frame set began\n"
 		   "  --detector-every N    detect on every Nth frame set only (default 1)\n"
 		   "  --detector-threshold T  keypoints below confidence T are dropped (default: the model's)\n"
 		   "  --lambda-color L      weight of the colour term (default 1; 0: detections and priors only)\n"
@@ -711,7 +746,7 @@ enum { OPT_MODEL = 256, OPT_OUT, OPT_FRAMES, OPT_BACKEND, OPT_WIDTH, OPT_HEIGHT,
        OPT_STEP, OPT_MOM, OPT_LSMOOTH, OPT_LPOSE, OPT_LLIMIT, OPT_PLAT, OPT_DEV, OPT_SEED, OPT_OCAM, OPT_REF,
        OPT_NOTHESIS, OPT_QUIET, OPT_CLIP, OPT_HELP, OPT_OVERLAY, OPT_OVERLAY_EVERY, OPT_LANCHOR,
        OPT_SIMDET, OPT_LDET, OPT_DETECTOR, OPT_DET_EVERY, OPT_LCOLOR, OPT_DET_THRESHOLD, OPT_INIT,
-       OPT_NORECOVER, OPT_CAMERAS, OPT_LFLOOR, OPT_DET_SERIAL, OPT_VERSION = 'V' };
+       OPT_NORECOVER, OPT_CAMERAS, OPT_LFLOOR, OPT_DET_SERIAL, OPT_KP_AT, OPT_VERSION = 'V' };
 
 static int apply_option(options *o, int c, const char *name, const char *arg, bool *thesis)
 {
@@ -765,6 +800,7 @@ static int apply_option(options *o, int c, const char *name, const char *arg, bo
 	case OPT_LDET: s->lambda_detection = v; o->given |= MC_GIVEN_LAMBDA_DETECTION; break;
 	case OPT_LCOLOR: s->lambda_color = v; break;
 	case OPT_DET_EVERY: o->detector_every = v >= 1 ? (int)v : 1; break;
+	case OPT_KP_AT: o->keypoints_at_iteration = (int)v; break;
 	case OPT_DET_THRESHOLD: o->detector_threshold = v; break;
 	case OPT_SIMDET: o->simulated_detector_px = v; break;
 	case OPT_PLAT: s->cl_platform = (int)v; break;
@@ -792,6 +828,7 @@ static int parse_options(int argc, char **argv, options *o, bool *thesis)
 		{"overlay-every", 1, 0, OPT_OVERLAY_EVERY}, {"quiet", 0, 0, OPT_QUIET}, {"help", 0, 0, OPT_HELP},
 		{"init", 1, 0, OPT_INIT}, {"no-recover", 0, 0, OPT_NORECOVER}, {"cameras", 1, 0, OPT_CAMERAS},
 		{"lambda-floor", 1, 0, OPT_LFLOOR}, {"detector-serial", 0, 0, OPT_DET_SERIAL},
+		{"keypoints-at-iteration", 1, 0, OPT_KP_AT},
 		{"version", 0, 0, OPT_VERSION},
 		{0, 0, 0, 0}};
 	int c, idx;

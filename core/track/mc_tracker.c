@@ -166,11 +166,12 @@ static int alloc_buffers(mc_tracker *t, mc_err *err)
 		max_pixels = n > max_pixels ? n : max_pixels;
 	}
 	t->mask = malloc((size_t)max_pixels);
+	t->fkp = malloc(sizeof(*t->fkp));
 	/* Jacobians of the Gaussian centres (levers) or of the joints
 	 * (detections) with respect to every dof */
 	int rows = t->model.ngauss > MC_MAX_JOINTS ? t->model.ngauss : MC_MAX_JOINTS;
 	t->jacobian = malloc(sizeof(mc_vec3) * (size_t)rows * (size_t)(t->model.ndof > 0 ? t->model.ndof : 1));
-	return t->mask && t->jacobian ? 0 : mc_err_set(err, "tracker: out of memory");
+	return t->mask && t->jacobian && t->fkp ? 0 : mc_err_set(err, "tracker: out of memory");
 }
 
 mc_tracker *mc_tracker_create(const mc_rig *rig, const mc_model *model, const mc_tracker_settings *s, mc_err *err)
@@ -242,10 +243,17 @@ void mc_tracker_destroy(mc_tracker *t)
 	}
 	free(t->mask);
 	free(t->jacobian);
+	free(t->fkp);
 	mc_trk_init_free(t);
 	if (t->cl)
 		mc_cl_energy_destroy(t->cl);
 	free(t);
+}
+
+void mc_tracker_set_keypoint_poll(mc_tracker *t, mc_keypoint_poll poll, void *ctx)
+{
+	t->kp_poll = poll;
+	t->kp_poll_ctx = ctx;
 }
 
 void mc_tracker_set_pose(mc_tracker *t, const double *pose)
@@ -658,11 +666,34 @@ static void floor_term(const mc_tracker *t, const mc_scene *scene, mc_vec3 *dmu)
 	}
 }
 
+/* The frame set's keypoints: those given to mc_tracker_track. */
+static void keypoints_given(mc_tracker *t, const mc_keypoint *kp, int nkp)
+{
+	mc_trk_frame_keypoints *k = t->fkp;
+	k->ngiven = kp && nkp > 0 ? (nkp < MC_TRK_MAX_KEYPOINTS ? nkp : MC_TRK_MAX_KEYPOINTS) : 0;
+	if (k->ngiven)
+		memcpy(k->given, kp, sizeof(*kp) * (size_t)k->ngiven);
+	k->nrays = mc_trk_prepare_keypoints(t, k->given, k->ngiven, k->rays, k->cam);
+}
+
+/* Before iteration `it`: keypoints that came since (mc_tracker_set_keypoint_poll). */
+static void keypoints_poll(mc_tracker *t, int it)
+{
+	mc_trk_frame_keypoints *k = t->fkp;
+	if (!t->kp_poll || k->ngiven >= MC_TRK_MAX_KEYPOINTS)
+		return;
+	int got = t->kp_poll(t->kp_poll_ctx, it, k->given + k->ngiven, MC_TRK_MAX_KEYPOINTS - k->ngiven);
+	if (got <= 0)
+		return;
+	k->ngiven += got < MC_TRK_MAX_KEYPOINTS - k->ngiven ? got : MC_TRK_MAX_KEYPOINTS - k->ngiven;
+	k->nrays = mc_trk_prepare_keypoints(t, k->given, k->ngiven, k->rays, k->cam);
+}
+
 /* Runs the iteration budget from `pose` (in/out). Returns the mean data
  * energy per pixel over the last quarter of the iterations. */
-static int optimise(mc_tracker *t, double *pose, const double *pred, const mc_trk_keypoint_ray *kp, int nkp, double *final_E,
-		    mc_err *err)
+static int optimise(mc_tracker *t, double *pose, const double *pred, double *final_E, mc_err *err)
 {
+	const mc_trk_frame_keypoints *kp = t->fkp;
 	step_state st;
 	memset(&st, 0, sizeof(st));
 	compute_levers(t, pose, &st);
@@ -673,6 +704,7 @@ static int optimise(mc_tracker *t, double *pose, const double *pred, const mc_tr
 		mc_fk fk;
 		mc_scene scene;
 		double grad[MC_MAX_DOF] = {0}, E;
+		keypoints_poll(t, it);
 		mc_model_fk(&t->model, pose, &fk);
 		mc_trk_make_scene(t, &fk, &scene);
 		if (color_term(t, &scene, &E, dmu, err) < 0)
@@ -684,7 +716,7 @@ static int optimise(mc_tracker *t, double *pose, const double *pred, const mc_tr
 		/* the same pseudo-Huber pull, toward the calibration pose */
 		if (t->s.lambda_anchor > 0)
 			mc_energy_smooth(t->model.ndof, pose, t->anchor, t->s.lambda_anchor, grad);
-		mc_trk_detection_term(t, pose, &fk, kp, nkp, grad);
+		mc_trk_detection_term(t, pose, &fk, kp->rays, kp->nrays, grad);
 		if (it >= iters - tail) {
 			Etail += E;
 			ntail++;
@@ -765,10 +797,9 @@ static int track_frame_set(mc_tracker *t, const mc_frame_view *views, int nviews
 		if (view_usable(&views[c]) && views[c].timestamp_ns > out->timestamp_ns)
 			out->timestamp_ns = views[c].timestamp_ns;
 	int present = mc_trk_load_views(t, views, nviews);
-	mc_trk_keypoint_ray rays[MC_TRK_MAX_KEYPOINTS];
-	int ray_cam[MC_TRK_MAX_KEYPOINTS];
-	int nrays = mc_trk_prepare_keypoints(t, kp, nkp, rays, ray_cam);
-	int waiting = present > 0 ? mc_trk_init_step(t, views, nviews, rays, ray_cam, nrays, err)
+	keypoints_given(t, kp, nkp);
+	mc_trk_frame_keypoints *fkp = t->fkp;
+	int waiting = present > 0 ? mc_trk_init_step(t, views, nviews, fkp->rays, fkp->cam, fkp->nrays, err)
 				  : (t->init.waiting ? 1 : 0);
 	if (waiting < 0)
 		return -1;
@@ -785,7 +816,7 @@ static int track_frame_set(mc_tracker *t, const mc_frame_view *views, int nviews
 		mc_fk fk;
 		mc_model_fk(&t->model, pred, &fk);
 		mc_trk_choose_candidates(t, &fk);
-		if (optimise(t, pose, pred, rays, nrays, &E, err) < 0)
+		if (optimise(t, pose, pred, &E, err) < 0)
 			return -1;
 		quality = E / t->baseline;
 		out->iterations = t->s.iterations;

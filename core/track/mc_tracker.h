@@ -181,6 +181,19 @@ int mc_tracker_calibrate_colors(mc_tracker *t, const mc_frame_view *views, int n
 int mc_tracker_track(mc_tracker *t, const mc_frame_view *views, int nviews, const mc_keypoint *kp, int nkp,
 		     mc_skeleton *out, mc_err *err);
 
+/* Keypoints that come while a frame set is being tracked: a detector that
+ * runs beside the tracker finishes a few milliseconds into the tracking of
+ * its frame set, and waiting for it would delay every pose.  When set, the
+ * tracker calls poll before each gradient iteration of mc_tracker_track
+ * (`iteration` counts from 0); it writes the keypoints of this frame set
+ * that came since its last call into kp (at most cap) and returns their
+ * count, 0 when none came.  They join the keypoint term from that
+ * iteration on (and the check across cameras is made again with them);
+ * the initialisation and the re-fit, which run before the iterations, see
+ * only the keypoints given to mc_tracker_track.  NULL: no polling. */
+typedef int (*mc_keypoint_poll)(void *ctx, int iteration, mc_keypoint *kp, int cap);
+void mc_tracker_set_keypoint_poll(mc_tracker *t, mc_keypoint_poll poll, void *ctx);
+
 /* Name of the compute device in use, e.g. "pocl: pthread-skylake". */
 const char *mc_tracker_device_name(const mc_tracker *t);
 

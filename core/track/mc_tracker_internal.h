@@ -77,6 +77,10 @@ struct mc_tracker {
 	mc_trk_init init;
 	unsigned actor_version; /* counts calibrations (mc_trk_calibrate) */
 	uint64_t rng;
+	/* keypoints arriving during mc_tracker_track (mc_tracker_set_keypoint_poll) */
+	mc_keypoint_poll kp_poll;
+	void *kp_poll_ctx;
+	struct mc_trk_frame_keypoints *fkp;
 };
 
 /* Calibration at the current pose on one frame set: with `colours`, each
@@ -131,6 +135,17 @@ typedef struct {
  * other cameras' rays of their joint than agree given weight 0.  Returns
  * the count. */
 int mc_trk_prepare_keypoints(const mc_tracker *t, const mc_keypoint *kp, int nkp, mc_trk_keypoint_ray *out, int *cam);
+
+/* The keypoints of the frame set being tracked: those given, then those the
+ * poll brings, and their rays (made again from all of them when more come,
+ * so that the check across cameras sees every camera). */
+typedef struct mc_trk_frame_keypoints {
+	mc_keypoint given[MC_TRK_MAX_KEYPOINTS];
+	int ngiven;
+	mc_trk_keypoint_ray rays[MC_TRK_MAX_KEYPOINTS];
+	int cam[MC_TRK_MAX_KEYPOINTS];
+	int nrays;
+} mc_trk_frame_keypoints;
 /* E_detection at a pose (0 when lambda_detection is 0); adds its pose
  * gradient to grad. */
 double mc_trk_detection_term(mc_tracker *t, const double *pose, const mc_fk *fk, const mc_trk_keypoint_ray *kp, int n,
