@@ -14,6 +14,7 @@
 #include "test_util.h"
 
 #include <stdlib.h>
+#include <string.h>
 #include <time.h>
 
 static double now(void)
@@ -82,8 +83,9 @@ static int run_scenario(const char *title, int platform, int device, mc_cl_optio
 		}
 	mc_cl_energy_config(e, &opts);
 	printf("\n%s\n", title);
-	printf("device: %s; vector width %d, work-group size %d, at most %d work-groups\n", mc_cl_energy_device(e),
-	       opts.vector_width, opts.work_group_size, opts.max_groups);
+	printf("device: %s; vector width %d, work-group size %d, at most %d work-groups, %s\n",
+	       mc_cl_energy_device(e), opts.vector_width, opts.work_group_size, opts.max_groups,
+	       opts.copy_buffers ? "buffers (upload, kernel, read back)" : "shared memory (one command)");
 	printf("scene: %d Gaussians, 2 cameras of %dx%d (%d + %d valid pixels); create %.0f ms\n", sc->n, t[0].width,
 	       t[0].height, t[0].nvalid, t[1].nvalid, 1e3 * t_create);
 
@@ -161,9 +163,11 @@ static int load_default(mc_raytable t[2], mc_scene *sc)
 int main(int argc, char **argv)
 {
 	int platform = argc > 2 ? atoi(argv[1]) : -1, device = argc > 2 ? atoi(argv[2]) : -1;
-	mc_cl_options opts = {0, 0, 0};
+	mc_cl_options opts = {0, 0, 0, false};
 	if (argc > 5)
-		opts = (mc_cl_options){atoi(argv[3]), atoi(argv[4]), atoi(argv[5])};
+		opts = (mc_cl_options){atoi(argv[3]), atoi(argv[4]), atoi(argv[5]), argc > 6 && !strcmp(argv[6], "copy")};
+	else if (getenv("MC_CL_COPY_BUFFERS")) /* side by side: buffers and copies instead of shared memory */
+		opts.copy_buffers = true;
 	unsigned long long rng = 2024;
 	mc_raytable t[2];
 	static mc_scene sc;

@@ -1,8 +1,13 @@
 /* OpenCL backend of the colour energy: device choice, program build from
  * the embedded kernel source (core/energy/cl/color_energy.cl), buffers, and one
  * evaluation = upload scene and pixels, one kernel launch, read back the
- * per-work-group sums and add them up in double. */
-#define CL_TARGET_OPENCL_VERSION 120
+ * per-work-group sums and add them up in double.
+ *
+ * OpenCL 1.2 throughout, except for the shared memory of 2.0 (fine-grained
+ * SVM buffers) where a device has it: the upload and read-back are then no
+ * commands at all (see shared_memory). */
+#define CL_TARGET_OPENCL_VERSION 200
+#define CL_USE_DEPRECATED_OPENCL_1_2_APIS /* clCreateCommandQueue: 1.2 devices need it */
 #include "energy/mc_cl.h"
 
 #include <CL/cl.h>
@@ -37,13 +42,14 @@ struct mc_cl_energy {
 	int total;                     /* rays over all cameras */
 
 	int vw;            /* SIMD lanes in the kernel (-DVW) */
+	bool shared;       /* input_host and partial_host are fine-grained SVM */
 	size_t wg;         /* work-group size */
 	size_t max_groups; /* work-groups per launch at most */
 
 	cl_mem rays, image, origins, firsts, partial;
 	/* Per evaluation, one upload: the Gaussian records (layout in
 	 * color_energy.cl), then the ray indices of the sampled pixels. */
-	cl_mem input;
+	cl_mem input;         /* unused with shared memory */
 	size_t pixel_cap;     /* room for pixels in `input` and input_host */
 	cl_float4 *input_host; /* GAUSS_FLOAT4S records, then pixel_cap indices */
 	cl_uint *pixel_host;  /* = (cl_uint *)(input_host + GAUSS_FLOAT4S) */
@@ -230,6 +236,40 @@ static int choose_device(int platform, int device, cl_platform_id *out_p, cl_dev
 /* Lanes over which the kernel evaluates ray Gaussians together: the CPU's
  * float SIMD width (PoCL reports 16 with AVX-512, 8 with AVX2); 1 on GPUs,
  * which run work-items in lock-step already. */
+/* Whether the device reads and writes host memory directly (OpenCL 2.0
+ * fine-grained SVM buffers: PoCL's CPU devices have them).  With it an
+ * evaluation is one command, the kernel, instead of three (upload, kernel,
+ * read back); PoCL hands each command to its worker threads, and the
+ * tracker runs 50 evaluations per frame set (about 5 % of the tracker's CPU
+ * time here; docs/OPENCL.md, "Shared memory"). */
+static bool shared_memory(cl_device_id dev)
+{
+	char version[512] = ""; /* "OpenCL 3.0 PoCL HSTR: pthread-x86_64-...": a short buffer is an error */
+	clGetDeviceInfo(dev, CL_DEVICE_VERSION, sizeof(version) - 1, version, NULL);
+	int major = 0;
+	if (sscanf(version, "OpenCL %d", &major) != 1 || major < 2)
+		return false;
+	cl_device_svm_capabilities caps = 0;
+	if (clGetDeviceInfo(dev, CL_DEVICE_SVM_CAPABILITIES, sizeof(caps), &caps, NULL) != CL_SUCCESS)
+		return false;
+	return (caps & CL_DEVICE_SVM_FINE_GRAIN_BUFFER) != 0;
+}
+
+/* Host memory the kernel reads or writes: shared where the device has it. */
+static void *host_alloc(mc_cl_energy *e, size_t bytes)
+{
+	return e->shared ? clSVMAlloc(e->ctx, CL_MEM_READ_WRITE | CL_MEM_SVM_FINE_GRAIN_BUFFER, bytes, 0)
+			 : malloc(bytes);
+}
+
+static void host_free(mc_cl_energy *e, void *p)
+{
+	if (p && e->shared)
+		clSVMFree(e->ctx, p);
+	else
+		free(p);
+}
+
 static int vector_width(cl_device_id dev)
 {
 	if (device_type(dev) & CL_DEVICE_TYPE_GPU)
@@ -363,10 +403,13 @@ static int create_buffers(mc_cl_energy *e, mc_err *err)
 	e->image = clCreateBuffer(e->ctx, CL_MEM_READ_ONLY, sizeof(cl_float4) * (size_t)e->total, NULL, &rc);
 	if (rc != CL_SUCCESS)
 		return cl_fail(err, "clCreateBuffer(image)", rc);
-	e->partial = clCreateBuffer(e->ctx, CL_MEM_WRITE_ONLY, sizeof(float) * ROW_MAX * e->max_groups, NULL, &rc);
-	if (rc != CL_SUCCESS)
-		return cl_fail(err, "clCreateBuffer(partial)", rc);
-	e->partial_host = malloc(sizeof(float) * ROW_MAX * e->max_groups);
+	if (!e->shared) {
+		e->partial = clCreateBuffer(e->ctx, CL_MEM_WRITE_ONLY, sizeof(float) * ROW_MAX * e->max_groups, NULL,
+					    &rc);
+		if (rc != CL_SUCCESS)
+			return cl_fail(err, "clCreateBuffer(partial)", rc);
+	}
+	e->partial_host = host_alloc(e, sizeof(float) * ROW_MAX * e->max_groups);
 	int maxpix = 0;
 	for (int c = 0; c < e->ncams; c++)
 		if (e->cam_npix[c] > maxpix)
@@ -438,6 +481,7 @@ mc_cl_energy *mc_cl_energy_create_opts(int platform, int device, const mc_raytab
 		goto fail;
 	}
 	e->vw = opts && opts->vector_width ? opts->vector_width : vector_width(e->dev);
+	e->shared = !(opts && opts->copy_buffers) && shared_memory(e->dev);
 	if (build_program(e, err) != 0 || choose_launch(e, opts, err) != 0)
 		goto fail;
 
@@ -481,6 +525,7 @@ void mc_cl_energy_config(const mc_cl_energy *e, mc_cl_options *out)
 	out->vector_width = e->vw;
 	out->work_group_size = (int)e->wg;
 	out->max_groups = (int)e->max_groups;
+	out->copy_buffers = !e->shared;
 }
 
 void mc_cl_energy_destroy(mc_cl_energy *e)
@@ -497,13 +542,13 @@ void mc_cl_energy_destroy(mc_cl_energy *e)
 		clReleaseProgram(e->prog);
 	if (e->queue)
 		clReleaseCommandQueue(e->queue);
+	host_free(e, e->input_host); /* shared memory needs the context */
+	host_free(e, e->partial_host);
 	if (e->ctx)
 		clReleaseContext(e->ctx);
 	for (int c = 0; c < MC_MAX_CAMERAS; c++)
 		free(e->valid[c]);
-	free(e->input_host);
 	free(e->image_host);
-	free(e->partial_host);
 	free(e);
 }
 
@@ -617,11 +662,19 @@ static int grow_input(mc_cl_energy *e, size_t need, mc_err *err)
 {
 	size_t cap = need + need / 2 + 256;
 	size_t bytes = sizeof(cl_float4) * GAUSS_FLOAT4S + sizeof(cl_uint) * cap;
-	cl_float4 *host = realloc(e->input_host, bytes);
+	cl_float4 *host = host_alloc(e, bytes);
 	if (!host)
 		return mc_err_set(err, "mc_cl_energy_eval: out of memory");
+	if (e->input_host) /* the Gaussian records are already packed */
+		memcpy(host, e->input_host, sizeof(cl_float4) * GAUSS_FLOAT4S);
+	host_free(e, e->input_host);
 	e->input_host = host;
 	e->pixel_host = (cl_uint *)(host + GAUSS_FLOAT4S);
+	if (e->shared) {
+		e->pixel_cap = cap;
+		cl_int rc = clSetKernelArgSVMPointer(e->kernel, 4, host);
+		return rc == CL_SUCCESS ? 0 : cl_fail(err, "clSetKernelArgSVMPointer(input)", rc);
+	}
 	if (e->input)
 		clReleaseMemObject(e->input);
 	cl_int rc;
@@ -679,14 +732,17 @@ static int set_fixed_args(mc_cl_energy *e, mc_err *err)
 	rc |= clSetKernelArg(k, 1, sizeof(cl_mem), &e->image);
 	rc |= clSetKernelArg(k, 2, sizeof(cl_mem), &e->origins);
 	rc |= clSetKernelArg(k, 3, sizeof(cl_mem), &e->firsts);
-	rc |= clSetKernelArg(k, 12, sizeof(cl_mem), &e->partial);
+	if (e->shared)
+		rc |= clSetKernelArgSVMPointer(k, 12, e->partial_host);
+	else
+		rc |= clSetKernelArg(k, 12, sizeof(cl_mem), &e->partial);
 	if (rc != CL_SUCCESS)
 		return mc_err_set(err, "OpenCL: clSetKernelArg(color_energy) failed");
 	return 0;
 }
 
 /* One evaluation on the device: upload, run, read back the work-group
- * rows.  Three commands, one wait. */
+ * rows.  Three commands, one wait; with shared memory only the run. */
 static int launch(mc_cl_energy *e, int ngauss, size_t npix, uint32_t seed, uint32_t thr24, size_t *ngroups,
 		  mc_err *err)
 {
@@ -696,7 +752,8 @@ static int launch(mc_cl_energy *e, int ngauss, size_t npix, uint32_t seed, uint3
 	if (groups == 0)
 		groups = 1;
 	size_t bytes = sizeof(cl_float4) * GAUSS_FLOAT4S + sizeof(cl_uint) * npix;
-	cl_int rc = clEnqueueWriteBuffer(e->queue, e->input, CL_FALSE, 0, bytes, e->input_host, 0, NULL, NULL);
+	cl_int rc = e->shared ? CL_SUCCESS
+			      : clEnqueueWriteBuffer(e->queue, e->input, CL_FALSE, 0, bytes, e->input_host, 0, NULL, NULL);
 	if (rc != CL_SUCCESS)
 		return cl_fail(err, "clEnqueueWriteBuffer(input)", rc);
 
@@ -717,9 +774,12 @@ static int launch(mc_cl_energy *e, int ngauss, size_t npix, uint32_t seed, uint3
 	rc = clEnqueueNDRangeKernel(e->queue, k, 1, NULL, &global, &e->wg, 0, NULL, NULL);
 	if (rc != CL_SUCCESS)
 		return cl_fail(err, "clEnqueueNDRangeKernel(color_energy)", rc);
-	rc = clEnqueueReadBuffer(e->queue, e->partial, CL_TRUE, 0, row * groups, e->partial_host, 0, NULL, NULL);
+	if (e->shared)
+		rc = clFinish(e->queue);
+	else
+		rc = clEnqueueReadBuffer(e->queue, e->partial, CL_TRUE, 0, row * groups, e->partial_host, 0, NULL, NULL);
 	if (rc != CL_SUCCESS)
-		return cl_fail(err, "clEnqueueReadBuffer(partial)", rc);
+		return cl_fail(err, e->shared ? "clFinish" : "clEnqueueReadBuffer(partial)", rc);
 	*ngroups = groups;
 	return 0;
 }

@@ -42,6 +42,9 @@ typedef struct {
 	int max_groups;      /* work-groups per launch at most (CPUs 4, GPUs 16
 	                      * per compute unit); each work-item loops over
 	                      * its share of the pixels */
+	bool copy_buffers;   /* true: upload and read back through buffers even
+	                      * where the device shares host memory (OpenCL 2.0
+	                      * fine-grained SVM, used when there; for tests) */
 } mc_cl_options;
 
 /* mc_cl_energy_create with settings (opts NULL: all chosen). */
