@@ -99,12 +99,12 @@ check-ipc-python: $(IPC_TESTPUB) $(BUILD)/bin/mocapctl $(IPC_EXAMPLES)
 FUZZ_CC ?= clang
 FUZZ_SECONDS ?= 60
 IPC_FUZZ := $(BUILD)/fuzz/fuzz_ipc
-$(IPC_FUZZ): tests/fuzz/fuzz_ipc.c ipc/proto.c ipc/proto.h
+$(IPC_FUZZ): tests/fuzz/fuzz_ipc.c ipc/proto.c ipc/proto.h core/base/mc_le.h
 	@mkdir -p $(@D)
-	$(FUZZ_CC) -std=c11 -D_GNU_SOURCE -Iipc -g -O1 -fsanitize=fuzzer,address,undefined \
+	$(FUZZ_CC) -std=c11 -D_GNU_SOURCE -Iipc -Icore -g -O1 -fsanitize=fuzzer,address,undefined \
 		-fno-sanitize-recover=undefined tests/fuzz/fuzz_ipc.c ipc/proto.c -o $@ -lm
 
-$(BUILD)/fuzz/fuzz_ipc_seeds: tests/fuzz/fuzz_ipc_seeds.c ipc/proto.c ipc/proto.h
+$(BUILD)/fuzz/fuzz_ipc_seeds: tests/fuzz/fuzz_ipc_seeds.c ipc/proto.c ipc/proto.h core/base/mc_le.h
 	@mkdir -p $(@D)
 	$(CC) $(CPPFLAGS) $(CFLAGS) tests/fuzz/fuzz_ipc_seeds.c ipc/proto.c -o $@ $(LDFLAGS) -lm
 

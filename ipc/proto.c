@@ -2,30 +2,13 @@
  * docs/PROTOCOL.md, which gives every offset used here). */
 #include "proto.h"
 
+#include "base/mc_le.h"
+
 #include <math.h>
 #include <stdarg.h>
 #include <stdio.h>
 #include <string.h>
 
-/* --- Little-endian byte access, independent of the host's byte order. --- */
-
-static void put16(uint8_t *p, uint16_t v) { p[0] = (uint8_t)v; p[1] = (uint8_t)(v >> 8); }
-static void put32(uint8_t *p, uint32_t v)
-{
-	for (int i = 0; i < 4; i++)
-		p[i] = (uint8_t)(v >> (8 * i));
-}
-static void put64(uint8_t *p, uint64_t v)
-{
-	for (int i = 0; i < 8; i++)
-		p[i] = (uint8_t)(v >> (8 * i));
-}
-static uint16_t get16(const uint8_t *p) { return (uint16_t)(p[0] | (p[1] << 8)); }
-static uint32_t get32(const uint8_t *p)
-{
-	return (uint32_t)p[0] | ((uint32_t)p[1] << 8) | ((uint32_t)p[2] << 16) | ((uint32_t)p[3] << 24);
-}
-static uint64_t get64(const uint8_t *p) { return (uint64_t)get32(p) | ((uint64_t)get32(p + 4) << 32); }
 
 /* --- Writer: appends fields, remembers whether anything did not fit. --- */
 
@@ -55,19 +38,19 @@ static void w_u16(writer *w, uint16_t v)
 {
 	uint8_t *p = w_room(w, 2);
 	if (p)
-		put16(p, v);
+		mc_le_put_u16(p, v);
 }
 static void w_u32(writer *w, uint32_t v)
 {
 	uint8_t *p = w_room(w, 4);
 	if (p)
-		put32(p, v);
+		mc_le_put_u32(p, v);
 }
 static void w_u64(writer *w, uint64_t v)
 {
 	uint8_t *p = w_room(w, 8);
 	if (p)
-		put64(p, v);
+		mc_le_put_u64(p, v);
 }
 static void w_f32(writer *w, float v)
 {
@@ -142,17 +125,17 @@ static uint8_t r_u8(reader *r, const char *f)
 static uint16_t r_u16(reader *r, const char *f)
 {
 	const uint8_t *p = r_take(r, 2, f);
-	return p ? get16(p) : 0;
+	return p ? mc_le_u16(p) : 0;
 }
 static uint32_t r_u32(reader *r, const char *f)
 {
 	const uint8_t *p = r_take(r, 4, f);
-	return p ? get32(p) : 0;
+	return p ? mc_le_u32(p) : 0;
 }
 static uint64_t r_u64(reader *r, const char *f)
 {
 	const uint8_t *p = r_take(r, 8, f);
-	return p ? get64(p) : 0;
+	return p ? mc_le_u64(p) : 0;
 }
 static float r_f32(reader *r, const char *f)
 {
@@ -749,14 +732,14 @@ static void dec_rings(reader *r, mc_msg_rings *m)
 
 void proto_tcp_prefix(uint8_t out[PROTO_TCP_PREFIX], size_t message_len)
 {
-	put32(out, (uint32_t)message_len);
+	mc_le_put_u32(out, (uint32_t)message_len);
 }
 
 int proto_tcp_next(const uint8_t *p, size_t have, uint32_t *len)
 {
 	if (have < PROTO_TCP_PREFIX)
 		return 0;
-	*len = get32(p);
+	*len = mc_le_u32(p);
 	if (*len < PROTO_HEADER_SIZE || *len > PROTO_MAX_MESSAGE)
 		return -1;
 	return have - PROTO_TCP_PREFIX >= *len;
@@ -804,7 +787,7 @@ size_t proto_encode(const proto_msg *msg, void *buf, size_t cap)
 	}
 	if (w.bad)
 		return 0;
-	put32(w.buf + 4, (uint32_t)w.len);
+	mc_le_put_u32(w.buf + 4, (uint32_t)w.len);
 	return w.len;
 }
 

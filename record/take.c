@@ -1,7 +1,8 @@
 /* take: record files of a take (docs/RECORDING.md, "Record files"). */
 #include "take.h"
 
-#include <endian.h>
+#include "base/mc_le.h"
+
 #include <errno.h>
 #include <fcntl.h>
 #include <stdio.h>
@@ -12,20 +13,7 @@
 #include <unistd.h>
 #include <zlib.h>
 
-/* ---- little-endian fields ---- */
-
-static uint8_t *put_u16(uint8_t *p, uint16_t v) { v = htole16(v); memcpy(p, &v, 2); return p + 2; }
-static uint8_t *put_u32(uint8_t *p, uint32_t v) { v = htole32(v); memcpy(p, &v, 4); return p + 4; }
-static uint8_t *put_u64(uint8_t *p, uint64_t v) { v = htole64(v); memcpy(p, &v, 8); return p + 8; }
-static uint8_t *put_f64(uint8_t *p, double d) { uint64_t v; memcpy(&v, &d, 8); return put_u64(p, v); }
-static uint8_t *put_f32(uint8_t *p, float f) { uint32_t v; memcpy(&v, &f, 4); return put_u32(p, v); }
-static uint16_t get_u16(const uint8_t *p) { uint16_t v; memcpy(&v, p, 2); return le16toh(v); }
-static uint32_t get_u32(const uint8_t *p) { uint32_t v; memcpy(&v, p, 4); return le32toh(v); }
-static uint64_t get_u64(const uint8_t *p) { uint64_t v; memcpy(&v, p, 8); return le64toh(v); }
-static double get_f64(const uint8_t *p) { uint64_t v = get_u64(p); double d; memcpy(&d, &v, 8); return d; }
-static float get_f32(const uint8_t *p) { uint32_t v = get_u32(p); float f; memcpy(&f, &v, 4); return f; }
-
-/* ---- writing ---- */
+/* ---- writing (every field little-endian: base/mc_le.h) ---- */
 
 int take_file_create(take_file *f, const char *path, mc_err *err)
 {
@@ -46,13 +34,13 @@ int take_file_append(take_file *f, take_record_type type, const void *a, size_t 
 	if (size > TAKE_MAX_PAYLOAD)
 		return mc_err_set(err, "%s: a record of %zu bytes (at most %u)", f->path, size, TAKE_MAX_PAYLOAD);
 	uint8_t head[TAKE_HEADER_SIZE], *p = head;
-	p = put_u32(p, TAKE_RECORD_MAGIC);
-	p = put_u16(p, (uint16_t)type);
-	p = put_u16(p, 0);
-	p = put_u32(p, (uint32_t)size);
+	p = mc_le_put_u32(p, TAKE_RECORD_MAGIC);
+	p = mc_le_put_u16(p, (uint16_t)type);
+	p = mc_le_put_u16(p, 0);
+	p = mc_le_put_u32(p, (uint32_t)size);
 	uLong crc = crc32(0L, a, (uInt)an);
-	p = put_u32(p, (uint32_t)(bn ? crc32(crc, b, (uInt)bn) : crc));
-	put_u64(p, now_ns);
+	p = mc_le_put_u32(p, (uint32_t)(bn ? crc32(crc, b, (uInt)bn) : crc));
+	mc_le_put_u64(p, now_ns);
 	struct iovec iov[3] = {{head, sizeof(head)}, {(void *)a, an}, {(void *)b, bn}};
 	size_t want = sizeof(head) + size, done = 0;
 	while (done < want) {
@@ -107,13 +95,13 @@ size_t take_encode_def(const take_def *d, uint8_t *buf, size_t cap)
 	size_t need = DEF_HEAD + (size_t)d->njoints * DEF_JOINT;
 	if (cap < need || d->njoints < 0 || d->njoints > TAKE_MAX_JOINTS)
 		return 0;
-	uint8_t *p = put_u32(buf, d->id);
-	p = put_u16(p, (uint16_t)d->njoints);
-	p = put_u16(p, 0);
+	uint8_t *p = mc_le_put_u32(buf, d->id);
+	p = mc_le_put_u16(p, (uint16_t)d->njoints);
+	p = mc_le_put_u16(p, 0);
 	for (int j = 0; j < d->njoints; j++) {
-		p = put_u32(p, (uint32_t)d->joints[j].parent);
+		p = mc_le_put_u32(p, (uint32_t)d->joints[j].parent);
 		for (int k = 0; k < 3; k++)
-			p = put_f64(p, d->joints[j].offset[k]);
+			p = mc_le_put_f64(p, d->joints[j].offset[k]);
 		memset(p, 0, TAKE_JOINT_NAME);
 		memcpy(p, d->joints[j].name, strnlen(d->joints[j].name, TAKE_JOINT_NAME - 1));
 		p += TAKE_JOINT_NAME;
@@ -126,17 +114,17 @@ int take_decode_def(const uint8_t *p, size_t size, take_def *d)
 	if (size < DEF_HEAD)
 		return -1;
 	memset(d, 0, sizeof(*d));
-	d->id = get_u32(p);
-	d->njoints = get_u16(p + 4);
+	d->id = mc_le_u32(p);
+	d->njoints = mc_le_u16(p + 4);
 	if (d->njoints > TAKE_MAX_JOINTS || size != DEF_HEAD + (size_t)d->njoints * DEF_JOINT)
 		return -1;
 	p += DEF_HEAD;
 	for (int j = 0; j < d->njoints; j++, p += DEF_JOINT) {
-		d->joints[j].parent = (int)get_u32(p);
+		d->joints[j].parent = (int)mc_le_u32(p);
 		if (d->joints[j].parent >= j || d->joints[j].parent < -1)
 			return -1; /* parents come first */
 		for (int k = 0; k < 3; k++)
-			d->joints[j].offset[k] = get_f64(p + 4 + 8 * k);
+			d->joints[j].offset[k] = mc_le_f64(p + 4 + 8 * k);
 		memcpy(d->joints[j].name, p + 28, TAKE_JOINT_NAME - 1);
 	}
 	return 0;
@@ -148,27 +136,27 @@ size_t take_encode_pose(const take_pose *o, uint8_t *buf, size_t cap)
 	size_t need = joints_end + (o->ndof > 0 ? 4 + 8 * (size_t)o->ndof : 0);
 	if (cap < need || o->njoints < 0 || o->njoints > TAKE_MAX_JOINTS || o->ndof < 0 || o->ndof > TAKE_MAX_DOF)
 		return 0;
-	uint8_t *p = put_u64(buf, o->seq);
-	p = put_u64(p, o->capture_ns);
-	p = put_u64(p, o->realtime_ns);
-	p = put_u32(p, (uint32_t)o->state);
-	p = put_u32(p, o->def_id);
-	p = put_u16(p, (uint16_t)o->njoints);
-	p = put_u16(p, 0);
-	p = put_u32(p, 0);
+	uint8_t *p = mc_le_put_u64(buf, o->seq);
+	p = mc_le_put_u64(p, o->capture_ns);
+	p = mc_le_put_u64(p, o->realtime_ns);
+	p = mc_le_put_u32(p, (uint32_t)o->state);
+	p = mc_le_put_u32(p, o->def_id);
+	p = mc_le_put_u16(p, (uint16_t)o->njoints);
+	p = mc_le_put_u16(p, 0);
+	p = mc_le_put_u32(p, 0);
 	for (int j = 0; j < o->njoints; j++) {
 		for (int k = 0; k < 3; k++)
-			p = put_f64(p, o->joints[j].position[k]);
+			p = mc_le_put_f64(p, o->joints[j].position[k]);
 		for (int k = 0; k < 4; k++)
-			p = put_f64(p, o->joints[j].orientation[k]);
-		p = put_f32(p, o->joints[j].confidence);
-		p = put_u32(p, 0);
+			p = mc_le_put_f64(p, o->joints[j].orientation[k]);
+		p = mc_le_put_f32(p, o->joints[j].confidence);
+		p = mc_le_put_u32(p, 0);
 	}
 	if (o->ndof > 0) { /* optional: the tracker's pose vector */
-		p = put_u16(p, (uint16_t)o->ndof);
-		p = put_u16(p, 0);
+		p = mc_le_put_u16(p, (uint16_t)o->ndof);
+		p = mc_le_put_u16(p, 0);
 		for (int k = 0; k < o->ndof; k++)
-			p = put_f64(p, o->dofs[k]);
+			p = mc_le_put_f64(p, o->dofs[k]);
 	}
 	return need;
 }
@@ -177,30 +165,30 @@ int take_decode_pose(const uint8_t *p, size_t size, take_pose *o)
 {
 	if (size < POSE_HEAD)
 		return -1;
-	o->seq = get_u64(p);
-	o->capture_ns = get_u64(p + 8);
-	o->realtime_ns = get_u64(p + 16);
-	o->state = (int)get_u32(p + 24);
-	o->def_id = get_u32(p + 28);
-	o->njoints = get_u16(p + 32);
+	o->seq = mc_le_u64(p);
+	o->capture_ns = mc_le_u64(p + 8);
+	o->realtime_ns = mc_le_u64(p + 16);
+	o->state = (int)mc_le_u32(p + 24);
+	o->def_id = mc_le_u32(p + 28);
+	o->njoints = mc_le_u16(p + 32);
 	size_t joints_end = POSE_HEAD + (size_t)o->njoints * POSE_JOINT;
 	o->ndof = 0;
 	if (o->njoints > TAKE_MAX_JOINTS || size < joints_end)
 		return -1;
 	if (size > joints_end) {
-		o->ndof = size >= joints_end + 4 ? get_u16(p + joints_end) : -1;
+		o->ndof = size >= joints_end + 4 ? mc_le_u16(p + joints_end) : -1;
 		if (o->ndof < 1 || o->ndof > TAKE_MAX_DOF || size != joints_end + 4 + 8 * (size_t)o->ndof)
 			return -1;
 		for (int k = 0; k < o->ndof; k++)
-			o->dofs[k] = get_f64(p + joints_end + 4 + 8 * k);
+			o->dofs[k] = mc_le_f64(p + joints_end + 4 + 8 * k);
 	}
 	p += POSE_HEAD;
 	for (int j = 0; j < o->njoints; j++, p += POSE_JOINT) {
 		for (int k = 0; k < 3; k++)
-			o->joints[j].position[k] = get_f64(p + 8 * k);
+			o->joints[j].position[k] = mc_le_f64(p + 8 * k);
 		for (int k = 0; k < 4; k++)
-			o->joints[j].orientation[k] = get_f64(p + 24 + 8 * k);
-		o->joints[j].confidence = get_f32(p + 56);
+			o->joints[j].orientation[k] = mc_le_f64(p + 24 + 8 * k);
+		o->joints[j].confidence = mc_le_f32(p + 56);
 	}
 	return 0;
 }
@@ -209,7 +197,7 @@ size_t take_encode_gap(uint64_t first_seq, uint64_t count, uint8_t *buf, size_t 
 {
 	if (cap < 16)
 		return 0;
-	put_u64(put_u64(buf, first_seq), count);
+	mc_le_put_u64(mc_le_put_u64(buf, first_seq), count);
 	return 16;
 }
 
@@ -217,8 +205,8 @@ int take_decode_gap(const uint8_t *p, size_t size, uint64_t *first_seq, uint64_t
 {
 	if (size != 16)
 		return -1;
-	*first_seq = get_u64(p);
-	*count = get_u64(p + 8);
+	*first_seq = mc_le_u64(p);
+	*count = mc_le_u64(p + 8);
 	return 0;
 }
 
@@ -231,11 +219,11 @@ size_t take_encode_keypoints(uint64_t seq, uint64_t capture_ns, const take_keypo
 	size_t need = KP_HEAD + (size_t)n * KP_SIZE;
 	if (n < 0 || n > TAKE_MAX_KEYPOINTS || cap < need)
 		return 0;
-	uint8_t *p = put_u64(put_u64(buf, seq), capture_ns);
-	p = put_u32(put_u32(p, (uint32_t)n), 0);
+	uint8_t *p = mc_le_put_u64(mc_le_put_u64(buf, seq), capture_ns);
+	p = mc_le_put_u32(mc_le_put_u32(p, (uint32_t)n), 0);
 	for (int k = 0; k < n; k++) {
-		p = put_u16(put_u16(p, kp[k].cam), kp[k].joint);
-		p = put_f32(put_f32(put_f32(p, kp[k].u), kp[k].v), kp[k].confidence);
+		p = mc_le_put_u16(mc_le_put_u16(p, kp[k].cam), kp[k].joint);
+		p = mc_le_put_f32(mc_le_put_f32(mc_le_put_f32(p, kp[k].u), kp[k].v), kp[k].confidence);
 	}
 	return need;
 }
@@ -245,67 +233,67 @@ int take_decode_keypoints(const uint8_t *p, size_t size, uint64_t *seq, uint64_t
 {
 	if (size < KP_HEAD)
 		return -1;
-	uint32_t count = get_u32(p + 16);
+	uint32_t count = mc_le_u32(p + 16);
 	if (count > TAKE_MAX_KEYPOINTS || size != KP_HEAD + (size_t)count * KP_SIZE)
 		return -1;
-	*seq = get_u64(p);
-	*capture_ns = get_u64(p + 8);
+	*seq = mc_le_u64(p);
+	*capture_ns = mc_le_u64(p + 8);
 	*n = (int)count < cap ? (int)count : cap;
 	for (int k = 0; k < *n; k++) {
 		const uint8_t *e = p + KP_HEAD + (size_t)k * KP_SIZE;
-		kp[k] = (take_keypoint){get_u16(e), get_u16(e + 2), get_f32(e + 4), get_f32(e + 8), get_f32(e + 12)};
+		kp[k] = (take_keypoint){mc_le_u16(e), mc_le_u16(e + 2), mc_le_f32(e + 4), mc_le_f32(e + 8), mc_le_f32(e + 12)};
 	}
 	return 0;
 }
 
 void take_encode_head_pose(const take_head_pose *h, uint8_t *buf)
 {
-	uint8_t *p = put_u64(buf, h->timestamp_ns);
+	uint8_t *p = mc_le_put_u64(buf, h->timestamp_ns);
 	for (int k = 0; k < 3; k++)
-		p = put_f64(p, h->position[k]);
+		p = mc_le_put_f64(p, h->position[k]);
 	for (int k = 0; k < 4; k++)
-		p = put_f64(p, h->orientation[k]);
+		p = mc_le_put_f64(p, h->orientation[k]);
 }
 
 int take_decode_head_pose(const uint8_t *p, size_t size, take_head_pose *h)
 {
 	if (size != TAKE_HEAD_POSE_SIZE)
 		return -1;
-	h->timestamp_ns = get_u64(p);
+	h->timestamp_ns = mc_le_u64(p);
 	for (int k = 0; k < 3; k++)
-		h->position[k] = get_f64(p + 8 + 8 * k);
+		h->position[k] = mc_le_f64(p + 8 + 8 * k);
 	for (int k = 0; k < 4; k++)
-		h->orientation[k] = get_f64(p + 32 + 8 * k);
+		h->orientation[k] = mc_le_f64(p + 32 + 8 * k);
 	return 0;
 }
 
 void take_encode_frame_meta(const take_frame_meta *m, uint8_t *buf)
 {
-	uint8_t *p = put_u64(buf, m->sequence);
-	p = put_u64(p, m->capture_ns);
-	p = put_u64(p, m->realtime_ns);
-	p = put_u64(p, m->driver_sequence);
-	p = put_u32(p, m->pixfmt);
-	p = put_u32(p, m->width);
-	p = put_u32(p, m->height);
-	p = put_u32(p, m->stride);
-	p = put_u32(p, m->flags);
-	put_u32(p, 0);
+	uint8_t *p = mc_le_put_u64(buf, m->sequence);
+	p = mc_le_put_u64(p, m->capture_ns);
+	p = mc_le_put_u64(p, m->realtime_ns);
+	p = mc_le_put_u64(p, m->driver_sequence);
+	p = mc_le_put_u32(p, m->pixfmt);
+	p = mc_le_put_u32(p, m->width);
+	p = mc_le_put_u32(p, m->height);
+	p = mc_le_put_u32(p, m->stride);
+	p = mc_le_put_u32(p, m->flags);
+	mc_le_put_u32(p, 0);
 }
 
 int take_decode_frame_meta(const uint8_t *p, size_t size, take_frame_meta *m)
 {
 	if (size < TAKE_FRAME_META_SIZE)
 		return -1;
-	m->sequence = get_u64(p);
-	m->capture_ns = get_u64(p + 8);
-	m->realtime_ns = get_u64(p + 16);
-	m->driver_sequence = get_u64(p + 24);
-	m->pixfmt = get_u32(p + 32);
-	m->width = get_u32(p + 36);
-	m->height = get_u32(p + 40);
-	m->stride = get_u32(p + 44);
-	m->flags = get_u32(p + 48);
+	m->sequence = mc_le_u64(p);
+	m->capture_ns = mc_le_u64(p + 8);
+	m->realtime_ns = mc_le_u64(p + 16);
+	m->driver_sequence = mc_le_u64(p + 24);
+	m->pixfmt = mc_le_u32(p + 32);
+	m->width = mc_le_u32(p + 36);
+	m->height = mc_le_u32(p + 40);
+	m->stride = mc_le_u32(p + 44);
+	m->flags = mc_le_u32(p + 48);
 	return 0;
 }
 
@@ -351,8 +339,8 @@ int take_reader_next(take_reader *r, take_record_type *type, const uint8_t **pay
 		return 0;
 	uint8_t h[TAKE_HEADER_SIZE];
 	uint32_t n = 0;
-	bool ok = read_exact(r, h, sizeof(h)) && get_u32(h) == TAKE_RECORD_MAGIC &&
-		  (n = get_u32(h + 8)) <= TAKE_MAX_PAYLOAD && n <= r->size - r->pos - TAKE_HEADER_SIZE;
+	bool ok = read_exact(r, h, sizeof(h)) && mc_le_u32(h) == TAKE_RECORD_MAGIC &&
+		  (n = mc_le_u32(h + 8)) <= TAKE_MAX_PAYLOAD && n <= r->size - r->pos - TAKE_HEADER_SIZE;
 	if (ok && n > r->cap) {
 		uint8_t *grown = realloc(r->buf, n);
 		ok = grown != NULL;
@@ -361,15 +349,15 @@ int take_reader_next(take_reader *r, take_record_type *type, const uint8_t **pay
 			r->cap = n;
 		}
 	}
-	if (!ok || !read_exact(r, r->buf, n) || crc32(0L, r->buf, n) != get_u32(h + 12)) {
+	if (!ok || !read_exact(r, r->buf, n) || crc32(0L, r->buf, n) != mc_le_u32(h + 12)) {
 		r->torn = true;
 		return 0;
 	}
-	*type = (take_record_type)get_u16(h + 4);
+	*type = (take_record_type)mc_le_u16(h + 4);
 	*payload = r->buf;
 	*size = n;
 	if (written_ns)
-		*written_ns = get_u64(h + 16);
+		*written_ns = mc_le_u64(h + 16);
 	r->pos += TAKE_HEADER_SIZE + n;
 	r->valid_end = r->pos;
 	return 1;

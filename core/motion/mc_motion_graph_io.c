@@ -2,6 +2,7 @@
  * binary, a fixed header, then the skeleton, clips, frames, edges and
  * parametric nodes, and a CRC-32 of everything before it. */
 #include "motion/mc_motion_graph.h"
+#include "base/mc_le.h"
 
 #include <errno.h>
 #include <stdio.h>
@@ -49,7 +50,8 @@ static void put(buf *b, const void *v, size_t n)
 
 static void put_u32(buf *b, uint32_t v)
 {
-	uint8_t x[4] = {(uint8_t)v, (uint8_t)(v >> 8), (uint8_t)(v >> 16), (uint8_t)(v >> 24)};
+	uint8_t x[4];
+	mc_le_put_u32(x, v);
 	put(b, x, 4);
 }
 
@@ -57,17 +59,16 @@ static void put_u8(buf *b, uint8_t v) { put(b, &v, 1); }
 
 static void put_f32(buf *b, float f)
 {
-	uint32_t v;
-	memcpy(&v, &f, 4);
-	put_u32(b, v);
+	uint8_t x[4];
+	mc_le_put_f32(x, f);
+	put(b, x, 4);
 }
 
 static void put_f64(buf *b, double d)
 {
-	uint64_t v;
-	memcpy(&v, &d, 8);
-	put_u32(b, (uint32_t)v);
-	put_u32(b, (uint32_t)(v >> 32));
+	uint8_t x[8];
+	mc_le_put_f64(x, d);
+	put(b, x, 8);
 }
 
 static void put_str(buf *b, const char *s, size_t width)
@@ -184,7 +185,7 @@ static const uint8_t *take(rd *r, size_t n, const char *what)
 static uint32_t get_u32(rd *r, const char *what)
 {
 	const uint8_t *q = take(r, 4, what);
-	return q ? (uint32_t)q[0] | (uint32_t)q[1] << 8 | (uint32_t)q[2] << 16 | (uint32_t)q[3] << 24 : 0;
+	return q ? mc_le_u32(q) : 0;
 }
 
 static uint8_t get_u8(rd *r, const char *what)
@@ -195,19 +196,14 @@ static uint8_t get_u8(rd *r, const char *what)
 
 static float get_f32(rd *r, const char *what)
 {
-	uint32_t v = get_u32(r, what);
-	float f;
-	memcpy(&f, &v, 4);
-	return f;
+	const uint8_t *q = take(r, 4, what);
+	return q ? mc_le_f32(q) : 0;
 }
 
 static double get_f64(rd *r, const char *what)
 {
-	uint64_t lo = get_u32(r, what), hi = get_u32(r, what);
-	uint64_t v = lo | hi << 32;
-	double d;
-	memcpy(&d, &v, 8);
-	return d;
+	const uint8_t *q = take(r, 8, what);
+	return q ? mc_le_f64(q) : 0;
 }
 
 static void get_str(rd *r, char *out, size_t width, const char *what)
@@ -409,7 +405,7 @@ int mc_graph_load(const char *path, mc_motion_graph *g, mc_err *err)
 		rc = mc_err_set(err, "%s: truncated after the header (%zu bytes)", path, n);
 	if (!rc) {
 		const uint8_t *t = data + n - 4;
-		uint32_t crc = (uint32_t)t[0] | (uint32_t)t[1] << 8 | (uint32_t)t[2] << 16 | (uint32_t)t[3] << 24;
+		uint32_t crc = mc_le_u32(t);
 		if (crc != crc32_update(0, data, n - 4))
 			rc = mc_err_set(err, "%s: checksum: does not match the contents (a damaged or truncated file)", path);
 	}
