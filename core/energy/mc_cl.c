@@ -233,9 +233,6 @@ static int choose_device(int platform, int device, cl_platform_id *out_p, cl_dev
 
 /* ---- set-up ---- */
 
-/* Lanes over which the kernel evaluates ray Gaussians together: the CPU's
- * float SIMD width (PoCL reports 16 with AVX-512, 8 with AVX2); 1 on GPUs,
- * which run work-items in lock-step already. */
 /* Whether the device reads and writes host memory directly (OpenCL 2.0
  * fine-grained SVM buffers: PoCL's CPU devices have them).  With it an
  * evaluation is one command, the kernel, instead of three (upload, kernel,
@@ -270,6 +267,9 @@ static void host_free(mc_cl_energy *e, void *p)
 		free(p);
 }
 
+/* Lanes over which the kernel evaluates ray Gaussians together: the CPU's
+ * float SIMD width (PoCL reports 16 with AVX-512, 8 with AVX2); 1 on GPUs,
+ * which run work-items in lock-step already. */
 static int vector_width(cl_device_id dev)
 {
 	if (device_type(dev) & CL_DEVICE_TYPE_GPU)

@@ -680,12 +680,13 @@ static void keypoints_given(mc_tracker *t, const mc_keypoint *kp, int nkp)
 static void keypoints_poll(mc_tracker *t, int it)
 {
 	mc_trk_frame_keypoints *k = t->fkp;
-	if (!t->kp_poll || k->ngiven >= MC_TRK_MAX_KEYPOINTS)
+	int room = MC_TRK_MAX_KEYPOINTS - k->ngiven;
+	if (!t->kp_poll || room <= 0)
 		return;
-	int got = t->kp_poll(t->kp_poll_ctx, it, k->given + k->ngiven, MC_TRK_MAX_KEYPOINTS - k->ngiven);
+	int got = t->kp_poll(t->kp_poll_ctx, it, k->given + k->ngiven, room);
 	if (got <= 0)
 		return;
-	k->ngiven += got < MC_TRK_MAX_KEYPOINTS - k->ngiven ? got : MC_TRK_MAX_KEYPOINTS - k->ngiven;
+	k->ngiven += got < room ? got : room;
 	k->nrays = mc_trk_prepare_keypoints(t, k->given, k->ngiven, k->rays, k->cam);
 }
 

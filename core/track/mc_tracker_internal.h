@@ -146,6 +146,7 @@ typedef struct mc_trk_frame_keypoints {
 	int cam[MC_TRK_MAX_KEYPOINTS];
 	int nrays;
 } mc_trk_frame_keypoints;
+
 /* E_detection at a pose (0 when lambda_detection is 0); adds its pose
  * gradient to grad. */
 double mc_trk_detection_term(mc_tracker *t, const double *pose, const mc_fk *fk, const mc_trk_keypoint_ray *kp, int n,
