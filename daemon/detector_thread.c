@@ -285,6 +285,7 @@ int mcd_detector_thread_start(mcd_detector_thread *d, mc_err *err)
 		d->w[c].started = true;
 	}
 	d->started = true;
+	mcd_tracking_thread_expect_detections(d->sink, true);
 	return 0;
 }
 
@@ -302,6 +303,8 @@ void mcd_detector_thread_stop(mcd_detector_thread *d)
 			pthread_join(d->w[c].thread, NULL);
 			d->w[c].started = false;
 		}
+	if (d->started)
+		mcd_tracking_thread_expect_detections(d->sink, false);
 	d->started = false;
 }
 

@@ -57,6 +57,7 @@ struct mcd_tracking_thread {
 	 * is written by the detector thread under det_lock (a copy, never a
 	 * wait for a detection), det_latest is the tracking thread's copy. */
 	pthread_mutex_t det_lock;
+	atomic_bool det_runs; /* a detector feeds this thread (mcd_tracking_thread_expect_detections) */
 	srv_keypoints *det_offer;
 	uint64_t det_serial[MC_MAX_CAMERAS];
 	srv_keypoints *det_latest;
@@ -192,7 +193,8 @@ static int collect_keypoints(mcd_tracking_thread *t, const mc_frame_view *views,
 		if (same_instant(b, views[r].timestamp_ns, tol))
 			detected++;
 		else if (!same_instant(b = &t->kp_latest[r], views[r].timestamp_ns, tol)) {
-			t->awaited_ns[r] = views[r].timestamp_ns;
+			if (atomic_load(&t->det_runs))
+				t->awaited_ns[r] = views[r].timestamp_ns;
 			continue;
 		}
 		append_keypoints(t, b, r);
@@ -302,7 +304,8 @@ static void track(mcd_tracking_thread *t, const mc_frame_view *views, int presen
 	calibrate_once(t, views, present);
 	int nkp = collect_keypoints(t, views, nviews);
 	mc_err err = {{0}};
-	mc_tracker_set_keypoint_poll(tr->tracker, late_detections, t);
+	/* Set for every frame set: a reload can replace the tracker. */
+	mc_tracker_set_keypoint_poll(tr->tracker, atomic_load(&t->det_runs) ? late_detections : NULL, t);
 	int rc = mc_tracker_track(tr->tracker, views, nviews, nkp ? t->kp : NULL, nkp, &o->sk, &err);
 	nkp = t->nkp; /* with the late ones */
 	o->nkp = nkp < MCD_OUTPUT_KEYPOINTS ? nkp : MCD_OUTPUT_KEYPOINTS;
@@ -566,6 +569,11 @@ void mcd_tracking_thread_offer_keypoints(mcd_tracking_thread *t, int rig_cam, ui
 	memcpy(b->keypoints, kp, sizeof(*kp) * (size_t)n);
 	t->det_serial[rig_cam]++;
 	pthread_mutex_unlock(&t->det_lock);
+}
+
+void mcd_tracking_thread_expect_detections(mcd_tracking_thread *t, bool runs)
+{
+	atomic_store(&t->det_runs, runs);
 }
 
 void mcd_tracking_thread_wake(mcd_tracking_thread *t)

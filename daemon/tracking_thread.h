@@ -91,6 +91,10 @@ void mcd_tracking_thread_push(mcd_tracking_thread *t, int cam, uint64_t generati
  * them, in place of a client's batch. */
 void mcd_tracking_thread_offer_keypoints(mcd_tracking_thread *t, int rig_cam, uint64_t capture_ns,
 					 const mc_keypoint *kp, int n);
+/* The in-process detector started (runs) or stopped.  Only while one runs
+ * does the tracking of a frame set whose keypoints have not come look for
+ * them between its gradient iterations (the tracker's keypoint poll). */
+void mcd_tracking_thread_expect_detections(mcd_tracking_thread *t, bool runs);
 /* A camera changed state: look again at which cameras a frame set waits for. */
 void mcd_tracking_thread_wake(mcd_tracking_thread *t);
 /* Reload: new grouping limits and frame age budget now; the tracker's
