@@ -101,6 +101,7 @@ typedef struct {
 	double rate;           /* detections per second per camera; 0 = every frame */
 	int threads;           /* OpenCV threads (process-wide) */
 	double min_confidence; /* keypoints below it are dropped; < 0: the model's threshold */
+	int nice;              /* the detector threads' nice value above the daemon's */
 } mcd_detector_config;
 
 /* The [source] section: a synthetic source instead of cameras and tracker

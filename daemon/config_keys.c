@@ -118,11 +118,12 @@ static const mcd_config_key keys[] = {
 	{MCD_SEC_SOURCE, "rate", MCD_KEY_POSITIVE, G(rate), 0, 1000, NULL, "30", false},
 	{MCD_SEC_SOURCE, "seed", MCD_KEY_INT, G(seed), 0, 2147483647, NULL, "1", false},
 
-	/* A new model takes a restart; the rest is applied between detections. */
+	/* A new model and nice take a restart; the rest is applied between detections. */
 	{MCD_SEC_DETECTOR, "model", MCD_KEY_OPT_PATH, K(model), 0, 0, NULL, NULL, false},
 	{MCD_SEC_DETECTOR, "rate", MCD_KEY_REAL, K(rate), 0, 1000, NULL, "0", true},
 	{MCD_SEC_DETECTOR, "threads", MCD_KEY_INT, K(threads), 1, 64, NULL, "1", true},
 	{MCD_SEC_DETECTOR, "min_confidence", MCD_KEY_REAL_AUTO, K(min_confidence), 0, 1, NULL, "auto", true},
+	{MCD_SEC_DETECTOR, "nice", MCD_KEY_INT, K(nice), 0, 19, NULL, "10", false},
 };
 
 const mcd_config_key *mcd_config_keys(size_t *n)

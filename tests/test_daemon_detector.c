@@ -28,6 +28,8 @@
 #include "eval/mc_gt.h"
 #include "test_util.h"
 
+#include <dirent.h>
+
 #define RATE 5
 #define FRAMES 25 /* 5 s */
 
@@ -140,6 +142,59 @@ static void check_running_status(mcd_run *r, mocap_client *c)
 		  "no detector figures in STATUS=");
 }
 
+/* Field `field` (1-based, as in proc(5)) of /proc/PID/task/TID/stat, or
+ * INT_MIN; *comm gets the thread's name. */
+static int task_stat_field(pid_t pid, int tid, int field, char *comm, size_t comm_size)
+{
+	char path[96];
+	snprintf(path, sizeof(path), "/proc/%d/task/%d/stat", (int)pid, tid);
+	char text[1024] = ""; /* proc files have no size to read by */
+	FILE *f = fopen(path, "r");
+	if (f) {
+		if (!fgets(text, sizeof(text), f))
+			text[0] = 0;
+		fclose(f);
+	}
+	char *open = strchr(text, '('), *close = strrchr(text, ')');
+	int value = INT_MIN;
+	if (open && close && close > open) {
+		snprintf(comm, comm_size, "%.*s", (int)(close - open - 1), open + 1);
+		char *p = close + 1; /* the space before field 3 */
+		for (int f = 3; f < field && p; f++)
+			p = strchr(p + 1, ' ');
+		if (p)
+			value = atoi(p);
+	}
+	return value;
+}
+
+/* Nice is field 19: the detector's threads must be below the daemon's. */
+static void check_detector_priority(pid_t pid)
+{
+	char path[64], comm[64];
+	snprintf(path, sizeof(path), "/proc/%d/task", (int)pid);
+	DIR *dir = opendir(path);
+	CHECK_MSG(dir, "%s: %s", path, strerror(errno));
+	if (!dir)
+		return;
+	int daemon_nice = task_stat_field(pid, (int)pid, 19, comm, sizeof(comm)), found = 0;
+	int want = daemon_nice + 10 < 19 ? daemon_nice + 10 : 19;
+	struct dirent *e;
+	while ((e = readdir(dir))) {
+		int tid = atoi(e->d_name);
+		if (tid <= 0)
+			continue;
+		int nice = task_stat_field(pid, tid, 19, comm, sizeof(comm));
+		if (strncmp(comm, "mocapd-detect", 13) != 0)
+			continue;
+		found++;
+		CHECK_MSG(nice == want, "thread %s at nice %d, the daemon at %d", comm, nice, daemon_nice);
+	}
+	closedir(dir);
+	printf("detector threads: %d at nice %d, the daemon at %d\n", found, want, daemon_nice);
+	CHECK_MSG(found == 2, "%d threads named mocapd-detect*, one per camera expected", found);
+}
+
 /* A reload applies a new rate: 1 view/s per camera instead of every frame. */
 static void check_reload(mcd_run *r, mocap_client *c, const char *model)
 {
@@ -183,6 +238,7 @@ static void test_good(void)
 	    mocap_get_skeleton(c, def) == 0 && (wrist = mcd_find_joint(def, "right_wrist")) >= 0) {
 		check_tracking(c, f, wrist);
 		check_running_status(&r, c);
+		check_detector_priority(r.pid);
 		check_reload(&r, c, model);
 	} else
 		CHECK_MSG(false, "no skeleton from mocapd: %s", mocap_errmsg());

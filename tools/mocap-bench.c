@@ -12,6 +12,7 @@
  * (I: gradient iterations per frame set, averaged over the clip) */
 #include "base/mc_parse.h"
 #include "base/mc_stats.h"
+#include "base/mc_thread.h"
 #include "base/mc_time.h"
 #include "energy/mc_energy.h"
 #include "energy/mc_cl.h"
@@ -38,6 +39,7 @@ static const char *const eval_joints[] = {
 };
 #define NEVAL ((int)(sizeof(eval_joints) / sizeof(eval_joints[0])))
 #define BENCH_MAX_KEYPOINTS (MC_MAX_CAMERAS * MC_DETECTOR_MAX_JOINTS)
+#define BENCH_DETECTOR_NICE 10 /* mocapd's [detector] nice default */
 
 typedef struct {
 	const char *clip;
@@ -325,6 +327,7 @@ typedef struct {
 static void *detect_slot_run(void *arg)
 {
 	detect_slot *d = arg;
+	mc_thread_lower_priority(BENCH_DETECTOR_NICE); /* as mocapd's detector threads ([detector] nice) */
 	d->nkp = bench_detector_run(d->bd, d->clip, d->k, d->views, d->clip->rig.ncams, d->kp, BENCH_MAX_KEYPOINTS,
 				    &d->err);
 	return NULL;

@@ -1,11 +1,16 @@
-/* Condition variables on CLOCK_MONOTONIC: the one place that sets the
- * clock attribute, so that a wall-clock step (NTP, suspend) never makes a
- * timed wait return early or hang. */
+/* Thread helpers.  Condition variables on CLOCK_MONOTONIC: the one place
+ * that sets the clock attribute, so that a wall-clock step (NTP, suspend)
+ * never makes a timed wait return early or hang.  And a thread's own CPU
+ * priority. */
 #ifndef MC_THREAD_H
 #define MC_THREAD_H
 
+#include <errno.h>
 #include <pthread.h>
 #include <stdint.h>
+#include <sys/resource.h>
+#include <sys/syscall.h>
+#include <unistd.h>
 
 #include "base/mc_time.h"
 
@@ -25,6 +30,23 @@ static inline int mc_cond_init_monotonic(pthread_cond_t *cond)
 static inline struct timespec mc_cond_deadline(uint64_t timeout_ns)
 {
 	return mc_ns_timespec(mc_now_ns() + timeout_ns);
+}
+
+/* Lowers the calling thread's CPU priority by `by` nice steps (at most to
+ * 19).  Linux keeps the nice value per thread, and threads created
+ * afterwards from this one inherit it; raising it needs no privilege.
+ * Returns the thread's new nice value, or -1 with errno set. */
+static inline int mc_thread_lower_priority(int by)
+{
+	id_t tid = (id_t)syscall(SYS_gettid);
+	errno = 0;
+	int now = getpriority(PRIO_PROCESS, tid);
+	if (now == -1 && errno)
+		return -1;
+	int want = now + (by > 0 ? by : 0);
+	if (want > 19)
+		want = 19;
+	return setpriority(PRIO_PROCESS, tid, want) == 0 ? want : -1;
 }
 
 #endif

@@ -12,7 +12,8 @@
 # LATENCY_RATES and LATENCY_LOADS choose the runs (default "30 60" and
 # "idle hog detector"; detector: idle, with the shipped 2D joint detector
 # in-process, config/models/ego_detector.onnx, on every frame of both
-# cameras).
+# cameras).  LATENCY_DETECTOR_NICE sets the detector's [detector] nice
+# (default: the daemon's default).
 #
 # The files driver rather than the sim driver: sim renders each view on the
 # CPU (about a second at 256x256), so it cannot deliver 30 or 60 fps on two
@@ -48,6 +49,9 @@ path = $dir/mocapd.sock
 CONF
 		if [ "$load" = detector ]; then
 			printf '[detector]\nmodel = %s/config/models/ego_detector.onnx\n' "$repo" >> "$dir/mocapd.conf"
+			if [ -n "${LATENCY_DETECTOR_NICE:-}" ]; then
+				printf 'nice = %s\n' "$LATENCY_DETECTOR_NICE" >> "$dir/mocapd.conf"
+			fi
 		fi
 		"$build/bin/mocapd" -c "$dir/mocapd.conf" > /dev/null 2> "$dir/mocapd.log" &
 		daemon=$!
