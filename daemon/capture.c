@@ -596,6 +596,7 @@ static void *capture_main(void *arg)
 {
 	mcd_camera *c = arg;
 	mcd_backoff backoff;
+	mc_thread_set_name("mocapd-cam%d", c->index);
 	pthread_mutex_lock(&c->lock);
 	mcd_backoff_init(&backoff, c->reopen_initial_ms, c->reopen_max_ms);
 	pthread_mutex_unlock(&c->lock);

@@ -154,16 +154,13 @@ static void apply_settings(worker *w)
 }
 
 /* The tracking thread and its OpenCL workers get the cores first when
- * both want them: a pose should not wait for a detection, whose keypoints
- * join the tracking when they come.  On two cores at 30 fps this took
- * mocapd's capture-to-publish p99 from 50-63 ms to 38-42 ms with no view
- * detected less (docs/BENCHMARKS.md). */
+ * both want them ([detector] nice): a pose should not wait for a
+ * detection, whose keypoints join the tracking when they come
+ * (docs/BENCHMARKS.md, "The detector's priority"). */
 static void name_and_lower_priority(worker *w)
 {
 	mcd_detector_thread *d = w->d;
-	char name[16]; /* the kernel's limit; `top -H` and /proc show it */
-	snprintf(name, sizeof(name), "mocapd-detect%d", w->cam);
-	pthread_setname_np(pthread_self(), name);
+	mc_thread_set_name("mocapd-detect%d", w->cam);
 	if (d->cfg.nice > 0 && mc_thread_lower_priority(d->cfg.nice) < 0)
 		mcd_warn("detector: camera %s: cannot lower the thread's priority by %d: %s", mcd_camera_name(d->cams[w->cam]),
 			 d->cfg.nice, strerror(errno));

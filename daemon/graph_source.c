@@ -3,6 +3,7 @@
 
 #include "log.h"
 #include "base/mc_parse.h"
+#include "base/mc_thread.h"
 #include "base/mc_time.h"
 
 #include <errno.h>
@@ -104,6 +105,7 @@ static void pose_at(mcd_graph_source *gs, double t, mc_vec3 *out)
 static void *source_thread(void *arg)
 {
 	mcd_graph_source *gs = arg;
+	mc_thread_set_name("mocapd-graph");
 	mc_skeleton *sk = malloc(sizeof(*sk));
 	if (!sk) {
 		mcd_error("graph source: out of memory");

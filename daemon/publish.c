@@ -113,6 +113,7 @@ static int handle(mcd_publisher *p, const mcd_output *o, bool print, const char 
 static void *publish_main(void *arg)
 {
 	mcd_publisher *p = arg;
+	mc_thread_set_name("mocapd-publish");
 	pthread_mutex_lock(&p->lock);
 	for (;;) {
 		while (!p->count && !p->stop) {

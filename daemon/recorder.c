@@ -417,6 +417,7 @@ static void *recorder_main(void *arg)
 	mcd_recorder *r = arg;
 	static queued_pose pose; /* one recorder per process */
 	frame_ref frame;
+	mc_thread_set_name("mocapd-record");
 	take_head_pose head;
 	pthread_mutex_lock(&r->lock);
 	while (!r->quit || r->active) { /* a take in progress is drained and finished first */

@@ -435,6 +435,7 @@ static void check_finished(mcd_tracking_thread *t)
 static void *tracking_main(void *arg)
 {
 	mcd_tracking_thread *t = arg;
+	mc_thread_set_name("mocapd-track");
 	pthread_mutex_lock(&t->lock);
 	while (!t->stop) {
 		atomic_fetch_add(&t->heartbeat, 1);

@@ -3,6 +3,7 @@
  * See ../server.h for the contract, internal.h for how the files of this
  * folder divide the work, and docs/PROTOCOL.md for the messages. */
 #include "server/internal.h"
+#include "base/mc_thread.h"
 
 #include <errno.h>
 #include <fcntl.h>
@@ -53,6 +54,7 @@ void srv_wake(srv_server *srv)
 static void *server_thread(void *arg)
 {
 	srv_server *srv = arg;
+	mc_thread_set_name("mocap-server");
 	struct epoll_event evs[64];
 	uint64_t last_expiry = mc_now_ns();
 	while (!atomic_load(&srv->stop)) {
