@@ -17,7 +17,13 @@
  *      it is not: docs/TRACKER.md, "Known limits".)
  *   3. Covered cameras (black images, no keypoints) for 0.5 s in the middle
  *      of the clip: within 0.5 s of the images coming back the state is
- *      tracked again and the error within a bound. */
+ *      tracked again and the error within a bound.
+ *   4. 1 and 3 again with the keypoints joining at gradient iteration 10
+ *      (mc_tracker_set_keypoint_poll) once a first pose is found, as in
+ *      mocapd when the detection ends after the tracking began: tracking
+ *      starts as early and as well, and the covered cameras are recovered
+ *      from by a re-fit as with keypoints before the iterations (the
+ *      re-fit used to look for keypoints only there, where none came). */
 #include "test_util.h"
 
 #include "eval/mc_clip.h"
@@ -43,6 +49,9 @@ typedef struct {
 	mc_model model;
 	mc_tracker_settings s;
 	uint64_t rng;
+	int late_at; /* > 0: the keypoints join at this iteration once tracking */
+	double gt0_cm;  /* MPJPE from the ground-truth start (test 1) */
+	int back_early; /* the frame set tracked again after the cover (test 3) */
 } fixture;
 
 /* Mean error (cm) over `names` of skeleton sk at frame k. */
@@ -55,6 +64,23 @@ static double error_cm(const fixture *f, const mc_skeleton *sk, int k, const cha
 		sum += mc_v3_norm(mc_v3_sub(sk->joints[j].position, mc_clip_gt(&f->clip, k, g)));
 	}
 	return 100 * sum / n;
+}
+
+/* The poll of f->late_at: the frame set's keypoints at that iteration. */
+typedef struct {
+	const mc_keypoint *kp;
+	int nkp, at;
+} late_keypoints;
+
+static int late_poll(void *ctx, int iteration, mc_keypoint *kp, int cap)
+{
+	late_keypoints *l = ctx;
+	if (iteration < l->at || l->nkp == 0)
+		return 0;
+	int n = l->nkp < cap ? l->nkp : cap;
+	memcpy(kp, l->kp, sizeof(*kp) * (size_t)n);
+	l->nkp = 0;
+	return n;
 }
 
 /* Tracks frame k; blank: the cameras see black and no keypoints come. */
@@ -70,7 +96,15 @@ static void track(fixture *f, mc_tracker *t, int k, bool blank, mc_skeleton *sk)
 			memset((void *)v[c].rgb, 0, (size_t)v[c].stride * v[c].height);
 	else
 		nkp = mc_clip_simulated_keypoints(&f->clip, &f->model, joints, NJ, k, NOISE_PX, &f->rng, kp, 2 * NJ);
-	CHECK_MSG(mc_tracker_track(t, v, 2, kp, nkp, sk, &err) == 0, "%s", err.msg);
+	/* Waiting for a first pose the tracker does not iterate; mocapd then
+	 * gives it the newest detections up to 0.3 s old before it starts. */
+	mc_tracker_init_info info;
+	mc_tracker_get_init_info(t, &info);
+	late_keypoints late = {kp, nkp, f->late_at};
+	bool joins_late = f->late_at > 0 && !info.initialising;
+	mc_tracker_set_keypoint_poll(t, joins_late ? late_poll : NULL, &late);
+	CHECK_MSG(mc_tracker_track(t, v, 2, joins_late ? NULL : kp, joins_late ? 0 : nkp, sk, &err) == 0, "%s", err.msg);
+	mc_tracker_set_keypoint_poll(t, NULL, NULL);
 	mc_clip_free_frame(v);
 }
 
@@ -123,8 +157,10 @@ static void test_start_from_detections(fixture *f)
 
 	double detect = run_clip(f, t, &first);
 	mc_tracker_get_init_info(t, &info);
-	printf("start from detections: first pose at frame %d, MPJPE %.2f cm (gt0 start: %.2f cm)\n", first, detect,
-	       gt0);
+	printf("start from detections: first pose at frame %d, MPJPE %.2f cm (gt0 start: %.2f cm), size measured: %s "
+	       "(scale %.3f)\n",
+	       first, detect, gt0, info.shape_measured ? "yes" : "no", info.scale);
+	f->gt0_cm = gt0;
 	CHECK(!info.initialising && info.inits == 1);
 	CHECK_MSG(first >= 0 && first <= 15, "tracking started at frame %d, expected within 0.5 s", first);
 	/* measured: 6.6 vs 4.4 cm */
@@ -230,7 +266,7 @@ static void test_wrong_start(fixture *f)
 
 /* Returns the first frame set tracked again within RECOVERED_CM after the
  * cover, or -1. */
-static int covered_cameras(fixture *f, bool recover)
+static int covered_cameras(fixture *f, bool recover, int *refits)
 {
 	mc_err err;
 	f->s.recover = recover;
@@ -263,6 +299,7 @@ static int covered_cameras(fixture *f, bool recover)
 	printf("covered cameras, frame sets %d-%d, recovery %s: tracked again at frame set %d (%.1f cm), %.1f cm over "
 	       "the 0.5 s after, %d re-fits\n",
 	       cover0, cover1 - 1, recover ? "on" : "off", back, err_back, mean_after, info.refits);
+	*refits = info.refits;
 	mc_tracker_destroy(t);
 	return back;
 }
@@ -270,9 +307,34 @@ static int covered_cameras(fixture *f, bool recover)
 static void test_covered_cameras(fixture *f)
 {
 	const int cover1 = 35, within = 15;
-	int back = covered_cameras(f, true);
+	int refits;
+	int back = covered_cameras(f, true, &refits);
 	CHECK_MSG(back >= cover1 && back < cover1 + within, "not recovered within 0.5 s (frame %d)", back);
-	covered_cameras(f, false); /* printed: how much the re-fit brings here */
+	f->back_early = back;
+	covered_cameras(f, false, &refits); /* printed: how much the re-fit brings here */
+}
+
+/* 4: the keypoints join at iteration 10 once a first pose is found. */
+static void test_late_keypoints(fixture *f)
+{
+	mc_err err;
+	f->late_at = 10;
+	mc_tracker *t = new_tracker(f);
+	CHECK(mc_tracker_start_from_detections(t, MC_INIT_MEASURE_SIZE, &err) == 0);
+	int first;
+	double detect = run_clip(f, t, &first);
+	printf("start from detections, keypoints at iteration %d: first pose at frame %d, MPJPE %.2f cm\n", f->late_at,
+	       first, detect);
+	CHECK_MSG(first >= 0 && first <= 15, "tracking started at frame %d, expected within 0.5 s", first);
+	CHECK_MSG(detect <= f->gt0_cm + DETECT_OVER_GT0_CM, "from late detections %.2f cm, gt0 %.2f cm", detect,
+		  f->gt0_cm);
+	mc_tracker_destroy(t);
+
+	int refits;
+	int back = covered_cameras(f, true, &refits);
+	CHECK_MSG(back == f->back_early && refits >= 1, "keypoints at iteration %d: tracked again at frame set %d after "
+		  "%d re-fits (with keypoints before the iterations: %d)", f->late_at, back, refits, f->back_early);
+	f->late_at = 0;
 }
 
 int main(void)
@@ -288,6 +350,7 @@ int main(void)
 	test_start_from_detections(&f);
 	test_wrong_start(&f);
 	test_covered_cameras(&f);
+	test_late_keypoints(&f);
 	mc_clip_close(&f.clip);
 	return mc_test_finish("test_tracker_recovery");
 }

@@ -274,7 +274,11 @@ static int late_keypoints_poll(void *ctx, int iteration, mc_keypoint *kp, int ca
 static int track_frame(const options *o, mc_tracker *t, const mc_clip *clip, const mc_frame_view *views,
 		       const mc_keypoint *kp, int nkp, mc_skeleton *sk, mc_err *err)
 {
-	if (o->keypoints_at_iteration <= 0)
+	mc_tracker_init_info info;
+	mc_tracker_get_init_info(t, &info);
+	/* While waiting for a first pose the tracker does not iterate, and
+	 * mocapd gives it the newest detections up to 0.3 s old instead. */
+	if (o->keypoints_at_iteration <= 0 || info.initialising)
 		return mc_tracker_track(t, views, clip->rig.ncams, kp, nkp, sk, err);
 	late_keypoints late = {kp, nkp, o->keypoints_at_iteration};
 	mc_tracker_set_keypoint_poll(t, late_keypoints_poll, &late);
@@ -724,7 +728,8 @@ static void usage(FILE *f)
 		   "  --detector-serial     detect, then track, one frame set after the other (both timed)\n"
 		   "  --keypoints-at-iteration N  the keypoints (detector or simulated) join the tracking at\n"
 		   "                        gradient iteration N instead of before it, as in mocapd when the\n"
-		   "                        detection finishes after the tracking of its frame set began\n"
+		   "                        detection finishes after the tracking of its frame set began (before\n"
+		   "                        it while waiting for a first pose, as mocapd does)\n"
 		   "  --detector-every N    detect on every Nth frame set only (default 1)\n"
 		   "  --detector-threshold T  keypoints below confidence T are dropped (default: the model's)\n"
 		   "  --lambda-color L      weight of the colour term (default 1; 0: detections and priors only)\n"

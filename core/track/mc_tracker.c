@@ -800,8 +800,15 @@ static int track_frame_set(mc_tracker *t, const mc_frame_view *views, int nviews
 	int present = mc_trk_load_views(t, views, nviews);
 	keypoints_given(t, kp, nkp);
 	mc_trk_frame_keypoints *fkp = t->fkp;
-	int waiting = present > 0 ? mc_trk_init_step(t, views, nviews, fkp->rays, fkp->cam, fkp->nrays, err)
-				  : (t->init.waiting ? 1 : 0);
+	/* The detections' step (re-fit when lost or stuck, the actor's size)
+	 * needs the frame set's keypoints.  When none are here yet and a poll
+	 * may bring them during the iterations (mocapd at 30 fps: the
+	 * detection ends a few ms into the tracking), it is taken after the
+	 * iterations with those that came, else it would never run. */
+	bool late_step = present > 0 && fkp->nrays == 0 && t->kp_poll && !t->init.waiting;
+	int waiting = late_step ? 0
+		      : present > 0 ? mc_trk_init_step(t, views, nviews, fkp->rays, fkp->cam, fkp->nrays, err)
+				    : (t->init.waiting ? 1 : 0);
 	if (waiting < 0)
 		return -1;
 	if (waiting) {
@@ -838,7 +845,10 @@ static int track_frame_set(mc_tracker *t, const mc_frame_view *views, int nviews
 		memcpy(t->prev2, t->prev, sizeof(t->prev2));
 		t->history = 0;
 	}
-	
+	/* A re-fit here sets the pose published for this frame set (it beat
+	 * the tracked one on this frame set's images) and the next one's start. */
+	if (late_step && mc_trk_init_step(t, views, nviews, fkp->rays, fkp->cam, fkp->nrays, err) < 0)
+		return -1;
 	out->energy = E;
 	fill_skeleton(t, t->pose, out);
 	mc_trk_init_after(t, out);

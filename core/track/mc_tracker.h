@@ -188,9 +188,14 @@ int mc_tracker_track(mc_tracker *t, const mc_frame_view *views, int nviews, cons
  * (`iteration` counts from 0); it writes the keypoints of this frame set
  * that came since its last call into kp (at most cap) and returns their
  * count, 0 when none came.  They join the keypoint term from that
- * iteration on (and the check across cameras is made again with them);
- * the initialisation and the re-fit, which run before the iterations, see
- * only the keypoints given to mc_tracker_track.  NULL: no polling. */
+ * iteration on (and the check across cameras is made again with them).
+ * The start from detections runs before the iterations and sees only the
+ * keypoints given to mc_tracker_track.  The re-fit of a lost or stuck pose
+ * and the actor's size also run before them when keypoints were given;
+ * when none were, they run after the iterations with those that came (a
+ * re-fit there beat the tracked pose on the frame set's images and is the
+ * pose returned for it, and the next frame set's start).  NULL: no
+ * polling. */
 typedef int (*mc_keypoint_poll)(void *ctx, int iteration, mc_keypoint *kp, int cap);
 void mc_tracker_set_keypoint_poll(mc_tracker *t, mc_keypoint_poll poll, void *ctx);
 
