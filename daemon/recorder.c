@@ -417,8 +417,8 @@ static void *recorder_main(void *arg)
 	mcd_recorder *r = arg;
 	static queued_pose pose; /* one recorder per process */
 	frame_ref frame;
-	mc_thread_set_name("mocapd-record");
 	take_head_pose head;
+	mc_thread_set_name("mocapd-record");
 	pthread_mutex_lock(&r->lock);
 	while (!r->quit || r->active) { /* a take in progress is drained and finished first */
 		int what = r->active ? pop(r, &head, &pose, &frame) : 0;

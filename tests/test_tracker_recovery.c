@@ -66,23 +66,6 @@ static double error_cm(const fixture *f, const mc_skeleton *sk, int k, const cha
 	return 100 * sum / n;
 }
 
-/* The poll of f->late_at: the frame set's keypoints at that iteration. */
-typedef struct {
-	const mc_keypoint *kp;
-	int nkp, at;
-} late_keypoints;
-
-static int late_poll(void *ctx, int iteration, mc_keypoint *kp, int cap)
-{
-	late_keypoints *l = ctx;
-	if (iteration < l->at || l->nkp == 0)
-		return 0;
-	int n = l->nkp < cap ? l->nkp : cap;
-	memcpy(kp, l->kp, sizeof(*kp) * (size_t)n);
-	l->nkp = 0;
-	return n;
-}
-
 /* Tracks frame k; blank: the cameras see black and no keypoints come. */
 static void track(fixture *f, mc_tracker *t, int k, bool blank, mc_skeleton *sk)
 {
@@ -100,9 +83,9 @@ static void track(fixture *f, mc_tracker *t, int k, bool blank, mc_skeleton *sk)
 	 * gives it the newest detections up to 0.3 s old before it starts. */
 	mc_tracker_init_info info;
 	mc_tracker_get_init_info(t, &info);
-	late_keypoints late = {kp, nkp, f->late_at};
+	mc_keypoints_at late = {kp, nkp, f->late_at};
 	bool joins_late = f->late_at > 0 && !info.initialising;
-	mc_tracker_set_keypoint_poll(t, joins_late ? late_poll : NULL, &late);
+	mc_tracker_set_keypoint_poll(t, joins_late ? mc_keypoints_at_poll : NULL, &late);
 	CHECK_MSG(mc_tracker_track(t, v, 2, joins_late ? NULL : kp, joins_late ? 0 : nkp, sk, &err) == 0, "%s", err.msg);
 	mc_tracker_set_keypoint_poll(t, NULL, NULL);
 	mc_clip_free_frame(v);

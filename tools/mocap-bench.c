@@ -252,25 +252,6 @@ static void record_frame(const options *o, const mc_clip *clip, int k, int nfram
 	st->frames++;
 }
 
-/* --keypoints-at-iteration N: the frame set's keypoints join the tracking
- * at gradient iteration N, as in mocapd when the detector finishes while
- * the tracker already works on its frame set. */
-typedef struct {
-	const mc_keypoint *kp;
-	int nkp, at;
-} late_keypoints;
-
-static int late_keypoints_poll(void *ctx, int iteration, mc_keypoint *kp, int cap)
-{
-	late_keypoints *l = ctx;
-	if (iteration < l->at || l->nkp == 0)
-		return 0;
-	int n = l->nkp < cap ? l->nkp : cap;
-	memcpy(kp, l->kp, sizeof(*kp) * (size_t)n);
-	l->nkp = 0;
-	return n;
-}
-
 static int track_frame(const options *o, mc_tracker *t, const mc_clip *clip, const mc_frame_view *views,
 		       const mc_keypoint *kp, int nkp, mc_skeleton *sk, mc_err *err)
 {
@@ -280,8 +261,11 @@ static int track_frame(const options *o, mc_tracker *t, const mc_clip *clip, con
 	 * mocapd gives it the newest detections up to 0.3 s old instead. */
 	if (o->keypoints_at_iteration <= 0 || info.initialising)
 		return mc_tracker_track(t, views, clip->rig.ncams, kp, nkp, sk, err);
-	late_keypoints late = {kp, nkp, o->keypoints_at_iteration};
-	mc_tracker_set_keypoint_poll(t, late_keypoints_poll, &late);
+	/* --keypoints-at-iteration N: the frame set's keypoints join the
+	 * tracking at gradient iteration N, as in mocapd when the detector
+	 * finishes while the tracker already works on its frame set. */
+	mc_keypoints_at late = {kp, nkp, o->keypoints_at_iteration};
+	mc_tracker_set_keypoint_poll(t, mc_keypoints_at_poll, &late);
 	int rc = mc_tracker_track(t, views, clip->rig.ncams, NULL, 0, sk, err);
 	mc_tracker_set_keypoint_poll(t, NULL, NULL);
 	return rc;

@@ -676,6 +676,17 @@ static void keypoints_given(mc_tracker *t, const mc_keypoint *kp, int nkp)
 	k->nrays = mc_trk_prepare_keypoints(t, k->given, k->ngiven, k->rays, k->cam);
 }
 
+int mc_keypoints_at_poll(void *ctx, int iteration, mc_keypoint *kp, int cap)
+{
+	mc_keypoints_at *l = ctx;
+	if (iteration < l->at || l->nkp <= 0)
+		return 0;
+	int n = l->nkp < cap ? l->nkp : cap;
+	memcpy(kp, l->kp, sizeof(*kp) * (size_t)n);
+	l->nkp = 0;
+	return n;
+}
+
 /* Before iteration `it`: keypoints that came since (mc_tracker_set_keypoint_poll). */
 static void keypoints_poll(mc_tracker *t, int it)
 {

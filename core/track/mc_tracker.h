@@ -198,6 +198,15 @@ int mc_tracker_track(mc_tracker *t, const mc_frame_view *views, int nviews, cons
  * polling. */
 typedef int (*mc_keypoint_poll)(void *ctx, int iteration, mc_keypoint *kp, int cap);
 void mc_tracker_set_keypoint_poll(mc_tracker *t, mc_keypoint_poll poll, void *ctx);
+/* A ready-made poll for measuring and testing keypoints that come late:
+ * with a mc_keypoints_at as its ctx, it hands over the nkp keypoints at kp
+ * once, before iteration `at` (kp must live until mc_tracker_track
+ * returns; nkp is 0 after). */
+typedef struct {
+	const mc_keypoint *kp;
+	int nkp, at;
+} mc_keypoints_at;
+int mc_keypoints_at_poll(void *ctx, int iteration, mc_keypoint *kp, int cap);
 
 /* Name of the compute device in use, e.g. "pocl: pthread-skylake". */
 const char *mc_tracker_device_name(const mc_tracker *t);
