@@ -800,6 +800,20 @@ static void initialising_skeleton(const mc_tracker *t, mc_skeleton *out)
 		out->joints[j].confidence = 0;
 }
 
+/* Whether every view of the frame set came with keypoints. */
+static bool keypoints_from_every_view(const mc_tracker *t)
+{
+	const mc_trk_frame_keypoints *k = t->fkp;
+	for (int c = 0; c < t->rig.ncams; c++) {
+		bool any = false;
+		for (int i = 0; i < k->nrays && !any; i++)
+			any = k->cam[i] == c;
+		if (t->present[c] && !any)
+			return false;
+	}
+	return true;
+}
+
 static int track_frame_set(mc_tracker *t, const mc_frame_view *views, int nviews, const mc_keypoint *kp, int nkp,
 			   mc_skeleton *out, mc_err *err)
 {
@@ -812,11 +826,12 @@ static int track_frame_set(mc_tracker *t, const mc_frame_view *views, int nviews
 	keypoints_given(t, kp, nkp);
 	mc_trk_frame_keypoints *fkp = t->fkp;
 	/* The detections' step (re-fit when lost or stuck, the actor's size)
-	 * needs the frame set's keypoints.  When none are here yet and a poll
-	 * may bring them during the iterations (mocapd at 30 fps: the
-	 * detection ends a few ms into the tracking), it is taken after the
-	 * iterations with those that came, else it would never run. */
-	bool late_step = present > 0 && fkp->nrays == 0 && t->kp_poll && !t->init.waiting;
+	 * triangulates the frame set's keypoints across cameras.  When some
+	 * view's are not here yet and a poll may bring them during the
+	 * iterations (mocapd at 30 fps: each camera's detection ends a few ms
+	 * into the tracking), it is taken after the iterations with those
+	 * that came, else it would hardly ever run. */
+	bool late_step = present > 0 && t->kp_poll && !t->init.waiting && !keypoints_from_every_view(t);
 	int waiting = late_step ? 0
 		      : present > 0 ? mc_trk_init_step(t, views, nviews, fkp->rays, fkp->cam, fkp->nrays, err)
 				    : (t->init.waiting ? 1 : 0);

@@ -191,11 +191,11 @@ int mc_tracker_track(mc_tracker *t, const mc_frame_view *views, int nviews, cons
  * iteration on (and the check across cameras is made again with them).
  * The start from detections runs before the iterations and sees only the
  * keypoints given to mc_tracker_track.  The re-fit of a lost or stuck pose
- * and the actor's size also run before them when keypoints were given;
- * when none were, they run after the iterations with those that came (a
- * re-fit there beat the tracked pose on the frame set's images and is the
- * pose returned for it, and the next frame set's start).  NULL: no
- * polling. */
+ * and the actor's size, which triangulate across cameras, also run before
+ * them when every view came with keypoints; else they run after the
+ * iterations with those that came (a re-fit there beat the tracked pose
+ * on the frame set's images and is the pose returned for it, and the next
+ * frame set's start).  NULL: no polling. */
 typedef int (*mc_keypoint_poll)(void *ctx, int iteration, mc_keypoint *kp, int cap);
 void mc_tracker_set_keypoint_poll(mc_tracker *t, mc_keypoint_poll poll, void *ctx);
 /* A ready-made poll for measuring and testing keypoints that come late:
