@@ -216,6 +216,38 @@ static void test_detector_pipelined(void)
 	      strstr(out, "/nonexistent/model.onnx"));
 }
 
+/* --frame-step N: every Nth frame set is tracked and scored (cameras at
+ * 1/N of the clip's rate), without the detector and with it (pipelined). */
+static void test_frame_step(void)
+{
+	static char out[1 << 16], text[1 << 18];
+	char args[512], path[128];
+	snprintf(path, sizeof(path), "%s/step.jsonl", tmpdir);
+	snprintf(args, sizeof(args),
+		 "--clip tests/data/ego_demo --frames 8 --frame-step 3 --reference-frames 0 --no-thesis --quiet --out %s",
+		 path);
+	int rc = run_tool(args, out, sizeof(out));
+	CHECK_MSG(rc == 0 && strstr(last_line(out), "RESULT clip=ego_demo frames=3 "), "exit %d:\n%s", rc, out);
+	CHECK(slurp(path, text, sizeof(text)));
+	int lines = 0;
+	for (const char *p = text; (p = strstr(p, "{\"index\": ")); p++) {
+		int k = atoi(p + strlen("{\"index\": "));
+		CHECK_MSG(k == 3 * lines, "estimate %d is of frame set %d, expected %d", lines, k, 3 * lines);
+		lines++;
+	}
+	CHECK_MSG(lines == 3, "%d estimates written, expected 3", lines);
+	unlink(path);
+	const char *model = "config/models/ego_detector.onnx";
+	if (access(model, R_OK) != 0)
+		return;
+	snprintf(args, sizeof(args),
+		 "--clip tests/data/ego_demo --frames 8 --frame-step 2 --reference-frames 0 --no-thesis --quiet "
+		 "--detector %s",
+		 model);
+	rc = run_tool(args, out, sizeof(out));
+	CHECK_MSG(rc == 0 && strstr(last_line(out), "RESULT clip=ego_demo frames=4 "), "exit %d:\n%s", rc, out);
+}
+
 static void test_bad_command_lines(void)
 {
 	static char out[1 << 14];
@@ -248,6 +280,7 @@ int main(int argc, char **argv)
 	test_run();
 	test_outside_in();
 	test_detector_pipelined();
+	test_frame_step();
 	rmdir(tmpdir);
 	return mc_test_finish("test_bench_tool");
 }

@@ -49,6 +49,7 @@ typedef struct {
 	const char *cameras; /* --cameras 0,2: the clip cameras used, NULL: all */
 	int overlay_every;
 	int max_frames;
+	int frame_step; /* track every Nth frame set of the clip (a camera rate 1/N of the clip's) */
 	int reference_frames;
 	bool use_ocam;
 	bool quiet;
@@ -246,9 +247,9 @@ static void record_frame(const options *o, const mc_clip *clip, int k, int nfram
 	st->err_n++;
 	if (out)
 		write_estimate(out, k, sk);
-	if (!o->quiet && (k % 30 == 0 || k == nframes - 1))
-		printf("  frame %4d  %-9s  %6.1f ms  running mpjpe %.2f cm\n", k, mc_track_state_name(sk->state), st->ms[k],
-		       100.0 * mpjpe_of(st));
+	if (!o->quiet && (k % 30 == 0 || k + o->frame_step >= nframes))
+		printf("  frame %4d  %-9s  %6.1f ms  running mpjpe %.2f cm\n", k, mc_track_state_name(sk->state),
+		       st->ms[st->frames], 100.0 * mpjpe_of(st));
 	st->frames++;
 }
 
@@ -279,7 +280,7 @@ static int track_serial(const options *o, mc_tracker *t, bench_detector *bd, con
 	mc_skeleton still;
 	current_skeleton(t, &still);
 	uint64_t rng = o->s.seed + 1;
-	for (int k = 0; k < nframes; k++) {
+	for (int k = 0; k < nframes; k += o->frame_step) {
 		mc_frame_view views[MC_MAX_CAMERAS];
 		mc_skeleton sk;
 		mc_keypoint kp[BENCH_MAX_KEYPOINTS];
@@ -288,7 +289,7 @@ static int track_serial(const options *o, mc_tracker *t, bench_detector *bd, con
 		uint64_t t0 = mc_now_ns();
 		int nkp = frame_keypoints(o, bd, t, clip, k, views, &rng, kp, BENCH_MAX_KEYPOINTS, err);
 		int rc = nkp < 0 ? -1 : track_frame(o, t, clip, views, kp, nkp, &sk, err);
-		st->ms[k] = mc_ms_since(t0);
+		st->ms[st->frames] = mc_ms_since(t0);
 		if (rc == 0 && o->overlay_dir && k % o->overlay_every == 0)
 			write_overlay(o, clip, k, &views[0], &sk);
 		mc_clip_free_frame(views);
@@ -371,19 +372,20 @@ static int track_pipelined(const options *o, mc_tracker *t, bench_detector *bd, 
 	mc_skeleton still;
 	current_skeleton(t, &still);
 	detect_slot slot[2] = {{.bd = bd, .clip = clip}, {.bd = bd, .clip = clip}};
+	const int step = o->frame_step;
 	int rc = nframes > 0 ? detect_slot_start(&slot[0], 0, err) : 0;
-	for (int k = 0; rc == 0 && k < nframes; k++) {
-		detect_slot *cur = &slot[k % 2];
+	for (int i = 0, k = 0; rc == 0 && k < nframes; i++, k += step) {
+		detect_slot *cur = &slot[i % 2];
 		uint64_t t0 = mc_now_ns();
 		rc = detect_slot_join(cur, err);
 		double waited = mc_ms_since(t0);
-		if (rc == 0 && k + 1 < nframes)
-			rc = detect_slot_start(&slot[(k + 1) % 2], k + 1, err);
+		if (rc == 0 && k + step < nframes)
+			rc = detect_slot_start(&slot[(i + 1) % 2], k + step, err);
 		mc_skeleton sk;
 		t0 = mc_now_ns();
 		if (rc == 0)
 			rc = track_frame(o, t, clip, cur->views, cur->kp, cur->nkp, &sk, err);
-		st->ms[k] = waited + mc_ms_since(t0);
+		st->ms[st->frames] = waited + mc_ms_since(t0);
 		if (rc == 0 && o->overlay_dir && k % o->overlay_every == 0)
 			write_overlay(o, clip, k, &cur->views[0], &sk);
 		if (rc == 0)
@@ -686,6 +688,8 @@ static void usage(FILE *f)
 		   "  --cameras LIST        outside-in: use only these clip cameras, e.g. 0,2 (default: all)\n"
 		   "  --lambda-floor L      outside-in: weight of the floor prior (default: mocapd's outside-in value)\n"
 		   "  --frames N            track only the first N frames\n"
+		   "  --frame-step N        track every Nth frame set only, as cameras at 1/N of the clip's rate\n"
+		   "                        (scored on those; default 1)\n"
 		   "  --backend opencl|reference\n"
 		   "  --width W --height H  working resolution per camera (default 128x128)\n"
 		   "  --iterations N        gradient iterations per frame (default 50; outside-in clips 320 shared\n"
@@ -738,7 +742,7 @@ enum { OPT_MODEL = 256, OPT_OUT, OPT_FRAMES, OPT_BACKEND, OPT_WIDTH, OPT_HEIGHT,
        OPT_STEP, OPT_MOM, OPT_LSMOOTH, OPT_LPOSE, OPT_LLIMIT, OPT_PLAT, OPT_DEV, OPT_SEED, OPT_OCAM, OPT_REF,
        OPT_NOTHESIS, OPT_QUIET, OPT_CLIP, OPT_HELP, OPT_OVERLAY, OPT_OVERLAY_EVERY, OPT_LANCHOR,
        OPT_SIMDET, OPT_LDET, OPT_DETECTOR, OPT_DET_EVERY, OPT_LCOLOR, OPT_DET_THRESHOLD, OPT_INIT,
-       OPT_NORECOVER, OPT_CAMERAS, OPT_LFLOOR, OPT_DET_SERIAL, OPT_KP_AT, OPT_VERSION = 'V' };
+       OPT_NORECOVER, OPT_CAMERAS, OPT_LFLOOR, OPT_DET_SERIAL, OPT_KP_AT, OPT_FRAME_STEP, OPT_VERSION = 'V' };
 
 static int apply_option(options *o, int c, const char *name, const char *arg, bool *thesis)
 {
@@ -793,6 +797,7 @@ static int apply_option(options *o, int c, const char *name, const char *arg, bo
 	case OPT_LCOLOR: s->lambda_color = v; break;
 	case OPT_DET_EVERY: o->detector_every = v >= 1 ? (int)v : 1; break;
 	case OPT_KP_AT: o->keypoints_at_iteration = (int)v; break;
+	case OPT_FRAME_STEP: o->frame_step = v >= 1 ? (int)v : 1; break;
 	case OPT_DET_THRESHOLD: o->detector_threshold = v; break;
 	case OPT_SIMDET: o->simulated_detector_px = v; break;
 	case OPT_PLAT: s->cl_platform = (int)v; break;
@@ -820,7 +825,7 @@ static int parse_options(int argc, char **argv, options *o, bool *thesis)
 		{"overlay-every", 1, 0, OPT_OVERLAY_EVERY}, {"quiet", 0, 0, OPT_QUIET}, {"help", 0, 0, OPT_HELP},
 		{"init", 1, 0, OPT_INIT}, {"no-recover", 0, 0, OPT_NORECOVER}, {"cameras", 1, 0, OPT_CAMERAS},
 		{"lambda-floor", 1, 0, OPT_LFLOOR}, {"detector-serial", 0, 0, OPT_DET_SERIAL},
-		{"keypoints-at-iteration", 1, 0, OPT_KP_AT},
+		{"keypoints-at-iteration", 1, 0, OPT_KP_AT}, {"frame-step", 1, 0, OPT_FRAME_STEP},
 		{"version", 0, 0, OPT_VERSION},
 		{0, 0, 0, 0}};
 	int c, idx;
@@ -978,6 +983,7 @@ int main(int argc, char **argv)
 									: MC_INSTALL_DATA_DIR "/models/default.json";
 	o.reference_frames = 3;
 	o.overlay_every = 10;
+	o.frame_step = 1;
 	o.simulated_detector_px = -1;
 	o.detector_threshold = -1;
 	mc_tracker_settings_default(&o.s);
