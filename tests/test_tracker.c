@@ -380,11 +380,12 @@ static void test_backends_agree(void)
 	synth_close(&s);
 }
 
-/* The keypoint poll: hands over the keypoints at iteration `at` (once per
- * frame set) and checks that it is called before every iteration, in order. */
+/* The keypoint poll: mc_keypoints_at_poll (the keypoints at iteration
+ * `at`, once per frame set), checking that it is called before every
+ * iteration, in order. */
 typedef struct {
-	const mc_keypoint *kp;
-	int nkp, at, next, calls;
+	mc_keypoints_at at;
+	int next, calls;
 	bool in_order;
 } late_poll;
 
@@ -394,10 +395,7 @@ static int late_poll_fn(void *ctx, int iteration, mc_keypoint *kp, int cap)
 	l->in_order &= iteration == l->next;
 	l->next = iteration + 1;
 	l->calls++;
-	if (iteration != l->at || l->nkp > cap)
-		return 0;
-	memcpy(kp, l->kp, sizeof(*kp) * (size_t)l->nkp);
-	return l->nkp;
+	return mc_keypoints_at_poll(&l->at, iteration, kp, cap);
 }
 
 /* Keypoints (the detection term) at the true right elbow and wrist bring
@@ -448,7 +446,7 @@ static void test_keypoints(void)
 	CHECK(nkp >= 2);
 	double wrist_error[3];
 	static const char *const how[3] = {"without keypoints", "with keypoints", "with keypoints from iteration 10"};
-	late_poll late = {kp, nkp, 10, 0, 0, true};
+	late_poll late = {{kp, nkp, 10}, 0, 0, true};
 	int late_iterations = 0;
 	for (int with = 0; with < 3; with++) {
 		mc_skeleton sk;
@@ -457,6 +455,7 @@ static void test_keypoints(void)
 		for (int k = 1; k <= 4; k++) {
 			views_of(&s, v, k);
 			late.next = 0;
+			late.at.nkp = nkp;
 			CHECK_MSG(mc_tracker_track(t, v, 2, with == 1 ? kp : NULL, with == 1 ? nkp : 0, &sk, &err) == 0,
 				  "%s", err.msg);
 			late_iterations += with == 2 ? sk.iterations : 0;

@@ -256,8 +256,9 @@ static void record_frame(const options *o, const mc_clip *clip, int k, int nfram
 static int track_frame(const options *o, mc_tracker *t, const mc_clip *clip, const mc_frame_view *views,
 		       const mc_keypoint *kp, int nkp, mc_skeleton *sk, mc_err *err)
 {
-	mc_tracker_init_info info;
-	mc_tracker_get_init_info(t, &info);
+	mc_tracker_init_info info = {0};
+	if (o->keypoints_at_iteration > 0)
+		mc_tracker_get_init_info(t, &info);
 	/* While waiting for a first pose the tracker does not iterate, and
 	 * mocapd gives it the newest detections up to 0.3 s old instead. */
 	if (o->keypoints_at_iteration <= 0 || info.initialising)
