@@ -6,7 +6,7 @@
 // lines of protobuf reading below), because OpenCV 4.6 does not expose it
 // and would otherwise run a network built for another size without
 // complaint.  The output shape is checked by running it once on zeros.
-#include "mc_detector.h"
+#include "mc_detector_internal.hpp"
 
 #include "base/mc_time.h"
 
@@ -231,23 +231,6 @@ std::mutex import_lock;
 
 } // namespace
 
-struct mc_detector {
-	std::string path;
-	cv::dnn::Net net;
-	std::string input_name, output_name;
-	int in_w = MC_DETECTOR_DEFAULT_INPUT, in_h = MC_DETECTOR_DEFAULT_INPUT;
-	int njoints = 0, hm_w = 0, hm_h = 0;
-	std::vector<std::string> joints;
-	float threshold = MC_DETECTOR_DEFAULT_THRESHOLD;
-	bool sidecar_joints = false; // the joints come from the sidecar
-	std::string sidecar;
-	cv::Mat blob;              // 1x3xHinxWin
-	cv::Mat resized;           // Hin x Win RGB
-	std::vector<float> heatmaps; // J x H x W of the last call
-	mc_detector_timing timing{};
-	double total_ms = 0;
-};
-
 namespace {
 
 // The sidecar MODEL.json: joints, threshold, input and heatmap sizes.
@@ -290,6 +273,23 @@ int read_sidecar(mc_detector *d, const std::string &json_path, int *expect_hm_w,
 			rc = mc_err_set(err, "%s: threshold: expected a number in [0, 1]", json_path.c_str());
 		else
 			d->threshold = (float)t;
+	}
+	json_t *dec = rc ? nullptr : json_object_get(root, "decoder");
+	if (dec) {
+		const char *v = json_string_value(dec);
+		if (v && strcmp(v, "heatmap") == 0)
+			d->decoder = mc_decoder::heatmap;
+		else if (v && strcmp(v, "movenet") == 0)
+			d->decoder = mc_decoder::movenet;
+		else
+			rc = mc_err_set(err, "%s: decoder: expected \"heatmap\" or \"movenet\"", json_path.c_str());
+	}
+	json_t *refine = rc ? nullptr : json_object_get(root, "refine");
+	if (refine) {
+		if (!json_is_boolean(refine))
+			rc = mc_err_set(err, "%s: refine: expected true or false", json_path.c_str());
+		else
+			d->refine = json_is_true(refine);
 	}
 	const char *pairs[2] = {"input", "heatmap"};
 	for (int k = 0; k < 2 && !rc; k++) {
@@ -355,6 +355,8 @@ int check_input(mc_detector *d, const OnnxInfo &info, mc_err *err)
 // One forward pass on zeros: the output must be 1 x J x H x W.
 int check_output(mc_detector *d, int expect_hm_w, int expect_hm_h, mc_err *err)
 {
+	if (d->decoder == mc_decoder::movenet)
+		return mc_movenet_check_outputs(d, err);
 	const char *p = d->path.c_str();
 	std::vector<std::string> outs = d->net.getUnconnectedOutLayersNames();
 	if (outs.empty())
@@ -465,26 +467,15 @@ mc_detector *load(const char *onnx_path, mc_err *err)
 	return d.release();
 }
 
-int detect(mc_detector *d, const uint8_t *rgb, int width, int height, int stride, mc_detection *out, int max,
-	   mc_err *err)
+} // namespace
+
+void mc_detector_fill_blob(mc_detector *d, const cv::Mat &img)
 {
-	uint64_t t0 = mc_now_ns();
-	if (stride == 0)
-		stride = 3 * width;
-	if (!rgb || width <= 0 || height <= 0 || stride < 3 * width || max < 0 || (max > 0 && !out))
-		return mc_err_set(err, "%s: detect: bad image (%dx%d, stride %d) or output", d->path.c_str(), width,
-				  height, stride);
-	cv::Mat src(height, width, CV_8UC3, const_cast<uint8_t *>(rgb), (size_t)stride);
-	const cv::Mat *img = &src;
-	if (width != d->in_w || height != d->in_h) {
-		cv::resize(src, d->resized, cv::Size(d->in_w, d->in_h), 0, 0, cv::INTER_AREA);
-		img = &d->resized;
-	}
 	// HWC uint8 to NCHW float in [0, 1].
 	const size_t plane = (size_t)d->in_w * (size_t)d->in_h;
 	float *b = d->blob.ptr<float>();
 	for (int y = 0; y < d->in_h; y++) {
-		const uint8_t *row = img->ptr<uint8_t>(y);
+		const uint8_t *row = img.ptr<uint8_t>(y);
 		float *r = b + (size_t)y * (size_t)d->in_w, *g = r + plane, *bl = g + plane;
 		for (int x = 0; x < d->in_w; x++) {
 			r[x] = row[3 * x] * (1.0f / 255.0f);
@@ -492,10 +483,24 @@ int detect(mc_detector *d, const uint8_t *rgb, int width, int height, int stride
 			bl[x] = row[3 * x + 2] * (1.0f / 255.0f);
 		}
 	}
+}
+
+namespace {
+
+// A heatmap network: the view resized to the input, one forward pass, the
+// per-joint argmax (mc_detector_decode).
+int detect_heatmap(mc_detector *d, const cv::Mat &src, mc_detection *out, int max, double *infer_ms, mc_err *err)
+{
+	const cv::Mat *img = &src;
+	if (src.cols != d->in_w || src.rows != d->in_h) {
+		cv::resize(src, d->resized, cv::Size(d->in_w, d->in_h), 0, 0, cv::INTER_AREA);
+		img = &d->resized;
+	}
+	mc_detector_fill_blob(d, *img);
 	uint64_t t1 = mc_now_ns();
 	d->net.setInput(d->blob, d->input_name);
 	cv::Mat o = d->net.forward(d->output_name);
-	double infer = mc_ms_since(t1);
+	*infer_ms = mc_ms_since(t1);
 	if (o.dims != 4 || o.size[1] != d->njoints || o.size[2] != d->hm_h || o.size[3] != d->hm_w ||
 	    o.type() != CV_32F)
 		return mc_err_set(err, "%s: the network's output changed shape", d->path.c_str());
@@ -503,8 +508,25 @@ int detect(mc_detector *d, const uint8_t *rgb, int width, int height, int stride
 		memcpy(d->heatmaps.data(), o.ptr<float>(), d->heatmaps.size() * sizeof(float));
 	else
 		return mc_err_set(err, "%s: the network's output is not contiguous", d->path.c_str());
-	int n = mc_detector_decode(d->heatmaps.data(), d->njoints, d->hm_h, d->hm_w, d->in_w, d->in_h, width, height,
-				   d->threshold, out, max);
+	return mc_detector_decode(d->heatmaps.data(), d->njoints, d->hm_h, d->hm_w, d->in_w, d->in_h, src.cols,
+				  src.rows, d->threshold, out, max);
+}
+
+int detect(mc_detector *d, const uint8_t *rgb, int width, int height, int stride, mc_detection *out, int max,
+	   mc_err *err)
+{
+	uint64_t t0 = mc_now_ns();
+	double infer = 0;
+	if (stride == 0)
+		stride = 3 * width;
+	if (!rgb || width <= 0 || height <= 0 || stride < 3 * width || max < 0 || (max > 0 && !out))
+		return mc_err_set(err, "%s: detect: bad image (%dx%d, stride %d) or output", d->path.c_str(), width,
+				  height, stride);
+	cv::Mat src(height, width, CV_8UC3, const_cast<uint8_t *>(rgb), (size_t)stride);
+	int n = d->decoder == mc_decoder::movenet ? mc_movenet_detect(d, src, out, max, &infer, err)
+						  : detect_heatmap(d, src, out, max, &infer, err);
+	if (n < 0)
+		return -1;
 	double ms = mc_ms_since(t0);
 	mc_detector_timing &t = d->timing;
 	t.calls++;
@@ -596,6 +618,12 @@ void mc_detector_set_threshold(mc_detector *d, float threshold)
 {
 	if (d && threshold >= 0.0f)
 		d->threshold = threshold;
+}
+
+void mc_detector_set_refine(mc_detector *d, int on)
+{
+	if (d)
+		d->refine = on != 0;
 }
 
 void mc_detector_set_threads(int nthreads)

@@ -90,6 +90,11 @@ const char *mc_detector_path(const mc_detector *d);
 float mc_detector_threshold(const mc_detector *d);
 void mc_detector_set_threshold(mc_detector *d, float threshold);
 
+/* MoveNet models (sidecar "decoder": "movenet"): whether a second pass looks
+ * at a square around the person the first pass found (the sidecar's
+ * "refine", default on).  No effect on heatmap models. */
+void mc_detector_set_refine(mc_detector *d, int on);
+
 /* OpenCV's thread count for the whole process (>= 1). */
 void mc_detector_set_threads(int nthreads);
 

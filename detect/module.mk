@@ -16,7 +16,8 @@ DETECT_LIB := $(BUILD)/libmocapdetect.a
 DETECT_CV_CFLAGS := $(shell $(PKG_CONFIG) --cflags opencv4 2>/dev/null)
 DETECT_CV_LIBS := $(filter -L% -lopencv_dnn -lopencv_imgproc -lopencv_core,$(shell $(PKG_CONFIG) --libs opencv4 2>/dev/null))
 DETECT_LIBS := $(DETECT_CV_LIBS) $(shell $(PKG_CONFIG) --libs jansson 2>/dev/null) -lstdc++ -lm
-DETECT_OBJ := $(BUILD)/detect/mc_detector.o $(BUILD)/detect/mc_detector_decode.o
+DETECT_OBJ := $(BUILD)/detect/mc_detector.o $(BUILD)/detect/mc_detector_movenet.o $(BUILD)/detect/mc_detector_decode.o \
+	$(BUILD)/detect/mc_movenet.o
 MOCAP_DETECT := $(BUILD)/bin/mocap-detect
 DETECT_BENCH := $(BUILD)/detect/bench_detect
 DETECT_TESTS := $(patsubst detect/tests/%.c,$(BUILD)/detect/tests/%,$(wildcard detect/tests/test_*.c))
@@ -36,8 +37,8 @@ BINS += $(if $(wildcard detect/mocap-detect.c),$(MOCAP_DETECT))
 TESTS += $(DETECT_TESTS)
 BENCHES += bench-detect
 
-$(BUILD)/detect/mc_detector.o: CPPFLAGS += -Idetect $(DETECT_CV_CFLAGS)
-$(BUILD)/detect/mc_detector_decode.o: CPPFLAGS += -Idetect
+$(BUILD)/detect/mc_detector.o $(BUILD)/detect/mc_detector_movenet.o: CPPFLAGS += -Idetect $(DETECT_CV_CFLAGS)
+$(BUILD)/detect/mc_detector_decode.o $(BUILD)/detect/mc_movenet.o: CPPFLAGS += -Idetect
 
 $(DETECT_LIB): $(DETECT_OBJ)
 	@rm -f $@
