@@ -55,7 +55,8 @@ $(DETECT_BENCH): detect/bench_detect.c $(DETECT_LIB) $(CORE_LIB)
 
 # The tests use the project's test helpers (tests/test_util.h, and the
 # daemon harness tests/daemon/harness.h for the end-to-end test).
-$(BUILD)/detect/tests/test_detector $(BUILD)/detect/tests/test_detector_shipped: $(BUILD)/detect/tests/%: \
+$(BUILD)/detect/tests/test_detector $(BUILD)/detect/tests/test_detector_shipped $(BUILD)/detect/tests/test_detector_movenet: \
+		$(BUILD)/detect/tests/%: \
 		detect/tests/%.c $(DETECT_LIB) $(CORE_LIB)
 	@mkdir -p $(@D) $(BUILD)/tests
 	$(CC) $(CPPFLAGS) -Idetect -Itests $(CFLAGS) -MMD -MP $< -o $@ $(LDFLAGS) $(DETECT_LIB) $(CORE_LIB) $(CORE_LIBS) $(DETECT_LIBS)

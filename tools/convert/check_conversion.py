@@ -14,6 +14,7 @@ and rounded to whole pixel values, which is what both networks see.
 """
 import argparse
 import json
+import math
 import os
 import subprocess
 import sys
@@ -25,15 +26,29 @@ import numpy as np
 HERE = os.path.dirname(os.path.abspath(__file__))
 
 
+def letterbox_place(img_w, img_h, size):
+    """Where a letterboxed image lies in a size x size input: the runtime's
+    rule (detect/mc_detector_movenet.cpp, fill_square), pixel for pixel:
+    (x0, y0, width, height) in input pixels."""
+    side = max(img_w, img_h)
+    s = size / side
+    sx0, sy0 = (img_w - side) / 2.0, (img_h - side) / 2.0
+    def lround(v):
+        return int(math.floor(v + 0.5))
+    ix0, iy0 = max(0, lround(-sx0 * s)), max(0, lround(-sy0 * s))
+    ix1, iy1 = min(size, lround((img_w - sx0) * s)), min(size, lround((img_h - sy0) * s))
+    return ix0, iy0, ix1 - ix0, iy1 - iy0
+
+
 def letterbox(path, h, w):
     img = cv2.imread(path, cv2.IMREAD_COLOR)
     if img is None:
         raise ValueError(f"{path}: cannot read the image")
+    if h != w:
+        raise ValueError(f"letterboxing is for square inputs, not {h}x{w}")
     img = cv2.cvtColor(img, cv2.COLOR_BGR2RGB)
-    scale = min(w / img.shape[1], h / img.shape[0])
-    nw, nh = round(img.shape[1] * scale), round(img.shape[0] * scale)
+    x0, y0, nw, nh = letterbox_place(img.shape[1], img.shape[0], w)
     out = np.zeros((h, w, 3), np.uint8)
-    x0, y0 = (w - nw) // 2, (h - nh) // 2
     out[y0:y0 + nh, x0:x0 + nw] = cv2.resize(img, (nw, nh), interpolation=cv2.INTER_AREA)
     return out.astype(np.float32)
 

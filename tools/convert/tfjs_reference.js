@@ -5,7 +5,7 @@
 //
 // IMAGES.f32: N images, float32 NHWC, pixel values 0..255 (the graph's
 // int32 input, rounded).  OUT.f32: for each image, each TF_NODE's tensor in
-// NCHW order, float32, concatenated.  Needs @tensorflow/tfjs (npm), at
+// NCHW order (as it is when the name ends in "!raw"), float32, concatenated.  Needs @tensorflow/tfjs (npm), at
 // conversion time only: NODE_PATH must reach it.
 'use strict';
 const fs = require('fs');
@@ -41,9 +41,12 @@ async function main() {
 	for (let i = 0; i < Number(n); i++) {
 		const img = tf.tensor4d(pixels.slice(i * size, (i + 1) * size), [1, Number(h), Number(w), 3], 'float32');
 		const input = tf.cast(img, 'int32');
-		const results = model.execute(input, nodes);
-		for (const t of Array.isArray(results) ? results : [results]) {
-			const nchw = t.transpose([0, 3, 1, 2]);
+		const names = nodes.map((n) => n.replace(/!raw$/, ''));
+		const results = model.execute(input, names);
+		const list = Array.isArray(results) ? results : [results];
+		for (let k = 0; k < list.length; k++) {
+			const t = list[k];
+			const nchw = nodes[k].endsWith('!raw') ? t.clone() : t.transpose([0, 3, 1, 2]);
 			fs.writeSync(out, Buffer.from((await nchw.data()).buffer));
 			nchw.dispose();
 			t.dispose();

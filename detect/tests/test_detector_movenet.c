@@ -1,0 +1,202 @@
+/* MoveNet in the detector runtime (detect/mc_movenet.c,
+ * detect/mc_detector_movenet.cpp):
+ *   - the decoding on made-up heads: the person nearest the image centre
+ *     and each joint near its regressed place win over stronger peaks of a
+ *     bystander, and the offsets are added;
+ *   - the second look's square (MoveNet's cropping rule), and none without
+ *     the torso;
+ *   - the shipped Lightning model (config/models/movenet_lightning.onnx) on
+ *     real frames (tests/data/real_p2s: Pose2Sim's demo) with the second
+ *     look off, against TensorFlow.js's own keypoints for the same frames
+ *     (detect/tests/data/movenet_lightning_reference.json, made by
+ *     tools/convert/movenet_reference.py);
+ *   - with the second look on, every body joint found in every view;
+ *   - a sidecar with an unknown decoder is refused, naming the field. */
+#include "image/mc_image.h"
+#include "mc_detector.h"
+#include "mc_movenet.h"
+#include "test_util.h"
+
+#include <jansson.h>
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+#define MODEL "config/models/movenet_lightning.onnx"
+#define REFERENCE "detect/tests/data/movenet_lightning_reference.json"
+#define FRAMES "tests/data/real_p2s"
+#define J 17
+#define G 16 /* made-up heads: 16 x 16 cells */
+
+static float heat[J * G * G], center[G * G], regress[2 * J * G * G], offsets[2 * J * G * G];
+
+static void put(float *plane, int y, int x, float v) { plane[y * G + x] = v; }
+
+static void test_decode(void)
+{
+	memset(heat, 0, sizeof(heat));
+	memset(center, 0, sizeof(center));
+	memset(regress, 0, sizeof(regress));
+	memset(offsets, 0, sizeof(offsets));
+	/* The person near the centre (8, 8) at cell (7, 9), a stronger
+	 * bystander at the corner (1, 1). */
+	put(center, 7, 9, 0.5f);
+	put(center, 1, 1, 0.9f);
+	for (int j = 0; j < J; j++) {
+		/* Joint j's regression from the person's cell to (3 + j % 10, 5). */
+		int ty = 3 + j % 10, tx = 5;
+		put(regress + (2 * j) * G * G, 7, 9, (float)(ty - 7));
+		put(regress + (2 * j + 1) * G * G, 7, 9, (float)(tx - 9));
+		/* A weaker peak there, a stronger one on the far side. */
+		put(heat + j * G * G, ty, tx, 0.6f);
+		put(heat + j * G * G, 14, 14, 0.95f);
+		put(offsets + (2 * j) * G * G, ty, tx, 0.25f);
+		put(offsets + (2 * j + 1) * G * G, ty, tx, -0.5f);
+	}
+	mc_movenet_heads h = {heat, center, regress, offsets, J, G, G};
+	mc_movenet_point p[J];
+	mc_movenet_decode(&h, p);
+	for (int j = 0; j < J; j++) {
+		CHECK_NEAR(p[j].y, (3 + j % 10 + 0.25) / G, 1e-6);
+		CHECK_NEAR(p[j].x, (5 - 0.5) / G, 1e-6);
+		CHECK_NEAR(p[j].score, 0.6, 1e-6);
+	}
+}
+
+static void test_square(void)
+{
+	float xy[2 * J], score[J];
+	for (int j = 0; j < J; j++) {
+		xy[2 * j] = 100;
+		xy[2 * j + 1] = 100;
+		score[j] = 0.9f;
+	}
+	/* Shoulders 40 px above the hips at (100, 100), an ankle 90 px below. */
+	xy[2 * 5 + 1] = xy[2 * 6 + 1] = 60;
+	xy[2 * 15 + 1] = 190;
+	mc_movenet_square sq;
+	CHECK(mc_movenet_person_square(xy, score, J, 0.2f, &sq) == 0);
+	/* max(1.9 * 40, 1.2 * 90) = 108 each way. */
+	CHECK_NEAR(sq.size, 216, 1e-3);
+	CHECK_NEAR(sq.x0, 100 - 108, 1e-3);
+	CHECK_NEAR(sq.y0, 100 - 108, 1e-3);
+	score[11] = score[12] = 0.1f; /* no hip seen: no second look */
+	CHECK(mc_movenet_person_square(xy, score, J, 0.2f, &sq) < 0);
+	mc_movenet_square full = mc_movenet_full_square(360, 640);
+	CHECK_NEAR(full.x0, -140, 1e-6);
+	CHECK_NEAR(full.y0, 0, 1e-6);
+	CHECK_NEAR(full.size, 640, 1e-6);
+}
+
+/* Detects on FRAMES/name; returns the count (joints indexed by det.joint). */
+static int detect_file(mc_detector *d, const char *name, mc_detection *det)
+{
+	char path[512];
+	snprintf(path, sizeof(path), "%s/%s", FRAMES, name);
+	mc_err err = {{0}};
+	mc_image_conv *conv = mc_image_conv_new(&err);
+	uint8_t *rgb = NULL;
+	int w = 0, h = 0, n = -1;
+	if (conv && mc_image_load(conv, path, &rgb, &w, &h, &err) == 0)
+		n = mc_detector_detect(d, rgb, w, h, 0, det, MC_DETECTOR_MAX_JOINTS, &err);
+	CHECK_MSG(n >= 0, "%s: %s", path, err.msg);
+	free(rgb);
+	mc_image_conv_free(conv);
+	return n;
+}
+
+static void test_reference(mc_detector *d)
+{
+	json_error_t jerr;
+	json_t *root = json_load_file(REFERENCE, 0, &jerr);
+	CHECK_MSG(root, "%s:%d: %s", REFERENCE, jerr.line, jerr.text);
+	json_t *views = json_object_get(root, "keypoints");
+	CHECK(json_array_size(views) == 8);
+	mc_detector_set_refine(d, 0);
+	mc_detector_set_threshold(d, 0);
+	double worst_px = 0, worst_score = 0;
+	for (size_t i = 0; i < json_array_size(views); i++) {
+		json_t *v = json_array_get(views, i);
+		mc_detection det[MC_DETECTOR_MAX_JOINTS];
+		int n = detect_file(d, json_string_value(json_object_get(v, "image")), det);
+		CHECK(n == J);
+		for (int k = 0; k < n; k++) {
+			json_t *ref = json_array_get(json_object_get(v, "joints"), (size_t)det[k].joint);
+			double du = det[k].u - json_number_value(json_array_get(ref, 0));
+			double dv = det[k].v - json_number_value(json_array_get(ref, 1));
+			double ds = det[k].confidence - json_number_value(json_array_get(ref, 2));
+			worst_px = fmax(worst_px, sqrt(du * du + dv * dv));
+			worst_score = fmax(worst_score, fabs(ds));
+		}
+	}
+	printf("against TensorFlow.js (first look only): worst %.3f px, score %.4f\n", worst_px, worst_score);
+	/* JPEG decoders differ by a grey level here and there; a decoding
+	 * mistake moves a joint by a cell (13 native px) or half of one. */
+	CHECK(worst_px < 1.0);
+	CHECK(worst_score < 0.01);
+	json_decref(root);
+}
+
+static void test_real_views(mc_detector *d)
+{
+	static const char *const body[] = {"left_shoulder", "right_shoulder", "left_elbow", "right_elbow",
+					   "left_wrist",    "right_wrist",    "left_hip",   "right_hip",
+					   "left_knee",     "right_knee",     "left_ankle", "right_ankle"};
+	mc_detector_set_refine(d, 1);
+	mc_detector_set_threshold(d, 0.3f);
+	for (int cam = 0; cam < 4; cam++)
+		for (int f = 0; f <= 50; f += 50) {
+			char name[64];
+			snprintf(name, sizeof(name), "cam%d/%05d.jpg", cam, f);
+			mc_detection det[MC_DETECTOR_MAX_JOINTS];
+			int n = detect_file(d, name, det), found = 0;
+			for (size_t b = 0; b < sizeof(body) / sizeof(body[0]); b++)
+				for (int k = 0; k < n; k++)
+					found += det[k].joint == mc_detector_find_joint(d, body[b]);
+			printf("%s: %d of the 12 body joints found\n", name, found);
+			CHECK_MSG(found >= 10, "%s: %d of the 12 body joints found", name, found);
+		}
+}
+
+static void test_bad_sidecar(void)
+{
+	char dir[] = "/tmp/mc_movenet_XXXXXX", onnx[600], json[600], target[600];
+	CHECK(mkdtemp(dir) != NULL);
+	snprintf(onnx, sizeof(onnx), "%s/m.onnx", dir);
+	snprintf(json, sizeof(json), "%s/m.json", dir);
+	CHECK(realpath(MODEL, target) != NULL);
+	CHECK(symlink(target, onnx) == 0);
+	FILE *f = fopen(json, "w");
+	fputs("{\"decoder\": \"centernet\", \"input\": [192, 192]}\n", f);
+	fclose(f);
+	mc_err err = {{0}};
+	CHECK(mc_detector_load(onnx, &err) == NULL);
+	CHECK_MSG(strstr(err.msg, "m.json: decoder") != NULL, "message: %s", err.msg);
+	unlink(onnx);
+	unlink(json);
+	rmdir(dir);
+}
+
+int main(void)
+{
+	test_decode();
+	test_square();
+	if (access(MODEL, R_OK) != 0)
+		TEST_SKIP("%s is not there (run from the repository root)", MODEL);
+	mc_err err = {{0}};
+	mc_detector *d = mc_detector_load(MODEL, &err);
+	CHECK_MSG(d, "%s", err.msg);
+	if (d) {
+		int w, h;
+		mc_detector_input_size(d, &w, &h);
+		CHECK(w == 192 && h == 192 && mc_detector_njoints(d) == J);
+		mc_detector_heatmap_size(d, &w, &h);
+		CHECK(w == 48 && h == 48);
+		test_reference(d);
+		test_real_views(d);
+		mc_detector_free(d);
+	}
+	test_bad_sidecar();
+	return mc_test_finish("test_detector_movenet");
+}
