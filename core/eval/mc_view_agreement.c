@@ -1,0 +1,81 @@
+/* mc_view_agreement: keypoints checked against the other cameras' (see
+ * mc_view_agreement.h). */
+#include "eval/mc_view_agreement.h"
+
+#include <math.h>
+
+/* A ray in the rig frame. */
+typedef struct {
+	mc_vec3 origin, dir;
+} ray;
+
+/* The point nearest to the rays (least squares), false when they are near
+ * parallel. */
+static bool nearest_point(const ray *r, int n, mc_vec3 *out)
+{
+	double A[9] = {0}, b[3] = {0};
+	for (int i = 0; i < n; i++) {
+		double d[3] = {r[i].dir.x, r[i].dir.y, r[i].dir.z}, o[3] = {r[i].origin.x, r[i].origin.y, r[i].origin.z};
+		for (int p = 0; p < 3; p++)
+			for (int q = 0; q < 3; q++) {
+				double P = (p == q) - d[p] * d[q];
+				A[3 * p + q] += P;
+				b[p] += P * o[q];
+			}
+	}
+	if (!mc_la_lu_solve(A, b, 3))
+		return false;
+	*out = mc_v3(b[0], b[1], b[2]);
+	return mc_v3_isfinite(*out);
+}
+
+static bool to_ray(const mc_camera *cam, double u, double v, ray *out)
+{
+	mc_vec3 d;
+	if (!mc_camera_unproject(cam, u, v, &d))
+		return false;
+	*out = (ray){cam->rig_from_cam.t, mc_v3_normalize(mc_m3_apply(cam->rig_from_cam.R, d))};
+	return true;
+}
+
+/* Keypoint `self` against the rays of the other cameras' keypoints of its
+ * joint (others[0..n-1]); 1 agreed, 0 not, -1 not checked. */
+static int check_one(const mc_rig *rig, const mc_keypoint *self, const ray *others, int n, double px_at_640)
+{
+	mc_vec3 x;
+	if (n < 3 || !nearest_point(others, n, &x))
+		return -1;
+	const mc_camera *cam = &rig->cams[self->cam];
+	double u, v;
+	if (!mc_camera_project_unbounded(cam, mc_xform_apply(mc_xform_inverse(cam->rig_from_cam), x), &u, &v))
+		return 0;
+	int side = cam->width > cam->height ? cam->width : cam->height;
+	return hypot(u - self->u, v - self->v) <= px_at_640 * side / 640.0;
+}
+
+void mc_view_agreement_add(mc_view_agreement *a, const mc_rig *rig, const mc_keypoint *kp, int nkp, double min_conf,
+			   double px_at_640)
+{
+	for (int i = 0; i < nkp; i++) {
+		const mc_keypoint *k = &kp[i];
+		if (k->cam < 0 || k->cam >= rig->ncams || !(k->conf >= min_conf))
+			continue;
+		ray others[MC_MAX_CAMERAS];
+		int n = 0;
+		bool used[MC_MAX_CAMERAS] = {false};
+		used[k->cam] = true;
+		for (int j = 0; j < nkp && n < MC_MAX_CAMERAS; j++) {
+			const mc_keypoint *o = &kp[j];
+			if (o->joint != k->joint || o->cam < 0 || o->cam >= rig->ncams || used[o->cam] ||
+			    !(o->conf >= min_conf) || !to_ray(&rig->cams[o->cam], o->u, o->v, &others[n]))
+				continue;
+			used[o->cam] = true;
+			n++;
+		}
+		int r = check_one(rig, k, others, n, px_at_640);
+		if (r < 0)
+			continue;
+		a->checked++;
+		a->agreed += r;
+	}
+}
