@@ -228,7 +228,7 @@ DEB_PACKAGES += build-essential pkg-config xxd clang llvm libclang-rt-14-dev \
 	libopencv-dev liblo-dev libavformat-dev libavcodec-dev libavutil-dev zlib1g-dev dpkg-dev debhelper dh-python fakeroot lintian
 
 # Only for generating detector training data and training it (docs/DETECTOR.md).
-DEB_TRAIN_PACKAGES := blender python3-torch python3-numpy python3-pil python3-opencv
+DEB_TRAIN_PACKAGES := blender python3-torch python3-numpy python3-pil python3-opencv python3-onnx
 
 deps:
 	apt-get update
@@ -237,6 +237,8 @@ deps:
 deps-train:
 	apt-get update
 	DEBIAN_FRONTEND=noninteractive apt-get install -y --no-install-recommends $(DEB_TRAIN_PACKAGES)
+	# npm, for `make models-movenet`: Debian's, unless a Node.js with its own npm is there.
+	command -v npm >/dev/null 2>&1 || DEBIAN_FRONTEND=noninteractive apt-get install -y --no-install-recommends nodejs npm
 
 clean:
 	rm -rf build build-*

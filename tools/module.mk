@@ -122,3 +122,6 @@ detector-export:
 detector-report:
 	$(TRAIN_PYTHON) tools/train/train.py --weights $(DETECTOR_WEIGHTS) --ego $(MOCAP_EGO_DIR) \
 	  --report --report-out $(DETECTOR_DIR)/report.json
+
+# Pretrained networks converted from TensorFlow.js (make models-movenet).
+include tools/convert/module.mk

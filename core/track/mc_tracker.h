@@ -50,6 +50,11 @@ typedef struct {
 	/* Re-fit the pose to the triangulated detections when the state is
 	 * lost or a confident joint keeps disagreeing with the pose. */
 	bool recover;
+	/* Match each view's left/right keypoint pairs to the tracked pose's
+	 * two joints by the cheaper assignment instead of trusting the
+	 * detector's labels; a pair collapsed onto one peak pulls only the
+	 * nearer joint (docs/TRACKER.md, "Sides"). */
+	bool assign_sides;
 	int cl_platform, cl_device; /* -1: first GPU, else first CPU */
 	uint64_t seed;
 } mc_tracker_settings;
