@@ -59,6 +59,7 @@ int mc_clip_open(const char *dir, bool use_ocam, mc_clip *clip, mc_err *err)
 		mc_clip_close(clip);
 		return -1;
 	}
+	clip->has_gt = true;
 	return 0;
 }
 

@@ -31,6 +31,7 @@ typedef struct {
 	char cam_dir[MC_MAX_CAMERAS][MC_CAMERA_NAME_MAX];
 	int cam_index[MC_MAX_CAMERAS];
 	mc_gt gt;            /* gt.json: fps, joints in the rig frame */
+	bool has_gt;         /* gt.json was read (the clip can be scored) */
 } mc_clip;
 
 /* Opens a clip of either layout: calib.json (use_ocam: the fitted OCam
