@@ -314,6 +314,107 @@ static void test_frame_step(void)
 	CHECK_MSG(rc == 0 && strstr(line_of(out, "RESULT "), "RESULT clip=ego_demo frames=4 "), "exit %d:\n%s", rc, out);
 }
 
+/* One --keypoints-out line: its views' keypoints, checked for shape and
+ * against the clip (each inside its camera's image); with `exact`, every
+ * keypoint must be its joint's ground truth projected into the camera (the
+ * simulated detector without noise), confidence 1.  Returns the number of
+ * keypoints, -1 when the line is malformed. */
+static int check_keypoint_line(const char *line, int want_k, const mc_clip *clip, bool exact, int *n_evaluated)
+{
+	json_error_t jerr;
+	json_t *root = json_loads(line, 0, &jerr), *views = json_object_get(root, "views");
+	int n = 0;
+	bool ok = root && json_integer_value(json_object_get(root, "index")) == want_k && json_is_array(views) &&
+		  (int)json_array_size(views) == clip->rig.ncams;
+	for (int c = 0; ok && c < clip->rig.ncams; c++) {
+		const mc_camera *cam = &clip->rig.cams[c];
+		json_t *view = json_array_get(views, (size_t)c), *joints = json_object_get(view, "joints"), *p;
+		const char *name;
+		ok = json_is_object(joints) && !strcmp(json_string_value(json_object_get(view, "camera")), cam->name);
+		json_object_foreach(joints, name, p)
+		{
+			double u = json_number_value(json_array_get(p, 0)), v = json_number_value(json_array_get(p, 1));
+			double conf = json_number_value(json_array_get(p, 2)), tu = -1e9, tv = -1e9;
+			int g = mc_clip_joint(clip, name);
+			if (g >= 0)
+				mc_camera_project(cam, mc_xform_apply(mc_xform_inverse(cam->rig_from_cam), mc_clip_gt(clip, want_k, g)),
+						  &tu, &tv);
+			bool good = json_array_size(p) == 3 && conf >= 0 && conf <= 1 && u > -0.5 && v > -0.5 && u < cam->width &&
+				    v < cam->height;
+			if (exact)
+				good = good && conf == 1 && fabs(u - tu) < 1e-3 && fabs(v - tv) < 1e-3;
+			CHECK_MSG(good, "frame set %d, %s, %s: [%g, %g, %g], truth at (%g, %g)", want_k, cam->name, name, u, v,
+				  conf, tu, tv);
+			n++;
+			for (int e = 0; e < NEVAL; e++)
+				*n_evaluated += !strcmp(name, evaluated[e]);
+		}
+	}
+	CHECK_MSG(ok, "keypoints line %d: %s", want_k, line);
+	json_decref(root);
+	return ok ? n : -1;
+}
+
+/* Checks a --keypoints-out file of `lines` frame sets; returns the number
+ * of keypoints in it, and in n_evaluated those of the evaluated joints. */
+static int check_keypoints_file(const char *path, const mc_clip *clip, int lines, bool exact, int *n_evaluated)
+{
+	FILE *f = fopen(path, "r");
+	static char buf[1 << 16];
+	int k = 0, n = 0;
+	while (f && fgets(buf, sizeof(buf), f)) {
+		int m = check_keypoint_line(buf, k++, clip, exact, n_evaluated);
+		n += m > 0 ? m : 0;
+	}
+	if (f)
+		fclose(f);
+	CHECK_MSG(f && k == lines, "%s: %d lines, expected %d", path, k, lines);
+	unlink(path);
+	return n;
+}
+
+/* --keypoints-out: the simulated detector without noise gives the projected
+ * ground truth, 15 % missed; the detector's keypoints of the evaluated
+ * joints are as many as its 2D report counted (DETECT2D reported=). */
+static void test_keypoints_out(void)
+{
+	static char out[1 << 16];
+	char args[512], path[128];
+	mc_err err = {{0}};
+	mc_clip clip;
+	CHECK_MSG(mc_clip_open("tests/data/ego_demo", false, &clip, &err) == 0, "%s", err.msg);
+	snprintf(path, sizeof(path), "%s/keypoints.jsonl", tmpdir);
+	snprintf(args, sizeof(args),
+		 "--clip tests/data/ego_demo --frames 6 --reference-frames 0 --no-thesis --quiet --simulated-detector 0 "
+		 "--keypoints-out %s",
+		 path);
+	int rc = run_tool(args, out, sizeof(out));
+	CHECK_MSG(rc == 0, "exit %d:\n%s", rc, out);
+	int n_eval = 0, n = check_keypoints_file(path, &clip, 6, true, &n_eval), most = 6 * NEVAL * clip.rig.ncams;
+	printf("simulated: %d keypoints of at most %d\n", n, most);
+	CHECK_MSG(n > 0.6 * most && n < most, "%d keypoints of at most %d", n, most);
+	const char *model = "config/models/ego_detector.onnx";
+	if (access(model, R_OK) == 0) {
+		snprintf(args, sizeof(args),
+			 "--clip tests/data/ego_demo --frames 4 --reference-frames 0 --no-thesis --quiet --detector %s "
+			 "--keypoints-out %s",
+			 model, path);
+		rc = run_tool(args, out, sizeof(out));
+		CHECK_MSG(rc == 0, "exit %d:\n%s", rc, out);
+		int reported = -1;
+		const char *d2 = strstr(line_of(out, "DETECT2D "), " reported=");
+		CHECK(d2 && sscanf(d2, " reported=%d", &reported) == 1);
+		n_eval = 0;
+		n = check_keypoints_file(path, &clip, 4, false, &n_eval);
+		printf("detector: %d keypoints, %d of evaluated joints, DETECT2D reported=%d\n", n, n_eval, reported);
+		CHECK_MSG(n_eval == reported && reported > 0, "%d keypoints of evaluated joints, %d reported", n_eval,
+			  reported);
+	}
+	CHECK(run_tool("--clip tests/data/ego_demo --frames 2 --keypoints-out /nonexistent/k.jsonl", out, sizeof(out)) != 0 &&
+	      strstr(out, "/nonexistent/k.jsonl: cannot write"));
+	mc_clip_close(&clip);
+}
+
 static void test_bad_command_lines(void)
 {
 	static char out[1 << 14];
@@ -347,6 +448,7 @@ int main(int argc, char **argv)
 	test_outside_in();
 	test_detector_pipelined();
 	test_frame_step();
+	test_keypoints_out();
 	rmdir(tmpdir);
 	return mc_test_finish("test_bench_tool");
 }

@@ -22,11 +22,13 @@
 #include "image/mc_draw.h"
 #include "track/mc_tracker.h"
 #include "bench/detector_eval.h"
+#include "bench/keypoints_out.h"
 #include "bench/score.h"
 #include "bench/thesis.h"
 #include "mc_install_paths.h" /* generated: MC_INSTALL_DATA_DIR */
 
 #include <errno.h>
+#include <math.h>
 #include <pthread.h>
 #include <getopt.h>
 #include <stdio.h>
@@ -43,6 +45,8 @@ typedef struct {
 	const char *clip;
 	const char *model_path;
 	const char *out_path;
+	const char *keypoints_out_path; /* --keypoints-out FILE */
+	FILE *keypoints_file;           /* open while tracking (bench/keypoints_out.h) */
 	const char *overlay_dir;
 	const char *cameras; /* --cameras 0,2: the clip cameras used, NULL: all */
 	int overlay_every;
@@ -226,6 +230,8 @@ static int track_serial(const options *o, mc_tracker *t, bench_detector *bd, con
 		int nkp = frame_keypoints(o, bd, t, clip, k, views, &rng, kp, BENCH_MAX_KEYPOINTS, err);
 		int rc = nkp < 0 ? -1 : track_frame(o, t, clip, views, kp, nkp, &sk, err);
 		st->ms[st->frames] = mc_ms_since(t0);
+		if (rc == 0 && o->keypoints_file)
+			bench_keypoints_write(o->keypoints_file, k, &clip->rig, mc_tracker_model(t), kp, nkp);
 		if (rc == 0 && o->overlay_dir && k % o->overlay_every == 0)
 			write_overlay(o, clip, k, &views[0], &sk);
 		mc_clip_free_frame(views);
@@ -322,6 +328,8 @@ static int track_pipelined(const options *o, mc_tracker *t, bench_detector *bd, 
 		if (rc == 0)
 			rc = track_frame(o, t, clip, cur->views, cur->kp, cur->nkp, &sk, err);
 		st->ms[st->frames] = waited + mc_ms_since(t0);
+		if (rc == 0 && o->keypoints_file)
+			bench_keypoints_write(o->keypoints_file, k, &clip->rig, mc_tracker_model(t), cur->kp, cur->nkp);
 		if (rc == 0 && o->overlay_dir && k % o->overlay_every == 0)
 			write_overlay(o, clip, k, &cur->views[0], &sk);
 		if (rc == 0)
@@ -404,6 +412,8 @@ static void usage(FILE *f)
 		   "                        " MC_INSTALL_DATA_DIR "/models/default.json)\n"
 		   "  --out FILE            write per-frame estimates as JSON lines (joints in the rig frame:\n"
 		   "                        left camera, or the world frame of an outside-in clip)\n"
+		   "  --keypoints-out FILE  write the keypoints the tracker was given (detector or simulated) as\n"
+		   "                        JSON lines, one per tracked frame set, native pixels\n"
 		   "  --cameras LIST        outside-in: use only these clip cameras, e.g. 0,2 (default: all)\n"
 		   "  --lambda-floor L      outside-in: weight of the floor prior (default: mocapd's outside-in value)\n"
 		   "  --frames N            track only the first N frames\n"
@@ -461,7 +471,7 @@ enum { OPT_MODEL = 256, OPT_OUT, OPT_FRAMES, OPT_BACKEND, OPT_WIDTH, OPT_HEIGHT,
        OPT_STEP, OPT_MOM, OPT_LSMOOTH, OPT_LPOSE, OPT_LLIMIT, OPT_PLAT, OPT_DEV, OPT_SEED, OPT_OCAM, OPT_REF,
        OPT_NOTHESIS, OPT_QUIET, OPT_CLIP, OPT_HELP, OPT_OVERLAY, OPT_OVERLAY_EVERY, OPT_LANCHOR,
        OPT_SIMDET, OPT_LDET, OPT_DETECTOR, OPT_DET_EVERY, OPT_LCOLOR, OPT_DET_THRESHOLD, OPT_INIT,
-       OPT_NORECOVER, OPT_CAMERAS, OPT_LFLOOR, OPT_DET_SERIAL, OPT_KP_AT, OPT_FRAME_STEP, OPT_VERSION = 'V' };
+       OPT_NORECOVER, OPT_CAMERAS, OPT_LFLOOR, OPT_DET_SERIAL, OPT_KP_AT, OPT_FRAME_STEP, OPT_KP_OUT, OPT_VERSION = 'V' };
 
 static int apply_option(options *o, int c, const char *name, const char *arg, bool *thesis)
 {
@@ -472,6 +482,7 @@ static int apply_option(options *o, int c, const char *name, const char *arg, bo
 	case OPT_CAMERAS: o->cameras = arg; return 0;
 	case OPT_MODEL: o->model_path = arg; return 0;
 	case OPT_OUT: o->out_path = arg; return 0;
+	case OPT_KP_OUT: o->keypoints_out_path = arg; return 0;
 	case OPT_DETECTOR: o->detector_path = arg; return 0;
 	case OPT_OVERLAY: o->overlay_dir = arg; return 0;
 	case OPT_OCAM: o->use_ocam = true; return 0;
@@ -545,6 +556,7 @@ static int parse_options(int argc, char **argv, options *o, bool *thesis)
 		{"init", 1, 0, OPT_INIT}, {"no-recover", 0, 0, OPT_NORECOVER}, {"cameras", 1, 0, OPT_CAMERAS},
 		{"lambda-floor", 1, 0, OPT_LFLOOR}, {"detector-serial", 0, 0, OPT_DET_SERIAL},
 		{"keypoints-at-iteration", 1, 0, OPT_KP_AT}, {"frame-step", 1, 0, OPT_FRAME_STEP},
+		{"keypoints-out", 1, 0, OPT_KP_OUT},
 		{"version", 0, 0, OPT_VERSION},
 		{0, 0, 0, 0}};
 	int c, idx;
@@ -608,6 +620,111 @@ static void print_speed(const options *o, const mc_clip *clip, const bench_stats
 	}
 }
 
+/* The reports after tracking: accuracy, the detector's, speed, the thesis
+ * configuration, then the lines for scripts (RESULT, JITTER). */
+static void report(const options *o, const mc_clip *clip, bench_detector *bd, const bench_stats *st,
+		   const char *device_name, bool thesis, mc_err *err)
+{
+	bench_print_accuracy(clip, st);
+	if (bd)
+		bench_detector_report(bd, clip->name);
+	print_speed(o, clip, st, err);
+	if (thesis && run_thesis_config(o, clip, err) < 0)
+		fprintf(stderr, "mocap-bench: thesis configuration: %s\n", err->msg);
+	char device[160];
+	snprintf(device, sizeof(device), "%s", device_name);
+	for (char *p = device; *p; p++)
+		if (*p == ' ')
+			*p = '_';
+	bench_timing tm = bench_timing_of(st->ms, st->frames);
+	printf("RESULT clip=%s frames=%d mpjpe_cm=%.2f fps=%.1f ms_p99=%.2f device=%s cameras=%d iterations=%.1f\n",
+	       clip->name, st->frames, clip->has_gt ? 100.0 * bench_mpjpe(st) : NAN, 1e3 / tm.mean, tm.p99, device,
+	       clip->rig.ncams, iterations_per_set(st));
+	if (clip->has_gt)
+		bench_print_jitter(clip, st);
+}
+
+/* Opens --out and --keypoints-out; -1 (with err) when one cannot be
+ * written, with nothing left open. */
+static int open_outputs(options *o, FILE **out, mc_err *err)
+{
+	*out = NULL;
+	if (o->out_path && !(*out = fopen(o->out_path, "w")))
+		return mc_err_set(err, "%s: cannot write", o->out_path);
+	if (o->keypoints_out_path && !(o->keypoints_file = fopen(o->keypoints_out_path, "w"))) {
+		if (*out)
+			fclose(*out);
+		*out = NULL;
+		return mc_err_set(err, "%s: cannot write", o->keypoints_out_path);
+	}
+	return 0;
+}
+
+static void close_outputs(options *o, FILE *out)
+{
+	if (out)
+		fclose(out);
+	if (o->keypoints_file)
+		fclose(o->keypoints_file);
+	o->keypoints_file = NULL;
+}
+
+static void print_clip(const mc_clip *clip, int nframes)
+{
+	printf("clip: %s (%d frames, %s, %d camera%s:", clip->name, nframes,
+	       clip->layout == MC_CLIP_OUTSIDE ? "outside-in" : "head-mounted", clip->rig.ncams,
+	       clip->rig.ncams == 1 ? "" : "s");
+	for (int c = 0; c < clip->rig.ncams; c++)
+		printf(" %s", clip->rig.cams[c].name);
+	printf(")\n");
+}
+
+/* --detector: the model, its threshold and what it does; -1 with err. */
+static int open_detector(const options *o, const mc_tracker *t, const mc_clip *clip, int nframes,
+			 bench_detector *det, mc_err *err)
+{
+	if (bench_detector_open(det, o->detector_path, mc_tracker_model(t), clip, o->detector_every, nframes, err) < 0)
+		return -1;
+	if (o->detector_threshold >= 0)
+		mc_detector_set_threshold(det->det, (float)o->detector_threshold);
+	printf("detector: %s, every %d frame set(s), %s, lambda_detection %.3g, lambda_color %.3g\n",
+	       o->detector_path, det->every, o->detector_serial ? "serial (detect, then track)" : "pipelined (as in mocapd)",
+	       o->s.lambda_detection, o->s.lambda_color);
+	return 0;
+}
+
+/* Tracks the opened clip with tracker t and reports. */
+static int run_tracker(options *o, mc_tracker *t, const mc_clip *clip, int nframes, bool thesis, mc_err *err)
+{
+	FILE *out;
+	if (open_outputs(o, &out, err) < 0)
+		return -1;
+	print_clip(clip, nframes);
+	print_settings(&o->s, mc_tracker_device_name(t));
+	if (o->simulated_detector_px >= 0)
+		printf("WARNING: simulated detector: keypoints from the ground truth, %.1f px noise, %.0f%% missed. "
+		       "Not the evaluation protocol.\n",
+		       o->simulated_detector_px, 100 * MC_CLIP_SIMULATED_MISS);
+	bench_detector det, *bd = NULL;
+	if (o->detector_path && open_detector(o, t, clip, nframes, &det, err) < 0) {
+		close_outputs(o, out);
+		return -1;
+	}
+	if (o->detector_path)
+		bd = &det;
+	bench_stats st = {0};
+	int rc = track_clip(o, t, bd, clip, nframes, out, &st, err);
+	close_outputs(o, out);
+	if (rc == 0 && o->init_detect)
+		bench_print_init_report(t, clip, &st);
+	if (rc == 0)
+		report(o, clip, bd, &st, mc_tracker_device_name(t), thesis, err);
+	if (bd)
+		bench_detector_close(bd);
+	free(st.ms);
+	return rc;
+}
+
 static int run(const options *cmdline, bool thesis, mc_err *err)
 {
 	mc_clip clip;
@@ -624,73 +741,8 @@ static int run(const options *cmdline, bool thesis, mc_err *err)
 		mc_tracker_settings_outside_in(&o->s, clip.rig.ncams, o->given);
 	int nframes = o->max_frames > 0 && o->max_frames < clip.gt.nframes ? o->max_frames : clip.gt.nframes;
 	mc_tracker *t = start_tracker(o, &clip, &o->s, err);
-	FILE *out = t && o->out_path ? fopen(o->out_path, "w") : NULL;
-	if (!t || (o->out_path && !out)) {
-		if (t)
-			mc_err_set(err, "%s: cannot write", o->out_path);
-		mc_tracker_destroy(t);
-		mc_clip_close(&clip);
-		return -1;
-	}
-	printf("clip: %s (%d frames, %s, %d camera%s:", clip.name, nframes,
-	       clip.layout == MC_CLIP_OUTSIDE ? "outside-in" : "head-mounted", clip.rig.ncams,
-	       clip.rig.ncams == 1 ? "" : "s");
-	for (int c = 0; c < clip.rig.ncams; c++)
-		printf(" %s", clip.rig.cams[c].name);
-	printf(")\n");
-	print_settings(&o->s, mc_tracker_device_name(t));
-	if (o->simulated_detector_px >= 0)
-		printf("WARNING: simulated detector: keypoints from the ground truth, %.1f px noise, %.0f%% missed. "
-		       "Not the evaluation protocol.\n",
-		       o->simulated_detector_px, 100 * MC_CLIP_SIMULATED_MISS);
-	bench_detector det, *bd = NULL;
-	if (o->detector_path) {
-		if (bench_detector_open(&det, o->detector_path, mc_tracker_model(t), &clip, o->detector_every, nframes,
-					err) < 0) {
-			if (out)
-				fclose(out);
-			mc_tracker_destroy(t);
-			mc_clip_close(&clip);
-			return -1;
-		}
-		bd = &det;
-		if (o->detector_threshold >= 0)
-			mc_detector_set_threshold(det.det, (float)o->detector_threshold);
-		printf("detector: %s, every %d frame set(s), %s, lambda_detection %.3g, lambda_color %.3g\n",
-		       o->detector_path, det.every,
-		       o->detector_serial ? "serial (detect, then track)" : "pipelined (as in mocapd)",
-		       o->s.lambda_detection, o->s.lambda_color);
-	}
-	bench_stats st = {0};
-	int rc = track_clip(o, t, bd, &clip, nframes, out, &st, err);
-	if (out)
-		fclose(out);
-	if (rc == 0 && o->init_detect)
-		bench_print_init_report(t, &clip, &st);
-	char device[160];
-	snprintf(device, sizeof(device), "%s", mc_tracker_device_name(t));
+	int rc = t ? run_tracker(o, t, &clip, nframes, thesis, err) : -1;
 	mc_tracker_destroy(t);
-	if (rc == 0) {
-		bench_print_accuracy(&clip, &st);
-		if (bd)
-			bench_detector_report(bd, clip.name);
-		print_speed(o, &clip, &st, err);
-		if (thesis && run_thesis_config(o, &clip, err) < 0)
-			fprintf(stderr, "mocap-bench: thesis configuration: %s\n", err->msg);
-		for (char *p = device; *p; p++)
-			if (*p == ' ')
-				*p = '_';
-		bench_timing tm = bench_timing_of(st.ms, st.frames);
-		printf("RESULT clip=%s frames=%d mpjpe_cm=%.2f fps=%.1f ms_p99=%.2f device=%s cameras=%d "
-		       "iterations=%.1f\n",
-		       clip.name, st.frames, 100.0 * bench_mpjpe(&st), 1e3 / tm.mean, tm.p99, device, clip.rig.ncams,
-		       iterations_per_set(&st));
-		if (clip.has_gt)
-			bench_print_jitter(&clip, &st);
-	}
-	if (bd)
-		bench_detector_close(bd);
-	free(st.ms);
 	mc_clip_close(&clip);
 	return rc;
 }
