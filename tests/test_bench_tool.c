@@ -3,7 +3,8 @@
  * estimates scored here independently against the clip's gt.json (they must
  * give the MPJPE the tool printed), the simulated-detector warning, bad
  * command lines, the outside-in layout (tests/data/outside_demo), and the
- * detector run beside the tracker or before it (same estimates). */
+ * detector run beside the tracker or before it (same estimates), the
+ * JITTER line, --keypoints-out, and a clip without gt.json. */
 #include "eval/mc_clip.h"
 #include "test_util.h"
 
@@ -415,6 +416,57 @@ static void test_keypoints_out(void)
 	mc_clip_close(&clip);
 }
 
+/* A clip without gt.json (real footage): tests/data/outside_demo copied
+ * without it opens with the frame sets found on disk and no truth; the
+ * tool tracks it from the detections and writes --out, scores nothing
+ * (mpjpe_cm=nan, no JITTER or DETECT2D line) and still says when tracking
+ * started and the states; without --init detect it says what is missing. */
+static void test_unscored_clip(void)
+{
+	static char out[1 << 16], text[1 << 18];
+	char dir[128], cmd[512], args[768], path[160];
+	snprintf(dir, sizeof(dir), "%s/nogt", tmpdir);
+	snprintf(cmd, sizeof(cmd), "cp -r tests/data/outside_demo %s && rm %s/gt.json %s/cam2/00029.jpg", dir, dir, dir);
+	CHECK_MSG(system(cmd) == 0, "%s", cmd);
+	mc_err err = {{0}};
+	mc_clip clip;
+	CHECK_MSG(mc_clip_open(dir, false, &clip, &err) == 0, "%s", err.msg);
+	/* 30 frames, but camera 2 lacks the last */
+	CHECK_MSG(!clip.has_gt && clip.gt.nframes == 29 && clip.gt.fps == 30 && clip.rig.ncams == 4, "%d frames",
+		  clip.gt.nframes);
+	CHECK(mc_clip_joint(&clip, "neck") < 0);
+	mc_clip_close(&clip);
+	snprintf(args, sizeof(args), "--clip %s --frames 2 --no-thesis", dir);
+	CHECK_MSG(run_tool(args, out, sizeof(out)) == 1 && strstr(out, "has no gt.json") && strstr(out, "--init detect"),
+		  "%s", out);
+	snprintf(args, sizeof(args), "--clip %s --frames 2 --init detect --simulated-detector 2", dir);
+	CHECK_MSG(run_tool(args, out, sizeof(out)) == 1 && strstr(out, "--simulated-detector projects the ground truth"),
+		  "%s", out);
+	const char *model = "config/models/outside_detector.onnx";
+	if (access(model, R_OK) == 0) {
+		snprintf(path, sizeof(path), "%s/nogt.jsonl", tmpdir);
+		snprintf(args, sizeof(args),
+			 "--clip %s --frames 6 --init detect --detector %s --reference-frames 0 --no-thesis --out %s", dir,
+			 model, path);
+		int rc = run_tool(args, out, sizeof(out));
+		CHECK_MSG(rc == 0, "exit %d:\n%s", rc, out);
+		CHECK_MSG(strstr(out, "first pose at frame set ") && strstr(out, "(states: ") &&
+				  strstr(out, "not scored") && !strstr(out, "\nJITTER ") && !strstr(out, "\nDETECT2D ") &&
+				  !strstr(out, "BONES"),
+			  "%s", out);
+		CHECK_MSG(strstr(line_of(out, "RESULT "), "RESULT clip=nogt frames=6 mpjpe_cm=nan "), "%s",
+			  line_of(out, "RESULT "));
+		int lines = 0;
+		CHECK(slurp(path, text, sizeof(text)));
+		for (const char *p = text; (p = strstr(p, "{\"index\": ")); p++)
+			CHECK(atoi(p + strlen("{\"index\": ")) == lines++);
+		CHECK_MSG(lines == 6, "%d estimates written", lines);
+		unlink(path);
+	}
+	snprintf(cmd, sizeof(cmd), "rm -r %s", dir);
+	CHECK(system(cmd) == 0);
+}
+
 static void test_bad_command_lines(void)
 {
 	static char out[1 << 14];
@@ -449,6 +501,7 @@ int main(int argc, char **argv)
 	test_detector_pipelined();
 	test_frame_step();
 	test_keypoints_out();
+	test_unscored_clip();
 	rmdir(tmpdir);
 	return mc_test_finish("test_bench_tool");
 }

@@ -1,5 +1,6 @@
 /* mocap-bench: tracks an evaluation clip from its images and scores it
- * against gt.json.  Both layouts of ../shared/data are read (mc_clip):
+ * against gt.json (a clip without one, real footage, is tracked from the
+ * detections and not scored).  Both layouts of ../shared/data are read (mc_clip):
  * head-mounted stereo fisheye (ego/<clip>) and outside-in static cameras
  * (outside/<clip>, tracked with a free root; --cameras picks a subset).
  *
@@ -64,6 +65,7 @@ typedef struct {
 	bool detector_serial;      /* detect and track one after the other (default: pipelined) */
 	int keypoints_at_iteration; /* > 0: keypoints join the tracking at this iteration */
 	double detector_threshold; /* < 0: the model's own */
+	double fps;                /* > 0: the clip's frame rate (--fps), else gt.json's or 30 */
 	/* --init detect: start from the detections alone, nothing from gt.json
 	 * (not even frame 0); false: frame 0's ground truth (the protocol's gt0) */
 	bool init_detect;
@@ -188,7 +190,7 @@ static void record_frame(const options *o, const mc_clip *clip, int k, int nfram
 		write_estimate(out, k, sk);
 	if (!o->quiet && (k % 30 == 0 || k + o->frame_step >= nframes))
 		printf("  frame %4d  %-9s  %6.1f ms  running mpjpe %.2f cm\n", k, mc_track_state_name(sk->state),
-		       st->ms[st->frames], 100.0 * bench_mpjpe(st));
+		       st->ms[st->frames], clip->has_gt ? 100.0 * bench_mpjpe(st) : NAN);
 	st->frames++;
 }
 
@@ -417,6 +419,7 @@ static void usage(FILE *f)
 		   "  --cameras LIST        outside-in: use only these clip cameras, e.g. 0,2 (default: all)\n"
 		   "  --lambda-floor L      outside-in: weight of the floor prior (default: mocapd's outside-in value)\n"
 		   "  --frames N            track only the first N frames\n"
+		   "  --fps F               the clip's frame rate (default: gt.json's, else 30)\n"
 		   "  --frame-step N        track every Nth frame set only, as cameras at 1/N of the clip's rate\n"
 		   "                        (scored on those; default 1)\n"
 		   "  --backend opencl|reference\n"
@@ -471,7 +474,7 @@ enum { OPT_MODEL = 256, OPT_OUT, OPT_FRAMES, OPT_BACKEND, OPT_WIDTH, OPT_HEIGHT,
        OPT_STEP, OPT_MOM, OPT_LSMOOTH, OPT_LPOSE, OPT_LLIMIT, OPT_PLAT, OPT_DEV, OPT_SEED, OPT_OCAM, OPT_REF,
        OPT_NOTHESIS, OPT_QUIET, OPT_CLIP, OPT_HELP, OPT_OVERLAY, OPT_OVERLAY_EVERY, OPT_LANCHOR,
        OPT_SIMDET, OPT_LDET, OPT_DETECTOR, OPT_DET_EVERY, OPT_LCOLOR, OPT_DET_THRESHOLD, OPT_INIT,
-       OPT_NORECOVER, OPT_CAMERAS, OPT_LFLOOR, OPT_DET_SERIAL, OPT_KP_AT, OPT_FRAME_STEP, OPT_KP_OUT, OPT_VERSION = 'V' };
+       OPT_NORECOVER, OPT_CAMERAS, OPT_LFLOOR, OPT_DET_SERIAL, OPT_KP_AT, OPT_FRAME_STEP, OPT_KP_OUT, OPT_FPS, OPT_VERSION = 'V' };
 
 static int apply_option(options *o, int c, const char *name, const char *arg, bool *thesis)
 {
@@ -533,6 +536,7 @@ static int apply_option(options *o, int c, const char *name, const char *arg, bo
 	case OPT_PLAT: s->cl_platform = (int)v; break;
 	case OPT_DEV: s->cl_device = (int)v; break;
 	case OPT_SEED: s->seed = (uint64_t)v; break;
+	case OPT_FPS: o->fps = v; break;
 	}
 	return 0;
 }
@@ -556,7 +560,7 @@ static int parse_options(int argc, char **argv, options *o, bool *thesis)
 		{"init", 1, 0, OPT_INIT}, {"no-recover", 0, 0, OPT_NORECOVER}, {"cameras", 1, 0, OPT_CAMERAS},
 		{"lambda-floor", 1, 0, OPT_LFLOOR}, {"detector-serial", 0, 0, OPT_DET_SERIAL},
 		{"keypoints-at-iteration", 1, 0, OPT_KP_AT}, {"frame-step", 1, 0, OPT_FRAME_STEP},
-		{"keypoints-out", 1, 0, OPT_KP_OUT},
+		{"keypoints-out", 1, 0, OPT_KP_OUT}, {"fps", 1, 0, OPT_FPS},
 		{"version", 0, 0, OPT_VERSION},
 		{0, 0, 0, 0}};
 	int c, idx;
@@ -627,7 +631,7 @@ static void report(const options *o, const mc_clip *clip, bench_detector *bd, co
 {
 	bench_print_accuracy(clip, st);
 	if (bd)
-		bench_detector_report(bd, clip->name);
+		bench_detector_report(bd, clip);
 	print_speed(o, clip, st, err);
 	if (thesis && run_thesis_config(o, clip, err) < 0)
 		fprintf(stderr, "mocap-bench: thesis configuration: %s\n", err->msg);
@@ -725,13 +729,26 @@ static int run_tracker(options *o, mc_tracker *t, const mc_clip *clip, int nfram
 	return rc;
 }
 
+/* A clip without gt.json (real footage) is tracked, not scored: it can
+ * start only from the detections. */
+static int check_unscored(const options *o, const mc_clip *clip, mc_err *err)
+{
+	if (o->simulated_detector_px >= 0)
+		return mc_err_set(err, "%s has no gt.json: --simulated-detector projects the ground truth", clip->dir);
+	if (!o->init_detect)
+		return mc_err_set(err, "%s has no gt.json, so no frame 0 to start from: give --init detect --detector MODEL",
+				  clip->dir);
+	return 0;
+}
+
 static int run(const options *cmdline, bool thesis, mc_err *err)
 {
 	mc_clip clip;
 	options opts = *cmdline, *o = &opts;
 	if (mc_clip_open(o->clip, o->use_ocam, &clip, err) < 0)
 		return -1;
-	if (o->cameras && mc_clip_select_cameras(&clip, o->cameras, err) < 0) {
+	if ((o->cameras && mc_clip_select_cameras(&clip, o->cameras, err) < 0) ||
+	    (!clip.has_gt && check_unscored(o, &clip, err) < 0)) {
 		mc_clip_close(&clip);
 		return -1;
 	}
@@ -739,6 +756,8 @@ static int run(const options *cmdline, bool thesis, mc_err *err)
 	 * command line take their outside-in values */
 	if (clip.layout == MC_CLIP_OUTSIDE)
 		mc_tracker_settings_outside_in(&o->s, clip.rig.ncams, o->given);
+	if (o->fps > 0)
+		clip.gt.fps = o->fps;
 	int nframes = o->max_frames > 0 && o->max_frames < clip.gt.nframes ? o->max_frames : clip.gt.nframes;
 	mc_tracker *t = start_tracker(o, &clip, &o->s, err);
 	int rc = t ? run_tracker(o, t, &clip, nframes, thesis, err) : -1;
