@@ -3,7 +3,8 @@
  * estimates scored here independently against the clip's gt.json (they must
  * give the MPJPE the tool printed), the simulated-detector warning, bad
  * command lines, the outside-in layout (tests/data/outside_demo), and the
- * detector run beside the tracker or before it (same estimates). */
+ * detector run beside the tracker or before it (same estimates), the
+ * JITTER line, --keypoints-out, and a clip without gt.json. */
 #include "eval/mc_clip.h"
 #include "test_util.h"
 
@@ -32,19 +33,56 @@ static int run_tool(const char *args, char *out, size_t cap)
 	return mc_test_run(cmd, out, cap);
 }
 
-/* The last line of the output. */
-static const char *last_line(char *out)
+/* The output's last line that starts with `prefix`, without its newline
+ * (in a buffer of its own, valid until the next call); "" when none. */
+static const char *line_of(const char *out, const char *prefix)
 {
-	size_t n = strlen(out);
-	while (n > 0 && out[n - 1] == '\n')
-		out[--n] = 0;
-	const char *nl = strrchr(out, '\n');
-	return nl ? nl + 1 : out;
+	static char line[1024];
+	const char *found = NULL;
+	for (const char *p = out; p && *p; p = strchr(p, '\n') ? strchr(p, '\n') + 1 : NULL)
+		if (!strncmp(p, prefix, strlen(prefix)))
+			found = p;
+	line[0] = 0;
+	if (found)
+		snprintf(line, sizeof(line), "%.*s", (int)strcspn(found, "\n"), found);
+	return line;
+}
+
+/* The jitter of the --out estimates, computed here from the file on its
+ * own: finite differences at the clip's fps over consecutive lines. */
+typedef struct {
+	mc_vec3 est[2][NEVAL], gt[2][NEVAL];
+	int run;
+	double vel_sum, acc_est, acc_gt;
+	int vel_n;
+} jitter_check;
+
+static void jitter_check_add(jitter_check *jc, const mc_vec3 *est, const mc_vec3 *gt, double fps)
+{
+	for (int e = 0; e < NEVAL; e++) {
+		mc_vec3 e0 = jc->est[0][e], e1 = jc->est[1][e], g0 = jc->gt[0][e], g1 = jc->gt[1][e];
+		if (jc->run >= 1) {
+			mc_vec3 dv = mc_v3_sub(mc_v3_sub(est[e], e0), mc_v3_sub(gt[e], g0));
+			jc->vel_sum += fps * mc_v3_norm(dv);
+			jc->vel_n++;
+		}
+		if (jc->run >= 2) {
+			jc->acc_est += mc_v3_norm(mc_v3(est[e].x - 2 * e0.x + e1.x, est[e].y - 2 * e0.y + e1.y,
+							est[e].z - 2 * e0.z + e1.z));
+			jc->acc_gt += mc_v3_norm(mc_v3(gt[e].x - 2 * g0.x + g1.x, gt[e].y - 2 * g0.y + g1.y,
+						       gt[e].z - 2 * g0.z + g1.z));
+		}
+		jc->est[1][e] = e0;
+		jc->gt[1][e] = g0;
+		jc->est[0][e] = est[e];
+		jc->gt[0][e] = gt[e];
+	}
+	jc->run++;
 }
 
 /* MPJPE (cm) of the --out file against the clip's ground truth; -1 when a
  * line is malformed (reported). */
-static double score_estimates(const char *path, const mc_clip *clip, int *lines)
+static double score_estimates(const char *path, const mc_clip *clip, int *lines, jitter_check *jc)
 {
 	FILE *f = fopen(path, "r");
 	char buf[16384];
@@ -59,6 +97,8 @@ static double score_estimates(const char *path, const mc_clip *clip, int *lines)
 		const char *state = json_string_value(json_object_get(root, "state"));
 		CHECK_MSG(root && json_is_object(joints) && json_is_object(conf) && state && k == *lines,
 			  "%s line %d: %s", path, *lines + 1, buf);
+		mc_vec3 ests[NEVAL], gts[NEVAL];
+		int found = 0;
 		for (int e = 0; root && e < NEVAL; e++) {
 			json_t *p = json_object_get(joints, evaluated[e]);
 			double c = json_real_value(json_object_get(conf, evaluated[e]));
@@ -71,7 +111,11 @@ static double score_estimates(const char *path, const mc_clip *clip, int *lines)
 					    json_number_value(json_array_get(p, 2)));
 			sum += mc_v3_norm(mc_v3_sub(est, mc_clip_gt(clip, k, g)));
 			n++;
+			ests[found] = est;
+			gts[found++] = mc_clip_gt(clip, k, g);
 		}
+		if (found == NEVAL)
+			jitter_check_add(jc, ests, gts, clip->gt.fps);
 		json_decref(root);
 		(*lines)++;
 	}
@@ -80,13 +124,36 @@ static double score_estimates(const char *path, const mc_clip *clip, int *lines)
 	return n ? 100 * sum / n : -1;
 }
 
+/* The JITTER line follows the RESULT line and agrees with the jitter of
+ * the --out estimates computed here (to its printed digits, and to the
+ * file's rounding of positions to 10 um, which second differences of
+ * millimetres feel). */
+static void check_jitter(const jitter_check *jc, const char *clip, const char *out)
+{
+	const char *res = strstr(out, "\nRESULT "), *jit = strstr(out, "\nJITTER ");
+	CHECK_MSG(res && jit && jit > res, "no JITTER line after RESULT:\n%s", out);
+	char name[64];
+	double vel = -1, ratio = -1;
+	CHECK_MSG(sscanf(line_of(out, "JITTER "), "JITTER clip=%63s vel_err_ms=%lf accel_ratio=%lf", name, &vel,
+			 &ratio) == 3,
+		  "'%s'", line_of(out, "JITTER "));
+	double want_vel = jc->vel_n ? jc->vel_sum / jc->vel_n : -1, want_ratio = jc->acc_gt > 0 ? jc->acc_est / jc->acc_gt : -1;
+	printf("JITTER printed vel %.3f m/s ratio %.3f, from --out %.4f, %.4f\n", vel, ratio, want_vel, want_ratio);
+	CHECK(!strcmp(name, clip));
+	CHECK_MSG(fabs(vel - want_vel) <= 0.0006 && want_vel > 0, "vel_err_ms %.3f, from --out %.4f", vel, want_vel);
+	CHECK_MSG(fabs(ratio - want_ratio) <= 0.0006 + 0.005 * want_ratio && want_ratio > 0, "accel_ratio %.3f, from --out %.4f", ratio,
+		  want_ratio);
+}
+
 /* The --out file at `path` scored here must give the MPJPE the tool
  * printed, over FRAMES lines, below `max_cm`; closes the clip and removes
  * the file. */
-static void check_estimates(const char *path, mc_clip *clip, double mpjpe, double max_cm)
+static void check_estimates(const char *path, mc_clip *clip, double mpjpe, double max_cm, const char *out)
 {
 	int lines;
-	double scored = score_estimates(path, clip, &lines);
+	jitter_check jc = {0};
+	double scored = score_estimates(path, clip, &lines, &jc);
+	check_jitter(&jc, clip->name, out);
 	printf("MPJPE printed %.2f cm, scored from --out %.4f cm over %d lines\n", mpjpe, scored, lines);
 	CHECK(lines == FRAMES);
 	CHECK_MSG(fabs(scored - mpjpe) <= 0.006, "printed %.2f, scored %.4f", mpjpe, scored);
@@ -113,7 +180,7 @@ static void test_run(void)
 	CHECK_MSG(rc == 0, "exit %d:\n%s", rc, out);
 	CHECK(strstr(out, "accuracy (MPJPE, cm") && strstr(out, "holding the initial pose instead"));
 	CHECK(strstr(out, "error by reported joint confidence") && strstr(out, "reference backend:"));
-	const char *result = last_line(out);
+	const char *result = line_of(out, "RESULT ");
 	printf("%s\n", result);
 	char name[64], device[256];
 	int frames = 0;
@@ -123,7 +190,7 @@ static void test_run(void)
 	CHECK_MSG(fields == 6, "RESULT line: '%s'", result);
 	CHECK(!strcmp(name, "ego_demo") && frames == FRAMES && fps > 0 && p99 > 0 && !strchr(device, ' '));
 	/* a loose bound: the first frames of the clip are tracked */
-	check_estimates(path, &clip, mpjpe, 10);
+	check_estimates(path, &clip, mpjpe, 10, out);
 
 	snprintf(args, sizeof(args), "--clip tests/data/ego_demo --frames 3 --reference-frames 0 --no-thesis --quiet "
 				     "--simulated-detector 2");
@@ -150,19 +217,19 @@ static void test_outside_in(void)
 	int rc = run_tool(args, out, sizeof(out));
 	CHECK_MSG(rc == 0, "exit %d:\n%s", rc, out);
 	CHECK_MSG(strstr(out, "outside-in, 4 cameras: cam0 cam1 cam2 cam3") && strstr(out, "world frame"), "%s", out);
-	const char *result = last_line(out);
+	const char *result = line_of(out, "RESULT ");
 	printf("%s\n", result);
 	double mpjpe = -1;
 	int ncams = 0;
 	const char *cams = strstr(result, " cameras=");
 	CHECK_MSG(sscanf(result, "RESULT clip=outside_demo frames=%*d mpjpe_cm=%lf", &mpjpe) == 1, "%s", result);
 	CHECK_MSG(cams && sscanf(cams, " cameras=%d", &ncams) == 1 && ncams == 4, "%s", result);
-	check_estimates(path, &clip, mpjpe, 8);
+	check_estimates(path, &clip, mpjpe, 8, out);
 
 	snprintf(args, sizeof(args), "--clip tests/data/outside_demo --frames 3 --reference-frames 0 --no-thesis "
 				     "--quiet --cameras 1,2");
 	CHECK_MSG(run_tool(args, out, sizeof(out)) == 0 && strstr(out, "2 cameras: cam1 cam2") &&
-			  strstr(last_line(out), " cameras=2"),
+			  strstr(line_of(out, "RESULT "), " cameras=2"),
 		  "%s", out);
 	CHECK(run_tool("--clip tests/data/outside_demo --cameras 0,9", out, sizeof(out)) != 0 &&
 	      strstr(out, "--cameras '0,9': expected distinct camera indices 0..3"));
@@ -205,7 +272,7 @@ static void test_detector_pipelined(void)
 		int rc = run_tool(args, out, sizeof(out));
 		CHECK_MSG(rc == 0, "exit %d:\n%s", rc, out);
 		CHECK_MSG(strstr(out, serial ? "serial (detect, then track)" : "pipelined (as in mocapd)") &&
-				  strstr(out, "DETECT2D clip=ego_demo") && strstr(last_line(out), "RESULT clip=ego_demo frames=8"),
+				  strstr(out, "DETECT2D clip=ego_demo") && strstr(line_of(out, "RESULT "), "RESULT clip=ego_demo frames=8"),
 			  "%s", out);
 	}
 	CHECK(slurp(path[0], a, sizeof(a)) && slurp(path[1], b, sizeof(b)));
@@ -227,7 +294,7 @@ static void test_frame_step(void)
 		 "--clip tests/data/ego_demo --frames 8 --frame-step 3 --reference-frames 0 --no-thesis --quiet --out %s",
 		 path);
 	int rc = run_tool(args, out, sizeof(out));
-	CHECK_MSG(rc == 0 && strstr(last_line(out), "RESULT clip=ego_demo frames=3 "), "exit %d:\n%s", rc, out);
+	CHECK_MSG(rc == 0 && strstr(line_of(out, "RESULT "), "RESULT clip=ego_demo frames=3 "), "exit %d:\n%s", rc, out);
 	CHECK(slurp(path, text, sizeof(text)));
 	int lines = 0;
 	for (const char *p = text; (p = strstr(p, "{\"index\": ")); p++) {
@@ -245,7 +312,159 @@ static void test_frame_step(void)
 		 "--detector %s",
 		 model);
 	rc = run_tool(args, out, sizeof(out));
-	CHECK_MSG(rc == 0 && strstr(last_line(out), "RESULT clip=ego_demo frames=4 "), "exit %d:\n%s", rc, out);
+	CHECK_MSG(rc == 0 && strstr(line_of(out, "RESULT "), "RESULT clip=ego_demo frames=4 "), "exit %d:\n%s", rc, out);
+}
+
+/* One --keypoints-out line: its views' keypoints, checked for shape and
+ * against the clip (each inside its camera's image); with `exact`, every
+ * keypoint must be its joint's ground truth projected into the camera (the
+ * simulated detector without noise), confidence 1.  Returns the number of
+ * keypoints, -1 when the line is malformed. */
+static int check_keypoint_line(const char *line, int want_k, const mc_clip *clip, bool exact, int *n_evaluated)
+{
+	json_error_t jerr;
+	json_t *root = json_loads(line, 0, &jerr), *views = json_object_get(root, "views");
+	int n = 0;
+	bool ok = root && json_integer_value(json_object_get(root, "index")) == want_k && json_is_array(views) &&
+		  (int)json_array_size(views) == clip->rig.ncams;
+	for (int c = 0; ok && c < clip->rig.ncams; c++) {
+		const mc_camera *cam = &clip->rig.cams[c];
+		json_t *view = json_array_get(views, (size_t)c), *joints = json_object_get(view, "joints"), *p;
+		const char *name;
+		ok = json_is_object(joints) && !strcmp(json_string_value(json_object_get(view, "camera")), cam->name);
+		json_object_foreach(joints, name, p)
+		{
+			double u = json_number_value(json_array_get(p, 0)), v = json_number_value(json_array_get(p, 1));
+			double conf = json_number_value(json_array_get(p, 2)), tu = -1e9, tv = -1e9;
+			int g = mc_clip_joint(clip, name);
+			if (g >= 0)
+				mc_camera_project(cam, mc_xform_apply(mc_xform_inverse(cam->rig_from_cam), mc_clip_gt(clip, want_k, g)),
+						  &tu, &tv);
+			bool good = json_array_size(p) == 3 && conf >= 0 && conf <= 1 && u > -0.5 && v > -0.5 && u < cam->width &&
+				    v < cam->height;
+			if (exact)
+				good = good && conf == 1 && fabs(u - tu) < 1e-3 && fabs(v - tv) < 1e-3;
+			CHECK_MSG(good, "frame set %d, %s, %s: [%g, %g, %g], truth at (%g, %g)", want_k, cam->name, name, u, v,
+				  conf, tu, tv);
+			n++;
+			for (int e = 0; e < NEVAL; e++)
+				*n_evaluated += !strcmp(name, evaluated[e]);
+		}
+	}
+	CHECK_MSG(ok, "keypoints line %d: %s", want_k, line);
+	json_decref(root);
+	return ok ? n : -1;
+}
+
+/* Checks a --keypoints-out file of `lines` frame sets; returns the number
+ * of keypoints in it, and in n_evaluated those of the evaluated joints. */
+static int check_keypoints_file(const char *path, const mc_clip *clip, int lines, bool exact, int *n_evaluated)
+{
+	FILE *f = fopen(path, "r");
+	static char buf[1 << 16];
+	int k = 0, n = 0;
+	while (f && fgets(buf, sizeof(buf), f)) {
+		int m = check_keypoint_line(buf, k++, clip, exact, n_evaluated);
+		n += m > 0 ? m : 0;
+	}
+	if (f)
+		fclose(f);
+	CHECK_MSG(f && k == lines, "%s: %d lines, expected %d", path, k, lines);
+	unlink(path);
+	return n;
+}
+
+/* --keypoints-out: the simulated detector without noise gives the projected
+ * ground truth, 15 % missed; the detector's keypoints of the evaluated
+ * joints are as many as its 2D report counted (DETECT2D reported=). */
+static void test_keypoints_out(void)
+{
+	static char out[1 << 16];
+	char args[512], path[128];
+	mc_err err = {{0}};
+	mc_clip clip;
+	CHECK_MSG(mc_clip_open("tests/data/ego_demo", false, &clip, &err) == 0, "%s", err.msg);
+	snprintf(path, sizeof(path), "%s/keypoints.jsonl", tmpdir);
+	snprintf(args, sizeof(args),
+		 "--clip tests/data/ego_demo --frames 6 --reference-frames 0 --no-thesis --quiet --simulated-detector 0 "
+		 "--keypoints-out %s",
+		 path);
+	int rc = run_tool(args, out, sizeof(out));
+	CHECK_MSG(rc == 0, "exit %d:\n%s", rc, out);
+	int n_eval = 0, n = check_keypoints_file(path, &clip, 6, true, &n_eval), most = 6 * NEVAL * clip.rig.ncams;
+	printf("simulated: %d keypoints of at most %d\n", n, most);
+	CHECK_MSG(n > 0.6 * most && n < most, "%d keypoints of at most %d", n, most);
+	const char *model = "config/models/ego_detector.onnx";
+	if (access(model, R_OK) == 0) {
+		snprintf(args, sizeof(args),
+			 "--clip tests/data/ego_demo --frames 4 --reference-frames 0 --no-thesis --quiet --detector %s "
+			 "--keypoints-out %s",
+			 model, path);
+		rc = run_tool(args, out, sizeof(out));
+		CHECK_MSG(rc == 0, "exit %d:\n%s", rc, out);
+		int reported = -1;
+		const char *d2 = strstr(line_of(out, "DETECT2D "), " reported=");
+		CHECK(d2 && sscanf(d2, " reported=%d", &reported) == 1);
+		n_eval = 0;
+		n = check_keypoints_file(path, &clip, 4, false, &n_eval);
+		printf("detector: %d keypoints, %d of evaluated joints, DETECT2D reported=%d\n", n, n_eval, reported);
+		CHECK_MSG(n_eval == reported && reported > 0, "%d keypoints of evaluated joints, %d reported", n_eval,
+			  reported);
+	}
+	CHECK(run_tool("--clip tests/data/ego_demo --frames 2 --keypoints-out /nonexistent/k.jsonl", out, sizeof(out)) != 0 &&
+	      strstr(out, "/nonexistent/k.jsonl: cannot write"));
+	mc_clip_close(&clip);
+}
+
+/* A clip without gt.json (real footage): tests/data/outside_demo copied
+ * without it opens with the frame sets found on disk and no truth; the
+ * tool tracks it from the detections and writes --out, scores nothing
+ * (mpjpe_cm=nan, no JITTER or DETECT2D line) and still says when tracking
+ * started and the states; without --init detect it says what is missing. */
+static void test_unscored_clip(void)
+{
+	static char out[1 << 16], text[1 << 18];
+	char dir[128], cmd[512], args[768], path[160];
+	snprintf(dir, sizeof(dir), "%s/nogt", tmpdir);
+	snprintf(cmd, sizeof(cmd), "cp -r tests/data/outside_demo %s && rm %s/gt.json %s/cam2/00029.jpg", dir, dir, dir);
+	CHECK_MSG(system(cmd) == 0, "%s", cmd);
+	mc_err err = {{0}};
+	mc_clip clip;
+	CHECK_MSG(mc_clip_open(dir, false, &clip, &err) == 0, "%s", err.msg);
+	/* 30 frames, but camera 2 lacks the last */
+	CHECK_MSG(!clip.has_gt && clip.gt.nframes == 29 && clip.gt.fps == 30 && clip.rig.ncams == 4, "%d frames",
+		  clip.gt.nframes);
+	CHECK(mc_clip_joint(&clip, "neck") < 0);
+	mc_clip_close(&clip);
+	snprintf(args, sizeof(args), "--clip %s --frames 2 --no-thesis", dir);
+	CHECK_MSG(run_tool(args, out, sizeof(out)) == 1 && strstr(out, "has no gt.json") && strstr(out, "--init detect"),
+		  "%s", out);
+	snprintf(args, sizeof(args), "--clip %s --frames 2 --init detect --simulated-detector 2", dir);
+	CHECK_MSG(run_tool(args, out, sizeof(out)) == 1 && strstr(out, "--simulated-detector projects the ground truth"),
+		  "%s", out);
+	const char *model = "config/models/outside_detector.onnx";
+	if (access(model, R_OK) == 0) {
+		snprintf(path, sizeof(path), "%s/nogt.jsonl", tmpdir);
+		snprintf(args, sizeof(args),
+			 "--clip %s --frames 6 --init detect --detector %s --reference-frames 0 --no-thesis --out %s", dir,
+			 model, path);
+		int rc = run_tool(args, out, sizeof(out));
+		CHECK_MSG(rc == 0, "exit %d:\n%s", rc, out);
+		CHECK_MSG(strstr(out, "first pose at frame set ") && strstr(out, "(states: ") &&
+				  strstr(out, "not scored") && !strstr(out, "\nJITTER ") && !strstr(out, "\nDETECT2D ") &&
+				  !strstr(out, "BONES"),
+			  "%s", out);
+		CHECK_MSG(strstr(line_of(out, "RESULT "), "RESULT clip=nogt frames=6 mpjpe_cm=nan "), "%s",
+			  line_of(out, "RESULT "));
+		int lines = 0;
+		CHECK(slurp(path, text, sizeof(text)));
+		for (const char *p = text; (p = strstr(p, "{\"index\": ")); p++)
+			CHECK(atoi(p + strlen("{\"index\": ")) == lines++);
+		CHECK_MSG(lines == 6, "%d estimates written", lines);
+		unlink(path);
+	}
+	snprintf(cmd, sizeof(cmd), "rm -r %s", dir);
+	CHECK(system(cmd) == 0);
 }
 
 static void test_bad_command_lines(void)
@@ -281,6 +500,8 @@ int main(int argc, char **argv)
 	test_outside_in();
 	test_detector_pipelined();
 	test_frame_step();
+	test_keypoints_out();
+	test_unscored_clip();
 	rmdir(tmpdir);
 	return mc_test_finish("test_bench_tool");
 }

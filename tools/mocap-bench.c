@@ -1,15 +1,18 @@
 /* mocap-bench: tracks an evaluation clip from its images and scores it
- * against gt.json.  Both layouts of ../shared/data are read (mc_clip):
+ * against gt.json (a clip without one, real footage, is tracked from the
+ * detections and not scored).  Both layouts of ../shared/data are read (mc_clip):
  * head-mounted stereo fisheye (ego/<clip>) and outside-in static cameras
  * (outside/<clip>, tracked with a free root; --cameras picks a subset).
  *
  * Evaluation protocol (docs/CONVENTIONS.md): only the images, the calibration and the
  * ground truth of frame 0 (to initialise pose and bone lengths) are used;
  * MPJPE in cm over the evaluated joints, in the rig frame (the left camera
- * frame, or the world frame outside-in), with no alignment.  The last line
- * is machine-readable:
+ * frame, or the world frame outside-in), with no alignment.  The last
+ * lines are machine-readable:
  *   RESULT clip=NAME frames=N mpjpe_cm=X fps=Y ms_p99=Z device=DEV cameras=C iterations=I
- * (I: gradient iterations per frame set, averaged over the clip) */
+ *   JITTER clip=NAME vel_err_ms=V accel_ratio=A
+ * (I: gradient iterations per frame set, averaged over the clip; V, A:
+ * bench/score.h and core/eval/mc_jitter.h) */
 #include "base/mc_parse.h"
 #include "base/mc_stats.h"
 #include "base/mc_thread.h"
@@ -20,9 +23,13 @@
 #include "image/mc_draw.h"
 #include "track/mc_tracker.h"
 #include "bench/detector_eval.h"
+#include "bench/keypoints_out.h"
+#include "bench/score.h"
+#include "bench/thesis.h"
 #include "mc_install_paths.h" /* generated: MC_INSTALL_DATA_DIR */
 
 #include <errno.h>
+#include <math.h>
 #include <pthread.h>
 #include <getopt.h>
 #include <stdio.h>
@@ -32,12 +39,6 @@
 #include <time.h>
 #include <unistd.h>
 
-static const char *const eval_joints[] = {
-	"neck",      "left_shoulder", "left_elbow",     "left_wrist",  "left_hip",    "left_knee",
-	"left_ankle", "left_toe",     "right_shoulder", "right_elbow", "right_wrist", "right_hip",
-	"right_knee", "right_ankle",  "right_toe",
-};
-#define NEVAL ((int)(sizeof(eval_joints) / sizeof(eval_joints[0])))
 #define BENCH_MAX_KEYPOINTS (MC_MAX_CAMERAS * MC_DETECTOR_MAX_JOINTS)
 #define BENCH_DETECTOR_NICE 10 /* mocapd's [detector] nice default */
 
@@ -45,6 +46,8 @@ typedef struct {
 	const char *clip;
 	const char *model_path;
 	const char *out_path;
+	const char *keypoints_out_path; /* --keypoints-out FILE */
+	FILE *keypoints_file;           /* open while tracking (bench/keypoints_out.h) */
 	const char *overlay_dir;
 	const char *cameras; /* --cameras 0,2: the clip cameras used, NULL: all */
 	int overlay_every;
@@ -62,6 +65,7 @@ typedef struct {
 	bool detector_serial;      /* detect and track one after the other (default: pipelined) */
 	int keypoints_at_iteration; /* > 0: keypoints join the tracking at this iteration */
 	double detector_threshold; /* < 0: the model's own */
+	double fps;                /* > 0: the clip's frame rate (--fps), else gt.json's or 30 */
 	/* --init detect: start from the detections alone, nothing from gt.json
 	 * (not even frame 0); false: frame 0's ground truth (the protocol's gt0) */
 	bool init_detect;
@@ -93,22 +97,6 @@ static mc_tracker *start_tracker(const options *o, const mc_clip *clip, const mc
 	}
 	return t;
 }
-
-typedef struct {
-	int frames;
-	double *ms;
-	long iterations; /* gradient iterations run, over all frame sets */
-	double err_sum[NEVAL];
-	int err_n;
-	double still_sum[NEVAL]; /* holding the initial pose for every frame */
-	int states[MC_TRACK_INITIALISING + 1];
-	int first_tracked; /* first frame set out of the initialising state, -1: none */
-	double conf_sum[NEVAL];
-	/* joint estimates binned by their reported confidence (quarters of
-	 * [0, 1]): how many, and their summed error */
-	int conf_n[4];
-	double conf_err[4];
-} run_stats;
 
 static void write_estimate(FILE *out, int k, const mc_skeleton *sk)
 {
@@ -159,43 +147,6 @@ static void write_overlay(const options *o, const mc_clip *clip, int k, const mc
 	free(im.rgb);
 }
 
-static int skeleton_joint(const mc_skeleton *sk, const char *name)
-{
-	for (int j = 0; j < sk->njoints; j++)
-		if (!strcmp(sk->joints[j].name, name))
-			return j;
-	return -1;
-}
-
-static void score(const mc_clip *clip, int k, const mc_skeleton *sk, double err_sum[NEVAL])
-{
-	for (int e = 0; e < NEVAL; e++) {
-		int g = mc_clip_joint(clip, eval_joints[e]);
-		int m = skeleton_joint(sk, eval_joints[e]);
-		/* A joint the model lacks counts as an error of the full distance
-		 * to the camera, so that it cannot improve the score. */
-		mc_vec3 est = m >= 0 ? sk->joints[m].position : mc_v3(0, 0, 0);
-		if (g >= 0)
-			err_sum[e] += mc_v3_norm(mc_v3_sub(est, mc_clip_gt(clip, k, g)));
-	}
-}
-
-/* Whether the reported per-joint confidence says something: the error of
- * the joint estimates per confidence quarter. */
-static void score_confidence(const mc_clip *clip, int k, const mc_skeleton *sk, run_stats *st)
-{
-	for (int e = 0; e < NEVAL; e++) {
-		int g = mc_clip_joint(clip, eval_joints[e]), j = skeleton_joint(sk, eval_joints[e]);
-		if (g < 0 || j < 0)
-			continue;
-		double c = sk->joints[j].confidence;
-		int bin = c >= 1 ? 3 : (c > 0 ? (int)(4 * c) : 0);
-		st->conf_sum[e] += c;
-		st->conf_n[bin]++;
-		st->conf_err[bin] += mc_v3_norm(mc_v3_sub(sk->joints[j].position, mc_clip_gt(clip, k, g)));
-	}
-}
-
 /* The skeleton of the tracker's current pose (before tracking: the
  * initial pose), for the "no tracking" reference figure. */
 static void current_skeleton(const mc_tracker *t, mc_skeleton *sk)
@@ -211,14 +162,6 @@ static void current_skeleton(const mc_tracker *t, mc_skeleton *sk)
 	}
 }
 
-static double mpjpe_of(const run_stats *st)
-{
-	double sum = 0;
-	for (int e = 0; e < NEVAL; e++)
-		sum += st->err_sum[e];
-	return st->err_n ? sum / (st->err_n * NEVAL) : 0;
-}
-
 /* The keypoints of frame set k: the detector's (timed with the frame, as
  * part of the cost of tracking it), the simulated detector's, or none. */
 static int frame_keypoints(const options *o, bench_detector *bd, mc_tracker *t, const mc_clip *clip, int k,
@@ -227,7 +170,7 @@ static int frame_keypoints(const options *o, bench_detector *bd, mc_tracker *t, 
 	if (bd)
 		return bench_detector_run(bd, clip, k, views, clip->rig.ncams, kp, cap, err);
 	if (o->simulated_detector_px >= 0)
-		return mc_clip_simulated_keypoints(clip, mc_tracker_model(t), eval_joints, NEVAL, k,
+		return mc_clip_simulated_keypoints(clip, mc_tracker_model(t), bench_eval_joints, BENCH_NEVAL, k,
 						    o->simulated_detector_px, rng, kp, cap);
 	return 0;
 }
@@ -235,21 +178,19 @@ static int frame_keypoints(const options *o, bench_detector *bd, mc_tracker *t, 
 /* A tracked frame set: scored against the ground truth (and the pose held
  * still), written, counted, and shown every 30 frame sets. */
 static void record_frame(const options *o, const mc_clip *clip, int k, int nframes, const mc_skeleton *sk,
-			 const mc_skeleton *still, FILE *out, run_stats *st)
+			 const mc_skeleton *still, FILE *out, bench_stats *st)
 {
 	st->states[sk->state]++;
 	st->iterations += sk->iterations;
 	if (st->first_tracked < 0 && sk->state != MC_TRACK_INITIALISING)
 		st->first_tracked = k;
-	score(clip, k, sk, st->err_sum);
-	score_confidence(clip, k, sk, st);
-	score(clip, k, still, st->still_sum);
-	st->err_n++;
+	if (clip->has_gt)
+		bench_score_frame(clip, k, sk, still, st);
 	if (out)
 		write_estimate(out, k, sk);
 	if (!o->quiet && (k % 30 == 0 || k + o->frame_step >= nframes))
 		printf("  frame %4d  %-9s  %6.1f ms  running mpjpe %.2f cm\n", k, mc_track_state_name(sk->state),
-		       st->ms[st->frames], 100.0 * mpjpe_of(st));
+		       st->ms[st->frames], clip->has_gt ? 100.0 * bench_mpjpe(st) : NAN);
 	st->frames++;
 }
 
@@ -276,7 +217,7 @@ static int track_frame(const options *o, mc_tracker *t, const mc_clip *clip, con
 /* One frame set after another: keypoints (when any), then tracking, both
  * on the clock. */
 static int track_serial(const options *o, mc_tracker *t, bench_detector *bd, const mc_clip *clip, int nframes,
-			FILE *out, run_stats *st, mc_err *err)
+			FILE *out, bench_stats *st, mc_err *err)
 {
 	mc_skeleton still;
 	current_skeleton(t, &still);
@@ -291,6 +232,8 @@ static int track_serial(const options *o, mc_tracker *t, bench_detector *bd, con
 		int nkp = frame_keypoints(o, bd, t, clip, k, views, &rng, kp, BENCH_MAX_KEYPOINTS, err);
 		int rc = nkp < 0 ? -1 : track_frame(o, t, clip, views, kp, nkp, &sk, err);
 		st->ms[st->frames] = mc_ms_since(t0);
+		if (rc == 0 && o->keypoints_file)
+			bench_keypoints_write(o->keypoints_file, k, &clip->rig, mc_tracker_model(t), kp, nkp);
 		if (rc == 0 && o->overlay_dir && k % o->overlay_every == 0)
 			write_overlay(o, clip, k, &views[0], &sk);
 		mc_clip_free_frame(views);
@@ -368,7 +311,7 @@ static void detect_slot_unload(detect_slot *d)
  * detector no head start.  Same keypoints as track_serial, so the same
  * estimates; only the time differs. */
 static int track_pipelined(const options *o, mc_tracker *t, bench_detector *bd, const mc_clip *clip, int nframes,
-			   FILE *out, run_stats *st, mc_err *err)
+			   FILE *out, bench_stats *st, mc_err *err)
 {
 	mc_skeleton still;
 	current_skeleton(t, &still);
@@ -387,6 +330,8 @@ static int track_pipelined(const options *o, mc_tracker *t, bench_detector *bd, 
 		if (rc == 0)
 			rc = track_frame(o, t, clip, cur->views, cur->kp, cur->nkp, &sk, err);
 		st->ms[st->frames] = waited + mc_ms_since(t0);
+		if (rc == 0 && o->keypoints_file)
+			bench_keypoints_write(o->keypoints_file, k, &clip->rig, mc_tracker_model(t), cur->kp, cur->nkp);
 		if (rc == 0 && o->overlay_dir && k % o->overlay_every == 0)
 			write_overlay(o, clip, k, &cur->views[0], &sk);
 		if (rc == 0)
@@ -399,121 +344,20 @@ static int track_pipelined(const options *o, mc_tracker *t, bench_detector *bd, 
 }
 
 static int track_clip(const options *o, mc_tracker *t, bench_detector *bd, const mc_clip *clip, int nframes,
-		      FILE *out, run_stats *st, mc_err *err)
+		      FILE *out, bench_stats *st, mc_err *err)
 {
 	st->ms = calloc(nframes, sizeof(double));
 	if (!st->ms)
 		return mc_err_set(err, "out of memory");
 	st->first_tracked = -1;
+	if (clip->has_gt)
+		bench_score_begin(clip, o->frame_step, st);
 	if (bd && !o->detector_serial)
 		return track_pipelined(o, t, bd, clip, nframes, out, st, err);
 	return track_serial(o, t, bd, clip, nframes, out, st, err);
 }
 
 /* ---- report ------------------------------------------------------------ */
-
-/* The bone length of model joint j (to its parent) in the ground truth:
- * the median over the clip, or -1 when the clip lacks either end. */
-static double gt_bone_length(const mc_clip *clip, const mc_model *m, int j)
-{
-	int p = m->joints[j].parent;
-	int a = mc_clip_joint(clip, m->joints[j].name), b = p >= 0 ? mc_clip_joint(clip, m->joints[p].name) : -1;
-	if (a < 0 || b < 0 || clip->gt.nframes <= 0)
-		return -1;
-	double *len = malloc(sizeof(double) * clip->gt.nframes);
-	if (!len)
-		return -1;
-	for (int k = 0; k < clip->gt.nframes; k++)
-		len[k] = mc_v3_norm(mc_v3_sub(mc_clip_gt(clip, k, a), mc_clip_gt(clip, k, b)));
-	mc_stats_sort(len, clip->gt.nframes);
-	double v = mc_stats_percentile(len, clip->gt.nframes, 50);
-	free(len);
-	return v;
-}
-
-/* --init detect: when tracking started, and the bone lengths the tracker
- * measured against the ground truth's (the BONES line). */
-static void print_init_report(const mc_tracker *t, const mc_clip *clip, const run_stats *st)
-{
-	mc_tracker_init_info in;
-	mc_tracker_get_init_info(t, &in);
-	const mc_model *m = mc_tracker_model(t);
-	printf("init from detections: first pose at frame set %d (%.2f s), size %s (bone scale %.3f) from %d frame "
-	       "sets, %d re-fits\n",
-	       st->first_tracked, st->first_tracked >= 0 ? st->first_tracked / clip->gt.fps : -1.0,
-	       in.shape_measured ? "measured" : "NOT measured", in.scale, in.shape_frames, in.refits);
-	double sum = 0, worst = 0;
-	int n = 0;
-	printf("  bone lengths (cm, estimate / ground truth):");
-	for (int j = 0; j < m->njoints; j++) {
-		double gt = gt_bone_length(clip, m, j), rest = mc_v3_norm(m->joints[j].offset);
-		if (gt < 0.05 || rest < 1e-3)
-			continue;
-		double est = m->bone_scale[j] * rest, e = fabs(est - gt) / gt;
-		printf(" %s %.1f/%.1f", m->joints[j].name, 100 * est, 100 * gt);
-		sum += e;
-		worst = fmax(worst, e);
-		n++;
-	}
-	printf("\nBONES clip=%s bones=%d mean_err_pct=%.1f max_err_pct=%.1f first_frame=%d\n", clip->name, n,
-	       n ? 100 * sum / n : 0, 100 * worst, st->first_tracked);
-}
-
-static void print_accuracy(const mc_clip *clip, const run_stats *st)
-{
-	printf("accuracy (MPJPE, cm, %s, no alignment, %d camera%s):\n",
-	       clip->layout == MC_CLIP_OUTSIDE ? "world frame" : "left camera frame", clip->rig.ncams,
-	       clip->rig.ncams == 1 ? "" : "s");
-	for (int g = 0; g < BENCH_GROUPS; g++) {
-		double sum = 0;
-		int n = 0;
-		for (int e = 0; e < NEVAL; e++)
-			if (bench_joint_group(eval_joints[e]) == g) {
-				sum += st->err_sum[e];
-				n++;
-			}
-		printf("  %-6s %6.2f\n", bench_group_name(g), n ? 100.0 * sum / (n * st->err_n) : 0);
-	}
-	for (int e = 0; e < NEVAL; e++)
-		printf("  %-15s %6.2f   (mean confidence %.2f)\n", eval_joints[e], 100.0 * st->err_sum[e] / st->err_n,
-		       st->conf_sum[e] / st->err_n);
-	double still = 0;
-	for (int e = 0; e < NEVAL; e++)
-		still += st->still_sum[e];
-	printf("  holding the initial pose instead (no tracking): %.2f\n",
-	       st->err_n ? 100.0 * still / (st->err_n * NEVAL) : 0.0);
-	printf("  overall %6.2f over %d frames (states: %d ok, %d uncertain, %d lost, %d initialising)\n",
-	       100.0 * mpjpe_of(st), st->err_n, st->states[MC_TRACK_OK], st->states[MC_TRACK_UNCERTAIN],
-	       st->states[MC_TRACK_LOST], st->states[MC_TRACK_INITIALISING]);
-	printf("  error by reported joint confidence:");
-	for (int b = 0; b < 4; b++)
-		printf("  %.2f-%.2f: %.2f cm (%d)", b / 4.0, (b + 1) / 4.0,
-		       st->conf_n[b] ? 100.0 * st->conf_err[b] / st->conf_n[b] : 0.0, st->conf_n[b]);
-	printf("\n");
-}
-
-typedef struct {
-	double median, p95, p99, mean;
-} timing;
-
-static timing timing_of(const double *ms, int n)
-{
-	double *sorted = malloc(sizeof(double) * (n ? n : 1));
-	timing t = {0, 0, 0, 0};
-	if (!sorted || n == 0) {
-		free(sorted);
-		return t;
-	}
-	memcpy(sorted, ms, sizeof(double) * n);
-	mc_stats_sort(sorted, (size_t)n);
-	for (int i = 0; i < n; i++)
-		t.mean += sorted[i] / n;
-	t.median = mc_stats_percentile(sorted, (size_t)n, 50);
-	t.p95 = mc_stats_percentile(sorted, (size_t)n, 95);
-	t.p99 = mc_stats_percentile(sorted, (size_t)n, 99);
-	free(sorted);
-	return t;
-}
 
 static void print_settings(const mc_tracker_settings *s, const char *device)
 {
@@ -534,108 +378,19 @@ static double reference_ms_per_frame(const options *o, const mc_clip *clip, mc_e
 	mc_tracker *t = start_tracker(o, clip, &s, err);
 	if (!t)
 		return -1;
-	run_stats st = {0};
+	bench_stats st = {0};
 	options q = *o;
 	q.quiet = true;
 	int rc = track_clip(&q, t, NULL, clip, o->reference_frames, NULL, &st, err);
-	timing tm = timing_of(st.ms, st.frames);
+	bench_timing tm = bench_timing_of(st.ms, st.frames);
 	free(st.ms);
 	mc_tracker_destroy(t);
 	return rc < 0 ? -1 : tm.median;
 }
 
-/* ---- the thesis' ch. 4 configuration -------------------------------------
- * About 10,000 pixels near the body, 72 Gaussians, no sampling: full
- * gradient iterations (kinematics, energy and gradient, chain rule) per
- * second.  The thesis reports 8.1 on a 4-core 3.6 GHz CPU. */
+/* ---- the thesis' ch. 4 configuration (bench/thesis.c) ----------------- */
 
-typedef struct {
-	mc_raytable rt;
-	int *pixels;
-	int npixels;
-	float *hsv;
-} thesis_view;
-
-static bool near_model(const mc_scene *sc, mc_vec3 o, mc_vec3 n)
-{
-	for (int q = 0; q < sc->n; q++) {
-		mc_vec3 d = mc_v3_sub(sc->mu[q], o);
-		double along = mc_v3_dot(d, n);
-		if (along > 0 && mc_v3_norm2(d) - along * along < pow(3 * sc->sigma[q], 2))
-			return true;
-	}
-	return false;
-}
-
-static int thesis_view_build(const mc_camera *cam, const mc_scene *sc, const mc_frame_view *img, thesis_view *tv,
-			     mc_err *err)
-{
-	for (int res = 128; res <= 512; res += 32) {
-		if (mc_raytable_build(cam, res, res, &tv->rt, err) < 0)
-			return -1;
-		tv->pixels = malloc(sizeof(int) * res * res);
-		tv->npixels = 0;
-		for (int p = 0; p < res * res && tv->pixels && tv->npixels < 10000; p++)
-			if (tv->rt.valid[p] && near_model(sc, tv->rt.origin, tv->rt.dir[p]))
-				tv->pixels[tv->npixels++] = p;
-		if (tv->npixels >= 10000 || res == 512)
-			break;
-		free(tv->pixels);
-		mc_raytable_free(&tv->rt);
-	}
-	int W = tv->rt.width, H = tv->rt.height;
-	tv->hsv = malloc(sizeof(float) * 3 * W * H);
-	if (!tv->pixels || !tv->hsv)
-		return mc_err_set(err, "out of memory");
-	for (int j = 0; j < H; j++)
-		for (int i = 0; i < W; i++) { /* nearest-neighbour sample of the image */
-			const uint8_t *px = img->rgb + (size_t)(j * img->height / H) * img->stride + 3 * (i * img->width / W);
-			double rgb[3] = {px[0] / 255.0, px[1] / 255.0, px[2] / 255.0}, hsv[3];
-			mc_rgb_to_hsv(rgb, hsv);
-			for (int k = 0; k < 3; k++)
-				tv->hsv[3 * (j * W + i) + k] = (float)hsv[k];
-		}
-	return 0;
-}
-
-/* One gradient iteration of the thesis configuration (kinematics, energy
- * and gradient, chain rule). */
-static int thesis_iteration(const mc_model *m, const double *pose, thesis_view *tv, mc_cl_energy *cl, mc_err *err)
-{
-	mc_view view = {&tv->rt, tv->hsv};
-	mc_fk fk;
-	mc_scene sc;
-	mc_vec3 dmu[MC_MAX_GAUSSIANS] = {{0}};
-	double dsigma[MC_MAX_GAUSSIANS] = {0}, grad[MC_MAX_DOF] = {0}, E;
-	mc_model_fk(m, pose, &fk);
-	mc_scene_from_model(m, &fk, &sc);
-	if (cl) {
-		const int *pix[1] = {tv->pixels};
-		if (mc_cl_energy_eval(cl, &sc, pix, &tv->npixels, 0.0, 1, &E, dmu, dsigma, err) < 0)
-			return -1;
-	} else {
-		E = mc_energy_color(&sc, &view, tv->pixels, tv->npixels, dmu, dsigma);
-	}
-	mc_model_backprop(m, pose, &fk, dmu, grad);
-	(void)E;
-	return 0;
-}
-
-/* Iterations per second, after one untimed iteration: the first launch of
- * a kernel on PoCL compiles it for the work-group size (tens of ms), a
- * cost paid once per tracker, not per iteration. */
-static double thesis_iterations_per_s(const mc_model *m, const double *pose, thesis_view *tv, mc_cl_energy *cl,
-				      int iterations, mc_err *err)
-{
-	if (thesis_iteration(m, pose, tv, cl, err) < 0)
-		return -1;
-	uint64_t t0 = mc_now_ns();
-	for (int it = 0; it < iterations; it++)
-		if (thesis_iteration(m, pose, tv, cl, err) < 0)
-			return -1;
-	return iterations / (mc_ms_since(t0) / 1e3);
-}
-
+/* From the tracker's initial pose, as the tracking starts. */
 static int run_thesis_config(const options *o, const mc_clip *clip, mc_err *err)
 {
 	mc_tracker_settings s = o->s;
@@ -643,38 +398,11 @@ static int run_thesis_config(const options *o, const mc_clip *clip, mc_err *err)
 	mc_tracker *t = start_tracker(o, clip, &s, err);
 	if (!t)
 		return -1;
-	mc_model m = *mc_tracker_model(t);
 	double pose[MC_MAX_DOF];
-	memcpy(pose, mc_tracker_pose(t), sizeof(double) * m.ndof);
+	memcpy(pose, mc_tracker_pose(t), sizeof(double) * mc_tracker_model(t)->ndof);
+	int rc = bench_thesis_run(mc_tracker_model(t), pose, clip, o->s.cl_platform, o->s.cl_device, err);
 	mc_tracker_destroy(t);
-	if (m.ngauss > 72)
-		m.ngauss = 72;
-	mc_fk fk;
-	mc_scene sc;
-	mc_model_fk(&m, pose, &fk);
-	mc_scene_from_model(&m, &fk, &sc);
-	mc_frame_view views[MC_MAX_CAMERAS];
-	thesis_view tv = {0};
-	if (mc_clip_load_frame(clip, 0, views, err) < 0)
-		return -1;
-	int rc = thesis_view_build(&clip->rig.cams[0], &sc, &views[0], &tv, err);
-	mc_clip_free_frame(views);
-	mc_cl_energy *cl = rc == 0 ? mc_cl_energy_create(o->s.cl_platform, o->s.cl_device, &tv.rt, 1, err) : NULL;
-	if (cl)
-		rc = mc_cl_energy_set_image(cl, 0, tv.hsv, err);
-	double cl_rate = (cl && rc == 0) ? thesis_iterations_per_s(&m, pose, &tv, cl, 50, err) : -1;
-	double ref_rate = rc == 0 ? thesis_iterations_per_s(&m, pose, &tv, NULL, 2, err) : -1;
-	if (rc == 0)
-		printf("thesis ch. 4 configuration: %d pixels (%dx%d), %d Gaussians, %d pose parameters, no sampling:\n"
-		       "  opencl    %.2f gradient iterations/s\n  reference %.2f gradient iterations/s\n"
-		       "  (thesis: 8.1 on a 4-core 3.6 GHz CPU, 72 Gaussians, 44 parameters)\n",
-		       tv.npixels, tv.rt.width, tv.rt.height, m.ngauss, m.ndof, cl_rate, ref_rate);
-	if (cl)
-		mc_cl_energy_destroy(cl);
-	mc_raytable_free(&tv.rt);
-	free(tv.pixels);
-	free(tv.hsv);
-	return cl_rate < 0 || ref_rate < 0 ? -1 : 0;
+	return rc;
 }
 
 /* ---- options ----------------------------------------------------------- */
@@ -686,9 +414,12 @@ static void usage(FILE *f)
 		   "                        " MC_INSTALL_DATA_DIR "/models/default.json)\n"
 		   "  --out FILE            write per-frame estimates as JSON lines (joints in the rig frame:\n"
 		   "                        left camera, or the world frame of an outside-in clip)\n"
+		   "  --keypoints-out FILE  write the keypoints the tracker was given (detector or simulated) as\n"
+		   "                        JSON lines, one per tracked frame set, native pixels\n"
 		   "  --cameras LIST        outside-in: use only these clip cameras, e.g. 0,2 (default: all)\n"
 		   "  --lambda-floor L      outside-in: weight of the floor prior (default: mocapd's outside-in value)\n"
 		   "  --frames N            track only the first N frames\n"
+		   "  --fps F               the clip's frame rate (default: gt.json's, else 30)\n"
 		   "  --frame-step N        track every Nth frame set only, as cameras at 1/N of the clip's rate\n"
 		   "                        (scored on those; default 1)\n"
 		   "  --backend opencl|reference\n"
@@ -743,7 +474,7 @@ enum { OPT_MODEL = 256, OPT_OUT, OPT_FRAMES, OPT_BACKEND, OPT_WIDTH, OPT_HEIGHT,
        OPT_STEP, OPT_MOM, OPT_LSMOOTH, OPT_LPOSE, OPT_LLIMIT, OPT_PLAT, OPT_DEV, OPT_SEED, OPT_OCAM, OPT_REF,
        OPT_NOTHESIS, OPT_QUIET, OPT_CLIP, OPT_HELP, OPT_OVERLAY, OPT_OVERLAY_EVERY, OPT_LANCHOR,
        OPT_SIMDET, OPT_LDET, OPT_DETECTOR, OPT_DET_EVERY, OPT_LCOLOR, OPT_DET_THRESHOLD, OPT_INIT,
-       OPT_NORECOVER, OPT_CAMERAS, OPT_LFLOOR, OPT_DET_SERIAL, OPT_KP_AT, OPT_FRAME_STEP, OPT_VERSION = 'V' };
+       OPT_NORECOVER, OPT_CAMERAS, OPT_LFLOOR, OPT_DET_SERIAL, OPT_KP_AT, OPT_FRAME_STEP, OPT_KP_OUT, OPT_FPS, OPT_VERSION = 'V' };
 
 static int apply_option(options *o, int c, const char *name, const char *arg, bool *thesis)
 {
@@ -754,6 +485,7 @@ static int apply_option(options *o, int c, const char *name, const char *arg, bo
 	case OPT_CAMERAS: o->cameras = arg; return 0;
 	case OPT_MODEL: o->model_path = arg; return 0;
 	case OPT_OUT: o->out_path = arg; return 0;
+	case OPT_KP_OUT: o->keypoints_out_path = arg; return 0;
 	case OPT_DETECTOR: o->detector_path = arg; return 0;
 	case OPT_OVERLAY: o->overlay_dir = arg; return 0;
 	case OPT_OCAM: o->use_ocam = true; return 0;
@@ -804,6 +536,7 @@ static int apply_option(options *o, int c, const char *name, const char *arg, bo
 	case OPT_PLAT: s->cl_platform = (int)v; break;
 	case OPT_DEV: s->cl_device = (int)v; break;
 	case OPT_SEED: s->seed = (uint64_t)v; break;
+	case OPT_FPS: o->fps = v; break;
 	}
 	return 0;
 }
@@ -827,6 +560,7 @@ static int parse_options(int argc, char **argv, options *o, bool *thesis)
 		{"init", 1, 0, OPT_INIT}, {"no-recover", 0, 0, OPT_NORECOVER}, {"cameras", 1, 0, OPT_CAMERAS},
 		{"lambda-floor", 1, 0, OPT_LFLOOR}, {"detector-serial", 0, 0, OPT_DET_SERIAL},
 		{"keypoints-at-iteration", 1, 0, OPT_KP_AT}, {"frame-step", 1, 0, OPT_FRAME_STEP},
+		{"keypoints-out", 1, 0, OPT_KP_OUT}, {"fps", 1, 0, OPT_FPS},
 		{"version", 0, 0, OPT_VERSION},
 		{0, 0, 0, 0}};
 	int c, idx;
@@ -869,14 +603,14 @@ static int parse_options(int argc, char **argv, options *o, bool *thesis)
 /* ---- main -------------------------------------------------------------- */
 
 /* Gradient iterations per frame set, averaged over the clip. */
-static double iterations_per_set(const run_stats *st)
+static double iterations_per_set(const bench_stats *st)
 {
 	return st->frames ? (double)st->iterations / st->frames : 0;
 }
 
-static void print_speed(const options *o, const mc_clip *clip, const run_stats *st, mc_err *err)
+static void print_speed(const options *o, const mc_clip *clip, const bench_stats *st, mc_err *err)
 {
-	timing tm = timing_of(st->ms, st->frames);
+	bench_timing tm = bench_timing_of(st->ms, st->frames);
 	double iterations = iterations_per_set(st);
 	printf("speed: per frame median %.2f ms, p95 %.2f ms, p99 %.2f ms, mean %.2f ms; %.1f frames/s, "
 	       "%.1f iterations per frame set, %.0f iterations/s\n",
@@ -890,13 +624,131 @@ static void print_speed(const options *o, const mc_clip *clip, const run_stats *
 	}
 }
 
+/* The reports after tracking: accuracy, the detector's, speed, the thesis
+ * configuration, then the lines for scripts (RESULT, JITTER). */
+static void report(const options *o, const mc_clip *clip, bench_detector *bd, const bench_stats *st,
+		   const char *device_name, bool thesis, mc_err *err)
+{
+	bench_print_accuracy(clip, st);
+	if (bd)
+		bench_detector_report(bd, clip);
+	print_speed(o, clip, st, err);
+	if (thesis && run_thesis_config(o, clip, err) < 0)
+		fprintf(stderr, "mocap-bench: thesis configuration: %s\n", err->msg);
+	char device[160];
+	snprintf(device, sizeof(device), "%s", device_name);
+	for (char *p = device; *p; p++)
+		if (*p == ' ')
+			*p = '_';
+	bench_timing tm = bench_timing_of(st->ms, st->frames);
+	printf("RESULT clip=%s frames=%d mpjpe_cm=%.2f fps=%.1f ms_p99=%.2f device=%s cameras=%d iterations=%.1f\n",
+	       clip->name, st->frames, clip->has_gt ? 100.0 * bench_mpjpe(st) : NAN, 1e3 / tm.mean, tm.p99, device,
+	       clip->rig.ncams, iterations_per_set(st));
+	if (clip->has_gt)
+		bench_print_jitter(clip, st);
+}
+
+/* Opens --out and --keypoints-out; -1 (with err) when one cannot be
+ * written, with nothing left open. */
+static int open_outputs(options *o, FILE **out, mc_err *err)
+{
+	*out = NULL;
+	if (o->out_path && !(*out = fopen(o->out_path, "w")))
+		return mc_err_set(err, "%s: cannot write", o->out_path);
+	if (o->keypoints_out_path && !(o->keypoints_file = fopen(o->keypoints_out_path, "w"))) {
+		if (*out)
+			fclose(*out);
+		*out = NULL;
+		return mc_err_set(err, "%s: cannot write", o->keypoints_out_path);
+	}
+	return 0;
+}
+
+static void close_outputs(options *o, FILE *out)
+{
+	if (out)
+		fclose(out);
+	if (o->keypoints_file)
+		fclose(o->keypoints_file);
+	o->keypoints_file = NULL;
+}
+
+static void print_clip(const mc_clip *clip, int nframes)
+{
+	printf("clip: %s (%d frames, %s, %d camera%s:", clip->name, nframes,
+	       clip->layout == MC_CLIP_OUTSIDE ? "outside-in" : "head-mounted", clip->rig.ncams,
+	       clip->rig.ncams == 1 ? "" : "s");
+	for (int c = 0; c < clip->rig.ncams; c++)
+		printf(" %s", clip->rig.cams[c].name);
+	printf(")\n");
+}
+
+/* --detector: the model, its threshold and what it does; -1 with err. */
+static int open_detector(const options *o, const mc_tracker *t, const mc_clip *clip, int nframes,
+			 bench_detector *det, mc_err *err)
+{
+	if (bench_detector_open(det, o->detector_path, mc_tracker_model(t), clip, o->detector_every, nframes, err) < 0)
+		return -1;
+	if (o->detector_threshold >= 0)
+		mc_detector_set_threshold(det->det, (float)o->detector_threshold);
+	printf("detector: %s, every %d frame set(s), %s, lambda_detection %.3g, lambda_color %.3g\n",
+	       o->detector_path, det->every, o->detector_serial ? "serial (detect, then track)" : "pipelined (as in mocapd)",
+	       o->s.lambda_detection, o->s.lambda_color);
+	return 0;
+}
+
+/* Tracks the opened clip with tracker t and reports. */
+static int run_tracker(options *o, mc_tracker *t, const mc_clip *clip, int nframes, bool thesis, mc_err *err)
+{
+	FILE *out;
+	if (open_outputs(o, &out, err) < 0)
+		return -1;
+	print_clip(clip, nframes);
+	print_settings(&o->s, mc_tracker_device_name(t));
+	if (o->simulated_detector_px >= 0)
+		printf("WARNING: simulated detector: keypoints from the ground truth, %.1f px noise, %.0f%% missed. "
+		       "Not the evaluation protocol.\n",
+		       o->simulated_detector_px, 100 * MC_CLIP_SIMULATED_MISS);
+	bench_detector det, *bd = NULL;
+	if (o->detector_path && open_detector(o, t, clip, nframes, &det, err) < 0) {
+		close_outputs(o, out);
+		return -1;
+	}
+	if (o->detector_path)
+		bd = &det;
+	bench_stats st = {0};
+	int rc = track_clip(o, t, bd, clip, nframes, out, &st, err);
+	close_outputs(o, out);
+	if (rc == 0 && o->init_detect)
+		bench_print_init_report(t, clip, &st);
+	if (rc == 0)
+		report(o, clip, bd, &st, mc_tracker_device_name(t), thesis, err);
+	if (bd)
+		bench_detector_close(bd);
+	free(st.ms);
+	return rc;
+}
+
+/* A clip without gt.json (real footage) is tracked, not scored: it can
+ * start only from the detections. */
+static int check_unscored(const options *o, const mc_clip *clip, mc_err *err)
+{
+	if (o->simulated_detector_px >= 0)
+		return mc_err_set(err, "%s has no gt.json: --simulated-detector projects the ground truth", clip->dir);
+	if (!o->init_detect)
+		return mc_err_set(err, "%s has no gt.json, so no frame 0 to start from: give --init detect --detector MODEL",
+				  clip->dir);
+	return 0;
+}
+
 static int run(const options *cmdline, bool thesis, mc_err *err)
 {
 	mc_clip clip;
 	options opts = *cmdline, *o = &opts;
 	if (mc_clip_open(o->clip, o->use_ocam, &clip, err) < 0)
 		return -1;
-	if (o->cameras && mc_clip_select_cameras(&clip, o->cameras, err) < 0) {
+	if ((o->cameras && mc_clip_select_cameras(&clip, o->cameras, err) < 0) ||
+	    (!clip.has_gt && check_unscored(o, &clip, err) < 0)) {
 		mc_clip_close(&clip);
 		return -1;
 	}
@@ -904,73 +756,12 @@ static int run(const options *cmdline, bool thesis, mc_err *err)
 	 * command line take their outside-in values */
 	if (clip.layout == MC_CLIP_OUTSIDE)
 		mc_tracker_settings_outside_in(&o->s, clip.rig.ncams, o->given);
+	if (o->fps > 0)
+		clip.gt.fps = o->fps;
 	int nframes = o->max_frames > 0 && o->max_frames < clip.gt.nframes ? o->max_frames : clip.gt.nframes;
 	mc_tracker *t = start_tracker(o, &clip, &o->s, err);
-	FILE *out = t && o->out_path ? fopen(o->out_path, "w") : NULL;
-	if (!t || (o->out_path && !out)) {
-		if (t)
-			mc_err_set(err, "%s: cannot write", o->out_path);
-		mc_tracker_destroy(t);
-		mc_clip_close(&clip);
-		return -1;
-	}
-	printf("clip: %s (%d frames, %s, %d camera%s:", clip.name, nframes,
-	       clip.layout == MC_CLIP_OUTSIDE ? "outside-in" : "head-mounted", clip.rig.ncams,
-	       clip.rig.ncams == 1 ? "" : "s");
-	for (int c = 0; c < clip.rig.ncams; c++)
-		printf(" %s", clip.rig.cams[c].name);
-	printf(")\n");
-	print_settings(&o->s, mc_tracker_device_name(t));
-	if (o->simulated_detector_px >= 0)
-		printf("WARNING: simulated detector: keypoints from the ground truth, %.1f px noise, %.0f%% missed. "
-		       "Not the evaluation protocol.\n",
-		       o->simulated_detector_px, 100 * MC_CLIP_SIMULATED_MISS);
-	bench_detector det, *bd = NULL;
-	if (o->detector_path) {
-		if (bench_detector_open(&det, o->detector_path, mc_tracker_model(t), &clip, o->detector_every, nframes,
-					err) < 0) {
-			if (out)
-				fclose(out);
-			mc_tracker_destroy(t);
-			mc_clip_close(&clip);
-			return -1;
-		}
-		bd = &det;
-		if (o->detector_threshold >= 0)
-			mc_detector_set_threshold(det.det, (float)o->detector_threshold);
-		printf("detector: %s, every %d frame set(s), %s, lambda_detection %.3g, lambda_color %.3g\n",
-		       o->detector_path, det.every,
-		       o->detector_serial ? "serial (detect, then track)" : "pipelined (as in mocapd)",
-		       o->s.lambda_detection, o->s.lambda_color);
-	}
-	run_stats st = {0};
-	int rc = track_clip(o, t, bd, &clip, nframes, out, &st, err);
-	if (out)
-		fclose(out);
-	if (rc == 0 && o->init_detect)
-		print_init_report(t, &clip, &st);
-	char device[160];
-	snprintf(device, sizeof(device), "%s", mc_tracker_device_name(t));
+	int rc = t ? run_tracker(o, t, &clip, nframes, thesis, err) : -1;
 	mc_tracker_destroy(t);
-	if (rc == 0) {
-		print_accuracy(&clip, &st);
-		if (bd)
-			bench_detector_report(bd, clip.name);
-		print_speed(o, &clip, &st, err);
-		if (thesis && run_thesis_config(o, &clip, err) < 0)
-			fprintf(stderr, "mocap-bench: thesis configuration: %s\n", err->msg);
-		for (char *p = device; *p; p++)
-			if (*p == ' ')
-				*p = '_';
-		timing tm = timing_of(st.ms, st.frames);
-		printf("RESULT clip=%s frames=%d mpjpe_cm=%.2f fps=%.1f ms_p99=%.2f device=%s cameras=%d "
-		       "iterations=%.1f\n",
-		       clip.name, st.frames, 100.0 * mpjpe_of(&st), 1e3 / tm.mean, tm.p99, device, clip.rig.ncams,
-		       iterations_per_set(&st));
-	}
-	if (bd)
-		bench_detector_close(bd);
-	free(st.ms);
 	mc_clip_close(&clip);
 	return rc;
 }

@@ -42,6 +42,31 @@ static int open_rig(const char *dir, bool use_ocam, mc_clip *clip, mc_err *err)
 	return 0;
 }
 
+/* The frame sets of a clip without gt.json: as many as every camera has
+ * consecutive frames from 00000.jpg. */
+static int count_frames(const mc_clip *clip)
+{
+	int n = 0;
+	for (;; n++)
+		for (int c = 0; c < clip->rig.ncams; c++) {
+			char name[MC_CAMERA_NAME_MAX + 16];
+			snprintf(name, sizeof(name), "%s/%05d.jpg", clip->cam_dir[c], n);
+			if (!file_exists(clip->dir, name))
+				return n;
+		}
+}
+
+/* Real footage comes without ground truth: the clip can be tracked, not
+ * scored (has_gt false, no joints, fps MC_CLIP_DEFAULT_FPS). */
+static int open_without_gt(mc_clip *clip, mc_err *err)
+{
+	clip->gt.fps = MC_CLIP_DEFAULT_FPS;
+	clip->gt.nframes = count_frames(clip);
+	if (clip->gt.nframes == 0)
+		return mc_err_set(err, "%s: no gt.json and no frames (%s/00000.jpg)", clip->dir, clip->cam_dir[0]);
+	return 0;
+}
+
 int mc_clip_open(const char *dir, bool use_ocam, mc_clip *clip, mc_err *err)
 {
 	memset(clip, 0, sizeof(*clip));
@@ -54,11 +79,14 @@ int mc_clip_open(const char *dir, bool use_ocam, mc_clip *clip, mc_err *err)
 	snprintf(clip->name, sizeof(clip->name), "%s", basename(path));
 	if (open_rig(dir, use_ocam, clip, err) < 0)
 		return -1;
+	if (!file_exists(dir, "gt.json"))
+		return open_without_gt(clip, err);
 	snprintf(path, sizeof(path), "%s/gt.json", dir);
 	if (mc_gt_load(path, clip->layout == MC_CLIP_OUTSIDE ? "joints_world" : "joints_left_cam", &clip->gt, err) < 0) {
 		mc_clip_close(clip);
 		return -1;
 	}
+	clip->has_gt = true;
 	return 0;
 }
 

@@ -31,10 +31,16 @@ typedef struct {
 	char cam_dir[MC_MAX_CAMERAS][MC_CAMERA_NAME_MAX];
 	int cam_index[MC_MAX_CAMERAS];
 	mc_gt gt;            /* gt.json: fps, joints in the rig frame */
+	bool has_gt;         /* gt.json was read (the clip can be scored); see mc_clip_open */
 } mc_clip;
 
 /* Opens a clip of either layout: calib.json (use_ocam: the fitted OCam
- * polynomial instead of the equidistant model) or cameras.json, and gt.json. */
+ * polynomial instead of the equidistant model) or cameras.json, and gt.json.
+ * A clip without gt.json (real footage) opens with has_gt false, no
+ * ground-truth joints (mc_clip_joint is -1 for every name), gt.nframes the
+ * frame sets found on disk and gt.fps MC_CLIP_DEFAULT_FPS (the caller may
+ * set the true rate). */
+#define MC_CLIP_DEFAULT_FPS 30.0
 int mc_clip_open(const char *dir, bool use_ocam, mc_clip *clip, mc_err *err);
 
 /* Keeps only the clip cameras listed in `list`, comma-separated indices

@@ -110,8 +110,23 @@ int bench_detector_run(bench_detector *bd, const mc_clip *clip, int k, const mc_
 	return n;
 }
 
-void bench_detector_report(bench_detector *bd, const char *clip_name)
+/* A clip without ground truth: only the cost (no DETECT2D line, as nothing
+ * was scored). */
+static void report_cost_only(bench_detector *bd)
 {
+	mc_stats_sort(bd->view_ms, (size_t)bd->nviews);
+	printf("detector (%s): 2D error not scored (the clip has no gt.json); cost %.2f ms per view (median of %d "
+	       "views, one thread)\n",
+	       mc_detector_path(bd->det), mc_stats_percentile(bd->view_ms, (size_t)bd->nviews, 50), bd->nviews);
+}
+
+void bench_detector_report(bench_detector *bd, const mc_clip *clip)
+{
+	if (!clip->has_gt) {
+		report_cost_only(bd);
+		return;
+	}
+	const char *clip_name = clip->name;
 	int in_w, in_h;
 	mc_detector_input_size(bd->det, &in_w, &in_h);
 	printf("detector (%s), 2D error at %dx%d against the projected ground truth:\n", mc_detector_path(bd->det), in_w,

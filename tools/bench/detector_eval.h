@@ -37,7 +37,8 @@ void bench_detector_close(bench_detector *bd);
 int bench_detector_run(bench_detector *bd, const mc_clip *clip, int k, const mc_frame_view *views, int nviews,
 		       mc_keypoint *kp, int max, mc_err *err);
 
-/* The 2D report and its machine-readable DETECT2D line. */
-void bench_detector_report(bench_detector *bd, const char *clip_name);
+/* The 2D report and its machine-readable DETECT2D line; on a clip without
+ * gt.json only the cost. */
+void bench_detector_report(bench_detector *bd, const mc_clip *clip);
 
 #endif

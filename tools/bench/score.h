@@ -1,0 +1,52 @@
+/* mocap-bench's scoring against the clip's ground truth: MPJPE over the
+ * evaluated joints (docs/CONVENTIONS.md) and by joint group, the error by
+ * reported confidence, the pose held still for reference, the jitter
+ * (mc_jitter), and the reports printed from them. */
+#ifndef BENCH_SCORE_H
+#define BENCH_SCORE_H
+
+#include "eval/mc_clip.h"
+#include "eval/mc_jitter.h"
+#include "track/mc_tracker.h"
+
+#define BENCH_NEVAL 15
+extern const char *const bench_eval_joints[BENCH_NEVAL];
+
+typedef struct {
+	int frames;
+	double *ms;
+	long iterations; /* gradient iterations run, over all frame sets */
+	double err_sum[BENCH_NEVAL];
+	int err_n;
+	double still_sum[BENCH_NEVAL]; /* holding the initial pose for every frame */
+	int states[MC_TRACK_INITIALISING + 1];
+	int first_tracked; /* first frame set out of the initialising state, -1: none */
+	double conf_sum[BENCH_NEVAL];
+	/* joint estimates binned by their reported confidence (quarters of
+	 * [0, 1]): how many, and their summed error */
+	int conf_n[4];
+	double conf_err[4];
+	mc_jitter jitter; /* over the tracked frame sets, initialised by bench_score_begin */
+} bench_stats;
+
+/* Before the first frame set: the jitter's joints and the time between
+ * tracked frame sets (frame_step of the clip's frames). */
+void bench_score_begin(const mc_clip *clip, int frame_step, bench_stats *st);
+/* Scores frame set k's estimate sk (and the still pose) against the truth. */
+void bench_score_frame(const mc_clip *clip, int k, const mc_skeleton *sk, const mc_skeleton *still, bench_stats *st);
+/* MPJPE in metres over the frame sets scored so far. */
+double bench_mpjpe(const bench_stats *st);
+
+void bench_print_accuracy(const mc_clip *clip, const bench_stats *st);
+/* JITTER clip=NAME vel_err_ms=X accel_ratio=Y (nan when undefined). */
+void bench_print_jitter(const mc_clip *clip, const bench_stats *st);
+/* --init detect: when tracking started and, with a ground truth, the
+ * bone lengths against it (the BONES line). */
+void bench_print_init_report(const mc_tracker *t, const mc_clip *clip, const bench_stats *st);
+
+typedef struct {
+	double median, p95, p99, mean;
+} bench_timing;
+bench_timing bench_timing_of(const double *ms, int n);
+
+#endif
