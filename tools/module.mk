@@ -9,7 +9,8 @@
 #   make detector-report    2D error report on ../shared/data/ego/*
 #   make detector-data-outside, detector-train-outside, detector-finetune-outside,
 #   detector-export-outside, detector-report-outside: the same for the outside-in model
-#   (config/models/outside_detector.onnx, ../shared/data/outside/*)
+#   ($(DETECTOR_OUTSIDE_DIR)/outside_detector.onnx: the shipped outside-in model is now
+#   MoveNet, see tools/convert/module.mk; ../shared/data/outside/*)
 #
 # Long jobs: run them under nohup (they resume where they stopped).
 
@@ -98,7 +99,7 @@ DETECTOR_OUTSIDE_WEIGHTS ?= $(DETECTOR_OUTSIDE_DIR)/best.pt
 detector-export-outside:
 	$(TRAIN_PYTHON) tools/train/train.py --kind outside --seed $(DETECTOR_OUTSIDE_SEED) \
 	  --data-seed $(DETECTOR_OUTSIDE_SEED) --weights $(DETECTOR_OUTSIDE_WEIGHTS) \
-	  --export config/models/outside_detector.onnx
+	  --export $(DETECTOR_OUTSIDE_DIR)/outside_detector.onnx
 
 detector-report-outside:
 	$(TRAIN_PYTHON) tools/train/train.py --kind outside --weights $(DETECTOR_OUTSIDE_WEIGHTS) \

@@ -5,10 +5,10 @@
  *     bystander, and the offsets are added;
  *   - the second look's square (MoveNet's cropping rule), and none without
  *     the torso;
- *   - the shipped Lightning model (config/models/movenet_lightning.onnx) on
+ *   - the shipped Lightning model (config/models/outside_detector.onnx) on
  *     real frames (tests/data/real_p2s: Pose2Sim's demo) with the second
  *     look off, against TensorFlow.js's own keypoints for the same frames
- *     (detect/tests/data/movenet_lightning_reference.json, made by
+ *     (detect/tests/data/outside_detector_reference.json, made by
  *     tools/convert/movenet_reference.py);
  *   - with the second look on, every body joint found in every view;
  *   - a sidecar with an unknown decoder is refused, naming the field. */
@@ -23,8 +23,8 @@
 #include <string.h>
 #include <unistd.h>
 
-#define MODEL "config/models/movenet_lightning.onnx"
-#define REFERENCE "detect/tests/data/movenet_lightning_reference.json"
+#define MODEL "config/models/outside_detector.onnx"
+#define REFERENCE "detect/tests/data/outside_detector_reference.json"
 #define FRAMES "tests/data/real_p2s"
 #define J 17
 #define G 16 /* made-up heads: 16 x 16 cells */

