@@ -93,7 +93,7 @@ install-detect:
 		> $(DESTDIR)$(DETECT_UNITDIR)/mocap-detect.service
 	chmod 644 $(DESTDIR)$(DETECT_UNITDIR)/mocap-detect.service
 	install -m 644 docs/DETECT_RUNTIME.md $(DESTDIR)$(DETECT_DOCDIR)/
-	for m in config/models/*_detector.onnx; do [ -e "$$m" ] || continue; \
+	for m in config/models/*_detector.onnx config/models/movenet_*.onnx; do [ -e "$$m" ] || continue; \
 		install -m 644 "$$m" $(DESTDIR)$(DETECT_MODEL_DIR)/; done
 
 .PHONY: uninstall-detect
