@@ -134,13 +134,14 @@ static void current_skeleton(const mc_tracker *t, mc_skeleton *sk)
 /* The keypoints of frame set k: the detector's (timed with the frame, as
  * part of the cost of tracking it), the simulated detector's, or none. */
 static int frame_keypoints(const options *o, bench_detector *bd, mc_tracker *t, const mc_clip *clip, int k,
-			   const mc_frame_view *views, uint64_t *rng, mc_keypoint *kp, int cap, mc_err *err)
+			   const mc_frame_view *views, uint64_t *rng, mc_simdet_stats *sim_stats, mc_keypoint *kp, int cap,
+			   mc_err *err)
 {
 	if (bd)
 		return bench_detector_run(bd, clip, k, views, clip->rig.ncams, kp, cap, err);
 	if (o->simulated_detector_px >= 0)
-		return mc_clip_simulated_keypoints(clip, mc_tracker_model(t), bench_eval_joints, BENCH_NEVAL, k,
-						    o->simulated_detector_px, rng, kp, cap);
+		return mc_simdet_keypoints(clip, mc_tracker_model(t), bench_eval_joints, BENCH_NEVAL, k, &o->sim, rng, kp,
+					   cap, sim_stats);
 	return 0;
 }
 
@@ -198,7 +199,7 @@ static int track_serial(const options *o, mc_tracker *t, bench_detector *bd, con
 		if (mc_clip_load_frame(clip, k, views, err) < 0)
 			return -1;
 		uint64_t t0 = mc_now_ns();
-		int nkp = frame_keypoints(o, bd, t, clip, k, views, &rng, kp, BENCH_MAX_KEYPOINTS, err);
+		int nkp = frame_keypoints(o, bd, t, clip, k, views, &rng, &st->sim, kp, BENCH_MAX_KEYPOINTS, err);
 		int rc = nkp < 0 ? -1 : track_frame(o, t, clip, views, kp, nkp, &sk, err);
 		st->ms[st->frames] = mc_ms_since(t0);
 		if (rc == 0 && o->keypoints_file)
@@ -420,6 +421,8 @@ static void report(const options *o, const mc_clip *clip, bench_detector *bd, co
 	       clip->rig.ncams, iterations_per_set(st));
 	if (clip->has_gt)
 		bench_print_jitter(clip, st);
+	if (o->simulated_detector_px >= 0)
+		bench_print_simdet(clip, &st->sim);
 }
 
 /* Opens --out and --keypoints-out; -1 (with err) when one cannot be
@@ -480,9 +483,11 @@ static int run_tracker(options *o, mc_tracker *t, const mc_clip *clip, int nfram
 	print_clip(clip, nframes);
 	print_settings(&o->s, mc_tracker_device_name(t));
 	if (o->simulated_detector_px >= 0)
-		printf("WARNING: simulated detector: keypoints from the ground truth, %.1f px noise, %.0f%% missed. "
+		printf("WARNING: simulated detector: keypoints from the ground truth, %.1f px noise, %.0f%% missed, "
+		       "collapse %.2f, swap %.2f, occluded on the wrong limb %.2f, outliers %.2f, confidences %s. "
 		       "Not the evaluation protocol.\n",
-		       o->simulated_detector_px, 100 * MC_CLIP_SIMULATED_MISS);
+		       o->simulated_detector_px, 100 * MC_CLIP_SIMULATED_MISS, o->sim.collapse, o->sim.swap,
+		       o->sim.occluded_wrong, o->sim.outlier, o->sim.blind_confidence ? "blind" : "1");
 	bench_detector det, *bd = NULL;
 	if (o->detector_path && open_detector(o, t, clip, nframes, &det, err) < 0) {
 		close_outputs(o, out);

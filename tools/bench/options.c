@@ -43,6 +43,14 @@ static void usage(FILE *f)
 		   "  --simulated-detector PX  feed the tracker keypoints projected from the ground truth with PX\n"
 		   "                        pixels of noise (15%% missed), standing in for a 2D detector; NOT the\n"
 		   "                        evaluation protocol, which uses no ground truth after frame 0\n"
+		   "  --sim-preset ego|outside|none  the simulated detector's gross errors as measured on the\n"
+		   "                        shipped head-mounted or outside-in detector (default none: noise only)\n"
+		   "  --sim-collapse R      share of left/right pairs per view with both channels at one limb\n"
+		   "  --sim-swap R          share of left/right pairs per view with their labels exchanged\n"
+		   "  --sim-occluded-wrong R  share of occluded paired joints placed on the other limb\n"
+		   "  --sim-outlier R       share of keypoints moved 1.5-5x 10 px (at 128-wide scale) off\n"
+		   "  --sim-blind-confidence  confidences uniform in [0.3, 1] for good and wrong keypoints alike\n"
+		   "                        (rates override the preset; docs/man/mocap-bench.1 gives the sources)\n"
 		   "  --lambda-detection L  weight of the keypoint term\n"
 		   "  --detector MODEL      the 2D joint detector (ONNX, docs/DETECTOR.md) feeds the tracker, and a\n"
 		   "                        2D report follows; as in mocapd, frame set k + 1 is detected on a\n"
@@ -77,7 +85,8 @@ enum { OPT_MODEL = 256, OPT_OUT, OPT_FRAMES, OPT_BACKEND, OPT_WIDTH, OPT_HEIGHT,
        OPT_STEP, OPT_MOM, OPT_LSMOOTH, OPT_LPOSE, OPT_LLIMIT, OPT_PLAT, OPT_DEV, OPT_SEED, OPT_OCAM, OPT_REF,
        OPT_NOTHESIS, OPT_QUIET, OPT_CLIP, OPT_HELP, OPT_OVERLAY, OPT_OVERLAY_EVERY, OPT_LANCHOR,
        OPT_SIMDET, OPT_LDET, OPT_DETECTOR, OPT_DET_EVERY, OPT_LCOLOR, OPT_DET_THRESHOLD, OPT_INIT,
-       OPT_NORECOVER, OPT_CAMERAS, OPT_LFLOOR, OPT_DET_SERIAL, OPT_KP_AT, OPT_FRAME_STEP, OPT_KP_OUT, OPT_FPS, OPT_VERSION = 'V' };
+       OPT_NORECOVER, OPT_CAMERAS, OPT_LFLOOR, OPT_DET_SERIAL, OPT_KP_AT, OPT_FRAME_STEP, OPT_KP_OUT, OPT_FPS, OPT_SIM_PRESET, OPT_SIM_COLLAPSE, OPT_SIM_SWAP, OPT_SIM_OUTLIER, OPT_SIM_OCC,
+       OPT_SIM_BLIND, OPT_VERSION = 'V' };
 
 static int apply_option(options *o, int c, const char *name, const char *arg, bool *thesis)
 {
@@ -96,6 +105,8 @@ static int apply_option(options *o, int c, const char *name, const char *arg, bo
 	case OPT_QUIET: o->quiet = true; return 0;
 	case OPT_NORECOVER: o->s.recover = false; return 0;
 	case OPT_DET_SERIAL: o->detector_serial = true; return 0;
+	case OPT_SIM_PRESET: o->sim_preset = arg; return 0;
+	case OPT_SIM_BLIND: o->sim_blind_confidence = true; return 0;
 	case OPT_INIT:
 		if (!strcmp(arg, "gt0") || !strcmp(arg, "detect")) {
 			o->init_detect = !strcmp(arg, "detect");
@@ -140,6 +151,45 @@ static int apply_option(options *o, int c, const char *name, const char *arg, bo
 	case OPT_DEV: s->cl_device = (int)v; break;
 	case OPT_SEED: s->seed = (uint64_t)v; break;
 	case OPT_FPS: o->fps = v; break;
+	case OPT_SIM_COLLAPSE: o->sim_collapse = v; break;
+	case OPT_SIM_SWAP: o->sim_swap = v; break;
+	case OPT_SIM_OUTLIER: o->sim_outlier = v; break;
+	case OPT_SIM_OCC: o->sim_occluded_wrong = v; break;
+	}
+	return 0;
+}
+
+/* The simulated detector: --simulated-detector's noise, the preset, then
+ * each rate given; -1 after printing what is wrong. */
+static int sim_settings(options *o)
+{
+	const double given[4] = {o->sim_collapse, o->sim_swap, o->sim_outlier, o->sim_occluded_wrong};
+	static const char *const names[4] = {"--sim-collapse", "--sim-swap", "--sim-outlier", "--sim-occluded-wrong"};
+	bool any = o->sim_preset || o->sim_blind_confidence;
+	for (int i = 0; i < 4; i++) {
+		if (given[i] > 1) {
+			fprintf(stderr, "mocap-bench: %s: expected a rate in [0, 1], got %g\n", names[i], given[i]);
+			return -1;
+		}
+		any = any || given[i] >= 0;
+	}
+	if (any && o->simulated_detector_px < 0) {
+		fprintf(stderr, "mocap-bench: --sim-* options need --simulated-detector PX\n");
+		return -1;
+	}
+	o->sim = (mc_simdet){.noise_px = o->simulated_detector_px};
+	if (o->sim_preset && !mc_simdet_preset(o->sim_preset, &o->sim)) {
+		fprintf(stderr, "mocap-bench: --sim-preset: expected ego, outside or none, got '%s'\n", o->sim_preset);
+		return -1;
+	}
+	double *rate[4] = {&o->sim.collapse, &o->sim.swap, &o->sim.outlier, &o->sim.occluded_wrong};
+	for (int i = 0; i < 4; i++)
+		if (given[i] >= 0)
+			*rate[i] = given[i];
+	o->sim.blind_confidence = o->sim.blind_confidence || o->sim_blind_confidence;
+	if (o->sim.collapse + o->sim.swap > 1) {
+		fprintf(stderr, "mocap-bench: --sim-collapse and --sim-swap add up to more than 1\n");
+		return -1;
 	}
 	return 0;
 }
@@ -163,7 +213,10 @@ int bench_parse_options(int argc, char **argv, options *o, bool *thesis)
 		{"init", 1, 0, OPT_INIT}, {"no-recover", 0, 0, OPT_NORECOVER}, {"cameras", 1, 0, OPT_CAMERAS},
 		{"lambda-floor", 1, 0, OPT_LFLOOR}, {"detector-serial", 0, 0, OPT_DET_SERIAL},
 		{"keypoints-at-iteration", 1, 0, OPT_KP_AT}, {"frame-step", 1, 0, OPT_FRAME_STEP},
-		{"keypoints-out", 1, 0, OPT_KP_OUT}, {"fps", 1, 0, OPT_FPS},
+		{"keypoints-out", 1, 0, OPT_KP_OUT}, {"fps", 1, 0, OPT_FPS}, {"sim-preset", 1, 0, OPT_SIM_PRESET},
+		{"sim-collapse", 1, 0, OPT_SIM_COLLAPSE}, {"sim-swap", 1, 0, OPT_SIM_SWAP},
+		{"sim-outlier", 1, 0, OPT_SIM_OUTLIER}, {"sim-occluded-wrong", 1, 0, OPT_SIM_OCC},
+		{"sim-blind-confidence", 0, 0, OPT_SIM_BLIND},
 		{"version", 0, 0, OPT_VERSION},
 		{0, 0, 0, 0}};
 	int c, idx;
@@ -185,6 +238,8 @@ int bench_parse_options(int argc, char **argv, options *o, bool *thesis)
 		fprintf(stderr, "mocap-bench: --init detect needs --detector MODEL (or --simulated-detector PX)\n");
 		return -1;
 	}
+	if (sim_settings(o) < 0)
+		return -1;
 	if (o->detector_path && o->simulated_detector_px >= 0) {
 		fprintf(stderr, "mocap-bench: --detector and --simulated-detector exclude each other\n");
 		return -1;
@@ -212,6 +267,7 @@ void bench_options_init(options *o)
 	o->overlay_every = 10;
 	o->frame_step = 1;
 	o->simulated_detector_px = -1;
+	o->sim_collapse = o->sim_swap = o->sim_outlier = o->sim_occluded_wrong = -1;
 	o->detector_threshold = -1;
 	mc_tracker_settings_default(&o->s);
 }

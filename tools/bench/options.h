@@ -3,6 +3,7 @@
 #ifndef BENCH_OPTIONS_H
 #define BENCH_OPTIONS_H
 
+#include "eval/mc_simdet.h"
 #include "track/mc_tracker.h"
 
 #include <stdbool.h>
@@ -26,6 +27,12 @@ typedef struct {
 	 * noise (native pixels): a stand-in for a 2D detector, which is not
 	 * the evaluation protocol */
 	double simulated_detector_px;
+	/* its gross errors: --sim-preset, then the rates given one by one
+	 * (-1: not given) on top (bench_parse_options fills sim) */
+	const char *sim_preset;
+	double sim_collapse, sim_swap, sim_outlier, sim_occluded_wrong;
+	bool sim_blind_confidence;
+	mc_simdet sim;
 	const char *detector_path; /* --detector MODEL: the 2D joint detector feeds the tracker */
 	int detector_every;        /* detect on every Nth frame set */
 	bool detector_serial;      /* detect and track one after the other (default: pipelined) */
