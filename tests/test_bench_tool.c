@@ -196,6 +196,14 @@ static void test_run(void)
 				     "--simulated-detector 2");
 	CHECK(run_tool(args, out, sizeof(out)) == 0);
 	CHECK_MSG(strstr(out, "WARNING: simulated detector") && strstr(out, "Not the evaluation protocol"), "%s", out);
+	/* the preset's rates, one overridden, and what the simulation did */
+	snprintf(args, sizeof(args), "--clip tests/data/ego_demo --frames 6 --reference-frames 0 --no-thesis --quiet "
+				     "--simulated-detector 2 --sim-preset ego --sim-swap 0.5");
+	CHECK(run_tool(args, out, sizeof(out)) == 0);
+	CHECK_MSG(strstr(out, "collapse 0.10, swap 0.50") && strstr(out, "confidences blind"), "%s", out);
+	double swapped = -1;
+	const char *sim = strstr(line_of(out, "SIMDET clip=ego_demo "), "swapped_pct=");
+	CHECK_MSG(sim && sscanf(sim, "swapped_pct=%lf", &swapped) == 1 && swapped > 25 && swapped < 75, "%s", out);
 }
 
 /* The outside-in layout (tests/data/outside_demo: cameras.json, camK/):
@@ -477,6 +485,15 @@ static void test_bad_command_lines(void)
 	CHECK(run_tool("--clip /nonexistent/clip", out, sizeof(out)) != 0 && strstr(out, "/nonexistent/clip"));
 	CHECK_MSG(run_tool("--clip tests/data/ego_demo --frames many", out, sizeof(out)) != 0 && strstr(out, "frames"),
 		  "%s", out);
+	CHECK(run_tool("--clip tests/data/ego_demo --sim-collapse 0.2", out, sizeof(out)) == 2 &&
+	      strstr(out, "--sim-* options need --simulated-detector PX"));
+	CHECK(run_tool("--clip tests/data/ego_demo --simulated-detector 2 --sim-preset lab", out, sizeof(out)) == 2 &&
+	      strstr(out, "--sim-preset: expected ego, outside or none, got 'lab'"));
+	CHECK(run_tool("--clip tests/data/ego_demo --simulated-detector 2 --sim-outlier 1.5", out, sizeof(out)) == 2 &&
+	      strstr(out, "--sim-outlier: expected a rate in [0, 1]"));
+	CHECK(run_tool("--clip tests/data/ego_demo --simulated-detector 2 --sim-collapse 0.8 --sim-swap 0.3", out,
+		       sizeof(out)) == 2 &&
+	      strstr(out, "add up to more than 1"));
 	CHECK(run_tool("--clip tests/data/ego_demo --backend cuda", out, sizeof(out)) != 0 &&
 	      strstr(out, "--backend: expected opencl or reference"));
 	CHECK_MSG(run_tool("--clip tests/data/ego_demo --overlay-dir /nonexistent/x/y", out, sizeof(out)) != 0 &&

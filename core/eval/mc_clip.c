@@ -169,29 +169,3 @@ int mc_clip_init_tracker(const mc_clip *clip, mc_tracker *t, mc_err *err)
 	mc_clip_free_frame(views);
 	return rc;
 }
-
-static double gaussian_noise(uint64_t *rng)
-{
-	double u1 = ((mc_rng_next(rng) >> 11) + 0.5) * 0x1.0p-53, u2 = mc_rng_uniform(rng); /* u1 in (0, 1) */
-	return sqrt(-2 * log(u1)) * cos(2 * M_PI * u2);
-}
-
-int mc_clip_simulated_keypoints(const mc_clip *clip, const mc_model *m, const char *const *joints, int njoints, int k,
-				double noise_px, uint64_t *rng, mc_keypoint *kp, int cap)
-{
-	int n = 0;
-	for (int e = 0; e < njoints; e++) {
-		int g = mc_clip_joint(clip, joints[e]), j = mc_model_find_joint(m, joints[e]);
-		for (int c = 0; c < clip->rig.ncams && g >= 0 && j >= 0 && n < cap; c++) {
-			const mc_camera *cam = &clip->rig.cams[c];
-			mc_vec3 p = mc_xform_apply(mc_xform_inverse(cam->rig_from_cam), mc_clip_gt(clip, k, g));
-			double u, v;
-			bool seen = mc_camera_project(cam, p, &u, &v);
-			if (!seen || mc_rng_uniform(rng) < MC_CLIP_SIMULATED_MISS)
-				continue;
-			kp[n++] = (mc_keypoint){c, j, u + noise_px * gaussian_noise(rng), v + noise_px * gaussian_noise(rng),
-						1.0};
-		}
-	}
-	return n;
-}

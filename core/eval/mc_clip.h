@@ -71,7 +71,8 @@ int mc_clip_init_tracker(const mc_clip *clip, mc_tracker *t, mc_err *err);
  * (never the evaluation protocol): the named joints of frame k projected
  * from the ground truth into every camera, with Gaussian noise of noise_px
  * native pixels per axis, MC_CLIP_SIMULATED_MISS of them missed.  Returns
- * the number of keypoints written (at most cap). */
+ * the number of keypoints written (at most cap).  mc_simdet.c, which adds
+ * the gross errors of real detectors. */
 #define MC_CLIP_SIMULATED_MISS 0.15
 int mc_clip_simulated_keypoints(const mc_clip *clip, const mc_model *m, const char *const *joints, int njoints, int k,
 				double noise_px, uint64_t *rng, mc_keypoint *kp, int cap);

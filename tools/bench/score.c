@@ -208,6 +208,20 @@ void bench_print_init_report(const mc_tracker *t, const mc_clip *clip, const ben
 		print_bones(t, clip, st);
 }
 
+static double pct(long a, long b)
+{
+	return b ? 100.0 * a / b : 0;
+}
+
+void bench_print_simdet(const mc_clip *clip, const mc_simdet_stats *s)
+{
+	printf("SIMDET clip=%s keypoints=%ld far_pct=%.1f collapsed_pct=%.1f swapped_pct=%.1f occluded_pct=%.1f "
+	       "occluded_wrong_pct=%.1f outlier_pct=%.1f\n",
+	       clip->name, s->keypoints, pct(s->far, s->keypoints), pct(s->collapsed, s->pairs),
+	       pct(s->swapped, s->pairs), pct(s->occluded, s->keypoints), pct(s->occluded_wrong, s->occluded),
+	       pct(s->outliers, s->keypoints));
+}
+
 bench_timing bench_timing_of(const double *ms, int n)
 {
 	double *sorted = malloc(sizeof(double) * (n ? n : 1));

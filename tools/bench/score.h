@@ -7,6 +7,7 @@
 
 #include "eval/mc_clip.h"
 #include "eval/mc_jitter.h"
+#include "eval/mc_simdet.h"
 #include "track/mc_tracker.h"
 
 #define BENCH_NEVAL 15
@@ -27,6 +28,7 @@ typedef struct {
 	int conf_n[4];
 	double conf_err[4];
 	mc_jitter jitter; /* over the tracked frame sets, initialised by bench_score_begin */
+	mc_simdet_stats sim; /* what the simulated detector did */
 } bench_stats;
 
 /* Before the first frame set: the jitter's joints and the time between
@@ -40,6 +42,14 @@ double bench_mpjpe(const bench_stats *st);
 void bench_print_accuracy(const mc_clip *clip, const bench_stats *st);
 /* JITTER clip=NAME vel_err_ms=X accel_ratio=Y (nan when undefined). */
 void bench_print_jitter(const mc_clip *clip, const bench_stats *st);
+/* What the simulated detector did, as shares:
+ *   SIMDET clip=NAME keypoints=N far_pct=F collapsed_pct=C swapped_pct=S occluded_pct=O
+ *     occluded_wrong_pct=W outlier_pct=X
+ * far: keypoints more than 10 px (128-wide scale) off; collapsed, swapped:
+ * of the (view, pair) cases with both keypoints; occluded: of the
+ * keypoints of paired joints checked; occluded_wrong: of those occluded
+ * ones; outlier: of the keypoints. */
+void bench_print_simdet(const mc_clip *clip, const mc_simdet_stats *s);
 /* --init detect: when tracking started and, with a ground truth, the
  * bone lengths against it (the BONES line). */
 void bench_print_init_report(const mc_tracker *t, const mc_clip *clip, const bench_stats *st);
