@@ -5,9 +5,6 @@
 
 #include <math.h>
 #include <stdbool.h>
-#include <stdio.h>
-#include <stdlib.h>
-#include <string.h>
 
 /* Rays of the usable keypoints; returns the count. */
 static int keypoint_rays(const mc_tracker *t, const mc_keypoint *kp, int nkp, mc_trk_keypoint_ray *out, int *cam)
@@ -63,88 +60,12 @@ static void gate_views(mc_trk_keypoint_ray *r, const int *cam, int n)
 			r[i].weight = 0;
 }
 
-/* The model joint on the other side of the body ("left_x" <-> "right_x"),
- * or -1. */
-static int other_side(const mc_model *m, int joint)
-{
-	const char *name = m->joints[joint].name, *rest;
-	char want[MC_JOINT_NAME_MAX + 8];
-	if (strncmp(name, "left_", 5) == 0)
-		rest = name + 5, snprintf(want, sizeof(want), "right_%s", rest);
-	else if (strncmp(name, "right_", 6) == 0)
-		rest = name + 6, snprintf(want, sizeof(want), "left_%s", rest);
-	else
-		return -1;
-	for (int j = 0; j < m->njoints; j++)
-		if (strcmp(m->joints[j].name, want) == 0)
-			return j;
-	return -1;
-}
-
-static int side_variant(void)
-{
-	const char *e = getenv("MC_ASSIGN_SIDES");
-	return e ? atoi(e) : 1;
-}
-
-static double ray_distance(mc_vec3 p, const mc_trk_keypoint_ray *r)
-{
-	return mc_v3_norm(mc_v3_reject(mc_v3_sub(p, r->origin), r->dir));
-}
-
-/* Rays closer than this (radians) are one peak reported under both labels. */
-#define COLLAPSE_RAD 0.01
-
-/* One view's keypoints of a left/right pair, a and b (rays labelled with
- * the pair's two joints), matched to the two joints of the pose at fk by
- * the assignment that costs least (issue 35: the detector often cannot
- * tell the sides, the tracker knows them from the last frame set).  A pair
- * collapsed onto one peak pulls only the joint nearer to it. */
-static void assign_pair(const mc_fk *fk, mc_trk_keypoint_ray *a, mc_trk_keypoint_ray *b)
-{
-	mc_vec3 pa = fk->rig_from_joint[a->joint].t, pb = fk->rig_from_joint[b->joint].t;
-	if (mc_v3_dot(a->dir, b->dir) > cos(COLLAPSE_RAD)) {
-		double near_a = fmin(ray_distance(pa, a), ray_distance(pa, b));
-		double near_b = fmin(ray_distance(pb, a), ray_distance(pb, b));
-		(near_a <= near_b ? b : a)->weight = 0;
-		return;
-	}
-	if (side_variant() == 2)
-		return;
-	double kept = ray_distance(pa, a) + ray_distance(pb, b), swapped = ray_distance(pa, b) + ray_distance(pb, a);
-	if (side_variant() == 3 ? swapped < 0.5 * kept && kept > 0.10 : swapped < kept) {
-		int j = a->joint;
-		a->joint = b->joint;
-		b->joint = j;
-	}
-}
-
-/* Every view's left/right pairs matched to the pose the tracker holds
- * (t->pose, the last frame set's), before the check across cameras. */
-static void assign_sides(const mc_tracker *t, mc_trk_keypoint_ray *r, const int *cam, int n)
-{
-	if (!t->s.assign_sides || t->init.waiting)
-		return;
-	mc_fk fk;
-	mc_model_fk(&t->model, t->pose, &fk);
-	for (int i = 0; i < n; i++) {
-		int other = other_side(&t->model, r[i].joint);
-		if (other < 0 || strncmp(t->model.joints[r[i].joint].name, "left_", 5) != 0)
-			continue;
-		for (int k = 0; k < n; k++)
-			if (k != i && cam[k] == cam[i] && r[k].joint == other && r[k].weight > 0 && r[i].weight > 0) {
-				assign_pair(&fk, &r[i], &r[k]);
-				break;
-			}
-	}
-}
-
 int mc_trk_prepare_keypoints(const mc_tracker *t, const mc_keypoint *kp, int nkp, mc_trk_keypoint_ray *out, int *cam)
 {
 	if (!kp || nkp <= 0)
 		return 0;
 	int n = keypoint_rays(t, kp, nkp, out, cam);
-	assign_sides(t, out, cam, n);
+	mc_trk_assign_sides(t, out, cam, n);
 	gate_views(out, cam, n);
 	return n;
 }

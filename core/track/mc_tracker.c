@@ -48,7 +48,7 @@ void mc_tracker_settings_default(mc_tracker_settings *s)
 	s->lambda_smooth = 0.1;
 	s->lambda_anchor = 0; /* off: it biases real motion (docs/TRACKER.md) */
 	s->recover = true;
-	s->assign_sides = getenv("MC_ASSIGN_SIDES") ? atoi(getenv("MC_ASSIGN_SIDES")) != 0 : true;
+	s->assign_sides = true;
 	s->cl_platform = -1;
 	s->cl_device = -1;
 	s->seed = 1;

@@ -130,6 +130,10 @@ typedef struct {
 	double weight; /* the detection's confidence, 0..1 */
 } mc_trk_keypoint_ray;
 
+/* Left/right pairs of a frame set's keypoint rays relabelled by the views'
+ * agreement and the tracked pose (mc_sides.c; settings.assign_sides). */
+void mc_trk_assign_sides(const mc_tracker *t, mc_trk_keypoint_ray *r, const int *cam, int n);
+
 /* The frame's keypoints as rays, once per frame, with each ray's camera
  * (cam): unusable ones left out, and those that disagree with more of the
  * other cameras' rays of their joint than agree given weight 0.  Returns

@@ -11,6 +11,9 @@
 /* A detection further than this from the projected ground truth (pixels at
  * the detector's input resolution) counts as false. */
 #define FALSE_PX 10.0
+/* A keypoint agrees with the other views when their triangulation lands
+ * within this many pixels of it, at a 640-pixel image side (issue 36). */
+#define AGREE_PX_AT_640 15.0
 
 int bench_detector_open(bench_detector *bd, const char *path, const mc_model *model, const mc_clip *clip, int every,
 			int nframes, mc_err *err)
@@ -107,23 +110,38 @@ int bench_detector_run(bench_detector *bd, const mc_clip *clip, int k, const mc_
 		score_view(bd, clip, k, c, det, nd, (double)in_w / views[c].width);
 		n += mc_detections_to_keypoints(det, nd, c, bd->model_map, kp + n, max - n);
 	}
+	mc_view_agreement_add(&bd->agree, &clip->rig, kp, n, 0.0, AGREE_PX_AT_640);
 	return n;
 }
 
-/* A clip without ground truth: only the cost (no DETECT2D line, as nothing
- * was scored). */
-static void report_cost_only(bench_detector *bd)
+/* How far the views agree (clips with four cameras or more): the measure
+ * for footage without ground truth, printed for every clip. */
+static void report_agreement(const bench_detector *bd, const mc_clip *clip)
+{
+	if (bd->agree.checked == 0)
+		return;
+	double pct = 100.0 * (double)bd->agree.agreed / (double)bd->agree.checked;
+	printf("  views  %.1f %% of %ld keypoints lie within %.0f px (at 640) of their joint triangulated from three "
+	       "other cameras\n",
+	       pct, bd->agree.checked, AGREE_PX_AT_640);
+	printf("AGREE clip=%s checked=%ld agreed_pct=%.1f\n", clip->name, bd->agree.checked, pct);
+}
+
+/* A clip without ground truth: the cost and the agreement across views (no
+ * DETECT2D line, as nothing was scored). */
+static void report_cost_only(bench_detector *bd, const mc_clip *clip)
 {
 	mc_stats_sort(bd->view_ms, (size_t)bd->nviews);
 	printf("detector (%s): 2D error not scored (the clip has no gt.json); cost %.2f ms per view (median of %d "
 	       "views, one thread)\n",
 	       mc_detector_path(bd->det), mc_stats_percentile(bd->view_ms, (size_t)bd->nviews, 50), bd->nviews);
+	report_agreement(bd, clip);
 }
 
 void bench_detector_report(bench_detector *bd, const mc_clip *clip)
 {
 	if (!clip->has_gt) {
-		report_cost_only(bd);
+		report_cost_only(bd, clip);
 		return;
 	}
 	const char *clip_name = clip->name;
@@ -153,5 +171,6 @@ void bench_detector_report(bench_detector *bd, const mc_clip *clip)
 	printf("  cost   %.2f ms per view (median of %d views, one thread)\n", ms, bd->nviews);
 	printf("DETECT2D clip=%s median_px=%.2f p90_px=%.2f missed=%d in_image=%d false=%d reported=%d ms_view=%.2f\n",
 	       clip_name, med, p90, bd->missed, bd->in_image, bd->false_pos, bd->reported, ms);
+	report_agreement(bd, clip);
 	free(all);
 }

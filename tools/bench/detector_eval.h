@@ -7,6 +7,7 @@
 #define BENCH_DETECTOR_EVAL_H
 
 #include "eval/mc_clip.h"
+#include "eval/mc_view_agreement.h"
 #include "mc_detector.h"
 #include "bench/joint_groups.h"
 
@@ -21,6 +22,8 @@ typedef struct {
 	double *err[BENCH_GROUPS];
 	int nerr[BENCH_GROUPS], cap;
 	int in_image, missed, false_pos, reported;
+	/* agreement across views (4+ cameras; eval/mc_view_agreement.h) */
+	mc_view_agreement agree;
 	/* cost */
 	double *view_ms;
 	int nviews, views_cap;

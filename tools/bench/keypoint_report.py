@@ -79,10 +79,9 @@ def load_clip(clip):
 
 
 def truth_2d(gt, cams, key, index, camera, joint):
-    names = gt["joint_names"]
-    if joint not in names or index >= len(gt["frames"]):
+    if index >= len(gt["frames"]) or joint not in gt["frames"][index][key]:
         return None
-    p = np.array(gt["frames"][index][key][names.index(joint)], float)
+    p = np.array(gt["frames"][index][key][joint], float)
     project, w, h = cams[camera]
     uv = project(p)
     if uv is None:

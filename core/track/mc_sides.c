@@ -1,0 +1,191 @@
+/* Which keypoint is the left limb and which the right (issue 35, "the
+ * tracker decides the sides"; docs/TRACKER.md, "Sides").
+ *
+ * A detector that has not seen a face (the mannequins of our renders) or
+ * sees a limb from behind mixes the sides up: MoveNet swaps 22 % of
+ * left/right pairs on the outside-in renders, our own outside-in model put
+ * both labels on one limb in 92 % of views.  The detector's labels are
+ * therefore a hint, and three things decide:
+ *   1. a pair collapsed onto one peak (both rays within COLLAPSE_RAD) is
+ *      one limb: it pulls only the joint of the tracked pose nearer to it;
+ *   2. with three cameras or more, the views must agree: each view's
+ *      labels are kept or exchanged so that both joints triangulate best
+ *      (the first such view fixed, the others enumerated), and the set as a
+ *      whole then faces the way most views said;
+ *   3. the tracked pose (the last frame set's) exchanges the labels of a
+ *      pair (in one view, or in every view at once after step 2) when the
+ *      exchanged labels fit it clearly better: at most half the cost, and
+ *      the kept labels at least SIDE_MIN_COST_M off per view.  The margin
+ *      keeps a right detection from being overruled by a pose that has
+ *      drifted; a pose that is far off is the re-fit's to mend. */
+#include "track/mc_tracker_internal.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <string.h>
+
+#define COLLAPSE_RAD 0.01
+#define SIDE_MIN_COST_M 0.10
+#define SIDE_MAX_VIEWS 8 /* views enumerated in step 2 (2^7 combinations) */
+
+static double ray_distance(mc_vec3 p, const mc_trk_keypoint_ray *r)
+{
+	return mc_v3_norm(mc_v3_reject(mc_v3_sub(p, r->origin), r->dir));
+}
+
+/* The model joint on the other side of the body, or -1. */
+static int other_side(const mc_model *m, int joint)
+{
+	const char *name = m->joints[joint].name;
+	char want[MC_JOINT_NAME_MAX + 8];
+	if (strncmp(name, "left_", 5) != 0)
+		return -1;
+	snprintf(want, sizeof(want), "right_%s", name + 5);
+	for (int j = 0; j < m->njoints; j++)
+		if (strcmp(m->joints[j].name, want) == 0)
+			return j;
+	return -1;
+}
+
+static void exchange(mc_trk_keypoint_ray *a, mc_trk_keypoint_ray *b)
+{
+	int j = a->joint;
+	a->joint = b->joint;
+	b->joint = j;
+}
+
+/* Sum of squared distances of rays to their least-squares point. */
+static double spread(const mc_trk_keypoint_ray *const *rays, int n)
+{
+	double A[9] = {0}, b[3] = {0};
+	for (int i = 0; i < n; i++) {
+		double d[3] = {rays[i]->dir.x, rays[i]->dir.y, rays[i]->dir.z};
+		double o[3] = {rays[i]->origin.x, rays[i]->origin.y, rays[i]->origin.z};
+		for (int p = 0; p < 3; p++)
+			for (int q = 0; q < 3; q++) {
+				double P = (p == q) - d[p] * d[q];
+				A[3 * p + q] += P;
+				b[p] += P * o[q];
+			}
+	}
+	if (!mc_la_lu_solve(A, b, 3))
+		return INFINITY;
+	mc_vec3 x = mc_v3(b[0], b[1], b[2]);
+	double s = 0;
+	for (int i = 0; i < n; i++) {
+		double d = ray_distance(x, rays[i]);
+		s += d * d;
+	}
+	return s;
+}
+
+/* One pair's views: a[v], b[v] the rays labelled left and right in view v. */
+typedef struct {
+	mc_trk_keypoint_ray *a[MC_MAX_CAMERAS], *b[MC_MAX_CAMERAS];
+	int n;
+} pair_views;
+
+/* Step 2: the exchanges (bit v: view v exchanged; view 0 never) under which
+ * both joints' rays meet best. */
+static unsigned consistent_flips(const pair_views *p)
+{
+	int n = p->n < SIDE_MAX_VIEWS ? p->n : SIDE_MAX_VIEWS;
+	unsigned best = 0;
+	double best_cost = INFINITY;
+	for (unsigned flips = 0; flips < (1u << (n - 1)); flips++) {
+		const mc_trk_keypoint_ray *left[MC_MAX_CAMERAS], *right[MC_MAX_CAMERAS];
+		for (int v = 0; v < n; v++) {
+			bool x = v > 0 && (flips >> (v - 1)) & 1;
+			left[v] = x ? p->b[v] : p->a[v];
+			right[v] = x ? p->a[v] : p->b[v];
+		}
+		double cost = spread(left, n) + spread(right, n);
+		if (cost < best_cost) {
+			best_cost = cost;
+			best = flips << 1;
+		}
+	}
+	/* Face the way most views said: exchange every view if most were. */
+	int flipped = __builtin_popcount(best);
+	if (2 * flipped > n)
+		best = ~best & ((1u << n) - 1);
+	return best;
+}
+
+/* Step 3 over the views of p (all of them as one, or each alone). */
+static void follow_pose(const mc_fk *fk, pair_views *p, bool as_one)
+{
+	double kept_all = 0, swapped_all = 0;
+	for (int v = 0; v < p->n; v++) {
+		mc_vec3 pa = fk->rig_from_joint[p->a[v]->joint].t, pb = fk->rig_from_joint[p->b[v]->joint].t;
+		double kept = ray_distance(pa, p->a[v]) + ray_distance(pb, p->b[v]);
+		double swapped = ray_distance(pa, p->b[v]) + ray_distance(pb, p->a[v]);
+		if (!as_one && swapped < 0.5 * kept && kept > SIDE_MIN_COST_M)
+			exchange(p->a[v], p->b[v]);
+		kept_all += kept;
+		swapped_all += swapped;
+	}
+	if (as_one && swapped_all < 0.5 * kept_all && kept_all > SIDE_MIN_COST_M * p->n)
+		for (int v = 0; v < p->n; v++)
+			exchange(p->a[v], p->b[v]);
+}
+
+/* Step 1: a collapsed pair keeps only the ray of the joint nearer to it
+ * (with no pose yet, the one with more confidence).  True if collapsed. */
+static bool drop_collapsed(const mc_fk *fk, mc_trk_keypoint_ray *a, mc_trk_keypoint_ray *b)
+{
+	if (mc_v3_dot(a->dir, b->dir) <= cos(COLLAPSE_RAD))
+		return false;
+	bool keep_a = a->weight >= b->weight;
+	if (fk) {
+		mc_vec3 pa = fk->rig_from_joint[a->joint].t, pb = fk->rig_from_joint[b->joint].t;
+		keep_a = ray_distance(pa, a) <= ray_distance(pb, a);
+	}
+	(keep_a ? b : a)->weight = 0;
+	return true;
+}
+
+/* The views in which both joints of the pair (left, right) have a ray. */
+static void collect(mc_trk_keypoint_ray *r, const int *cam, int n, int left, int right, const mc_fk *fk,
+		    pair_views *p)
+{
+	p->n = 0;
+	for (int i = 0; i < n; i++) {
+		if (r[i].joint != left || !(r[i].weight > 0))
+			continue;
+		for (int k = 0; k < n; k++)
+			if (r[k].joint == right && cam[k] == cam[i] && r[k].weight > 0) {
+				if (!drop_collapsed(fk, &r[i], &r[k]) && p->n < MC_MAX_CAMERAS) {
+					p->a[p->n] = &r[i];
+					p->b[p->n++] = &r[k];
+				}
+				break;
+			}
+	}
+}
+
+void mc_trk_assign_sides(const mc_tracker *t, mc_trk_keypoint_ray *r, const int *cam, int n)
+{
+	if (!t->s.assign_sides)
+		return;
+	mc_fk fk;
+	bool have_pose = !t->init.waiting;
+	if (have_pose)
+		mc_model_fk(&t->model, t->pose, &fk);
+	for (int left = 0; left < t->model.njoints; left++) {
+		int right = other_side(&t->model, left);
+		if (right < 0)
+			continue;
+		pair_views p;
+		collect(r, cam, n, left, right, have_pose ? &fk : NULL, &p);
+		bool views_agree = p.n >= 3;
+		if (views_agree) {
+			unsigned flips = consistent_flips(&p);
+			for (int v = 0; v < p.n; v++)
+				if ((flips >> v) & 1)
+					exchange(p.a[v], p.b[v]);
+		}
+		if (have_pose && p.n > 0)
+			follow_pose(&fk, &p, views_agree);
+	}
+}
