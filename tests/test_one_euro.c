@@ -1,0 +1,261 @@
+/* Tests of the One-Euro filter (core/base/mc_one_euro) and of the skeleton
+ * filter over it (core/track/mc_skeleton_filter), at 30 fps with the
+ * daemon's defaults (1 Hz, beta 4, 1 Hz): the first sample passes through,
+ * jitter on a still point shrinks by a stated factor, a ramp is followed
+ * with the stated lag, the velocity estimate is the ramp's speed, and the
+ * skeleton filter starts again after a gap, a lost pose or a new skeleton.
+ * The figures printed are those docs/CONFIG.md ("[output]") quotes. */
+#include "base/mc_one_euro.h"
+#include "track/mc_skeleton_filter.h"
+#include "test_util.h"
+
+#define RATE 30.0
+#define DT (1.0 / RATE)
+
+/* Standard normal numbers (Box-Muller) from the tests' generator. */
+static double gauss(unsigned long long *rng)
+{
+	double u = mc_test_rand(rng), v = mc_test_rand(rng);
+	return sqrt(-2.0 * log(u > 1e-300 ? u : 1e-300)) * cos(2.0 * M_PI * v);
+}
+
+static mc_one_euro_params defaults(void)
+{
+	mc_one_euro_params p;
+	mc_one_euro_params_default(&p);
+	return p;
+}
+
+static void test_first_sample(void)
+{
+	mc_one_euro_params p = defaults();
+	mc_one_euro3 f;
+	mc_one_euro3_reset(&f);
+	mc_vec3 x = mc_v3(0.3, -1.2, 2.5);
+	CHECK(mc_one_euro3_step(&f, &p, x, DT) == 1.0);
+	CHECK(f.value.x == x.x && f.value.y == x.y && f.value.z == x.z);
+	CHECK(mc_v3_norm(f.velocity) == 0);
+	/* the second sample is blended: between the two inputs */
+	mc_one_euro3_step(&f, &p, mc_v3(0.4, -1.2, 2.5), DT);
+	CHECK(f.value.x > 0.3 && f.value.x < 0.4);
+}
+
+/* A still point with 1 cm of Gaussian noise per axis: the output's spread
+ * is at most 1/2.5 of the input's (2.8x measured). */
+static void test_jitter(void)
+{
+	mc_one_euro_params p = defaults();
+	mc_one_euro3 f;
+	mc_one_euro3_reset(&f);
+	unsigned long long rng = 7;
+	const double sigma = 0.01;
+	double in2 = 0, out2 = 0;
+	int n = 0;
+	for (int i = 0; i < 900; i++) {
+		mc_vec3 x = mc_v3(sigma * gauss(&rng), sigma * gauss(&rng), sigma * gauss(&rng));
+		mc_one_euro3_step(&f, &p, x, DT);
+		if (i >= 60) { /* past the start */
+			in2 += mc_v3_norm2(x);
+			out2 += mc_v3_norm2(f.value);
+			n++;
+		}
+	}
+	double ratio = sqrt(in2 / n) / sqrt(out2 / n);
+	printf("jitter: still point, 1 cm noise at 30 fps: spread %.2f mm in, %.2f mm out (%.1fx less)\n",
+	       1e3 * sqrt(in2 / n / 3), 1e3 * sqrt(out2 / n / 3), ratio);
+	CHECK_MSG(ratio >= 2.5, "jitter reduced only %.2fx", ratio);
+}
+
+/* A ramp at `speed` m/s from rest: returns the steady lag in ms (after
+ * 3 s) and the largest lag over the first second (*onset_ms). */
+static double ramp_lag_ms(const mc_one_euro_params *p, double speed, double *onset_ms)
+{
+	mc_one_euro3 f;
+	mc_one_euro3_reset(&f);
+	*onset_ms = 0;
+	double lag = 0;
+	for (int i = 0; i <= 3 * (int)RATE; i++) {
+		double x = speed * i * DT;
+		mc_one_euro3_step(&f, p, mc_v3(x, 0, 0), DT);
+		lag = (x - f.value.x) / speed * 1e3;
+		if (i <= (int)RATE)
+			*onset_ms = fmax(*onset_ms, lag);
+	}
+	CHECK_NEAR(f.velocity.x, speed, 0.01 * speed); /* the velocity estimate is the ramp's speed */
+	return lag;
+}
+
+static void test_ramp_lag(void)
+{
+	mc_one_euro_params p = defaults();
+	const double speeds[] = {0.1, 0.5, 1.0, 2.0};
+	for (int i = 0; i < 4; i++) {
+		double onset, lag = ramp_lag_ms(&p, speeds[i], &onset);
+		double expect = 1e3 * mc_one_euro_lag_s(&p, speeds[i]);
+		printf("lag: ramp at %.1f m/s, 30 fps: %.1f ms steady (tau %.1f ms), at most %.1f ms in the first second\n",
+		       speeds[i], lag, expect, onset);
+		CHECK_NEAR(lag, expect, 0.02 * expect + 0.5);
+		CHECK(onset >= lag - 0.5);
+	}
+	/* bounded: at 1 m/s within 35 ms, and within 100 ms from the start */
+	double onset, lag = ramp_lag_ms(&p, 1.0, &onset);
+	CHECK_MSG(lag <= 35 && onset <= 100, "lag %.1f ms, onset %.1f ms", lag, onset);
+	/* the lag does not depend on the frame rate (60 fps, 1 m/s) */
+	mc_one_euro3 f;
+	mc_one_euro3_reset(&f);
+	for (int i = 0; i <= 180; i++)
+		mc_one_euro3_step(&f, &p, mc_v3(i / 60.0, 0, 0), 1 / 60.0);
+	CHECK_NEAR((3.0 - f.value.x) * 1e3, 1e3 * mc_one_euro_lag_s(&p, 1.0), 1.0);
+}
+
+/* Prediction from two consecutive outputs (what mocap_predict does with
+ * two filtered poses of the pose block) on a noisy ramp: the velocity of
+ * the outputs' difference is unbiased and far less noisy than the raw
+ * difference's. */
+static void test_velocity(void)
+{
+	mc_one_euro_params p = defaults();
+	mc_one_euro3 f;
+	mc_one_euro3_reset(&f);
+	unsigned long long rng = 11;
+	const double speed = 0.5, sigma = 0.005;
+	double raw_prev = 0, out_prev = 0, raw_err2 = 0, out_err2 = 0, out_sum = 0, dxhat_err2 = 0;
+	int n = 0;
+	for (int i = 0; i < 600; i++) {
+		double x = speed * i * DT + sigma * gauss(&rng);
+		mc_one_euro3_step(&f, &p, mc_v3(x, 0, 0), DT);
+		if (i >= 90) {
+			double v_raw = (x - raw_prev) / DT, v_out = (f.value.x - out_prev) / DT;
+			raw_err2 += (v_raw - speed) * (v_raw - speed);
+			out_err2 += (v_out - speed) * (v_out - speed);
+			dxhat_err2 += (f.velocity.x - speed) * (f.velocity.x - speed);
+			out_sum += v_out;
+			n++;
+		}
+		raw_prev = x, out_prev = f.value.x;
+	}
+	double raw_rms = sqrt(raw_err2 / n), out_rms = sqrt(out_err2 / n), dxhat_rms = sqrt(dxhat_err2 / n);
+	printf("velocity: ramp 0.5 m/s + 5 mm noise: error rms %.3f m/s from raw pairs, %.3f from filtered pairs, "
+	       "%.3f from dx_hat\n", raw_rms, out_rms, dxhat_rms);
+	CHECK_NEAR(out_sum / n, speed, 0.02);
+	CHECK_MSG(out_rms * 2.5 <= raw_rms, "filtered pairs %.3f against raw %.3f m/s", out_rms, raw_rms);
+}
+
+static void still_skeleton(mc_skeleton *sk, uint64_t t_ns)
+{
+	memset(sk, 0, sizeof(*sk));
+	sk->timestamp_ns = t_ns;
+	sk->state = MC_TRACK_OK;
+	sk->njoints = 3;
+	for (int j = 0; j < 3; j++) {
+		sk->joints[j].parent = j - 1;
+		sk->joints[j].position = mc_v3(0, 0, 0.3 * j);
+		sk->joints[j].orientation = mc_quat_identity();
+	}
+}
+
+/* Moves every joint by dx along x: the skeleton a filter gets next. */
+static mc_skeleton moved(const mc_skeleton *sk, double dx, uint64_t t_ns)
+{
+	mc_skeleton n = *sk;
+	n.timestamp_ns = t_ns;
+	for (int j = 0; j < n.njoints; j++)
+		n.joints[j].position.x += dx;
+	return n;
+}
+
+static void test_skeleton_restarts(void)
+{
+	mc_one_euro_params p = defaults();
+	mc_skeleton_filter *f = malloc(sizeof(*f));
+	mc_skeleton *sk = malloc(sizeof(*sk)), *s2 = malloc(sizeof(*s2));
+	CHECK(f && sk && s2);
+	if (!f || !sk || !s2)
+		goto out;
+	mc_skeleton_filter_init(f, &p, 0.2);
+	uint64_t t = 1000000000ull, frame = (uint64_t)(DT * 1e9);
+	still_skeleton(sk, t);
+	CHECK(!mc_skeleton_filter_apply(f, sk)); /* the first passes through */
+	*s2 = moved(sk, 0.1, t + frame);
+	CHECK(mc_skeleton_filter_apply(f, s2)); /* the next is blended */
+	CHECK(s2->joints[1].position.x > 0 && s2->joints[1].position.x < 0.1);
+	/* after a 300 ms gap (more than 200) it passes through */
+	*s2 = moved(sk, 0.2, t + 10 * frame);
+	CHECK(!mc_skeleton_filter_apply(f, s2));
+	CHECK(s2->joints[1].position.x == 0.2);
+	/* a lost pose passes through, and the next starts again */
+	*s2 = moved(sk, 0.3, t + 11 * frame);
+	s2->state = MC_TRACK_LOST;
+	CHECK(!mc_skeleton_filter_apply(f, s2) && s2->joints[1].position.x == 0.3);
+	*s2 = moved(sk, 0.4, t + 12 * frame);
+	CHECK(!mc_skeleton_filter_apply(f, s2) && s2->joints[1].position.x == 0.4);
+	/* an uncertain pose is still smoothed */
+	*s2 = moved(sk, 0.5, t + 13 * frame);
+	s2->state = MC_TRACK_UNCERTAIN;
+	CHECK(mc_skeleton_filter_apply(f, s2) && s2->joints[1].position.x < 0.5);
+	/* another skeleton (joint count), and time going back, start again */
+	*s2 = moved(sk, 0.6, t + 14 * frame);
+	s2->njoints = 2;
+	CHECK(!mc_skeleton_filter_apply(f, s2));
+	*s2 = moved(sk, 0.7, t + 13 * frame);
+	s2->njoints = 2;
+	CHECK(!mc_skeleton_filter_apply(f, s2));
+out:
+	free(f);
+	free(sk);
+	free(s2);
+}
+
+/* A chain whose root turns at 2 rad/s about z, with noise on the
+ * orientations: the orientations stay unit quaternions, their jitter
+ * shrinks, and the root's rotation follows its moving child rather than
+ * its still position (the lag of a child, not of min_cutoff). */
+static void test_skeleton_rotation(void)
+{
+	mc_one_euro_params p = defaults();
+	mc_skeleton_filter *f = malloc(sizeof(*f));
+	mc_skeleton *sk = malloc(sizeof(*sk));
+	CHECK(f && sk);
+	if (!f || !sk)
+		goto out;
+	mc_skeleton_filter_init(f, &p, 0.2);
+	unsigned long long rng = 5;
+	double in_err = 0, out_err = 0, lag_angle = 0;
+	for (int i = 0; i < 300; i++) {
+		double angle = 2.0 * i * DT;
+		still_skeleton(sk, 1000000000ull + (uint64_t)(i * DT * 1e9));
+		mc_quat truth = mc_quat_from_rotvec(mc_v3(0, 0, angle));
+		mc_vec3 noise = mc_v3(0.02 * gauss(&rng), 0.02 * gauss(&rng), 0.02 * gauss(&rng));
+		sk->joints[0].orientation = mc_quat_mul(mc_quat_from_rotvec(noise), truth);
+		sk->joints[1].position = mc_quat_rotate(truth, mc_v3(0.5, 0, 0)); /* the child moves at 1 m/s */
+		mc_skeleton_filter_apply(f, sk);
+		mc_quat q = sk->joints[0].orientation;
+		CHECK_NEAR(q.w * q.w + q.x * q.x + q.y * q.y + q.z * q.z, 1.0, 1e-9);
+		if (i >= 60) {
+			mc_quat d = mc_quat_mul(q, (mc_quat){truth.w, -truth.x, -truth.y, -truth.z});
+			mc_vec3 err = mc_quat_to_rotvec(d);
+			lag_angle += -err.z; /* behind the truth about z */
+			out_err += err.x * err.x + err.y * err.y;
+			in_err += noise.x * noise.x + noise.y * noise.y;
+		}
+	}
+	double lag_ms = lag_angle / 240 / 2.0 * 1e3, ratio = sqrt(in_err / out_err);
+	printf("rotation: root turning at 2 rad/s, child at 1 m/s: lag %.1f ms (child tau %.1f ms), "
+	       "off-axis jitter %.1fx less\n", lag_ms, 1e3 * mc_one_euro_lag_s(&p, 1.0), ratio);
+	CHECK_MSG(lag_ms < 1e3 * mc_one_euro_lag_s(&p, 1.0) + 10, "rotation lag %.1f ms", lag_ms);
+	CHECK_MSG(ratio >= 1.5, "rotation jitter reduced only %.2fx", ratio);
+out:
+	free(f);
+	free(sk);
+}
+
+int main(void)
+{
+	test_first_sample();
+	test_jitter();
+	test_ramp_lag();
+	test_velocity();
+	test_skeleton_restarts();
+	test_skeleton_rotation();
+	return mc_test_finish("test_one_euro");
+}
