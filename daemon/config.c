@@ -166,12 +166,14 @@ static void begin_section(parser *p, const char *name)
 		p->kind = MCD_SEC_RECORD;
 	else if (strcmp(name, "source") == 0)
 		p->kind = MCD_SEC_SOURCE;
+	else if (strcmp(name, "output") == 0)
+		p->kind = MCD_SEC_OUTPUT;
 	else if (strncmp(name, "camera", 6) == 0 && (name[6] == ' ' || name[6] == 0)) {
 		p->kind = MCD_SEC_CAMERA;
 		begin_camera(p, name);
 	} else {
 		p->known = false;
-		fail(p, "unknown section [%s] (expected [daemon], [camera NAME], [tracker], [socket], [detector], [network], [record] or [source])", name);
+		fail(p, "unknown section [%s] (expected [daemon], [camera NAME], [tracker], [socket], [detector], [network], [record], [source] or [output])", name);
 	}
 }
 
