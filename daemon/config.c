@@ -130,7 +130,8 @@ static void begin_camera(parser *p, const char *name)
 	}
 	mcd_camera_config *cam = &p->cfg->cams[p->cfg->ncams++];
 	memset(cam, 0, sizeof(*cam));
-	snprintf(cam->name, sizeof(cam->name), "%s", cam_name);
+	/* checked above to fit; the precision tells the compiler so (-O1 builds warn otherwise) */
+	snprintf(cam->name, sizeof(cam->name), "%.*s", (int)sizeof(cam->name) - 1, cam_name);
 	cam->line = p->line;
 	mcd_camera_config_defaults(cam);
 	p->cam = cam;

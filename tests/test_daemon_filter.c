@@ -4,10 +4,12 @@
  * get) are compared.  With the filter on, the first skeleton is the
  * tracker's own, the joints' frame-to-frame acceleration (jitter) is
  * lower by a stated factor, and the poses stay near the raw ones (the
- * filter follows rather than freezes).  Then a reload turns it on in a
- * running daemon. */
+ * filter follows rather than freezes).  The latest-pose block, read
+ * during the filtered run, holds the printed (filtered) skeletons.  Then a
+ * reload turns the filter on in a running daemon. */
 #include "daemon/harness.h"
 #include "body/mc_model.h"
+#include "mocap.h"
 #include "test_util.h"
 
 #define MAX_LINES 128
@@ -88,15 +90,41 @@ static int parse_output(const char *out, printed_pose *poses, int cap)
 	return n;
 }
 
+/* Reads the poses the daemon writes into the latest-pose block (those
+ * that are newest when the reader looks) until the daemon exits. */
+static int read_block(mcd_run *r, mocap_skeleton_frame *frames, int cap)
+{
+	if (!mcd_run_wait_notify(r, "READY=1", 60000))
+		return 0;
+	mocap_client *c = mocap_connect(r->sock, "filter-test");
+	mocap_pose_block *b = c ? mocap_pose_block_map(c) : NULL;
+	CHECK_MSG(c && b, "%s", mocap_errmsg());
+	int n = 0;
+	uint64_t seen = 0;
+	uint64_t end = mcd_now_ms() + 120000;
+	while (b && n < cap && mcd_now_ms() < end) {
+		if (mocap_pose_block_wait(b, seen, &frames[n], 500) == 1)
+			seen = frames[n++].seq;
+		else if (!mcd_run_alive(r))
+			break;
+	}
+	mocap_pose_block_unmap(b);
+	mocap_close(c);
+	return n;
+}
+
 /* Runs the clip with `output_section`; returns the tracked poses printed
- * (skips the test without OpenCL). */
-static int run_clip(const char *conf, printed_pose *poses, int cap)
+ * (skips the test without OpenCL); with `block`, also the poses of the
+ * latest-pose block (*nblock of them). */
+static int run_clip(const char *conf, printed_pose *poses, int cap, mocap_skeleton_frame *block, int *nblock)
 {
 	mcd_run r;
 	CHECK(mcd_run_init(&r));
 	write_config(&r, conf);
 	const char *const args[] = {"--print", "--exit-at-end", NULL};
 	CHECK(mcd_run_start(&r, args, NULL));
+	if (block)
+		*nblock = read_block(&r, block, cap);
 	int rc = mcd_run_wait_exit(&r, 180000);
 	char *log = rc == 1 ? mcd_read_file(r.log) : NULL;
 	bool no_cl = log && (strstr(log, "OpenCL") || strstr(log, "CL_")) && strstr(log, "error");
@@ -161,14 +189,38 @@ static double mean_offset(const printed_pose *a, int na, const printed_pose *b, 
 	return count ? sum / count : 1e9;
 }
 
+/* How many block poses are one of the printed ones (every joint within
+ * the print's rounding). */
+static int block_in_print(const mocap_skeleton_frame *block, int nblock, const printed_pose *p, int n)
+{
+	int found = 0;
+	for (int i = 0; i < nblock; i++) {
+		bool match = false;
+		for (int k = 0; k < n && !match; k++) {
+			match = block[i].njoints == p[k].njoints;
+			for (int j = 0; j < p[k].njoints && match; j++) {
+				const double *b = block[i].joints[j].position;
+				match = fabs(b[0] - p[k].joint[j].x) < 6e-4 && fabs(b[1] - p[k].joint[j].y) < 6e-4 &&
+					fabs(b[2] - p[k].joint[j].z) < 6e-4;
+			}
+		}
+		found += match;
+	}
+	return found;
+}
+
 static void test_smoother(void)
 {
 	printed_pose *off = calloc(MAX_LINES, sizeof(*off)), *on = calloc(MAX_LINES, sizeof(*on));
-	CHECK(off && on);
-	if (!off || !on)
+	mocap_skeleton_frame *block = calloc(MAX_LINES, sizeof(*block));
+	CHECK(off && on && block);
+	if (!off || !on || !block)
 		goto out;
-	int noff = run_clip(CONF(""), off, MAX_LINES);
-	int non = run_clip(CONF(ONE_EURO), on, MAX_LINES);
+	int noff = run_clip(CONF(""), off, MAX_LINES, NULL, NULL), nblock = 0;
+	int non = run_clip(CONF(ONE_EURO), on, MAX_LINES, block, &nblock);
+	int in_print = block_in_print(block, nblock, on, non);
+	printf("latest-pose block: %d poses read, %d of them as printed\n", nblock, in_print);
+	CHECK_MSG(nblock >= 10 && in_print == nblock, "%d of %d block poses printed", in_print, nblock);
 	CHECK_MSG(noff >= 30 && non >= 30, "tracked %d without the filter, %d with it", noff, non);
 	if (noff < 30 || non < 30)
 		goto out;
@@ -187,6 +239,7 @@ static void test_smoother(void)
 out:
 	free(off);
 	free(on);
+	free(block);
 }
 
 /* A reload turns the filter on in a running daemon. */

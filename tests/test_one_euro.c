@@ -141,6 +141,94 @@ static void test_velocity(void)
 	CHECK_MSG(out_rms * 2.5 <= raw_rms, "filtered pairs %.3f against raw %.3f m/s", out_rms, raw_rms);
 }
 
+/* A joint swinging 0.2 m at 1 Hz (up to 1.26 m/s, a hand waving) with
+ * 5 mm of noise, filtered with p at 30 fps.  Returns the filtered
+ * position's rms error against the truth (mm); *accel_ratio: its mean
+ * frame-to-frame acceleration over the truth's; *pred: what the pose
+ * block's prediction (the newest pose extrapolated from the two newest,
+ * mocap_predict) 50 ms ahead gives from these poses, as [0] rms error
+ * (mm) and [1] acceleration over the truth's, and [2] the rms error with
+ * the horizon lengthened by the lag at the joint's speed (what
+ * docs/PROTOCOL.md suggests to clients); raw: no filter. */
+static double swing(const mc_one_euro_params *p, bool raw, double *accel_ratio, double pred[3])
+{
+	mc_one_euro3 f;
+	mc_one_euro3_reset(&f);
+	unsigned long long rng = 3;
+	const double ahead = 0.05, amp = 0.2, w = 2 * M_PI;
+	double out[3] = {0}, pr[3] = {0}, truth[3] = {0}, err = 0, acc = 0, acc_truth = 0, e_pred = 0, acc_pred = 0,
+	       e_comp = 0;
+	int n = 0;
+	for (int i = 0; i < 900; i++) {
+		double t = i * DT, x = amp * sin(w * t) + 0.005 * gauss(&rng);
+		mc_one_euro3_step(&f, p, mc_v3(x, 0, 0), DT);
+		double y = raw ? x : f.value.x, v = (y - out[2]) / DT;
+		double ahead_truth = amp * sin(w * (t + ahead)), lag = raw ? 0 : mc_one_euro_lag_s(p, fabs(v));
+		out[0] = out[1], out[1] = out[2], out[2] = y;
+		pr[0] = pr[1], pr[1] = pr[2], pr[2] = y + v * ahead;
+		truth[0] = truth[1], truth[1] = truth[2], truth[2] = amp * sin(w * t);
+		if (i >= 60) {
+			err += pow(y - truth[2], 2);
+			acc += fabs(out[2] - 2 * out[1] + out[0]);
+			acc_pred += fabs(pr[2] - 2 * pr[1] + pr[0]);
+			acc_truth += fabs(truth[2] - 2 * truth[1] + truth[0]);
+			e_pred += pow(pr[2] - ahead_truth, 2);
+			e_comp += pow(y + v * (ahead + lag) - ahead_truth, 2);
+			n++;
+		}
+	}
+	*accel_ratio = acc / acc_truth;
+	pred[0] = sqrt(e_pred / n) * 1e3, pred[1] = acc_pred / acc_truth, pred[2] = sqrt(e_comp / n) * 1e3;
+	return sqrt(err / n) * 1e3;
+}
+
+/* The prediction from filtered poses against raw ones: far smoother,
+ * further from the truth (the filter's lag), less so with the lag added
+ * to the horizon. */
+static void test_prediction(void)
+{
+	mc_one_euro_params p = defaults();
+	double acc_raw, acc_out, pred_raw[3], pred_out[3];
+	double err_raw = swing(&p, true, &acc_raw, pred_raw), err_out = swing(&p, false, &acc_out, pred_out);
+	printf("swing 0.2 m at 1 Hz + 5 mm noise: pose error %.1f mm raw, %.1f filtered; acceleration %.2fx the truth's "
+	       "raw, %.2fx filtered\n", err_raw, err_out, acc_raw, acc_out);
+	printf("prediction 50 ms ahead: error %.1f mm from raw poses, %.1f from filtered, %.1f from filtered with the "
+	       "lag added to the horizon; acceleration %.2fx the truth's from raw, %.2fx from filtered\n",
+	       pred_raw[0], pred_out[0], pred_out[2], pred_raw[1], pred_out[1]);
+	CHECK_MSG(pred_out[1] * 2 <= pred_raw[1], "prediction acceleration %.2f filtered, %.2f raw", pred_out[1],
+		  pred_raw[1]);
+	CHECK_MSG(pred_out[2] < pred_out[0], "lag added: %.1f mm, without: %.1f mm", pred_out[2], pred_out[0]);
+}
+
+/* The trade-off around the defaults, printed for docs/CONFIG.md: a higher
+ * beta or min cutoff follows the swing more closely and smooths a still
+ * point less. */
+static void test_tuning(void)
+{
+	const mc_one_euro_params sets[] = {{1, 0, 1}, {1, 2, 1}, {1, 4, 1}, {1, 8, 1}, {1, 16, 1}, {0.5, 4, 1}, {2, 4, 1}};
+	double last_err = 1e9;
+	for (int i = 0; i < 7; i++) {
+		double acc, pred[3], err = swing(&sets[i], false, &acc, pred);
+		mc_one_euro3 f;
+		mc_one_euro3_reset(&f);
+		unsigned long long rng = 9;
+		double in2 = 0, out2 = 0;
+		for (int k = 0; k < 900; k++) {
+			double x = 0.005 * gauss(&rng);
+			mc_one_euro3_step(&f, &sets[i], mc_v3(x, 0, 0), DT);
+			in2 += k >= 60 ? x * x : 0;
+			out2 += k >= 60 ? f.value.x * f.value.x : 0;
+		}
+		printf("tuning: min cutoff %.1f Hz, beta %2.0f: lag %3.0f ms at 1 m/s; swing error %5.1f mm, acceleration "
+		       "%.2fx the truth's; still point jitter %.1fx less\n",
+		       sets[i].min_cutoff_hz, sets[i].beta, 1e3 * mc_one_euro_lag_s(&sets[i], 1.0), err, acc,
+		       sqrt(in2 / out2));
+		if (i < 5) /* beta rising: closer to the swing */
+			CHECK(err < last_err);
+		last_err = err;
+	}
+}
+
 static void still_skeleton(mc_skeleton *sk, uint64_t t_ns)
 {
 	memset(sk, 0, sizeof(*sk));
@@ -255,6 +343,8 @@ int main(void)
 	test_jitter();
 	test_ramp_lag();
 	test_velocity();
+	test_prediction();
+	test_tuning();
 	test_skeleton_restarts();
 	test_skeleton_rotation();
 	return mc_test_finish("test_one_euro");
