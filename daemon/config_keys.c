@@ -132,7 +132,7 @@ static const mcd_config_key keys[] = {
 	 * starts it again), so all of these reload. */
 	{MCD_SEC_OUTPUT, "filter", MCD_KEY_ENUM, O(filter), 0, 0, filters, "none", true},
 	{MCD_SEC_OUTPUT, "filter_min_cutoff_hz", MCD_KEY_POSITIVE, O(min_cutoff_hz), 0, 1000, NULL, "1", true},
-	{MCD_SEC_OUTPUT, "filter_beta", MCD_KEY_REAL, O(beta), 0, 1000, NULL, "4", true},
+	{MCD_SEC_OUTPUT, "filter_beta", MCD_KEY_REAL, O(beta), 0, 1000, NULL, "8", true},
 	{MCD_SEC_OUTPUT, "filter_d_cutoff_hz", MCD_KEY_POSITIVE, O(d_cutoff_hz), 0, 1000, NULL, "1", true},
 	{MCD_SEC_OUTPUT, "filter_max_gap_ms", MCD_KEY_POSITIVE, O(max_gap_ms), 0, 10000, NULL, "200", true},
 };

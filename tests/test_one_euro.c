@@ -1,6 +1,6 @@
 /* Tests of the One-Euro filter (core/base/mc_one_euro) and of the skeleton
  * filter over it (core/track/mc_skeleton_filter), at 30 fps with the
- * daemon's defaults (1 Hz, beta 4, 1 Hz): the first sample passes through,
+ * daemon's defaults (1 Hz, beta 8, 1 Hz): the first sample passes through,
  * jitter on a still point shrinks by a stated factor, a ramp is followed
  * with the stated lag, the velocity estimate is the ramp's speed, and the
  * skeleton filter starts again after a gap, a lost pose or a new skeleton.
@@ -41,7 +41,7 @@ static void test_first_sample(void)
 }
 
 /* A still point with 1 cm of Gaussian noise per axis: the output's spread
- * is at most 1/2.5 of the input's (2.8x measured). */
+ * is at most 1/2.3 of the input's (2.46x measured). */
 static void test_jitter(void)
 {
 	mc_one_euro_params p = defaults();
@@ -63,7 +63,7 @@ static void test_jitter(void)
 	double ratio = sqrt(in2 / n) / sqrt(out2 / n);
 	printf("jitter: still point, 1 cm noise at 30 fps: spread %.2f mm in, %.2f mm out (%.1fx less)\n",
 	       1e3 * sqrt(in2 / n / 3), 1e3 * sqrt(out2 / n / 3), ratio);
-	CHECK_MSG(ratio >= 2.5, "jitter reduced only %.2fx", ratio);
+	CHECK_MSG(ratio >= 2.3, "jitter reduced only %.2fx", ratio);
 }
 
 /* A ramp at `speed` m/s from rest: returns the steady lag in ms (after
@@ -97,9 +97,9 @@ static void test_ramp_lag(void)
 		CHECK_NEAR(lag, expect, 0.02 * expect + 0.5);
 		CHECK(onset >= lag - 0.5);
 	}
-	/* bounded: at 1 m/s within 35 ms, and within 100 ms from the start */
+	/* bounded: at 1 m/s within 20 ms, and within 40 ms from the start */
 	double onset, lag = ramp_lag_ms(&p, 1.0, &onset);
-	CHECK_MSG(lag <= 35 && onset <= 100, "lag %.1f ms, onset %.1f ms", lag, onset);
+	CHECK_MSG(lag <= 20 && onset <= 40, "lag %.1f ms, onset %.1f ms", lag, onset);
 	/* the lag does not depend on the frame rate (60 fps, 1 m/s) */
 	mc_one_euro3 f;
 	mc_one_euro3_reset(&f);
@@ -138,7 +138,7 @@ static void test_velocity(void)
 	printf("velocity: ramp 0.5 m/s + 5 mm noise: error rms %.3f m/s from raw pairs, %.3f from filtered pairs, "
 	       "%.3f from dx_hat\n", raw_rms, out_rms, dxhat_rms);
 	CHECK_NEAR(out_sum / n, speed, 0.02);
-	CHECK_MSG(out_rms * 2.5 <= raw_rms, "filtered pairs %.3f against raw %.3f m/s", out_rms, raw_rms);
+	CHECK_MSG(out_rms * 1.8 <= raw_rms, "filtered pairs %.3f against raw %.3f m/s", out_rms, raw_rms);
 }
 
 /* A joint swinging 0.2 m at 1 Hz (up to 1.26 m/s, a hand waving) with
@@ -195,7 +195,7 @@ static void test_prediction(void)
 	printf("prediction 50 ms ahead: error %.1f mm from raw poses, %.1f from filtered, %.1f from filtered with the "
 	       "lag added to the horizon; acceleration %.2fx the truth's from raw, %.2fx from filtered\n",
 	       pred_raw[0], pred_out[0], pred_out[2], pred_raw[1], pred_out[1]);
-	CHECK_MSG(pred_out[1] * 2 <= pred_raw[1], "prediction acceleration %.2f filtered, %.2f raw", pred_out[1],
+	CHECK_MSG(pred_out[1] * 1.8 <= pred_raw[1], "prediction acceleration %.2f filtered, %.2f raw", pred_out[1],
 		  pred_raw[1]);
 	CHECK_MSG(pred_out[2] < pred_out[0], "lag added: %.1f mm, without: %.1f mm", pred_out[2], pred_out[0]);
 }
@@ -205,7 +205,7 @@ static void test_prediction(void)
  * point less. */
 static void test_tuning(void)
 {
-	const mc_one_euro_params sets[] = {{1, 0, 1}, {1, 2, 1}, {1, 4, 1}, {1, 8, 1}, {1, 16, 1}, {0.5, 4, 1}, {2, 4, 1}};
+	const mc_one_euro_params sets[] = {{1, 0, 1}, {1, 2, 1}, {1, 4, 1}, {1, 8, 1}, {1, 16, 1}, {0.5, 8, 1}, {2, 8, 1}};
 	double last_err = 1e9;
 	for (int i = 0; i < 7; i++) {
 		double acc, pred[3], err = swing(&sets[i], false, &acc, pred);
@@ -331,7 +331,7 @@ static void test_skeleton_rotation(void)
 	printf("rotation: root turning at 2 rad/s, child at 1 m/s: lag %.1f ms (child tau %.1f ms), "
 	       "off-axis jitter %.1fx less\n", lag_ms, 1e3 * mc_one_euro_lag_s(&p, 1.0), ratio);
 	CHECK_MSG(lag_ms < 1e3 * mc_one_euro_lag_s(&p, 1.0) + 10, "rotation lag %.1f ms", lag_ms);
-	CHECK_MSG(ratio >= 1.5, "rotation jitter reduced only %.2fx", ratio);
+	CHECK_MSG(ratio >= 1.3, "rotation jitter reduced only %.2fx", ratio);
 out:
 	free(f);
 	free(sk);

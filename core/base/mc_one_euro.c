@@ -5,7 +5,7 @@
 void mc_one_euro_params_default(mc_one_euro_params *p)
 {
 	p->min_cutoff_hz = 1.0;
-	p->beta = 4.0;
+	p->beta = 8.0;
 	p->d_cutoff_hz = 1.0;
 }
 

@@ -31,7 +31,7 @@ typedef struct {
 	double d_cutoff_hz;   /* cutoff of the velocity estimate, > 0 */
 } mc_one_euro_params;
 
-/* The daemon's defaults (docs/CONFIG.md, "[output]"): 1 Hz, 4 Hz per m/s, 1 Hz. */
+/* The daemon's defaults (docs/CONFIG.md, "[output]"): 1 Hz, 8 Hz per m/s, 1 Hz. */
 void mc_one_euro_params_default(mc_one_euro_params *p);
 
 /* The smoothing factor of a first-order low-pass at cutoff_hz over dt_s. */
