@@ -149,15 +149,18 @@ static void test_velocity(void)
  * mocap_predict) 50 ms ahead gives from these poses, as [0] rms error
  * (mm) and [1] acceleration over the truth's, and [2] the rms error with
  * the horizon lengthened by the lag at the joint's speed (what
- * docs/PROTOCOL.md suggests to clients); raw: no filter. */
-static double swing(const mc_one_euro_params *p, bool raw, double *accel_ratio, double pred[3])
+ * docs/PROTOCOL.md suggests to clients), and [3] the rms error when the
+ * filter's own velocity (dx_hat) drives it instead of the two poses (what
+ * the block would offer if it carried the filter's velocity); raw: no
+ * filter. */
+static double swing(const mc_one_euro_params *p, bool raw, double *accel_ratio, double pred[4])
 {
 	mc_one_euro3 f;
 	mc_one_euro3_reset(&f);
 	unsigned long long rng = 3;
 	const double ahead = 0.05, amp = 0.2, w = 2 * M_PI;
 	double out[3] = {0}, pr[3] = {0}, truth[3] = {0}, err = 0, acc = 0, acc_truth = 0, e_pred = 0, acc_pred = 0,
-	       e_comp = 0;
+	       e_comp = 0, e_dxhat = 0;
 	int n = 0;
 	for (int i = 0; i < 900; i++) {
 		double t = i * DT, x = amp * sin(w * t) + 0.005 * gauss(&rng);
@@ -174,27 +177,33 @@ static double swing(const mc_one_euro_params *p, bool raw, double *accel_ratio, 
 			acc_truth += fabs(truth[2] - 2 * truth[1] + truth[0]);
 			e_pred += pow(pr[2] - ahead_truth, 2);
 			e_comp += pow(y + v * (ahead + lag) - ahead_truth, 2);
+			e_dxhat += pow(y + f.velocity.x * ahead - ahead_truth, 2);
 			n++;
 		}
 	}
 	*accel_ratio = acc / acc_truth;
 	pred[0] = sqrt(e_pred / n) * 1e3, pred[1] = acc_pred / acc_truth, pred[2] = sqrt(e_comp / n) * 1e3;
+	pred[3] = sqrt(e_dxhat / n) * 1e3;
 	return sqrt(err / n) * 1e3;
 }
 
 /* The prediction from filtered poses against raw ones: far smoother,
  * further from the truth (the filter's lag), less so with the lag added
- * to the horizon. */
+ * to the horizon.  And better from the two poses than from the filter's
+ * own velocity, which lags the swing's changes of direction: why the block
+ * carries no velocity. */
 static void test_prediction(void)
 {
 	mc_one_euro_params p = defaults();
-	double acc_raw, acc_out, pred_raw[3], pred_out[3];
+	double acc_raw, acc_out, pred_raw[4], pred_out[4];
 	double err_raw = swing(&p, true, &acc_raw, pred_raw), err_out = swing(&p, false, &acc_out, pred_out);
 	printf("swing 0.2 m at 1 Hz + 5 mm noise: pose error %.1f mm raw, %.1f filtered; acceleration %.2fx the truth's "
 	       "raw, %.2fx filtered\n", err_raw, err_out, acc_raw, acc_out);
 	printf("prediction 50 ms ahead: error %.1f mm from raw poses, %.1f from filtered, %.1f from filtered with the "
-	       "lag added to the horizon; acceleration %.2fx the truth's from raw, %.2fx from filtered\n",
-	       pred_raw[0], pred_out[0], pred_out[2], pred_raw[1], pred_out[1]);
+	       "lag added to the horizon, %.1f from the filter's own velocity; acceleration %.2fx the truth's from raw, "
+	       "%.2fx from filtered\n",
+	       pred_raw[0], pred_out[0], pred_out[2], pred_out[3], pred_raw[1], pred_out[1]);
+	CHECK_MSG(pred_out[0] < pred_out[3], "from two poses %.1f mm, from dx_hat %.1f mm", pred_out[0], pred_out[3]);
 	CHECK_MSG(pred_out[1] * 1.8 <= pred_raw[1], "prediction acceleration %.2f filtered, %.2f raw", pred_out[1],
 		  pred_raw[1]);
 	CHECK_MSG(pred_out[2] < pred_out[0], "lag added: %.1f mm, without: %.1f mm", pred_out[2], pred_out[0]);
@@ -208,7 +217,7 @@ static void test_tuning(void)
 	const mc_one_euro_params sets[] = {{1, 0, 1}, {1, 2, 1}, {1, 4, 1}, {1, 8, 1}, {1, 16, 1}, {0.5, 8, 1}, {2, 8, 1}};
 	double last_err = 1e9;
 	for (int i = 0; i < 7; i++) {
-		double acc, pred[3], err = swing(&sets[i], false, &acc, pred);
+		double acc, pred[4], err = swing(&sets[i], false, &acc, pred);
 		mc_one_euro3 f;
 		mc_one_euro3_reset(&f);
 		unsigned long long rng = 9;
