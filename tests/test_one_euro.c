@@ -92,7 +92,8 @@ static void test_ramp_lag(void)
 	for (int i = 0; i < 4; i++) {
 		double onset, lag = ramp_lag_ms(&p, speeds[i], &onset);
 		double expect = 1e3 * mc_one_euro_lag_s(&p, speeds[i]);
-		printf("lag: ramp at %.1f m/s, 30 fps: %.1f ms steady (tau %.1f ms), at most %.1f ms in the first second\n",
+		printf("lag: ramp at %.1f m/s, 30 fps: %.1f ms steady (tau %.1f ms), "
+		       "at most %.1f ms in the first second\n",
 		       speeds[i], lag, expect, onset);
 		CHECK_NEAR(lag, expect, 0.02 * expect + 0.5);
 		CHECK(onset >= lag - 0.5);
@@ -197,10 +198,12 @@ static void test_prediction(void)
 	mc_one_euro_params p = defaults();
 	double acc_raw, acc_out, pred_raw[4], pred_out[4];
 	double err_raw = swing(&p, true, &acc_raw, pred_raw), err_out = swing(&p, false, &acc_out, pred_out);
-	printf("swing 0.2 m at 1 Hz + 5 mm noise: pose error %.1f mm raw, %.1f filtered; acceleration %.2fx the truth's "
+	printf("swing 0.2 m at 1 Hz + 5 mm noise: pose error %.1f mm raw, %.1f filtered; "
+	       "acceleration %.2fx the truth's "
 	       "raw, %.2fx filtered\n", err_raw, err_out, acc_raw, acc_out);
 	printf("prediction 50 ms ahead: error %.1f mm from raw poses, %.1f from filtered, %.1f from filtered with the "
-	       "lag added to the horizon, %.1f from the filter's own velocity; acceleration %.2fx the truth's from raw, "
+	       "lag added to the horizon, %.1f from the filter's own velocity; "
+	       "acceleration %.2fx the truth's from raw, "
 	       "%.2fx from filtered\n",
 	       pred_raw[0], pred_out[0], pred_out[2], pred_out[3], pred_raw[1], pred_out[1]);
 	CHECK_MSG(pred_out[0] < pred_out[3], "from two poses %.1f mm, from dx_hat %.1f mm", pred_out[0], pred_out[3]);
@@ -214,7 +217,8 @@ static void test_prediction(void)
  * point less. */
 static void test_tuning(void)
 {
-	const mc_one_euro_params sets[] = {{1, 0, 1}, {1, 2, 1}, {1, 4, 1}, {1, 8, 1}, {1, 16, 1}, {0.5, 8, 1}, {2, 8, 1}};
+	const mc_one_euro_params sets[] = {{1, 0, 1},  {1, 2, 1},   {1, 4, 1}, {1, 8, 1},
+					   {1, 16, 1}, {0.5, 8, 1}, {2, 8, 1}};
 	double last_err = 1e9;
 	for (int i = 0; i < 7; i++) {
 		double acc, pred[4], err = swing(&sets[i], false, &acc, pred);
@@ -228,7 +232,8 @@ static void test_tuning(void)
 			in2 += k >= 60 ? x * x : 0;
 			out2 += k >= 60 ? f.value.x * f.value.x : 0;
 		}
-		printf("tuning: min cutoff %.1f Hz, beta %2.0f: lag %3.0f ms at 1 m/s; swing error %5.1f mm, acceleration "
+		printf("tuning: min cutoff %.1f Hz, beta %2.0f: lag %3.0f ms at 1 m/s; swing error %5.1f mm, "
+		       "acceleration "
 		       "%.2fx the truth's; still point jitter %.1fx less\n",
 		       sets[i].min_cutoff_hz, sets[i].beta, 1e3 * mc_one_euro_lag_s(&sets[i], 1.0), err, acc,
 		       sqrt(in2 / out2));
