@@ -16,6 +16,11 @@
  * code does the former): on a ramp it is then the true speed, not the
  * speed plus the output's lag over dt, so it can drive a prediction.
  *
+ * The speed is the length of the low-passed velocity vector, so on a
+ * curved path, where the velocity turns, it reads low (0.86 of the speed
+ * on a circle at 3.3 rad/s with d_cutoff 1 Hz) and the lag there is
+ * somewhat longer than tau at the true speed.
+ *
  * Timestamps are real (dt varies); the first sample after a reset passes
  * through unchanged with zero velocity. */
 #ifndef MC_ONE_EURO_H
