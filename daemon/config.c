@@ -130,7 +130,8 @@ static void begin_camera(parser *p, const char *name)
 	}
 	mcd_camera_config *cam = &p->cfg->cams[p->cfg->ncams++];
 	memset(cam, 0, sizeof(*cam));
-	snprintf(cam->name, sizeof(cam->name), "%s", cam_name);
+	/* checked above to fit; the precision tells the compiler so (-O1 builds warn otherwise) */
+	snprintf(cam->name, sizeof(cam->name), "%.*s", (int)sizeof(cam->name) - 1, cam_name);
 	cam->line = p->line;
 	mcd_camera_config_defaults(cam);
 	p->cam = cam;
@@ -166,12 +167,14 @@ static void begin_section(parser *p, const char *name)
 		p->kind = MCD_SEC_RECORD;
 	else if (strcmp(name, "source") == 0)
 		p->kind = MCD_SEC_SOURCE;
+	else if (strcmp(name, "output") == 0)
+		p->kind = MCD_SEC_OUTPUT;
 	else if (strncmp(name, "camera", 6) == 0 && (name[6] == ' ' || name[6] == 0)) {
 		p->kind = MCD_SEC_CAMERA;
 		begin_camera(p, name);
 	} else {
 		p->known = false;
-		fail(p, "unknown section [%s] (expected [daemon], [camera NAME], [tracker], [socket], [detector], [network], [record] or [source])", name);
+		fail(p, "unknown section [%s] (expected [daemon], [camera NAME], [tracker], [socket], [detector], [network], [record], [source] or [output])", name);
 	}
 }
 

@@ -1,7 +1,7 @@
 /* config: mocapd's INI configuration (inih), checked key by key.
  *
  * Sections: [daemon], one [camera NAME] per camera, [tracker], [socket],
- * [detector], [network], [record].
+ * [detector], [network], [record], [source], [output].
  * Every error names the file, the line and the key, e.g.
  *   "mocapd.conf:12: [tracker] iterations: expected a positive integer, got 'abc'"
  * Unknown keys and sections are errors.  In a camera section the keys the
@@ -104,6 +104,18 @@ typedef struct {
 	int nice;              /* the detector threads' nice value above the daemon's */
 } mcd_detector_config;
 
+/* The [output] section: what is done to the skeletons before clients get
+ * them (publish.h).  The One-Euro filter's parameters
+ * (core/base/mc_one_euro.h); they are kept when the filter is off. */
+typedef enum { MCD_FILTER_NONE = 0, MCD_FILTER_ONE_EURO = 1 } mcd_filter_kind;
+typedef struct {
+	int filter;              /* mcd_filter_kind */
+	double min_cutoff_hz;    /* the cutoff at rest */
+	double beta;             /* cutoff added per m/s of a joint's speed */
+	double d_cutoff_hz;      /* the cutoff of the speed estimate */
+	double max_gap_ms;       /* a longer gap between skeletons restarts the filter */
+} mcd_output_config;
+
 /* The [source] section: a synthetic source instead of cameras and tracker
  * (graph_source.h, docs/MOTION_GRAPH.md): graph walks as skeletons. */
 typedef struct {
@@ -138,6 +150,7 @@ typedef struct {
 	mcd_detector_config detector;
 	mcd_record_config record;
 	mcd_source_config source;
+	mcd_output_config output;
 
 	/* Where each key was given, for messages about values checked later
 	 * (a rig file that fails to load, a socket group that does not exist). */
@@ -146,7 +159,7 @@ typedef struct {
 		char section[MCD_NAME_MAX + 8];
 		char key[MCD_NAME_MAX];
 		int line;
-	} where[64 + MC_MAX_CAMERAS * (8 + MCD_MAX_DRIVER_KEYS)]; /* every key a valid file can hold */
+	} where[80 + MC_MAX_CAMERAS * (8 + MCD_MAX_DRIVER_KEYS)]; /* every key a valid file can hold */
 } mcd_config;
 
 /* Fills the defaults of the key table (compiled-in plugin directory,
@@ -179,8 +192,9 @@ typedef enum {
 	MCD_SEC_NETWORK,
 	MCD_SEC_RECORD,
 	MCD_SEC_SOURCE,
+	MCD_SEC_OUTPUT,
 } mcd_section;
-#define MCD_NSECTIONS 8
+#define MCD_NSECTIONS 9
 
 typedef enum {
 	MCD_KEY_BOOL,     /* true/false, yes/no, on/off, 1/0 */
@@ -225,7 +239,8 @@ typedef struct {
 const mcd_config_key *mcd_config_keys(size_t *n);
 /* The entry for `key` in a section, or NULL. */
 const mcd_config_key *mcd_config_key_find(mcd_section section, const char *key);
-/* "daemon", "camera", "tracker", "socket", "detector", "network" or "record". */
+/* "daemon", "camera", "tracker", "socket", "detector", "network", "record",
+ * "source" or "output". */
 const char *mcd_section_name(mcd_section section);
 /* Parses `value` into the key's field of `base` (an mcd_config, or an
  * mcd_camera_config for camera keys).  On error returns -1 with why (no

@@ -30,6 +30,8 @@ static const mcd_key_choice rig_formats[] = {
 	{"cameras-json", MCD_RIG_CAMERAS_JSON, false}, {NULL, 0, false}};
 static const mcd_key_choice graph_kinds[] = {
 	{"essential", MC_EDGE_ESSENTIAL, false}, {"motion", MC_EDGE_MOTION, false}, {NULL, 0, false}};
+static const mcd_key_choice filters[] = {
+	{"none", MCD_FILTER_NONE, false}, {"one_euro", MCD_FILTER_ONE_EURO, false}, {NULL, 0, false}};
 static const mcd_key_choice backends[] = {
 	{"opencl", MC_BACKEND_OPENCL, false}, {"reference", MC_BACKEND_REFERENCE, false}, {NULL, 0, false}};
 
@@ -43,6 +45,7 @@ static const mcd_key_choice backends[] = {
 #define N(member) FIELD(mcd_config, network.member)
 #define R(member) FIELD(mcd_config, record.member)
 #define G(member) FIELD(mcd_config, source.member)
+#define O(member) FIELD(mcd_config, output.member)
 #define TRACKER_DEFAULT NULL /* mc_tracker_settings_default */
 
 static const mcd_config_key keys[] = {
@@ -124,6 +127,14 @@ static const mcd_config_key keys[] = {
 	{MCD_SEC_DETECTOR, "threads", MCD_KEY_INT, K(threads), 1, 64, NULL, "1", true},
 	{MCD_SEC_DETECTOR, "min_confidence", MCD_KEY_REAL_AUTO, K(min_confidence), 0, 1, NULL, "auto", true},
 	{MCD_SEC_DETECTOR, "nice", MCD_KEY_INT, K(nice), 0, 19, NULL, "10", false},
+
+	/* The publishing thread takes a new filter between two skeletons (and
+	 * starts it again), so all of these reload. */
+	{MCD_SEC_OUTPUT, "filter", MCD_KEY_ENUM, O(filter), 0, 0, filters, "none", true},
+	{MCD_SEC_OUTPUT, "filter_min_cutoff_hz", MCD_KEY_POSITIVE, O(min_cutoff_hz), 0, 1000, NULL, "1", true},
+	{MCD_SEC_OUTPUT, "filter_beta", MCD_KEY_REAL, O(beta), 0, 1000, NULL, "8", true},
+	{MCD_SEC_OUTPUT, "filter_d_cutoff_hz", MCD_KEY_POSITIVE, O(d_cutoff_hz), 0, 1000, NULL, "1", true},
+	{MCD_SEC_OUTPUT, "filter_max_gap_ms", MCD_KEY_POSITIVE, O(max_gap_ms), 0, 10000, NULL, "200", true},
 };
 
 const mcd_config_key *mcd_config_keys(size_t *n)
@@ -143,7 +154,7 @@ const mcd_config_key *mcd_config_key_find(mcd_section section, const char *key)
 const char *mcd_section_name(mcd_section section)
 {
 	static const char *const names[MCD_NSECTIONS] = {"daemon", "camera", "tracker", "socket", "detector", "network",
-								 "record", "source"};
+								 "record", "source", "output"};
 	return (unsigned)section < MCD_NSECTIONS ? names[section] : "?";
 }
 
@@ -205,7 +216,8 @@ static int p_real(const mcd_config_key *k, const char *value, void *field, char 
 	return -1;
 }
 
-/* A strictly positive number up to hi. */
+/* A strictly positive number up to hi; the message names hi when the
+ * table bounds the key, so that a value too large is not told "positive". */
 static int p_positive(const mcd_config_key *k, const char *value, void *field, char *why, size_t n)
 {
 	double v;
@@ -213,7 +225,10 @@ static int p_positive(const mcd_config_key *k, const char *value, void *field, c
 		*(double *)field = v;
 		return 0;
 	}
-	snprintf(why, n, "expected a positive number, got '%s'", value);
+	if (k->hi > 1e300)
+		snprintf(why, n, "expected a positive number, got '%s'", value);
+	else
+		snprintf(why, n, "expected a number above 0 and at most %g, got '%s'", k->hi, value);
 	return -1;
 }
 
@@ -476,6 +491,7 @@ void mcd_config_defaults(mcd_config *cfg)
 	set_defaults(MCD_SEC_NETWORK, cfg);
 	set_defaults(MCD_SEC_RECORD, cfg);
 	set_defaults(MCD_SEC_SOURCE, cfg);
+	set_defaults(MCD_SEC_OUTPUT, cfg);
 }
 
 void mcd_camera_config_defaults(mcd_camera_config *cam)

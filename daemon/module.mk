@@ -61,12 +61,13 @@ $(FAULTY_DIR)/bad/mocap-driver-noentry.so: tests/drivers/faulty/faulty.c drivers
 	@mkdir -p $(@D)
 	$(CC) $(CPPFLAGS) $(CFLAGS) -DFAULTY_NO_ENTRY -shared $< -o $@ $(LDFLAGS) $(FAULTY_LIBS)
 
-# The keypoint test is also a client of the socket: it links libmocap
+# The keypoint test (and the filter test, which reads the pose block) is
+# also a client of the socket: it links libmocap
 # (literal path: ipc/module.mk is included after this file).
 # The detector tests run mocapd with the test models of detect/tests/data;
 # the actor test with the shipped detector.
 DAEMON_CLIENT_TESTS := $(BUILD)/tests/test_daemon_keypoints $(BUILD)/tests/test_daemon_detector $(BUILD)/tests/test_daemon_actor \
-	$(BUILD)/tests/test_daemon_network $(BUILD)/tests/test_daemon_latency
+	$(BUILD)/tests/test_daemon_network $(BUILD)/tests/test_daemon_latency $(BUILD)/tests/test_daemon_filter
 $(DAEMON_CLIENT_TESTS): $(BUILD)/tests/%: tests/%.c $(DAEMON_LIB) $(DAEMON_DETECT_A) $(DAEMON_RECORD_A) $(CORE_LIB) \
 		$(BUILD)/libmocap.a \
 		| $(DAEMON_TEST_NEEDS)

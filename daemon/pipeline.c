@@ -30,6 +30,7 @@ struct mcd_pipeline {
 	mcd_publisher *pub;
 	mcd_recorder *recorder;
 	bool print;
+	mcd_output_config output; /* [output]: the filter the publisher starts with */
 	bool tracking; /* a tracker is configured */
 	const mc_rig *rig; /* its rig (NULL: none), for the settings a reload gives it */
 	int event_fd;
@@ -44,6 +45,22 @@ struct mcd_pipeline {
 	/* last values seen by mcd_pipeline_progress (main thread only) */
 	uint64_t seen_tracking, seen_publish, seen_cam[MC_MAX_CAMERAS];
 };
+
+/* Hands [output]'s filter to the publisher (none: off); logs it when it
+ * is on at start or when a reload changed it. */
+static void set_output_filter(mcd_publisher *pub, const mcd_output_config *out, bool changed)
+{
+	bool on = out->filter == MCD_FILTER_ONE_EURO;
+	mc_one_euro_params params = {out->min_cutoff_hz, out->beta, out->d_cutoff_hz};
+	mcd_publisher_set_filter(pub, on ? &params : NULL, out->max_gap_ms / 1e3);
+	if (on && changed)
+		mcd_info("output: One-Euro filter on (min cutoff %g Hz, beta %g per m/s, speed cutoff %g Hz; "
+			 "%.0f ms lag at 1 m/s; a gap over %g ms restarts it)",
+			 params.min_cutoff_hz, params.beta, params.d_cutoff_hz, 1e3 * mc_one_euro_lag_s(&params, 1.0),
+			 out->max_gap_ms);
+	else if (changed)
+		mcd_info("output: filter off (raw poses)");
+}
 
 static void wake_main(void *ctx)
 {
@@ -161,6 +178,7 @@ mcd_pipeline *mcd_pipeline_create(const mcd_config *cfg, mcd_tracking *tracking,
 	p->ncams = cfg->ncams;
 	p->srv = srv;
 	p->print = cfg->print;
+	p->output = cfg->output;
 	p->tracking = tracking != NULL;
 	p->event_fd = eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC);
 	if (p->event_fd < 0) {
@@ -186,6 +204,7 @@ int mcd_pipeline_start(mcd_pipeline *p, const char *pose_dir, mc_err *err)
 	if (pose_dir)
 		mcd_publisher_save_poses(p->pub, pose_dir);
 	mcd_publisher_set_recorder(p->pub, p->recorder);
+	set_output_filter(p->pub, &p->output, p->output.filter != MCD_FILTER_NONE);
 	if (mcd_tracking_thread_start(p->tracker, p->pub, err))
 		return -1;
 	p->started = true;
@@ -393,8 +412,12 @@ void mcd_pipeline_reload(mcd_pipeline *p, const mcd_config *cfg)
 	mcd_detector_thread_reload(p->detector, &cfg->detector);
 	for (int c = 0; c < p->ncams; c++)
 		mcd_camera_set_limits(p->cams[c], cfg->reopen_initial_ms, cfg->reopen_max_ms, cfg->stall_timeout_ms);
-	if (p->pub)
+	bool changed = memcmp(&p->output, &cfg->output, sizeof(p->output)) != 0;
+	p->output = cfg->output;
+	if (p->pub) {
 		mcd_publisher_set_print(p->pub, cfg->print);
+		set_output_filter(p->pub, &p->output, changed);
+	}
 }
 
 void mcd_pipeline_share_rings(mcd_pipeline *p)

@@ -6,6 +6,7 @@
 #include "recorder.h"
 #include "textbuf.h"
 #include "base/mc_thread.h"
+#include "track/mc_skeleton_filter.h"
 
 #include <errno.h>
 #include <pthread.h>
@@ -34,7 +35,24 @@ struct mcd_publisher {
 	uint64_t server_seq;    /* publisher thread only */
 	mcd_recorder *recorder; /* NULL: none; set before frames flow */
 	uint64_t logged_errors; /* publisher thread only */
+	/* The output filter's settings (under the lock; `filter_gen` counts
+	 * their changes) and its state (publisher thread only). */
+	bool filter_on;
+	mc_one_euro_params filter_params;
+	double filter_max_gap_s;
+	unsigned filter_gen, filter_seen_gen;
+	mc_skeleton_filter filter;
+	mc_skeleton filtered;
 };
+
+/* The settings handle() works with, taken under the lock. */
+typedef struct {
+	bool print, filter_on;
+	mc_one_euro_params filter_params;
+	double filter_max_gap_s;
+	unsigned filter_gen;
+	char pose_dir[4096];
+} handle_settings;
 
 void mcd_format_output(const mcd_output *o, uint64_t t0_ns, char *buf, size_t cap)
 {
@@ -75,17 +93,34 @@ static void save_pose(mcd_publisher *p, const mcd_output *o, const char *dir)
 		mcd_warn("save poses: %s: write error", path);
 }
 
+/* The skeleton clients get: o's own, or (filter on) p->filtered.  A
+ * change of the filter's settings starts it again.  Publisher thread only. */
+static const mc_skeleton *client_skeleton(mcd_publisher *p, const mcd_output *o, const handle_settings *s)
+{
+	if (s->filter_gen != p->filter_seen_gen) {
+		p->filter_seen_gen = s->filter_gen;
+		mc_skeleton_filter_init(&p->filter, &s->filter_params, s->filter_max_gap_s);
+	}
+	if (!s->filter_on || !o->tracked)
+		return &o->sk;
+	p->filtered = o->sk;
+	mc_skeleton_filter_apply(&p->filter, &p->filtered);
+	return &p->filtered;
+}
+
 /* Returns 1 if the server refused the frame; *published_ns: when a
  * tracked skeleton was handed to the server (0: none was).  Publisher
- * thread only. */
-static int handle(mcd_publisher *p, const mcd_output *o, bool print, const char *pose_dir, uint64_t *published_ns)
+ * thread only; o is its own copy (the printed line shows the filtered
+ * skeleton, so it is swapped in after the recorder had the tracker's). */
+static int handle(mcd_publisher *p, mcd_output *o, const handle_settings *s, uint64_t *published_ns)
 {
 	int failed = 0;
 	*published_ns = 0;
+	const mc_skeleton *sk = client_skeleton(p, o, s);
 	uint64_t seq = o->tracked ? ++p->server_seq : p->server_seq;
 	if (o->tracked && p->srv) {
 		mc_err err;
-		if (srv_publish(p->srv, &o->sk, seq, &err) != 0) {
+		if (srv_publish(p->srv, sk, seq, &err) != 0) {
 			failed = 1;
 			if (++p->logged_errors <= 3)
 				mcd_warn("publish: %s", err.msg);
@@ -95,9 +130,11 @@ static int handle(mcd_publisher *p, const mcd_output *o, bool print, const char 
 	}
 	/* Clients first: the take, the files and the text line can wait. */
 	mcd_recorder_push_pose(p->recorder, o, seq);
-	if (o->tracked && pose_dir[0])
-		save_pose(p, o, pose_dir);
-	if (print) {
+	if (o->tracked && s->pose_dir[0])
+		save_pose(p, o, s->pose_dir);
+	if (s->print) {
+		if (sk != &o->sk)
+			o->sk = *sk;
 		if (!p->have_t0) {
 			p->t0_ns = o->timestamp_ns;
 			p->have_t0 = true;
@@ -129,12 +166,15 @@ static void *publish_main(void *arg)
 		p->head = (p->head + 1) % QUEUE_LEN;
 		p->count--;
 		p->busy = true;
-		bool print = p->print;
-		char pose_dir[sizeof(p->pose_dir)];
-		memcpy(pose_dir, p->pose_dir, sizeof(pose_dir));
+		handle_settings s = {.print = p->print,
+				     .filter_on = p->filter_on,
+				     .filter_params = p->filter_params,
+				     .filter_max_gap_s = p->filter_max_gap_s,
+				     .filter_gen = p->filter_gen};
+		memcpy(s.pose_dir, p->pose_dir, sizeof(s.pose_dir));
 		pthread_mutex_unlock(&p->lock);
 		uint64_t published_ns = 0;
-		int failed = o ? handle(p, o, print, pose_dir, &published_ns) : 0;
+		int failed = o ? handle(p, o, &s, &published_ns) : 0;
 		atomic_fetch_add(&p->heartbeat, 1);
 		pthread_mutex_lock(&p->lock);
 		if (published_ns)
@@ -158,6 +198,9 @@ mcd_publisher *mcd_publisher_create(srv_server *srv, FILE *out, bool print, mc_e
 	p->srv = srv;
 	p->out = out ? out : stdout;
 	p->print = print;
+	mc_one_euro_params_default(&p->filter_params);
+	p->filter_max_gap_s = 0.2;
+	mc_skeleton_filter_init(&p->filter, &p->filter_params, p->filter_max_gap_s);
 	pthread_mutex_init(&p->lock, NULL);
 	mc_cond_init_monotonic(&p->cond);
 	int rc = pthread_create(&p->thread, NULL, publish_main, p);
@@ -203,6 +246,19 @@ void mcd_publisher_set_print(mcd_publisher *p, bool print)
 {
 	pthread_mutex_lock(&p->lock);
 	p->print = print;
+	pthread_mutex_unlock(&p->lock);
+}
+
+void mcd_publisher_set_filter(mcd_publisher *p, const mc_one_euro_params *params, double max_gap_s)
+{
+	pthread_mutex_lock(&p->lock);
+	bool on = params != NULL;
+	mc_one_euro_params kept = params ? *params : p->filter_params;
+	if (on != p->filter_on || memcmp(&kept, &p->filter_params, sizeof(kept)) || max_gap_s != p->filter_max_gap_s)
+		p->filter_gen++;
+	p->filter_on = on;
+	p->filter_params = kept;
+	p->filter_max_gap_s = max_gap_s;
 	pthread_mutex_unlock(&p->lock);
 }
 

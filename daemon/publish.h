@@ -2,11 +2,18 @@
  * tracker disabled, bare frame-set records) from the tracking thread
  * through a short queue that never blocks its writer (the oldest entry is
  * dropped and counted when full), hands them to the socket server and, with
- * printing on, writes one text line per frame to stdout. */
+ * printing on, writes one text line per frame to stdout.
+ *
+ * With the output filter on ([output] filter, docs/CONFIG.md) the socket
+ * server (POSE/FRAME messages and the latest-pose block) and the printed
+ * lines get the filtered skeleton; the recorder and --save-poses keep the
+ * tracker's own (a take records what was measured; a filter can be applied
+ * when it is played back or exported). */
 #ifndef MCD_PUBLISH_H
 #define MCD_PUBLISH_H
 
 #include "base/mc_error.h"
+#include "base/mc_one_euro.h"
 #include "server.h"
 #include "track/mc_tracker.h"
 
@@ -48,6 +55,9 @@ mcd_publisher *mcd_publisher_create(srv_server *srv, FILE *out, bool print, mc_e
 void mcd_publisher_destroy(mcd_publisher *p); /* stops the thread after draining */
 void mcd_publisher_push(mcd_publisher *p, const mcd_output *o);
 void mcd_publisher_set_print(mcd_publisher *p, bool print);
+/* The output filter: params NULL turns it off.  A call that changes
+ * anything starts the filter again at the next skeleton. */
+void mcd_publisher_set_filter(mcd_publisher *p, const mc_one_euro_params *params, double max_gap_s);
 /* Hands every tracked skeleton, with its publish counter, to the recorder
  * (recorder.h).  Call before frames flow. */
 typedef struct mcd_recorder mcd_recorder;

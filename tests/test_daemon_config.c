@@ -4,6 +4,7 @@
 #include "motion/mc_motion_graph.h"
 #include "log.h"
 #include "network.h"
+#include "base/mc_one_euro.h"
 #include "test_util.h"
 
 #include <string.h>
@@ -149,6 +150,15 @@ static void test_defaults(void)
 	/* CRLF line ends are fine. */
 	CHECK_MSG(parse("[camera a]\r\ndriver = x\r\n[tracker]\r\nenabled = off\r\n", &err) == 0, "%s", err.msg);
 	CHECK(strcmp(cfg.cams[0].driver, "x") == 0);
+	/* The output filter is off unless asked for; its parameters are
+	 * those of mc_one_euro_params_default. */
+	CHECK(cfg.output.filter == MCD_FILTER_NONE);
+	mc_one_euro_params one;
+	mc_one_euro_params_default(&one);
+	CHECK(cfg.output.min_cutoff_hz == one.min_cutoff_hz && cfg.output.beta == one.beta &&
+	      cfg.output.d_cutoff_hz == one.d_cutoff_hz && cfg.output.max_gap_ms == 200);
+	CHECK_MSG(parse(CAM NOTRACK "[output]\nfilter = one_euro\nfilter_beta = 0\n", &err) == 0, "%s", err.msg);
+	CHECK(cfg.output.filter == MCD_FILTER_ONE_EURO && cfg.output.beta == 0);
 }
 
 static void test_value_errors(void)
@@ -164,9 +174,9 @@ static void test_value_errors(void)
 	expect_error(CAM NOTRACK "width = 9000\n",
 		     "mocapd.conf:5: [tracker] width: expected an integer from 1 to 8192, got '9000'");
 	expect_error(CAM NOTRACK "pixel_fraction = 1.5\n",
-		     "mocapd.conf:5: [tracker] pixel_fraction: expected a positive number, got '1.5'");
+		     "mocapd.conf:5: [tracker] pixel_fraction: expected a number above 0 and at most 1, got '1.5'");
 	expect_error(CAM NOTRACK "pixel_fraction = nan\n",
-		     "mocapd.conf:5: [tracker] pixel_fraction: expected a positive number, got 'nan'");
+		     "mocapd.conf:5: [tracker] pixel_fraction: expected a number above 0 and at most 1, got 'nan'");
 	expect_error(CAM NOTRACK "lambda_detection = -1\n",
 		     "mocapd.conf:5: [tracker] lambda_detection: expected a number from 0 to 1000, got '-1'");
 	expect_error(CAM NOTRACK "dropout = -0.1\n",
@@ -180,7 +190,7 @@ static void test_value_errors(void)
 	expect_error("[daemon]\nlog_level = loud\n" CAM NOTRACK,
 		     "mocapd.conf:2: [daemon] log_level: expected error, warn, info or debug, got 'loud'");
 	expect_error("[daemon]\ngroup_deadline_ms = 0\n" CAM NOTRACK,
-		     "mocapd.conf:2: [daemon] group_deadline_ms: expected a positive number, got '0'");
+		     "mocapd.conf:2: [daemon] group_deadline_ms: expected a number above 0 and at most 10000, got '0'");
 	expect_error("[daemon]\nreopen_initial_ms = 500\nreopen_max_ms = 100\n" CAM NOTRACK,
 		     "mocapd.conf:3: [daemon] reopen_max_ms: must be at least reopen_initial_ms (500)");
 	expect_error(CAM NOTRACK "[socket]\nmode = 660\n",
@@ -197,6 +207,16 @@ static void test_value_errors(void)
 	expect_error(CAM "ring_slots = 1\n" NOTRACK,
 		     "mocapd.conf:3: [camera left] ring_slots: expected an integer from 2 to 1024, got '1'");
 	expect_error(CAM NOTRACK "rig =\n", "mocapd.conf:5: [tracker] rig: expected a path, got nothing");
+	expect_error(CAM NOTRACK "[output]\nfilter = kalman\n",
+		     "mocapd.conf:6: [output] filter: expected none or one_euro, got 'kalman'");
+	expect_error(CAM NOTRACK "[output]\nfilter = one_euro\nfilter_min_cutoff_hz = 0\n",
+		     "mocapd.conf:7: [output] filter_min_cutoff_hz: expected a number above 0 and at most 1000, got '0'");
+	expect_error(CAM NOTRACK "[output]\nfilter_d_cutoff_hz = 2000\n",
+		     "mocapd.conf:6: [output] filter_d_cutoff_hz: expected a number above 0 and at most 1000, got '2000'");
+	expect_error(CAM NOTRACK "[output]\nfilter_beta = -1\n",
+		     "mocapd.conf:6: [output] filter_beta: expected a number from 0 to 1000, got '-1'");
+	expect_error(CAM NOTRACK "[output]\nfilter_max_gap_ms = 0\n",
+		     "mocapd.conf:6: [output] filter_max_gap_ms: expected a number above 0 and at most 10000, got '0'");
 }
 
 static void test_structure_errors(void)
@@ -204,7 +224,7 @@ static void test_structure_errors(void)
 	expect_error(CAM NOTRACK "iteratons = 5\n", "mocapd.conf:5: [tracker] iteratons: unknown key");
 	expect_error("[daemon]\nplugins = /x\n" CAM NOTRACK, "mocapd.conf:2: [daemon] plugins: unknown key");
 	expect_error("[deamon]\n" CAM NOTRACK,
-		     "mocapd.conf:1: unknown section [deamon] (expected [daemon], [camera NAME], [tracker], [socket], [detector], [network], [record] or [source])");
+		     "mocapd.conf:1: unknown section [deamon] (expected [daemon], [camera NAME], [tracker], [socket], [detector], [network], [record], [source] or [output])");
 	expect_error("log_level = info\n" CAM NOTRACK,
 		     "mocapd.conf:1: log_level: key outside any section (start with [daemon])");
 	expect_error(CAM NOTRACK "enabled = true\n",

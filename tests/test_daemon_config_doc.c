@@ -36,9 +36,11 @@ static int ticks(const char *text, size_t len, char out[][128], int max)
 static int section_of(const char *line)
 {
 	static const char *const heads[] = {"## [daemon]", "## [camera NAME]", "## [tracker]", "## [socket]",
-					    "## [detector]", "## [network]", "## [record]", "## [source]"};
+					    "## [detector]", "## [network]", "## [record]", "## [source]",
+					    "## [output]"};
 	static const mcd_section secs[] = {MCD_SEC_DAEMON, MCD_SEC_CAMERA, MCD_SEC_TRACKER, MCD_SEC_SOCKET,
-					   MCD_SEC_DETECTOR, MCD_SEC_NETWORK, MCD_SEC_RECORD, MCD_SEC_SOURCE};
+					   MCD_SEC_DETECTOR, MCD_SEC_NETWORK, MCD_SEC_RECORD, MCD_SEC_SOURCE,
+					   MCD_SEC_OUTPUT};
 	for (int i = 0; i < MCD_NSECTIONS; i++)
 		if (strncmp(line, heads[i], strlen(heads[i])) == 0)
 			return (int)secs[i];
@@ -164,6 +166,7 @@ static void check_reload_section(const char *text)
 		if (t[i][0] == '[') {
 			sec = strcmp(t[i], "[tracker]") == 0    ? MCD_SEC_TRACKER
 			      : strcmp(t[i], "[detector]") == 0 ? MCD_SEC_DETECTOR
+			      : strcmp(t[i], "[output]") == 0   ? MCD_SEC_OUTPUT
 								: MCD_SEC_DAEMON;
 			continue;
 		}
