@@ -358,3 +358,22 @@ bool mc_la_lu_solve(double *A, double *b, int n)
 	}
 	return true;
 }
+
+bool mc_rays_nearest_point(const mc_vec3 *origin, const mc_vec3 *dir, const double *weight, int n, mc_vec3 *x)
+{
+	double A[9] = {0}, b[3] = {0};
+	for (int i = 0; i < n; i++) {
+		double d[3] = {dir[i].x, dir[i].y, dir[i].z}, o[3] = {origin[i].x, origin[i].y, origin[i].z};
+		double w = weight ? weight[i] : 1.0;
+		for (int p = 0; p < 3; p++)
+			for (int q = 0; q < 3; q++) {
+				double P = w * ((p == q) - d[p] * d[q]);
+				A[3 * p + q] += P;
+				b[p] += P * o[q];
+			}
+	}
+	if (!mc_la_lu_solve(A, b, 3))
+		return false;
+	*x = mc_v3(b[0], b[1], b[2]);
+	return mc_v3_isfinite(*x);
+}

@@ -90,6 +90,10 @@ bool mc_la_cholesky_solve(double *A, double *b, int n);
 /* Solves A x = b by LU with partial pivoting; overwrites A and b. Returns
  * false for a (numerically) singular A. */
 bool mc_la_lu_solve(double *A, double *b, int n);
+/* The point nearest to n rays (origin[i], unit dir[i]) in least squares,
+ * sum_i w_i |(I - d_i d_i^T)(x - o_i)|^2 (weight NULL: all 1).  False
+ * when the rays are (near) parallel. */
+bool mc_rays_nearest_point(const mc_vec3 *origin, const mc_vec3 *dir, const double *weight, int n, mc_vec3 *x);
 
 /* splitmix64: a small, fast random generator (state *s, any seed); good
  * enough for sampling pixels and simulating noise, not for cryptography. */

@@ -13,20 +13,12 @@ typedef struct {
  * parallel. */
 static bool nearest_point(const ray *r, int n, mc_vec3 *out)
 {
-	double A[9] = {0}, b[3] = {0};
+	mc_vec3 o[MC_MAX_CAMERAS], d[MC_MAX_CAMERAS];
 	for (int i = 0; i < n; i++) {
-		double d[3] = {r[i].dir.x, r[i].dir.y, r[i].dir.z}, o[3] = {r[i].origin.x, r[i].origin.y, r[i].origin.z};
-		for (int p = 0; p < 3; p++)
-			for (int q = 0; q < 3; q++) {
-				double P = (p == q) - d[p] * d[q];
-				A[3 * p + q] += P;
-				b[p] += P * o[q];
-			}
+		o[i] = r[i].origin;
+		d[i] = r[i].dir;
 	}
-	if (!mc_la_lu_solve(A, b, 3))
-		return false;
-	*out = mc_v3(b[0], b[1], b[2]);
-	return mc_v3_isfinite(*out);
+	return mc_rays_nearest_point(o, d, NULL, n, out);
 }
 
 static bool to_ray(const mc_camera *cam, double u, double v, ray *out)

@@ -78,21 +78,17 @@ static mc_vec3 off_ray(mc_vec3 p, mc_vec3 origin, mc_vec3 dir)
  * TRI_GATE_M. */
 static bool triangulate_joint(const mc_trk_keypoint_ray *r, const int *idx, int n, mc_vec3 *out, double *conf)
 {
-	double A[9] = {0}, b[3] = {0}, wmin = 1;
+	mc_vec3 o[MC_MAX_CAMERAS], d[MC_MAX_CAMERAS], x;
+	double w[MC_MAX_CAMERAS], wmin = 1;
 	for (int i = 0; i < n; i++) {
 		const mc_trk_keypoint_ray *k = &r[idx[i]];
-		double d[3] = {k->dir.x, k->dir.y, k->dir.z}, o[3] = {k->origin.x, k->origin.y, k->origin.z};
-		for (int a = 0; a < 3; a++)
-			for (int c = 0; c < 3; c++) {
-				double P = (a == c) - d[a] * d[c];
-				A[3 * a + c] += k->weight * P;
-				b[a] += k->weight * P * o[c];
-			}
+		o[i] = k->origin;
+		d[i] = k->dir;
+		w[i] = k->weight;
 		wmin = fmin(wmin, k->weight);
 	}
-	if (!mc_la_lu_solve(A, b, 3))
+	if (!mc_rays_nearest_point(o, d, w, n, &x))
 		return false;
-	mc_vec3 x = mc_v3(b[0], b[1], b[2]);
 	for (int i = 0; i < n; i++) {
 		const mc_trk_keypoint_ray *k = &r[idx[i]];
 		if (mc_v3_dot(mc_v3_sub(x, k->origin), k->dir) <= 0.05 ||

@@ -57,24 +57,19 @@ static void exchange(mc_trk_keypoint_ray *a, mc_trk_keypoint_ray *b)
 /* Sum of squared distances of rays to their least-squares point. */
 static double spread(const mc_trk_keypoint_ray *const *rays, int n)
 {
-	double A[9] = {0}, b[3] = {0};
+	mc_vec3 o[MC_MAX_CAMERAS] = {{0, 0, 0}}, d[MC_MAX_CAMERAS] = {{0, 0, 0}}, x;
+	if (n > MC_MAX_CAMERAS)
+		n = MC_MAX_CAMERAS;
 	for (int i = 0; i < n; i++) {
-		double d[3] = {rays[i]->dir.x, rays[i]->dir.y, rays[i]->dir.z};
-		double o[3] = {rays[i]->origin.x, rays[i]->origin.y, rays[i]->origin.z};
-		for (int p = 0; p < 3; p++)
-			for (int q = 0; q < 3; q++) {
-				double P = (p == q) - d[p] * d[q];
-				A[3 * p + q] += P;
-				b[p] += P * o[q];
-			}
+		o[i] = rays[i]->origin;
+		d[i] = rays[i]->dir;
 	}
-	if (!mc_la_lu_solve(A, b, 3))
+	if (!mc_rays_nearest_point(o, d, NULL, n, &x))
 		return INFINITY;
-	mc_vec3 x = mc_v3(b[0], b[1], b[2]);
 	double s = 0;
 	for (int i = 0; i < n; i++) {
-		double d = ray_distance(x, rays[i]);
-		s += d * d;
+		double dist = ray_distance(x, rays[i]);
+		s += dist * dist;
 	}
 	return s;
 }
