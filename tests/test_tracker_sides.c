@@ -85,7 +85,11 @@ int main(void)
 	CHECK(rig.ncams == 4 && left_wrist >= 0 && right_wrist >= 0);
 	mc_tracker_settings s;
 	mc_tracker_settings_default(&s);
+	CHECK(!s.assign_sides); /* head-mounted rigs: the detector's labels */
+	mc_tracker_settings_outside_in(&s, rig.ncams, MC_GIVEN_ASSIGN_SIDES);
+	CHECK(!s.assign_sides); /* a setting given stays */
 	mc_tracker_settings_outside_in(&s, rig.ncams, 0);
+	CHECK(s.assign_sides); /* outside-in: the views and the pose */
 	mc_tracker *t = mc_tracker_create(&rig, &model, &s, &err);
 	CHECK_MSG(t, "%s", err.msg);
 	if (!t)

@@ -253,23 +253,65 @@ static int first_fit(mc_tracker *t, const mc_frame_view *views, int nviews, cons
 
 /* ---- the actor's size ---------------------------------------------------- */
 
-/* Mean squared ray distance over the kept frame sets at one bone scale,
- * each re-fitted from its tracked pose. */
+/* Mean squared ray distance over the kept frame sets with model m's bones,
+ * each frame set re-fitted from its tracked pose. */
+static double bones_cost(const mc_tracker *t, mc_model *m)
+{
+	double sum = 0, wsum = 0;
+	for (int f = 0; f < t->init.nshape; f++) {
+		double pose[MC_MAX_DOF], w;
+		memcpy(pose, t->init.shape_pose[f], sizeof(pose));
+		fit_pose(t, m, &t->init.shape_tri[f], NULL, NULL, 30, false, pose);
+		double c = ray_cost(m, &t->init.shape_tri[f], NULL, pose, &w);
+		sum += c * w;
+		wsum += w;
+	}
+	return wsum > 0 ? sum / wsum : 1e9;
+}
+
+/* The same at one bone scale for every bone. */
 static double size_cost(const mc_tracker *t, double scale)
 {
 	mc_model m = t->model;
 	for (int j = 0; j < m.njoints; j++)
 		m.bone_scale[j] = scale;
-	double sum = 0, wsum = 0;
-	for (int f = 0; f < t->init.nshape; f++) {
-		double pose[MC_MAX_DOF], w;
-		memcpy(pose, t->init.shape_pose[f], sizeof(pose));
-		fit_pose(t, &m, &t->init.shape_tri[f], NULL, NULL, 30, false, pose);
-		double c = ray_cost(&m, &t->init.shape_tri[f], NULL, pose, &w);
-		sum += c * w;
-		wsum += w;
+	return bones_cost(t, &m);
+}
+
+/* Limb bones, each pair (left and right alike) on its own after the size
+ * (issue 35 item 5): the scale within LIMB_RANGE of the size whose fits
+ * explain the rays best, in LIMB_STEPS steps each way.  A limb that no
+ * detection sees keeps the size (its cost does not change). */
+#define LIMB_RANGE 0.10
+#define LIMB_STEPS 2
+static void fit_limbs(mc_tracker *t)
+{
+	static const char *const limbs[][2] = {
+		{"left_elbow", "right_elbow"}, /* upper arms */
+		{"left_wrist", "right_wrist"}, /* forearms */
+		{"left_knee", "right_knee"},   /* thighs */
+		{"left_ankle", "right_ankle"}, /* shins */
+	};
+	mc_model m = t->model;
+	double best_cost = bones_cost(t, &m);
+	for (size_t b = 0; b < sizeof(limbs) / sizeof(limbs[0]); b++) {
+		int jl = mc_model_find_joint(&m, limbs[b][0]), jr = mc_model_find_joint(&m, limbs[b][1]);
+		if (jl < 0 || jr < 0)
+			continue;
+		double size = m.bone_scale[jl], best = size;
+		for (int k = -LIMB_STEPS; k <= LIMB_STEPS; k++) {
+			if (k == 0)
+				continue;
+			m.bone_scale[jl] = m.bone_scale[jr] = size * (1 + LIMB_RANGE * k / LIMB_STEPS);
+			double c = bones_cost(t, &m);
+			if (c < best_cost) {
+				best_cost = c;
+				best = m.bone_scale[jl];
+			}
+		}
+		m.bone_scale[jl] = m.bone_scale[jr] = best;
 	}
-	return wsum > 0 ? sum / wsum : 1e9;
+	memcpy(t->model.bone_scale, m.bone_scale, sizeof(m.bone_scale));
 }
 
 /* The bone scale in [SCALE_MIN, SCALE_MAX] that explains the kept frame
@@ -319,6 +361,8 @@ static int finish_shape(mc_tracker *t, const mc_frame_view *views, int nviews, c
 	in->scale = find_size(t);
 	for (int j = 0; j < t->model.njoints; j++)
 		t->model.bone_scale[j] = in->scale;
+	if (t->s.fit_limbs)
+		fit_limbs(t);
 	in->shape_done = true;
 	double pose[MC_MAX_DOF];
 	memcpy(pose, t->pose, sizeof(pose));

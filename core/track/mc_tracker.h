@@ -53,8 +53,14 @@ typedef struct {
 	/* Match each view's left/right keypoint pairs to the tracked pose's
 	 * two joints by the cheaper assignment instead of trusting the
 	 * detector's labels; a pair collapsed onto one peak pulls only the
-	 * nearer joint (docs/TRACKER.md, "Sides"). */
+	 * nearer joint (docs/TRACKER.md, "Sides").  Off by default, on for
+	 * outside-in rigs (mc_tracker_outside_in). */
 	bool assign_sides;
+	/* After the actor's size (one scale for every bone) is measured from
+	 * the detections, scale the upper arms, forearms, thighs and shins
+	 * on their own, each pair within 10 % of that size (docs/TRACKER.md,
+	 * "Starting without ground truth"). */
+	bool fit_limbs;
 	int cl_platform, cl_device; /* -1: first GPU, else first CPU */
 	uint64_t seed;
 } mc_tracker_settings;
@@ -71,6 +77,7 @@ typedef struct {
 	int min_iterations, max_iterations;  /* the bounds of the share */
 	double lambda_smooth, lambda_floor;
 	double lambda_detection;             /* the outside-in detector is the weaker one */
+	bool assign_sides;                   /* the views can settle left and right */
 } mc_tracker_outside_in_defaults;
 extern const mc_tracker_outside_in_defaults mc_tracker_outside_in;
 /* camera_iterations / ncams, within [min_iterations, max_iterations]: 80
@@ -82,6 +89,7 @@ int mc_tracker_outside_in_iterations(int ncams);
 #define MC_GIVEN_LAMBDA_SMOOTH 2u
 #define MC_GIVEN_LAMBDA_FLOOR 4u
 #define MC_GIVEN_LAMBDA_DETECTION 8u
+#define MC_GIVEN_ASSIGN_SIDES 16u
 /* Sets the outside-in values for a rig of ncams cameras in every setting
  * not in `given` (MC_GIVEN_* flags). */
 void mc_tracker_settings_outside_in(mc_tracker_settings *s, int ncams, unsigned given);

@@ -68,8 +68,9 @@ static void usage(FILE *f)
 		   "                        detect: from the detections alone (needs --detector or\n"
 		   "                        --simulated-detector), nothing from gt.json\n"
 		   "  --no-recover          never re-fit the pose to the detections when lost or stuck\n"
-		   "  --sides labels        trust the detector's left/right labels (default: the views'\n"
-		   "                        agreement and the tracked pose decide, docs/TRACKER.md \"Sides\")\n");
+		   "  --sides labels|tracker  who decides left from right: the detector's labels (default on\n"
+		   "                        head-mounted rigs) or the views' agreement and the tracked pose\n"
+		   "                        (default outside-in; docs/TRACKER.md \"Sides\")\n");
 }
 
 static int parse_number(const char *opt, const char *arg, double lo, double hi, double *out)
@@ -112,6 +113,7 @@ static int apply_option(options *o, int c, const char *name, const char *arg, bo
 			return -1;
 		}
 		o->s.assign_sides = strcmp(arg, "tracker") == 0;
+		o->given |= MC_GIVEN_ASSIGN_SIDES;
 		return 0;
 	case OPT_DET_SERIAL: o->detector_serial = true; return 0;
 	case OPT_SIM_PRESET: o->sim_preset = arg; return 0;
