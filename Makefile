@@ -178,6 +178,8 @@ $(BUILD)/bin/%: tools/%.c $(CORE_LIB) $(INSTALL_PATHS_H)
 # variable on the program would leak into the core objects it builds.
 BENCH_TOOL_OBJ := $(patsubst tools/bench/%.c,$(BUILD)/tools/bench/%.o,$(wildcard tools/bench/*.c))
 $(BUILD)/tools/bench/%.o: CPPFLAGS += -Idetect -Itools
+# options.c prints the version and the installed data folder.
+$(BUILD)/tools/bench/options.o: $(INSTALL_PATHS_H)
 $(BUILD)/bin/mocap-bench: tools/mocap-bench.c $(BENCH_TOOL_OBJ) $(BUILD)/libmocapdetect.a $(CORE_LIB) $(INSTALL_PATHS_H)
 	@mkdir -p $(@D)
 	$(CC) $(CPPFLAGS) -Idetect -Itools $(CFLAGS) -MMD -MP $< $(BENCH_TOOL_OBJ) -o $@ $(LDFLAGS) $(BUILD)/libmocapdetect.a $(CORE_LIB) \
