@@ -351,6 +351,7 @@ static double reference_ms_per_frame(const options *o, const mc_clip *clip, mc_e
 	bench_stats st = {0};
 	options q = *o;
 	q.quiet = true;
+	q.overlay_dir = NULL; /* the tracked run's overlays stay */
 	int rc = track_clip(&q, t, NULL, clip, o->reference_frames, NULL, &st, err);
 	bench_timing tm = bench_timing_of(st.ms, st.frames);
 	free(st.ms);
