@@ -113,10 +113,12 @@ static int decode(mc_image_conv *conv, camera *c, mc_err *err)
 	c->rgb = NULL;
 	if (c->m.pixfmt == MC_PIXFMT_MJPEG)
 		return mc_image_decode(conv, c->bytes, c->n, "frame", &c->rgb, &c->w, &c->h, err);
+	if (take_frame_check_raw(&c->m, c->n, err) < 0) /* before allocating from its size */
+		return -1;
 	c->w = (int)c->m.width;
 	c->h = (int)c->m.height;
 	size_t need = (size_t)c->w * c->h * 3;
-	if (!(c->rgb = malloc(need ? need : 1)))
+	if (!(c->rgb = malloc(need)))
 		return mc_err_set(err, "out of memory");
 	mc_image_frame f = {.pixfmt = c->m.pixfmt, .width = c->m.width, .height = c->m.height, .stride = c->m.stride,
 			    .data = c->bytes, .bytes = c->n};
