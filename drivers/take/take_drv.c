@@ -108,8 +108,8 @@ static int scan(take_dev *d, char *err, size_t errlen)
 {
 	mc_err e;
 	if (take_reader_open(&d->r, d->path, &e) < 0)
-		return drv_errf(err, errlen, MDRV_ERR_CONFIG, "%s: %s (the take was recorded with frames = false?)", DRV,
-				e.msg);
+		return drv_errf(err, errlen, MDRV_ERR_CONFIG, "%s: %s%s", DRV, e.msg,
+				strstr(e.msg, "No such file") ? " (the take was recorded with frames = false?)" : "");
 	take_frame_meta m;
 	const uint8_t *bytes;
 	size_t n;

@@ -26,14 +26,20 @@
 static char dir[] = "/tmp/test-take-hostile-XXXXXX";
 static char bin[PATH_MAX];
 
-/* A take TAKE (under dir) with camera "left" named in take.json. */
-static void make_take(const char *take)
+/* TAKE/take.json naming camera "left". */
+static void make_take_json(const char *take)
 {
 	mc_err err = {""};
-	CHECK(mkdir(take, 0755) == 0);
 	take_info t = {.ncams = 1, .complete = true};
 	snprintf(t.cams[0], sizeof(t.cams[0]), "left");
 	CHECK_MSG(take_info_write(take, &t, &err) == 0, "%s", err.msg);
+}
+
+/* A take TAKE (under dir) with camera "left" named in take.json. */
+static void make_take(const char *take)
+{
+	CHECK(mkdir(take, 0755) == 0);
+	make_take_json(take);
 }
 
 /* poses.mcr: a definition of ndef joints named by names (NULL: jN), then
@@ -300,6 +306,21 @@ static void check_driver_gaps(void)
 	CHECK_MSG(got == 5 && secs < 2, "%d of 5 frames in %.2f s (a gap of 10^18 ns was waited for)", got, secs);
 	if (dev)
 		drv->close(dev);
+	/* mocapd --check runs the driver's check: a FIFO as the camera file
+	 * is refused at once, where opening it waited for a writer for ever. */
+	snprintf(take, sizeof(take), "%s/fifo", dir); /* check_fifos made it */
+	static config cf;
+	cfg_setv(&cf, "take", take, "camera", "left", NULL);
+	cf.host = host_for(&cf);
+	char path[PATH_MAX + 32];
+	snprintf(path, sizeof(path), "%s/take.json", take);
+	unlink(path);
+	make_take_json(take);
+	err[0] = 0;
+	int rc = drv->check ? drv->check(&cf.host, err, sizeof(err)) : MDRV_OK;
+	printf("take driver check on a FIFO: %d: %s\n", rc, err);
+	CHECK_MSG(rc == MDRV_ERR_CONFIG && strstr(err, "cam-left.mcr: not a regular file (a FIFO)"), "check: %d: %s", rc,
+		  err);
 	dlclose(dl);
 }
 
