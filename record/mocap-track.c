@@ -6,7 +6,8 @@
  *   mocap-track [--iterations N] [--resolution N] [--name NAME] [--quiet] TAKE_DIR
  *
  * The rig and the body model are the take's copies (the actor file when the
- * take has one); the tracker starts from the first skeleton recorded live.
+ * take has one); the tracker starts from the first skeleton recorded live,
+ * and calibrates (colours, reference energy) on the first complete frame set.
  * Frame sets are the reference camera's frames with the other cameras'
  * frames taken within 10 ms of them. */
 #include "base/mc_time.h"
