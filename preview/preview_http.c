@@ -193,9 +193,13 @@ static bool host_ok(const char *host, const http_config *cfg)
 	if (!cfg->loopback)
 		return true;
 	static const char *const names[] = {"127.0.0.1", "localhost", "[::1]"};
+	/* The port is the whole rest, as the browser writes it: atoi took
+	 * "18089evil" for 18089 (issue 34, Also). */
+	char port[16];
+	snprintf(port, sizeof(port), "%d", cfg->port);
 	for (size_t i = 0; i < sizeof(names) / sizeof(names[0]); i++) {
 		size_t n = strlen(names[i]);
-		if (!strncasecmp(host, names[i], n) && (host[n] == 0 || (host[n] == ':' && atoi(host + n + 1) == cfg->port)))
+		if (!strncasecmp(host, names[i], n) && (host[n] == 0 || (host[n] == ':' && !strcmp(host + n + 1, port))))
 			return true;
 	}
 	return false;
