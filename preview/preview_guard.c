@@ -9,7 +9,7 @@
 #include <sys/socket.h>
 #include <unistd.h>
 
-#define GUARD_GRACE_NS 1000000000ull
+#define GUARD_GRACE_NS 500000000ull
 
 typedef struct guard_conn {
 	int fd;
@@ -85,7 +85,7 @@ void guard_free(preview_guard *g)
 }
 
 /* Which connection gives way when too many wait for their headers: the
- * one that has waited longest, if it has had a second (a browser sends
+ * one that has waited longest, if it has had half a second (a browser sends
  * its headers at once, a flood's connections wait), else the new one c.
  * Under the lock. */
 static guard_conn *oldest_waiting(preview_guard *g, guard_conn *c)

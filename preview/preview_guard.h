@@ -7,7 +7,7 @@
  *     the server;
  *   - at most GUARD_MAX_PENDING connections may be waiting for their
  *     headers, so that the rest of the connection limit stays for pages:
- *     past it, the one that has waited longest (over a second) is closed,
+ *     past it, the one that has waited longest (over 0.5 s) is closed,
  *     else the new one;
  *   - at most GUARD_MAX_STREAMS event streams at once; a stream that does
  *     not read is closed after GUARD_STREAM_IDLE_S without progress.
