@@ -310,34 +310,63 @@ static size_t packed_copy(const take_frame_meta *m, const uint8_t *src, size_t n
 	return row * m->height;
 }
 
+/* A frame the video stream (made for the first frame) can take: the
+ * first frame's format and size, and for a raw format as many bytes as
+ * that size needs (a GRAY8 frame claiming 8x100 in 64 bytes made the
+ * packet 800 bytes long: a heap overflow read, found with issue 34's
+ * shapes).  -1 with err. */
+static int video_frame_ok(const take_frame_meta *first, const take_frame_meta *m, size_t bytes, mc_err *err)
+{
+	if (m->pixfmt != first->pixfmt || m->width != first->width || m->height != first->height)
+		return mc_err_set(err, "%ux%u %s, where the video is %ux%u %s", m->width, m->height,
+				  mc_pixfmt_name(m->pixfmt), first->width, first->height, mc_pixfmt_name(first->pixfmt));
+	return m->pixfmt == MC_PIXFMT_MJPEG ? 0 : take_frame_check_raw(m, bytes, err);
+}
+
+/* One frame as a packet at its capture time; -1 with err. */
+static int write_packet(AVFormatContext *oc, const take_frame_meta *m, const uint8_t *frame, size_t bytes,
+			uint64_t t0, mc_err *err)
+{
+	AVPacket *pkt = av_packet_alloc();
+	if (!pkt || av_new_packet(pkt, (int)bytes) < 0) {
+		av_packet_free(&pkt);
+		return mc_err_set(err, "out of memory");
+	}
+	pkt->size = (int)packed_copy(m, frame, bytes, pkt->data);
+	pkt->pts = pkt->dts = av_rescale_q((int64_t)(m->capture_ns - t0), (AVRational){1, 1000000000},
+					   oc->streams[0]->time_base);
+	pkt->flags |= AV_PKT_FLAG_KEY;
+	int rc = av_write_frame(oc, pkt) < 0 ? mc_err_set(err, "cannot write it") : 0;
+	av_packet_free(&pkt);
+	return rc;
+}
+
 static void export_video(const char *take, const char *camera, const char *out)
 {
 	take_reader r;
 	open_camera(take, camera, &r);
 	AVFormatContext *oc = NULL;
-	uint64_t t0 = 0;
 	int count = 0;
-	take_frame_meta m;
+	take_frame_meta first = {0}, m;
 	const uint8_t *frame;
 	size_t bytes;
+	mc_err err = {""};
 	while (take_reader_next_frame(&r, &m, &frame, &bytes) == 1) {
-		if (!oc) {
-			oc = open_video(out, &m);
-			t0 = m.capture_ns;
-		}
-		AVPacket *pkt = av_packet_alloc();
-		if (!pkt || av_new_packet(pkt, (int)bytes) < 0)
-			fail(1, "out of memory");
-		pkt->size = (int)packed_copy(&m, frame, bytes, pkt->data);
-		pkt->pts = pkt->dts = av_rescale_q((int64_t)(m.capture_ns - t0), (AVRational){1, 1000000000},
-						   oc->streams[0]->time_base);
-		pkt->flags |= AV_PKT_FLAG_KEY;
-		if (av_write_frame(oc, pkt) < 0)
-			fail(1, "%s: cannot write frame %llu", out, (unsigned long long)m.sequence);
-		av_packet_free(&pkt);
+		if (!oc && (video_frame_ok(&m, &m, bytes, &err) < 0 || !(oc = open_video(out, &m))))
+			break;
+		if (count == 0)
+			first = m;
+		if (video_frame_ok(&first, &m, bytes, &err) < 0 || write_packet(oc, &m, frame, bytes, first.capture_ns, &err) < 0)
+			break;
 		count++;
 	}
 	take_reader_close(&r);
+	if (err.msg[0]) {
+		if (oc)
+			avio_closep(&oc->pb);
+		avformat_free_context(oc);
+		fail(1, "%s/cam-%s.mcr: frame %llu: %s", take, camera, (unsigned long long)m.sequence, err.msg);
+	}
 	if (!oc)
 		fail(1, "%s/cam-%s.mcr: no whole frame", take, camera);
 	if (av_write_trailer(oc) < 0 || avio_closep(&oc->pb) < 0)

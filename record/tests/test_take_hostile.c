@@ -250,6 +250,43 @@ static void check_frame_sizes(void)
 	}
 }
 
+/* --video: frames the stream cannot take are refused (a GRAY8 frame
+ * claiming 8x100 in 64 bytes made an 800-byte packet of a 64-byte buffer:
+ * a heap overflow read under ASan). */
+static void check_video_sizes(void)
+{
+	static const struct {
+		uint32_t h0, h1;
+		const char *want;
+	} cases[] = {
+		{4, 100, "cam-left.mcr: frame 1: 8x100 GRAY8, where the video is 8x4 GRAY8"},
+		{100, 100, "cam-left.mcr: frame 0: 8x100 GRAY8 needs 1592 bytes, the record holds 64"},
+	};
+	char take[PATH_MAX], args[PATH_MAX * 2 + 64], out[8192];
+	for (size_t i = 0; i < sizeof(cases) / sizeof(cases[0]); i++) {
+		snprintf(take, sizeof(take), "%s/video%zu", dir, i);
+		make_take(take);
+		char path[PATH_MAX + 32];
+		snprintf(path, sizeof(path), "%s/cam-left.mcr", take);
+		take_file f;
+		mc_err err = {""};
+		CHECK(take_file_create(&f, path, &err) == 0);
+		uint8_t data[64] = {0};
+		for (int k = 0; k < 2; k++) {
+			take_frame_meta m = {.sequence = (uint64_t)k, .capture_ns = 1000000000ull + (uint64_t)k * 33333333ull,
+					     .pixfmt = MC_PIXFMT_GRAY8, .width = 8, .height = k ? cases[i].h1 : cases[i].h0,
+					     .stride = 16};
+			uint8_t head[TAKE_FRAME_META_SIZE];
+			take_encode_frame_meta(&m, head);
+			CHECK(take_file_append(&f, TAKE_FRAME, head, sizeof(head), data, sizeof(data), 1, &err) == 0);
+		}
+		take_file_close(&f);
+		snprintf(args, sizeof(args), "--video %s/v%zu.mkv --camera left %s", dir, i, take);
+		int rc = tool("mocap-export", args, out, sizeof(out));
+		CHECK_MSG(rc == 1 && strstr(out, cases[i].want), "case %zu: exit %d, wanted '%s'", i, rc, cases[i].want);
+	}
+}
+
 /* Item 7: FIFOs are refused at once, not waited on. */
 static void check_fifos(void)
 {
@@ -348,6 +385,7 @@ int main(void)
 	check_joint_counts();
 	check_names();
 	check_frame_sizes();
+	check_video_sizes();
 	check_fifos();
 	check_driver_gaps();
 	check_gap_counts();
