@@ -77,9 +77,12 @@ void mcd_log(int level, const char *fmt, ...)
 	size_t len = (size_t)n + (m < 0 ? 0 : (size_t)m);
 	if (len > sizeof(line) - 2)
 		len = sizeof(line) - 2; /* cut, never overflow */
-	/* Messages must stay one line each: a driver's text could hold newlines. */
+	/* Messages must stay one line each, and plain text: a driver's or a
+	 * client's text (a STEER argument) could hold newlines, or an ESC
+	 * that starts a terminal control sequence on the operator's screen.
+	 * Every control byte (below 0x20, and DEL) becomes a space. */
 	for (size_t i = (size_t)n; i < len; i++)
-		if (line[i] == '\n' || line[i] == '\r')
+		if ((unsigned char)line[i] < 0x20 || line[i] == 0x7f)
 			line[i] = ' ';
 	line[len++] = '\n';
 	ssize_t w = write(STDERR_FILENO, line, len);

@@ -1,6 +1,7 @@
 /* preview_http: routes, static files, the event stream and the token
  * check (preview_http.h). */
 #include "preview_http.h"
+#include "preview_guard.h"
 
 #include <fcntl.h>
 #include <jansson.h>
@@ -21,6 +22,7 @@
 struct preview_http {
 	struct MHD_Daemon *mhd;
 	http_config cfg;
+	preview_guard *guard;
 };
 
 typedef struct {
@@ -112,26 +114,41 @@ static enum MHD_Result serve_file(struct MHD_Connection *conn, const http_config
 
 /* ---- the event stream ---- */
 
+typedef struct {
+	hub_reader *reader;
+	preview_guard *guard; /* counts the open streams */
+} sse_stream;
+
 static ssize_t sse_read(void *cls, uint64_t pos, char *buf, size_t max)
 {
 	(void)pos;
-	long n = hub_reader_read(cls, buf, max, 10000);
+	sse_stream *st = cls;
+	long n = hub_reader_read(st->reader, buf, max, 10000);
 	return n < 0 ? MHD_CONTENT_READER_END_OF_STREAM : (ssize_t)n;
 }
 
 static void sse_free(void *cls)
 {
-	hub_reader_free(cls);
+	sse_stream *st = cls;
+	hub_reader_free(st->reader);
+	guard_stream_end(st->guard);
+	free(st);
 }
 
-static enum MHD_Result serve_events(struct MHD_Connection *conn, const http_config *cfg)
+static enum MHD_Result serve_events(struct MHD_Connection *conn, const http_config *cfg, preview_guard *guard)
 {
-	hub_reader *reader = hub_reader_new(cfg->hub);
-	if (!reader)
+	if (!guard_stream_begin(guard, conn))
+		return reply_error(conn, MHD_HTTP_SERVICE_UNAVAILABLE, "too many event streams open; try again later");
+	sse_stream *st = calloc(1, sizeof(*st));
+	if (!st || !(st->reader = hub_reader_new(cfg->hub))) {
+		free(st);
+		guard_stream_end(guard);
 		return MHD_NO;
-	struct MHD_Response *r = MHD_create_response_from_callback(MHD_SIZE_UNKNOWN, 64 * 1024, sse_read, reader, sse_free);
+	}
+	st->guard = guard;
+	struct MHD_Response *r = MHD_create_response_from_callback(MHD_SIZE_UNKNOWN, 64 * 1024, sse_read, st, sse_free);
 	if (!r) {
-		hub_reader_free(reader);
+		sse_free(st);
 		return MHD_NO;
 	}
 	common_headers(r, "text/event-stream");
@@ -193,9 +210,13 @@ static bool host_ok(const char *host, const http_config *cfg)
 	if (!cfg->loopback)
 		return true;
 	static const char *const names[] = {"127.0.0.1", "localhost", "[::1]"};
+	/* The port is the whole rest, as the browser writes it: atoi took
+	 * "18089evil" for 18089 (issue 34, Also). */
+	char port[16];
+	snprintf(port, sizeof(port), "%d", cfg->port);
 	for (size_t i = 0; i < sizeof(names) / sizeof(names[0]); i++) {
 		size_t n = strlen(names[i]);
-		if (!strncasecmp(host, names[i], n) && (host[n] == 0 || (host[n] == ':' && atoi(host + n + 1) == cfg->port)))
+		if (!strncasecmp(host, names[i], n) && (host[n] == 0 || (host[n] == ':' && !strcmp(host + n + 1, port))))
 			return true;
 	}
 	return false;
@@ -210,9 +231,11 @@ static enum MHD_Result on_request(void *cls, struct MHD_Connection *conn, const 
 				  const char *version, const char *upload_data, size_t *upload_data_size, void **con_cls)
 {
 	(void)upload_data;
-	const http_config *cfg = cls;
+	preview_http *h = cls;
+	const http_config *cfg = &h->cfg;
 	static int marker;
 	if (*con_cls == NULL) { /* headers only so far: wait for the body */
+		guard_headers_done(h->guard, conn);
 		*con_cls = &marker;
 		return MHD_YES;
 	}
@@ -237,7 +260,7 @@ static enum MHD_Result on_request(void *cls, struct MHD_Connection *conn, const 
 	if (!strcmp(url, "/favicon.ico")) /* browsers ask; none, and no error for it */
 		return reply_text(conn, MHD_HTTP_NO_CONTENT, "image/x-icon", "");
 	if (!strcmp(url, "/events"))
-		return get ? serve_events(conn, cfg) : reply_error(conn, MHD_HTTP_METHOD_NOT_ALLOWED, "use GET");
+		return get ? serve_events(conn, cfg, h->guard) : reply_error(conn, MHD_HTTP_METHOD_NOT_ALLOWED, "use GET");
 	return reply_error(conn, MHD_HTTP_NOT_FOUND, "not found");
 }
 
@@ -261,15 +284,24 @@ preview_http *http_start(int listen_fd, const http_config *cfg, mc_err *err)
 		return NULL;
 	}
 	h->cfg = *cfg;
+	if (!(h->guard = guard_new())) {
+		close(listen_fd);
+		free(h);
+		mc_err_set(err, "out of memory");
+		return NULL;
+	}
 	/* A thread per connection: an event stream blocks in its reader
-	 * callback until there is something new. */
+	 * callback until there is something new.  The guard bounds what the
+	 * options below do not (preview_guard.h). */
 	h->mhd = MHD_start_daemon(MHD_USE_THREAD_PER_CONNECTION | MHD_USE_INTERNAL_POLLING_THREAD | MHD_USE_ERROR_LOG, 0,
-				  NULL, NULL, on_request, &h->cfg, MHD_OPTION_EXTERNAL_LOGGER, log_mhd, NULL,
+				  NULL, NULL, on_request, h, MHD_OPTION_EXTERNAL_LOGGER, log_mhd, NULL,
 				  MHD_OPTION_LISTEN_SOCKET, listen_fd,
 				  MHD_OPTION_CONNECTION_LIMIT, 64u, MHD_OPTION_PER_IP_CONNECTION_LIMIT, 32u,
-				  MHD_OPTION_CONNECTION_TIMEOUT, 60u, MHD_OPTION_END);
+				  MHD_OPTION_CONNECTION_TIMEOUT, 60u, MHD_OPTION_NOTIFY_CONNECTION, guard_notify_connection,
+				  h->guard, MHD_OPTION_NOTIFY_COMPLETED, guard_request_completed, h->guard, MHD_OPTION_END);
 	if (!h->mhd) {
 		close(listen_fd);
+		guard_free(h->guard);
 		free(h);
 		mc_err_set(err, "cannot start the HTTP server (libmicrohttpd)");
 		return NULL;
@@ -282,5 +314,6 @@ void http_stop(preview_http *h)
 	if (!h)
 		return;
 	MHD_stop_daemon(h->mhd);
+	guard_free(h->guard);
 	free(h);
 }

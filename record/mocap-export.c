@@ -22,6 +22,7 @@
 #include <libavutil/pixfmt.h>
 #include <getopt.h>
 #include <stdarg.h>
+#include <stdbool.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -70,16 +71,52 @@ static void export_bvh(const take_poses *t, const char *path)
 	mc_file_close_or_exit("mocap-export", f, path);
 }
 
-/* ---- CSV and JSON ---- */
+/* ---- CSV and JSON ----
+ * Joint names come from the take as recorded: mocapd's model loader allows
+ * only A-Z a-z 0-9 _ - . (docs/MODEL_FORMAT.md), but a crafted or older
+ * take may hold anything, so they are escaped here (issue 34). */
+
+/* One CSV header field, name then suffix, quoted (RFC 4180) when the name
+ * holds a comma, a quote or a line break. */
+static void csv_field(FILE *f, const char *name, const char *suffix)
+{
+	if (!strpbrk(name, ",\"\r\n")) {
+		fprintf(f, ",%s%s", name, suffix);
+		return;
+	}
+	fputs(",\"", f);
+	for (const char *c = name; *c; c++) {
+		if (*c == '"')
+			fputc('"', f);
+		fputc(*c, f);
+	}
+	fprintf(f, "%s\"", suffix);
+}
+
+/* A JSON string: quotes, backslashes and every byte outside printable
+ * ASCII escaped, so that any name gives valid JSON. */
+static void json_string_out(FILE *f, const char *s)
+{
+	fputc('"', f);
+	for (const unsigned char *c = (const unsigned char *)s; *c; c++) {
+		if (*c == '"' || *c == '\\')
+			fprintf(f, "\\%c", *c);
+		else if (*c < 0x20 || *c >= 0x7f)
+			fprintf(f, "\\u%04x", *c);
+		else
+			fputc(*c, f);
+	}
+	fputc('"', f);
+}
 
 static void export_csv(const take_poses *t, const char *path)
 {
 	FILE *f = mc_file_create_or_exit("mocap-export", path);
 	fprintf(f, "seq,capture_ns,realtime_ns,state");
-	for (int j = 0; j < t->def.njoints; j++) {
-		const char *n = t->def.joints[j].name;
-		fprintf(f, ",%s_x,%s_y,%s_z,%s_confidence", n, n, n, n);
-	}
+	static const char *const suffix[4] = {"_x", "_y", "_z", "_confidence"};
+	for (int j = 0; j < t->def.njoints; j++)
+		for (int k = 0; k < 4; k++)
+			csv_field(f, t->def.joints[j].name, suffix[k]);
 	fputc('\n', f);
 	for (int i = 0; i < t->nposes; i++) {
 		const take_pose *p = &t->poses[i];
@@ -97,9 +134,11 @@ static void export_json(const take_poses *t, const char *path)
 {
 	FILE *f = mc_file_create_or_exit("mocap-export", path);
 	fprintf(f, "{\"joints\": [");
-	for (int j = 0; j < t->def.njoints; j++)
-		fprintf(f, "%s{\"name\": \"%s\", \"parent\": %d}", j ? ", " : "", t->def.joints[j].name,
-			t->def.joints[j].parent);
+	for (int j = 0; j < t->def.njoints; j++) {
+		fprintf(f, "%s{\"name\": ", j ? ", " : "");
+		json_string_out(f, t->def.joints[j].name);
+		fprintf(f, ", \"parent\": %d}", t->def.joints[j].parent);
+	}
 	fprintf(f, "],\n \"poses\": [\n");
 	for (int i = 0; i < t->nposes; i++) {
 		const take_pose *p = &t->poses[i];
@@ -118,13 +157,20 @@ static void export_json(const take_poses *t, const char *path)
 	mc_file_close_or_exit("mocap-export", f, path);
 }
 
-/* ---- frames ---- */
+/* ---- frames ----
+ * A bad frame ends the export with a message; the error paths free what
+ * they hold first (a frame's buffers, the converter, the reader), so that
+ * only the exit is left (LSan found seven that leaked, issue 34). */
 
-static void write_file(const char *path, const void *data, size_t n)
+/* Writes a whole file; -1 with err naming it. */
+static int write_file(const char *path, const void *data, size_t n, mc_err *err)
 {
-	FILE *f = mc_file_create_or_exit("mocap-export", path);
-	fwrite(data, 1, n, f);
-	mc_file_close_or_exit("mocap-export", f, path);
+	FILE *f = fopen(path, "wb");
+	if (!f)
+		return mc_err_set(err, "%s: %s", path, strerror(errno));
+	bool bad = fwrite(data, 1, n, f) != n;
+	bad |= fclose(f) != 0;
+	return bad ? mc_err_set(err, "%s: write error", path) : 0;
 }
 
 /* The record file of one camera of the take; exits when there is none. */
@@ -134,7 +180,33 @@ static void open_camera(const char *take, const char *camera, take_reader *r)
 	snprintf(path, sizeof(path), "%s/cam-%s.mcr", take, camera);
 	mc_err err = {""};
 	if (take_reader_open(r, path, &err) < 0)
-		fail(1, "%s (is '%s' one of the take's cameras? take.json lists them)", err.msg, camera);
+		fail(1, "%s%s%s%s", err.msg, strstr(err.msg, "No such file") ? " (is '" : "",
+		     strstr(err.msg, "No such file") ? camera : "",
+		     strstr(err.msg, "No such file") ? "' one of the take's cameras? take.json lists them)" : "");
+}
+
+/* One frame as a JPEG file: JPEG as recorded, a raw format (its meta
+ * checked before anything is allocated from it) converted and encoded. */
+static int export_frame(mc_image_conv *conv, const take_frame_meta *m, const uint8_t *bytes, size_t nbytes,
+			const char *path, mc_err *err)
+{
+	if (m->pixfmt == MC_PIXFMT_MJPEG)
+		return write_file(path, bytes, nbytes, err);
+	if (take_frame_check_raw(m, nbytes, err) < 0)
+		return -1;
+	size_t rgb_bytes = (size_t)m->width * m->height * 3, jpeg_bytes = 0;
+	uint8_t *rgb = malloc(rgb_bytes), *jpeg = NULL;
+	mc_image_frame fr = {.pixfmt = m->pixfmt, .width = m->width, .height = m->height, .stride = m->stride,
+			     .data = bytes, .bytes = nbytes};
+	int rc = !rgb ? mc_err_set(err, "out of memory (%zu bytes)", rgb_bytes)
+		      : mc_image_to_rgb24(conv, &fr, rgb, rgb_bytes, err);
+	if (rc == 0)
+		rc = mc_image_encode_jpeg(conv, rgb, (int)m->width, (int)m->height, 95, &jpeg, &jpeg_bytes, err);
+	if (rc == 0)
+		rc = write_file(path, jpeg, jpeg_bytes, err);
+	free(rgb);
+	free(jpeg);
+	return rc;
 }
 
 static int export_frames(const char *take, const char *camera, const char *dir)
@@ -143,31 +215,25 @@ static int export_frames(const char *take, const char *camera, const char *dir)
 	take_reader r;
 	mc_err err = {""};
 	open_camera(take, camera, &r);
-	if (mkdir(dir, 0755) < 0 && errno != EEXIST)
+	if (mkdir(dir, 0755) < 0 && errno != EEXIST) {
+		take_reader_close(&r);
 		fail(1, "%s: %s", dir, strerror(errno));
+	}
 	mc_image_conv *conv = mc_image_conv_new(&err);
-	if (!conv)
+	if (!conv) {
+		take_reader_close(&r);
 		fail(1, "%s", err.msg);
+	}
 	take_frame_meta m;
 	const uint8_t *bytes;
 	size_t nbytes;
 	int count = 0;
 	while (take_reader_next_frame(&r, &m, &bytes, &nbytes) == 1) {
 		snprintf(path, sizeof(path), "%s/%s_%08llu.jpg", dir, camera, (unsigned long long)m.sequence);
-		if (m.pixfmt == MC_PIXFMT_MJPEG) {
-			write_file(path, bytes, nbytes);
-		} else {
-			size_t rgb_bytes = (size_t)m.width * m.height * 3;
-			uint8_t *rgb = malloc(rgb_bytes ? rgb_bytes : 1), *jpeg = NULL;
-			size_t jpeg_bytes = 0;
-			mc_image_frame fr = {.pixfmt = m.pixfmt, .width = m.width, .height = m.height, .stride = m.stride,
-					     .data = bytes, .bytes = nbytes};
-			if (!rgb || mc_image_to_rgb24(conv, &fr, rgb, rgb_bytes, &err) < 0 ||
-			    mc_image_encode_jpeg(conv, rgb, (int)m.width, (int)m.height, 95, &jpeg, &jpeg_bytes, &err) < 0)
-				fail(1, "%s: frame %llu: %s", camera, (unsigned long long)m.sequence, err.msg);
-			write_file(path, jpeg, jpeg_bytes);
-			free(rgb);
-			free(jpeg);
+		if (export_frame(conv, &m, bytes, nbytes, path, &err) < 0) {
+			mc_image_conv_free(conv);
+			take_reader_close(&r);
+			fail(1, "%s/cam-%s.mcr: frame %llu: %s", take, camera, (unsigned long long)m.sequence, err.msg);
 		}
 		count++;
 	}
@@ -244,34 +310,63 @@ static size_t packed_copy(const take_frame_meta *m, const uint8_t *src, size_t n
 	return row * m->height;
 }
 
+/* A frame the video stream (made for the first frame) can take: the
+ * first frame's format and size, and for a raw format as many bytes as
+ * that size needs (a GRAY8 frame claiming 8x100 in 64 bytes made the
+ * packet 800 bytes long: a heap overflow read, found with issue 34's
+ * shapes).  -1 with err. */
+static int video_frame_ok(const take_frame_meta *first, const take_frame_meta *m, size_t bytes, mc_err *err)
+{
+	if (m->pixfmt != first->pixfmt || m->width != first->width || m->height != first->height)
+		return mc_err_set(err, "%ux%u %s, where the video is %ux%u %s", m->width, m->height,
+				  mc_pixfmt_name(m->pixfmt), first->width, first->height, mc_pixfmt_name(first->pixfmt));
+	return m->pixfmt == MC_PIXFMT_MJPEG ? 0 : take_frame_check_raw(m, bytes, err);
+}
+
+/* One frame as a packet at its capture time; -1 with err. */
+static int write_packet(AVFormatContext *oc, const take_frame_meta *m, const uint8_t *frame, size_t bytes,
+			uint64_t t0, mc_err *err)
+{
+	AVPacket *pkt = av_packet_alloc();
+	if (!pkt || av_new_packet(pkt, (int)bytes) < 0) {
+		av_packet_free(&pkt);
+		return mc_err_set(err, "out of memory");
+	}
+	pkt->size = (int)packed_copy(m, frame, bytes, pkt->data);
+	pkt->pts = pkt->dts = av_rescale_q((int64_t)(m->capture_ns - t0), (AVRational){1, 1000000000},
+					   oc->streams[0]->time_base);
+	pkt->flags |= AV_PKT_FLAG_KEY;
+	int rc = av_write_frame(oc, pkt) < 0 ? mc_err_set(err, "cannot write it") : 0;
+	av_packet_free(&pkt);
+	return rc;
+}
+
 static void export_video(const char *take, const char *camera, const char *out)
 {
 	take_reader r;
 	open_camera(take, camera, &r);
 	AVFormatContext *oc = NULL;
-	uint64_t t0 = 0;
 	int count = 0;
-	take_frame_meta m;
+	take_frame_meta first = {0}, m;
 	const uint8_t *frame;
 	size_t bytes;
+	mc_err err = {""};
 	while (take_reader_next_frame(&r, &m, &frame, &bytes) == 1) {
-		if (!oc) {
-			oc = open_video(out, &m);
-			t0 = m.capture_ns;
-		}
-		AVPacket *pkt = av_packet_alloc();
-		if (!pkt || av_new_packet(pkt, (int)bytes) < 0)
-			fail(1, "out of memory");
-		pkt->size = (int)packed_copy(&m, frame, bytes, pkt->data);
-		pkt->pts = pkt->dts = av_rescale_q((int64_t)(m.capture_ns - t0), (AVRational){1, 1000000000},
-						   oc->streams[0]->time_base);
-		pkt->flags |= AV_PKT_FLAG_KEY;
-		if (av_write_frame(oc, pkt) < 0)
-			fail(1, "%s: cannot write frame %llu", out, (unsigned long long)m.sequence);
-		av_packet_free(&pkt);
+		if (!oc && (video_frame_ok(&m, &m, bytes, &err) < 0 || !(oc = open_video(out, &m))))
+			break;
+		if (count == 0)
+			first = m;
+		if (video_frame_ok(&first, &m, bytes, &err) < 0 || write_packet(oc, &m, frame, bytes, first.capture_ns, &err) < 0)
+			break;
 		count++;
 	}
 	take_reader_close(&r);
+	if (err.msg[0]) {
+		if (oc)
+			avio_closep(&oc->pb);
+		avformat_free_context(oc);
+		fail(1, "%s/cam-%s.mcr: frame %llu: %s", take, camera, (unsigned long long)m.sequence, err.msg);
+	}
 	if (!oc)
 		fail(1, "%s/cam-%s.mcr: no whole frame", take, camera);
 	if (av_write_trailer(oc) < 0 || avio_closep(&oc->pb) < 0)
@@ -333,8 +428,12 @@ int main(int argc, char **argv)
 		export_csv(&t, csv);
 	if (json)
 		export_json(&t, json);
-	printf("mocap-export: %d poses (%llu missed by the recorder) of %s%s\n", t.nposes,
-	       (unsigned long long)t.gap_frames, take, info.complete ? "" : " (not stopped cleanly)");
+	if (t.gap_frames == UINT64_MAX) /* take_poses_load saturates the sum */
+		printf("mocap-export: %d poses (gap records claim 2^64 or more missed: damaged) of %s%s\n", t.nposes, take,
+		       info.complete ? "" : " (not stopped cleanly)");
+	else
+		printf("mocap-export: %d poses (%llu missed by the recorder) of %s%s\n", t.nposes,
+		       (unsigned long long)t.gap_frames, take, info.complete ? "" : " (not stopped cleanly)");
 	take_poses_free(&t);
 	return 0;
 }

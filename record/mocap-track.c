@@ -6,7 +6,8 @@
  *   mocap-track [--iterations N] [--resolution N] [--name NAME] [--quiet] TAKE_DIR
  *
  * The rig and the body model are the take's copies (the actor file when the
- * take has one); the tracker starts from the first skeleton recorded live.
+ * take has one); the tracker starts from the first skeleton recorded live,
+ * and calibrates (colours, reference energy) on the first complete frame set.
  * Frame sets are the reference camera's frames with the other cameras'
  * frames taken within 10 ms of them. */
 #include "base/mc_time.h"
@@ -113,10 +114,12 @@ static int decode(mc_image_conv *conv, camera *c, mc_err *err)
 	c->rgb = NULL;
 	if (c->m.pixfmt == MC_PIXFMT_MJPEG)
 		return mc_image_decode(conv, c->bytes, c->n, "frame", &c->rgb, &c->w, &c->h, err);
+	if (take_frame_check_raw(&c->m, c->n, err) < 0) /* before allocating from its size */
+		return -1;
 	c->w = (int)c->m.width;
 	c->h = (int)c->m.height;
 	size_t need = (size_t)c->w * c->h * 3;
-	if (!(c->rgb = malloc(need ? need : 1)))
+	if (!(c->rgb = malloc(need)))
 		return mc_err_set(err, "out of memory");
 	mc_image_frame f = {.pixfmt = c->m.pixfmt, .width = c->m.width, .height = c->m.height, .stride = c->m.stride,
 			    .data = c->bytes, .bytes = c->n};
@@ -256,11 +259,15 @@ static mc_tracker *start_tracker(const options *o, const take_poses *live, mc_ri
 	}
 	const char *names[TAKE_MAX_JOINTS];
 	mc_vec3 pos[TAKE_MAX_JOINTS];
-	for (int j = 0; j < p->njoints && j < live->def.njoints; j++) {
+	/* Only the joints both records have: a crafted take's skeleton may
+	 * claim more than its definition names (take_poses_load refuses it,
+	 * this keeps the names and positions in step regardless). */
+	int n = p->njoints < live->def.njoints ? p->njoints : live->def.njoints;
+	for (int j = 0; j < n; j++) {
 		names[j] = live->def.joints[j].name;
 		pos[j] = mc_v3(p->joints[j].position[0], p->joints[j].position[1], p->joints[j].position[2]);
 	}
-	if (mc_tracker_init_from_joints(t, names, pos, p->njoints, &err) < 0)
+	if (mc_tracker_init_from_joints(t, names, pos, n, &err) < 0)
 		fail(1, "%s: the first recorded skeleton: %s", o->take, err.msg);
 	return t;
 }
@@ -282,6 +289,51 @@ static void progress(const options *o, int done, int total, uint64_t start_ns, b
 	fprintf(stderr, "%s[%.*s%*s] %3d%% %d/%d frame sets, %.1f per s, ETA %.0f s %s", tty ? "\r" : "", filled,
 		"##############################", 30 - filled, "", total ? 100 * done / total : 100, done, total, rate,
 		rate > 0 ? (total - done) / rate : 0, tty && !last ? "" : "\n");
+}
+
+/* The frame set at t0: every camera's frame within GROUP_TOLERANCE_NS of
+ * the reference camera's, decoded into views.  True when every camera
+ * that has frames is in it. */
+static bool gather_views(const options *o, const take_info *info, camera *cams, mc_image_conv *conv, uint64_t t0,
+			 mc_frame_view *views)
+{
+	mc_err err = {""};
+	bool complete = true;
+	for (int c = 0; c < info->ncams; c++) {
+		camera *cam = &cams[c];
+		if (cam->rig_index < 0)
+			continue;
+		while (cam->have && cam->m.capture_ns + GROUP_TOLERANCE_NS < t0)
+			advance(cam); /* frames with no partner in the reference camera */
+		if (!cam->have || cam->m.capture_ns > t0 + GROUP_TOLERANCE_NS) {
+			complete = false;
+			continue; /* missing from this frame set */
+		}
+		if (decode(conv, cam, &err) < 0)
+			fail(1, "%s: camera %s, frame %llu: %s", o->take, info->cams[c],
+			     (unsigned long long)cam->m.sequence, err.msg);
+		views[cam->rig_index] = (mc_frame_view){cam->w, cam->h, cam->w * 3, cam->rgb, cam->m.capture_ns};
+	}
+	return complete;
+}
+
+/* One tracked skeleton into the output track. */
+static void write_pose(take_file *out, const take_poses *live, const mc_skeleton *sk, uint64_t seq, uint64_t t0,
+		       uint64_t realtime_ns)
+{
+	static uint8_t buf[64 + 64 * TAKE_MAX_JOINTS];
+	mc_err err = {""};
+	take_pose p = {.seq = seq, .capture_ns = t0, .realtime_ns = realtime_ns, .state = (int)sk->state,
+		       .def_id = live->def.id, .njoints = sk->njoints};
+	for (int j = 0; j < sk->njoints; j++) {
+		const mc_skeleton_joint *s = &sk->joints[j];
+		p.joints[j] = (take_joint){{s->position.x, s->position.y, s->position.z},
+					   {s->orientation.w, s->orientation.x, s->orientation.y, s->orientation.z},
+					   s->confidence};
+	}
+	size_t n = take_encode_pose(&p, buf, sizeof(buf));
+	if (take_file_append(out, TAKE_SKELETON, buf, n, NULL, 0, mc_now_ns(), &err) < 0)
+		fail(1, "%s", err.msg);
 }
 
 int main(int argc, char **argv)
@@ -320,38 +372,28 @@ int main(int argc, char **argv)
 	int nkps = load_keypoints(o.take, &kps), kp_at = 0, kp_used = 0;
 	uint64_t start = mc_now_ns();
 	int done = 0, states[MC_TRACK_INITIALISING + 1] = {0};
+	bool calibrated = false;
 	while (cams[ref].have) {
 		mc_frame_view views[MC_MAX_CAMERAS] = {{0}};
 		uint64_t t0 = cams[ref].m.capture_ns;
-		for (int c = 0; c < info.ncams; c++) {
-			camera *cam = &cams[c];
-			if (cam->rig_index < 0)
-				continue;
-			while (cam->have && cam->m.capture_ns + GROUP_TOLERANCE_NS < t0)
-				advance(cam); /* frames with no partner in the reference camera */
-			if (!cam->have || cam->m.capture_ns > t0 + GROUP_TOLERANCE_NS)
-				continue; /* missing from this frame set */
-			if (decode(conv, cam, &err) < 0)
-				fail(1, "%s: camera %s, frame %llu: %s", o.take, info.cams[c],
-				     (unsigned long long)cam->m.sequence, err.msg);
-			views[cam->rig_index] = (mc_frame_view){cam->w, cam->h, cam->w * 3, cam->rgb, cam->m.capture_ns};
+		bool complete = gather_views(&o, &info, cams, conv, t0, views);
+		/* The tracker rates each frame set against the energy at its last
+		 * calibration, and a tracker only set to a pose has none (every
+		 * frame set was lost with the take's calibrated actor.json,
+		 * issue 31): calibrate on the first frame set with every
+		 * camera, at the first pose recorded live, as mocapd did at its
+		 * start (calibrate_colors).  The colours are measured again there. */
+		if (!calibrated && complete) {
+			if (mc_tracker_calibrate_colors(t, views, rig.ncams, &err) < 0)
+				fail(1, "%s: frame set %d: %s", o.take, done, err.msg);
+			calibrated = true;
 		}
 		mc_skeleton sk;
 		const keypoint_set *ks = keypoints_at(kps, nkps, &kp_at, t0);
 		kp_used += ks != NULL;
 		if (mc_tracker_track(t, views, rig.ncams, ks ? ks->kp : NULL, ks ? ks->n : 0, &sk, &err) < 0)
 			fail(1, "%s: frame set %d: %s", o.take, done, err.msg);
-		take_pose p = {.seq = (uint64_t)done + 1, .capture_ns = t0, .realtime_ns = cams[ref].m.realtime_ns,
-			       .state = (int)sk.state, .def_id = live.def.id, .njoints = sk.njoints};
-		for (int j = 0; j < sk.njoints; j++) {
-			const mc_skeleton_joint *s = &sk.joints[j];
-			p.joints[j] = (take_joint){{s->position.x, s->position.y, s->position.z},
-						   {s->orientation.w, s->orientation.x, s->orientation.y, s->orientation.z},
-						   s->confidence};
-		}
-		n = take_encode_pose(&p, buf, sizeof(buf));
-		if (take_file_append(&out, TAKE_SKELETON, buf, n, NULL, 0, mc_now_ns(), &err) < 0)
-			fail(1, "%s", err.msg);
+		write_pose(&out, &live, &sk, (uint64_t)done + 1, t0, cams[ref].m.realtime_ns);
 		states[sk.state]++;
 		done++;
 		for (int c = 0; c < info.ncams; c++) /* the frames of this set are used */

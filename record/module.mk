@@ -38,6 +38,13 @@ $(BUILD)/record/tests/test_take: record/tests/test_take.c $(RECORD_LIB) $(CORE_L
 	$(CC) $(CPPFLAGS) -Irecord -Itests $(RECORD_AV_CFLAGS) $(CFLAGS) -MMD -MP $< -o $@ $(LDFLAGS) $(RECORD_LINK) \
 		$(RECORD_AV_LIBS)
 
+# Damaged and crafted takes against mocap-track, mocap-export and the take
+# driver (issue 34).
+$(BUILD)/record/tests/test_take_hostile: record/tests/test_take_hostile.c $(RECORD_LIB) $(CORE_LIB) \
+		| $(MOCAP_EXPORT) $(MOCAP_TRACK) $(BUILD)/drivers/mocap-driver-take.so
+	@mkdir -p $(@D) $(BUILD)/tests
+	$(CC) $(CPPFLAGS) -Irecord -Itests $(CFLAGS) -MMD -MP $< -o $@ $(LDFLAGS) $(RECORD_LINK) -ldl
+
 $(BUILD)/record/tests/test_recording: record/tests/test_recording.c $(RECORD_LIB) $(BUILD)/libmocap.a $(CORE_LIB) \
 		| $(MOCAP_EXPORT) $(MOCAP_TRACK) $(BUILD)/bin/mocapd $(BUILD)/bin/mocapctl $(BUILD)/drivers/mocap-driver-files.so \
 		$(BUILD)/drivers/mocap-driver-take.so

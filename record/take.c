@@ -1,7 +1,10 @@
 /* take: record files of a take (docs/RECORDING.md, "Record files"). */
 #include "take.h"
 
+#include "base/mc_file.h"
 #include "base/mc_le.h"
+#include "image/mc_image.h"
+#include "image/mc_pixfmt.h"
 
 #include <errno.h>
 #include <fcntl.h>
@@ -297,18 +300,40 @@ int take_decode_frame_meta(const uint8_t *p, size_t size, take_frame_meta *m)
 	return 0;
 }
 
+int take_frame_check_raw(const take_frame_meta *m, size_t n, mc_err *err)
+{
+	int bpp = mc_image_bytes_per_pixel(m->pixfmt);
+	if (bpp == 0)
+		return mc_err_set(err, "pixfmt: %u (%s) is not a raw format", m->pixfmt, mc_pixfmt_name(m->pixfmt));
+	if (m->width < 1 || m->width > TAKE_MAX_FRAME_SIDE || m->height < 1 || m->height > TAKE_MAX_FRAME_SIDE)
+		return mc_err_set(err, "width x height: %ux%u, not within 1..%d a side", m->width, m->height,
+				  TAKE_MAX_FRAME_SIDE);
+	uint64_t row = (uint64_t)m->width * (uint64_t)bpp, stride = m->stride ? m->stride : row;
+	if (stride < row)
+		return mc_err_set(err, "stride: %u bytes, a row of %u %s pixels takes %llu", m->stride, m->width,
+				  mc_pixfmt_name(m->pixfmt), (unsigned long long)row);
+	uint64_t need = (m->height - 1) * stride + row;
+	if (need > n)
+		return mc_err_set(err, "%ux%u %s needs %llu bytes, the record holds %zu", m->width, m->height,
+				  mc_pixfmt_name(m->pixfmt), (unsigned long long)need, n);
+	return 0;
+}
+
 /* ---- reading ---- */
 
 int take_reader_open(take_reader *r, const char *path, mc_err *err)
 {
 	memset(r, 0, sizeof(*r));
 	snprintf(r->path, sizeof(r->path), "%s", path);
-	r->f = fopen(path, "rb");
+	/* Regular files only: a FIFO would block the open, or the reading,
+	 * for ever (mocap-export, the take driver, mocapd --check). */
+	r->f = mc_file_open_regular(path, err);
+	if (!r->f)
+		return -1;
 	struct stat st;
-	if (!r->f || fstat(fileno(r->f), &st) < 0) {
+	if (fstat(fileno(r->f), &st) < 0) {
 		int e = errno;
-		if (r->f)
-			fclose(r->f);
+		fclose(r->f);
 		r->f = NULL;
 		return mc_err_set(err, "%s: %s", path, strerror(e));
 	}
@@ -408,14 +433,17 @@ int take_poses_load(const char *dir, const char *track, take_poses *out, mc_err 
 					goto bad;
 				out->poses = grown;
 			}
-			if (take_decode_pose(p, n, &out->poses[out->nposes]) < 0)
+			take_pose *pose = &out->poses[out->nposes];
+			memset(pose, 0, sizeof(*pose));
+			if (take_decode_pose(p, n, pose) < 0)
 				goto bad;
 			out->nposes++;
 		} else if (type == TAKE_GAP) {
 			uint64_t first, count;
 			if (take_decode_gap(p, n, &first, &count) < 0)
 				goto bad;
-			out->gap_frames += count;
+			/* saturates: crafted counts must not wrap to a small total */
+			out->gap_frames = count > UINT64_MAX - out->gap_frames ? UINT64_MAX : out->gap_frames + count;
 		}
 	}
 	out->torn = r.torn;
@@ -424,6 +452,18 @@ int take_poses_load(const char *dir, const char *track, take_poses *out, mc_err 
 		take_poses_free(out);
 		return mc_err_set(err, "%s: no skeleton definition (an empty take?)", path);
 	}
+	/* Every reader walks the definition's joints and a skeleton's together
+	 * (names, parents, rotations): a count that differs is a damaged or
+	 * crafted take, refused whole (issue 34: mocap-track crashed, the BVH
+	 * export read memory never written). */
+	for (int i = 0; i < out->nposes; i++)
+		if (out->poses[i].njoints != out->def.njoints) {
+			int n = out->poses[i].njoints;
+			unsigned long long seq = (unsigned long long)out->poses[i].seq;
+			take_poses_free(out);
+			return mc_err_set(err, "%s: skeleton %d (seq %llu): %d joints, the skeleton definition has %d",
+					  path, i + 1, seq, n, out->def.njoints);
+		}
 	return 0;
 bad:
 	take_reader_close(&r);

@@ -156,6 +156,12 @@ int take_decode_def(const uint8_t *p, size_t size, take_def *d);
 int take_decode_pose(const uint8_t *p, size_t size, take_pose *o);
 int take_decode_gap(const uint8_t *p, size_t size, uint64_t *first_seq, uint64_t *count);
 int take_decode_frame_meta(const uint8_t *p, size_t size, take_frame_meta *m);
+/* A raw (not JPEG) frame's meta against its n bytes: a known raw format,
+ * 1..TAKE_MAX_FRAME_SIDE pixels a side, a stride that holds a row, and as
+ * many bytes as height rows take.  -1 with err naming the field: checked
+ * before anything is allocated from width and height (issue 34). */
+#define TAKE_MAX_FRAME_SIDE 16384
+int take_frame_check_raw(const take_frame_meta *m, size_t n, mc_err *err);
 /* *n keypoints (at most cap) into kp; -1 when the record does not decode. */
 int take_decode_keypoints(const uint8_t *p, size_t size, uint64_t *seq, uint64_t *capture_ns, take_keypoint *kp,
 			  int cap, int *n);

@@ -7,6 +7,7 @@
 #include "take.h"
 
 #include <math.h>
+#include <stdbool.h>
 
 static int nchildren(const take_def *d, int j)
 {
@@ -22,12 +23,33 @@ static void indent(FILE *f, int depth)
 		fputc('\t', f);
 }
 
+/* A joint's name as one BVH token.  BVH has no quoting: a space, a brace
+ * or a line break in a name (a crafted take's) would end the token and
+ * could inject HIERARCHY or MOTION lines (issue 34), so every character
+ * outside A-Z a-z 0-9 _ - . (the model loader's joint-name characters)
+ * is written as '_', and an empty name as jointN. */
+static void bvh_name(FILE *f, const take_def *d, int j)
+{
+	const char *name = d->joints[j].name;
+	if (!name[0]) {
+		fprintf(f, "joint%d", j);
+		return;
+	}
+	for (const char *c = name; *c; c++) {
+		bool ok = (*c >= 'a' && *c <= 'z') || (*c >= 'A' && *c <= 'Z') || (*c >= '0' && *c <= '9') || *c == '_' ||
+			  *c == '-' || *c == '.';
+		fputc(ok ? *c : '_', f);
+	}
+}
+
 /* Joint j and its subtree; rest offsets in centimetres. */
 static void bvh_joint(FILE *f, const take_def *d, int j, int depth)
 {
 	const take_joint_def *jd = &d->joints[j];
 	indent(f, depth);
-	fprintf(f, "%s %s\n", jd->parent < 0 ? "ROOT" : "JOINT", jd->name);
+	fprintf(f, "%s ", jd->parent < 0 ? "ROOT" : "JOINT");
+	bvh_name(f, d, j);
+	fputc('\n', f);
 	indent(f, depth);
 	fprintf(f, "{\n");
 	indent(f, depth + 1);
@@ -71,8 +93,12 @@ static void euler_zxy(mc_mat3 R, double *a, double *b, double *c)
 	*c *= 180 / M_PI;
 }
 
+/* A joint the skeleton lacks (take_poses_load refuses such takes; other
+ * callers may not) is at rest: never memory the pose did not set. */
 static mc_mat3 joint_rot(const take_pose *p, int j)
 {
+	if (j >= p->njoints)
+		return mc_m3_identity();
 	const double *q = p->joints[j].orientation;
 	return mc_quat_to_m3(mc_quat_normalize((mc_quat){q[0], q[1], q[2], q[3]}));
 }
@@ -81,7 +107,9 @@ static mc_mat3 joint_rot(const take_pose *p, int j)
 static void bvh_values(FILE *f, const take_def *d, const take_pose *p, int j)
 {
 	mc_mat3 r = joint_rot(p, j);
-	if (d->joints[j].parent < 0)
+	if (d->joints[j].parent < 0 && j >= p->njoints)
+		fprintf(f, "0.000000 0.000000 0.000000");
+	else if (d->joints[j].parent < 0)
 		fprintf(f, "%.6f %.6f %.6f", p->joints[j].position[0] * 100, p->joints[j].position[1] * 100,
 			p->joints[j].position[2] * 100);
 	else /* relative to the parent: the rest pose has every frame aligned */

@@ -54,8 +54,10 @@ int take_info_read(const char *dir, take_info *t, mc_err *err)
 	char path[4300];
 	snprintf(path, sizeof(path), "%s/take.json", dir);
 	json_error_t je;
-	json_t *root = json_load_file(path, 0, &je);
 	memset(t, 0, sizeof(*t));
+	if (mc_file_refuse_special(path, err)) /* json_load_file would wait on a FIFO */
+		return -1;
+	json_t *root = json_load_file(path, 0, &je);
 	if (!root && je.line < 1) /* could not open it: jansson names the file itself */
 		return mc_err_set(err, "%s (not a take?)", je.text);
 	if (!root)

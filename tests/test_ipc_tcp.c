@@ -12,6 +12,7 @@
 #include "mocap.h"
 #include "proto.h"
 #include "server.h"
+#include "base/mc_time.h"
 #include "ipc_fixture.h"
 #include "test_util.h"
 
@@ -196,6 +197,41 @@ static void test_raw_auth(srv_server *srv)
 	CHECK(tcp_send(fd, 0) == 0);
 	CHECK(refused_with(fd, PROTO_E_HANDSHAKE));
 	close(fd);
+}
+
+/* TCP connections that never authenticate do not take local clients'
+ * slots (issue 34 item 1: 64 of them locked every Unix-socket client out
+ * until the handshake deadline dropped them, and were re-opened): at most
+ * SRV_MAX_PENDING_TCP_PER_HOST wait from one address, the others are
+ * refused at once, and a local client is served within 1 s. */
+static void test_pending_flood(void)
+{
+	enum { FLOOD = 70 };
+	int fds[FLOOD], refused = 0;
+	for (int i = 0; i < FLOOD; i++)
+		fds[i] = tcp_connect();
+	sleep_ms(300); /* the server thread accepts them */
+	for (int i = 0; i < FLOOD; i++) {
+		struct pollfd p = {.fd = fds[i], .events = POLLIN};
+		if (fds[i] >= 0 && poll(&p, 1, 0) == 1 && refused_with(fds[i], PROTO_E_TOO_MANY_CLIENTS))
+			refused++;
+	}
+	uint64_t start = mc_now_ns();
+	mocap_client *c = mocap_connect(path, "local-during-flood");
+	double ms = (double)(mc_now_ns() - start) * 1e-6;
+	printf("TCP flood: %d of %d unauthenticated connections refused; a Unix client %s in %.1f ms\n", refused,
+	       FLOOD, c ? "connected" : "was refused", ms);
+	CHECK_MSG(c != NULL && ms < 1000, "a Unix client during the flood: %s", c ? "slow" : mocap_errmsg());
+	CHECK_MSG(refused >= FLOOD - 8, "only %d of %d waiting TCP connections refused", refused, FLOOD);
+	if (c) {
+		uint64_t t = 0;
+		CHECK(mocap_ping(c, &t) == 0);
+		mocap_close(c);
+	}
+	for (int i = 0; i < FLOOD; i++)
+		if (fds[i] >= 0)
+			close(fds[i]);
+	sleep_ms(100); /* the server sees them go */
 }
 
 /* --- libmocap --- */
@@ -393,6 +429,7 @@ int main(void)
 	snprintf(addr, sizeof(addr), "tcp://127.0.0.1:%d", port);
 	set_def(srv);
 	test_raw_auth(srv);
+	test_pending_flood();
 	test_client_errors();
 	test_same_frames(srv);
 	test_large_reply(srv);

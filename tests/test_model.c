@@ -656,6 +656,7 @@ static const bad_case BAD_CASES[] = {
 	{"two_roots.json", "joints[3].parent", "only one root"},
 	{"duplicate_name.json", "joints[4].name", "duplicate joint name 'spine'"},
 	{"empty_name.json", "joints[4].name", "empty"},
+	{"name_quote.json", "joints[4].name", "character 2 (byte 0x22) is not allowed in a joint name"},
 	{"unknown_axis.json", "joints[2].dofs[1].axis", "unknown axis 'w'"},
 	{"repeated_axis.json", "joints[2].dofs[1].axis", "same axis"},
 	{"min_gt_max.json", "joints[1].dofs[0]", "min_deg (30) is greater than max_deg (10)"},

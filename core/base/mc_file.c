@@ -24,22 +24,56 @@ static const char *file_kind(mode_t m)
 	return "not a plain file";
 }
 
+FILE *mc_file_open_regular(const char *path, mc_err *err)
+{
+	/* O_NONBLOCK: opening a FIFO for reading otherwise waits for a writer,
+	 * for ever (issue 34: a FIFO named cam-left.mcr stalled mocap-export
+	 * and mocapd --check).  A regular file ignores the flag. */
+	int fd = open(path, O_RDONLY | O_NONBLOCK | O_CLOEXEC);
+	if (fd < 0) {
+		mc_err_set(err, "%s: cannot open: %s", path, strerror(errno));
+		return NULL;
+	}
+	struct stat st;
+	if (fstat(fd, &st) != 0) {
+		mc_err_set(err, "%s: %s", path, strerror(errno));
+		close(fd);
+		return NULL;
+	}
+	if (!S_ISREG(st.st_mode)) {
+		mc_err_set(err, "%s: not a regular file (%s)", path, file_kind(st.st_mode));
+		close(fd);
+		return NULL;
+	}
+	fcntl(fd, F_SETFL, fcntl(fd, F_GETFL) & ~O_NONBLOCK);
+	FILE *f = fdopen(fd, "rb");
+	if (!f) {
+		mc_err_set(err, "%s: %s", path, strerror(errno));
+		close(fd);
+	}
+	return f;
+}
+
+int mc_file_refuse_special(const char *path, mc_err *err)
+{
+	struct stat st; /* stat, not open: it does not wait on a FIFO */
+	if (stat(path, &st) != 0 || S_ISREG(st.st_mode))
+		return 0;
+	return mc_err_set(err, "%s: not a regular file (%s)", path, file_kind(st.st_mode));
+}
+
 int mc_file_read(const char *path, size_t max_bytes, uint8_t **data, size_t *bytes, mc_err *err)
 {
 	*data = NULL;
 	*bytes = 0;
-	FILE *f = fopen(path, "rb");
+	FILE *f = mc_file_open_regular(path, err);
 	if (!f)
-		return mc_err_set(err, "%s: cannot open: %s", path, strerror(errno));
+		return -1;
 	struct stat st;
 	if (fstat(fileno(f), &st) != 0) {
 		int e = errno;
 		fclose(f);
 		return mc_err_set(err, "%s: %s", path, strerror(e));
-	}
-	if (!S_ISREG(st.st_mode)) {
-		fclose(f);
-		return mc_err_set(err, "%s: not a regular file (%s)", path, file_kind(st.st_mode));
 	}
 	if ((unsigned long long)st.st_size > max_bytes) {
 		fclose(f);

@@ -20,6 +20,14 @@
  * 67108864 accepted". */
 int mc_file_read(const char *path, size_t max_bytes, uint8_t **data, size_t *bytes, mc_err *err);
 
+/* Opens path for reading ("rb") when it is a regular file; a FIFO, a
+ * device or a directory is refused at once, without waiting on it
+ * ("x.mcr: not a regular file (a FIFO)").  NULL with err naming the file. */
+FILE *mc_file_open_regular(const char *path, mc_err *err);
+/* -1 with err when path exists and is not a regular file, else 0 (a
+ * missing file is left to the caller's own open to report). */
+int mc_file_refuse_special(const char *path, mc_err *err);
+
 /* Writes n bytes to path through a temporary file beside it, synced and
  * renamed into place, and syncs the directory: a crash leaves the old file
  * or the new one, whole.  Errors name the file. */

@@ -26,6 +26,9 @@ static int parsed(const json_t *root, const json_error_t *je, const char *origin
 int mc_json_load_file(const char *path, json_t **root, mc_err *err)
 {
 	json_error_t je;
+	*root = NULL;
+	if (mc_file_refuse_special(path, err)) /* json_load_file would wait on a FIFO */
+		return -1;
 	*root = json_load_file(path, JSON_REJECT_DUPLICATES, &je);
 	return parsed(*root, &je, path, err);
 }

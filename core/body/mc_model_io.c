@@ -60,7 +60,20 @@ static int offset_field(const json_t *obj, const char *key, const char *where, m
 static const char *const JOINT_KEYS[] = {"name", "parent", "offset", "dofs", "bone_scale", NULL};
 static const char *const DOF_KEYS[] = {"axis", "min_deg", "max_deg", NULL};
 
-/* Pass 1: names, unique and non-empty. */
+/* A joint name's first character outside A-Z a-z 0-9 _ - ., or NULL.  The
+ * names travel into takes and from there into JSON, CSV and BVH exports
+ * and the protocol's joint lists: a quote, a comma, a space or a newline
+ * in one would break or inject into those (issue 34). */
+static const char *bad_name_char(const char *name)
+{
+	for (const char *c = name; *c; c++)
+		if (!((*c >= 'a' && *c <= 'z') || (*c >= 'A' && *c <= 'Z') || (*c >= '0' && *c <= '9') || *c == '_' ||
+		      *c == '-' || *c == '.'))
+			return c;
+	return NULL;
+}
+
+/* Pass 1: names, unique, non-empty, of the joint-name characters. */
 static int parse_joint_names(const json_t *joints, const char *origin, mc_model *m, mc_err *err)
 {
 	char where[WHERE_CAP], p[WHERE_CAP];
@@ -74,6 +87,11 @@ static int parse_joint_names(const json_t *joints, const char *origin, mc_model 
 			return -1;
 		if (!name[0])
 			return mc_err_set(err, "%s: must not be empty", mc_json_path(p, sizeof(p), where, "name"));
+		const char *bad = bad_name_char(name);
+		if (bad)
+			return mc_err_set(err, "%s: character %d (byte 0x%02x) is not allowed in a joint name (A-Z a-z 0-9 "
+					  "_ - . only)", mc_json_path(p, sizeof(p), where, "name"), (int)(bad - name) + 1,
+					  (unsigned char)*bad);
 		for (size_t k = 0; k < i; k++)
 			if (strcmp(m->joints[k].name, name) == 0)
 				return mc_err_set(err, "%s: duplicate joint name '%s' (also joints[%zu])",

@@ -5,6 +5,9 @@
 #include "base/mc_le.h"
 
 #include <errno.h>
+#include <math.h>
+#include <stdarg.h>
+#include <stdbool.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -223,6 +226,67 @@ static int fail(rd *r, const char *fmt, const char *field, long v)
 	return mc_err_set(r->err, "%s: %s: %s", r->path, field, msg);
 }
 
+static int failf(rd *r, const char *field, const char *fmt, ...) __attribute__((format(printf, 3, 4)));
+static int failf(rd *r, const char *field, const char *fmt, ...)
+{
+	r->bad = 1;
+	char msg[256];
+	va_list ap;
+	va_start(ap, fmt);
+	vsnprintf(msg, sizeof(msg), fmt, ap);
+	va_end(ap);
+	return mc_err_set(r->err, "%s: %s: %s", r->path, field, msg);
+}
+
+/* ---- values: what the checksum cannot vouch for ----
+ * A file with a valid checksum may still hold NaN, infinite or absurd
+ * numbers (written by another program, or crafted): NaN positions reached
+ * mocapd's FRAMEs and its clients (issue 34), negative edge costs would
+ * break the shortest paths. */
+#define MAX_POSITION_M 1e4 /* a joint 10 km from the origin is not motion capture */
+#define MAX_OFFSET_M 10.0  /* a bone */
+
+static bool finite_within(double v, double lim) { return isfinite(v) && fabs(v) <= lim; }
+
+static bool cost_ok(double c) { return isfinite(c) && c >= 0; }
+
+static int check_positions(rd *r, const mc_motion_db *db)
+{
+	for (int j = 0; j < MC_MOTION_JOINTS; j++) {
+		mc_vec3 o = db->skel.offset[j];
+		if (!finite_within(o.x, MAX_OFFSET_M) || !finite_within(o.y, MAX_OFFSET_M) || !finite_within(o.z, MAX_OFFSET_M))
+			return failf(r, "skeleton", "joint %d (%s): offset (%g, %g, %g) is not finite, or beyond %g m", j,
+				     mc_motion_joint_name(j), o.x, o.y, o.z, MAX_OFFSET_M);
+	}
+	for (size_t i = 0; i < (size_t)db->nframes * MC_MOTION_JOINTS; i++) {
+		mc_vec3 p = db->pos[i];
+		if (!finite_within(p.x, MAX_POSITION_M) || !finite_within(p.y, MAX_POSITION_M) ||
+		    !finite_within(p.z, MAX_POSITION_M))
+			return failf(r, "frames", "frame %zu, joint %s: position (%g, %g, %g) is not finite, or beyond %g m",
+				     i / MC_MOTION_JOINTS, mc_motion_joint_name((int)(i % MC_MOTION_JOINTS)), p.x, p.y, p.z,
+				     MAX_POSITION_M);
+	}
+	return 0;
+}
+
+static int check_costs(rd *r, const mc_motion_graph *g)
+{
+	for (int i = 0; i < g->nedges; i++)
+		if (!cost_ok(g->edges[i].D) || !cost_ok(g->edges[i].E))
+			return failf(r, "edges", "edge %d: cost D %g, E %g: costs must be finite and not negative", i,
+				     (double)g->edges[i].D, (double)g->edges[i].E);
+	for (int k = 0; k < g->nparams; k++)
+		for (int i = 0; i < g->params[k].nmembers; i++)
+			if (!isfinite(g->params[k].speed[i]) || !isfinite(g->params[k].turn[i]))
+				return failf(r, "params", "node %d, member %d: speed %g, turn %g: not finite", k, i,
+					     (double)g->params[k].speed[i], (double)g->params[k].turn[i]);
+	for (int k = 0; k < g->nparam_edges; k++)
+		if (!cost_ok(g->param_edges[k].E))
+			return failf(r, "param_edges", "edge %d: cost E %g: costs must be finite and not negative", k,
+				     (double)g->param_edges[k].E);
+	return 0;
+}
+
 static int read_file(const char *path, uint8_t **data, size_t *n, mc_err *err)
 {
 	FILE *f = fopen(path, "rb");
@@ -279,8 +343,11 @@ static int read_header(rd *r, mc_motion_graph *g, uint32_t *counts)
 		counts[i] = get_u32(r, "counts");
 	if (r->bad)
 		return -1;
-	if (!(fps > 0 && fps <= 1000))
-		return fail(r, "%ld: not a frame rate", "fps", (long)fps);
+	/* 1e-300 passed "> 0" and gave a frame every 10^292 years */
+	if (!(fps >= 1 && fps <= 1000))
+		return failf(r, "fps", "%g: not a frame rate (1..1000 per second)", fps);
+	if (!cost_ok(g->alpha) || !cost_ok(g->tau))
+		return failf(r, "alpha, tau", "%g, %g: must be finite and not negative", g->alpha, g->tau);
 	mc_motion_db_init(&g->db, fps, NULL);
 	/* each count against the bytes that are left: no huge allocation for
 	 * a corrupt count */
@@ -413,6 +480,8 @@ int mc_graph_load(const char *path, mc_motion_graph *g, mc_err *err)
 		r.n = n - 4;
 		rc = read_body(&r, g, counts);
 	}
+	if (!rc)
+		rc = check_positions(&r, &g->db) || check_costs(&r, g) ? -1 : 0;
 	if (!rc && r.at != r.n)
 		rc = mc_err_set(err, "%s: %zu bytes between the last section and the checksum", path, r.n - r.at);
 	free(data);

@@ -14,7 +14,10 @@
  *
  * Frame k is delivered at epoch + (capture_k - capture_0) / speed with that
  * timestamp, so the frame sets of a take's cameras group as they did when
- * recorded.  Frames come as recorded: JPEG stays JPEG, raw formats keep
+ * recorded.  A gap of more than TAKE_MAX_GAP_S between two frames (or a
+ * time that goes backwards) is not waited out: it is logged and replayed
+ * as one frame interval, so that a damaged or crafted take cannot hold the
+ * camera for years while it shows "ok" (issue 34).  Frames come as recorded: JPEG stays JPEG, raw formats keep
  * their bytes.  A take cut by a crash plays up to its last whole frame. */
 #include "drv_common.h"
 #include "mdrv.h"
@@ -27,6 +30,9 @@
 #include <string.h>
 
 #define DRV "take"
+#define TAKE_MAX_GAP_S 10
+#define TAKE_MAX_GAP_NS (TAKE_MAX_GAP_S * 1000000000ull)
+#define DEFAULT_INTERVAL_NS 33333333ull /* a frame at 30 fps, when a take gives none */
 
 typedef struct {
 	const mdrv_host *host;
@@ -36,8 +42,12 @@ typedef struct {
 	uint64_t epoch_ns;
 	take_reader r;
 	mdrv_format fmt;
-	uint64_t first_capture_ns, span_ns; /* of the take's frames */
+	uint64_t first_capture_ns, span_ns; /* of the take's frames, gaps bounded */
 	uint64_t nframes, delivered, loop_offset_ns;
+	/* Replay time: the previous frame's capture time, the bounded time
+	 * since the first frame, and the last interval that was not a gap. */
+	uint64_t prev_capture_ns, play_ns, interval_ns;
+	uint64_t gaps_cut;
 	/* The frame read and not yet delivered (its time had not come). */
 	bool pending;
 	take_frame_meta m;
@@ -79,30 +89,48 @@ static int parse_config(take_dev *d, char *err, size_t errlen)
 			d->dir, d->camera);
 }
 
+/* The time from the previous frame (captured at *prev) to one captured at
+ * t, as replayed: the recorded interval, or *interval (the last one
+ * replayed as recorded) when it is longer than TAKE_MAX_GAP_NS or negative.
+ * True when the gap was cut. */
+static bool replay_step(uint64_t *prev, uint64_t t, uint64_t *interval, uint64_t *step)
+{
+	bool cut = t < *prev || t - *prev > TAKE_MAX_GAP_NS;
+	*step = cut ? *interval : t - *prev;
+	if (!cut && *step > 0)
+		*interval = *step;
+	*prev = t;
+	return cut;
+}
+
 /* One pass over the frames: their count, span, largest size and format. */
 static int scan(take_dev *d, char *err, size_t errlen)
 {
 	mc_err e;
 	if (take_reader_open(&d->r, d->path, &e) < 0)
-		return drv_errf(err, errlen, MDRV_ERR_CONFIG, "%s: %s (the take was recorded with frames = false?)", DRV,
-				e.msg);
+		return drv_errf(err, errlen, MDRV_ERR_CONFIG, "%s: %s%s", DRV, e.msg,
+				strstr(e.msg, "No such file") ? " (the take was recorded with frames = false?)" : "");
 	take_frame_meta m;
 	const uint8_t *bytes;
 	size_t n;
-	uint64_t last = 0;
+	uint64_t prev = 0, interval = DEFAULT_INTERVAL_NS, step, cut = 0;
 	while (take_reader_next_frame(&d->r, &m, &bytes, &n) == 1) {
 		if (d->nframes++ == 0) {
-			d->first_capture_ns = m.capture_ns;
+			d->first_capture_ns = prev = m.capture_ns;
 			d->fmt = (mdrv_format){.pixfmt = m.pixfmt, .width = m.width, .height = m.height, .stride = m.stride};
 		}
-		last = m.capture_ns;
+		cut += replay_step(&prev, m.capture_ns, &interval, &step);
+		d->span_ns += step;
 		if (n > d->fmt.max_bytes)
 			d->fmt.max_bytes = n;
 	}
 	take_reader_close(&d->r);
 	if (d->nframes == 0)
 		return drv_errf(err, errlen, MDRV_ERR_CONFIG, "%s: %s holds no whole frame", DRV, d->path);
-	d->span_ns = last - d->first_capture_ns;
+	if (cut)
+		drv_logf(d->host, MDRV_LOG_WARN,
+			 "%s: %s: %llu gaps between frames over %d s (or times that go backwards): each is replayed as "
+			 "one frame interval", DRV, d->path, (unsigned long long)cut, TAKE_MAX_GAP_S);
 	d->fmt.fps = d->span_ns > 0 ? (double)(d->nframes - 1) * 1e9 / (double)d->span_ns : 0;
 	if (d->speed > 0)
 		d->fmt.fps *= d->speed;
@@ -172,6 +200,9 @@ static int take_start(void *dev, char *err, size_t errlen)
 		d->epoch_ns = mc_now_ns();
 	d->delivered = 0;
 	d->loop_offset_ns = 0;
+	d->prev_capture_ns = d->first_capture_ns;
+	d->play_ns = 0;
+	d->interval_ns = DEFAULT_INTERVAL_NS;
 	d->pending = false;
 	d->started = true;
 	return MDRV_OK;
@@ -192,7 +223,9 @@ static int next_record(take_dev *d, take_frame_meta *m, const uint8_t **bytes, s
 		int rc = rewind_take(d, err, errlen);
 		if (rc != MDRV_OK)
 			return rc;
-		d->loop_offset_ns += d->span_ns + (d->nframes > 1 ? d->span_ns / (d->nframes - 1) : 33333333u);
+		d->loop_offset_ns += d->span_ns + (d->nframes > 1 ? d->span_ns / (d->nframes - 1) : DEFAULT_INTERVAL_NS);
+		d->prev_capture_ns = d->first_capture_ns;
+		d->play_ns = 0;
 	}
 	return 0;
 }
@@ -210,8 +243,15 @@ static int take_next_frame(void *dev, mdrv_frame *slot, int timeout_ms, char *er
 			return drv_errf(err, errlen, MDRV_ERR_END, "%s: end of %s (%llu frames)", DRV, d->path,
 					(unsigned long long)d->delivered);
 		d->pending = true;
-		d->due_ns = d->speed > 0 ? d->epoch_ns + (uint64_t)((double)(d->m.capture_ns - d->first_capture_ns +
-									    d->loop_offset_ns) / d->speed)
+		/* The first frame of a pass steps 0 from first_capture_ns. */
+		uint64_t step, at = d->prev_capture_ns;
+		if (replay_step(&d->prev_capture_ns, d->m.capture_ns, &d->interval_ns, &step) && d->gaps_cut++ < 10)
+			drv_logf(d->host, MDRV_LOG_WARN, "%s: %s: frame %llu is %+.3g s from the previous one; "
+				 "replayed %.1f ms after it (gaps over %d s are cut)", DRV, d->path,
+				 (unsigned long long)d->m.sequence, ((double)d->m.capture_ns - (double)at) * 1e-9,
+				 (double)step * 1e-6, TAKE_MAX_GAP_S);
+		d->play_ns += step;
+		d->due_ns = d->speed > 0 ? d->epoch_ns + (uint64_t)((double)(d->play_ns + d->loop_offset_ns) / d->speed)
 					 : 0;
 	}
 	uint64_t now = mc_now_ns(), ts = d->speed > 0 ? d->due_ns : now;

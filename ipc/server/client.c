@@ -70,6 +70,16 @@ int srv_live_clients(const srv_server *srv)
 	return n;
 }
 
+int srv_counted_clients(const srv_server *srv)
+{
+	int n = 0;
+	for (int i = 0; i < srv->nclients; i++) {
+		const client *c = srv->clients[i];
+		n += !c->dead && (!c->tcp || c->authed);
+	}
+	return n;
+}
+
 client *srv_find_client(srv_server *srv, uint64_t serial)
 {
 	for (int i = 0; i < srv->nclients; i++)

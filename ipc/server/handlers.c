@@ -400,6 +400,14 @@ static void handle_auth(srv_server *srv, client *c, const proto_msg *m)
 				"wrong token for mocapd's TCP port (see [network] token_file in its config)");
 		return;
 	}
+	/* Waiting connections do not count against max_clients (listen.c):
+	 * an authenticated one does, so the limit is checked again here. */
+	if (srv_counted_clients(srv) >= srv->cfg.max_clients) {
+		char why[96];
+		snprintf(why, sizeof(why), "too many clients: mocapd accepts at most %d at once", srv->cfg.max_clients);
+		srv_reply_error(srv, c, m->h.request_id, m->h.type, PROTO_E_TOO_MANY_CLIENTS, true, why);
+		return;
+	}
 	c->authed = true;
 	c->privileged = srv->cfg.tcp_privileged;
 	srv_reply_ok(srv, c, m->h.request_id, m->h.type, 0);

@@ -49,6 +49,12 @@
 #define CONTROL_QUEUE_LEN 16
 #define HEAD_POSE_HISTORY 64
 #define HANDSHAKE_TIMEOUT_NS 5000000000ull
+/* TCP connections that have not presented the token yet have their own
+ * small limits, in all and from one address, and do not count against
+ * max_clients: connections that never authenticate cannot take the
+ * local clients' slots (issue 34 item 1). */
+#define SRV_MAX_PENDING_TCP 16
+#define SRV_MAX_PENDING_TCP_PER_HOST 4
 #define LAST_WORDS_NS 5000000000ull /* how long a fatal ERROR waits for the client to read it */
 #define READ_BURST 32             /* messages read from one client per wake-up, for fairness */
 
@@ -90,6 +96,7 @@ typedef struct client {
 	bool tcp;               /* a TCP connection (tcp.c), else the Unix socket */
 	bool authed;            /* TCP: presented the token */
 	char peer[64];          /* TCP: the peer's address, for the log */
+	char host[48];          /* TCP: the peer's address without the port */
 	uint8_t *srx;           /* TCP: bytes received that are not a whole message yet */
 	size_t srx_len;
 	blob *sending;          /* TCP: a blob partly sent, finished before any other */
@@ -262,6 +269,9 @@ void srv_client_close(srv_server *srv, client *c);
 void srv_client_free(client *c);
 void srv_reap_clients(srv_server *srv);
 int srv_live_clients(const srv_server *srv);
+/* Live clients that count against max_clients: every Unix-socket client
+ * and every TCP client that presented the token. */
+int srv_counted_clients(const srv_server *srv);
 client *srv_find_client(srv_server *srv, uint64_t serial);
 /* Reads and handles up to READ_BURST datagrams. */
 void srv_client_readable(srv_server *srv, client *c);

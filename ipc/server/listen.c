@@ -7,6 +7,7 @@
 #include <errno.h>
 #include <fcntl.h>
 #include <stdio.h>
+#include <string.h>
 #include <stdlib.h>
 #include <sys/epoll.h>
 #include <sys/socket.h>
@@ -170,21 +171,55 @@ static bool identify(const srv_server *srv, int fd, bool tcp, client *c)
 	return tcp ? srv_tcp_setup_client(c, fd) : srv_peer_identify(srv, fd, c);
 }
 
+/* Why a new connection (c identified) is refused, or NULL: max_clients
+ * for the clients that count (srv_counted_clients), the pending limits
+ * for a TCP connection, which counts once it has authenticated. */
+static const char *over_limit(const srv_server *srv, const client *c, char *why, size_t cap)
+{
+	if (srv_counted_clients(srv) >= srv->cfg.max_clients) {
+		snprintf(why, cap, "too many clients: mocapd accepts at most %d at once", srv->cfg.max_clients);
+		return why;
+	}
+	if (!c->tcp)
+		return NULL;
+	int pending = 0, from_host = 0;
+	for (int i = 0; i < srv->nclients; i++) {
+		const client *o = srv->clients[i];
+		if (!o->dead && o->tcp && !o->authed) {
+			pending++;
+			from_host += strcmp(o->host, c->host) == 0;
+		}
+	}
+	if (pending >= SRV_MAX_PENDING_TCP)
+		snprintf(why, cap, "too many TCP connections waiting to authenticate (at most %d)", SRV_MAX_PENDING_TCP);
+	else if (from_host >= SRV_MAX_PENDING_TCP_PER_HOST)
+		snprintf(why, cap, "too many TCP connections from %.48s waiting to authenticate (at most %d)", c->host,
+			 SRV_MAX_PENDING_TCP_PER_HOST);
+	else
+		return NULL;
+	return why;
+}
+
 void srv_accept_clients(srv_server *srv, int listen_fd, bool tcp)
 {
 	for (;;) {
 		int fd = accept4(listen_fd, NULL, NULL, SOCK_NONBLOCK | SOCK_CLOEXEC);
 		if (fd < 0)
 			return; /* EAGAIN, or a transient error: epoll tells us again */
-		if (srv_live_clients(srv) >= srv->cfg.max_clients) {
-			char why[128];
-			snprintf(why, sizeof(why), "too many clients: mocapd accepts at most %d at once",
-				 srv->cfg.max_clients);
+		client *c = calloc(1, sizeof(*c));
+		if (!c || !identify(srv, fd, tcp, c)) {
+			free(c);
+			close(fd);
+			continue;
+		}
+		char why[160];
+		if (over_limit(srv, c, why, sizeof(why))) {
+			free(c);
 			refuse_connection(srv, fd, tcp, why);
 			continue;
 		}
-		client *c = calloc(1, sizeof(*c));
-		if (!c || !identify(srv, fd, tcp, c) || !srv_q_reshape(c, 0, true)) {
+		if (!srv_q_reshape(c, 0, true)) {
+			free(c->q);
 			free(c);
 			close(fd);
 			continue;

@@ -130,6 +130,7 @@ bool srv_tcp_setup_client(client *c, int fd)
 			NI_NUMERICHOST | NI_NUMERICSERV) != 0)
 		return false;
 	snprintf(c->peer, sizeof(c->peer), ss.ss_family == AF_INET6 ? "[%s]:%s" : "%s:%s", host, serv);
+	snprintf(c->host, sizeof(c->host), "%.47s", host); /* numeric: at most 45 */
 	c->tcp = true;
 	c->pid = 0;
 	c->uid = (uid_t)-1;

@@ -165,6 +165,18 @@ static void check_malformed(int port)
 	CHECK_MSG(pv_raw(port, "GET / HTTP/1.1\r\nHost: evil.example\r\nConnection: close\r\n\r\n", 5000, &resp) == 403,
 		  "foreign Host: %.80s", resp);
 	free(resp);
+	/* the port is the whole rest of the Host header (it was read with
+	 * atoi, so that 127.0.0.1:PORTevil passed) */
+	char req[160];
+	snprintf(req, sizeof(req), "GET / HTTP/1.1\r\nHost: 127.0.0.1:%devil\r\nConnection: close\r\n\r\n", port);
+	CHECK_MSG(pv_raw(port, req, 5000, &resp) == 403, "Host 127.0.0.1:%devil: %.80s", port, resp);
+	free(resp);
+	snprintf(req, sizeof(req), "GET / HTTP/1.1\r\nHost: localhost:0%d\r\nConnection: close\r\n\r\n", port);
+	CHECK_MSG(pv_raw(port, req, 5000, &resp) == 403, "Host localhost:0%d: %.80s", port, resp);
+	free(resp);
+	snprintf(req, sizeof(req), "GET / HTTP/1.1\r\nHost: 127.0.0.1:%d\r\nConnection: close\r\n\r\n", port);
+	CHECK_MSG(pv_raw(port, req, 5000, &resp) == 200, "Host 127.0.0.1:%d: %.80s", port, resp);
+	free(resp);
 	CHECK_MSG(pv_http(port, "GET", "/nope", "", &resp) == 404, "unknown path: %.80s", resp);
 	free(resp);
 	CHECK_MSG(pv_http(port, "GET", "/api/record/start", "", &resp) == 405, "GET a control: %.80s", resp);

@@ -9,6 +9,9 @@
 #   ocam     OCamCalib's calib_results.txt (mc_rig_import_ocamcalib)
 #   bvh      BVH motion (mc_bvh_parse)
 #   image    JPEG, PNG and PPM/PGM frames (mc_image_decode)
+#   take     a take's record files (record/take.c: take_poses_load, frame
+#            records as mocap-export --frames reads them)
+#   graph    the motion-graph file (mc_graph_load)
 #
 # Each is built with $(FUZZ_CC) (clang) with ASan and UBSan, against the
 # core and the config code compiled again with the same sanitizers and
@@ -32,14 +35,14 @@ FUZZ_LONG_RUNS ?= 10000000
 FUZZ_PARSER_OPTS ?= -max_len=65536 -timeout=25
 
 PFUZZ := $(BUILD)/fuzz/parsers
-PFUZZ_NAMES := config rig model calib cameras ocam bvh image
+PFUZZ_NAMES := config rig model calib cameras ocam bvh image take graph
 PFUZZ_BINS := $(PFUZZ_NAMES:%=$(PFUZZ)/fuzz_%)
 PFUZZ_SAN := -fsanitize=address,undefined -fno-sanitize-recover=undefined -fno-omit-frame-pointer
-PFUZZ_CPPFLAGS := -D_GNU_SOURCE -Icore -Idaemon -Itests/fuzz -I$(BUILD)/gen \
+PFUZZ_CPPFLAGS := -D_GNU_SOURCE -Icore -Idaemon -Irecord -Itests/fuzz -I$(BUILD)/gen \
 	-DMOCAPD_PLUGIN_DIR='"$(MOCAPD_PLUGIN_DIR)"' -DMOCAPD_VERSION='"$(MOCAPD_VERSION)"' \
 	$(shell $(PKG_CONFIG) --cflags $(CORE_PKGS) inih 2>/dev/null)
 PFUZZ_CFLAGS := -std=c11 -Wall -Wextra -Werror -g -O1 $(PFUZZ_SAN)
-PFUZZ_LIBS := $(CORE_LIBS) $(shell $(PKG_CONFIG) --libs inih 2>/dev/null)
+PFUZZ_LIBS := $(CORE_LIBS) $(shell $(PKG_CONFIG) --libs inih 2>/dev/null) -lz
 
 # The code under test: every core object (the archive links only what a
 # target uses) and the config parser with its key table and logger.
@@ -60,6 +63,7 @@ $(PFUZZ)/obj/gen/mc_cl_embed.o: $(BUILD)/gen/mc_cl_embed.c
 	$(FUZZ_CC) $(PFUZZ_CFLAGS) -c $< -o $@
 
 $(PFUZZ)/fuzz_config: $(PFUZZ_CONFIG_OBJ)
+$(PFUZZ)/fuzz_take: $(PFUZZ)/obj/record/take.o $(PFUZZ)/obj/record/take_info.o $(PFUZZ)/obj/record/take_bvh.o
 $(PFUZZ_BINS): $(PFUZZ)/fuzz_%: $(PFUZZ)/obj/tests/fuzz/fuzz_%.o $(PFUZZ)/obj/tests/fuzz/fuzz_util.o $(PFUZZ_CORE)
 	$(FUZZ_CC) $(PFUZZ_SAN) -fsanitize=fuzzer $(filter %.o,$^) $(PFUZZ_CORE) -o $@ $(PFUZZ_LIBS) -lm
 

@@ -67,6 +67,8 @@ variant("parent_after_child.json", parent_after_child)
 variant("two_roots.json", lambda m: m["joints"][3].pop("parent"))
 variant("duplicate_name.json", lambda m: m["joints"][4].__setitem__("name", "spine"))
 variant("empty_name.json", lambda m: m["joints"][4].__setitem__("name", ""))
+# issue 34: a name that breaks out of the JSON export's string
+variant("name_quote.json", lambda m: m["joints"][4].__setitem__("name", 'x"},\n{"evil'))
 variant("unknown_axis.json", lambda m: m["joints"][2]["dofs"][1].__setitem__("axis", "w"))
 variant("repeated_axis.json", lambda m: m["joints"][2]["dofs"][1].__setitem__("axis", "x"))
 variant("min_gt_max.json", lambda m: m["joints"][1]["dofs"][0].update({"min_deg": 30, "max_deg": 10}))
