@@ -222,11 +222,7 @@ static void test_reload_budget(void)
 
 int main(void)
 {
-	mcd_require_build_and_clip(repo, sizeof(repo));
-	char files[PATH_MAX + 64];
-	snprintf(files, sizeof(files), "%s/drivers/mocap-driver-files.so", mcd_build_dir);
-	if (access(files, R_OK) != 0)
-		TEST_SKIP("the files driver is not built (%s)", files);
+	mcd_require_files_driver(repo, sizeof(repo));
 	test_check();
 	test_clip();
 	test_outside_in();

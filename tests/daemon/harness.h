@@ -432,4 +432,14 @@ static inline void mcd_require_build_and_clip(char *repo, size_t cap)
 		TEST_SKIP("run from the repository root (tests/data/ego_demo not found)");
 }
 
+/* The same, and the files driver built (the tests that play the clip). */
+static inline void mcd_require_files_driver(char *repo, size_t cap)
+{
+	mcd_require_build_and_clip(repo, cap);
+	char files[PATH_MAX + 64];
+	snprintf(files, sizeof(files), "%s/drivers/mocap-driver-files.so", mcd_build_dir);
+	if (access(files, R_OK) != 0)
+		TEST_SKIP("the files driver is not built (%s)", files);
+}
+
 #endif
