@@ -368,6 +368,11 @@ static void test_privileges(srv_server *unpriv)
 	CHECK(t && !mocap_is_privileged(t));
 	CHECK(t && mocap_control(t, MOCAP_CMD_RELOAD, NULL, msg, sizeof(msg)) == MOCAP_E_PERMISSION &&
 	      strstr(mocap_errmsg(), "TCP"));
+	/* Rings are refused over TCP "either way" (docs/PROTOCOL.md): the
+	 * same `unavailable` for an unprivileged client (it got `permission`). */
+	mocap_ring weak_rings[4];
+	CHECK_MSG(t && mocap_get_rings(t, weak_rings, 4) == MOCAP_E_UNAVAILABLE && strstr(mocap_errmsg(), "TCP"),
+		  "unprivileged GET_RINGS over TCP: %s", mocap_errmsg());
 	mocap_close(t);
 	srv_destroy(unpriv);
 

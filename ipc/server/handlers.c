@@ -242,13 +242,15 @@ static void handle_control(srv_server *srv, client *c, const proto_msg *m)
 
 static void handle_get_rings(srv_server *srv, client *c, const proto_msg *m)
 {
-	if (!require_privilege(srv, c, m, "mapping camera rings"))
-		return;
+	/* TCP first: rings are refused over TCP whatever the client's
+	 * privilege, with one answer (docs/PROTOCOL.md, TCP). */
 	if (c->tcp) {
 		srv_reply_error(srv, c, m->h.request_id, m->h.type, PROTO_E_UNAVAILABLE, false,
 				"camera rings are shared memory on the daemon's machine: not available over TCP");
 		return;
 	}
+	if (!require_privilege(srv, c, m, "mapping camera rings"))
+		return;
 	proto_msg *o = srv_out_msg(srv, MC_MSG_RINGS, m->h.request_id);
 	int fds[PROTO_MAX_RINGS], n = 0;
 	pthread_mutex_lock(&srv->lock);
