@@ -455,6 +455,9 @@ static void handle_requests(daemon_ctx *d)
 					 ctl.command == MC_CONTROL_RECORD_START ? "start" : "stop", (int)ctl.pid,
 					 (unsigned)ctl.uid);
 			rc = mcd_pipeline_record(d->pipe, (int)ctl.command, ctl.argument, msg, sizeof(msg));
+			/* STATUS is a snapshot refreshed every status_interval_s;
+			 * its recording flag must not lag a start or stop. */
+			srv_set_recording(d->srv, mcd_pipeline_recording(d->pipe));
 		}
 		srv_control_done(d->srv, ctl.token, rc, msg);
 	}

@@ -237,6 +237,9 @@ typedef struct {
 /* Replaces the snapshot that status requests are answered from (copied).
  * The server adds its own figures (clients, their drops). */
 void srv_set_status(srv_server *srv, const srv_status *st);
+/* Sets the snapshot's recording flag at once (a record start or stop), so
+ * that a client that started a take and asks for STATUS sees it. */
+void srv_set_recording(srv_server *srv, bool recording);
 
 /* Figures of the server itself, e.g. for the daemon's log. */
 typedef struct {

@@ -218,6 +218,13 @@ void srv_set_status(srv_server *srv, const srv_status *st)
 	pthread_mutex_unlock(&srv->lock);
 }
 
+void srv_set_recording(srv_server *srv, bool recording)
+{
+	pthread_mutex_lock(&srv->lock);
+	srv->status.recording = recording;
+	pthread_mutex_unlock(&srv->lock);
+}
+
 void srv_get_stats(srv_server *srv, srv_stats *st)
 {
 	pthread_mutex_lock(&srv->lock);

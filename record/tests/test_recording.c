@@ -167,6 +167,11 @@ static void check_restart(mcd_run *r, const char *takes)
 	CHECK_MSG(rc == 0 && strstr(out, want), "record list (exit %d): %s", rc, out);
 	out = run_ctl(r->sock, "record start --name second", &rc);
 	CHECK_MSG(rc == 0 && strstr(out, "recording ") && strstr(out, "/second"), "exit %d: %s", rc, out);
+	/* STATUS says so at once (it lagged up to status_interval_s). */
+	mocap_client *st = mocap_connect(r->sock, "test_recording status");
+	mocap_daemon_status ds = {0};
+	CHECK_MSG(st && mocap_get_status(st, &ds) == 0 && ds.recording == 1, "STATUS recording %d right after the start",
+		  st ? ds.recording : -1);
 	/* A VR runtime's head poses go into the take. */
 	mocap_client *vr = mocap_connect(r->sock, "test_recording vr");
 	CHECK(vr != NULL);
@@ -183,6 +188,9 @@ static void check_restart(mcd_run *r, const char *takes)
 	CHECK_MSG(rc == 1 && strstr(out, "already recording"), "exit %d: %s", rc, out);
 	out = run_ctl(r->sock, "record stop", &rc);
 	CHECK_MSG(rc == 0 && strstr(out, "stopped by request"), "exit %d: %s", rc, out);
+	CHECK_MSG(st && mocap_get_status(st, &ds) == 0 && ds.recording == 0, "STATUS recording %d right after the stop",
+		  st ? ds.recording : -1);
+	mocap_close(st);
 	out = run_ctl(r->sock, "record stop", &rc);
 	CHECK_MSG(rc == 1 && strstr(out, "not recording"), "exit %d: %s", rc, out);
 	out = run_ctl(r->sock, "record start --name second", &rc);
