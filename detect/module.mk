@@ -84,8 +84,9 @@ bench-detect: $(DETECT_BENCH)
 	if [ -n "$$m" ]; then $(DETECT_BENCH) --model $$m; \
 	else echo "bench-detect: no config/models/*ego*.onnx and no torch for a stand-in, skipped"; fi
 
-# The unit (with the binary's path filled in), the shipped model and its
-# sidecar.  mocap-detect itself is in BINS.
+# The unit (with the binary's path filled in) and the detectors: the shipped
+# ones, and MoveNet Thunder when `make models-movenet` made it (their
+# sidecars go with config/models/*.json).  mocap-detect itself is in BINS.
 install: install-detect
 install-detect:
 	install -d $(DESTDIR)$(DETECT_UNITDIR) $(DESTDIR)$(DETECT_MODEL_DIR) $(DESTDIR)$(DETECT_DOCDIR)

