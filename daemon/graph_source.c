@@ -2,11 +2,13 @@
 #include "graph_source.h"
 
 #include "log.h"
+#include "textbuf.h"
 #include "base/mc_parse.h"
 #include "base/mc_thread.h"
 #include "base/mc_time.h"
 
 #include <errno.h>
+#include <math.h>
 #include <pthread.h>
 #include <stdatomic.h>
 #include <stdio.h>
@@ -19,6 +21,7 @@ struct mcd_graph_source {
 	mc_motion_graph graph;
 	srv_server *srv;
 	double rate;
+	int kind; /* the edges walked: MC_EDGE_ESSENTIAL or MC_EDGE_MOTION */
 	char file[PATH_MAX];
 	pthread_t thread;
 	bool running;
@@ -68,6 +71,12 @@ static void make_def(const mc_motion_skel *s, srv_skeleton_def *def)
 	}
 }
 
+/* The published pose: the walker's orientations, and positions from the
+ * root by the definition (parent + parent's rotation * rest offset).  The
+ * walker's own positions are the database's, interpolated: their bones
+ * differ from the rest offsets by centimetres and change length, so a
+ * client driving a rig by local rotations (VMC) would not reproduce
+ * them; this way every client sees the same body. */
 static void make_skeleton(const mc_motion_skel *s, const mc_vec3 *pose, uint64_t t_ns, mc_skeleton *sk)
 {
 	mc_mat3 R[J];
@@ -77,10 +86,25 @@ static void make_skeleton(const mc_motion_skel *s, const mc_vec3 *pose, uint64_t
 	sk->state = MC_TRACK_OK;
 	sk->njoints = J;
 	for (int j = 0; j < J; j++) {
-		sk->joints[j].position = pose[j];
-		sk->joints[j].orientation = mc_quat_from_m3(R[j]);
-		sk->joints[j].confidence = 1;
+		mc_skeleton_joint *o = &sk->joints[j];
+		int p = s->parent[j];
+		o->orientation = mc_quat_from_m3(R[j]);
+		/* through the published quaternion, so the check a client
+		 * makes holds to rounding */
+		o->position = p < 0 ? pose[j]
+				    : mc_v3_add(sk->joints[p].position,
+						mc_quat_rotate(sk->joints[p].orientation, s->offset[j]));
+		o->confidence = 1;
 	}
+	/* The rest lengths move the feet by millimetres: keep the lowest
+	 * joint as high as the walker's, on the floor and not under it. */
+	double want = INFINITY, have = INFINITY;
+	for (int j = 0; j < J; j++) {
+		want = fmin(want, pose[j].z);
+		have = fmin(have, sk->joints[j].position.z);
+	}
+	for (int j = 0; j < J; j++)
+		sk->joints[j].position.z += want - have;
 }
 
 /* ---- the thread ---- */
@@ -145,6 +169,7 @@ mcd_graph_source *mcd_graph_source_start(const mcd_config *cfg, srv_server *srv,
 	pthread_mutex_init(&gs->lock, NULL);
 	gs->srv = srv;
 	gs->rate = cfg->source.rate;
+	gs->kind = cfg->source.kind;
 	snprintf(gs->file, sizeof(gs->file), "%s", cfg->source.graph);
 	snprintf(gs->target, sizeof(gs->target), "walking at random");
 	if (mc_graph_load(cfg->source.graph, &gs->graph, err)) {
@@ -256,8 +281,65 @@ int mcd_graph_steer_parse(const char *arg, mc_steer *s, char *msg, size_t cap)
 	return 0;
 }
 
+/* Appends "first-last" runs of the frames in the walk's component. */
+static void append_frames(const mc_graph_adj *a, char *msg, size_t cap, size_t *len)
+{
+	bool any = false;
+	for (int f = 0; f < a->n; f++) {
+		if (!a->in_scc[f] || (f > 0 && a->in_scc[f - 1]))
+			continue;
+		int last = f;
+		while (last + 1 < a->n && a->in_scc[last + 1])
+			last++;
+		mcd_appendf(msg, cap, len, "%s%d-%d", any ? ", " : "", f, last);
+		any = true;
+	}
+}
+
+static bool clip_in(const mc_motion_db *db, const mc_graph_adj *a, int c)
+{
+	for (int f = db->clips[c].first; f < db->clips[c].first + db->clips[c].nframes; f++)
+		if (a->in_scc[f])
+			return true;
+	return false;
+}
+
+/* The answer to "steer list": the classes and frames the walk can be
+ * steered to (those of its strongly connected component, what
+ * mc_walker_steer accepts) and what DEG means, so that a client need not
+ * guess. */
+static int steer_targets(mcd_graph_source *gs, char *msg, size_t cap)
+{
+	mc_graph_adj a;
+	mc_err err;
+	if (mc_graph_adj_build(&gs->graph, gs->kind, &a, &err)) {
+		snprintf(msg, cap, "%s", err.msg);
+		return -1;
+	}
+	const mc_motion_db *db = &gs->graph.db;
+	size_t len = 0;
+	msg[0] = 0;
+	mcd_appendf(msg, cap, &len, "classes:");
+	for (int c = 0, n = 0; c < db->nclips; c++) {
+		bool listed = !db->clips[c].cls[0] || !clip_in(db, &a, c);
+		for (int e = 0; e < c && !listed; e++)
+			listed = strcmp(db->clips[e].cls, db->clips[c].cls) == 0 && clip_in(db, &a, e);
+		if (!listed)
+			mcd_appendf(msg, cap, &len, "%s %s", n++ ? "," : "", db->clips[c].cls);
+	}
+	mcd_appendf(msg, cap, &len, "; frames: ");
+	append_frames(&a, msg, cap, &len);
+	mcd_appendf(msg, cap, &len, " (of 0-%d); direction DEG: the heading about +z (up) in the walk's world frame, "
+			      "0 = +x, 90 = +y, counter-clockwise seen from above; speed M/S: 0..20",
+		    db->nframes - 1);
+	mc_graph_adj_free(&a);
+	return 0;
+}
+
 int mcd_graph_source_steer(mcd_graph_source *gs, const char *arg, char *msg, size_t cap)
 {
+	if (arg && strcmp(arg, "list") == 0)
+		return steer_targets(gs, msg, cap);
 	mc_steer s;
 	if (mcd_graph_steer_parse(arg, &s, msg, cap))
 		return -1;

@@ -64,6 +64,43 @@ static int read_frames(mocap_client *c, int ms, double *step, double *zmin)
 	return n;
 }
 
+/* Rotates v by the unit quaternion q (w, x, y, z). */
+static void quat_rotate(const double q[4], const double v[3], double out[3])
+{
+	double w = q[0], x = q[1], y = q[2], z = q[3];
+	double t[3] = {2 * (y * v[2] - z * v[1]), 2 * (z * v[0] - x * v[2]), 2 * (x * v[1] - y * v[0])};
+	out[0] = v[0] + w * t[0] + (y * t[2] - z * t[1]);
+	out[1] = v[1] + w * t[1] + (z * t[0] - x * t[2]);
+	out[2] = v[2] + w * t[2] + (x * t[1] - y * t[0]);
+}
+
+/* The largest distance, over n frames, between a joint and where its
+ * definition puts it: the parent's position plus the rest offset turned
+ * by the parent's orientation (docs/PROTOCOL.md, SKELETON).  Clients that
+ * drive a rig by local rotations (VMC) depend on this. */
+static double definition_error(mocap_client *c, const mocap_skeleton_def *def, int n, int *worst)
+{
+	static mocap_skeleton_frame f;
+	double err = 0;
+	for (int k = 0; k < n; k++) {
+		if (mocap_read_frame(c, &f, 1000) != 1)
+			return INFINITY;
+		for (int j = 1; j < f.njoints; j++) {
+			int p = def->joints[j].parent;
+			double r[3];
+			quat_rotate(f.joints[p].orientation, def->joints[j].rest_offset, r);
+			double d = 0;
+			for (int i = 0; i < 3; i++)
+				d += pow(f.joints[p].position[i] + r[i] - f.joints[j].position[i], 2);
+			if (sqrt(d) > err) {
+				err = sqrt(d);
+				*worst = j;
+			}
+		}
+	}
+	return err;
+}
+
 static int control(mocap_client *c, const char *arg, char *msg, size_t cap)
 {
 	msg[0] = 0;
@@ -87,9 +124,18 @@ static void test_stream(mcd_run *r)
 	CHECK_MSG(n >= 100, "%d frames in 1.5 s", n);
 	CHECK_MSG(step < 10, "a joint moved at %.2f m/s between two frames", step);
 	CHECK(zmin >= -1e-6);
+	int worst = 0;
+	double derr = definition_error(c, &def, 100, &worst);
+	printf("graph skeletons against their definition: worst %.3g m (%s)\n", derr, def.joints[worst].name);
+	CHECK_MSG(derr < 1e-9, "a joint is %.3g m from where its definition puts it (%s)", derr, def.joints[worst].name);
 
 	char msg[1024];
-	int rc = control(c, "class turn", msg, sizeof(msg));
+	/* what may be steered to: the classes and frames of the walk's component */
+	int rc = control(c, "list", msg, sizeof(msg));
+	printf("steer list: %s\n", msg);
+	CHECK_MSG(rc == 0 && strstr(msg, "classes: walk, turn") && strstr(msg, "frames: ") && strstr(msg, "+x"),
+		  "steer list: %d '%s'", rc, msg);
+	rc = control(c, "class turn", msg, sizeof(msg));
 	CHECK_MSG(rc == 0 && strstr(msg, "class turn"), "%d '%s'", rc, msg);
 	rc = control(c, "direction -90 speed 1.2", msg, sizeof(msg));
 	CHECK_MSG(rc == 0, "%d '%s'", rc, msg);
