@@ -3,9 +3,11 @@
 #include "log.h"
 #include "plugin.h"
 #include "recorder.h"
+#include "textbuf.h"
 #include "tracking_thread.h"
 #include "base/mc_time.h"
 
+#include <dirent.h>
 #include <errno.h>
 #include <pthread.h>
 #include <stdatomic.h>
@@ -278,6 +280,34 @@ void mcd_pipeline_destroy(mcd_pipeline *p)
 
 /* ---- queries for the main thread -------------------------------------------------------- */
 
+static int take_entry(const struct dirent *e)
+{
+	return e->d_name[0] != '.' && (e->d_type == DT_DIR || e->d_type == DT_UNKNOWN);
+}
+
+/* "record list": the directory, then the takes in it, one name a line in
+ * name order, so that a client that cannot read the directory (TCP, another
+ * user) still learns them; names that do not fit are counted. */
+static void list_takes(const char *dir, char *msg, size_t cap)
+{
+	size_t len = 0;
+	msg[0] = 0;
+	mcd_appendf(msg, cap, &len, "%s", dir);
+	struct dirent **names = NULL;
+	int n = scandir(dir, &names, take_entry, alphasort);
+	int shown = 0;
+	for (int i = 0; i < n; i++) {
+		if (len + strlen(names[i]->d_name) + 32 < cap) { /* room for the "more" line */
+			mcd_appendf(msg, cap, &len, "\n%s", names[i]->d_name);
+			shown++;
+		}
+		free(names[i]);
+	}
+	free(names);
+	if (shown < n)
+		mcd_appendf(msg, cap, &len, "\n... and %d more", n - shown);
+}
+
 int mcd_pipeline_record(mcd_pipeline *p, int command, const char *argument, char *msg, size_t cap)
 {
 	if (!p->recorder) {
@@ -294,7 +324,7 @@ int mcd_pipeline_record(mcd_pipeline *p, int command, const char *argument, char
 	}
 	case MC_CONTROL_RECORD_STOP: return mcd_recorder_stop(p->recorder, msg, cap);
 	case MC_CONTROL_RECORD_STATUS: mcd_recorder_status(p->recorder, msg, cap); return 0;
-	default: snprintf(msg, cap, "%s", mcd_recorder_directory(p->recorder)); return 0;
+	default: list_takes(mcd_recorder_directory(p->recorder), msg, cap); return 0;
 	}
 }
 

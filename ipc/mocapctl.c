@@ -384,6 +384,7 @@ static int cmd_record_list(mocap_client *c)
 	char dir[1024];
 	if (mocap_control(c, MOCAP_CMD_RECORD_LIST, NULL, dir, sizeof(dir)))
 		return fail("record list");
+	dir[strcspn(dir, "\n")] = 0; /* the takes' names follow: read here with their details */
 	struct dirent **names = NULL;
 	int n = scandir(dir, &names, NULL, by_name);
 	if (n < 0) {

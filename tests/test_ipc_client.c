@@ -477,6 +477,18 @@ static void test_control(void)
 	CHECK(strcmp(msg, "cannot record: disk full") == 0 && strcmp(mocap_errmsg(), "cannot record: disk full") == 0);
 	CHECK(strcmp(d.last.argument, "/tmp/take1") == 0);
 	CHECK(d.handled == 2);
+	/* Refused by the server before the daemon sees them, as ERROR
+	 * invalid: an argument to a command that takes none, and an unknown
+	 * command (docs/PROTOCOL.md, CONTROL). */
+	const mocap_command none[] = {MOCAP_CMD_RELOAD, MOCAP_CMD_RECORD_STOP, MOCAP_CMD_RECORD_STATUS,
+				      MOCAP_CMD_RECORD_LIST};
+	for (size_t i = 0; i < sizeof(none) / sizeof(none[0]); i++) {
+		int rc = mocap_control(c, none[i], "extra", msg, sizeof(msg));
+		CHECK_MSG(rc == MOCAP_E_REFUSED && strstr(mocap_errmsg(), "takes no argument"), "command %d: %d %s",
+			  (int)none[i], rc, mocap_errmsg());
+	}
+	CHECK(mocap_control(c, (mocap_command)99, NULL, msg, sizeof(msg)) == MOCAP_E_REFUSED);
+	CHECK_MSG(d.handled == 2, "the daemon saw %d commands, 2 were valid", d.handled);
 	/* A daemon that never answers: the client times out. */
 	atomic_store(&d.stop, true);
 	pthread_join(dt, NULL);

@@ -223,6 +223,11 @@ static bool require_privilege(srv_server *srv, client *c, const proto_msg *m, co
 	return false;
 }
 
+static bool control_takes_argument(uint32_t command)
+{
+	return command == MC_CONTROL_RECORD_START || command == MC_CONTROL_ACTOR_SAVE || command == MC_CONTROL_STEER;
+}
+
 static void handle_control(srv_server *srv, client *c, const proto_msg *m)
 {
 	const mc_msg_control *ctl = &m->u.control;
@@ -233,6 +238,13 @@ static void handle_control(srv_server *srv, client *c, const proto_msg *m)
 				"unknown control command %u (1 reload, 2 record start, 3 record stop, 4 actor save, "
 				"5 record status, 6 record list, 7 steer)",
 				ctl->command);
+		return;
+	}
+	/* Checked here, like the command, so that every refusal of a
+	 * request's form is an ERROR and CONTROL_RESULT means "it ran". */
+	if (ctl->argument[0] && !control_takes_argument(ctl->command)) {
+		srv_reply_error(srv, c, m->h.request_id, m->h.type, PROTO_E_INVALID, false,
+				"control command %u takes no argument (got '%.64s')", ctl->command, ctl->argument);
 		return;
 	}
 	if (!srv_controls_push(srv, c, m->h.request_id, ctl))

@@ -165,6 +165,14 @@ static void check_restart(mcd_run *r, const char *takes)
 	char want[PATH_MAX + 64];
 	snprintf(want, sizeof(want), "%s/killed\tcut\t", takes);
 	CHECK_MSG(rc == 0 && strstr(out, want), "record list (exit %d): %s", rc, out);
+	/* The names come in the reply itself, for a client that cannot read
+	 * the daemon's directory (TCP): the directory, then one take a line. */
+	mocap_client *lc = mocap_connect(r->sock, "test_recording list");
+	char list[1024] = "";
+	snprintf(want, sizeof(want), "%s\nkilled", takes);
+	CHECK_MSG(lc && control(lc, MOCAP_CMD_RECORD_LIST, NULL, list, sizeof(list)) == 0 && strcmp(list, want) == 0,
+		  "record list reply: '%s'", list);
+	mocap_close(lc);
 	out = run_ctl(r->sock, "record start --name second", &rc);
 	CHECK_MSG(rc == 0 && strstr(out, "recording ") && strstr(out, "/second"), "exit %d: %s", rc, out);
 	/* STATUS says so at once (it lagged up to status_interval_s). */
