@@ -363,6 +363,11 @@ bool mcd_pipeline_finished(mcd_pipeline *p)
 	return mcd_tracking_thread_finished(p->tracker) && mcd_publisher_idle(p->pub);
 }
 
+bool mcd_pipeline_all_failed(mcd_pipeline *p)
+{
+	return mcd_tracking_thread_all_failed(p->tracker);
+}
+
 /* True if the heartbeat moved since the last look (*seen); names the thread in stuck if not. */
 static bool moved(uint64_t hb, uint64_t *seen, const char *thread, char *stuck, size_t cap)
 {

@@ -71,9 +71,12 @@ bool mcd_pipeline_take_events(mcd_pipeline *p);
 
 /* True once every camera has finished its first attempt to open. */
 bool mcd_pipeline_cameras_attempted(mcd_pipeline *p);
-/* True when no camera will deliver again (all ended or failed), at least
- * one ended, and every frame set was tracked and published. */
+/* True when no camera will deliver again (all ended or failed for good)
+ * and every frame set was tracked and published. */
 bool mcd_pipeline_finished(mcd_pipeline *p);
+/* True when finished because every camera failed for good (none reached
+ * an end): --exit-at-end should then exit non-zero. */
+bool mcd_pipeline_all_failed(mcd_pipeline *p);
 /* True if every pipeline thread has gone round its loop since the last
  * call (a stuck thread makes it false): the watchdog's evidence. */
 bool mcd_pipeline_progress(mcd_pipeline *p, char *stuck, size_t cap);

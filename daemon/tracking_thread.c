@@ -33,6 +33,7 @@ struct mcd_tracking_thread {
 	mcd_grouper grouper;
 	uint64_t max_age_ns; /* 0: no frame age budget */
 	bool stop, finished;
+	bool all_failed; /* finished with no camera having reached its end */
 	bool reload_pending;
 	mc_tracker_settings reload_budget;
 	mcd_track_stats st;
@@ -361,17 +362,20 @@ static uint32_t expected_cameras(mcd_tracking_thread *t)
 	return mask;
 }
 
-/* Every camera has stopped for good and at least one reached its end. */
-static bool streams_over(mcd_tracking_thread *t)
+/* Every camera has stopped for good: each reached its end or failed
+ * (a config error, an unreadable folder).  *ended: at least one ended. */
+static bool streams_over(mcd_tracking_thread *t, bool *ended)
 {
-	bool ended = false;
+	*ended = false;
+	if (t->ncams == 0) /* nothing to wait for is not an end */
+		return false;
 	for (int c = 0; c < t->ncams; c++) {
 		mcd_cam_state s = mcd_camera_state(t->cams[c]);
 		if (s != MCD_CAM_ENDED && s != MCD_CAM_FAILED)
 			return false;
-		ended |= s == MCD_CAM_ENDED;
+		*ended |= s == MCD_CAM_ENDED;
 	}
-	return ended;
+	return true;
 }
 
 static void apply_reload(mcd_tracking_thread *t)
@@ -425,9 +429,17 @@ static bool track_due(mcd_tracking_thread *t, uint64_t now)
 
 static void check_finished(mcd_tracking_thread *t)
 {
-	if (t->finished || mcd_grouper_pending(&t->grouper) != 0 || !streams_over(t) || !mcd_publisher_idle(t->pub))
+	bool ended;
+	if (t->finished || mcd_grouper_pending(&t->grouper) != 0 || !streams_over(t, &ended) ||
+	    !mcd_publisher_idle(t->pub))
 		return;
 	t->finished = true;
+	t->all_failed = !ended;
+	/* Said once, here: nothing will come until the config is fixed, and
+	 * --exit-at-end stops on it rather than waiting for an end. */
+	if (!ended)
+		mcd_error("every camera has failed for good (see above); nothing to track until the config is fixed "
+			  "and mocapd restarted");
 	if (t->on_finished)
 		t->on_finished(t->ctx);
 }
@@ -604,6 +616,14 @@ bool mcd_tracking_thread_finished(mcd_tracking_thread *t)
 	bool done = t->finished;
 	pthread_mutex_unlock(&t->lock);
 	return done;
+}
+
+bool mcd_tracking_thread_all_failed(mcd_tracking_thread *t)
+{
+	pthread_mutex_lock(&t->lock);
+	bool failed = t->finished && t->all_failed;
+	pthread_mutex_unlock(&t->lock);
+	return failed;
 }
 
 uint64_t mcd_tracking_thread_heartbeat(mcd_tracking_thread *t)

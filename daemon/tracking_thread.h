@@ -104,6 +104,8 @@ void mcd_tracking_thread_reload(mcd_tracking_thread *t, double group_tolerance_m
 
 /* True once every stream ended and every frame set was handed on. */
 bool mcd_tracking_thread_finished(mcd_tracking_thread *t);
+/* True once finished with every camera failed for good (none ended). */
+bool mcd_tracking_thread_all_failed(mcd_tracking_thread *t);
 /* Counts the loop's iterations (the watchdog's evidence). */
 uint64_t mcd_tracking_thread_heartbeat(mcd_tracking_thread *t);
 void mcd_tracking_thread_stats(mcd_tracking_thread *t, mcd_track_stats *st, bool reset_max);

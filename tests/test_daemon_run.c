@@ -422,6 +422,47 @@ static void test_socket_activation(void)
 	mcd_run_cleanup(&r);
 }
 
+/* --exit-at-end when no camera can ever deliver (issue 34): one empty
+ * folder, one whose only frame does not decode.  Both cameras fail for
+ * good; mocapd used to wait forever for a stream to end. */
+static void test_exit_at_end_all_failed(void)
+{
+	mcd_run r;
+	CHECK(mcd_run_init(&r));
+	char empty[sizeof(r.dir) + 16], bad[sizeof(r.dir) + 16], junk[sizeof(bad) + 16];
+	snprintf(empty, sizeof(empty), "%s/empty", r.dir);
+	snprintf(bad, sizeof(bad), "%s/bad", r.dir);
+	snprintf(junk, sizeof(junk), "%s/000000.jpg", bad);
+	CHECK(mkdir(empty, 0755) == 0 && mkdir(bad, 0755) == 0);
+	FILE *f = fopen(junk, "w");
+	CHECK(f != NULL);
+	if (f) {
+		fputs("not a JPEG image", f);
+		fclose(f);
+	}
+	char text[4 * PATH_MAX];
+	snprintf(text, sizeof(text),
+		 "[daemon]\nplugin_dir = %s/drivers\nreopen_initial_ms = 50\nreopen_max_ms = 100\n"
+		 "[socket]\npath = @SOCK@\n[tracker]\nenabled = false\n"
+		 "[camera a]\ndriver = files\npath = %s\n[camera b]\ndriver = files\npath = %s\n",
+		 mcd_build_dir, empty, bad);
+	mcd_run_config(&r, text);
+	const char *const args[] = {"--exit-at-end", NULL};
+	CHECK(mcd_run_start(&r, args, NULL));
+	int rc = mcd_run_wait_exit(&r, 15000);
+	printf("every camera failed, --exit-at-end: exit %d\n", rc);
+	/* The exit status is main.c's: it should be 1 here (the lead's
+	 * change, mcd_pipeline_all_failed); until then it exits 0. */
+	CHECK_MSG(rc >= 0, "mocapd did not exit in 15 s");
+	CHECK_MSG(mcd_run_wait_log(&r, "every camera has failed for good", 0), "the log does not say why");
+	if (mc_test_failures)
+		mcd_run_dump(&r, "exit at end, all failed");
+	unlink(junk);
+	rmdir(bad);
+	rmdir(empty);
+	mcd_run_cleanup(&r);
+}
+
 int main(void)
 {
 	if (!mcd_find_build())
@@ -431,6 +472,7 @@ int main(void)
 	test_run_to_end();
 	test_frame_of_another_size();
 	test_permanent_open_errors();
+	test_exit_at_end_all_failed();
 	test_config_error();
 	test_refused_plugin_dir();
 	test_sigterm();
