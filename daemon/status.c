@@ -88,8 +88,9 @@ static srv_cam_state server_cam_state(const mcd_cam_status *c)
 	case MCD_CAM_STALLED:
 		return MC_CAM_STATE_STALLED;
 	case MCD_CAM_RETRYING:
-	case MCD_CAM_FAILED:
 		return MC_CAM_STATE_ERROR;
+	case MCD_CAM_FAILED: /* the log's word too */
+		return MC_CAM_STATE_FAILED;
 	case MCD_CAM_OPENING:
 		return c->counters.errors ? MC_CAM_STATE_ERROR : MC_CAM_STATE_OFF;
 	default:

@@ -115,7 +115,7 @@ typedef struct {
 
 typedef struct {
 	char name[MOCAP_NAME_MAX];
-	int state;             /* 0 ok, 1 stalled, 2 error, 3 off */
+	int state;             /* 0 ok, 1 stalled, 2 error (being reopened), 3 off, 4 failed (for good) */
 	int width, height;
 	double fps;
 	uint64_t frames, drops;

@@ -85,8 +85,8 @@ static int fail(const char *what)
 
 static const char *cam_state_name(int s)
 {
-	static const char *names[] = {"ok", "stalled", "error", "off"};
-	return s >= 0 && s < 4 ? names[s] : "unknown";
+	static const char *names[] = {"ok", "stalled", "error", "off", "failed"};
+	return s >= 0 && s < 5 ? names[s] : "unknown";
 }
 
 static void print_duration(double s)

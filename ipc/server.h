@@ -157,6 +157,7 @@ typedef enum {
 	MC_CAM_STATE_STALLED = 1, /* no frame for a while */
 	MC_CAM_STATE_ERROR = 2,   /* driver error, being reopened */
 	MC_CAM_STATE_OFF = 3,     /* not opened */
+	MC_CAM_STATE_FAILED = 4,  /* failed for good, not reopened (version 3; older connections get ERROR) */
 } srv_cam_state;
 
 typedef enum {

@@ -71,7 +71,7 @@ CMD_RELOAD, CMD_RECORD_START, CMD_RECORD_STOP, CMD_ACTOR_SAVE = 1, 2, 3, 4
 CMD_RECORD_STATUS, CMD_RECORD_LIST = 5, 6
 CMD_STEER = 7  # a [source] graph walk: "class NAME", "frame N", "direction DEG [speed M/S]", "none"
 TRACK_STATES = {0: "ok", 1: "uncertain", 2: "lost", 3: "idle", 4: "initialising"}
-CAMERA_STATES = {0: "ok", 1: "stalled", 2: "error", 3: "off"}
+CAMERA_STATES = {0: "ok", 1: "stalled", 2: "error", 3: "off", 4: "failed"}
 DETECTOR_STATES = {0: "off", 1: "running", 2: "failed"}
 
 # Message types.

@@ -148,6 +148,13 @@ static void test_permanent_open_errors(void)
 	CHECK_MSG(mcd_run_count(r.log, "giving up on this camera") == 3, "%d cameras given up",
 		  mcd_run_count(r.log, "giving up on this camera"));
 	CHECK_MSG(mcd_run_count(r.log, "reopening") == 0, "a permanent error was retried");
+	/* mocapctl says what the log says: failed, not error (being reopened) */
+	char cmd[PATH_MAX + 300], out[4096] = "";
+	snprintf(cmd, sizeof(cmd), "%s/bin/mocapctl --socket %s status 2>&1", mcd_build_dir, r.sock);
+	mcd_sleep_ms(1100); /* a status snapshot after the failures */
+	int rc = mc_test_run(cmd, out, sizeof(out));
+	CHECK_MSG(rc == 0 && mcd_count(out, " failed ") == 3 && !strstr(out, " error "), "mocapctl status: %d\n%s", rc,
+		  out);
 	mcd_run_signal(&r, SIGTERM);
 	CHECK(mcd_run_wait_exit(&r, 10000) == 0);
 	if (mc_test_failures)

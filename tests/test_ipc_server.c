@@ -538,6 +538,20 @@ static void test_requests(void)
 	CHECK(rx.u.status.detector.state == 2 && rx.u.status.detector.ms_max == 3.5 && rx.u.status.detector.views == 42);
 	CHECK(strcmp(rx.u.status.detector.message, "m.onnx: not an ONNX model") == 0);
 	close(fd2);
+	/* A camera failed for good is "failed" (4) from version 3, as the
+	 * daemon's log says; older clients know only "error" (2). */
+	st.cams[0].state = MC_CAM_STATE_FAILED;
+	srv_set_status(srv, &st);
+	for (uint16_t v = 2; v <= 3; v++) {
+		fd2 = raw_connect(path);
+		send_hello(fd2, 1, v);
+		CHECK(raw_recv(fd2, 2000) == 1 && rx.h.type == MC_MSG_WELCOME && rx.u.welcome.version == v);
+		simple_request(fd2, MC_MSG_GET_STATUS, 16);
+		CHECK(raw_expect(fd2, MC_MSG_STATUS));
+		CHECK_MSG(rx.u.status.cams[0].state == (v < 3 ? MC_CAM_STATE_ERROR : MC_CAM_STATE_FAILED),
+			  "version %d: camera state %u", v, rx.u.status.cams[0].state);
+		close(fd2);
+	}
 
 	/* Publishing checks the definition. */
 	mc_skeleton sk;

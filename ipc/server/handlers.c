@@ -139,7 +139,9 @@ static void handle_get_status(srv_server *srv, client *c, const proto_msg *m)
 		s->cams[i].fps = cs->fps;
 		s->cams[i].frames = cs->frames;
 		s->cams[i].drops = cs->drops;
-		s->cams[i].state = (uint32_t)cs->state;
+		/* "failed" came with version 3: older clients know only error */
+		s->cams[i].state = (uint32_t)(cs->state == MC_CAM_STATE_FAILED && c->version < 3 ? MC_CAM_STATE_ERROR
+													: cs->state);
 		s->cams[i].width = (uint32_t)(cs->width > 0 ? cs->width : 0);
 		s->cams[i].height = (uint32_t)(cs->height > 0 ? cs->height : 0);
 		srv_str_copy(s->cams[i].name, sizeof(s->cams[i].name), cs->name);
