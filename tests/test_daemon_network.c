@@ -7,10 +7,14 @@
 #include "mocap.h"
 #include "test_util.h"
 
+#include <arpa/inet.h>
+#include <netinet/in.h>
+
 #define TOKEN "daemon-test-token-0123456789"
 #define FRAMES 12
 
 static char repo[PATH_MAX];
+static const char *g_sock; /* the running daemon's Unix socket */
 
 static void write_token(const mcd_run *r, const char *name, mode_t mode, char *path, size_t cap)
 {
@@ -95,6 +99,40 @@ static void run_clients(mcd_run *r, int port)
 	CHECK(mcd_run_wait_log(r, "refused: wrong token", 5000));
 }
 
+/* The daemon under 64 TCP connections that never authenticate (issue 34:
+ * they once locked out every Unix-socket client): a local client still
+ * connects, and is answered, within 1 s. */
+static void tcp_flood(int port)
+{
+	enum { FLOOD = 64 };
+	int fds[FLOOD], opened = 0;
+	struct sockaddr_in a = {.sin_family = AF_INET, .sin_port = htons((uint16_t)port)};
+	a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+	for (int i = 0; i < FLOOD; i++) {
+		fds[i] = socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
+		if (fds[i] >= 0 && connect(fds[i], (struct sockaddr *)&a, sizeof(a)) != 0) {
+			close(fds[i]);
+			fds[i] = -1;
+		}
+		opened += fds[i] >= 0;
+	}
+	mcd_sleep_ms(300); /* the daemon accepts them */
+	uint64_t start = mcd_now_ms();
+	mocap_client *c = mocap_connect(g_sock, "local-during-flood");
+	uint64_t t = 0;
+	bool pinged = c && mocap_ping(c, &t) == 0;
+	uint64_t ms = mcd_now_ms() - start;
+	printf("%d unauthenticated TCP connections; a Unix client %s in %llu ms\n", opened,
+	       pinged ? "connected and answered" : "failed", (unsigned long long)ms);
+	CHECK(opened == FLOOD);
+	CHECK_MSG(pinged && ms < 1000, "a Unix client during the flood: %s, %llu ms", c ? "connected" : mocap_errmsg(),
+		  (unsigned long long)ms);
+	mocap_close(c);
+	for (int i = 0; i < FLOOD; i++)
+		if (fds[i] >= 0)
+			close(fds[i]);
+}
+
 /* --check reads the token file and refuses one anyone may read. */
 static void check_world_readable(void)
 {
@@ -126,8 +164,11 @@ int main(void)
 		return mc_test_finish("test_daemon_network");
 	int port = logged_port(&r);
 	CHECK_MSG(port > 0, "no 'network: ... (port N)' line in the log");
-	if (port > 0)
+	g_sock = r.sock;
+	if (port > 0) {
 		run_clients(&r, port);
+		tcp_flood(port);
+	}
 	mcd_run_signal(&r, SIGTERM);
 	CHECK(mcd_run_wait_exit(&r, 20000) == 0);
 	if (mc_test_failures)
