@@ -71,8 +71,7 @@ static mocap_client *start(mcd_run *r, const char *tracker_extra, const char *ex
 static void stop(mcd_run *r, mocap_client *c)
 {
 	mocap_close(c);
-	mcd_run_signal(r, SIGTERM);
-	CHECK(mcd_run_wait_exit(r, 20000) == 0);
+	mcd_run_terminate(r, 20000, "actor");
 }
 
 static void test_no_detector(void)
@@ -109,8 +108,8 @@ static void test_no_detector(void)
 	CHECK(mcd_run_wait_log(&r, "client 'test_daemon_actor' connected (pid ", 2000));
 	CHECK(mcd_run_wait_log(&r, "client 'evil?mocapd: error: forged' connected", 2000));
 	CHECK(!mcd_run_wait_log(&r, "\nmocapd: error: forged", 0));
-	stop(&r, c);
-	mcd_run_cleanup(&r);
+	mocap_close(c);
+	mcd_run_stop(&r, 20000, "no detector");
 }
 
 /* Saves an actor in run r's folder (cleaned up by the caller); returns

@@ -245,11 +245,7 @@ static void test_good(void)
 	free(def);
 	free(f);
 	mocap_close(c);
-	mcd_run_signal(&r, SIGTERM);
-	CHECK(mcd_run_wait_exit(&r, 20000) == 0);
-	if (mc_test_failures)
-		mcd_run_dump(&r, "good model");
-	mcd_run_cleanup(&r);
+	mcd_run_stop(&r, 20000, "good model");
 }
 
 /* A bad model: tracking goes on, the status says failed and why. */
@@ -290,8 +286,7 @@ static void test_bad(const char *model, const char *file, const char *why)
 	free(f);
 	free(st);
 	mocap_close(c);
-	mcd_run_signal(&r, SIGTERM);
-	CHECK(mcd_run_wait_exit(&r, 20000) == 0);
+	mcd_run_terminate(&r, 20000, "bad model");
 
 	/* --check: an error of the config line. */
 	const char *const check[] = {"--check", NULL};

@@ -51,20 +51,14 @@ static int wait_log_count(mcd_run *r, const char *needle, int want, int timeout_
 	return mcd_run_count(r->log, needle);
 }
 
-static void finish(mcd_run *r, const char *name, int failures_before)
+static void finish(mcd_run *r, const char *name)
 {
 	CHECK_MSG(mcd_run_alive(r), "%s: the daemon died", name);
-	mcd_run_signal(r, SIGTERM);
-	int rc = mcd_run_wait_exit(r, 10000);
-	CHECK_MSG(rc == 0, "%s: exit %d", name, rc);
-	if (mc_test_failures > failures_before)
-		mcd_run_dump(r, name);
-	mcd_run_cleanup(r);
+	mcd_run_stop(r, 10000, name);
 }
 
 static void test_fail_open(void)
 {
-	int before = mc_test_failures;
 	mcd_run r;
 	CHECK(start(&r, BASE "device = G1\n[camera bad]\ndriver = faulty\ndevice = B1\nfail_open = true\n"));
 	/* exponential, capped at reopen_max_ms */
@@ -78,12 +72,11 @@ static void test_fail_open(void)
 	int n0 = lines_with(&r, "cams 1/2");
 	mcd_sleep_ms(500);
 	CHECK_MSG(lines_with(&r, "cams 1/2") >= n0 + 8, "%d -> %d frame sets", n0, lines_with(&r, "cams 1/2"));
-	finish(&r, "fail_open", before);
+	finish(&r, "fail_open");
 }
 
 static void test_error_mid_stream(void)
 {
-	int before = mc_test_failures;
 	mcd_run r;
 	CHECK(start(&r, BASE "device = G2\n[camera flaky]\ndriver = faulty\ndevice = F2\nerror_after = 10\n"
 			    "error_code = nodev\n"));
@@ -105,12 +98,11 @@ static void test_error_mid_stream(void)
 	int warned = mcd_run_count(r.log, "camera flaky: next_frame: faulty camera F2: injected error");
 	CHECK_MSG(warned >= 4 && warned <= 6, "%d reopen warnings for %d openings", warned, opened);
 	CHECK(lines_with(&r, "cams 2/2") >= 15);
-	finish(&r, "error mid-stream", before);
+	finish(&r, "error mid-stream");
 }
 
 static void test_io_errors_are_retried_first(void)
 {
-	int before = mc_test_failures;
 	mcd_run r;
 	CHECK(start(&r, BASE "device = G3\n[camera io]\ndriver = faulty\ndevice = I3\nerror_after = 5\nerror_once = true\n"));
 	/* A single I/O error is retried in place, without a reopen. */
@@ -118,12 +110,11 @@ static void test_io_errors_are_retried_first(void)
 	mcd_sleep_ms(500);
 	CHECK(mcd_run_count(r.log, "camera io: opened") == 1);
 	CHECK(mcd_run_count(r.log, "reopening") == 0);
-	finish(&r, "io errors", before);
+	finish(&r, "io errors");
 }
 
 static void test_bad_frames(void)
 {
-	int before = mc_test_failures;
 	mcd_run r;
 	CHECK(start(&r, BASE "device = G4\n"
 			    "[camera short]\ndriver = faulty\ndevice = S4\nshort_every = 3\n"
@@ -145,7 +136,7 @@ static void test_bad_frames(void)
 		last = p;
 	CHECK_MSG(strstr(last, "good: streaming") && strstr(last, ", 0 drops | short:"), "%s", last);
 	CHECK_MSG(!strstr(last, "short: streaming 30.0 fps, 0 drops"), "%s", last);
-	finish(&r, "bad frames", before);
+	finish(&r, "bad frames");
 }
 
 /* The newest STATUS= line sd_notify got. */
@@ -163,7 +154,6 @@ static const char *last_status(mcd_run *r)
  * "0 drops").  drop_every = 4 at 30 fps: about 7 a second. */
 static void test_sequence_gaps(void)
 {
-	int before = mc_test_failures;
 	mcd_run r;
 	CHECK(start(&r, BASE "device = G7\n[camera gappy]\ndriver = faulty\ndevice = D7\ndrop_every = 4\n"));
 	mcd_sleep_ms(1500);
@@ -175,12 +165,11 @@ static void test_sequence_gaps(void)
 	printf("drop_every = 4, about 1.5 s: %ld drops (%s)\n", drops, g ? g : "no gappy camera in the status");
 	CHECK_MSG(drops >= 5, "gappy: %ld drops in %s", drops, last);
 	CHECK_MSG(strstr(last, "good: streaming") && strstr(strstr(last, "good: streaming"), ", 0 drops"), "%s", last);
-	finish(&r, "sequence gaps", before);
+	finish(&r, "sequence gaps");
 }
 
 static void test_disappear_and_return(void)
 {
-	int before = mc_test_failures;
 	mcd_run r;
 	CHECK(start(&r, BASE "device = G5\n[camera usb]\ndriver = faulty\ndevice = U5\ndisappear_after = 10\n"
 			    "return_after_ms = 700\n"));
@@ -195,7 +184,7 @@ static void test_disappear_and_return(void)
 	mcd_sleep_ms(500);
 	CHECK(lines_with(&r, "cams 2/2") >= pairs + 8);
 	CHECK(mcd_run_wait_notify(&r, "usb: streaming", 3000));
-	finish(&r, "disappear", before);
+	finish(&r, "disappear");
 }
 
 /* unplug_every_s: the camera goes away for the last unplug_ms of every
@@ -203,7 +192,6 @@ static void test_disappear_and_return(void)
  * the other camera goes on alone meanwhile. */
 static void test_periodic_unplug(void)
 {
-	int before = mc_test_failures;
 	mcd_run r;
 	CHECK(start(&r, BASE "device = G7\n[camera plug]\ndriver = faulty\ndevice = P7\nunplug_every_s = 1\n"
 			    "unplug_ms = 300\n"));
@@ -212,24 +200,22 @@ static void test_periodic_unplug(void)
 	CHECK_MSG(opened >= 3, "opened %d times", opened);
 	CHECK(mcd_run_count(r.log, "device unplugged (injected)") >= 2);
 	CHECK(lines_with(&r, "cams 1/2") > 0 && lines_with(&r, "cams 2/2") > 0);
-	finish(&r, "periodic unplug", before);
+	finish(&r, "periodic unplug");
 }
 
 static void test_stall(void)
 {
-	int before = mc_test_failures;
 	mcd_run r;
 	/* drop_every = 1: the driver never delivers; next_frame only times out */
 	CHECK(start(&r, BASE "device = G6\n[camera mute]\ndriver = faulty\ndevice = M6\ndrop_every = 1\n"));
 	CHECK(mcd_run_wait_log(&r, "camera mute: stalled: no frame for", 5000));
 	CHECK(mcd_run_wait_log(&r, "reopening in 50 ms (attempt 1)", 3000));
 	CHECK(lines_with(&r, "cams 1/2") >= 5);
-	finish(&r, "stall", before);
+	finish(&r, "stall");
 }
 
 static void test_unknown_driver_key(void)
 {
-	int before = mc_test_failures;
 	mcd_run r;
 	CHECK(start(&r, BASE "device = G7\n[camera typo]\ndriver = faulty\ndevice = T7\nfsp = 25\n"));
 	char want[300];
@@ -240,18 +226,17 @@ static void test_unknown_driver_key(void)
 	int n0 = lines_with(&r, "cams 1/2");
 	mcd_sleep_ms(300);
 	CHECK(lines_with(&r, "cams 1/2") > n0);
-	finish(&r, "unknown key", before);
+	finish(&r, "unknown key");
 }
 
 /* A driver may claim keys by prefix ("extra.*"): they are not unknown. */
 static void test_claimed_key_prefix(void)
 {
-	int before = mc_test_failures;
 	mcd_run r;
 	CHECK(start(&r, BASE "device = G8\n[camera claimed]\ndriver = faulty\ndevice = C8\nextra.gain = 3\n"));
 	CHECK(mcd_run_wait_notify(&r, "claimed: streaming", 5000));
 	CHECK(mcd_run_count(r.log, "unknown key") == 0);
-	finish(&r, "claimed key prefix", before);
+	finish(&r, "claimed key prefix");
 }
 
 int main(void)

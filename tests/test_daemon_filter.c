@@ -256,11 +256,7 @@ static void test_reload(void)
 	mcd_run_signal(&r, SIGHUP);
 	CHECK(mcd_run_wait_log(&r, "output: One-Euro filter on (min cutoff 1 Hz, beta 2 per m/s, speed cutoff 1 Hz; "
 				   "53 ms lag at 1 m/s; a gap over 1000 ms restarts it)", 10000));
-	mcd_run_signal(&r, SIGTERM);
-	CHECK(mcd_run_wait_exit(&r, 30000) == 0);
-	if (mc_test_failures)
-		mcd_run_dump(&r, "reload");
-	mcd_run_cleanup(&r);
+	mcd_run_stop(&r, 30000, "reload");
 }
 
 int main(void)

@@ -86,10 +86,6 @@ int main(void)
 	if (!mcd_run_start_ready(&r, args))
 		return mc_test_finish("test_daemon_keypoints");
 	run(&r, &rig);
-	mcd_run_signal(&r, SIGTERM);
-	CHECK(mcd_run_wait_exit(&r, 20000) == 0);
-	if (mc_test_failures)
-		mcd_run_dump(&r, "keypoints");
-	mcd_run_cleanup(&r);
+	mcd_run_stop(&r, 20000, "keypoints");
 	return mc_test_finish("test_daemon_keypoints");
 }

@@ -92,14 +92,10 @@ static void run(const char *extra, void (*check)(mcd_run *r), const char *what)
 {
 	mcd_run r;
 	CHECK(mcd_run_init(&r));
-	if (start(&r, extra)) {
+	if (start(&r, extra)) { /* a failed start is dumped and cleaned up */
 		check(&r);
-		mcd_run_signal(&r, SIGTERM);
-		CHECK(mcd_run_wait_exit(&r, 20000) == 0);
+		mcd_run_stop(&r, 20000, what);
 	}
-	if (mc_test_failures)
-		mcd_run_dump(&r, what);
-	mcd_run_cleanup(&r);
 }
 
 int main(void)

@@ -169,10 +169,6 @@ int main(void)
 		run_clients(&r, port);
 		tcp_flood(port);
 	}
-	mcd_run_signal(&r, SIGTERM);
-	CHECK(mcd_run_wait_exit(&r, 20000) == 0);
-	if (mc_test_failures)
-		mcd_run_dump(&r, "network");
-	mcd_run_cleanup(&r);
+	mcd_run_stop(&r, 20000, "network");
 	return mc_test_finish("test_daemon_network");
 }

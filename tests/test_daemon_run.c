@@ -155,9 +155,8 @@ static void test_permanent_open_errors(void)
 	int rc = mc_test_run(cmd, out, sizeof(out));
 	CHECK_MSG(rc == 0 && mcd_count(out, " failed ") == 3 && !strstr(out, " error "), "mocapctl status: %d\n%s", rc,
 		  out);
-	mcd_run_signal(&r, SIGTERM);
-	CHECK(mcd_run_wait_exit(&r, 10000) == 0);
-	if (mc_test_failures)
+	mcd_run_terminate(&r, 10000, "permanent open errors");
+	if (mc_test_failures > r.failures_at_init)
 		mcd_run_dump(&r, "permanent open errors");
 
 	/* --check asks each driver to check its keys, opening nothing: the
@@ -235,9 +234,7 @@ static void test_sigterm(void)
 	CHECK(mcd_run_wait_log(&r, "camera b: opened", 5000));
 	mcd_sleep_ms(300);
 	uint64_t t0 = mcd_now_ms();
-	mcd_run_signal(&r, SIGTERM);
-	int rc = mcd_run_wait_exit(&r, 10000);
-	CHECK_MSG(rc == 0, "exit %d", rc);
+	mcd_run_terminate(&r, 10000, "sigterm");
 	CHECK_MSG(mcd_now_ms() - t0 < 3000, "took %llu ms to stop", (unsigned long long)(mcd_now_ms() - t0));
 	CHECK(mcd_run_wait_log(&r, "Terminated: shutting down", 0));
 	CHECK(mcd_run_wait_log(&r, "mocapd: info: stopped", 0));
@@ -291,11 +288,7 @@ static void test_mocapctl(void)
 	mcd_run_config(&r, BASE TWO_CAMS "[camera c]\ndriver = faulty\ndevice = C\n");
 	rc = mc_test_run(cmd, out, sizeof(out));
 	CHECK_MSG(rc == 7 && strstr(out, "needs a restart: cameras"), "reload: %d %s", rc, out);
-	mcd_run_signal(&r, SIGTERM);
-	CHECK(mcd_run_wait_exit(&r, 10000) == 0);
-	if (mc_test_failures)
-		mcd_run_dump(&r, "mocapctl");
-	mcd_run_cleanup(&r);
+	mcd_run_stop(&r, 10000, "mocapctl");
 }
 
 /* Under journald (stderr is the stream named by $JOURNAL_STREAM) lines
@@ -360,11 +353,7 @@ static void test_sigkill_restart(void)
 	CHECK(mcd_can_connect(r.sock));
 	mcd_run_cleanup(&second);
 
-	mcd_run_signal(&r, SIGTERM);
-	CHECK(mcd_run_wait_exit(&r, 10000) == 0);
-	if (mc_test_failures)
-		mcd_run_dump(&r, "sigkill");
-	mcd_run_cleanup(&r);
+	mcd_run_stop(&r, 10000, "sigkill");
 }
 
 static void test_sighup(void)
@@ -389,11 +378,7 @@ static void test_sighup(void)
 			       5000));
 	mcd_sleep_ms(200);
 	CHECK(mcd_run_alive(&r));
-	mcd_run_signal(&r, SIGTERM);
-	CHECK(mcd_run_wait_exit(&r, 10000) == 0);
-	if (mc_test_failures)
-		mcd_run_dump(&r, "sighup");
-	mcd_run_cleanup(&r);
+	mcd_run_stop(&r, 10000, "sighup");
 }
 
 static void test_socket_activation(void)
@@ -410,8 +395,7 @@ static void test_socket_activation(void)
 	CHECK(mcd_run_wait_notify(&r, "READY=1", 10000));
 	CHECK(mcd_run_wait_log(&r, "(from systemd)", 0));
 	CHECK(mcd_can_connect(r.sock));
-	mcd_run_signal(&r, SIGTERM);
-	CHECK(mcd_run_wait_exit(&r, 10000) == 0);
+	mcd_run_terminate(&r, 10000, "socket activation");
 	/* The socket belongs to systemd: it stays. */
 	struct stat st;
 	CHECK(stat(r.sock, &st) == 0 && S_ISSOCK(st.st_mode));

@@ -213,11 +213,7 @@ static void test_reload_budget(void)
 	mcd_sleep_ms(1000);
 	CHECK_MSG(mcd_run_count(r.out, "frame ") > before, "no frame set tracked after the reload");
 	CHECK(mcd_run_alive(&r));
-	mcd_run_signal(&r, SIGTERM);
-	CHECK(mcd_run_wait_exit(&r, 20000) == 0);
-	if (mc_test_failures)
-		mcd_run_dump(&r, "reload");
-	mcd_run_cleanup(&r);
+	mcd_run_stop(&r, 20000, "reload");
 }
 
 int main(void)

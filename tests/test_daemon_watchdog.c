@@ -79,11 +79,7 @@ static void test_pings_and_hang(void)
 	for (int i = 0; i < n; i++)
 		late += at[i] > 4700;
 	CHECK_MSG(late >= 1, "no ping after the hang ended (%d pings in all)", n);
-	mcd_run_signal(&r, SIGTERM);
-	CHECK(mcd_run_wait_exit(&r, 10000) == 0);
-	if (mc_test_failures)
-		mcd_run_dump(&r, "watchdog");
-	mcd_run_cleanup(&r);
+	mcd_run_stop(&r, 10000, "watchdog");
 }
 
 static void test_no_watchdog_asked(void)
@@ -97,9 +93,7 @@ static void test_no_watchdog_asked(void)
 	mcd_sleep_ms(800);
 	mcd_run_read_notify(&r);
 	CHECK(mcd_count(r.notes, "WATCHDOG=1") == 0);
-	mcd_run_signal(&r, SIGTERM);
-	CHECK(mcd_run_wait_exit(&r, 10000) == 0);
-	mcd_run_cleanup(&r);
+	mcd_run_stop(&r, 10000, "watchdog off");
 }
 
 int main(void)

@@ -37,6 +37,7 @@ typedef struct {
 	int notify_fd;
 	char *notes; /* every notify message received, each ending in "\n--\n" */
 	size_t notes_len, notes_cap;
+	int failures_at_init; /* mc_test_failures when the run was made: mcd_run_stop dumps on more */
 } mcd_run;
 
 static char mcd_build_dir[PATH_MAX];
@@ -141,6 +142,7 @@ static inline int mcd_count(const char *hay, const char *needle)
 static inline bool mcd_run_init(mcd_run *r)
 {
 	memset(r, 0, sizeof(*r));
+	r->failures_at_init = mc_test_failures;
 	r->pid = -1;
 	r->notify_fd = -1;
 	snprintf(r->dir, sizeof(r->dir), "/tmp/mocapd-test-XXXXXX");
@@ -348,9 +350,13 @@ static inline void mcd_run_cleanup(mcd_run *r)
 		waitpid(r->pid, &r->status, 0);
 		r->pid = -1;
 	}
+	/* Idempotent: a run cleaned up by a failed start may be again. */
 	if (r->notify_fd >= 0)
 		close(r->notify_fd);
+	r->notify_fd = -1;
 	free(r->notes);
+	r->notes = NULL;
+	r->notes_len = r->notes_cap = 0;
 	const char *names[] = {"t.conf", "stderr.txt", "stdout.txt", "mocapd.sock", "notify", "other.sock"};
 	for (size_t i = 0; i < sizeof(names) / sizeof(names[0]); i++) {
 		char p[256];
@@ -358,6 +364,29 @@ static inline void mcd_run_cleanup(mcd_run *r)
 		unlink(p);
 	}
 	rmdir(r->dir);
+}
+
+/* Sends SIGTERM and waits up to timeout_ms for the daemon to exit; checks
+ * that it exited 0 (why names the run in the message).  Its exit code,
+ * 128+signal, or -1 if it is still running. */
+static inline int mcd_run_terminate(mcd_run *r, int timeout_ms, const char *why)
+{
+	mcd_run_signal(r, SIGTERM);
+	int rc = mcd_run_wait_exit(r, timeout_ms);
+	CHECK_MSG(rc == 0, "%s: mocapd exited %d after SIGTERM (-1: still running after %d ms)", why, rc, timeout_ms);
+	return rc;
+}
+
+/* The end of a test's run: mcd_run_terminate, mocapd's stderr printed
+ * under why if any check failed since mcd_run_init, and the run cleaned
+ * up.  Returns what mcd_run_terminate did. */
+static inline int mcd_run_stop(mcd_run *r, int timeout_ms, const char *why)
+{
+	int rc = mcd_run_terminate(r, timeout_ms, why);
+	if (mc_test_failures > r->failures_at_init)
+		mcd_run_dump(r, why);
+	mcd_run_cleanup(r);
+	return rc;
 }
 
 /* Starts mocapd with args (NULL-terminated) and waits up to 60 s for
