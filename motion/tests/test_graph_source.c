@@ -186,8 +186,7 @@ int main(void)
 	if (mcd_run_start_ready(&r, args)) {
 		test_stream(&r);
 		CHECK(mcd_run_alive(&r));
-		mcd_run_signal(&r, SIGTERM);
-		CHECK(mcd_run_wait_exit(&r, 10000) == 0);
+		mcd_run_terminate(&r, 10000, "graph source");
 	}
 	/* a damaged graph file: --check and start name it and the key */
 	char bad[300];

@@ -432,8 +432,7 @@ static void check_replay(const char *takes)
 		  (unsigned long long)last);
 	CHECK(c && control(c, MOCAP_CMD_RECORD_STOP, NULL, msg, sizeof(msg)) == 0);
 	mocap_close(c);
-	mcd_run_signal(&r, SIGTERM);
-	CHECK(mcd_run_wait_exit(&r, 20000) == 0);
+	mcd_run_terminate(&r, 20000, "replay");
 
 	static uint64_t t0[512], h0[512], t1[512], h1[512];
 	char replayed[PATH_MAX];
@@ -512,9 +511,8 @@ static void check_full_disk(void)
 	CHECK_MSG(take_poses_load(take, NULL, &t, &err) == 0 && t.nposes > 0, "the stopped take: %s", err.msg);
 	take_poses_free(&t);
 	mocap_close(c);
-	mcd_run_signal(&r, SIGTERM);
-	CHECK(mcd_run_wait_exit(&r, 20000) == 0);
-	if (mc_test_failures)
+	mcd_run_terminate(&r, 20000, "full disk");
+	if (mc_test_failures > r.failures_at_init)
 		mcd_run_dump(&r, "full disk");
 	if (tmpfs)
 		umount(small);
@@ -556,9 +554,8 @@ int main(void)
 
 	CHECK(mcd_run_start_ready(&r, args));
 	check_restart(&r, takes);
-	mcd_run_signal(&r, SIGTERM);
-	CHECK(mcd_run_wait_exit(&r, 20000) == 0);
-	if (mc_test_failures)
+	mcd_run_terminate(&r, 20000, "recording");
+	if (mc_test_failures > r.failures_at_init)
 		mcd_run_dump(&r, "recording");
 	check_replay(takes);
 	char second[PATH_MAX];
