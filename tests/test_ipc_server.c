@@ -247,8 +247,12 @@ static void test_malformed(void)
 	int fd = hello_client();
 	static uint8_t big[PROTO_MAX_MESSAGE + 100];
 	memset(big, 0, sizeof(big));
+	big[0] = 0x0b; /* a PING, id 7, far too long: the ERROR names both */
+	big[8] = 7;
 	CHECK(send(fd, big, sizeof(big), MSG_NOSIGNAL) == (ssize_t)sizeof(big));
 	CHECK(raw_recv(fd, 2000) == 1 && rx.h.type == MC_MSG_ERROR && strstr(rx.u.error.message, "longer than"));
+	CHECK_MSG(rx.u.error.request_type == MC_MSG_PING && rx.h.request_id == 7, "oversize: request_type %u, id %u",
+		  rx.u.error.request_type, rx.h.request_id);
 	CHECK(closed_by_server(fd));
 	close(fd);
 	/* Descriptors from a client are closed and refused. */
@@ -268,6 +272,8 @@ static void test_malformed(void)
 	memcpy(CMSG_DATA(cm), &sent_fd, sizeof(int));
 	CHECK(sendmsg(fd, &mh, MSG_NOSIGNAL) == (ssize_t)sizeof(ping));
 	CHECK(raw_recv(fd, 2000) == 1 && rx.h.type == MC_MSG_ERROR && strstr(rx.u.error.message, "descriptors"));
+	CHECK_MSG(rx.u.error.request_type == MC_MSG_PING && rx.h.request_id == 3, "with fds: request_type %u, id %u",
+		  rx.u.error.request_type, rx.h.request_id);
 	CHECK(closed_by_server(fd));
 	close(fd);
 	close(sent_fd);

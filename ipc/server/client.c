@@ -135,13 +135,13 @@ void srv_client_readable(srv_server *srv, client *c)
 			return;
 		}
 		if (close_received_fds(&mh) || (mh.msg_flags & MSG_CTRUNC)) {
-			srv_protocol_error(srv, c, 0, 0, "clients must not send file descriptors");
+			srv_protocol_error_raw(srv, c, (size_t)n, "clients must not send file descriptors");
 			return;
 		}
 		if ((size_t)n > PROTO_MAX_MESSAGE || (mh.msg_flags & MSG_TRUNC)) {
 			char why[96];
 			snprintf(why, sizeof(why), "longer than the %d-byte limit", PROTO_MAX_MESSAGE);
-			srv_protocol_error(srv, c, 0, 0, why);
+			srv_protocol_error_raw(srv, c, sizeof(srv->rxbuf) < (size_t)n ? sizeof(srv->rxbuf) : (size_t)n, why);
 			return;
 		}
 		/* What the daemon did before this message was sent must be

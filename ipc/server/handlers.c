@@ -445,17 +445,22 @@ void srv_protocol_error(srv_server *srv, client *c, uint16_t type, uint32_t requ
 	srv_reply_error(srv, c, request_id, type, PROTO_E_MALFORMED, true, "malformed message: %s", why);
 }
 
+void srv_protocol_error_raw(srv_server *srv, client *c, size_t len, const char *why)
+{
+	uint16_t type = len >= 2 ? (uint16_t)(srv->rxbuf[0] | srv->rxbuf[1] << 8) : 0;
+	uint32_t rid = 0;
+	if (len >= 12)
+		for (int i = 0; i < 4; i++)
+			rid |= (uint32_t)srv->rxbuf[8 + i] << (8 * i);
+	srv_protocol_error(srv, c, type, rid, why);
+}
+
 void srv_handle_message(srv_server *srv, client *c, size_t len)
 {
 	proto_msg *m = &srv->in;
 	char why[256];
 	if (proto_decode(srv->rxbuf, len, PROTO_FROM_CLIENT, m, why, sizeof(why)) != 0) {
-		uint16_t type = len >= 2 ? (uint16_t)(srv->rxbuf[0] | srv->rxbuf[1] << 8) : 0;
-		uint32_t rid = 0;
-		if (len >= 12)
-			for (int i = 0; i < 4; i++)
-				rid |= (uint32_t)srv->rxbuf[8 + i] << (8 * i);
-		srv_protocol_error(srv, c, type, rid, why);
+		srv_protocol_error_raw(srv, c, len, why);
 		return;
 	}
 	if (c->tcp && !c->authed && m->h.type != MC_MSG_AUTH) {

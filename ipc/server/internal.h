@@ -285,6 +285,9 @@ void srv_expire_clients(srv_server *srv);
 void srv_handle_message(srv_server *srv, client *c, size_t len);
 /* Counts a malformed message and disconnects its sender. */
 void srv_protocol_error(srv_server *srv, client *c, uint16_t type, uint32_t request_id, const char *why);
+/* The same for the len bytes in srv->rxbuf, refused undecoded: the ERROR
+ * echoes their type and request id, as far as they came. */
+void srv_protocol_error_raw(srv_server *srv, client *c, size_t len, const char *why);
 /* Replies to the control requests the daemon has answered. */
 void srv_deliver_control_results(srv_server *srv);
 
