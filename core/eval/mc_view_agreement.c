@@ -23,11 +23,8 @@ static bool nearest_point(const ray *r, int n, mc_vec3 *out)
 
 static bool to_ray(const mc_camera *cam, double u, double v, ray *out)
 {
-	mc_vec3 d;
-	if (!mc_camera_unproject(cam, u, v, &d))
-		return false;
-	*out = (ray){cam->rig_from_cam.t, mc_v3_normalize(mc_m3_apply(cam->rig_from_cam.R, d))};
-	return true;
+	out->origin = cam->rig_from_cam.t;
+	return mc_camera_unproject_rig(cam, u, v, &out->dir);
 }
 
 /* Keypoint `self` against the rays of the other cameras' keypoints of its

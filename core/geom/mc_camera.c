@@ -382,6 +382,15 @@ bool mc_camera_unproject(const mc_camera *cam, double u, double v, mc_vec3 *ray)
 	return false;
 }
 
+bool mc_camera_unproject_rig(const mc_camera *cam, double u, double v, mc_vec3 *dir_rig)
+{
+	mc_vec3 ray;
+	if (!mc_camera_unproject(cam, u, v, &ray))
+		return false;
+	*dir_rig = mc_v3_normalize(mc_m3_apply(cam->rig_from_cam.R, ray));
+	return true;
+}
+
 /* ---- validation -------------------------------------------------------- */
 
 static int check_finite(const double *a, int n, const char *field, mc_err *err)

@@ -88,6 +88,9 @@ bool mc_camera_project_unbounded(const mc_camera *cam, mc_vec3 p_cam, double *u,
 /* Unit ray in camera coordinates through pixel (u, v). Returns false if the
  * pixel is outside the valid image (e.g. outside a fisheye's image circle). */
 bool mc_camera_unproject(const mc_camera *cam, double u, double v, mc_vec3 *ray);
+/* The same ray in the rig frame (unit length; it starts at the camera's
+ * centre, cam->rig_from_cam.t). */
+bool mc_camera_unproject_rig(const mc_camera *cam, double u, double v, mc_vec3 *dir_rig);
 
 /* Checks parameters for sanity (finite, positive sizes, max_theta in (0, pi),
  * pinhole max_theta < pi/2, polynomial lengths in range, a distortion that

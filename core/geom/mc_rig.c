@@ -341,11 +341,9 @@ int mc_raytable_build(const mc_camera *cam, int width, int height, mc_raytable *
 	for (int j = 0; j < height; j++) {
 		for (int i = 0; i < width; i++) {
 			double u = (i + 0.5) * rt->scale_x - 0.5, v = (j + 0.5) * rt->scale_y - 0.5;
-			mc_vec3 ray;
 			size_t k = (size_t)j * width + i;
-			if (!mc_camera_unproject(cam, u, v, &ray))
+			if (!mc_camera_unproject_rig(cam, u, v, &rt->dir[k]))
 				continue;
-			rt->dir[k] = mc_v3_normalize(mc_m3_apply(cam->rig_from_cam.R, ray));
 			rt->valid[k] = 1;
 			rt->nvalid++;
 		}

@@ -12,12 +12,11 @@ static int keypoint_rays(const mc_tracker *t, const mc_keypoint *kp, int nkp, mc
 	int n = 0;
 	for (int i = 0; i < nkp && n < MC_TRK_MAX_KEYPOINTS; i++) {
 		const mc_keypoint *k = &kp[i];
-		mc_vec3 ray;
+		mc_vec3 dir;
 		if (k->cam < 0 || k->cam >= t->rig.ncams || k->joint < 0 || k->joint >= t->model.njoints ||
-		    !(k->conf > 0) || !mc_camera_unproject(&t->rig.cams[k->cam], k->u, k->v, &ray))
+		    !(k->conf > 0) || !mc_camera_unproject_rig(&t->rig.cams[k->cam], k->u, k->v, &dir))
 			continue;
-		const mc_xform *X = &t->rig.cams[k->cam].rig_from_cam;
-		out[n] = (mc_trk_keypoint_ray){k->joint, X->t, mc_v3_normalize(mc_m3_apply(X->R, ray)), fmin(k->conf, 1.0)};
+		out[n] = (mc_trk_keypoint_ray){k->joint, t->rig.cams[k->cam].rig_from_cam.t, dir, fmin(k->conf, 1.0)};
 		cam[n++] = k->cam;
 	}
 	return n;
