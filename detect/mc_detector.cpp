@@ -231,6 +231,14 @@ std::mutex import_lock;
 
 } // namespace
 
+void mc_detector_zero_input(mc_detector *d)
+{
+	int sz[4] = {1, 3, d->in_h, d->in_w};
+	d->blob.create(4, sz, CV_32F);
+	d->blob.setTo(cv::Scalar(0));
+	d->net.setInput(d->blob, d->input_name);
+}
+
 namespace {
 
 // The sidecar MODEL.json: joints, threshold, input and heatmap sizes.
@@ -371,10 +379,7 @@ int check_output(mc_detector *d, int expect_hm_w, int expect_hm_h, mc_err *err)
 			return mc_err_set(err, "%s: the network has %zu outputs and none is named `heatmaps`", p,
 					  outs.size());
 	}
-	int sz[4] = {1, 3, d->in_h, d->in_w};
-	d->blob.create(4, sz, CV_32F);
-	d->blob.setTo(cv::Scalar(0));
-	d->net.setInput(d->blob, d->input_name);
+	mc_detector_zero_input(d);
 	cv::Mat out = d->net.forward(d->output_name);
 	std::string shape;
 	for (int i = 0; i < out.dims; i++)

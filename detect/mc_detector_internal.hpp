@@ -39,6 +39,8 @@ struct mc_detector {
 
 // The view (Hin x Win RGB24) into d->blob: NCHW float in [0, 1].
 void mc_detector_fill_blob(mc_detector *d, const cv::Mat &img);
+// A black image as the network's input, for the output checks at load time.
+void mc_detector_zero_input(mc_detector *d);
 
 // MoveNet (mc_detector_movenet.cpp): the output check at load time, and one
 // view's detection; both return 0 / a count, or -1 with err.

@@ -99,10 +99,7 @@ int mc_movenet_check_outputs(mc_detector *d, mc_err *err)
 	if (d->in_w != d->in_h)
 		return mc_err_set(err, "%s: a MoveNet network needs a square input, the sidecar says %dx%d", p, d->in_h,
 				  d->in_w);
-	int sz[4] = {1, 3, d->in_h, d->in_w};
-	d->blob.create(4, sz, CV_32F);
-	d->blob.setTo(cv::Scalar(0));
-	d->net.setInput(d->blob, d->input_name);
+	mc_detector_zero_input(d);
 	std::vector<cv::Mat> outs;
 	try {
 		d->net.forward(outs, std::vector<cv::String>(head_names, head_names + 4));

@@ -42,6 +42,9 @@ typedef struct {
 	 * (the calibration pose), same pseudo-Huber form as lambda_smooth:
 	 * keeps weakly observed dofs from random-walking (docs/TRACKER.md). */
 	double lambda_anchor;
+	/* Weight of the learned pose prior (mc_tracker_load_pose_prior); no
+	 * effect while none is loaded. */
+	double lambda_prior;
 	/* Outside-in rigs (world frame z up, floor at z = 0): weight of the
 	 * floor prior, a squared penalty on every Gaussian reaching below the
 	 * floor (its centre less one sigma), so that no foot sinks into it.
@@ -76,7 +79,7 @@ typedef struct {
 	int camera_iterations;               /* iterations x cameras per frame set */
 	int min_iterations, max_iterations;  /* the bounds of the share */
 	double lambda_smooth, lambda_floor;
-	double lambda_detection;             /* the outside-in detector is the weaker one */
+	double lambda_detection;             /* 0.3: measured with MoveNet and sides (docs/BENCHMARKS.md) */
 	bool assign_sides;                   /* the views can settle left and right */
 } mc_tracker_outside_in_defaults;
 extern const mc_tracker_outside_in_defaults mc_tracker_outside_in;
@@ -209,6 +212,12 @@ int mc_tracker_track(mc_tracker *t, const mc_frame_view *views, int nviews, cons
  * iterations with those that came (a re-fit there beat the tracked pose
  * on the frame set's images and is the pose returned for it, and the next
  * frame set's start).  NULL: no polling. */
+/* Loads the learned pose prior (config/models/pose_prior.json,
+ * mc_pose_prior.h) for the tracker's model; its term, weighted by
+ * settings.lambda_prior, joins every iteration's energy.  A second load
+ * replaces the first.  -1 with err naming the file. */
+int mc_tracker_load_pose_prior(mc_tracker *t, const char *path, mc_err *err);
+
 typedef int (*mc_keypoint_poll)(void *ctx, int iteration, mc_keypoint *kp, int cap);
 void mc_tracker_set_keypoint_poll(mc_tracker *t, mc_keypoint_poll poll, void *ctx);
 /* A ready-made poll for measuring and testing keypoints that come late:
