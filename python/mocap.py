@@ -644,7 +644,7 @@ def _parse_rings(r, fds):
     return [Ring(n, fd, s) for n, fd, s in zip(names, fds, sizes)]
 
 
-# --- the latest-pose block (docs/PROTOCOL.md, "Latest-pose block") ---
+# --- the latest-pose block (docs/PROTOCOL_SHM.md, "Latest-pose block") ---
 
 POSE_BLOCK_MAGIC, POSE_BLOCK_SIZE, POSE_BLOCK_SLOTS = 0x4B4C4250, 33088, 4
 PREDICT_MAX_NS, PREDICT_MAX_GAP_NS = 100_000_000, 200_000_000
