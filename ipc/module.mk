@@ -30,20 +30,24 @@ CHECKS += check-ipc-python fuzz-ipc
 BENCHES += bench-ipc
 
 # The server is ipc/server/*.c (ipc/server/internal.h says which file does
-# what), the client library ipc/client/*.c; both share the protocol codec.
+# what), the client library ipc/client/*.c; both share the protocol codec:
+# ipc/proto_encode.c, ipc/proto_decode.c, and ipc/proto.c for the type
+# names and TCP framing that both use.
+IPC_PROTO_SRC := ipc/proto.c ipc/proto_encode.c ipc/proto_decode.c
+IPC_PROTO_OBJ := $(patsubst %.c,$(BUILD)/%.o,$(IPC_PROTO_SRC))
 IPC_SERVER_OBJ := $(patsubst %.c,$(BUILD)/%.o,$(wildcard ipc/server/*.c))
 IPC_CLIENT_OBJ := $(patsubst %.c,$(BUILD)/%.o,$(wildcard ipc/client/*.c))
 
-$(IPC_SERVER_LIB): $(BUILD)/ipc/proto.o $(IPC_SERVER_OBJ)
+$(IPC_SERVER_LIB): $(IPC_PROTO_OBJ) $(IPC_SERVER_OBJ)
 	@rm -f $@
 	ar rcs $@ $^
 
-$(IPC_CLIENT_LIB): $(BUILD)/ipc/proto.o $(IPC_CLIENT_OBJ)
+$(IPC_CLIENT_LIB): $(IPC_PROTO_OBJ) $(IPC_CLIENT_OBJ)
 	@rm -f $@
 	ar rcs $@ $^
 
 # Only the mocap_ symbols are exported (ipc/libmocap.map).
-$(IPC_SO): $(BUILD)/ipc/proto.o $(IPC_CLIENT_OBJ) ipc/libmocap.map
+$(IPC_SO): $(IPC_PROTO_OBJ) $(IPC_CLIENT_OBJ) ipc/libmocap.map
 	@mkdir -p $(@D)
 	$(CC) -shared -Wl,-soname,libmocap.so.1 -Wl,--version-script=ipc/libmocap.map -Wl,--no-undefined \
 		-o $@ $(filter %.o,$^) $(LDFLAGS) -lm
@@ -99,14 +103,14 @@ check-ipc-python: $(IPC_TESTPUB) $(BUILD)/bin/mocapctl $(IPC_EXAMPLES)
 FUZZ_CC ?= clang
 FUZZ_SECONDS ?= 60
 IPC_FUZZ := $(BUILD)/fuzz/fuzz_ipc
-$(IPC_FUZZ): tests/fuzz/fuzz_ipc.c ipc/proto.c ipc/proto.h core/base/mc_le.h
+$(IPC_FUZZ): tests/fuzz/fuzz_ipc.c $(IPC_PROTO_SRC) ipc/proto.h core/base/mc_le.h
 	@mkdir -p $(@D)
 	$(FUZZ_CC) -std=c11 -D_GNU_SOURCE -Iipc -Icore -g -O1 -fsanitize=fuzzer,address,undefined \
-		-fno-sanitize-recover=undefined tests/fuzz/fuzz_ipc.c ipc/proto.c -o $@ -lm
+		-fno-sanitize-recover=undefined tests/fuzz/fuzz_ipc.c $(IPC_PROTO_SRC) -o $@ -lm
 
-$(BUILD)/fuzz/fuzz_ipc_seeds: tests/fuzz/fuzz_ipc_seeds.c ipc/proto.c ipc/proto.h core/base/mc_le.h
+$(BUILD)/fuzz/fuzz_ipc_seeds: tests/fuzz/fuzz_ipc_seeds.c $(IPC_PROTO_SRC) ipc/proto.h core/base/mc_le.h
 	@mkdir -p $(@D)
-	$(CC) $(CPPFLAGS) $(CFLAGS) tests/fuzz/fuzz_ipc_seeds.c ipc/proto.c -o $@ $(LDFLAGS) -lm
+	$(CC) $(CPPFLAGS) $(CFLAGS) tests/fuzz/fuzz_ipc_seeds.c $(IPC_PROTO_SRC) -o $@ $(LDFLAGS) -lm
 
 fuzz-ipc: $(IPC_FUZZ) $(BUILD)/fuzz/fuzz_ipc_seeds
 	@rm -rf $(BUILD)/fuzz/seeds && mkdir -p $(BUILD)/fuzz/seeds $(BUILD)/fuzz/corpus

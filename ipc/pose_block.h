@@ -1,4 +1,4 @@
-/* pose_block: the latest-pose shared-memory block (docs/PROTOCOL.md,
+/* pose_block: the latest-pose shared-memory block (docs/PROTOCOL_SHM.md,
  * "Latest-pose block").  The server writes every published skeleton into
  * a memfd (ipc/server/pose.c); clients map it read-only (GET_POSE_BLOCK,
  * libmocap's mocap_pose_block_*) and read the newest poses without a

@@ -24,7 +24,7 @@ import pytest
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(HERE)
-sys.path.insert(0, HERE)  # the mocap.py beside this file, not an installed one
+sys.path.insert(0, HERE)  # the mocap package beside this file, not an installed one
 
 import mocap  # noqa: E402
 

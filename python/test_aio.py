@@ -152,7 +152,7 @@ def test_keypoints_refused(daemon):
 
 
 def test_version_1(daemon, monkeypatch):
-    monkeypatch.setattr(mocap, "PROTOCOL_VERSION", 1)
+    monkeypatch.setattr(mocap._codec, "PROTOCOL_VERSION", 1)  # where HELLO is built
 
     async def main():
         async with connect(daemon, "py-aio-v1") as c:

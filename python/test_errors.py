@@ -242,8 +242,8 @@ def test_access_denied():
 
 
 def test_version_mismatch(daemon, monkeypatch):
-    monkeypatch.setattr(mocap, "PROTOCOL_MIN_VERSION", 7)
-    monkeypatch.setattr(mocap, "PROTOCOL_VERSION", 9)
+    monkeypatch.setattr(mocap._codec, "PROTOCOL_MIN_VERSION", 7)  # where HELLO is built
+    monkeypatch.setattr(mocap._codec, "PROTOCOL_VERSION", 9)
     with pytest.raises(mocap.VersionMismatch, match="speaks 1..3") as e:
         mocap.Client(daemon)
     assert (e.value.code, e.value.server_code, e.value.fatal) == ("version", 1, True)

@@ -120,7 +120,7 @@ def test_keypoints_refused(daemon):
 
 def test_version_1(daemon, monkeypatch):
     # A version 1 client gets version 1's STATUS: no detector block.
-    monkeypatch.setattr(mocap, "PROTOCOL_VERSION", 1)
+    monkeypatch.setattr(mocap._codec, "PROTOCOL_VERSION", 1)  # where HELLO is built
     with mocap.Client(daemon, "py-v1") as c:
         assert c.version == 1
         st = c.status()

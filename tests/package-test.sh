@@ -121,7 +121,8 @@ installed_demo mocapd /usr/share/mocapd "/usr/lib/$ma/mocapd/drivers"
 cd "$repo" || fail "cd $repo"
 installed=0
 DEBIAN_FRONTEND=noninteractive apt-get purge -y $pkgs >"$tmp/purge.log" 2>&1 || { cat "$tmp/purge.log"; fail "apt-get purge"; }
-for f in /usr/bin/mocapd /usr/lib/$ma/mocapd /usr/lib/$ma/libmocap.so.1 /etc/mocapd /usr/lib/python3/dist-packages/mocap.py; do
+for f in /usr/bin/mocapd /usr/lib/$ma/mocapd /usr/lib/$ma/libmocap.so.1 /etc/mocapd /usr/lib/python3/dist-packages/mocap.py \
+	/usr/lib/python3/dist-packages/mocap; do
 	[ ! -e "$f" ] || fail "apt-get purge left $f"
 done
 echo "PASS: packages built, installed, run and purged"

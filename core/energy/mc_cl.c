@@ -1,17 +1,15 @@
-/* OpenCL backend of the colour energy: device choice, program build from
- * the embedded kernel source (core/energy/cl/color_energy.cl), buffers, and one
- * evaluation = upload scene and pixels, one kernel launch, read back the
- * per-work-group sums and add them up in double.
+/* OpenCL backend of the colour energy, set-up: the program built from the
+ * embedded kernel source (core/energy/cl/color_energy.cl), the work-group
+ * layout, the buffers, and the backend's creation and destruction.  The
+ * device choice is in mc_cl_device.c, one evaluation (upload scene and
+ * pixels, one kernel launch, read back the per-work-group sums and add
+ * them up in double) in mc_cl_eval.c.
  *
  * OpenCL 1.2 throughout, except for the shared memory of 2.0 (fine-grained
  * SVM buffers) where a device has it: the upload and read-back are then no
- * commands at all (see shared_memory). */
-#define CL_TARGET_OPENCL_VERSION 200
-#define CL_USE_DEPRECATED_OPENCL_1_2_APIS /* clCreateCommandQueue: 1.2 devices need it */
-#include "energy/mc_cl.h"
+ * commands at all (see mc_cl_shared_memory). */
+#include "energy/mc_cl_internal.h"
 
-#include <CL/cl.h>
-#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -20,237 +18,7 @@
 extern const unsigned char mc_cl_color_energy[];
 extern const unsigned int mc_cl_color_energy_len;
 
-#define ROW_MAX (4 * MC_MAX_GAUSSIANS + 1) /* floats per work-group result */
-/* Gaussian buffer: 4 float4 per Gaussian, then mu.x, mu.y, mu.z and r2_max
- * of every Gaussian as four float arrays (for the SIMD culling test). */
-#define GAUSS_FLOAT4S (5 * MC_MAX_GAUSSIANS)
-
-struct mc_cl_energy {
-	char name[256];
-	cl_context ctx;
-	cl_device_id dev;
-	cl_command_queue queue;
-	cl_program prog;
-	cl_kernel kernel;
-
-	int ncams;
-	int cam_first[MC_MAX_CAMERAS]; /* first ray index of each camera */
-	int cam_npix[MC_MAX_CAMERAS];  /* width * height */
-	bool has_image[MC_MAX_CAMERAS];
-	int *valid[MC_MAX_CAMERAS];    /* the valid pixels, for "every pixel" */
-	int nvalid[MC_MAX_CAMERAS];
-	int total;                     /* rays over all cameras */
-
-	int vw;            /* SIMD lanes in the kernel (-DVW) */
-	bool shared;       /* input_host and partial_host are fine-grained SVM */
-	size_t wg;         /* work-group size */
-	size_t max_groups; /* work-groups per launch at most */
-
-	cl_mem rays, image, origins, firsts, partial;
-	/* Per evaluation, one upload: the Gaussian records (layout in
-	 * color_energy.cl), then the ray indices of the sampled pixels. */
-	cl_mem input;         /* unused with shared memory */
-	size_t pixel_cap;     /* room for pixels in `input` and input_host */
-	cl_float4 *input_host; /* GAUSS_FLOAT4S records, then pixel_cap indices */
-	cl_uint *pixel_host;  /* = (cl_uint *)(input_host + GAUSS_FLOAT4S) */
-	cl_float4 *image_host; /* one camera */
-	float *partial_host;
-	/* the scene's background colour model, as an albedo record; w = 1
-	 * in bg_weights when there is one */
-	cl_float4 bg_albedo, bg_weights;
-};
-
-static const char *cl_error_name(cl_int rc)
-{
-	switch (rc) {
-	case CL_DEVICE_NOT_FOUND: return "CL_DEVICE_NOT_FOUND";
-	case CL_DEVICE_NOT_AVAILABLE: return "CL_DEVICE_NOT_AVAILABLE";
-	case CL_COMPILER_NOT_AVAILABLE: return "CL_COMPILER_NOT_AVAILABLE";
-	case CL_MEM_OBJECT_ALLOCATION_FAILURE: return "CL_MEM_OBJECT_ALLOCATION_FAILURE";
-	case CL_OUT_OF_RESOURCES: return "CL_OUT_OF_RESOURCES";
-	case CL_OUT_OF_HOST_MEMORY: return "CL_OUT_OF_HOST_MEMORY";
-	case CL_BUILD_PROGRAM_FAILURE: return "CL_BUILD_PROGRAM_FAILURE";
-	case CL_INVALID_VALUE: return "CL_INVALID_VALUE";
-	case CL_INVALID_PLATFORM: return "CL_INVALID_PLATFORM";
-	case CL_INVALID_DEVICE: return "CL_INVALID_DEVICE";
-	case CL_INVALID_CONTEXT: return "CL_INVALID_CONTEXT";
-	case CL_INVALID_COMMAND_QUEUE: return "CL_INVALID_COMMAND_QUEUE";
-	case CL_INVALID_MEM_OBJECT: return "CL_INVALID_MEM_OBJECT";
-	case CL_INVALID_BUILD_OPTIONS: return "CL_INVALID_BUILD_OPTIONS";
-	case CL_INVALID_PROGRAM_EXECUTABLE: return "CL_INVALID_PROGRAM_EXECUTABLE";
-	case CL_INVALID_KERNEL_NAME: return "CL_INVALID_KERNEL_NAME";
-	case CL_INVALID_KERNEL_ARGS: return "CL_INVALID_KERNEL_ARGS";
-	case CL_INVALID_ARG_INDEX: return "CL_INVALID_ARG_INDEX";
-	case CL_INVALID_ARG_VALUE: return "CL_INVALID_ARG_VALUE";
-	case CL_INVALID_ARG_SIZE: return "CL_INVALID_ARG_SIZE";
-	case CL_INVALID_WORK_GROUP_SIZE: return "CL_INVALID_WORK_GROUP_SIZE";
-	case CL_INVALID_BUFFER_SIZE: return "CL_INVALID_BUFFER_SIZE";
-	case -1001: return "CL_PLATFORM_NOT_FOUND_KHR";
-	default: return "OpenCL error";
-	}
-}
-
-static int grow_input(mc_cl_energy *e, size_t need, mc_err *err);
-static int set_fixed_args(mc_cl_energy *e, mc_err *err);
-static int launch(mc_cl_energy *e, int ngauss, size_t npix, uint32_t seed, uint32_t thr24, size_t *ngroups,
-		  mc_err *err);
-
-static int cl_fail(mc_err *err, const char *what, cl_int rc)
-{
-	return mc_err_set(err, "OpenCL: %s failed: %s (%d)", what, cl_error_name(rc), (int)rc);
-}
-
-/* ---- device choice ---- */
-
-static void platform_name(cl_platform_id p, char *buf, size_t len)
-{
-	buf[0] = 0;
-	clGetPlatformInfo(p, CL_PLATFORM_NAME, len, buf, NULL);
-	buf[len - 1] = 0;
-}
-
-static void device_name(cl_device_id d, char *buf, size_t len)
-{
-	buf[0] = 0;
-	clGetDeviceInfo(d, CL_DEVICE_NAME, len, buf, NULL);
-	buf[len - 1] = 0;
-}
-
-/* The devices of platform p (caller frees), or NULL with *n = 0. */
-static cl_device_id *platform_devices(cl_platform_id p, cl_uint *n)
-{
-	*n = 0;
-	if (clGetDeviceIDs(p, CL_DEVICE_TYPE_ALL, 0, NULL, n) != CL_SUCCESS || *n == 0) {
-		*n = 0;
-		return NULL;
-	}
-	cl_device_id *d = calloc(*n, sizeof(*d));
-	if (!d || clGetDeviceIDs(p, CL_DEVICE_TYPE_ALL, *n, d, NULL) != CL_SUCCESS) {
-		free(d);
-		*n = 0;
-		return NULL;
-	}
-	return d;
-}
-
-static cl_device_type device_type(cl_device_id d)
-{
-	cl_device_type t = 0;
-	clGetDeviceInfo(d, CL_DEVICE_TYPE, sizeof(t), &t, NULL);
-	return t;
-}
-
-/* Of the devices of platform p: the first of type `want` (0: the first of
- * any type).  Returns 0 and sets *out, or -1. */
-static int first_of_type(cl_platform_id p, cl_device_type want, cl_device_id *out)
-{
-	cl_uint n;
-	cl_device_id *d = platform_devices(p, &n);
-	int found = -1;
-	for (cl_uint i = 0; i < n && found < 0; i++)
-		if (!want || (device_type(d[i]) & want)) {
-			*out = d[i];
-			found = 0;
-		}
-	free(d);
-	return found;
-}
-
-/* "0 'name', 1 'name'" for error messages. */
-static void list_platforms(const cl_platform_id *p, cl_uint n, char *buf, size_t len)
-{
-	buf[0] = 0;
-	for (cl_uint i = 0; i < n; i++) {
-		char name[128];
-		platform_name(p[i], name, sizeof(name));
-		size_t used = strlen(buf);
-		snprintf(buf + used, len - used, "%s%u '%s'", i ? ", " : "", i, name);
-	}
-}
-
-static int choose_device(int platform, int device, cl_platform_id *out_p, cl_device_id *out_d, mc_err *err)
-{
-	cl_uint np = 0;
-	cl_int rc = clGetPlatformIDs(0, NULL, &np);
-	if (rc == -1001 || (rc == CL_SUCCESS && np == 0))
-		return mc_err_set(err, "OpenCL: no platform found (install an ICD, e.g. pocl-opencl-icd)");
-	if (rc != CL_SUCCESS)
-		return cl_fail(err, "clGetPlatformIDs", rc);
-	cl_platform_id plats[16];
-	if (np > 16)
-		np = 16;
-	rc = clGetPlatformIDs(np, plats, NULL);
-	if (rc != CL_SUCCESS)
-		return cl_fail(err, "clGetPlatformIDs", rc);
-
-	if (platform < -1 || platform >= (int)np || (platform == -1 && device != -1)) {
-		char list[384];
-		list_platforms(plats, np, list, sizeof(list));
-		if (platform == -1)
-			return mc_err_set(err, "OpenCL: device %d given without a platform index (platforms: %s)",
-					  device, list);
-		return mc_err_set(err, "OpenCL: platform %d does not exist (platforms: %s)", platform, list);
-	}
-	if (platform == -1) {
-		/* The first GPU anywhere, else the first CPU, else anything. */
-		static const cl_device_type order[3] = {CL_DEVICE_TYPE_GPU, CL_DEVICE_TYPE_CPU, 0};
-		for (int t = 0; t < 3; t++)
-			for (cl_uint i = 0; i < np; i++)
-				if (first_of_type(plats[i], order[t], out_d) == 0) {
-					*out_p = plats[i];
-					return 0;
-				}
-		return mc_err_set(err, "OpenCL: no device on any platform");
-	}
-
-	*out_p = plats[platform];
-	cl_uint nd;
-	cl_device_id *devs = platform_devices(plats[platform], &nd);
-	if (device == -1) {
-		free(devs);
-		if (first_of_type(plats[platform], CL_DEVICE_TYPE_GPU, out_d) == 0 ||
-		    first_of_type(plats[platform], 0, out_d) == 0)
-			return 0;
-		return mc_err_set(err, "OpenCL: platform %d has no device", platform);
-	}
-	if (device < -1 || device >= (int)nd) {
-		char pname[128], list[384] = "";
-		platform_name(plats[platform], pname, sizeof(pname));
-		for (cl_uint i = 0; i < nd; i++) {
-			char name[128];
-			device_name(devs[i], name, sizeof(name));
-			size_t used = strlen(list);
-			snprintf(list + used, sizeof(list) - used, "%s%u '%s'", i ? ", " : "", i, name);
-		}
-		free(devs);
-		return mc_err_set(err, "OpenCL: device %d does not exist on platform %d '%s' (devices: %s)", device,
-				  platform, pname, nd ? list : "none");
-	}
-	*out_d = devs[device];
-	free(devs);
-	return 0;
-}
-
 /* ---- set-up ---- */
-
-/* Whether the device reads and writes host memory directly (OpenCL 2.0
- * fine-grained SVM buffers: PoCL's CPU devices have them).  With it an
- * evaluation is one command, the kernel, instead of three (upload, kernel,
- * read back); PoCL hands each command to its worker threads, and the
- * tracker runs 50 evaluations per frame set (about 5 % of the tracker's CPU
- * time here; docs/OPENCL.md, "Shared memory"). */
-static bool shared_memory(cl_device_id dev)
-{
-	char version[512] = ""; /* "OpenCL 3.0 PoCL HSTR: pthread-x86_64-...": a short buffer is an error */
-	clGetDeviceInfo(dev, CL_DEVICE_VERSION, sizeof(version) - 1, version, NULL);
-	int major = 0;
-	if (sscanf(version, "OpenCL %d", &major) != 1 || major < 2)
-		return false;
-	cl_device_svm_capabilities caps = 0;
-	if (clGetDeviceInfo(dev, CL_DEVICE_SVM_CAPABILITIES, sizeof(caps), &caps, NULL) != CL_SUCCESS)
-		return false;
-	return (caps & CL_DEVICE_SVM_FINE_GRAIN_BUFFER) != 0;
-}
 
 /* Host memory the kernel reads or writes: shared where the device has it. */
 static void *host_alloc(mc_cl_energy *e, size_t bytes)
@@ -267,18 +35,6 @@ static void host_free(mc_cl_energy *e, void *p)
 		free(p);
 }
 
-/* Lanes over which the kernel evaluates ray Gaussians together: the CPU's
- * float SIMD width (PoCL reports 16 with AVX-512, 8 with AVX2); 1 on GPUs,
- * which run work-items in lock-step already. */
-static int vector_width(cl_device_id dev)
-{
-	if (device_type(dev) & CL_DEVICE_TYPE_GPU)
-		return 1;
-	cl_uint w = 0;
-	clGetDeviceInfo(dev, CL_DEVICE_PREFERRED_VECTOR_WIDTH_FLOAT, sizeof(w), &w, NULL);
-	return w >= 16 ? 16 : w >= 8 ? 8 : 4;
-}
-
 static int build_program(mc_cl_energy *e, mc_err *err)
 {
 	const char *src = (const char *)mc_cl_color_energy;
@@ -286,7 +42,7 @@ static int build_program(mc_cl_energy *e, mc_err *err)
 	cl_int rc;
 	e->prog = clCreateProgramWithSource(e->ctx, 1, &src, &len, &rc);
 	if (rc != CL_SUCCESS)
-		return cl_fail(err, "clCreateProgramWithSource", rc);
+		return mc_cl_fail(err, "clCreateProgramWithSource", rc);
 	char options[160];
 	/* the culling threshold comes from mc_energy.h, so that host and kernel agree */
 	snprintf(options, sizeof(options), "-cl-std=CL1.2 -cl-mad-enable -DVW=%d -DCULL_MAGNITUDE=%.9gf", e->vw,
@@ -300,14 +56,14 @@ static int build_program(mc_cl_energy *e, mc_err *err)
 			clGetProgramBuildInfo(e->prog, e->dev, CL_PROGRAM_BUILD_LOG, loglen, log, NULL);
 		/* The whole log goes to stderr; its start goes into err. */
 		fprintf(stderr, "mc_cl: build log of core/energy/cl/color_energy.cl:\n%s\n", log ? log : "");
-		mc_err_set(err, "OpenCL: building core/energy/cl/color_energy.cl failed (%s): %.380s", cl_error_name(rc),
+		mc_err_set(err, "OpenCL: building core/energy/cl/color_energy.cl failed (%s): %.380s", mc_cl_error_name(rc),
 			   log ? log : "");
 		free(log);
 		return -1;
 	}
 	e->kernel = clCreateKernel(e->prog, "color_energy", &rc);
 	if (rc != CL_SUCCESS)
-		return cl_fail(err, "clCreateKernel(color_energy)", rc);
+		return mc_cl_fail(err, "clCreateKernel(color_energy)", rc);
 	return 0;
 }
 
@@ -326,7 +82,7 @@ static int choose_launch(mc_cl_energy *e, const mc_cl_options *opts, mc_err *err
 	size_t wg_max = kernel_wg;
 	while (wg_max > 1 && wg_max * ROW_MAX * sizeof(float) > local_mem)
 		wg_max--;
-	bool gpu = device_type(e->dev) & CL_DEVICE_TYPE_GPU;
+	bool gpu = mc_cl_device_type(e->dev) & CL_DEVICE_TYPE_GPU;
 	if (opts && opts->work_group_size > 0) {
 		if ((size_t)opts->work_group_size > wg_max)
 			return mc_err_set(err, "work_group_size %d: at most %zu on this device", opts->work_group_size,
@@ -387,13 +143,13 @@ static int upload_rays(mc_cl_energy *e, const mc_raytable *tables, mc_err *err)
 				 rays, &rc);
 	free(rays);
 	if (rc != CL_SUCCESS)
-		return cl_fail(err, "clCreateBuffer(rays)", rc);
+		return mc_cl_fail(err, "clCreateBuffer(rays)", rc);
 	e->origins = clCreateBuffer(e->ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, sizeof(origins), origins, &rc);
 	if (rc != CL_SUCCESS)
-		return cl_fail(err, "clCreateBuffer(origins)", rc);
+		return mc_cl_fail(err, "clCreateBuffer(origins)", rc);
 	e->firsts = clCreateBuffer(e->ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, sizeof(firsts), firsts, &rc);
 	if (rc != CL_SUCCESS)
-		return cl_fail(err, "clCreateBuffer(firsts)", rc);
+		return mc_cl_fail(err, "clCreateBuffer(firsts)", rc);
 	return 0;
 }
 
@@ -402,12 +158,12 @@ static int create_buffers(mc_cl_energy *e, mc_err *err)
 	cl_int rc;
 	e->image = clCreateBuffer(e->ctx, CL_MEM_READ_ONLY, sizeof(cl_float4) * (size_t)e->total, NULL, &rc);
 	if (rc != CL_SUCCESS)
-		return cl_fail(err, "clCreateBuffer(image)", rc);
+		return mc_cl_fail(err, "clCreateBuffer(image)", rc);
 	if (!e->shared) {
 		e->partial = clCreateBuffer(e->ctx, CL_MEM_WRITE_ONLY, sizeof(float) * ROW_MAX * e->max_groups, NULL,
 					    &rc);
 		if (rc != CL_SUCCESS)
-			return cl_fail(err, "clCreateBuffer(partial)", rc);
+			return mc_cl_fail(err, "clCreateBuffer(partial)", rc);
 	}
 	e->partial_host = host_alloc(e, sizeof(float) * ROW_MAX * e->max_groups);
 	int maxpix = 0;
@@ -417,6 +173,57 @@ static int create_buffers(mc_cl_energy *e, mc_err *err)
 	e->image_host = malloc(sizeof(cl_float4) * (size_t)maxpix);
 	if (!e->partial_host || !e->image_host)
 		return mc_err_set(err, "out of memory");
+	return 0;
+}
+
+/* Kernel arguments that stay for the backend's life. */
+static int set_fixed_args(mc_cl_energy *e, mc_err *err)
+{
+	cl_kernel k = e->kernel;
+	cl_int rc = clSetKernelArg(k, 0, sizeof(cl_mem), &e->rays);
+	rc |= clSetKernelArg(k, 1, sizeof(cl_mem), &e->image);
+	rc |= clSetKernelArg(k, 2, sizeof(cl_mem), &e->origins);
+	rc |= clSetKernelArg(k, 3, sizeof(cl_mem), &e->firsts);
+	if (e->shared)
+		rc |= clSetKernelArgSVMPointer(k, 12, e->partial_host);
+	else
+		rc |= clSetKernelArg(k, 12, sizeof(cl_mem), &e->partial);
+	if (rc != CL_SUCCESS)
+		return mc_err_set(err, "OpenCL: clSetKernelArg(color_energy) failed");
+	return 0;
+}
+
+/* Makes room for `need` pixels in the upload buffer and its host copy. */
+int mc_cl_grow_input(mc_cl_energy *e, size_t need, mc_err *err)
+{
+	size_t cap = need + need / 2 + 256;
+	size_t bytes = sizeof(cl_float4) * GAUSS_FLOAT4S + sizeof(cl_uint) * cap;
+	cl_float4 *host = host_alloc(e, bytes);
+	if (!host)
+		return mc_err_set(err, "mc_cl_energy_eval: out of memory");
+	if (e->input_host) /* the Gaussian records are already packed */
+		memcpy(host, e->input_host, sizeof(cl_float4) * GAUSS_FLOAT4S);
+	host_free(e, e->input_host);
+	e->input_host = host;
+	e->pixel_host = (cl_uint *)(host + GAUSS_FLOAT4S);
+	if (e->shared) {
+		e->pixel_cap = cap;
+		cl_int rc = clSetKernelArgSVMPointer(e->kernel, 4, host);
+		return rc == CL_SUCCESS ? 0 : mc_cl_fail(err, "clSetKernelArgSVMPointer(input)", rc);
+	}
+	if (e->input)
+		clReleaseMemObject(e->input);
+	cl_int rc;
+	e->input = clCreateBuffer(e->ctx, CL_MEM_READ_ONLY, bytes, NULL, &rc);
+	if (rc != CL_SUCCESS) {
+		e->input = NULL;
+		e->pixel_cap = 0;
+		return mc_cl_fail(err, "clCreateBuffer(input)", rc);
+	}
+	e->pixel_cap = cap;
+	rc = clSetKernelArg(e->kernel, 4, sizeof(cl_mem), &e->input);
+	if (rc != CL_SUCCESS)
+		return mc_cl_fail(err, "clSetKernelArg(input)", rc);
 	return 0;
 }
 
@@ -461,27 +268,27 @@ mc_cl_energy *mc_cl_energy_create_opts(int platform, int device, const mc_raytab
 		return NULL;
 	}
 	cl_platform_id plat = NULL;
-	if (choose_device(platform, device, &plat, &e->dev, err) != 0)
+	if (mc_cl_choose_device(platform, device, &plat, &e->dev, err) != 0)
 		goto fail;
 	char pname[128], dname[120];
-	platform_name(plat, pname, sizeof(pname));
-	device_name(e->dev, dname, sizeof(dname));
+	mc_cl_platform_name(plat, pname, sizeof(pname));
+	mc_cl_device_name(e->dev, dname, sizeof(dname));
 	snprintf(e->name, sizeof(e->name), "%s: %s", pname, dname);
 
 	cl_int rc;
 	cl_context_properties props[] = {CL_CONTEXT_PLATFORM, (cl_context_properties)plat, 0};
 	e->ctx = clCreateContext(props, 1, &e->dev, NULL, NULL, &rc);
 	if (rc != CL_SUCCESS) {
-		cl_fail(err, "clCreateContext", rc);
+		mc_cl_fail(err, "clCreateContext", rc);
 		goto fail;
 	}
 	e->queue = clCreateCommandQueue(e->ctx, e->dev, 0, &rc);
 	if (rc != CL_SUCCESS) {
-		cl_fail(err, "clCreateCommandQueue", rc);
+		mc_cl_fail(err, "clCreateCommandQueue", rc);
 		goto fail;
 	}
-	e->vw = opts && opts->vector_width ? opts->vector_width : vector_width(e->dev);
-	e->shared = !(opts && opts->copy_buffers) && shared_memory(e->dev);
+	e->vw = opts && opts->vector_width ? opts->vector_width : mc_cl_vector_width(e->dev);
+	e->shared = !(opts && opts->copy_buffers) && mc_cl_shared_memory(e->dev);
 	if (build_program(e, err) != 0 || choose_launch(e, opts, err) != 0)
 		goto fail;
 
@@ -500,13 +307,13 @@ mc_cl_energy *mc_cl_energy_create_opts(int platform, int device, const mc_raytab
 				e->valid[c][e->nvalid[c]++] = i;
 	}
 	if (upload_rays(e, tables, err) != 0 || create_buffers(e, err) != 0 || set_fixed_args(e, err) != 0 ||
-	    grow_input(e, 4096, err) != 0)
+	    mc_cl_grow_input(e, 4096, err) != 0)
 		goto fail;
 	/* An empty launch, so that the device compiles the kernel for its
 	 * work-group size now rather than during the first frame. */
 	size_t groups;
 	memset(e->input_host, 0, sizeof(cl_float4) * GAUSS_FLOAT4S);
-	if (launch(e, 0, 0, 0, 0, &groups, err) != 0)
+	if (mc_cl_launch(e, 0, 0, 0, 0, &groups, err) != 0)
 		goto fail;
 	return e;
 fail:
@@ -550,272 +357,4 @@ void mc_cl_energy_destroy(mc_cl_energy *e)
 		free(e->valid[c]);
 	free(e->image_host);
 	free(e);
-}
-
-/* ---- per frame and per evaluation ---- */
-
-/* An HSV channel as the reference reads it (mc_hsv_dissimilarity): hue in
- * turns, wrapped into [0, 1); saturation and value clamped to [0, 1]. */
-static float hsv_channel(double v, int k)
-{
-	if (k == 0)
-		return (float)(v - floor(v));
-	return (float)(v < 0 ? 0 : v > 1 ? 1 : v);
-}
-
-static const char *const hsv_names[3] = {"hue", "saturation", "value"};
-
-int mc_cl_energy_set_image(mc_cl_energy *e, int cam, const float *hsv, mc_err *err)
-{
-	if (cam < 0 || cam >= e->ncams)
-		return mc_err_set(err, "mc_cl_energy_set_image: camera %d out of range 0..%d", cam, e->ncams - 1);
-	if (!hsv) {
-		e->has_image[cam] = false;
-		return 0;
-	}
-	for (int i = 0; i < e->cam_npix[cam]; i++) {
-		for (int k = 0; k < 3; k++) {
-			float v = hsv[3 * i + k];
-			if (!isfinite(v))
-				return mc_err_set(err, "mc_cl_energy_set_image: camera %d: pixel %d: %s is not finite", cam, i,
-						  hsv_names[k]);
-			e->image_host[i].s[k] = hsv_channel(v, k);
-		}
-		e->image_host[i].s[3] = 0.0f;
-	}
-	cl_int rc = clEnqueueWriteBuffer(e->queue, e->image, CL_TRUE, sizeof(cl_float4) * (size_t)e->cam_first[cam],
-					 sizeof(cl_float4) * (size_t)e->cam_npix[cam], e->image_host, 0, NULL, NULL);
-	if (rc != CL_SUCCESS)
-		return cl_fail(err, "clEnqueueWriteBuffer(image)", rc);
-	e->has_image[cam] = true;
-	return 0;
-}
-
-/* An albedo (HSV) as the kernel's record: (h, s, v, w_s) and (w_d, w_g,
- * 0, 0), the dissimilarity weights of thesis 6.2.1 normalised.  Returns
- * -1, or the index of the first channel that is not finite. */
-static int albedo_record(const double m[3], cl_float4 *alb, cl_float4 *wdg)
-{
-	float hsv[3];
-	for (int k = 0; k < 3; k++) {
-		if (!isfinite(m[k]))
-			return k;
-		hsv[k] = hsv_channel(m[k], k);
-	}
-	/* Z > 0 always, as w_g = 0.5 where m_s = 0. */
-	double ws = sqrt(hsv[1]), wd = fmax(0, 0.5 - hsv[2]), wg = fmax(0, 0.5 - hsv[1]);
-	double z = ws + wd + wg;
-	*alb = (cl_float4){{hsv[0], hsv[1], hsv[2], (float)(ws / z)}};
-	*wdg = (cl_float4){{(float)(wd / z), (float)(wg / z), 0, 0}};
-	return -1;
-}
-
-/* Gaussian records for the kernel (layout in color_energy.cl). */
-static int pack_scene(mc_cl_energy *e, const mc_scene *scene, mc_err *err)
-{
-	if (scene->n < 0 || scene->n > MC_MAX_GAUSSIANS)
-		return mc_err_set(err, "mc_cl_energy_eval: scene: %d Gaussians, at most %d", scene->n, MC_MAX_GAUSSIANS);
-	/* Lanes past the last Gaussian never pass the culling test. */
-	float *soa = (float *)&e->input_host[4 * MC_MAX_GAUSSIANS];
-	for (int q = scene->n; q < MC_MAX_GAUSSIANS; q++) {
-		soa[q] = soa[MC_MAX_GAUSSIANS + q] = soa[2 * MC_MAX_GAUSSIANS + q] = 0;
-		soa[3 * MC_MAX_GAUSSIANS + q] = -1;
-	}
-	for (int q = 0; q < scene->n; q++) {
-		double s = scene->sigma[q], c = scene->c[q];
-		const double *m = scene->hsv[q];
-		if (!mc_v3_isfinite(scene->mu[q]))
-			return mc_err_set(err, "mc_cl_energy_eval: scene: gaussian %d: mu is not finite", q);
-		if (!(s > 0) || !isfinite(s))
-			return mc_err_set(err, "mc_cl_energy_eval: scene: gaussian %d: sigma = %g, must be positive", q, s);
-		if (!(c >= 0) || !isfinite(c))
-			return mc_err_set(err, "mc_cl_energy_eval: scene: gaussian %d: c = %g, must be >= 0", q, c);
-		cl_float4 alb, wdg;
-		int bad = albedo_record(m, &alb, &wdg);
-		if (bad >= 0)
-			return mc_err_set(err, "mc_cl_energy_eval: scene: gaussian %d: %s is not finite", q, hsv_names[bad]);
-		/* c' = c exp(-r2 / (2 sigma^2)) < MC_CULL_MAGNITUDE  <=>  r2 > r2_max */
-		double r2max = c > MC_CULL_MAGNITUDE ? 2 * s * s * log(c / MC_CULL_MAGNITUDE) : -1;
-		soa[q] = (float)scene->mu[q].x;
-		soa[MC_MAX_GAUSSIANS + q] = (float)scene->mu[q].y;
-		soa[2 * MC_MAX_GAUSSIANS + q] = (float)scene->mu[q].z;
-		soa[3 * MC_MAX_GAUSSIANS + q] = (float)r2max;
-		cl_float4 *g = &e->input_host[4 * q];
-		*g++ = (cl_float4){{(float)scene->mu[q].x, (float)scene->mu[q].y, (float)scene->mu[q].z, (float)s}};
-		*g++ = (cl_float4){{(float)c, (float)r2max, 0, 0}};
-		*g++ = alb;
-		*g = wdg;
-	}
-	e->bg_albedo = e->bg_weights = (cl_float4){{0, 0, 0, 0}};
-	if (scene->background) {
-		int bad = albedo_record(scene->background_hsv, &e->bg_albedo, &e->bg_weights);
-		if (bad >= 0)
-			return mc_err_set(err, "mc_cl_energy_eval: scene: background colour: %s is not finite",
-					  hsv_names[bad]);
-		e->bg_weights.s[2] = 1;
-	}
-	return 0;
-}
-
-/* Makes room for `need` pixels in the upload buffer and its host copy. */
-static int grow_input(mc_cl_energy *e, size_t need, mc_err *err)
-{
-	size_t cap = need + need / 2 + 256;
-	size_t bytes = sizeof(cl_float4) * GAUSS_FLOAT4S + sizeof(cl_uint) * cap;
-	cl_float4 *host = host_alloc(e, bytes);
-	if (!host)
-		return mc_err_set(err, "mc_cl_energy_eval: out of memory");
-	if (e->input_host) /* the Gaussian records are already packed */
-		memcpy(host, e->input_host, sizeof(cl_float4) * GAUSS_FLOAT4S);
-	host_free(e, e->input_host);
-	e->input_host = host;
-	e->pixel_host = (cl_uint *)(host + GAUSS_FLOAT4S);
-	if (e->shared) {
-		e->pixel_cap = cap;
-		cl_int rc = clSetKernelArgSVMPointer(e->kernel, 4, host);
-		return rc == CL_SUCCESS ? 0 : cl_fail(err, "clSetKernelArgSVMPointer(input)", rc);
-	}
-	if (e->input)
-		clReleaseMemObject(e->input);
-	cl_int rc;
-	e->input = clCreateBuffer(e->ctx, CL_MEM_READ_ONLY, bytes, NULL, &rc);
-	if (rc != CL_SUCCESS) {
-		e->input = NULL;
-		e->pixel_cap = 0;
-		return cl_fail(err, "clCreateBuffer(input)", rc);
-	}
-	e->pixel_cap = cap;
-	rc = clSetKernelArg(e->kernel, 4, sizeof(cl_mem), &e->input);
-	if (rc != CL_SUCCESS)
-		return cl_fail(err, "clSetKernelArg(input)", rc);
-	return 0;
-}
-
-/* Concatenates the ray indices of the pixels to evaluate. */
-static int gather_pixels(mc_cl_energy *e, const int *const *pixels, const int *npixels, size_t *count, mc_err *err)
-{
-	size_t need = 0;
-	for (int c = 0; c < e->ncams; c++) {
-		if (!e->has_image[c])
-			continue;
-		bool all = !pixels || !pixels[c];
-		int n = all ? e->nvalid[c] : (npixels ? npixels[c] : -1);
-		if (n < 0)
-			return mc_err_set(err, "mc_cl_energy_eval: camera %d: npixels missing or negative", c);
-		need += (size_t)n;
-	}
-	if (need > e->pixel_cap && grow_input(e, need, err) != 0)
-		return -1;
-	size_t k = 0;
-	for (int c = 0; c < e->ncams; c++) {
-		if (!e->has_image[c])
-			continue;
-		bool all = !pixels || !pixels[c];
-		const int *list = all ? e->valid[c] : pixels[c];
-		int n = all ? e->nvalid[c] : npixels[c];
-		for (int i = 0; i < n; i++) {
-			if (list[i] < 0 || list[i] >= e->cam_npix[c])
-				return mc_err_set(err, "mc_cl_energy_eval: camera %d: pixels[%d] = %d out of range 0..%d", c,
-						  i, list[i], e->cam_npix[c] - 1);
-			e->pixel_host[k++] = (cl_uint)(e->cam_first[c] + list[i]);
-		}
-	}
-	*count = k;
-	return 0;
-}
-
-/* Kernel arguments that stay for the backend's life. */
-static int set_fixed_args(mc_cl_energy *e, mc_err *err)
-{
-	cl_kernel k = e->kernel;
-	cl_int rc = clSetKernelArg(k, 0, sizeof(cl_mem), &e->rays);
-	rc |= clSetKernelArg(k, 1, sizeof(cl_mem), &e->image);
-	rc |= clSetKernelArg(k, 2, sizeof(cl_mem), &e->origins);
-	rc |= clSetKernelArg(k, 3, sizeof(cl_mem), &e->firsts);
-	if (e->shared)
-		rc |= clSetKernelArgSVMPointer(k, 12, e->partial_host);
-	else
-		rc |= clSetKernelArg(k, 12, sizeof(cl_mem), &e->partial);
-	if (rc != CL_SUCCESS)
-		return mc_err_set(err, "OpenCL: clSetKernelArg(color_energy) failed");
-	return 0;
-}
-
-/* One evaluation on the device: upload, run, read back the work-group
- * rows.  Three commands, one wait; with shared memory only the run. */
-static int launch(mc_cl_energy *e, int ngauss, size_t npix, uint32_t seed, uint32_t thr24, size_t *ngroups,
-		  mc_err *err)
-{
-	size_t groups = (npix + e->wg - 1) / e->wg;
-	if (groups > e->max_groups)
-		groups = e->max_groups;
-	if (groups == 0)
-		groups = 1;
-	size_t bytes = sizeof(cl_float4) * GAUSS_FLOAT4S + sizeof(cl_uint) * npix;
-	cl_int rc = e->shared ? CL_SUCCESS
-			      : clEnqueueWriteBuffer(e->queue, e->input, CL_FALSE, 0, bytes, e->input_host, 0, NULL, NULL);
-	if (rc != CL_SUCCESS)
-		return cl_fail(err, "clEnqueueWriteBuffer(input)", rc);
-
-	cl_int ng = ngauss, np = (cl_int)npix;
-	cl_uint sd = seed, thr = thr24;
-	size_t row = sizeof(float) * (4 * (size_t)ngauss + 1);
-	cl_kernel k = e->kernel;
-	rc = clSetKernelArg(k, 5, sizeof(cl_int), &ng);
-	rc |= clSetKernelArg(k, 6, sizeof(cl_int), &np);
-	rc |= clSetKernelArg(k, 7, sizeof(cl_uint), &sd);
-	rc |= clSetKernelArg(k, 8, sizeof(cl_uint), &thr);
-	rc |= clSetKernelArg(k, 9, sizeof(cl_float4), &e->bg_albedo);
-	rc |= clSetKernelArg(k, 10, sizeof(cl_float4), &e->bg_weights);
-	rc |= clSetKernelArg(k, 11, row * e->wg, NULL);
-	if (rc != CL_SUCCESS)
-		return mc_err_set(err, "OpenCL: clSetKernelArg(color_energy) failed");
-	size_t global = groups * e->wg;
-	rc = clEnqueueNDRangeKernel(e->queue, k, 1, NULL, &global, &e->wg, 0, NULL, NULL);
-	if (rc != CL_SUCCESS)
-		return cl_fail(err, "clEnqueueNDRangeKernel(color_energy)", rc);
-	if (e->shared)
-		rc = clFinish(e->queue);
-	else
-		rc = clEnqueueReadBuffer(e->queue, e->partial, CL_TRUE, 0, row * groups, e->partial_host, 0, NULL, NULL);
-	if (rc != CL_SUCCESS)
-		return cl_fail(err, e->shared ? "clFinish" : "clEnqueueReadBuffer(partial)", rc);
-	*ngroups = groups;
-	return 0;
-}
-
-int mc_cl_energy_eval(mc_cl_energy *e, const mc_scene *scene, const int *const *pixels, const int *npixels,
-		      double dropout, uint32_t seed, double *energy, mc_vec3 *dmu, double *dsigma, mc_err *err)
-{
-	*energy = 0;
-	if (!(dropout >= 0 && dropout <= 1))
-		return mc_err_set(err, "mc_cl_energy_eval: dropout = %g, not in [0, 1]", dropout);
-	if (pack_scene(e, scene, err) != 0)
-		return -1;
-	size_t npix = 0;
-	if (gather_pixels(e, pixels, npixels, &npix, err) != 0)
-		return -1;
-	if (npix == 0 || (scene->n == 0 && !scene->background))
-		return 0;
-	size_t groups = 0;
-	if (launch(e, scene->n, npix, seed, mc_cl_dropout_threshold(dropout), &groups, err) != 0)
-		return -1;
-
-	/* Add the work-group rows in double. */
-	size_t stride = 4 * (size_t)scene->n + 1;
-	double sum = 0;
-	for (size_t g = 0; g < groups; g++)
-		sum += e->partial_host[g * stride + 4 * (size_t)scene->n];
-	*energy = sum;
-	for (int q = 0; q < scene->n; q++) {
-		double d[4] = {0, 0, 0, 0};
-		for (size_t g = 0; g < groups; g++)
-			for (int k = 0; k < 4; k++)
-				d[k] += e->partial_host[g * stride + 4 * (size_t)q + k];
-		if (dmu)
-			dmu[q] = mc_v3_add(dmu[q], mc_v3(d[0], d[1], d[2]));
-		if (dsigma)
-			dsigma[q] += d[3];
-	}
-	return 0;
 }

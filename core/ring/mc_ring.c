@@ -79,16 +79,16 @@ struct ring_shm {
 	alignas(64) struct ring_slot slots[];
 };
 
-/* The offsets docs/PROTOCOL.md ("Camera rings") gives to clients in other
+/* The offsets docs/PROTOCOL_SHM.md ("Camera rings") gives to clients in other
  * languages. */
 _Static_assert(offsetof(struct ring_shm, nslots) == 16 && offsetof(struct ring_shm, data_offset) == 20 &&
 		       offsetof(struct ring_shm, slot_bytes) == 24 && offsetof(struct ring_shm, slot_stride) == 32 &&
 		       offsetof(struct ring_shm, name) == 48 && offsetof(struct ring_shm, head) == 128 &&
 		       offsetof(struct ring_shm, wake) == 136 && offsetof(struct ring_shm, slots) == 192,
-	       "ring header layout (docs/PROTOCOL.md)");
+	       "ring header layout (docs/PROTOCOL_SHM.md)");
 _Static_assert(offsetof(struct ring_slot, timestamp_ns) == 8 && offsetof(struct ring_slot, bytesused) == 32 &&
 		       offsetof(struct ring_slot, pixfmt) == 40 && offsetof(struct ring_slot, flags) == 56,
-	       "ring slot layout (docs/PROTOCOL.md)");
+	       "ring slot layout (docs/PROTOCOL_SHM.md)");
 
 struct mc_ring {
 	struct ring_shm *shm;

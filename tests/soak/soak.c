@@ -298,6 +298,14 @@ static bool daemon_status(mocap_daemon_status *st)
 	return ok;
 }
 
+/* A camera's STATUS state as mocapctl names it (mocap.h): 4, failed for
+ * good, comes from protocol version 3 daemons, which libmocap speaks. */
+static const char *camera_state_name(int state)
+{
+	static const char *const names[] = {"ok", "stalled", "error", "off", "failed"};
+	return state >= 0 && state < 5 ? names[state] : "unknown";
+}
+
 /* True when every camera streams (state 0). */
 static bool all_streaming(mocap_daemon_status *st)
 {
@@ -538,7 +546,7 @@ int main(int argc, char **argv)
 			if (got)
 				for (int i = 0; i < st->ncams; i++)
 					printf(" | %s %s %llu fr %llu drops", st->cams[i].name,
-					       st->cams[i].state == 0 ? "ok" : st->cams[i].state == 1 ? "stalled" : st->cams[i].state == 2 ? "error" : "off",
+					       camera_state_name(st->cams[i].state),
 					       (unsigned long long)st->cams[i].frames, (unsigned long long)st->cams[i].drops);
 			printf("\n");
 		}

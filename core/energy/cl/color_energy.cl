@@ -1,7 +1,8 @@
 /* The colour energy E = sum_pixels sum_q d(I, a_q) V_q and its gradient
  * with respect to every Gaussian's centre mu_q and standard deviation
  * sigma_q (thesis eq. 4.6, 4.10, 4.13; dissimilarity of ch. 6.2.1).
- * Host side: core/mc_cl.c; the reference in double: core/mc_energy.c;
+ * Host side: core/energy/mc_cl.c (set-up) and core/energy/mc_cl_eval.c
+ * (one evaluation); the reference in double: core/energy/mc_energy.c;
  * structure and conventions: docs/OPENCL.md.
  *
  * One work-item handles one sampled pixel at a time (a strided loop over
@@ -30,7 +31,7 @@
 #define SQRT2 1.41421356237f
 #define INV_SQRT2 0.70710678118f
 
-/* Gaussian records (written by mc_cl.c), 4 float4 per Gaussian q:
+/* Gaussian records (written by mc_cl_eval.c), 4 float4 per Gaussian q:
  *   gauss[4q + 0] mu.xyz, sigma
  *   gauss[4q + 1] c, r2_max (culled when the squared ray distance >= r2_max)
  *   gauss[4q + 2] albedo h, s, v, w_s

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Writes the bad-input model fixtures used by tests/test_model.c.
+"""Writes the bad-input model fixtures used by tests/test_model_io.c.
 
 Each file breaks one rule of docs/MODEL_FORMAT.md; the test checks that
 loading it fails with an error naming the file and the field.  Run from this
