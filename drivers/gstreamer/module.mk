@@ -1,0 +1,23 @@
+# drivers/gstreamer: files, RTSP and any gst-launch description as cameras,
+# through GStreamer's appsink.  `make check-gstreamer` runs its tests.
+include drivers/common/common.mk
+
+GST_PKGS := gstreamer-1.0 gstreamer-app-1.0 gstreamer-video-1.0 gstreamer-pbutils-1.0
+GST_PLUGIN := $(BUILD)/drivers/mocap-driver-gstreamer.so
+GST_OBJ := $(addprefix $(BUILD)/drivers/gstreamer/,gst_plugin.o gst_pipe.o gst_frames.o gst_errors.o) \
+	$(HWDRV_COMMON_OBJ)
+
+$(BUILD)/drivers/gstreamer/%.o: CPPFLAGS += -Idrivers/common $(shell $(PKG_CONFIG) --cflags $(GST_PKGS))
+
+# GStreamer cannot be unloaded (its threads and type registry outlive any
+# pipeline): -z nodelete keeps the plugin mapped after dlclose.
+$(GST_PLUGIN): $(GST_OBJ) $(CORE_LIB)
+	@mkdir -p $(@D)
+	$(CC) $(HWDRV_SO_LDFLAGS) -Wl,-z,nodelete -o $@ $(GST_OBJ) $(LDFLAGS) $(CORE_LIB) \
+		$(shell $(PKG_CONFIG) --libs $(GST_PKGS))
+
+PLUGINS += $(GST_PLUGIN)
+
+DEB_PACKAGES += libgstreamer1.0-dev libgstreamer-plugins-base1.0-dev libgstrtspserver-1.0-dev \
+	gstreamer1.0-plugins-base gstreamer1.0-plugins-good gstreamer1.0-plugins-bad gstreamer1.0-libav \
+	gstreamer1.0-plugins-ugly gstreamer1.0-tools
