@@ -43,9 +43,12 @@ static void debug_tail(const char *debug, char *out, size_t n)
 	out[0] = 0;
 	if (!debug)
 		return;
-	const char *at = strstr(debug, ":\n");
-	const char *tail = at ? at + 2 : debug;
-	drv_strlcpy(out, tail, n);
+	const char *tail = NULL;
+	for (const char *at = strstr(debug, ":\n"); at; at = strstr(at + 2, ":\n"))
+		tail = at + 2;
+	if (!tail && !strncmp(debug, "../", 3))
+		return; /* only the source position and the element path */
+	drv_strlcpy(out, tail && *tail ? tail : debug, n);
 	for (char *c = out; *c; c++)
 		if (*c == '\n')
 			*c = ' ';

@@ -86,6 +86,8 @@ static void on_pad_added(GstElement *src, GstPad *pad, gpointer data)
 	/* JPEG goes to the sink as it is (MJPEG passed through); raw video
 	 * through videoconvert to the format asked for. */
 	GstElement *to = jpeg ? p->sink : p->convert;
+	if (!jpeg)
+		gst_element_link(p->convert, p->sink);
 	GstPad *sinkpad = gst_element_get_static_pad(to, "sink");
 	gst_pad_link(pad, sinkpad);
 	gst_object_unref(sinkpad);
@@ -137,8 +139,8 @@ static int build_uri(gp_pipe *p, char *err, size_t errlen)
 				DRV);
 	}
 	p->pipeline = gst_pipeline_new("mocap-gst");
+	/* convert is linked to the sink when a raw stream comes (on_pad_added). */
 	gst_bin_add_many(GST_BIN(p->pipeline), src, p->convert, p->sink, NULL);
-	gst_element_link(p->convert, p->sink);
 	GstCaps *caps = decode_caps(p->cfg.format);
 	g_object_set(src, "uri", p->cfg.uri, "caps", caps, NULL);
 	gst_caps_unref(caps);
@@ -230,7 +232,13 @@ static int wait_state(gp_pipe *p, const char *what, char *err, size_t errlen)
 		if (r == GST_STATE_CHANGE_SUCCESS || r == GST_STATE_CHANGE_NO_PREROLL)
 			return MDRV_OK;
 		if (r == GST_STATE_CHANGE_FAILURE) {
-			rc = gp_poll_bus(p, true, err, errlen);
+			/* The element that failed may post its error just after. */
+			GstMessage *m = gst_bus_timed_pop_filtered(p->bus, 500 * GST_MSECOND, GST_MESSAGE_ERROR);
+			if (m) {
+				rc = gp_error_from_message(p, m, err, errlen);
+				gst_message_unref(m);
+				return rc;
+			}
 			return rc != MDRV_OK ? rc
 					     : drv_errf(err, errlen, p->network ? MDRV_ERR_NODEV : MDRV_ERR_IO,
 							"%s: %s: the pipeline failed while %s", DRV,
@@ -248,6 +256,11 @@ static int seek_start(gp_pipe *p, char *err, size_t errlen)
 {
 	if (p->cfg.start_s <= 0)
 		return MDRV_OK;
+	gint64 dur = -1;
+	if (gst_element_query_duration(p->pipeline, GST_FORMAT_TIME, &dur) && dur > 0 &&
+	    p->cfg.start_s * GST_SECOND >= (double)dur)
+		return drv_errf(err, errlen, MDRV_ERR_CONFIG, "%s: config key 'start' = %g: past the end of '%s' (%.3f s)",
+				DRV, p->cfg.start_s, p->cfg.uri ? p->cfg.uri : "the pipeline", (double)dur / GST_SECOND);
 	gint64 pos = (gint64)(p->cfg.start_s * GST_SECOND + 0.5);
 	if (!gst_element_seek_simple(p->pipeline, GST_FORMAT_TIME, GST_SEEK_FLAG_FLUSH | GST_SEEK_FLAG_ACCURATE, pos))
 		return drv_errf(err, errlen, MDRV_ERR_CONFIG, "%s: config key 'start' = %g: the source cannot seek", DRV,

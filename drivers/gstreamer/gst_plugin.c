@@ -95,7 +95,7 @@ static int parse_config(gst_dev *d, gp_config *cfg, char *err, size_t errlen)
 	static const char *const transports[] = {"auto", "tcp", "udp"};
 	*cfg = (gp_config){.latency_ms = DEFAULT_LATENCY_MS, .open_timeout_ms = DEFAULT_OPEN_TIMEOUT_MS};
 	int rc;
-	if ((rc = gp_init(err, errlen)) != MDRV_OK || (rc = read_source(h, cfg, err, errlen)) != MDRV_OK ||
+	if ((rc = gp_init(err, errlen)) != MDRV_OK ||
 	    (rc = drv_cfg_choice(h, DRV, "format", formats, 5, &cfg->format, err, errlen)) != MDRV_OK ||
 	    (rc = drv_cfg_choice(h, DRV, "pace", paces, 2, &cfg->pace, err, errlen)) != MDRV_OK ||
 	    (rc = drv_cfg_double(h, DRV, "start", 0, 1e7, &cfg->start_s, err, errlen)) != MDRV_OK ||
@@ -105,7 +105,8 @@ static int parse_config(gst_dev *d, gp_config *cfg, char *err, size_t errlen)
 	    (rc = drv_cfg_uint(h, DRV, "open_timeout", 100, 600000, &cfg->open_timeout_ms, err, errlen)) != MDRV_OK ||
 	    (rc = drv_cfg_monotonic_ns(h, DRV, "epoch", &d->epoch_ns, &d->epoch_given, err, errlen)) != MDRV_OK)
 		return rc;
-	return MDRV_OK;
+	/* The source last: its errors may come from opening a file. */
+	return read_source(h, cfg, err, errlen);
 }
 
 /* ---- the ABI ---- */

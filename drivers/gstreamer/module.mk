@@ -21,3 +21,23 @@ PLUGINS += $(GST_PLUGIN)
 DEB_PACKAGES += libgstreamer1.0-dev libgstreamer-plugins-base1.0-dev libgstrtspserver-1.0-dev \
 	gstreamer1.0-plugins-base gstreamer1.0-plugins-good gstreamer1.0-plugins-bad gstreamer1.0-libav \
 	gstreamer1.0-plugins-ugly gstreamer1.0-tools
+
+# Tests: files made from the demo frames (test_gstreamer) and a loopback
+# RTSP server (test_gstreamer_rtsp, with the server program it starts).
+GST_TEST_CFLAGS := $(shell $(PKG_CONFIG) --cflags gstreamer-1.0)
+GST_TEST_LIBS := $(shell $(PKG_CONFIG) --libs gstreamer-1.0)
+GST_TESTS := $(HWDRV_TEST_DIR)/test_gstreamer
+
+$(GST_TESTS): $(HWDRV_TEST_DIR)/%: tests/drivers/%.c $(HWDRV_HARNESS_OBJ)
+	@mkdir -p $(@D)
+	$(CC) $(HWDRV_TEST_CPPFLAGS) $(GST_TEST_CFLAGS) $(CFLAGS) -MMD -MP $< $(HWDRV_HARNESS_OBJ) -o $@ \
+		$(LDFLAGS) -ldl -lm $(GST_TEST_LIBS)
+
+# GStreamer keeps its registry, types and thread pools for the life of the
+# process: those allocations are suppressed (tests/drivers/gstreamer.supp).
+.PHONY: check-gstreamer
+check-gstreamer: $(GST_PLUGIN) $(FILES_PLUGIN) $(GST_TESTS)
+	MOCAP_DRIVER_DIR=$(BUILD)/drivers MOCAP_BUILD=$(BUILD) \
+	LSAN_OPTIONS=suppressions=$(CURDIR)/tests/drivers/gstreamer.supp:print_suppressions=0 \
+	tests/run-tests.sh $(BUILD) $(GST_TESTS)
+CHECKS += check-gstreamer
