@@ -26,17 +26,23 @@ DEB_PACKAGES += libgstreamer1.0-dev libgstreamer-plugins-base1.0-dev libgstrtsps
 # RTSP server (test_gstreamer_rtsp, with the server program it starts).
 GST_TEST_CFLAGS := $(shell $(PKG_CONFIG) --cflags gstreamer-1.0)
 GST_TEST_LIBS := $(shell $(PKG_CONFIG) --libs gstreamer-1.0)
-GST_TESTS := $(HWDRV_TEST_DIR)/test_gstreamer
+GST_TESTS := $(HWDRV_TEST_DIR)/test_gstreamer $(HWDRV_TEST_DIR)/test_gstreamer_rtsp
+GST_RTSP_SERVE := $(HWDRV_TEST_DIR)/gst_rtsp_serve
 
 $(GST_TESTS): $(HWDRV_TEST_DIR)/%: tests/drivers/%.c $(HWDRV_HARNESS_OBJ)
 	@mkdir -p $(@D)
 	$(CC) $(HWDRV_TEST_CPPFLAGS) $(GST_TEST_CFLAGS) $(CFLAGS) -MMD -MP $< $(HWDRV_HARNESS_OBJ) -o $@ \
 		$(LDFLAGS) -ldl -lm $(GST_TEST_LIBS)
 
+$(GST_RTSP_SERVE): tests/drivers/gst_rtsp_serve.c
+	@mkdir -p $(@D)
+	$(CC) $(CPPFLAGS) $(shell $(PKG_CONFIG) --cflags gstreamer-rtsp-server-1.0) $(CFLAGS) -MMD -MP $< -o $@ \
+		$(LDFLAGS) $(shell $(PKG_CONFIG) --libs gstreamer-rtsp-server-1.0)
+
 # GStreamer keeps its registry, types and thread pools for the life of the
 # process: those allocations are suppressed (tests/drivers/gstreamer.supp).
 .PHONY: check-gstreamer
-check-gstreamer: $(GST_PLUGIN) $(FILES_PLUGIN) $(GST_TESTS)
+check-gstreamer: $(GST_PLUGIN) $(FILES_PLUGIN) $(GST_TESTS) $(GST_RTSP_SERVE)
 	MOCAP_DRIVER_DIR=$(BUILD)/drivers MOCAP_BUILD=$(BUILD) \
 	LSAN_OPTIONS=suppressions=$(CURDIR)/tests/drivers/gstreamer.supp:print_suppressions=0 \
 	tests/run-tests.sh $(BUILD) $(GST_TESTS)
