@@ -8,6 +8,7 @@
 #include "mdrv.h"
 
 #include <errno.h>
+#include <stdlib.h>
 #include <string.h>
 #include <unistd.h>
 
@@ -128,12 +129,16 @@ static void gstreamer_close(void *dev)
 	if (!d)
 		return;
 	gp_close(d->pipe);
-	g_free(d);
+	free(d);
 }
 
 static void *gstreamer_open(const mdrv_host *host, char *err, size_t errlen)
 {
-	gst_dev *d = g_new0(gst_dev, 1);
+	gst_dev *d = calloc(1, sizeof(*d));
+	if (!d) {
+		drv_errf(err, errlen, MDRV_ERR_IO, "%s: out of memory", DRV);
+		return drv_open_failed(host, MDRV_ERR_IO);
+	}
 	d->host = host;
 	gp_config cfg;
 	int rc = parse_config(d, &cfg, err, errlen);

@@ -47,3 +47,26 @@ check-gstreamer: $(GST_PLUGIN) $(FILES_PLUGIN) $(GST_TESTS) $(GST_RTSP_SERVE)
 	LSAN_OPTIONS=suppressions=$(CURDIR)/tests/drivers/gstreamer.supp:print_suppressions=0 \
 	tests/run-tests.sh $(BUILD) $(GST_TESTS)
 CHECKS += check-gstreamer
+
+# The capture cost of a 1280x720 30 fps H.264 file against gst-launch
+# decoding it to a fakesink (docs/BENCHMARKS.md, "GStreamer driver").
+GST_BENCH_CLIP := $(BUILD)/bench/gst-720p30.mp4
+$(HWDRV_TEST_DIR)/bench_gstreamer: tests/drivers/bench_gstreamer.c $(HWDRV_HARNESS_OBJ)
+	$(HWDRV_LINK_TEST)
+
+$(GST_BENCH_CLIP):
+	@mkdir -p $(@D)
+	gst-launch-1.0 -q videotestsrc pattern=smpte horizontal-speed=8 num-buffers=600 ! \
+		video/x-raw,width=1280,height=720,framerate=30/1 ! x264enc speed-preset=veryfast bitrate=6000 ! \
+		mp4mux ! filesink location=$@
+
+.PHONY: bench-gstreamer
+bench-gstreamer: $(GST_PLUGIN) $(HWDRV_TEST_DIR)/bench_gstreamer $(GST_BENCH_CLIP)
+	@echo "gst-launch-1.0, decoding to fakesink:"
+	@/usr/bin/time -f "  %e s wall, %U s user + %S s system" gst-launch-1.0 -q \
+		uridecodebin uri=file://$(CURDIR)/$(GST_BENCH_CLIP) ! fakesink sync=false
+	@echo "the driver delivering RGB24 frames:"
+	@MOCAP_DRIVER_DIR=$(BUILD)/drivers $(HWDRV_TEST_DIR)/bench_gstreamer $(GST_BENCH_CLIP) rgb24
+	@echo "the driver delivering YUYV frames:"
+	@MOCAP_DRIVER_DIR=$(BUILD)/drivers $(HWDRV_TEST_DIR)/bench_gstreamer $(GST_BENCH_CLIP) yuyv
+BENCHES += bench-gstreamer

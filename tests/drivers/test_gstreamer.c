@@ -342,7 +342,7 @@ static void test_pipeline(void)
 	char err[1024];
 	void *dev = drv_harness_open_start(&G, err, sizeof err);
 	CHECK_MSG(dev != NULL, "%s", err);
-	int frames = 0, rc, bright = 1;
+	int frames = 0, rc = MDRV_OK, bright = 1;
 	while (dev && (rc = drv_harness_frame(&G, dev, &(mdrv_frame){0}, buf, sizeof buf, 2000, err, sizeof err)) ==
 			      MDRV_OK) {
 		frames++;
