@@ -57,7 +57,7 @@ $(HWDRV_TEST_DIR)/bench_gstreamer: tests/drivers/bench_gstreamer.c $(HWDRV_HARNE
 $(GST_BENCH_CLIP):
 	@mkdir -p $(@D)
 	gst-launch-1.0 -q videotestsrc pattern=smpte horizontal-speed=8 num-buffers=600 ! \
-		video/x-raw,width=1280,height=720,framerate=30/1 ! x264enc speed-preset=veryfast bitrate=6000 ! \
+		video/x-raw,format=I420,width=1280,height=720,framerate=30/1 ! x264enc speed-preset=veryfast bitrate=6000 ! \
 		mp4mux ! filesink location=$@
 
 .PHONY: bench-gstreamer
