@@ -12,7 +12,10 @@
  *   - the end of the file (MDRV_ERR_END); a pipeline description;
  *   - errors: config keys, a missing file, garbage, a codec without a
  *     decoder (an MKV whose codec id is changed), an audio-only file;
- *   - check() (mocapd --check).
+ *   - check() (mocapd --check);
+ *   - two files as one rig: a flash at 37/30 s in one and 12/30 s in the
+ *     other, found by drivers/gstreamer/find-flash.sh, whose `start`
+ *     offsets, with one epoch, give the flash frames one timestamp.
  * The comparison is with frames at driver level; the daemon's tracking is
  * not run on them here. */
 #include <fcntl.h>
@@ -419,6 +422,92 @@ static void test_check(void)
 	printf("  %s\n", err);
 }
 
+/* A clip whose frames are black, then white from frame `flash` on. */
+static void make_flash_clip(const char *name, int flash, const char *mux)
+{
+	char cmd[1024], out[256];
+	path_in(out, sizeof out, name);
+	snprintf(cmd, sizeof cmd,
+		 "concat name=c ! videoconvert ! video/x-raw,format=I420 ! x264enc speed-preset=ultrafast ! %s ! "
+		 "filesink location=%s videotestsrc pattern=black num-buffers=%d ! "
+		 "video/x-raw,framerate=30/1,width=160,height=120 ! c. videotestsrc pattern=white num-buffers=30 ! "
+		 "video/x-raw,framerate=30/1,width=160,height=120 ! c.",
+		 mux, out, flash);
+	CHECK(gst_test_run(cmd) == 0);
+}
+
+/* Runs find-flash.sh on the two clips; their `start` values. */
+static int find_starts(const char *a, const char *b, double starts[2])
+{
+	char cmd[700], line[512];
+	snprintf(cmd, sizeof cmd, "drivers/gstreamer/find-flash.sh %s/%s %s/%s", dir, a, dir, b);
+	FILE *p = popen(cmd, "r");
+	int n = 0;
+	while (p && fgets(line, sizeof line, p)) {
+		printf("  find-flash.sh: %s", line);
+		char *at = strstr(line, ": start = ");
+		if (at && n < 2)
+			starts[n++] = atof(at + 10);
+	}
+	CHECK(p && pclose(p) == 0);
+	return n;
+}
+
+/* Opens a camera on clip `name` with `start` and `epoch`, started. */
+static void *open_rig_camera(const char *name, double start, const char *epoch)
+{
+	char v[32], err[1024];
+	set_source(name, "gray8", "asap");
+	snprintf(v, sizeof v, "%.3f", start);
+	drv_harness_set(&G, "start", v);
+	drv_harness_set(&G, "epoch", epoch);
+	void *dev = drv_harness_open_start(&G, err, sizeof err);
+	CHECK_MSG(dev != NULL, "%s: %s", name, err);
+	return dev;
+}
+
+/* The timestamp of the camera's first bright frame; 0 if none. */
+static unsigned long long first_bright(void *dev)
+{
+	char err[1024];
+	mdrv_frame f;
+	while (dev && drv_harness_frame(&G, dev, &f, buf, sizeof buf, 2000, err, sizeof err) == MDRV_OK) {
+		unsigned long sum = 0;
+		for (size_t i = 0; i < f.bytesused; i++)
+			sum += buf[i];
+		if (f.bytesused && sum / f.bytesused > 128)
+			return f.timestamp_ns;
+	}
+	return 0;
+}
+
+static void test_rig(void)
+{
+	printf("two files as one rig, lined up on a flash\n");
+	make_flash_clip("flash_a.mp4", 37, "mp4mux");
+	make_flash_clip("flash_b.mkv", 12, "matroskamux");
+	double starts[2] = {0, 0};
+	CHECK(find_starts("flash_a.mp4", "flash_b.mkv", starts) == 2);
+	CHECK_NEAR(starts[0], 25 / 30.0, 0.002);
+	CHECK_NEAR(starts[1], 0, 0.002);
+	char epoch[32];
+	snprintf(epoch, sizeof epoch, "%llu", drv_harness_now_ns());
+	void *a = open_rig_camera("flash_a.mp4", starts[0], epoch);
+	void *b = open_rig_camera("flash_b.mkv", starts[1], epoch);
+	unsigned long long ta = first_bright(a), tb = first_bright(b);
+	printf("  flash frames: %.3f and %.3f ms after the epoch\n", (double)(ta - atoll(epoch)) / 1e6,
+	       (double)(tb - atoll(epoch)) / 1e6);
+	CHECK(ta && tb);
+	CHECK_NEAR((double)ta, (double)tb, 1e6); /* within a millisecond */
+	CHECK_NEAR((double)(tb - atoll(epoch)), 12e9 / 30, 1e6);
+	void *devs[2] = {a, b};
+	for (int i = 0; i < 2; i++)
+		if (devs[i]) {
+			G.drv->stop(devs[i]);
+			G.drv->close(devs[i]);
+		}
+}
+
 int main(void)
 {
 	static const char *const need[] = {"uridecodebin", "appsink",  "videoconvert", "matroskamux", "matroskademux",
@@ -443,6 +532,10 @@ int main(void)
 	test_pipeline();
 	test_errors();
 	test_check();
+	if (gst_test_have("videoanalyse") && gst_test_have("concat"))
+		test_rig();
+	else
+		printf("two files as one rig: videoanalyse or concat not installed, not tested\n");
 
 	for (int k = 0; k < NFRAMES; k++) {
 		free(ref_jpeg[k]);
