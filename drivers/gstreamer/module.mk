@@ -39,13 +39,16 @@ $(GST_RTSP_SERVE): tests/drivers/gst_rtsp_serve.c
 	$(CC) $(CPPFLAGS) $(shell $(PKG_CONFIG) --cflags gstreamer-rtsp-server-1.0) $(CFLAGS) -MMD -MP $< -o $@ \
 		$(LDFLAGS) $(shell $(PKG_CONFIG) --libs gstreamer-rtsp-server-1.0)
 
+# mocapd on the demo clip made into MKVs, against the files driver.
+GST_DAEMON_TEST := tests/drivers/test_gstreamer_daemon.sh
+
 # GStreamer keeps its registry, types and thread pools for the life of the
 # process: those allocations are suppressed (tests/drivers/gstreamer.supp).
 .PHONY: check-gstreamer
-check-gstreamer: $(GST_PLUGIN) $(FILES_PLUGIN) $(GST_TESTS) $(GST_RTSP_SERVE)
+check-gstreamer: $(GST_PLUGIN) $(FILES_PLUGIN) $(GST_TESTS) $(GST_RTSP_SERVE) $(MOCAPD)
 	MOCAP_DRIVER_DIR=$(BUILD)/drivers MOCAP_BUILD=$(BUILD) \
 	LSAN_OPTIONS=suppressions=$(CURDIR)/tests/drivers/gstreamer.supp:print_suppressions=0 \
-	tests/run-tests.sh $(BUILD) $(GST_TESTS)
+	tests/run-tests.sh $(BUILD) $(GST_TESTS) $(GST_DAEMON_TEST)
 CHECKS += check-gstreamer
 
 # The capture cost of a 1280x720 30 fps H.264 file against gst-launch
