@@ -151,6 +151,15 @@ int gp_fill_slot(gp_pipe *p, GstSample *s, mdrv_frame *slot, char *err, size_t e
 	if (rc != MDRV_OK)
 		return rc;
 	slot->timestamp_ns = buffer_time(p, s, buf);
+	/* A live frame was not captured after it arrived.  rtspsrc's jitter
+	 * buffer slaves its timestamps to the arrivals, and on a loaded
+	 * machine (over TCP, where it stamps only the first packet) it has
+	 * run up to 200 ms ahead of delivery: such a time becomes the time of
+	 * delivery.  Timestamps stay increasing (the next one is at least a
+	 * frame after a clamped one, or clamped to a later now). */
+	uint64_t now = mc_now_ns();
+	if (p->live && slot->timestamp_ns > now)
+		slot->timestamp_ns = now;
 	slot->sequence = p->seq++;
 	slot->flags = GST_BUFFER_FLAG_IS_SET(buf, GST_BUFFER_FLAG_CORRUPTED) ? MDRV_FRAME_CORRUPT : 0;
 	slot->format = p->fmt;

@@ -20,6 +20,9 @@ struct gp_pipe {
 	bool network; /* not a local file: failures are retried */
 	bool live;    /* NO_PREROLL: RTSP, cameras */
 	bool started;
+	bool stopped; /* a stopped pipeline is not restarted (the host reopens) */
+	int failed;   /* once the pipeline posted an error: its status, sticky */
+	char fail_msg[512];
 	GstSample *pending; /* a live source's first frame, pulled by open() */
 	mdrv_format fmt;
 	uint64_t seq;

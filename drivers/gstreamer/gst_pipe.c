@@ -367,6 +367,8 @@ bool gp_is_live(const gp_pipe *p) { return p->live; }
 
 int gp_start(gp_pipe *p, bool epoch_given, uint64_t epoch_ns, char *err, size_t errlen)
 {
+	if (p->stopped) /* it would play from the file's beginning, not `start` */
+		return drv_errf(err, errlen, MDRV_ERR_IO, "%s: stopped; close and open again", DRV);
 	p->seq = 0;
 	if (p->live) { /* playing since open */
 		p->started = true;
@@ -402,13 +404,26 @@ static int no_sample(gp_pipe *p, char *err, size_t errlen)
 	return drv_errf(err, errlen, MDRV_ERR_TIMEOUT, "%s: no frame yet", DRV);
 }
 
+/* A pipeline that posted an error stays failed: the same status and
+ * message on every later call, until the host closes it. */
+static int fail(gp_pipe *p, int rc, const char *err)
+{
+	if (rc != MDRV_OK && rc != MDRV_ERR_TIMEOUT && rc != MDRV_ERR_END) {
+		p->failed = rc;
+		drv_strlcpy(p->fail_msg, err ? err : "", sizeof p->fail_msg);
+	}
+	return rc;
+}
+
 int gp_next(gp_pipe *p, mdrv_frame *slot, int timeout_ms, char *err, size_t errlen)
 {
 	if (!p->started)
 		return drv_errf(err, errlen, MDRV_ERR_IO, "%s: next_frame before start", DRV);
+	if (p->failed)
+		return drv_errf(err, errlen, p->failed, "%s", p->fail_msg);
 	int rc = gp_poll_bus(p, false, err, errlen);
 	if (rc != MDRV_OK)
-		return rc;
+		return fail(p, rc, err);
 	GstSample *s = p->pending;
 	p->pending = NULL;
 	if (!s) {
@@ -416,7 +431,7 @@ int gp_next(gp_pipe *p, mdrv_frame *slot, int timeout_ms, char *err, size_t errl
 		s = gst_app_sink_try_pull_sample(GST_APP_SINK(p->sink), wait);
 	}
 	if (!s)
-		return no_sample(p, err, errlen);
+		return fail(p, no_sample(p, err, errlen), err);
 	rc = gp_fill_slot(p, s, slot, err, errlen);
 	gst_sample_unref(s);
 	return rc;
@@ -426,6 +441,7 @@ void gp_stop(gp_pipe *p)
 {
 	gst_element_set_state(p->pipeline, GST_STATE_NULL);
 	p->started = false;
+	p->stopped = true;
 }
 
 void gp_close(gp_pipe *p)

@@ -81,11 +81,7 @@ static int read_source(const mdrv_host *h, gp_config *cfg, char *err, size_t err
 	}
 	cfg->key = "pipeline";
 	cfg->launch = g_strdup(launch);
-	if (!strstr(launch, "name=" GP_SINK_NAME))
-		return drv_errf(err, errlen, MDRV_ERR_CONFIG,
-				"%s: config key 'pipeline': must end in 'appsink name=%s', got '%s'", DRV, GP_SINK_NAME,
-				launch);
-	return MDRV_OK;
+	return MDRV_OK; /* parsed by check() and open() */
 }
 
 static int parse_config(gst_dev *d, gp_config *cfg, char *err, size_t errlen)
