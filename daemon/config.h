@@ -65,6 +65,7 @@ typedef struct {
 	char init_joints[PATH_MAX]; /* gt.json whose frame 0 gives the joints; "" = from detections */
 	char actor[PATH_MAX];       /* actor file (a model file with the actor's size and colours); "" = none */
 	char actor_dir[PATH_MAX];   /* where `mocapctl actor save NAME` writes NAME.json */
+	char pose_prior[PATH_MAX];  /* the learned pose prior (docs/TRACKER.md); "" = none */
 	bool calibrate_colors;
 	mc_tracker_settings settings;
 } mcd_tracker_config;

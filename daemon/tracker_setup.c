@@ -1,6 +1,7 @@
 #include "tracker_setup.h"
 
 #include "log.h"
+#include "body/mc_pose_prior.h"
 #include "eval/mc_gt.h"
 
 #include <stdio.h>
@@ -149,6 +150,27 @@ static int load_rig_and_model(const mcd_config *cfg, mcd_tracking *t, mc_err *er
 	return 0;
 }
 
+/* The pose prior, loaded for the tracker's model: into the tracker when
+ * there is one, else only checked (--check). */
+static int load_pose_prior(const mcd_config *cfg, mcd_tracking *t, mc_err *err)
+{
+	char where[700];
+	const char *path = cfg->tracker.pose_prior;
+	if (!path[0])
+		return 0;
+	int rc;
+	if (t->tracker) {
+		rc = mc_tracker_load_pose_prior(t->tracker, path, err);
+	} else {
+		mc_pose_prior *p = mc_pose_prior_load(path, &t->model, err);
+		rc = p ? 0 : -1;
+		mc_pose_prior_free(p);
+	}
+	if (rc)
+		return mc_err_prefix(err, "%s", mcd_config_where(cfg, "tracker", "pose_prior", where, sizeof(where)));
+	return 0;
+}
+
 int mcd_tracking_check(const mcd_config *cfg, mc_err *err)
 {
 	mcd_tracking *t = calloc(1, sizeof(*t));
@@ -156,6 +178,8 @@ int mcd_tracking_check(const mcd_config *cfg, mc_err *err)
 		return mc_err_set(err, "out of memory");
 	char where[700];
 	int rc = load_rig_and_model(cfg, t, err);
+	if (rc == 0)
+		rc = load_pose_prior(cfg, t, err);
 	if (rc == 0 && cfg->tracker.init_joints[0]) {
 		mc_gt gt;
 		rc = mc_gt_load(cfg->tracker.init_joints, init_joints_key(&t->rig), &gt, err);
@@ -203,6 +227,8 @@ int mcd_tracking_setup(const mcd_config *cfg, mcd_tracking *t, mc_err *err)
 		mc_err_prefix(err, "%s:%d: [tracker]", cfg->file, cfg->tracker.line);
 		goto fail;
 	}
+	if (load_pose_prior(cfg, t, err))
+		goto fail;
 	t->calibrate_pending = cfg->tracker.calibrate_colors;
 	if (init_pose(cfg, t, err))
 		goto fail;

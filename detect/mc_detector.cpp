@@ -530,6 +530,7 @@ int detect(mc_detector *d, const uint8_t *rgb, int width, int height, int stride
 	cv::Mat src(height, width, CV_8UC3, const_cast<uint8_t *>(rgb), (size_t)stride);
 	int n = d->decoder == mc_decoder::movenet ? mc_movenet_detect(d, src, out, max, &infer, err)
 						  : detect_heatmap(d, src, out, max, &infer, err);
+	d->has_hint = false; // a hint is for one view
 	if (n < 0)
 		return -1;
 	double ms = mc_ms_since(t0);
@@ -623,6 +624,15 @@ void mc_detector_set_threshold(mc_detector *d, float threshold)
 {
 	if (d && threshold >= 0.0f)
 		d->threshold = threshold;
+}
+
+void mc_detector_set_person_square(mc_detector *d, const mc_detector_square *sq)
+{
+	if (!d)
+		return;
+	d->has_hint = sq && std::isfinite(sq->x0) && std::isfinite(sq->y0) && sq->size >= 8.0f;
+	if (d->has_hint)
+		d->hint = *sq;
 }
 
 void mc_detector_set_refine(mc_detector *d, int on)

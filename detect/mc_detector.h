@@ -64,6 +64,7 @@ typedef struct {
 	uint64_t calls;
 	double last_ms, mean_ms, max_ms;
 	double last_infer_ms; /* the network alone in the last call */
+	uint64_t one_look;    /* MoveNet: views that needed only the look at the person square */
 } mc_detector_timing;
 
 /* Loads MODEL.onnx (and MODEL.json if there), checks the input shape, runs
@@ -94,6 +95,26 @@ void mc_detector_set_threshold(mc_detector *d, float threshold);
  * at a square around the person the first pass found (the sidecar's
  * "refine", default on).  No effect on heatmap models. */
 void mc_detector_set_refine(mc_detector *d, int on);
+
+/* A square of a view (native pixels; it may reach outside the image). */
+typedef struct {
+	float x0, y0, size;
+} mc_detector_square;
+
+/* Where the person is expected in the next view, e.g. around the tracked
+ * pose (mc_detector_square_around).  MoveNet models then look there once,
+ * instead of at the whole view and then at the person, and fall back to
+ * those two looks when that look does not find the torso.  It applies to
+ * the next mc_detector_detect call only; NULL clears it.  No effect on
+ * heatmap models. */
+void mc_detector_set_person_square(mc_detector *d, const mc_detector_square *sq);
+
+/* The square around joints (rig frame, metres) seen from rig camera cam:
+ * centred on their bounding box in the image, 1.25 times its larger half
+ * side plus 3 % of the image's larger side (the body moves between the
+ * pose and the view).  Returns 0, or -1 when fewer than three joints are in
+ * front of the camera. */
+int mc_detector_square_around(const mc_camera *cam, const mc_vec3 *joints_rig, int n, mc_detector_square *out);
 
 /* OpenCV's thread count for the whole process (>= 1). */
 void mc_detector_set_threads(int nthreads);

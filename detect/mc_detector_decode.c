@@ -2,6 +2,7 @@
  * tracker's keypoints (plain C, no OpenCV: see mc_detector.h). */
 #include "mc_detector.h"
 
+#include <math.h>
 #include <string.h>
 
 int mc_detector_decode(const float *heatmaps, int njoints, int height, int width, int in_w, int in_h, int native_w,
@@ -103,4 +104,27 @@ int mc_detector_detect_views(mc_detector *d, const mc_frame_view *views, int nvi
 		n += mc_detections_to_keypoints(det, nd, c, map, out + n, max - n);
 	}
 	return n;
+}
+
+int mc_detector_square_around(const mc_camera *cam, const mc_vec3 *joints_rig, int n, mc_detector_square *out)
+{
+	mc_xform cam_from_rig = mc_xform_inverse(cam->rig_from_cam);
+	double lo_u = INFINITY, lo_v = INFINITY, hi_u = -INFINITY, hi_v = -INFINITY;
+	int seen = 0;
+	for (int i = 0; i < n; i++) {
+		double u, v;
+		if (!mc_camera_project_unbounded(cam, mc_xform_apply(cam_from_rig, joints_rig[i]), &u, &v) ||
+		    !isfinite(u) || !isfinite(v))
+			continue;
+		lo_u = fmin(lo_u, u), hi_u = fmax(hi_u, u);
+		lo_v = fmin(lo_v, v), hi_v = fmax(hi_v, v);
+		seen++;
+	}
+	if (seen < 3)
+		return -1;
+	double side = cam->width > cam->height ? cam->width : cam->height;
+	double half = 1.25 * 0.5 * fmax(hi_u - lo_u, hi_v - lo_v) + 0.03 * side;
+	double cu = 0.5 * (lo_u + hi_u), cv = 0.5 * (lo_v + hi_v);
+	*out = (mc_detector_square){(float)(cu - half), (float)(cv - half), (float)(2 * half)};
+	return 0;
 }

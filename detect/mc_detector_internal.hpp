@@ -24,6 +24,8 @@ struct mc_detector {
 	std::string input_name, output_name;
 	mc_decoder decoder = mc_decoder::heatmap;
 	bool refine = true; // MoveNet: a second pass on a crop around the person
+	bool has_hint = false; // MoveNet: the next view's person square (mc_detector_set_person_square)
+	mc_detector_square hint{};
 	int in_w = MC_DETECTOR_DEFAULT_INPUT, in_h = MC_DETECTOR_DEFAULT_INPUT;
 	int njoints = 0, hm_w = 0, hm_h = 0;
 	std::vector<std::string> joints;

@@ -91,6 +91,16 @@ double look(mc_detector *d, const cv::Mat &src, const mc_movenet_square &sq, std
 	return ms;
 }
 
+// The two looks: the whole view, letterboxed, then the person found there.
+double look_twice(mc_detector *d, const cv::Mat &src, std::vector<float> &xy, std::vector<float> &score)
+{
+	double ms = look(d, src, mc_movenet_full_square(src.cols, src.rows), xy, score);
+	mc_movenet_square person;
+	if (d->refine && mc_movenet_person_square(xy.data(), score.data(), d->njoints, refine_min_score, &person) == 0)
+		ms += look(d, src, person, xy, score);
+	return ms;
+}
+
 } // namespace
 
 int mc_movenet_check_outputs(mc_detector *d, mc_err *err)
@@ -126,10 +136,18 @@ int mc_movenet_detect(mc_detector *d, const cv::Mat &src, mc_detection *out, int
 {
 	(void)err;
 	std::vector<float> xy(2 * (size_t)d->njoints), score((size_t)d->njoints);
-	*infer_ms = look(d, src, mc_movenet_full_square(src.cols, src.rows), xy, score);
-	mc_movenet_square person;
-	if (d->refine && mc_movenet_person_square(xy.data(), score.data(), d->njoints, refine_min_score, &person) == 0)
-		*infer_ms += look(d, src, person, xy, score);
+	// With a hint (the tracked pose), one look there, as MoveNet's own
+	// tracking does; the two looks when it misses the torso.
+	bool one_look = false;
+	*infer_ms = 0;
+	if (d->has_hint) {
+		mc_movenet_square unused;
+		*infer_ms = look(d, src, mc_movenet_square{d->hint.x0, d->hint.y0, d->hint.size}, xy, score);
+		one_look = mc_movenet_person_square(xy.data(), score.data(), d->njoints, refine_min_score, &unused) == 0;
+	}
+	if (!one_look)
+		*infer_ms += look_twice(d, src, xy, score);
+	d->timing.one_look += one_look;
 	int n = 0;
 	for (int j = 0; j < d->njoints && n < max; j++) {
 		float c = score[(size_t)j];

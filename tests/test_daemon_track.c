@@ -166,15 +166,35 @@ static void test_outside_in(void)
 	mcd_run_cleanup(&r);
 }
 
-/* --check loads rig, model and initial joints and maps the cameras. */
+/* --check loads rig, model, pose prior and initial joints and maps the
+ * cameras. */
 static void test_check(void)
 {
 	mcd_run r;
 	CHECK(mcd_run_init(&r));
 	const char *const check[] = {"--check", NULL};
-	write_config(&r, CONF("", ""));
+	write_config(&r, CONF("", "pose_prior = @REPO@/config/models/pose_prior.json\n"));
 	CHECK(mcd_run_start(&r, check, NULL));
 	CHECK(mcd_run_wait_exit(&r, 20000) == 0);
+	/* a pose prior for another model: a dof this one lacks */
+	char prior[160], tracker_keys[256];
+	snprintf(prior, sizeof(prior), "%s/prior.json", r.dir);
+	FILE *f = fopen(prior, "w");
+	CHECK(f != NULL);
+	if (f) {
+		fputs("{\"dofs\": [\"left_knee.z\"], \"components\": [{\"weight\": 1, \"mean\": [0], "
+		      "\"precision_chol\": [[1]]}]}\n",
+		      f);
+		fclose(f);
+	}
+	snprintf(tracker_keys, sizeof(tracker_keys), "pose_prior = %s\n", prior);
+	char conf[8192];
+	snprintf(conf, sizeof(conf), CONF("", "%s"), tracker_keys);
+	write_config(&r, conf);
+	CHECK(mcd_run_start(&r, check, NULL));
+	CHECK(mcd_run_wait_exit(&r, 20000) == 1);
+	CHECK(mcd_run_wait_log(&r, "[tracker] pose_prior: ", 0));
+	CHECK(mcd_run_wait_log(&r, "dofs[0]: the model has no dof 'left_knee.z'", 0));
 	/* a rig camera the rig does not have */
 	write_config(&r, "[daemon]\nplugin_dir = @DRIVERS@\n[camera left]\ndriver = files\nrig_camera = middle\n"
 			 "path = @REPO@/tests/data/ego_demo/left\n[tracker]\nrig = @REPO@/config/rigs/ego_stereo.json\n"

@@ -11,6 +11,7 @@
  * lines are machine-readable:
  *   RESULT clip=NAME frames=N mpjpe_cm=X fps=Y ms_p99=Z device=DEV cameras=C iterations=I
  *   JITTER clip=NAME vel_err_ms=V accel_ratio=A
+ *   LIMBS clip=NAME left_wrist=S right_wrist=S left_ankle=S right_ankle=S worst_s=S
  * (I: gradient iterations per frame set, averaged over the clip; V, A:
  * bench/score.h and core/eval/mc_jitter.h) */
 #include "base/mc_parse.h"
@@ -53,6 +54,10 @@ static mc_tracker *start_tracker(const options *o, const mc_clip *clip, const mc
 	if (mc_model_load(o->model_path, &model, err) < 0)
 		return NULL;
 	mc_tracker *t = mc_tracker_create(&clip->rig, &model, s, err);
+	if (t && o->prior_path && mc_tracker_load_pose_prior(t, o->prior_path, err) < 0) {
+		mc_tracker_destroy(t);
+		return NULL;
+	}
 	if (t && o->init_detect) {
 		if (mc_tracker_start_from_detections(t, MC_INIT_MEASURE_SIZE, err) < 0) {
 			mc_tracker_destroy(t);
@@ -137,8 +142,13 @@ static int frame_keypoints(const options *o, bench_detector *bd, mc_tracker *t, 
 			   const mc_frame_view *views, uint64_t *rng, mc_simdet_stats *sim_stats, mc_keypoint *kp, int cap,
 			   mc_err *err)
 {
-	if (bd)
-		return bench_detector_run(bd, clip, k, views, clip->rig.ncams, kp, cap, err);
+	if (bd) {
+		mc_detector_square hints[MC_MAX_CAMERAS];
+		if (o->detector_hint)
+			bench_detector_hints(t, clip, hints);
+		return bench_detector_run(bd, clip, k, views, clip->rig.ncams, o->detector_hint ? hints : NULL, kp, cap,
+					  err);
+	}
 	if (o->simulated_detector_px >= 0)
 		return mc_simdet_keypoints(clip, mc_tracker_model(t), bench_eval_joints, BENCH_NEVAL, k, &o->sim, rng, kp,
 					   cap, sim_stats);
@@ -220,6 +230,8 @@ typedef struct {
 	const mc_clip *clip;
 	int k;
 	mc_frame_view views[MC_MAX_CAMERAS];
+	mc_detector_square hints[MC_MAX_CAMERAS]; /* --detector-hint pose */
+	bool use_hints;
 	bool loaded, running;
 	pthread_t thread;
 	mc_keypoint kp[BENCH_MAX_KEYPOINTS];
@@ -231,15 +243,18 @@ static void *detect_slot_run(void *arg)
 {
 	detect_slot *d = arg;
 	mc_thread_lower_priority(BENCH_DETECTOR_NICE); /* as mocapd's detector threads ([detector] nice) */
-	d->nkp = bench_detector_run(d->bd, d->clip, d->k, d->views, d->clip->rig.ncams, d->kp, BENCH_MAX_KEYPOINTS,
-				    &d->err);
+	d->nkp = bench_detector_run(d->bd, d->clip, d->k, d->views, d->clip->rig.ncams, d->use_hints ? d->hints : NULL,
+				    d->kp, BENCH_MAX_KEYPOINTS, &d->err);
 	return NULL;
 }
 
-/* Loads frame set k and starts its detection. */
-static int detect_slot_start(detect_slot *d, int k, mc_err *err)
+/* Loads frame set k and starts its detection (with t's pose as the hint
+ * when use_hints: the tracker is idle here). */
+static int detect_slot_start(detect_slot *d, int k, const mc_tracker *t, mc_err *err)
 {
 	d->k = k;
+	if (d->use_hints)
+		bench_detector_hints(t, d->clip, d->hints);
 	if (mc_clip_load_frame(d->clip, k, d->views, err) < 0)
 		return -1;
 	d->loaded = true;
@@ -287,14 +302,16 @@ static int track_pipelined(const options *o, mc_tracker *t, bench_detector *bd, 
 	current_skeleton(t, &still);
 	detect_slot slot[2] = {{.bd = bd, .clip = clip}, {.bd = bd, .clip = clip}};
 	const int step = o->frame_step;
-	int rc = nframes > 0 ? detect_slot_start(&slot[0], 0, err) : 0;
+	for (int s = 0; s < 2; s++)
+		slot[s].use_hints = o->detector_hint;
+	int rc = nframes > 0 ? detect_slot_start(&slot[0], 0, t, err) : 0;
 	for (int i = 0, k = 0; rc == 0 && k < nframes; i++, k += step) {
 		detect_slot *cur = &slot[i % 2];
 		uint64_t t0 = mc_now_ns();
 		rc = detect_slot_join(cur, err);
 		double waited = mc_ms_since(t0);
 		if (rc == 0 && k + step < nframes)
-			rc = detect_slot_start(&slot[(i + 1) % 2], k + step, err);
+			rc = detect_slot_start(&slot[(i + 1) % 2], k + step, t, err);
 		mc_skeleton sk;
 		t0 = mc_now_ns();
 		if (rc == 0)
@@ -420,8 +437,10 @@ static void report(const options *o, const mc_clip *clip, bench_detector *bd, co
 	printf("RESULT clip=%s frames=%d mpjpe_cm=%.2f fps=%.1f ms_p99=%.2f device=%s cameras=%d iterations=%.1f\n",
 	       clip->name, st->frames, clip->has_gt ? 100.0 * bench_mpjpe(st) : NAN, 1e3 / tm.mean, tm.p99, device,
 	       clip->rig.ncams, iterations_per_set(st));
-	if (clip->has_gt)
+	if (clip->has_gt) {
 		bench_print_jitter(clip, st);
+		bench_print_limbs(clip, st);
+	}
 	if (o->simulated_detector_px >= 0)
 		bench_print_simdet(clip, &st->sim);
 }

@@ -126,3 +126,21 @@ detector-report:
 
 # Pretrained networks converted from TensorFlow.js (make models-movenet).
 include tools/convert/module.mk
+
+# The pose prior (docs/TRACKER.md, "Pose prior"): a Gaussian mixture over the
+# body model's joint angles, from mocap-train's motions (no rendering).
+#   make pose-prior   export joints, fit joint angles, train, write config/models/pose_prior.json
+# mocap-prior-fit is built with `all` (so that it keeps compiling) but not installed.
+PRIOR_DIR ?= $(BUILD)/prior
+PRIOR_FIT := $(BUILD)/train/mocap-prior-fit
+all: $(PRIOR_FIT)
+$(PRIOR_FIT): tools/prior/mocap-prior-fit.c $(CORE_LIB)
+	@mkdir -p $(@D)
+	$(CC) $(CPPFLAGS) $(CFLAGS) -MMD -MP $< -o $@ $(LDFLAGS) $(CORE_LIB) $(CORE_LIBS)
+
+.PHONY: pose-prior
+pose-prior: $(PRIOR_FIT)
+	mkdir -p $(PRIOR_DIR)
+	$(TRAIN_PYTHON) tools/prior/export_joints.py $(MOCAP_TRAIN_DIR) --stride 2 > $(PRIOR_DIR)/joints.txt
+	$(PRIOR_FIT) config/models/default.json < $(PRIOR_DIR)/joints.txt > $(PRIOR_DIR)/poses.txt
+	$(TRAIN_PYTHON) tools/prior/train_prior.py $(PRIOR_DIR)/poses.txt --out config/models/pose_prior.json

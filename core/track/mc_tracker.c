@@ -47,6 +47,7 @@ void mc_tracker_settings_default(mc_tracker_settings *s)
 	s->lambda_pose = 1e-4;
 	s->lambda_smooth = 0.1;
 	s->lambda_anchor = 0; /* off: it biases real motion (docs/TRACKER.md) */
+	s->lambda_prior = 1e-3;
 	s->recover = true;
 	s->assign_sides = false; /* on for outside-in rigs: mc_tracker_outside_in */
 	s->fit_limbs = false; /* measured: no gain yet (docs/TRACKER.md) */
@@ -132,6 +133,8 @@ static int validate_settings(const mc_tracker_settings *s, mc_err *err)
 		return mc_err_set(err, "tracker: lambda_floor must be in [0, 1e6), got %g", s->lambda_floor);
 	if (!(s->lambda_anchor >= 0 && s->lambda_anchor < 1e6))
 		return mc_err_set(err, "tracker: lambda_anchor must be in [0, 1e6), got %g", s->lambda_anchor);
+	if (!(s->lambda_prior >= 0 && s->lambda_prior < 1e6))
+		return mc_err_set(err, "tracker: lambda_prior must be in [0, 1e6), got %g", s->lambda_prior);
 	return 0;
 }
 
@@ -257,10 +260,21 @@ void mc_tracker_destroy(mc_tracker *t)
 	free(t->mask);
 	free(t->jacobian);
 	free(t->fkp);
+	mc_pose_prior_free(t->prior);
 	mc_trk_init_free(t);
 	if (t->cl)
 		mc_cl_energy_destroy(t->cl);
 	free(t);
+}
+
+int mc_tracker_load_pose_prior(mc_tracker *t, const char *path, mc_err *err)
+{
+	mc_pose_prior *p = mc_pose_prior_load(path, &t->model, err);
+	if (!p)
+		return -1;
+	mc_pose_prior_free(t->prior);
+	t->prior = p;
+	return 0;
 }
 
 void mc_tracker_set_keypoint_poll(mc_tracker *t, mc_keypoint_poll poll, void *ctx)
@@ -738,6 +752,8 @@ static int optimise(mc_tracker *t, double *pose, const double *pred, double *fin
 		mc_model_backprop(&t->model, pose, &fk, dmu, grad);
 		mc_energy_pose(&t->model, pose, t->s.lambda_limit, t->s.lambda_pose, grad);
 		mc_energy_smooth(t->model.ndof, pose, pred, t->s.lambda_smooth, grad);
+		if (t->prior)
+			mc_pose_prior_energy(t->prior, pose, t->s.lambda_prior, grad);
 		/* the same pseudo-Huber pull, toward the calibration pose */
 		if (t->s.lambda_anchor > 0)
 			mc_energy_smooth(t->model.ndof, pose, t->anchor, t->s.lambda_anchor, grad);

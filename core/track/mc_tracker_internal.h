@@ -5,6 +5,7 @@
 #define MC_TRACKER_INTERNAL_H
 
 #include "energy/mc_cl.h"
+#include "body/mc_pose_prior.h"
 #include "energy/mc_energy.h"
 #include "track/mc_tracker.h"
 
@@ -81,6 +82,7 @@ struct mc_tracker {
 	mc_keypoint_poll kp_poll;
 	void *kp_poll_ctx;
 	struct mc_trk_frame_keypoints *fkp;
+	mc_pose_prior *prior; /* NULL: none (mc_tracker_load_pose_prior) */
 };
 
 /* Calibration at the current pose on one frame set: with `colours`, each

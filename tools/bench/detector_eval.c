@@ -91,8 +91,23 @@ static void score_view(bench_detector *bd, const mc_clip *clip, int k, int cam, 
 	}
 }
 
+void bench_detector_hints(const mc_tracker *t, const mc_clip *clip, mc_detector_square sq[MC_MAX_CAMERAS])
+{
+	mc_tracker_init_info info;
+	mc_tracker_get_init_info(t, &info);
+	const mc_model *m = mc_tracker_model(t);
+	mc_fk fk;
+	mc_vec3 joints[MC_MAX_JOINTS];
+	mc_model_fk(m, mc_tracker_pose(t), &fk);
+	for (int j = 0; j < m->njoints; j++)
+		joints[j] = fk.rig_from_joint[j].t;
+	for (int c = 0; c < clip->rig.ncams; c++)
+		if (info.initialising || mc_detector_square_around(&clip->rig.cams[c], joints, m->njoints, &sq[c]) < 0)
+			sq[c].size = 0;
+}
+
 int bench_detector_run(bench_detector *bd, const mc_clip *clip, int k, const mc_frame_view *views, int nviews,
-		       mc_keypoint *kp, int max, mc_err *err)
+		       const mc_detector_square *hints, mc_keypoint *kp, int max, mc_err *err)
 {
 	if (k % bd->every != 0)
 		return 0;
@@ -101,6 +116,7 @@ int bench_detector_run(bench_detector *bd, const mc_clip *clip, int k, const mc_
 	for (int c = 0; c < nviews; c++) {
 		mc_detection det[MC_DETECTOR_MAX_JOINTS];
 		uint64_t t0 = mc_now_ns();
+		mc_detector_set_person_square(bd->det, hints && hints[c].size > 0 ? &hints[c] : NULL);
 		int nd = mc_detector_detect(bd->det, views[c].rgb, views[c].width, views[c].height, views[c].stride, det,
 					    MC_DETECTOR_MAX_JOINTS, err);
 		if (nd < 0)
@@ -127,6 +143,17 @@ static void report_agreement(const bench_detector *bd, const mc_clip *clip)
 	printf("AGREE clip=%s checked=%ld agreed_pct=%.1f\n", clip->name, bd->agree.checked, pct);
 }
 
+/* MoveNet with --detector-hint pose: how often the look at the tracked
+ * pose sufficed. */
+static void report_one_look(const bench_detector *bd)
+{
+	mc_detector_timing tm;
+	mc_detector_get_timing(bd->det, &tm);
+	if (tm.one_look > 0)
+		printf("  looks  one (at the tracked pose) in %llu of %llu views, else two\n",
+		       (unsigned long long)tm.one_look, (unsigned long long)tm.calls);
+}
+
 /* A clip without ground truth: the cost and the agreement across views (no
  * DETECT2D line, as nothing was scored). */
 static void report_cost_only(bench_detector *bd, const mc_clip *clip)
@@ -135,6 +162,7 @@ static void report_cost_only(bench_detector *bd, const mc_clip *clip)
 	printf("detector (%s): 2D error not scored (the clip has no gt.json); cost %.2f ms per view (median of %d "
 	       "views, one thread)\n",
 	       mc_detector_path(bd->det), mc_stats_percentile(bd->view_ms, (size_t)bd->nviews, 50), bd->nviews);
+	report_one_look(bd);
 	report_agreement(bd, clip);
 }
 
@@ -169,6 +197,7 @@ void bench_detector_report(bench_detector *bd, const mc_clip *clip)
 	       "count too), %d false (outside the image or > %.0f px off) of %d reported\n",
 	       med, p90, bd->missed, bd->in_image, bd->false_pos, FALSE_PX, bd->reported);
 	printf("  cost   %.2f ms per view (median of %d views, one thread)\n", ms, bd->nviews);
+	report_one_look(bd);
 	printf("DETECT2D clip=%s median_px=%.2f p90_px=%.2f missed=%d in_image=%d false=%d reported=%d ms_view=%.2f\n",
 	       clip_name, med, p90, bd->missed, bd->in_image, bd->false_pos, bd->reported, ms);
 	report_agreement(bd, clip);

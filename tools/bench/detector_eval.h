@@ -35,10 +35,17 @@ int bench_detector_open(bench_detector *bd, const char *path, const mc_model *mo
 			int nframes, mc_err *err);
 void bench_detector_close(bench_detector *bd);
 
-/* Frame set k: detects (when k is a detection frame), scores and writes the
+/* Where the tracker's current pose is in each view (sq[c]; size 0: none),
+ * for the detector's one look (--detector-hint pose), as mocapd does; all
+ * none while the tracker waits for a first pose.  Call it while the tracker
+ * is idle. */
+void bench_detector_hints(const mc_tracker *t, const mc_clip *clip, mc_detector_square sq[MC_MAX_CAMERAS]);
+
+/* Frame set k: detects (when k is a detection frame; hints[c], when not
+ * NULL, says where the person is in view c), scores and writes the
  * tracker's keypoints.  Returns their count, or -1 with err. */
 int bench_detector_run(bench_detector *bd, const mc_clip *clip, int k, const mc_frame_view *views, int nviews,
-		       mc_keypoint *kp, int max, mc_err *err);
+		       const mc_detector_square *hints, mc_keypoint *kp, int max, mc_err *err);
 
 /* The 2D report and its machine-readable DETECT2D line; on a clip without
  * gt.json only the cost. */

@@ -21,6 +21,9 @@ static void usage(FILE *f)
 		   "                        JSON lines, one per tracked frame set, native pixels\n"
 		   "  --cameras LIST        outside-in: use only these clip cameras, e.g. 0,2 (default: all)\n"
 		   "  --lambda-floor L      outside-in: weight of the floor prior (default: mocapd's outside-in value)\n"
+		   "  --pose-prior FILE     the learned pose prior (default config/models/pose_prior.json when\n"
+		   "                        there; 'none': without one)\n"
+		   "  --lambda-prior L      weight of the pose prior (default 1e-3)\n"
 		   "  --frames N            track only the first N frames\n"
 		   "  --fps F               the clip's frame rate (default: gt.json's, else 30)\n"
 		   "  --frame-step N        track every Nth frame set only, as cameras at 1/N of the clip's rate\n"
@@ -57,6 +60,8 @@ static void usage(FILE *f)
 		   "                        thread of its own while k is tracked, and the speed counts the\n"
 		   "                        tracking and any wait for the detection\n"
 		   "  --detector-serial     detect, then track, one frame set after the other (both timed)\n"
+		   "  --detector-hint pose|none  MoveNet models look once where the tracked pose is, as mocapd\n"
+		   "                        does, and at the whole view only when that misses (default none)\n"
 		   "  --keypoints-at-iteration N  the keypoints (detector or simulated) join the tracking at\n"
 		   "                        gradient iteration N instead of before it, as in mocapd when the\n"
 		   "                        detection finishes after the tracking of its frame set began (before\n"
@@ -91,7 +96,7 @@ enum { OPT_MODEL = 256, OPT_OUT, OPT_FRAMES, OPT_BACKEND, OPT_WIDTH, OPT_HEIGHT,
        OPT_NOTHESIS, OPT_QUIET, OPT_CLIP, OPT_HELP, OPT_OVERLAY, OPT_OVERLAY_EVERY, OPT_LANCHOR,
        OPT_SIMDET, OPT_LDET, OPT_DETECTOR, OPT_DET_EVERY, OPT_LCOLOR, OPT_DET_THRESHOLD, OPT_INIT,
        OPT_NORECOVER, OPT_CAMERAS, OPT_LFLOOR, OPT_DET_SERIAL, OPT_KP_AT, OPT_FRAME_STEP, OPT_KP_OUT, OPT_FPS, OPT_SIM_PRESET, OPT_SIM_COLLAPSE, OPT_SIM_SWAP, OPT_SIM_OUTLIER, OPT_SIM_OCC,
-       OPT_SIM_BLIND, OPT_SIDES, OPT_FIT_LIMBS, OPT_VERSION = 'V' };
+       OPT_SIM_BLIND, OPT_SIDES, OPT_FIT_LIMBS, OPT_PRIOR, OPT_LPRIOR, OPT_DET_HINT, OPT_VERSION = 'V' };
 
 static int apply_option(options *o, int c, const char *name, const char *arg, bool *thesis)
 {
@@ -104,6 +109,7 @@ static int apply_option(options *o, int c, const char *name, const char *arg, bo
 	case OPT_OUT: o->out_path = arg; return 0;
 	case OPT_KP_OUT: o->keypoints_out_path = arg; return 0;
 	case OPT_DETECTOR: o->detector_path = arg; return 0;
+	case OPT_PRIOR: o->prior_path = strcmp(arg, "none") == 0 ? NULL : arg; return 0;
 	case OPT_OVERLAY: o->overlay_dir = arg; return 0;
 	case OPT_OCAM: o->use_ocam = true; return 0;
 	case OPT_NOTHESIS: *thesis = false; return 0;
@@ -119,6 +125,13 @@ static int apply_option(options *o, int c, const char *name, const char *arg, bo
 		o->given |= MC_GIVEN_ASSIGN_SIDES;
 		return 0;
 	case OPT_DET_SERIAL: o->detector_serial = true; return 0;
+	case OPT_DET_HINT:
+		if (strcmp(arg, "pose") != 0 && strcmp(arg, "none") != 0) {
+			fprintf(stderr, "mocap-bench: --detector-hint: expected pose or none, got '%s'\n", arg);
+			return -1;
+		}
+		o->detector_hint = strcmp(arg, "pose") == 0;
+		return 0;
 	case OPT_SIM_PRESET: o->sim_preset = arg; return 0;
 	case OPT_SIM_BLIND: o->sim_blind_confidence = true; return 0;
 	case OPT_INIT:
@@ -153,6 +166,7 @@ static int apply_option(options *o, int c, const char *name, const char *arg, bo
 	case OPT_LPOSE: s->lambda_pose = v; break;
 	case OPT_LLIMIT: s->lambda_limit = v; break;
 	case OPT_LANCHOR: s->lambda_anchor = v; break;
+	case OPT_LPRIOR: s->lambda_prior = v; break;
 	case OPT_LFLOOR: s->lambda_floor = v; o->given |= MC_GIVEN_LAMBDA_FLOOR; break;
 	case OPT_LDET: s->lambda_detection = v; o->given |= MC_GIVEN_LAMBDA_DETECTION; break;
 	case OPT_LCOLOR: s->lambda_color = v; break;
@@ -217,6 +231,8 @@ int bench_parse_options(int argc, char **argv, options *o, bool *thesis)
 		{"dropout", 1, 0, OPT_DROP}, {"step", 1, 0, OPT_STEP}, {"momentum", 1, 0, OPT_MOM},
 		{"lambda-smooth", 1, 0, OPT_LSMOOTH}, {"lambda-pose", 1, 0, OPT_LPOSE},
 		{"lambda-limit", 1, 0, OPT_LLIMIT}, {"lambda-anchor", 1, 0, OPT_LANCHOR},
+		{"pose-prior", 1, 0, OPT_PRIOR}, {"lambda-prior", 1, 0, OPT_LPRIOR},
+		{"detector-hint", 1, 0, OPT_DET_HINT},
 		{"lambda-detection", 1, 0, OPT_LDET}, {"simulated-detector", 1, 0, OPT_SIMDET},
 		{"detector", 1, 0, OPT_DETECTOR}, {"detector-every", 1, 0, OPT_DET_EVERY},
 		{"lambda-color", 1, 0, OPT_LCOLOR}, {"detector-threshold", 1, 0, OPT_DET_THRESHOLD},
@@ -277,6 +293,11 @@ void bench_options_init(options *o)
 	memset(o, 0, sizeof(*o));
 	o->model_path = access("config/models/default.json", R_OK) == 0 ? "config/models/default.json"
 									 : MC_INSTALL_DATA_DIR "/models/default.json";
+	/* The pose prior is used when there is one, as mocapd does. */
+	if (access("config/models/pose_prior.json", R_OK) == 0)
+		o->prior_path = "config/models/pose_prior.json";
+	else if (access(MC_INSTALL_DATA_DIR "/models/pose_prior.json", R_OK) == 0)
+		o->prior_path = MC_INSTALL_DATA_DIR "/models/pose_prior.json";
 	o->reference_frames = 3;
 	o->overlay_every = 10;
 	o->frame_step = 1;

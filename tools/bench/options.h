@@ -12,6 +12,7 @@
 typedef struct {
 	const char *clip;
 	const char *model_path;
+	const char *prior_path; /* --pose-prior FILE; NULL: none */
 	const char *out_path;
 	const char *keypoints_out_path; /* --keypoints-out FILE */
 	FILE *keypoints_file;           /* open while tracking (bench/keypoints_out.h) */
@@ -36,6 +37,7 @@ typedef struct {
 	const char *detector_path; /* --detector MODEL: the 2D joint detector feeds the tracker */
 	int detector_every;        /* detect on every Nth frame set */
 	bool detector_serial;      /* detect and track one after the other (default: pipelined) */
+	bool detector_hint;        /* --detector-hint pose: MoveNet looks where the tracked pose is */
 	int keypoints_at_iteration; /* > 0: keypoints join the tracking at this iteration */
 	double detector_threshold; /* < 0: the model's own */
 	double fps;                /* > 0: the clip's frame rate (--fps), else gt.json's or 30 */

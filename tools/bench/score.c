@@ -14,6 +14,8 @@ const char *const bench_eval_joints[BENCH_NEVAL] = {
 	"right_knee", "right_ankle",  "right_toe",
 };
 
+const char *const bench_limb_ends[BENCH_NLIMBS] = {"left_wrist", "right_wrist", "left_ankle", "right_ankle"};
+
 static int skeleton_joint(const mc_skeleton *sk, const char *name)
 {
 	for (int j = 0; j < sk->njoints; j++)
@@ -61,6 +63,21 @@ void bench_score_begin(const mc_clip *clip, int frame_step, bench_stats *st)
 	for (int e = 0; e < BENCH_NEVAL; e++)
 		n += mc_clip_joint(clip, bench_eval_joints[e]) >= 0;
 	mc_jitter_init(&st->jitter, n, frame_step / clip->gt.fps);
+	st->frame_dt = frame_step / clip->gt.fps;
+}
+
+/* Runs of frame sets with a limb's end more than BENCH_LIMB_LOST_M off. */
+static void score_limbs(const mc_clip *clip, int k, const mc_skeleton *sk, bench_stats *st)
+{
+	for (int l = 0; l < BENCH_NLIMBS; l++) {
+		int g = mc_clip_joint(clip, bench_limb_ends[l]), j = skeleton_joint(sk, bench_limb_ends[l]);
+		if (g < 0)
+			continue;
+		bool lost = j < 0 || mc_v3_norm(mc_v3_sub(sk->joints[j].position, mc_clip_gt(clip, k, g))) > BENCH_LIMB_LOST_M;
+		st->limb_run[l] = lost ? st->limb_run[l] + 1 : 0;
+		if (st->limb_run[l] > st->limb_longest[l])
+			st->limb_longest[l] = st->limb_run[l];
+	}
 }
 
 /* The jitter over the joints MPJPE scores; a frame set still waiting for a
@@ -89,6 +106,7 @@ void bench_score_frame(const mc_clip *clip, int k, const mc_skeleton *sk, const 
 	score_confidence(clip, k, sk, st);
 	score(clip, k, still, st->still_sum);
 	score_jitter(clip, k, sk, st);
+	score_limbs(clip, k, sk, st);
 	st->err_n++;
 }
 
@@ -153,6 +171,18 @@ void bench_print_jitter(const mc_clip *clip, const bench_stats *st)
 {
 	printf("JITTER clip=%s vel_err_ms=%.3f accel_ratio=%.3f\n", clip->name, mc_jitter_vel_err(&st->jitter),
 	       mc_jitter_accel_ratio(&st->jitter));
+}
+
+void bench_print_limbs(const mc_clip *clip, const bench_stats *st)
+{
+	int worst = 0;
+	printf("LIMBS clip=%s", clip->name);
+	for (int l = 0; l < BENCH_NLIMBS; l++) {
+		printf(" %s=%.2f", bench_limb_ends[l], st->limb_longest[l] * st->frame_dt);
+		if (st->limb_longest[l] > worst)
+			worst = st->limb_longest[l];
+	}
+	printf(" worst_s=%.2f\n", worst * st->frame_dt);
 }
 
 /* The bone length of model joint j (to its parent) in the ground truth:

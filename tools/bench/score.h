@@ -12,6 +12,10 @@
 
 #define BENCH_NEVAL 15
 extern const char *const bench_eval_joints[BENCH_NEVAL];
+/* The limbs' ends, for how long a limb stays lost (the LIMBS line). */
+#define BENCH_NLIMBS 4
+#define BENCH_LIMB_LOST_M 0.20
+extern const char *const bench_limb_ends[BENCH_NLIMBS];
 
 typedef struct {
 	int frames;
@@ -29,6 +33,10 @@ typedef struct {
 	double conf_err[4];
 	mc_jitter jitter; /* over the tracked frame sets, initialised by bench_score_begin */
 	mc_simdet_stats sim; /* what the simulated detector did */
+	/* per limb end (bench_limb_ends): frame sets in a row, now and at
+	 * most, with the joint more than BENCH_LIMB_LOST_M off */
+	int limb_run[BENCH_NLIMBS], limb_longest[BENCH_NLIMBS];
+	double frame_dt; /* seconds between scored frame sets */
 } bench_stats;
 
 /* Before the first frame set: the jitter's joints and the time between
@@ -42,6 +50,10 @@ double bench_mpjpe(const bench_stats *st);
 void bench_print_accuracy(const mc_clip *clip, const bench_stats *st);
 /* JITTER clip=NAME vel_err_ms=X accel_ratio=Y (nan when undefined). */
 void bench_print_jitter(const mc_clip *clip, const bench_stats *st);
+/* How long each limb stayed lost: the longest run of frame sets with its
+ * end more than 20 cm from the truth, in seconds, and the worst of them:
+ *   LIMBS clip=NAME left_wrist=S right_wrist=S left_ankle=S right_ankle=S worst_s=S */
+void bench_print_limbs(const mc_clip *clip, const bench_stats *st);
 /* What the simulated detector did, as shares:
  *   SIMDET clip=NAME keypoints=N far_pct=F collapsed_pct=C swapped_pct=S occluded_pct=O
  *     occluded_wrong_pct=W outlier_pct=X
