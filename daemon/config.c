@@ -5,11 +5,14 @@
 
 #include <ctype.h>
 #include <errno.h>
+#include <fcntl.h>
 #include <ini.h>
 #include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
 
 /* ---- parsing ----------------------------------------------------------- */
 
@@ -476,11 +479,53 @@ static char *read_file(FILE *f, const char *path, mc_err *err)
 	return text;
 }
 
+static const char *file_kind(mode_t m)
+{
+	return S_ISDIR(m)    ? "a directory"
+	       : S_ISFIFO(m) ? "a FIFO"
+	       : S_ISSOCK(m) ? "a socket"
+	       : S_ISCHR(m)  ? "a character device"
+	       : S_ISBLK(m)  ? "a block device"
+			     : "not a plain file";
+}
+
+/* Opens the config for reading, refusing anything but a regular file: a
+ * FIFO without a writer would block `mocapd --check` for ever, so it is
+ * opened non-blocking and checked with fstat before the first read. */
+static FILE *open_config(const char *path, mc_err *err)
+{
+	int fd = open(path, O_RDONLY | O_NONBLOCK | O_CLOEXEC | O_NOCTTY);
+	if (fd < 0) {
+		mc_err_set(err, "%s: cannot open: %s", path, strerror(errno));
+		return NULL;
+	}
+	struct stat st;
+	if (fstat(fd, &st) != 0) {
+		mc_err_set(err, "%s: %s", path, strerror(errno));
+		close(fd);
+		return NULL;
+	}
+	if (!S_ISREG(st.st_mode)) {
+		mc_err_set(err, "%s: not a regular file (%s); refused", path, file_kind(st.st_mode));
+		close(fd);
+		return NULL;
+	}
+	int flags = fcntl(fd, F_GETFL);
+	if (flags >= 0)
+		fcntl(fd, F_SETFL, flags & ~O_NONBLOCK);
+	FILE *f = fdopen(fd, "rb");
+	if (!f) {
+		mc_err_set(err, "%s: %s", path, strerror(errno));
+		close(fd);
+	}
+	return f;
+}
+
 int mcd_config_load(const char *path, mcd_config *cfg, mc_err *err)
 {
-	FILE *f = fopen(path, "rb");
+	FILE *f = open_config(path, err);
 	if (!f)
-		return mc_err_set(err, "%s: cannot open: %s", path, strerror(errno));
+		return -1;
 	char *text = read_file(f, path, err);
 	fclose(f);
 	if (!text)

@@ -7,8 +7,10 @@
 #include "base/mc_one_euro.h"
 #include "test_util.h"
 
+#include <signal.h>
 #include <string.h>
 #include <sys/stat.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
 static mcd_config cfg;
@@ -337,6 +339,48 @@ static void test_load_file(void)
 	rmdir(dir);
 }
 
+/* A FIFO (or a device) as the config is refused at once: opening a FIFO
+ * without a writer blocks, and `mocapd --check` hung for ever (issue 34).
+ * Run in a child so that a hang shows as a failure, not a stuck test. */
+static void test_load_not_regular(void)
+{
+	char dir[] = "/tmp/mocapd-config-XXXXXX";
+	CHECK(mkdtemp(dir) != NULL);
+	char path[256];
+	snprintf(path, sizeof(path), "%s/fifo.conf", dir);
+	CHECK(mkfifo(path, 0600) == 0);
+	pid_t pid = fork();
+	if (pid == 0) {
+		mc_err err = {{0}};
+		int rc = mcd_config_load(path, &cfg, &err);
+		char want[400];
+		snprintf(want, sizeof(want), "%s: not a regular file (a FIFO); refused", path);
+		if (rc == -1 && strcmp(err.msg, want) != 0)
+			fprintf(stderr, "got '%s'\n", err.msg);
+		_exit(rc == -1 && strcmp(err.msg, want) == 0 ? 0 : 1);
+	}
+	int status = 0;
+	bool done = false;
+	for (int i = 0; i < 300 && !done; i++) {
+		done = waitpid(pid, &status, WNOHANG) == pid;
+		if (!done)
+			usleep(10000);
+	}
+	if (!done) {
+		kill(pid, SIGKILL);
+		waitpid(pid, &status, 0);
+	}
+	CHECK_MSG(done, "mcd_config_load blocked on a FIFO for 3 s");
+	CHECK_MSG(done && WIFEXITED(status) && WEXITSTATUS(status) == 0, "FIFO config not refused as expected");
+	mc_err err = {{0}};
+	CHECK(mcd_config_load(dir, &cfg, &err) == -1);
+	char want[400];
+	snprintf(want, sizeof(want), "%s: not a regular file (a directory); refused", dir);
+	CHECK_MSG(strcmp(err.msg, want) == 0, "%s", err.msg);
+	unlink(path);
+	rmdir(dir);
+}
+
 /* The configs the project ships parse, and mean what they say. */
 static void test_shipped_configs(void)
 {
@@ -491,6 +535,7 @@ int main(void)
 	test_structure_errors();
 	test_cross_checks();
 	test_load_file();
+	test_load_not_regular();
 	test_shipped_configs();
 	test_reload();
 	test_detector();
