@@ -21,7 +21,9 @@
 #include "server.h"
 #include "notify.h"
 #include "pipeline.h"
+#include "probe.h"
 #include "status.h"
+#include "tree.h"
 #include "tracker_setup.h"
 #include "base/mc_time.h"
 
@@ -55,6 +57,7 @@ typedef struct {
 	bool print;
 	bool exit_at_end;
 	bool check_only;
+	bool probe;
 } options;
 
 typedef struct {
@@ -88,12 +91,15 @@ static void usage(FILE *f)
 		"      --save-poses DIR   write the tracker's actor model (DIR/actor.json) and every\n"
 		"                         tracked pose (DIR/pose_<frame>.json) for tools/mocap-render\n"
 		"      --check            check the config and the plugins, then exit\n"
+		"      --probe            list the cameras every driver finds, their modes, and a\n"
+		"                         [camera] section to paste for each, then exit\n"
 		"  -V, --version\n"
 		"  -h, --help\n"
-		"See docs/CONFIG.md for the config file.\n");
+		"Exit status: 0 ok, 1 error (config, start-up, a failed check), 2 bad usage.\n"
+		"See mocapd(8) and mocapd.conf(5) (docs/CONFIG.md in the source) for the config file.\n");
 }
 
-enum { OPT_PLUGIN_DIR = 256, OPT_EXIT_AT_END, OPT_CHECK, OPT_SOCKET, OPT_SAVE_POSES };
+enum { OPT_PLUGIN_DIR = 256, OPT_EXIT_AT_END, OPT_CHECK, OPT_SOCKET, OPT_SAVE_POSES, OPT_PROBE };
 
 /* One option of getopt_long: -1 to go on, else the exit status. */
 static int take_option(int c, options *o)
@@ -131,6 +137,9 @@ static int take_option(int c, options *o)
 	case OPT_CHECK:
 		o->check_only = true;
 		return -1;
+	case OPT_PROBE:
+		o->probe = true;
+		return -1;
 	case 'V':
 		printf("mocapd %s (driver ABI %u)\n", MOCAPD_VERSION, (unsigned)MDRV_ABI_VERSION);
 		return 0;
@@ -155,6 +164,7 @@ static int parse_options(int argc, char **argv, options *o)
 		{"print", no_argument, NULL, 'p'},
 		{"exit-at-end", no_argument, NULL, OPT_EXIT_AT_END},
 		{"check", no_argument, NULL, OPT_CHECK},
+		{"probe", no_argument, NULL, OPT_PROBE},
 		{"version", no_argument, NULL, 'V'},
 		{"help", no_argument, NULL, 'h'},
 		{NULL, 0, NULL, 0},
@@ -186,8 +196,13 @@ static mcd_config *load_config(const options *o, mc_err *err)
 		free(cfg);
 		return NULL;
 	}
+	char tree[PATH_MAX];
 	if (o->plugin_dir)
 		snprintf(cfg->plugin_dir, sizeof(cfg->plugin_dir), "%s", o->plugin_dir);
+	else if (!mcd_config_is_set(cfg, "daemon", "plugin_dir") && mcd_tree_plugin_dir_self(tree, sizeof(tree))) {
+		mcd_info("running from a build tree: driver plugins from %s", tree);
+		snprintf(cfg->plugin_dir, sizeof(cfg->plugin_dir), "%s", tree);
+	}
 	if (o->socket_path)
 		snprintf(cfg->socket.path, sizeof(cfg->socket.path), "%s", o->socket_path);
 	if (o->log_level >= 0)
@@ -574,8 +589,26 @@ static void shutdown_all(daemon_ctx *d)
 	free(d->cfg);
 }
 
+/* The plugin directory, before the OpenCL kernels are built (which takes
+ * seconds): a daemon run from a build tree with the installed default
+ * should fail at once and say which option mends it. */
+static int check_plugin_dir(const mcd_config *cfg, mc_err *err)
+{
+	if (cfg->source.graph[0] || cfg->ncams == 0 || access(cfg->plugin_dir, R_OK | X_OK) == 0)
+		return 0;
+	char where[PATH_MAX + 64];
+	return mc_err_set(err, "%s: driver plugin directory %s: %s; give one with --plugin-dir DIR (in a build tree: "
+			       "--plugin-dir build/drivers)",
+			  mcd_config_is_set(cfg, "daemon", "plugin_dir")
+				  ? mcd_config_where(cfg, "daemon", "plugin_dir", where, sizeof(where))
+				  : "[daemon] plugin_dir (the built-in default)",
+			  cfg->plugin_dir, strerror(errno));
+}
+
 static int start(daemon_ctx *d, mc_err *err)
 {
+	if (check_plugin_dir(d->cfg, err))
+		return -1;
 	d->watchdog_usec = mcd_watchdog_usec();
 	if (block_signals(d, err))
 		return -1;
@@ -629,6 +662,32 @@ static int check_only(const daemon_ctx *d)
 	return ok ? 0 : 1;
 }
 
+/* --probe: the plugin directory is --plugin-dir's, else the config's if
+ * the config loads (a missing config is no reason not to probe), else the
+ * build tree's or the built-in one.  Returns the exit status. */
+static int probe(const options *o)
+{
+	char dir[PATH_MAX];
+	mc_err err = {{0}};
+	mcd_config *cfg = o->plugin_dir ? NULL : load_config(o, &err);
+	if (o->plugin_dir)
+		snprintf(dir, sizeof(dir), "%s", o->plugin_dir);
+	else if (cfg)
+		snprintf(dir, sizeof(dir), "%s", cfg->plugin_dir);
+	else if (!mcd_tree_plugin_dir_self(dir, sizeof(dir)))
+		snprintf(dir, sizeof(dir), "%s", MC_INSTALL_PLUGIN_DIR);
+	free(cfg);
+	int n = mcd_probe_all(dir, stdout, &err);
+	if (n < 0) {
+		mcd_error("%s", err.msg);
+		return 1;
+	}
+	if (n == 0)
+		printf("no cameras found.  USB cameras need read-write access to /dev/video* (group video); GigE "
+		       "cameras must be on this host's subnet; see README.md, \"First real camera\".\n");
+	return 0;
+}
+
 int main(int argc, char **argv)
 {
 	daemon_ctx d = {.sigfd = -1};
@@ -638,6 +697,8 @@ int main(int argc, char **argv)
 	mcd_log_init();
 	if (d.opt.log_level >= 0)
 		mcd_log_set_level(d.opt.log_level);
+	if (d.opt.probe)
+		return probe(&d.opt);
 	mc_err err = {{0}};
 	d.cfg = load_config(&d.opt, &err);
 	if (!d.cfg) {

@@ -5,7 +5,8 @@ include drivers/common/common.mk
 V4L2_PLUGIN := $(BUILD)/drivers/mocap-driver-v4l2.so
 $(BUILD)/drivers/v4l2/%.o: CPPFLAGS += -Idrivers/common
 # The V4L2 core and sysfs helpers are shared with the usb plugin.
-V4L2_CORE_OBJ := $(BUILD)/drivers/v4l2/drv_v4l2.o $(BUILD)/drivers/v4l2/drv_sysfs.o $(HWDRV_COMMON_OBJ)
+V4L2_CORE_OBJ := $(BUILD)/drivers/v4l2/drv_v4l2.o $(BUILD)/drivers/v4l2/drv_v4l2_modes.o \
+	$(BUILD)/drivers/v4l2/drv_sysfs.o $(HWDRV_COMMON_OBJ)
 V4L2_OBJ := $(BUILD)/drivers/v4l2/v4l2_plugin.o $(V4L2_CORE_OBJ)
 
 $(V4L2_PLUGIN): $(V4L2_OBJ)
