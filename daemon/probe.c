@@ -71,16 +71,30 @@ static void print_rates(FILE *out, const mdrv_mode *m)
 	fputc('\n', out);
 }
 
-/* The mode the pasted section asks for: the largest of the first format
- * listed (a driver lists the formats it prefers first). */
+static double top_rate(const mdrv_mode *m)
+{
+	return m->nfps ? m->fps[0] : m->fps_max;
+}
+
+/* Motion capture wants a steady rate more than pixels: the pasted section
+ * asks for the largest size of the first format listed (a driver lists
+ * the one it prefers first) that reaches this rate, else the fastest. */
+#define SUGGESTED_MIN_FPS 25.0
+
 static const mdrv_mode *suggested_mode(const mdrv_mode *modes, int n)
 {
-	const mdrv_mode *best = n > 0 ? &modes[0] : NULL;
-	for (int i = 1; i < n; i++)
-		if (!strcmp(modes[i].pixel_format, modes[0].pixel_format) &&
-		    (uint64_t)modes[i].width * modes[i].height > (uint64_t)best->width * best->height)
-			best = &modes[i];
-	return best;
+	const mdrv_mode *best = NULL, *fastest = NULL;
+	for (int i = 0; i < n; i++) {
+		const mdrv_mode *m = &modes[i];
+		if (strcmp(m->pixel_format, modes[0].pixel_format) != 0)
+			continue;
+		if (!fastest || top_rate(m) > top_rate(fastest))
+			fastest = m;
+		bool fast = top_rate(m) >= SUGGESTED_MIN_FPS || top_rate(m) == 0; /* 0: rate unknown */
+		if (fast && (!best || (uint64_t)m->width * m->height > (uint64_t)best->width * best->height))
+			best = m;
+	}
+	return best ? best : fastest;
 }
 
 /* A section name from the device id: its last path part, with anything

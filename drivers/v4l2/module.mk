@@ -34,6 +34,13 @@ $(HWDRV_TEST_DIR)/test_uvc_vm: tests/drivers/test_uvc_vm.c $(HWDRV_HARNESS_OBJ)
 UVC_VM_DEPS := $(BUILD)/tests/vm/uvc_gadget $(HWDRV_TEST_DIR)/test_uvc_vm $(V4L2_PLUGIN) \
 	$(BUILD)/drivers/mocap-driver-usb.so
 
+# mocapd --probe against the fake GigE camera and vivid in the VM, and its
+# pasted [camera] sections through --check (README.md, "First real camera").
+.PHONY: check-probe
+check-probe: $(V4L2_PLUGIN) $(BUILD)/bin/mocapd
+	$(HWDRV_RUN) tests/vm/probe-test.sh
+CHECKS += check-probe
+
 .PHONY: check-v4l2 check-uvc
 check-v4l2: $(V4L2_PLUGIN) $(HWDRV_TEST_DIR)/test_v4l2 $(HWDRV_TEST_DIR)/test_v4l2_vivid
 	$(HWDRV_RUN) $(HWDRV_TEST_DIR)/test_v4l2 tests/vm/vivid-test.sh
