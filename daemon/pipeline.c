@@ -126,6 +126,7 @@ static int create_detector_thread(mcd_pipeline *p, const mcd_config *cfg, mcd_tr
 		.ncams = p->ncams,
 		.cams = p->cams,
 		.cam_to_rig = tracking->cam_to_rig,
+		.rig = &tracking->rig,
 		.model = mc_tracker_model(tracking->tracker),
 		.sink = p->tracker,
 		.cfg = &cfg->detector,
