@@ -225,7 +225,7 @@ uninstall:
 DEB_PACKAGES += build-essential pkg-config xxd clang llvm libclang-rt-14-dev \
 	libjansson-dev libinih-dev libpng-dev libjpeg62-turbo-dev libturbojpeg0-dev \
 	libsystemd-dev systemd ocl-icd-opencl-dev opencl-headers pocl-opencl-icd clinfo \
-	libaravis-dev aravis-tools libusb-1.0-0-dev libcamera-dev libopenni2-dev \
+	libaravis-dev aravis-tools aravis-tools-cli v4l-utils libusb-1.0-0-dev libcamera-dev libopenni2-dev \
 	qemu-system-x86 linux-image-amd64 busybox-static kmod cpio udev python3 python3-pytest python3-venv python3-pip scdoc \
 	libopencv-dev liblo-dev libavformat-dev libavcodec-dev libavutil-dev zlib1g-dev dpkg-dev debhelper dh-python fakeroot lintian
 

@@ -37,6 +37,7 @@
 #include <string.h>
 #include <sys/signalfd.h>
 #include <sys/socket.h>
+#include <sys/stat.h>
 #include <systemd/sd-daemon.h>
 #include <unistd.h>
 
@@ -260,6 +261,31 @@ static void log_client(void *ctx, const char *line)
 	mcd_info("%s", line);
 }
 
+/* Who may connect: users get "permission denied" from the socket's mode
+ * and group, so the log names both (and the command that lets one in). */
+static void log_socket_access(const char *path, bool from_systemd)
+{
+	struct stat st;
+	const char *how = from_systemd ? " (from systemd)" : "";
+	if (stat(path, &st) != 0) {
+		mcd_info("socket: %s%s", path, how);
+		return;
+	}
+	struct group *gr = getgrgid(st.st_gid);
+	char group[64];
+	if (gr)
+		snprintf(group, sizeof(group), "%s", gr->gr_name);
+	else
+		snprintf(group, sizeof(group), "%u", (unsigned)st.st_gid);
+	if (st.st_mode & S_IWOTH)
+		mcd_info("socket: %s%s, mode %04o: any local user may connect", path, how,
+			 (unsigned)(st.st_mode & 07777));
+	else
+		mcd_info("socket: %s%s, group %s, mode %04o: clients must run as its owner or in group %s "
+			 "(sudo usermod -aG %s USER, then log in again)",
+			 path, how, group, (unsigned)(st.st_mode & 07777), group, group);
+}
+
 static int start_server(daemon_ctx *d, mc_err *err)
 {
 	const mcd_config *cfg = d->cfg;
@@ -296,7 +322,7 @@ static int start_server(daemon_ctx *d, mc_err *err)
 			mc_err_prefix(err, "%s", mcd_config_where(cfg, "network", "listen", where, sizeof(where)));
 		return -1;
 	}
-	mcd_info("socket: %s%s", cfg->socket.path, sc.listen_fd >= 0 ? " (from systemd)" : "");
+	log_socket_access(cfg->socket.path, sc.listen_fd >= 0);
 	if (sc.tcp_listen[0])
 		mcd_info("network: TCP clients on %s (port %d), with the token of %s%s", sc.tcp_listen,
 			 srv_tcp_port(d->srv), cfg->network.token_file,

@@ -6,6 +6,7 @@
 #include "frame_size.h"
 #include "daemon/harness.h"
 
+#include <grp.h>
 #include <math.h>
 #include <stdio.h>
 #include <string.h>
@@ -156,6 +157,12 @@ static void test_first_frame(void)
 		  "%s", log ? log : "no log");
 	CHECK(log && mcd_count(log, "but rig camera 'right'") == 1); /* once, not per frame */
 	CHECK(log && !strstr(log, "but rig camera 'left'"));
+	/* issue 31 item 4: the log says who may connect (the default mode is 0660) */
+	char who[300];
+	struct group *gr = getgrgid(getegid());
+	snprintf(who, sizeof(who), "%s, group %s, mode 0660: clients must run as its owner or in group %s", r.sock,
+		 gr ? gr->gr_name : "?", gr ? gr->gr_name : "?");
+	CHECK_MSG(log && strstr(log, who), "no '%s' in the log", who);
 	if (getenv("MOCAP_TEST_VERBOSE"))
 		printf("%s", log ? log : "");
 	free(log);
