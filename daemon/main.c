@@ -13,6 +13,7 @@
  * or pipeline: a graph source publishes graph walks, steered by STEER
  * control requests, and the main loop is the same. */
 #include "actor.h"
+#include "cl_cache.h"
 #include "config.h"
 #include "detector_thread.h"
 #include "graph_source.h"
@@ -734,6 +735,14 @@ int main(int argc, char **argv)
 	}
 	mcd_log_set_level(d.cfg->log_level);
 	d.start_ns = mc_now_ns();
+	char note[PATH_MAX + 400];
+	if (mcd_cl_cache_setup(note, sizeof(note)) != 0 && d.cfg->tracker.enabled && !d.cfg->source.graph[0]) {
+		mcd_error("%s", note);
+		free(d.cfg);
+		return 1;
+	}
+	if (note[0])
+		mcd_info("%s", note);
 	if (d.opt.check_only) {
 		rc = check_only(&d);
 		free(d.cfg);
