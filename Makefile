@@ -194,6 +194,13 @@ check-san:
 
 # make install into a temporary PREFIX, the installed programs run from
 # there, make uninstall (tests/install-test.sh; its own BUILD folder).
+# Every program's -h, --version and a bad option (tests/cli-test.sh; the
+# install test runs it on the installed programs too).
+CHECKS += check-cli
+.PHONY: check-cli
+check-cli: $(BINS) $(TOOLS)
+	MOCAP_BUILD=$(BUILD) tests/run-tests.sh $(BUILD) tests/cli-test.sh
+
 CHECKS += check-install
 .PHONY: check-install
 check-install:

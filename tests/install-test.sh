@@ -35,6 +35,8 @@ if command -v scdoc >/dev/null; then
 		[ -s "$prefix/share/man/$m" ] || fail "no man page $prefix/share/man/$m"
 	done
 fi
+# every installed program: -h, --version, a bad option (issue 31 item 6)
+"$repo/tests/cli-test.sh" "$prefix/bin" >"$tmp/cli.log" 2>&1 || { cat "$tmp/cli.log"; fail "tests/cli-test.sh $prefix/bin"; }
 # mocap-calibrate from the install: a board to print
 "$prefix/bin/mocap-calibrate" board --out "$tmp/board" >"$tmp/board.log" 2>&1 && [ -s "$tmp/board.pdf" ] && [ -s "$tmp/board.json" ] ||
 	fail "installed mocap-calibrate board: $(cat "$tmp/board.log")"
