@@ -49,5 +49,16 @@ fi
 man=$(dirname "$0")/../docs/man/mocapd.8.scd
 [ ! -f "$man" ] || grep -q "^2 on a bad command line\|, 2 on a bad command line" "$man" ||
 	fail "mocapd(8) does not document exit status 2"
+# One version: mocapd's, the .deb's (debian/changelog), the Python
+# package's and libmocap's (python3-mocap was 0.1 beside pip's 1.2.0).
+repo=$(dirname "$0")/..
+if [ -x "$bindir/mocapd" ] && [ -f "$repo/debian/changelog" ]; then
+	v=$("$bindir/mocapd" --version | sed -n 's/^mocapd \([^ ]*\).*/\1/p')
+	deb=$(sed -n '1s/^mocapd (\([^)-]*\).*/\1/p' "$repo/debian/changelog")
+	py=$(sed -n 's/^__version__ = "\(.*\)"/\1/p' "$repo/python/mocap.py")
+	so=$(sed -n 's/^IPC_SO_VERSION := //p' "$repo/ipc/module.mk")
+	[ "$v" = "$deb" ] && [ "$v" = "$py" ] && [ "$v" = "$so" ] ||
+		fail "versions differ: mocapd $v, debian/changelog $deb, python/mocap.py $py, libmocap $so"
+fi
 [ $failures -eq 0 ] || exit 1
 echo "cli-test: $n programs ok"
