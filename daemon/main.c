@@ -14,6 +14,7 @@
  * control requests, and the main loop is the same. */
 #include "actor.h"
 #include "cl_cache.h"
+#include "check.h"
 #include "config.h"
 #include "detector_thread.h"
 #include "graph_source.h"
@@ -186,15 +187,16 @@ static int parse_options(int argc, char **argv, options *o)
 	return -1; /* go on */
 }
 
-/* Loads the config and applies the command line over it. */
-static mcd_config *load_config(const options *o, mc_err *err)
+/* Loads the config and applies the command line over it.  With `all`
+ * (--check), every error of the file is listed there. */
+static mcd_config *load_config_all(const options *o, mcd_config_errors *all, mc_err *err)
 {
 	mcd_config *cfg = calloc(1, sizeof(*cfg));
 	if (!cfg) {
 		mc_err_set(err, "out of memory");
 		return NULL;
 	}
-	if (mcd_config_load(o->config_path, cfg, err)) {
+	if (mcd_config_load_all(o->config_path, cfg, all, err)) {
 		free(cfg);
 		return NULL;
 	}
@@ -212,6 +214,11 @@ static mcd_config *load_config(const options *o, mc_err *err)
 	if (o->print)
 		cfg->print = true;
 	return cfg;
+}
+
+static mcd_config *load_config(const options *o, mc_err *err)
+{
+	return load_config_all(o, NULL, err);
 }
 
 /* ---- start-up ---------------------------------------------------------------------- */
@@ -658,35 +665,24 @@ static int start(daemon_ctx *d, mc_err *err)
 	return 0;
 }
 
-/* --check: the rig, the model, the initial joints, the TCP token file, the
- * detector's model, the plugins and every camera's driver keys (checked by the driver) are
- * the parts of start-up that can be checked without touching devices or
- * OpenCL.  Returns the exit status. */
-static int check_only(const daemon_ctx *d)
+/* --check's loading: every error of the file. */
+static mcd_config *load_for_check(const options *o, mc_err *err)
 {
-	mc_err err = {{0}};
-	char where[PATH_MAX + 64];
-	if (d->cfg->source.graph[0]) {
-		int rc = mcd_graph_source_check(d->cfg, &err);
-		if (rc)
-			mcd_error("%s", err.msg);
-		else
-			printf("%s: ok\n", d->opt.config_path);
-		return rc ? 1 : 0;
+	mcd_config_errors all = {.cap = 16384};
+	all.buf = calloc(1, all.cap);
+	mcd_config *cfg = all.buf ? load_config_all(o, &all, err) : load_config(o, err);
+	if (!cfg && all.buf && all.n > 0) {
+		for (char *line = all.buf, *nl; *line; line = nl + 1) {
+			nl = strchr(line, '\n');
+			*nl = 0;
+			mcd_error("%s", line);
+		}
+		if (all.untold)
+			mcd_error("... and %d more", all.untold);
+		mc_err_set(err, "%s: %d error%s", o->config_path, all.n, all.n == 1 ? "" : "s");
 	}
-	bool ok = !d->cfg->tracker.enabled || mcd_tracking_check(d->cfg, &err) == 0;
-	char token[SRV_TOKEN_MAX];
-	ok = ok && (!d->cfg->network.listen[0] || mcd_network_read_token(d->cfg, token, sizeof(token), &err) == 0);
-	ok = ok && mcd_detector_check(&d->cfg->detector,
-				      mcd_config_where(d->cfg, "detector", "model", where, sizeof(where)), &err) == 0;
-	mcd_pipeline *p = ok ? mcd_pipeline_create(d->cfg, NULL, NULL, &err) : NULL;
-	ok = p != NULL && mcd_pipeline_check_cameras(p, &err) == 0;
-	mcd_pipeline_destroy(p);
-	if (!ok)
-		mcd_error("%s", err.msg);
-	else
-		printf("%s: ok\n", d->opt.config_path);
-	return ok ? 0 : 1;
+	free(all.buf);
+	return cfg;
 }
 
 /* --probe: the plugin directory is --plugin-dir's, else the config's if
@@ -727,7 +723,7 @@ int main(int argc, char **argv)
 	if (d.opt.probe)
 		return probe(&d.opt);
 	mc_err err = {{0}};
-	d.cfg = load_config(&d.opt, &err);
+	d.cfg = d.opt.check_only ? load_for_check(&d.opt, &err) : load_config(&d.opt, &err);
 	if (!d.cfg) {
 		mcd_error("%s", err.msg);
 		mcd_notify_status(err.msg);
@@ -744,7 +740,7 @@ int main(int argc, char **argv)
 	if (note[0])
 		mcd_info("%s", note);
 	if (d.opt.check_only) {
-		rc = check_only(&d);
+		rc = mcd_check(d.cfg, d.opt.config_path);
 		free(d.cfg);
 		return rc;
 	}
