@@ -201,6 +201,12 @@ CHECKS += check-cli
 check-cli: $(BINS) $(TOOLS)
 	MOCAP_BUILD=$(BUILD) tests/run-tests.sh $(BUILD) tests/cli-test.sh
 
+# Programs run from the build tree find its plugins and files (tests/tree-test.sh).
+CHECKS += check-tree
+.PHONY: check-tree
+check-tree: $(BINS) $(PLUGINS)
+	MOCAP_BUILD=$(BUILD) tests/run-tests.sh $(BUILD) tests/tree-test.sh
+
 CHECKS += check-install
 .PHONY: check-install
 check-install:
