@@ -226,6 +226,15 @@ install: $(INSTALLED)
 	$(if $(PLUGINS),install -m 755 $(PLUGINS) $(DESTDIR)$(LIBDIR)/mocapd/drivers/)
 	install -m 644 config/models/*.json $(DESTDIR)$(DATADIR)/mocapd/models/
 	install -m 644 config/rigs/*.json $(DESTDIR)$(DATADIR)/mocapd/rigs/
+	@# The linker's cache learns the new libmocap.so.1 only from ldconfig:
+	@# without it, programs built against the installed libmocap fail to
+	@# load it.  Not for staged installs (DESTDIR: packages run it).
+	@if [ -n "$(DESTDIR)" ]; then :; \
+	elif [ "$$(id -u)" = 0 ] && command -v ldconfig >/dev/null; then ldconfig && echo "ldconfig: done"; \
+	else echo "make install: run 'sudo ldconfig' so that programs find $(LIBDIR)/libmocap.so.1"; fi
+	@case ":$$(ldconfig -v 2>/dev/null | sed -n 's/^\([^ \t]*\):.*/\1/p' | tr '\n' ':'):" in \
+	*":$(LIBDIR):"*) ;; \
+	*) [ -n "$(DESTDIR)" ] || echo "make install: $(LIBDIR) is not in the linker's search path: build against it with -Wl,-rpath,$(LIBDIR) or add it to /etc/ld.so.conf.d/";; esac
 
 # Removes what `make install` put there, with the same variables (the
 # config in $(SYSCONFDIR)/mocapd is kept: it may hold the user's changes).

@@ -17,6 +17,9 @@ cleanup() { rm -rf "$tmp"; }
 trap cleanup EXIT
 
 make -s $vars install >"$tmp/install.log" 2>&1 || { tail -n 30 "$tmp/install.log"; fail "make install"; }
+# the linker's cache: ldconfig run (as root), or the user told to (issue 31 item 5)
+grep -q "^ldconfig: done\|run 'sudo ldconfig'" "$tmp/install.log" || fail "make install neither ran ldconfig nor said to"
+grep -q "$prefix/lib is not in the linker's search path" "$tmp/install.log" || fail "make install did not say $prefix/lib is not searched"
 for f in bin/mocapd bin/mocapctl bin/mocap-bench bin/mocap-vmc bin/mocap-export bin/mocap-track bin/mocap-calibrate \
 	bin/mocap-graph bin/mocap-preview share/mocapd/preview/index.html \
 	lib/mocapd/drivers/mocap-driver-take.so lib/mocapd/drivers/mocap-driver-files.so \
