@@ -96,7 +96,13 @@ bench-latency: $(MOCAPD) $(BUILD)/bin/mocapctl
 # ---- the demo: mocapd on the bundled clip, no hardware (README's first command)
 .PHONY: demo
 demo: all
-	daemon/demo.sh $(BUILD)
+	daemon/demo.sh $(if $(V),-v) $(BUILD)
+
+# The demo's output: short, ending with the table and the overlay page.
+CHECKS += check-demo
+.PHONY: check-demo
+check-demo: all
+	MOCAP_BUILD=$(BUILD) tests/run-tests.sh $(BUILD) tests/demo-test.sh
 
 # ---- install: the service files and the example config (the binaries and
 # plugins are installed by the top-level rule).  Units, sysusers, tmpfiles
