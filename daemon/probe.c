@@ -111,7 +111,7 @@ static void section_name(const char *driver, const char *id, char *out, size_t c
 
 static void print_section(FILE *out, const char *driver, const mdrv_device_info *dev, const mdrv_mode *m)
 {
-	char name[64];
+	char name[sizeof dev->id];
 	section_name(driver, dev->id, name, sizeof name);
 	fprintf(out, "    paste into mocapd.conf (set rig_camera to this camera's name in your rig file):\n");
 	fprintf(out, "      [camera %s]\n      driver = %s\n      rig_camera = %s\n      device = %s\n", name, driver,
