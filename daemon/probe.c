@@ -188,7 +188,7 @@ static int probe_driver(const char *dir, const char *name, FILE *out)
 	}
 	free(devs);
 	free(modes);
-	mcd_plugin_unload(&pl);
+	mcd_plugin_keep(&pl);
 	return n > 0 ? n : 0;
 }
 

@@ -50,12 +50,16 @@ aravis_part() {
 	command -v arv-fake-gv-camera-0.8 >/dev/null || { echo "aravis part: SKIP (no arv-fake-gv-camera-0.8)"; return; }
 	[ -f "$drivers/mocap-driver-aravis.so" ] || { echo "aravis part: SKIP (the aravis plugin is not built)"; return; }
 	local report=$work/aravis.txt
+	# The aravis plugin alone: libcamera's tracing threads (lttng) crash
+	# LeakSanitizer's tracer at exit in ASan builds, and the other plugins
+	# find nothing in the namespace anyway.
+	mkdir -p "$work/aravis-only" && cp "$drivers/mocap-driver-aravis.so" "$work/aravis-only/" || return
 	local run='ip link set lo up 2>/dev/null; arv-fake-gv-camera-0.8 -i 127.0.0.1 -s PROBE01 >/dev/null 2>&1 &
 		fake=$!; sleep 1; "$0" --probe --plugin-dir "$1"; rc=$?; kill $fake; wait $fake 2>/dev/null; exit $rc'
 	if unshare -rn true 2>/dev/null; then
-		unshare -rn bash -c "$run" "$mocapd" "$drivers" >"$report" 2>"$work/aravis.err"
+		unshare -rn bash -c "$run" "$mocapd" "$work/aravis-only" >"$report" 2>"$work/aravis.err"
 	else
-		bash -c "$run" "$mocapd" "$drivers" >"$report" 2>"$work/aravis.err"
+		bash -c "$run" "$mocapd" "$work/aravis-only" >"$report" 2>"$work/aravis.err"
 	fi || fail "mocapd --probe exited $? (aravis part)"
 	ran=$((ran + 1))
 	cat "$report"
