@@ -120,8 +120,9 @@ static void print_section(FILE *out, const char *driver, const mdrv_device_info 
 		fprintf(out, "      ; or, stable across renumbering: bus_info = %s\n", dev->bus_info);
 	if (!m)
 		return;
-	fprintf(out, "      pixel_format = %s\n      width = %u\n      height = %u\n", m->pixel_format,
-		(unsigned)m->width, (unsigned)m->height);
+	fprintf(out, "      %s = %s\n      width = %u\n      height = %u\n",
+		m->format_key[0] ? m->format_key : "pixel_format", m->pixel_format, (unsigned)m->width,
+		(unsigned)m->height);
 	if (m->nfps)
 		fprintf(out, "      fps = %.4g\n", m->fps[0]);
 	else if (m->fps_max > 0)

@@ -97,7 +97,8 @@ typedef struct {
  * pixel_format, width, height and fps select. */
 #define MDRV_MODE_RATES 16
 typedef struct {
-	char pixel_format[24];   /* the value this driver's `pixel_format` key takes, e.g. "YUYV", "Mono8" */
+	char format_key[24];     /* the config key that selects the format; "" means "pixel_format" */
+	char pixel_format[24];   /* the value that key takes, e.g. "YUYV", "Mono8" (or "depth" for openni2's "stream") */
 	uint32_t pixfmt;         /* mc_pixfmt of the frames delivered in this mode */
 	uint32_t width, height;  /* pixels; for a sensor with a free region, its largest */
 	uint32_t nfps;           /* how many discrete rates fps[] holds, highest first */
