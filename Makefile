@@ -194,6 +194,19 @@ check-san:
 
 # make install into a temporary PREFIX, the installed programs run from
 # there, make uninstall (tests/install-test.sh; its own BUILD folder).
+# Every program's -h, --version and a bad option (tests/cli-test.sh; the
+# install test runs it on the installed programs too).
+CHECKS += check-cli
+.PHONY: check-cli
+check-cli: $(BINS) $(TOOLS)
+	MOCAP_BUILD=$(BUILD) tests/run-tests.sh $(BUILD) tests/cli-test.sh
+
+# Programs run from the build tree find its plugins and files (tests/tree-test.sh).
+CHECKS += check-tree
+.PHONY: check-tree
+check-tree: $(BINS) $(PLUGINS)
+	MOCAP_BUILD=$(BUILD) tests/run-tests.sh $(BUILD) tests/tree-test.sh
+
 CHECKS += check-install
 .PHONY: check-install
 check-install:
@@ -213,6 +226,15 @@ install: $(INSTALLED)
 	$(if $(PLUGINS),install -m 755 $(PLUGINS) $(DESTDIR)$(LIBDIR)/mocapd/drivers/)
 	install -m 644 config/models/*.json $(DESTDIR)$(DATADIR)/mocapd/models/
 	install -m 644 config/rigs/*.json $(DESTDIR)$(DATADIR)/mocapd/rigs/
+	@# The linker's cache learns the new libmocap.so.1 only from ldconfig:
+	@# without it, programs built against the installed libmocap fail to
+	@# load it.  Not for staged installs (DESTDIR: packages run it).
+	@if [ -n "$(DESTDIR)" ]; then :; \
+	elif [ "$$(id -u)" = 0 ] && command -v ldconfig >/dev/null; then ldconfig && echo "ldconfig: done"; \
+	else echo "make install: run 'sudo ldconfig' so that programs find $(LIBDIR)/libmocap.so.1"; fi
+	@case ":$$(ldconfig -v 2>/dev/null | sed -n 's/^\([^ \t]*\):.*/\1/p' | tr '\n' ':'):" in \
+	*":$(LIBDIR):"*) ;; \
+	*) [ -n "$(DESTDIR)" ] || echo "make install: $(LIBDIR) is not in the linker's search path: build against it with -Wl,-rpath,$(LIBDIR) or add it to /etc/ld.so.conf.d/";; esac
 
 # Removes what `make install` put there, with the same variables (the
 # config in $(SYSCONFDIR)/mocapd is kept: it may hold the user's changes).
@@ -225,7 +247,7 @@ uninstall:
 DEB_PACKAGES += build-essential pkg-config xxd clang llvm libclang-rt-14-dev \
 	libjansson-dev libinih-dev libpng-dev libjpeg62-turbo-dev libturbojpeg0-dev \
 	libsystemd-dev systemd ocl-icd-opencl-dev opencl-headers pocl-opencl-icd clinfo \
-	libaravis-dev aravis-tools libusb-1.0-0-dev libcamera-dev libopenni2-dev \
+	libaravis-dev aravis-tools aravis-tools-cli v4l-utils libusb-1.0-0-dev libcamera-dev libopenni2-dev \
 	qemu-system-x86 linux-image-amd64 busybox-static kmod cpio udev python3 python3-pytest python3-venv python3-pip scdoc \
 	libopencv-dev liblo-dev libavformat-dev libavcodec-dev libavutil-dev zlib1g-dev dpkg-dev debhelper dh-python fakeroot lintian
 

@@ -17,6 +17,7 @@
 extern "C" {
 #include "base/mc_parse.h"
 #include "geom/mc_rig.h"
+#include "mc_install_paths.h" /* generated: MC_VERSION */
 }
 
 #include <opencv2/imgcodecs.hpp>
@@ -46,9 +47,22 @@ void usage(FILE *out)
 		     "                 --board BOARD.json --camera NAME,MODEL[,FOV_DEG] ... --out RIG.json [...]\n"
 		     "MODEL is pinhole or equidistant (fisheye). Images of one instant carry the same file\n"
 		     "name in every camera's folder; --live collects them from mocapd's cameras into\n"
-		     "RIG.views/CAMERA/. See mocap-calibrate(1) and docs/CALIBRATION.md.\n",
+		     "RIG.views/CAMERA/. -h/--help, -V/--version. Exit status: 0 done, 1 the calibration\n"
+		     "failed, 2 bad command line or input. See mocap-calibrate(1) and docs/CALIBRATION.md.\n",
 		     prog, prog, prog);
 }
+
+/* -h and -V, as every mocapd program takes them (exit 0). */
+[[noreturn]] void help_or_version(int o)
+{
+	if (o == 'h')
+		usage(stdout);
+	else
+		std::printf("%s %s\n", prog, MC_VERSION);
+	std::exit(0);
+}
+
+#define HELP_VERSION_OPTS {"help", no_argument, nullptr, 'h'}, {"version", no_argument, nullptr, 'W'}
 
 [[noreturn]] void bad_usage(const char *fmt, const char *arg)
 {
@@ -73,10 +87,10 @@ int cmd_board(int argc, char **argv)
 				      {"dictionary", required_argument, nullptr, 'd'},
 				      {"margin-mm", required_argument, nullptr, 'g'},
 				      {"dpi", required_argument, nullptr, 'p'},
-				      {"help", no_argument, nullptr, 'h'},
+				      HELP_VERSION_OPTS,
 				      {nullptr, 0, nullptr, 0}};
 	double v;
-	for (int o; (o = getopt_long(argc, argv, "", opts, nullptr)) != -1;) {
+	for (int o; (o = getopt_long(argc, argv, "hV", opts, nullptr)) != -1;) {
 		switch (o) {
 		case 'o': out = optarg; break;
 		case 's':
@@ -102,7 +116,9 @@ int cmd_board(int argc, char **argv)
 			if (!mc_parse_double(optarg, &dpi) || dpi < 30 || dpi > 2400)
 				bad_usage("--dpi: expected 30..2400, got '%s'", optarg);
 			break;
-		case 'h': usage(stdout); return 0;
+		case 'h':
+		case 'V':
+		case 'W': help_or_version(o == 'h' ? 'h' : 'V');
 		default: usage(stderr); return 2;
 		}
 	}
@@ -262,10 +278,15 @@ calibrate_args parse_calibrate(int argc, char **argv)
 				      {"views", required_argument, nullptr, 'V'},
 				      {"seconds", required_argument, nullptr, 'T'},
 				      {"snapshot", required_argument, nullptr, 'P'},
-				      {"help", no_argument, nullptr, 'h'},
+				      HELP_VERSION_OPTS,
 				      {nullptr, 0, nullptr, 0}};
 	double v;
-	for (int o; (o = getopt_long(argc, argv, "", opts, nullptr)) != -1;) {
+	/* 'V' is --views here: -V for the version is the short option, which
+	 * getopt reports as 'V' too, so --views is told apart by its index. */
+	int index = -1;
+	for (int o; (o = getopt_long(argc, argv, "hV", opts, &index)) != -1; index = -1) {
+		if (o == 'V' && index < 0)
+			help_or_version('V');
 		switch (o) {
 		case 'L': a.live = true; break;
 		case 'S': a.live_opt.socket = optarg; break;
@@ -293,7 +314,8 @@ calibrate_args parse_calibrate(int argc, char **argv)
 		case '3': a.k3 = true; break;
 		case 't': a.tangential = true; break;
 		case 'v': a.verbose = true; break;
-		case 'h': usage(stdout); std::exit(0);
+		case 'h':
+		case 'W': help_or_version(o == 'h' ? 'h' : 'V');
 		default: usage(stderr); std::exit(2);
 		}
 	}

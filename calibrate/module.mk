@@ -25,6 +25,9 @@ $(CALIB_LIB): $(CALIB_OBJ)
 	@rm -f $@
 	ar rcs $@ $^
 
+# It prints MC_VERSION (--version).
+$(BUILD)/calibrate/mocap-calibrate.o: $(INSTALL_PATHS_H)
+
 $(MOCAP_CALIBRATE): $(BUILD)/calibrate/mocap-calibrate.o $(CALIB_LIB) $(BUILD)/libmocap.a $(CORE_LIB)
 	@mkdir -p $(@D)
 	$(CXX) $(CXXFLAGS) $< -o $@ $(LDFLAGS) $(CALIB_LINK)

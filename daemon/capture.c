@@ -32,6 +32,10 @@ struct mcd_camera {
 	mcd_camera_sink sink;
 	mdrv_host host;
 	bool key_read[MCD_MAX_DRIVER_KEYS];
+	/* Keys the driver asked for that the section lacks, during --check:
+	 * what an unknown key may be a typo of. */
+	char asked[MCD_MAX_DRIVER_KEYS][MCD_NAME_MAX];
+	int nasked;
 	char epoch[32]; /* offered as "epoch" on the first opening; "" = none */
 	unsigned outages; /* times the camera went away after streaming (capture thread only) */
 	int open_status;  /* what the last failed open() said (host_open_status) */
@@ -84,6 +88,8 @@ static const char *host_config_get(void *ctx, const char *key)
 			c->key_read[i] = true;
 			return c->cfg.keys[i].value;
 		}
+	if (c->nasked < MCD_MAX_DRIVER_KEYS && n < MCD_NAME_MAX)
+		memcpy(c->asked[c->nasked++], key, n + 1);
 	/* The shared time origin, so that frame k of every camera carries the
 	 * same timestamp (drivers that pace recorded frames ask for it). Only
 	 * on the first opening: a reopened camera starts a new stream. */
@@ -299,14 +305,18 @@ int mcd_camera_check(mcd_camera *c, mc_err *err)
 	}
 	char msg[512] = "";
 	memset(c->key_read, 0, sizeof(c->key_read));
+	c->nasked = 0;
 	if (c->drv->check(&c->host, msg, sizeof(msg)) != MDRV_OK)
 		return mc_err_set(err, "%s:%d: [camera %s] %s", c->config_file, line_of_message(c, msg), c->cfg.name,
 				  msg[0] ? msg : "bad keys");
-	for (int i = 0; i < c->cfg.nkeys; i++)
-		if (!c->key_read[i])
-			return mc_err_set(err, "%s:%d: [camera %s] %s: unknown key (the %s driver does not read it)",
-					  c->config_file, c->cfg.keys[i].line, c->cfg.name, c->cfg.keys[i].key,
-					  c->drv->name);
+	for (int i = 0; i < c->cfg.nkeys; i++) {
+		if (c->key_read[i])
+			continue;
+		const char *near = mcd_suggest_name(c->cfg.keys[i].key, c->asked[0], sizeof(c->asked[0]), c->nasked);
+		return mc_err_set(err, "%s:%d: [camera %s] %s: unknown key (the %s driver does not read it%s%s%s)",
+				  c->config_file, c->cfg.keys[i].line, c->cfg.name, c->cfg.keys[i].key, c->drv->name,
+				  near ? "; did you mean '" : "", near ? near : "", near ? "'?" : "");
+	}
 	return 0;
 }
 

@@ -5,17 +5,21 @@
 
 #include <ctype.h>
 #include <errno.h>
+#include <fcntl.h>
 #include <ini.h>
 #include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
 
 /* ---- parsing ----------------------------------------------------------- */
 
 typedef struct {
 	mcd_config *cfg;
 	mc_err *err;
+	mcd_config_errors *all; /* NULL: stop at the first error */
 	bool failed;
 	const char *origin;
 	/* the text being read, line by line */
@@ -35,18 +39,39 @@ typedef struct {
 	} headers[MC_MAX_CAMERAS + 8];
 } parser;
 
+static void errors_add(mcd_config_errors *all, const char *msg)
+{
+	all->n++;
+	size_t n = strlen(msg);
+	if (all->len + n + 2 > all->cap) {
+		all->untold++;
+		return;
+	}
+	memcpy(all->buf + all->len, msg, n);
+	all->len += n;
+	all->buf[all->len++] = '\n';
+	all->buf[all->len] = 0;
+}
+
+/* Records an error at the current line: err keeps the first; with `all`
+ * every one is listed and reading goes on. */
 static int fail(parser *p, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
 static int fail(parser *p, const char *fmt, ...)
 {
-	if (p->failed)
+	if (p->failed && !p->all)
 		return 0; /* keep the first error */
-	p->failed = true;
 	char msg[400];
 	va_list ap;
 	va_start(ap, fmt);
 	vsnprintf(msg, sizeof(msg), fmt, ap);
 	va_end(ap);
-	mc_err_set(p->err, "%s:%d: %s", p->origin, p->line, msg);
+	mc_err e;
+	mc_err_set(&e, "%s:%d: %s", p->origin, p->line, msg);
+	if (!p->failed)
+		*p->err = e;
+	p->failed = true;
+	if (p->all)
+		errors_add(p->all, e.msg);
 	return 0;
 }
 
@@ -174,7 +199,13 @@ static void begin_section(parser *p, const char *name)
 		begin_camera(p, name);
 	} else {
 		p->known = false;
-		fail(p, "unknown section [%s] (expected [daemon], [camera NAME], [tracker], [socket], [detector], [network], [record], [source] or [output])", name);
+		const char *near = mcd_config_suggest_section(name);
+		if (near)
+			fail(p, "unknown section [%s] (did you mean [%s%s]?)", name, near,
+			     strcmp(near, "camera") == 0 ? " NAME" : "");
+		else
+			fail(p, "unknown section [%s] (expected [daemon], [camera NAME], [tracker], [socket], [detector], "
+				"[network], [record], [source] or [output])", name);
 	}
 }
 
@@ -213,7 +244,7 @@ static bool check_line(parser *p, const char *buf)
 static char *read_line(char *buf, int cap, void *stream)
 {
 	parser *p = stream;
-	if (p->failed || !p->text[p->pos])
+	if ((p->failed && !p->all) || !p->text[p->pos])
 		return NULL;
 	const char *start = p->text + p->pos;
 	const char *nl = strchr(start, '\n');
@@ -225,13 +256,20 @@ static char *read_line(char *buf, int cap, void *stream)
 		content--;
 	if (content + 2 > (size_t)cap) {
 		fail(p, "line too long (at most %d characters)", cap - 2);
-		return NULL;
+		if (!p->all)
+			return NULL;
+		content = 0; /* read on as an empty line */
 	}
 	memcpy(buf, start, content);
 	buf[content] = '\n';
 	buf[content + 1] = 0;
 
-	return check_line(p, buf) ? buf : NULL;
+	if (check_line(p, buf))
+		return buf;
+	if (!p->all)
+		return NULL;
+	strcpy(buf, "\n"); /* reported; read on */
+	return buf;
 }
 
 static int apply_key(parser *p, const mcd_config_key *k, void *base, const char *key, const char *value)
@@ -305,7 +343,7 @@ static int on_key(void *user, const char *section, const char *key, const char *
 {
 	parser *p = user;
 	(void)section; /* the reader tracks it, with its line */
-	if (p->failed)
+	if (p->failed && !p->all)
 		return 0;
 	if (!p->known) {
 		if (!p->section[0])
@@ -315,8 +353,12 @@ static int on_key(void *user, const char *section, const char *key, const char *
 	if (p->kind == MCD_SEC_CAMERA)
 		return camera_key(p, key, value);
 	const mcd_config_key *k = mcd_config_key_find(p->kind, key);
-	if (!k)
+	if (!k) {
+		const char *near = mcd_config_suggest_key(p->kind, key);
+		if (near)
+			return fail(p, "[%s] %s: unknown key (did you mean '%s'?)", p->section, key, near);
 		return fail(p, "[%s] %s: unknown key", p->section, key);
+	}
 	return apply_key(p, k, p->cfg, key, value);
 }
 
@@ -411,25 +453,53 @@ static int check_network(mcd_config *cfg, mc_err *err)
 
 /* ---- entry points ------------------------------------------------------ */
 
+/* The checks across keys, each on its own: with `all` every one that
+ * fails is listed, else the first stops. */
+static int check_across(mcd_config *cfg, mcd_config_errors *all, mc_err *err)
+{
+	int (*const checks[])(mcd_config *, mc_err *) = {check_tracker, check_cameras, check_daemon, check_network};
+	int rc = 0;
+	for (size_t i = 0; i < sizeof(checks) / sizeof(checks[0]); i++) {
+		mc_err e;
+		if (checks[i](cfg, &e) == 0)
+			continue;
+		if (rc == 0)
+			*err = e;
+		rc = -1;
+		if (!all)
+			break;
+		errors_add(all, e.msg);
+	}
+	return rc;
+}
+
 int mcd_config_parse(const char *text, const char *origin, const char *base_dir, mcd_config *cfg, mc_err *err)
+{
+	return mcd_config_parse_all(text, origin, base_dir, cfg, NULL, err);
+}
+
+int mcd_config_parse_all(const char *text, const char *origin, const char *base_dir, mcd_config *cfg,
+			 mcd_config_errors *all, mc_err *err)
 {
 	mcd_config_defaults(cfg);
 	snprintf(cfg->file, sizeof(cfg->file), "%s", origin);
 	snprintf(cfg->dir, sizeof(cfg->dir), "%s", base_dir ? base_dir : ".");
-	parser p = {.cfg = cfg, .err = err, .origin = origin, .text = text};
+	parser p = {.cfg = cfg, .err = err, .all = all, .origin = origin, .text = text};
 	/* A UTF-8 byte order mark (some editors write one) is not a key. */
 	if (!strncmp(text, "\xEF\xBB\xBF", 3))
 		p.pos = 3;
 	int rc = ini_parse_stream(read_line, &p, on_key, &p);
 	if (p.failed)
 		return -1;
-	if (rc > 0)
-		return mc_err_set(err, "%s:%d: syntax error (expected [section] or key = value)", origin, rc);
+	if (rc > 0) {
+		mc_err_set(err, "%s:%d: syntax error (expected [section] or key = value)", origin, rc);
+		if (all)
+			errors_add(all, err->msg);
+		return -1;
+	}
 	if (rc < 0)
 		return mc_err_set(err, "%s: cannot parse (out of memory)", origin);
-	if (check_tracker(cfg, err) || check_cameras(cfg, err) || check_daemon(cfg, err) || check_network(cfg, err))
-		return -1;
-	return 0;
+	return check_across(cfg, all, err);
 }
 
 /* The whole file as a NUL-terminated text (malloc'ed), at most 1 MiB. */
@@ -476,15 +546,68 @@ static char *read_file(FILE *f, const char *path, mc_err *err)
 	return text;
 }
 
+static const char *file_kind(mode_t m)
+{
+	return S_ISDIR(m)    ? "a directory"
+	       : S_ISFIFO(m) ? "a FIFO"
+	       : S_ISSOCK(m) ? "a socket"
+	       : S_ISCHR(m)  ? "a character device"
+	       : S_ISBLK(m)  ? "a block device"
+			     : "not a plain file";
+}
+
+/* Opens the config for reading, refusing anything but a regular file: a
+ * FIFO without a writer would block `mocapd --check` for ever, so it is
+ * opened non-blocking and checked with fstat before the first read. */
+static FILE *open_config(const char *path, mc_err *err)
+{
+	int fd = open(path, O_RDONLY | O_NONBLOCK | O_CLOEXEC | O_NOCTTY);
+	if (fd < 0) {
+		mc_err_set(err, "%s: cannot open: %s", path, strerror(errno));
+		return NULL;
+	}
+	struct stat st;
+	if (fstat(fd, &st) != 0) {
+		mc_err_set(err, "%s: %s", path, strerror(errno));
+		close(fd);
+		return NULL;
+	}
+	if (!S_ISREG(st.st_mode)) {
+		mc_err_set(err, "%s: not a regular file (%s); refused", path, file_kind(st.st_mode));
+		close(fd);
+		return NULL;
+	}
+	int flags = fcntl(fd, F_GETFL);
+	if (flags >= 0)
+		fcntl(fd, F_SETFL, flags & ~O_NONBLOCK);
+	FILE *f = fdopen(fd, "rb");
+	if (!f) {
+		mc_err_set(err, "%s: %s", path, strerror(errno));
+		close(fd);
+	}
+	return f;
+}
+
 int mcd_config_load(const char *path, mcd_config *cfg, mc_err *err)
 {
-	FILE *f = fopen(path, "rb");
-	if (!f)
-		return mc_err_set(err, "%s: cannot open: %s", path, strerror(errno));
+	return mcd_config_load_all(path, cfg, NULL, err);
+}
+
+int mcd_config_load_all(const char *path, mcd_config *cfg, mcd_config_errors *all, mc_err *err)
+{
+	FILE *f = open_config(path, err);
+	if (!f) {
+		if (all)
+			errors_add(all, err->msg);
+		return -1;
+	}
 	char *text = read_file(f, path, err);
 	fclose(f);
-	if (!text)
+	if (!text) {
+		if (all)
+			errors_add(all, err->msg);
 		return -1;
+	}
 	char dir[PATH_MAX];
 	snprintf(dir, sizeof(dir), "%s", path);
 	char *slash = strrchr(dir, '/');
@@ -494,7 +617,7 @@ int mcd_config_load(const char *path, mcd_config *cfg, mc_err *err)
 		*slash = 0;
 	else
 		snprintf(dir, sizeof(dir), ".");
-	int rc = mcd_config_parse(text, path, dir, cfg, err);
+	int rc = mcd_config_parse_all(text, path, dir, cfg, all, err);
 	free(text);
 	return rc;
 }

@@ -172,6 +172,20 @@ int mcd_config_load(const char *path, mcd_config *cfg, mc_err *err);
  * resolved against base_dir. */
 int mcd_config_parse(const char *text, const char *origin, const char *base_dir, mcd_config *cfg, mc_err *err);
 
+/* Every error of a file, not only the first (mocapd --check): lines
+ * "file:line: message\n" appended to buf (NUL-terminated; lines that do
+ * not fit are counted, not written).  err gets the first, as above. */
+typedef struct {
+	char *buf;
+	size_t cap, len;
+	int n;       /* errors found */
+	int untold;  /* of them, those that did not fit in buf */
+} mcd_config_errors;
+int mcd_config_load_all(const char *path, mcd_config *cfg, mcd_config_errors *all, mc_err *err);
+int mcd_config_parse_all(const char *text, const char *origin, const char *base_dir, mcd_config *cfg,
+			 mcd_config_errors *all, mc_err *err);
+
+
 /* "mocapd.conf:12: [tracker] rig" for a key that was given, or
  * "mocapd.conf: [tracker] rig" for one left at its default.  `section` is
  * the name between the brackets, e.g. "camera left". Returns buf. */
@@ -240,6 +254,12 @@ typedef struct {
 const mcd_config_key *mcd_config_keys(size_t *n);
 /* The entry for `key` in a section, or NULL. */
 const mcd_config_key *mcd_config_key_find(mcd_section section, const char *key);
+/* The known key of `section`, or section name, that an unknown one is
+ * most likely a typo of; NULL if none is close (config_suggest.c). */
+const char *mcd_config_suggest_key(mcd_section section, const char *key);
+const char *mcd_config_suggest_section(const char *name);
+/* The same among n names stored every `stride` bytes from `names`. */
+const char *mcd_suggest_name(const char *typed, const char *names, size_t stride, int n);
 /* "daemon", "camera", "tracker", "socket", "detector", "network", "record",
  * "source" or "output". */
 const char *mcd_section_name(mcd_section section);

@@ -1,19 +1,27 @@
 #!/bin/sh
 # The demo behind `make demo`: mocapd tracks the bundled head-mounted clip
 # (tests/data/ego_demo, two fisheye cameras, 60 frames) with the files
-# driver and OpenCL (PoCL on the CPU), no hardware.  The skeletons stream as
-# text lines: from `mocapctl watch`, a client on the daemon's socket, when
-# mocapctl is built, else from mocapd --print.  Afterwards a few frames are
-# drawn with tools/mocap-render: the tracked skeleton (red = left side,
-# blue = right, yellow = spine) and the clip's ground truth (green) over
-# both camera images.
+# driver and OpenCL (PoCL on the CPU), no hardware.  It ends with a short
+# table: frame sets tracked, the mean joint error against the clip's ground
+# truth next to the project's target, the tracking rate and the
+# capture-to-publish latency; and overlays of a few frames, enlarged 3x,
+# drawn with tools/mocap-render (the tracked skeleton: red = left side,
+# blue = right, yellow = spine; the clip's ground truth in green), on a
+# page with that legend: build/demo/overlays.html.
+#
+# -v (`make demo V=1`): every tracked skeleton live as well, through
+# `mocapctl watch` (a client on the daemon's socket; its "frame N" counts
+# the skeletons published, while pose_NNNNN.json and the overlays are
+# numbered by the clip's frame).
 #
 # With config/models/ego_detector.onnx present the daemon also runs the 2D
 # joint detector on both cameras ([detector] in config/demo.conf) and its
 # keypoints feed the tracker; without it the demo tracks from colour alone.
 #
-# usage: daemon/demo.sh BUILD_DIR        (run from the repository root)
+# usage: daemon/demo.sh [-v] [BUILD_DIR]        (run from the repository root)
 set -u
+verbose=0
+case ${1:-} in -v | --verbose) verbose=1; shift ;; esac
 build=${1:-build}
 out=$build/demo
 mocapd=$build/bin/mocapd
@@ -41,7 +49,7 @@ echo "== mocapd on $clip (config/demo.conf); log in $out/mocapd.log"
 	--exit-at-end --save-poses "$out" --print >"$out/frames.txt" 2>"$out/mocapd.log" &
 daemon=$!
 
-if [ -x "$mocapctl" ]; then
+if [ $verbose = 1 ] && [ -x "$mocapctl" ]; then
 	# Connect as soon as the socket is there; the daemon builds its OpenCL
 	# kernels first.
 	i=0
@@ -50,10 +58,12 @@ if [ -x "$mocapctl" ]; then
 		i=$((i + 1))
 	done
 	if [ -S "$sock" ]; then
-		echo "== mocapctl watch (live skeletons, joint positions in metres, rig frame)"
+		echo "== mocapctl watch (live skeletons, joint positions in metres, rig frame;"
+		echo "   'frame N' counts published skeletons, the files are numbered by the clip's frame)"
 		"$mocapctl" --socket "$sock" watch || true
 	fi
 fi
+[ $verbose = 1 ] || echo "   (daemon/demo.sh -v, or make demo V=1, shows every skeleton live)"
 wait $daemon
 rc=$?
 if [ $rc -ne 0 ]; then
@@ -61,43 +71,8 @@ if [ $rc -ne 0 ]; then
 	tail -n 20 "$out/mocapd.log" >&2
 	exit 1
 fi
-[ -x "$mocapctl" ] || cat "$out/frames.txt"
-grep -E "tracker:|detector:|status:" "$out/mocapd.log" | tail -n 5
-
-# The summary: frame sets tracked of the clip's, those skipped because the
-# tracker was slower than the cameras, and the mean joint error against
-# the clip's ground truth (docs/CONVENTIONS.md's evaluated joints, left
-# camera frame).  A --print line is "frame N t=SECONDS STATE ... name=(x,y,z)".
-echo "== summary"
-/usr/bin/python3 - "$out/frames.txt" "$clip/gt.json" <<'PY' || echo "demo: no summary (python3 failed)"
-import json, re, sys
-gt = json.load(open(sys.argv[2]))
-fps, frames = gt.get("fps", 30), gt["frames"]
-evaluated = ["neck"] + [s + j for s in ("left_", "right_") for j in
-                        ("shoulder", "elbow", "wrist", "hip", "knee", "ankle", "toe")]
-tracked, errors = 0, []
-for line in open(sys.argv[1]):
-    m = re.match(r"frame \d+ t=([\d.]+) (\w+) ", line)
-    if not m or "(not tracked)" in line:
-        continue
-    k = round(float(m.group(1)) * fps)
-    tracked += 1
-    if k >= len(frames):
-        continue
-    truth = frames[k]["joints_left_cam"]
-    for name in evaluated:
-        j = re.search(r" %s=\(([-\d.]+),([-\d.]+),([-\d.]+)\)" % name, line)
-        if j and name in truth:
-            errors.append(sum((float(a) - b) ** 2 for a, b in zip(j.groups(), truth[name])) ** 0.5)
-n = len(frames)
-print("frame sets tracked: %d of the clip's %d; skipped because the tracker was slower than the cameras: %d"
-      % (tracked, n, max(n - tracked, 0)))
-if errors:
-    print("mean joint error against the clip's ground truth: %.1f cm (%d joint estimates)"
-          % (100 * sum(errors) / len(errors), len(errors)))
-PY
-# mocapd's own count: why sets were skipped, and the latency.
-grep -o "totals: .*" "$out/mocapd.log" | sed 's/^totals: /mocapd: /' || true
+[ $verbose = 0 ] || [ -x "$mocapctl" ] || cat "$out/frames.txt"
+[ $verbose = 0 ] || grep -E "tracker:|detector:|status:" "$out/mocapd.log" | tail -n 5
 
 # The tracked frame closest to each of a few frame numbers.
 nearest() {
@@ -113,7 +88,7 @@ nearest() {
 	echo "$best"
 }
 
-echo "== overlays (tracked skeleton in colour, ground truth in green)"
+# Overlays of three frames, both cameras, enlarged 3x.
 made=0
 for want in 5 30 55; do
 	k=$(nearest $want)
@@ -121,11 +96,15 @@ for want in 5 30 55; do
 	kk=$(printf '%05d' "$k")
 	for cam in left right; do
 		"$render" --rig config/rigs/ego_stereo.json --model "$out/actor.json" \
-			--pose "$out/pose_$kk.json" --cam $cam --overlay "$clip/$cam/$kk.jpg" \
+			--pose "$out/pose_$kk.json" --cam $cam --overlay "$clip/$cam/$kk.jpg" --scale 3 \
 			--gt "$clip/gt.json" --frame "$k" --out "$out/overlay_$kk" >/dev/null 2>>"$out/render.log" &&
 			made=$((made + 1))
 	done
 done
-ls "$out"/overlay_*_overlay.png 2>/dev/null
 [ $made -gt 0 ] || { echo "demo: no overlay was written (no pose tracked?)" >&2; exit 1; }
-echo "== done: $made overlay images in $out"
+
+# The table, from mocapd's --print lines (frame N t=SECONDS STATE ...
+# name=(x,y,z)), the clip's ground truth (docs/CONVENTIONS.md's evaluated
+# joints, left camera frame), mocapd's status lines and its totals; and the
+# overlay page.
+/usr/bin/python3 daemon/demo_summary.py "$out" "$clip/gt.json" || { echo "demo: no summary (python3 failed)" >&2; exit 1; }

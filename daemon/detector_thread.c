@@ -16,6 +16,7 @@
  * too late for about half the frame sets of test_daemon_detector). */
 #include "detector_thread.h"
 
+#include "frame_size.h"
 #include "log.h"
 #include "mc_detector.h"
 #include "base/mc_thread.h"
@@ -61,6 +62,7 @@ struct mcd_detector_thread {
 	int ncams;
 	mcd_camera *cams[MC_MAX_CAMERAS];
 	int cam_to_rig[MC_MAX_CAMERAS];
+	const mc_rig *rig; /* NULL: keypoints stay in frame pixels */
 	mcd_tracking_thread *sink;
 	int map[MC_DETECTOR_MAX_JOINTS];
 	float model_threshold;
@@ -99,6 +101,23 @@ static void note_error(mcd_detector_thread *d, int c, const mc_err *err)
 			 (unsigned long long)n);
 }
 
+/* Keypoints come in frame pixels; the tracker takes rig camera pixels.
+ * -1 when the frame size does not fit the rig camera's. */
+static int scale_to_rig(const mcd_detector_thread *d, int rig, int width, int height, mc_keypoint *kps, int nk)
+{
+	if (!d->rig)
+		return 0;
+	const mc_camera *rc = &d->rig->cams[rig];
+	double s = 1;
+	if (!mcd_frame_to_rig_scale(width, height, rc->width, rc->height, &s))
+		return -1;
+	for (int k = 0; s != 1 && k < nk; k++) {
+		kps[k].u = mcd_frame_to_rig_coord(kps[k].u, s);
+		kps[k].v = mcd_frame_to_rig_coord(kps[k].v, s);
+	}
+	return 0;
+}
+
 /* Reads, converts and detects the worker's camera's frame `f`; hands the
  * keypoints on. */
 static void detect_view(worker *w, const frame_ref *f)
@@ -127,6 +146,8 @@ static void detect_view(worker *w, const frame_ref *f)
 	}
 	int rig = d->cam_to_rig[c];
 	int nk = mc_detections_to_keypoints(w->dets, n, rig, d->map, w->kps, MC_DETECTOR_MAX_JOINTS);
+	if (scale_to_rig(d, rig, width, height, w->kps, nk))
+		return; /* a size that does not fit: the tracking thread says so */
 	mcd_tracking_thread_offer_keypoints(d->sink, rig, meta.timestamp_ns, w->kps, nk);
 	mc_detector_timing tm;
 	mc_detector_get_timing(w->det, &tm);
@@ -256,6 +277,7 @@ mcd_detector_thread *mcd_detector_thread_create(const mcd_detector_thread_config
 	d->ncams = cfg->ncams < MC_MAX_CAMERAS ? cfg->ncams : MC_MAX_CAMERAS;
 	memcpy(d->cams, cfg->cams, sizeof(d->cams[0]) * (size_t)d->ncams);
 	memcpy(d->cam_to_rig, cfg->cam_to_rig, sizeof(d->cam_to_rig[0]) * (size_t)d->ncams);
+	d->rig = cfg->rig;
 	d->sink = cfg->sink;
 	d->cfg = *cfg->cfg;
 	pthread_mutex_init(&d->lock, NULL);

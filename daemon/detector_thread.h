@@ -19,6 +19,7 @@
 
 #include "base/mc_error.h"
 #include "body/mc_model.h"
+#include "geom/mc_rig.h"
 #include "capture.h"
 #include "config.h"
 #include "tracking_thread.h"
@@ -50,6 +51,7 @@ typedef struct {
 	int ncams;
 	mcd_camera *const *cams;  /* they outlive the thread */
 	const int *cam_to_rig;    /* configured camera -> rig camera */
+	const mc_rig *rig;        /* its sizes: keypoints are scaled to them (frame_size.h) */
 	const mc_model *model;    /* the body model, to map joint names */
 	mcd_tracking_thread *sink;
 	const mcd_detector_config *cfg;

@@ -13,6 +13,8 @@
  * or pipeline: a graph source publishes graph walks, steered by STEER
  * control requests, and the main loop is the same. */
 #include "actor.h"
+#include "cl_cache.h"
+#include "check.h"
 #include "config.h"
 #include "detector_thread.h"
 #include "graph_source.h"
@@ -21,7 +23,9 @@
 #include "server.h"
 #include "notify.h"
 #include "pipeline.h"
+#include "probe.h"
 #include "status.h"
+#include "tree.h"
 #include "tracker_setup.h"
 #include "base/mc_time.h"
 
@@ -35,6 +39,7 @@
 #include <string.h>
 #include <sys/signalfd.h>
 #include <sys/socket.h>
+#include <sys/stat.h>
 #include <systemd/sd-daemon.h>
 #include <unistd.h>
 
@@ -55,6 +60,7 @@ typedef struct {
 	bool print;
 	bool exit_at_end;
 	bool check_only;
+	bool probe;
 } options;
 
 typedef struct {
@@ -88,12 +94,15 @@ static void usage(FILE *f)
 		"      --save-poses DIR   write the tracker's actor model (DIR/actor.json) and every\n"
 		"                         tracked pose (DIR/pose_<frame>.json) for tools/mocap-render\n"
 		"      --check            check the config and the plugins, then exit\n"
+		"      --probe            list the cameras every driver finds, their modes, and a\n"
+		"                         [camera] section to paste for each, then exit\n"
 		"  -V, --version\n"
 		"  -h, --help\n"
-		"See docs/CONFIG.md for the config file.\n");
+		"Exit status: 0 ok, 1 error (config, start-up, a failed check), 2 bad usage.\n"
+		"See mocapd(8) and mocapd.conf(5) (docs/CONFIG.md in the source) for the config file.\n");
 }
 
-enum { OPT_PLUGIN_DIR = 256, OPT_EXIT_AT_END, OPT_CHECK, OPT_SOCKET, OPT_SAVE_POSES };
+enum { OPT_PLUGIN_DIR = 256, OPT_EXIT_AT_END, OPT_CHECK, OPT_SOCKET, OPT_SAVE_POSES, OPT_PROBE };
 
 /* One option of getopt_long: -1 to go on, else the exit status. */
 static int take_option(int c, options *o)
@@ -131,6 +140,9 @@ static int take_option(int c, options *o)
 	case OPT_CHECK:
 		o->check_only = true;
 		return -1;
+	case OPT_PROBE:
+		o->probe = true;
+		return -1;
 	case 'V':
 		printf("mocapd %s (driver ABI %u)\n", MOCAPD_VERSION, (unsigned)MDRV_ABI_VERSION);
 		return 0;
@@ -155,6 +167,7 @@ static int parse_options(int argc, char **argv, options *o)
 		{"print", no_argument, NULL, 'p'},
 		{"exit-at-end", no_argument, NULL, OPT_EXIT_AT_END},
 		{"check", no_argument, NULL, OPT_CHECK},
+		{"probe", no_argument, NULL, OPT_PROBE},
 		{"version", no_argument, NULL, 'V'},
 		{"help", no_argument, NULL, 'h'},
 		{NULL, 0, NULL, 0},
@@ -174,20 +187,26 @@ static int parse_options(int argc, char **argv, options *o)
 	return -1; /* go on */
 }
 
-/* Loads the config and applies the command line over it. */
-static mcd_config *load_config(const options *o, mc_err *err)
+/* Loads the config and applies the command line over it.  With `all`
+ * (--check), every error of the file is listed there. */
+static mcd_config *load_config_all(const options *o, mcd_config_errors *all, mc_err *err)
 {
 	mcd_config *cfg = calloc(1, sizeof(*cfg));
 	if (!cfg) {
 		mc_err_set(err, "out of memory");
 		return NULL;
 	}
-	if (mcd_config_load(o->config_path, cfg, err)) {
+	if (mcd_config_load_all(o->config_path, cfg, all, err)) {
 		free(cfg);
 		return NULL;
 	}
+	char tree[PATH_MAX];
 	if (o->plugin_dir)
 		snprintf(cfg->plugin_dir, sizeof(cfg->plugin_dir), "%s", o->plugin_dir);
+	else if (!mcd_config_is_set(cfg, "daemon", "plugin_dir") && mcd_tree_plugin_dir_self(tree, sizeof(tree))) {
+		mcd_info("running from a build tree: driver plugins from %s", tree);
+		snprintf(cfg->plugin_dir, sizeof(cfg->plugin_dir), "%s", tree);
+	}
 	if (o->socket_path)
 		snprintf(cfg->socket.path, sizeof(cfg->socket.path), "%s", o->socket_path);
 	if (o->log_level >= 0)
@@ -195,6 +214,11 @@ static mcd_config *load_config(const options *o, mc_err *err)
 	if (o->print)
 		cfg->print = true;
 	return cfg;
+}
+
+static mcd_config *load_config(const options *o, mc_err *err)
+{
+	return load_config_all(o, NULL, err);
 }
 
 /* ---- start-up ---------------------------------------------------------------------- */
@@ -245,6 +269,31 @@ static void log_client(void *ctx, const char *line)
 	mcd_info("%s", line);
 }
 
+/* Who may connect: users get "permission denied" from the socket's mode
+ * and group, so the log names both (and the command that lets one in). */
+static void log_socket_access(const char *path, bool from_systemd)
+{
+	struct stat st;
+	const char *how = from_systemd ? " (from systemd)" : "";
+	if (stat(path, &st) != 0) {
+		mcd_info("socket: %s%s", path, how);
+		return;
+	}
+	struct group *gr = getgrgid(st.st_gid);
+	char group[64];
+	if (gr)
+		snprintf(group, sizeof(group), "%s", gr->gr_name);
+	else
+		snprintf(group, sizeof(group), "%u", (unsigned)st.st_gid);
+	if (st.st_mode & S_IWOTH)
+		mcd_info("socket: %s%s, mode %04o: any local user may connect", path, how,
+			 (unsigned)(st.st_mode & 07777));
+	else
+		mcd_info("socket: %s%s, group %s, mode %04o: clients must run as its owner or in group %s "
+			 "(sudo usermod -aG %s USER, then log in again)",
+			 path, how, group, (unsigned)(st.st_mode & 07777), group, group);
+}
+
 static int start_server(daemon_ctx *d, mc_err *err)
 {
 	const mcd_config *cfg = d->cfg;
@@ -281,7 +330,7 @@ static int start_server(daemon_ctx *d, mc_err *err)
 			mc_err_prefix(err, "%s", mcd_config_where(cfg, "network", "listen", where, sizeof(where)));
 		return -1;
 	}
-	mcd_info("socket: %s%s", cfg->socket.path, sc.listen_fd >= 0 ? " (from systemd)" : "");
+	log_socket_access(cfg->socket.path, sc.listen_fd >= 0);
 	if (sc.tcp_listen[0])
 		mcd_info("network: TCP clients on %s (port %d), with the token of %s%s", sc.tcp_listen,
 			 srv_tcp_port(d->srv), cfg->network.token_file,
@@ -535,6 +584,10 @@ static int run(daemon_ctx *d)
 		uint64_t now = mc_now_ns();
 		do_timers(d, now);
 		if (d->opt.exit_at_end && d->pipe && mcd_pipeline_finished(d->pipe)) {
+			if (mcd_pipeline_all_failed(d->pipe)) {
+				mcd_error("every camera has failed for good; exiting with status 1 (--exit-at-end)");
+				return 1;
+			}
 			mcd_info("every stream has ended; exiting (--exit-at-end)");
 			return 0;
 		}
@@ -574,8 +627,26 @@ static void shutdown_all(daemon_ctx *d)
 	free(d->cfg);
 }
 
+/* The plugin directory, before the OpenCL kernels are built (which takes
+ * seconds): a daemon run from a build tree with the installed default
+ * should fail at once and say which option mends it. */
+static int check_plugin_dir(const mcd_config *cfg, mc_err *err)
+{
+	if (cfg->source.graph[0] || cfg->ncams == 0 || access(cfg->plugin_dir, R_OK | X_OK) == 0)
+		return 0;
+	char where[PATH_MAX + 64];
+	return mc_err_set(err, "%s: driver plugin directory %s: %s; give one with --plugin-dir DIR (in a build tree: "
+			       "--plugin-dir build/drivers)",
+			  mcd_config_is_set(cfg, "daemon", "plugin_dir")
+				  ? mcd_config_where(cfg, "daemon", "plugin_dir", where, sizeof(where))
+				  : "[daemon] plugin_dir (the built-in default)",
+			  cfg->plugin_dir, strerror(errno));
+}
+
 static int start(daemon_ctx *d, mc_err *err)
 {
+	if (check_plugin_dir(d->cfg, err))
+		return -1;
 	d->watchdog_usec = mcd_watchdog_usec();
 	if (block_signals(d, err))
 		return -1;
@@ -598,35 +669,50 @@ static int start(daemon_ctx *d, mc_err *err)
 	return 0;
 }
 
-/* --check: the rig, the model, the initial joints, the TCP token file, the
- * detector's model, the plugins and every camera's driver keys (checked by the driver) are
- * the parts of start-up that can be checked without touching devices or
- * OpenCL.  Returns the exit status. */
-static int check_only(const daemon_ctx *d)
+/* --check's loading: every error of the file. */
+static mcd_config *load_for_check(const options *o, mc_err *err)
 {
-	mc_err err = {{0}};
-	char where[PATH_MAX + 64];
-	if (d->cfg->source.graph[0]) {
-		int rc = mcd_graph_source_check(d->cfg, &err);
-		if (rc)
-			mcd_error("%s", err.msg);
-		else
-			printf("%s: ok\n", d->opt.config_path);
-		return rc ? 1 : 0;
+	mcd_config_errors all = {.cap = 16384};
+	all.buf = calloc(1, all.cap);
+	mcd_config *cfg = all.buf ? load_config_all(o, &all, err) : load_config(o, err);
+	if (!cfg && all.buf && all.n > 0) {
+		for (char *line = all.buf, *nl; *line; line = nl + 1) {
+			nl = strchr(line, '\n');
+			*nl = 0;
+			mcd_error("%s", line);
+		}
+		if (all.untold)
+			mcd_error("... and %d more", all.untold);
+		mc_err_set(err, "%s: %d error%s", o->config_path, all.n, all.n == 1 ? "" : "s");
 	}
-	bool ok = !d->cfg->tracker.enabled || mcd_tracking_check(d->cfg, &err) == 0;
-	char token[SRV_TOKEN_MAX];
-	ok = ok && (!d->cfg->network.listen[0] || mcd_network_read_token(d->cfg, token, sizeof(token), &err) == 0);
-	ok = ok && mcd_detector_check(&d->cfg->detector,
-				      mcd_config_where(d->cfg, "detector", "model", where, sizeof(where)), &err) == 0;
-	mcd_pipeline *p = ok ? mcd_pipeline_create(d->cfg, NULL, NULL, &err) : NULL;
-	ok = p != NULL && mcd_pipeline_check_cameras(p, &err) == 0;
-	mcd_pipeline_destroy(p);
-	if (!ok)
+	free(all.buf);
+	return cfg;
+}
+
+/* --probe: the plugin directory is --plugin-dir's, else the config's if
+ * the config loads (a missing config is no reason not to probe), else the
+ * build tree's or the built-in one.  Returns the exit status. */
+static int probe(const options *o)
+{
+	char dir[PATH_MAX];
+	mc_err err = {{0}};
+	mcd_config *cfg = o->plugin_dir ? NULL : load_config(o, &err);
+	if (o->plugin_dir)
+		snprintf(dir, sizeof(dir), "%s", o->plugin_dir);
+	else if (cfg)
+		snprintf(dir, sizeof(dir), "%s", cfg->plugin_dir);
+	else if (!mcd_tree_plugin_dir_self(dir, sizeof(dir)))
+		snprintf(dir, sizeof(dir), "%s", MC_INSTALL_PLUGIN_DIR);
+	free(cfg);
+	int n = mcd_probe_all(dir, stdout, &err);
+	if (n < 0) {
 		mcd_error("%s", err.msg);
-	else
-		printf("%s: ok\n", d->opt.config_path);
-	return ok ? 0 : 1;
+		return 1;
+	}
+	if (n == 0)
+		printf("no cameras found.  USB cameras need read-write access to /dev/video* (group video); GigE "
+		       "cameras must be on this host's subnet; see README.md, \"First real camera\".\n");
+	return 0;
 }
 
 int main(int argc, char **argv)
@@ -638,8 +724,10 @@ int main(int argc, char **argv)
 	mcd_log_init();
 	if (d.opt.log_level >= 0)
 		mcd_log_set_level(d.opt.log_level);
+	if (d.opt.probe)
+		return probe(&d.opt);
 	mc_err err = {{0}};
-	d.cfg = load_config(&d.opt, &err);
+	d.cfg = d.opt.check_only ? load_for_check(&d.opt, &err) : load_config(&d.opt, &err);
 	if (!d.cfg) {
 		mcd_error("%s", err.msg);
 		mcd_notify_status(err.msg);
@@ -647,8 +735,16 @@ int main(int argc, char **argv)
 	}
 	mcd_log_set_level(d.cfg->log_level);
 	d.start_ns = mc_now_ns();
+	char note[PATH_MAX + 400];
+	if (mcd_cl_cache_setup(note, sizeof(note)) != 0 && d.cfg->tracker.enabled && !d.cfg->source.graph[0]) {
+		mcd_error("%s", note);
+		free(d.cfg);
+		return 1;
+	}
+	if (note[0])
+		mcd_info("%s", note);
 	if (d.opt.check_only) {
-		rc = check_only(&d);
+		rc = mcd_check(d.cfg, d.opt.config_path);
 		free(d.cfg);
 		return rc;
 	}

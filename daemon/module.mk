@@ -8,7 +8,10 @@ DAEMON_PKGS := inih libsystemd
 DAEMON_CFLAGS := $(shell $(PKG_CONFIG) --cflags $(DAEMON_PKGS) 2>/dev/null)
 DAEMON_LIBS := $(shell $(PKG_CONFIG) --libs $(DAEMON_PKGS) 2>/dev/null) -ldl
 DAEMON_SRC := $(filter-out daemon/main.c,$(wildcard daemon/*.c))
-MOCAPD_VERSION := 0.1
+# The project's one version: the programs' --version, the .deb packages
+# (debian/changelog), the Python package (python/mocap.py) and libmocap's
+# IPC_SO_VERSION (ipc/module.mk) agree (tests/cli-test.sh checks).
+MOCAPD_VERSION := 1.2.0
 DAEMON_OBJ := $(DAEMON_SRC:%.c=$(BUILD)/%.o)
 DAEMON_LIB := $(BUILD)/daemon/libmocapd.a
 MOCAPD := $(BUILD)/bin/mocapd
@@ -93,7 +96,13 @@ bench-latency: $(MOCAPD) $(BUILD)/bin/mocapctl
 # ---- the demo: mocapd on the bundled clip, no hardware (README's first command)
 .PHONY: demo
 demo: all
-	daemon/demo.sh $(BUILD)
+	daemon/demo.sh $(if $(V),-v) $(BUILD)
+
+# The demo's output: short, ending with the table and the overlay page.
+CHECKS += check-demo
+.PHONY: check-demo
+check-demo: all
+	MOCAP_BUILD=$(BUILD) tests/run-tests.sh $(BUILD) tests/demo-test.sh
 
 # ---- install: the service files and the example config (the binaries and
 # plugins are installed by the top-level rule).  Units, sysusers, tmpfiles

@@ -128,6 +128,7 @@ static int create_detector_thread(mcd_pipeline *p, const mcd_config *cfg, mcd_tr
 		.ncams = p->ncams,
 		.cams = p->cams,
 		.cam_to_rig = tracking->cam_to_rig,
+		.rig = &tracking->rig,
 		.model = mc_tracker_model(tracking->tracker),
 		.sink = p->tracker,
 		.cfg = &cfg->detector,
@@ -429,12 +430,21 @@ void mcd_pipeline_get_status(mcd_pipeline *p, mcd_pipeline_status *st, bool rese
 	st->latency.incomplete = ts.total.sets - ts.total.complete_sets;
 }
 
-int mcd_pipeline_check_cameras(mcd_pipeline *p, mc_err *err)
+int mcd_pipeline_check_cameras(mcd_pipeline *p, void (*report)(const char *msg), mc_err *err)
 {
-	for (int c = 0; c < p->ncams; c++)
-		if (mcd_camera_check(p->cams[c], err) < 0)
-			return -1;
-	return 0;
+	int rc = 0;
+	for (int c = 0; c < p->ncams; c++) {
+		mc_err e;
+		if (mcd_camera_check(p->cams[c], &e) == 0)
+			continue;
+		if (rc == 0)
+			*err = e;
+		rc = -1;
+		if (!report)
+			break;
+		report(e.msg);
+	}
+	return rc;
 }
 
 void mcd_pipeline_reload(mcd_pipeline *p, const mcd_config *cfg)

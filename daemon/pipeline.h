@@ -88,8 +88,9 @@ void mcd_pipeline_get_status(mcd_pipeline *p, mcd_pipeline_status *st, bool rese
  * threads and confidence threshold. */
 void mcd_pipeline_reload(mcd_pipeline *p, const mcd_config *cfg);
 /* mocapd --check: every camera's keys, checked by its driver without
- * opening a device (mcd_camera_check). */
-int mcd_pipeline_check_cameras(mcd_pipeline *p, mc_err *err);
+ * opening a device (mcd_camera_check).  err gets the first error; with
+ * `report`, every camera is checked and each error handed to it. */
+int mcd_pipeline_check_cameras(mcd_pipeline *p, void (*report)(const char *msg), mc_err *err);
 /* The tracker's actor as of its last calibration; false when there is no
  * tracker or it has not calibrated one yet. */
 bool mcd_pipeline_actor(mcd_pipeline *p, mc_model *out);

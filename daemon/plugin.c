@@ -232,6 +232,15 @@ void mcd_plugin_unload(mcd_plugin *p)
 	p->driver = NULL;
 }
 
+void mcd_plugin_keep(mcd_plugin *p)
+{
+	if (p->fd >= 0)
+		close(p->fd);
+	p->fd = -1;
+	p->handle = NULL; /* stays mapped until the process exits */
+	p->driver = NULL;
+}
+
 const mcd_plugin *mcd_plugin_set_get(mcd_plugin_set *s, const mcd_config *cfg, const mcd_camera_config *cam,
 				     mc_err *err)
 {

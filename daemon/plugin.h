@@ -54,6 +54,13 @@ int mcd_dir_trusted(const char *dir, uid_t uid, gid_t gid, mc_err *err);
  * (normally geteuid(), getegid()). Returns 0 or -1 with err. */
 int mcd_plugin_load(const char *dir, const char *name, uid_t uid, gid_t gid, mcd_plugin *out, mc_err *err);
 void mcd_plugin_unload(mcd_plugin *p);
+/* Lets go of p but leaves its library loaded for the rest of the process:
+ * for a short-lived process (mocapd --probe) that has started a camera
+ * library.  Aravis, libcamera and OpenNI2 start threads and keep state
+ * for the life of the process that their users cannot tear down; unloading
+ * them under those threads crashes (libcamera), and allocations they keep
+ * lose their library's name, which leak checkers' suppressions need. */
+void mcd_plugin_keep(mcd_plugin *p);
 
 /* The plugins of a daemon's cameras: each driver loaded once, however
  * many cameras use it. */

@@ -1,5 +1,7 @@
 #include "tracker_setup.h"
 
+#include "frame_size.h"
+
 #include "log.h"
 #include "body/mc_pose_prior.h"
 #include "eval/mc_gt.h"
@@ -137,7 +139,7 @@ static int load_actor(const mcd_config *cfg, mcd_tracking *t, mc_err *err)
 static int load_rig_and_model(const mcd_config *cfg, mcd_tracking *t, mc_err *err)
 {
 	char where[700];
-	if (load_rig(cfg, t, err) || map_cameras(cfg, t, err))
+	if (load_rig(cfg, t, err) || map_cameras(cfg, t, err) || mcd_frame_size_check(cfg, &t->rig, t->cam_to_rig, err))
 		return -1;
 	if (mc_model_load(cfg->tracker.model, &t->model, err))
 		return mc_err_prefix(err, "%s", mcd_config_where(cfg, "tracker", "model", where, sizeof(where)));

@@ -1,5 +1,6 @@
 #include "tracking_thread.h"
 
+#include "frame_size.h"
 #include "grouper.h"
 #include "log.h"
 #include "base/mc_thread.h"
@@ -53,6 +54,10 @@ struct mcd_tracking_thread {
 	srv_keypoints *kp_batch;
 	srv_keypoints *kp_latest; /* per rig camera */
 	mc_keypoint *kp;          /* the ones used for one frame set */
+	/* The frame size last seen per camera and whether it fits its rig
+	 * camera (frame_size.h): checked at the first frame of each size. */
+	int seen_w[MC_MAX_CAMERAS], seen_h[MC_MAX_CAMERAS];
+	bool size_fits[MC_MAX_CAMERAS];
 
 	/* The in-process detector's newest batch per rig camera: det_offer
 	 * is written by the detector thread under det_lock (a copy, never a
@@ -95,6 +100,35 @@ static void note_undecodable(mcd_tracking_thread *t, int c, const mc_err *err)
 			 (unsigned long long)n);
 }
 
+/* Whether camera c's w x h frames fit its rig camera, said once per size:
+ * drivers that take the size from their input (files, take) or pick it
+ * themselves cannot be checked by --check. */
+static bool size_fits(mcd_tracking_thread *t, int c, int w, int h)
+{
+	if (!t->tracking)
+		return true;
+	if (w == t->seen_w[c] && h == t->seen_h[c])
+		return t->size_fits[c];
+	t->seen_w[c] = w;
+	t->seen_h[c] = h;
+	const mc_camera *rc = &t->tracking->rig.cams[t->tracking->cam_to_rig[c]];
+	double to_rig = 1;
+	t->size_fits[c] = mcd_frame_to_rig_scale(w, h, rc->width, rc->height, &to_rig);
+	if (!t->size_fits[c]) {
+		char why[400];
+		mcd_frame_size_explain(w, h, rc, t->tracking->rig.name, why, sizeof(why));
+		mcd_error("camera %s: %s; its frames are not tracked", mcd_camera_name(t->cams[c]), why);
+		pthread_mutex_lock(&t->lock);
+		snprintf(t->st.last_error[c], sizeof(t->st.last_error[c]), "frames not tracked: %.200s", why);
+		pthread_mutex_unlock(&t->lock);
+	} else if (to_rig != 1) {
+		mcd_info("camera %s: %dx%d frames, %g times rig camera '%s' (%dx%d): the tracker resamples them and "
+			 "detector keypoints are scaled", mcd_camera_name(t->cams[c]), w, h, 1 / to_rig, rc->name,
+			 rc->width, rc->height);
+	}
+	return t->size_fits[c];
+}
+
 /* Copies out and converts the frames of a group; fills views (by rig
  * camera when tracking, else by camera).  Returns how many are usable. */
 static int gather_views(mcd_tracking_thread *t, const mcd_group *g, mc_frame_view *views, uint64_t *frame)
@@ -116,6 +150,8 @@ static int gather_views(mcd_tracking_thread *t, const mcd_group *g, mc_frame_vie
 			note_undecodable(t, c, &err);
 			continue;
 		}
+		if (!size_fits(t, c, w, h))
+			continue;
 		int slot = t->tracking ? t->tracking->cam_to_rig[c] : c;
 		views[slot] = (mc_frame_view){.width = w, .height = h, .stride = w * 3, .rgb = t->rgb[c],
 					      .timestamp_ns = meta.timestamp_ns};

@@ -24,8 +24,10 @@
 extern "C" {
 #endif
 
-/* 2: mdrv_driver.check (keys checked without a device, for mocapd --check) */
-#define MDRV_ABI_VERSION 2u
+/* 2: mdrv_driver.check (keys checked without a device, for mocapd --check)
+ * 3: mdrv_mode and mdrv_driver.modes (a found device's modes, for
+ *    mocapd --probe), appended at the end of mdrv_driver */
+#define MDRV_ABI_VERSION 3u
 #define MDRV_ENTRY_SYMBOL "mdrv_entry"
 
 typedef enum {
@@ -90,6 +92,20 @@ typedef struct {
 	char serial[64];    /* empty if unknown */
 } mdrv_device_info;
 
+/* One mode a device offers: a pixel format at one size, and the rates it
+ * takes there.  What mocapd --probe prints, and what the config keys
+ * pixel_format, width, height and fps select. */
+#define MDRV_MODE_RATES 16
+typedef struct {
+	char format_key[24];     /* the config key that selects the format; "" means "pixel_format" */
+	char pixel_format[24];   /* the value that key takes, e.g. "YUYV", "Mono8" (or "depth" for openni2's "stream") */
+	uint32_t pixfmt;         /* mc_pixfmt of the frames delivered in this mode */
+	uint32_t width, height;  /* pixels; for a sensor with a free region, its largest */
+	uint32_t nfps;           /* how many discrete rates fps[] holds, highest first */
+	double fps[MDRV_MODE_RATES];
+	double fps_min, fps_max; /* a continuous range instead (nfps 0); 0, 0 when unknown */
+} mdrv_mode;
+
 typedef struct mdrv_driver {
 	uint32_t abi_version; /* MDRV_ABI_VERSION */
 	const char *name;     /* "v4l2", "files", ... */
@@ -115,6 +131,16 @@ typedef struct mdrv_driver {
 	 * which reports the others.  May be NULL: the keys are then checked at
 	 * open() only. */
 	int (*check)(const mdrv_host *host, char *err, size_t errlen);
+	/* ABI 3.  Lists up to `max` modes of the device `id` (an id that
+	 * probe() returned) in the formats this driver delivers; returns how
+	 * many (>= 0) or a negative mdrv_status with a message.  Opens the
+	 * device briefly if it must, never starts streaming, and leaves its
+	 * settings as they were.  The host calls it with a host whose
+	 * config_get returns NULL for every key.  May be NULL (mocapd --probe
+	 * then lists the device without modes).  Plugins that define their
+	 * descriptor with MDRV_DEFINE_DRIVER get NULL here; those that
+	 * implement it use MDRV_DEFINE_DRIVER_MODES. */
+	int (*modes)(const mdrv_host *host, const char *id, mdrv_mode *out, int max, char *err, size_t errlen);
 } mdrv_driver;
 
 typedef const mdrv_driver *(*mdrv_entry_fn)(void);
@@ -128,17 +154,22 @@ typedef const mdrv_driver *(*mdrv_entry_fn)(void);
 /* Defines a plugin's descriptor and its entry point in one place.  The
  * plugin names its callbacks after itself: PREFIX_probe, PREFIX_open,
  * PREFIX_get_format, PREFIX_start, PREFIX_next_frame, PREFIX_stop and
- * PREFIX_close and PREFIX_check.  Positional initialisers, so that C++
- * plugins use it too. */
-#define MDRV_DEFINE_DRIVER(PREFIX, NAME, DESCRIPTION)                                                        \
+ * PREFIX_close and PREFIX_check; MODES is PREFIX_modes or NULL.
+ * Positional initialisers, so that C++ plugins use it too. */
+#define MDRV_DEFINE_DRIVER_WITH(PREFIX, NAME, DESCRIPTION, MODES)                                             \
 	static const mdrv_driver PREFIX##_driver = {MDRV_ABI_VERSION,      NAME,           DESCRIPTION,          \
 						    PREFIX##_probe,        PREFIX##_open,  PREFIX##_get_format,  \
 						    PREFIX##_start,        PREFIX##_next_frame, PREFIX##_stop, \
-						    PREFIX##_close,        PREFIX##_check};                     \
+						    PREFIX##_close,        PREFIX##_check, MODES};              \
 	MDRV_ENTRY_LINKAGE __attribute__((visibility("default"))) const mdrv_driver *mdrv_entry(void)        \
 	{                                                                                                    \
 		return &PREFIX##_driver;                                                                     \
 	}
+/* A plugin without modes() (mocapd --probe lists its devices without modes). */
+#define MDRV_DEFINE_DRIVER(PREFIX, NAME, DESCRIPTION) MDRV_DEFINE_DRIVER_WITH(PREFIX, NAME, DESCRIPTION, NULL)
+/* A plugin with PREFIX_modes. */
+#define MDRV_DEFINE_DRIVER_MODES(PREFIX, NAME, DESCRIPTION)                                                  \
+	MDRV_DEFINE_DRIVER_WITH(PREFIX, NAME, DESCRIPTION, PREFIX##_modes)
 
 #ifdef __cplusplus
 }

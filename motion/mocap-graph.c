@@ -581,6 +581,14 @@ int main(int argc, char **argv)
 		return 0;
 	}
 	const char *cmd = argv[1];
+	/* The command first: an unknown one is named as such, before its
+	 * options or arguments are judged. */
+	static const char *const commands[] = {"build", "walk", "blend", "info", "check", "compare"};
+	bool known = false;
+	for (size_t i = 0; i < sizeof(commands) / sizeof(commands[0]); i++)
+		known = known || strcmp(cmd, commands[i]) == 0;
+	if (!known)
+		fail(2, "'%s' is not a command (build, walk, blend, info, check, compare; mocap-graph -h for help)", cmd);
 	options o;
 	parse(argc - 1, argv + 1, &o);
 	char **rest = argv + 1 + optind;

@@ -19,6 +19,7 @@
 #include <errno.h>
 #include <fcntl.h>
 #include <getopt.h>
+#include <limits.h>
 #include <netdb.h>
 #include <netinet/in.h>
 #include <signal.h>
@@ -255,11 +256,47 @@ static void load_model(const options *o, mc_model *model, const mc_model **out)
 		fprintf(stderr, "mocap-preview: no body model (%s): the skeleton is drawn without the Gaussians\n", err.msg);
 }
 
+/* Run from a build tree (<src>/<build>/bin/mocap-preview) before `make
+ * install`: the source tree's `rel` when it is there, else NULL. */
+static const char *from_source_tree(const char *rel, char *buf, size_t cap)
+{
+	char exe[PATH_MAX];
+	if (!realpath("/proc/self/exe", exe))
+		return NULL;
+	for (int up = 0; up < 3; up++) { /* mocap-preview, bin, <build> */
+		char *slash = strrchr(exe, '/');
+		if (!slash)
+			return NULL;
+		*slash = 0;
+	}
+	char marker[PATH_MAX + 32];
+	snprintf(marker, sizeof(marker), "%s/preview/mocap-preview.c", exe);
+	if (access(marker, R_OK) != 0 || (size_t)snprintf(buf, cap, "%s/%s", exe, rel) >= cap)
+		return NULL;
+	return access(buf, R_OK) == 0 ? buf : NULL;
+}
+
+/* The installed page and model, or the source tree's when this program
+ * runs from its build tree and nothing is installed. */
+static void tree_defaults(options *o)
+{
+	static char www[PATH_MAX], model[PATH_MAX];
+	if (strcmp(o->www, DEFAULT_WWW) == 0 && access(DEFAULT_WWW "/index.html", R_OK) != 0 &&
+	    from_source_tree("preview/www/index.html", www, sizeof(www))) {
+		*strrchr(www, '/') = 0;
+		o->www = www;
+	}
+	if (strcmp(o->model, DEFAULT_MODEL) == 0 && access(DEFAULT_MODEL, R_OK) != 0 &&
+	    from_source_tree("config/models/default.json", model, sizeof(model)))
+		o->model = model;
+}
+
 int main(int argc, char **argv)
 {
 	options o = {.listen = DEFAULT_LISTEN, .www = DEFAULT_WWW, .three = DEFAULT_THREE, .model = DEFAULT_MODEL,
 		     .rate = 10, .width = 480, .quality = 75, .verbose = true};
 	parse_options(argc, argv, &o);
+	tree_defaults(&o);
 	setvbuf(stdout, NULL, _IOLBF, 0);
 	/* The preview yields the CPU to the daemon: where both want it, the
 	 * tracking goes first (nice 10; threads made later inherit it). */
@@ -271,7 +308,8 @@ int main(int argc, char **argv)
 	char index[4200];
 	snprintf(index, sizeof(index), "%s/index.html", o.www);
 	if (access(index, R_OK) != 0)
-		fail(2, "--www %s: no index.html there (the page's files; installed in %s)", o.www, DEFAULT_WWW);
+		fail(2, "--www %s: no index.html there (the page's files: installed in %s, in the source tree "
+			"preview/www)", o.www, DEFAULT_WWW);
 	static mc_model model; /* large: not on the stack */
 	const mc_model *use_model;
 	load_model(&o, &model, &use_model);

@@ -17,6 +17,9 @@ cleanup() { rm -rf "$tmp"; }
 trap cleanup EXIT
 
 make -s $vars install >"$tmp/install.log" 2>&1 || { tail -n 30 "$tmp/install.log"; fail "make install"; }
+# the linker's cache: ldconfig run (as root), or the user told to (issue 31 item 5)
+grep -q "^ldconfig: done\|run 'sudo ldconfig'" "$tmp/install.log" || fail "make install neither ran ldconfig nor said to"
+grep -q "$prefix/lib is not in the linker's search path" "$tmp/install.log" || fail "make install did not say $prefix/lib is not searched"
 for f in bin/mocapd bin/mocapctl bin/mocap-bench bin/mocap-vmc bin/mocap-export bin/mocap-track bin/mocap-calibrate \
 	bin/mocap-graph bin/mocap-preview share/mocapd/preview/index.html \
 	lib/mocapd/drivers/mocap-driver-take.so lib/mocapd/drivers/mocap-driver-files.so \
@@ -35,6 +38,8 @@ if command -v scdoc >/dev/null; then
 		[ -s "$prefix/share/man/$m" ] || fail "no man page $prefix/share/man/$m"
 	done
 fi
+# every installed program: -h, --version, a bad option (issue 31 item 6)
+"$repo/tests/cli-test.sh" "$prefix/bin" >"$tmp/cli.log" 2>&1 || { cat "$tmp/cli.log"; fail "tests/cli-test.sh $prefix/bin"; }
 # mocap-calibrate from the install: a board to print
 "$prefix/bin/mocap-calibrate" board --out "$tmp/board" >"$tmp/board.log" 2>&1 && [ -s "$tmp/board.pdf" ] && [ -s "$tmp/board.json" ] ||
 	fail "installed mocap-calibrate board: $(cat "$tmp/board.log")"

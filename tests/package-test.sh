@@ -88,6 +88,21 @@ for f in /usr/bin/mocapd /usr/bin/mocapctl /usr/bin/mocap-bench /usr/bin/mocap-d
 	/usr/share/doc/mocapd/PROTOCOL.md.gz; do
 	[ -e "$f" ] || fail "$f is not installed"
 done
+# Every unit's Documentation= names what the packages install (VMC.md was
+# shipped compressed as VMC.md.gz while mocap-vmc.service named VMC.md).
+for u in /lib/systemd/system/mocapd.service /lib/systemd/system/mocap-vmc.service \
+	/lib/systemd/system/mocap-detect.service; do
+	[ -f "$u" ] || continue
+	for d in $(sed -n 's/^Documentation=//p' "$u"); do
+		case $d in
+		file://*) [ -e "${d#file://}" ] || fail "$u: Documentation=$d is not installed" ;;
+		man:*)
+			page=${d#man:} name=${page%%(*} sec=${page#*(}
+			sec=${sec%)}
+			[ -e "/usr/share/man/man$sec/$name.$sec.gz" ] || fail "$u: Documentation=$d is not installed" ;;
+		esac
+	done
+done
 dpkg-query -W -f '${Conffiles}\n' mocapd | grep -q ' /etc/mocapd/mocapd.conf ' ||
 	fail "/etc/mocapd/mocapd.conf is not a conffile of mocapd"
 grep -q "/usr/share/mocapd" /etc/mocapd/mocapd.conf || fail "/etc/mocapd/mocapd.conf does not name /usr/share/mocapd"

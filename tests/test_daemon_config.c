@@ -7,8 +7,10 @@
 #include "base/mc_one_euro.h"
 #include "test_util.h"
 
+#include <signal.h>
 #include <string.h>
 #include <sys/stat.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
 static mcd_config cfg;
@@ -221,10 +223,13 @@ static void test_value_errors(void)
 
 static void test_structure_errors(void)
 {
-	expect_error(CAM NOTRACK "iteratons = 5\n", "mocapd.conf:5: [tracker] iteratons: unknown key");
+	expect_error(CAM NOTRACK "iteratons = 5\n",
+		     "mocapd.conf:5: [tracker] iteratons: unknown key (did you mean 'iterations'?)");
 	expect_error("[daemon]\nplugins = /x\n" CAM NOTRACK, "mocapd.conf:2: [daemon] plugins: unknown key");
-	expect_error("[deamon]\n" CAM NOTRACK,
-		     "mocapd.conf:1: unknown section [deamon] (expected [daemon], [camera NAME], [tracker], [socket], [detector], [network], [record], [source] or [output])");
+	expect_error("[deamon]\nlog_level = info\n" CAM NOTRACK, "mocapd.conf:1: unknown section [deamon] (did you mean [daemon]?)");
+	expect_error("[cameras left]\n" CAM NOTRACK, "mocapd.conf:1: unknown section [cameras left] (did you mean [camera NAME]?)");
+	expect_error("[foo]\n" CAM NOTRACK,
+		     "mocapd.conf:1: unknown section [foo] (expected [daemon], [camera NAME], [tracker], [socket], [detector], [network], [record], [source] or [output])");
 	expect_error("log_level = info\n" CAM NOTRACK,
 		     "mocapd.conf:1: log_level: key outside any section (start with [daemon])");
 	expect_error(CAM NOTRACK "enabled = true\n",
@@ -337,6 +342,91 @@ static void test_load_file(void)
 	rmdir(dir);
 }
 
+/* --check lists every error of the file, not only the first (issue 31
+ * item 6), with "did you mean" for keys and sections; err keeps the first. */
+static void test_all_errors(void)
+{
+	char buf[4096];
+	mcd_config_errors all = {.buf = buf, .cap = sizeof(buf)};
+	mc_err err;
+	const char *text = "[daemon]\nlog_levl = info\n"
+			   "[trakcer]\nrig = x\n"
+			   "[camera a]\ndriver = files\nrig_camera = a\n"
+			   "  indented = 1\n"
+			   "[tracker]\nrig = r.json\nmodel = m.json\niteration = 5\nwidth = 99999\n";
+	CHECK(mcd_config_parse_all(text, "m.conf", "/etc/mocapd", &cfg, &all, &err) == -1);
+	CHECK_MSG(strcmp(err.msg, "m.conf:2: [daemon] log_levl: unknown key (did you mean 'log_level'?)") == 0, "%s",
+		  err.msg);
+	const char *want = "m.conf:2: [daemon] log_levl: unknown key (did you mean 'log_level'?)\n"
+			   "m.conf:3: unknown section [trakcer] (did you mean [tracker]?)\n"
+			   "m.conf:8: indented line (inih reads it as the continuation of the previous value); remove "
+			   "the indentation\n"
+			   "m.conf:12: [tracker] iteration: unknown key (did you mean 'iterations'?)\n"
+			   "m.conf:13: [tracker] width: expected an integer from 1 to 8192, got '99999'\n";
+	CHECK_MSG(strcmp(buf, want) == 0 && all.n == 5 && all.untold == 0, "%d errors:\n%s", all.n, buf);
+
+	/* the checks across keys: each one that fails */
+	all = (mcd_config_errors){.buf = buf, .cap = sizeof(buf)};
+	CHECK(mcd_config_parse_all("[camera a]\nrig_camera = a\n[tracker]\nrig = r.json\n[daemon]\nreopen_initial_ms = "
+				   "500\nreopen_max_ms = 100\n",
+				   "m.conf", "/etc/mocapd", &cfg, &all, &err) == -1);
+	CHECK_MSG(all.n == 3 && strstr(buf, "missing key 'model'") && strstr(buf, "missing key 'driver'") &&
+			  strstr(buf, "reopen_max_ms: must be at least"),
+		  "%d errors:\n%s", all.n, buf);
+
+	/* more than the buffer holds: counted */
+	char small[100];
+	all = (mcd_config_errors){.buf = small, .cap = sizeof(small)};
+	CHECK(mcd_config_parse_all("[daemon]\nlog_levl = info\nplugins = x\nfoo = 1\n" CAM NOTRACK, "m.conf", "/", &cfg,
+				   &all, &err) == -1);
+	CHECK_MSG(all.n == 3 && all.untold == 2 && strlen(small) < sizeof(small), "%d, %d: %s", all.n, all.untold, small);
+	/* and without a list, the first error stops, as before */
+	CHECK(mcd_config_parse(text, "m.conf", "/etc/mocapd", &cfg, &err) == -1);
+	CHECK(strstr(err.msg, "log_levl") != NULL);
+}
+
+/* A FIFO (or a device) as the config is refused at once: opening a FIFO
+ * without a writer blocks, and `mocapd --check` hung for ever (issue 34).
+ * Run in a child so that a hang shows as a failure, not a stuck test. */
+static void test_load_not_regular(void)
+{
+	char dir[] = "/tmp/mocapd-config-XXXXXX";
+	CHECK(mkdtemp(dir) != NULL);
+	char path[256];
+	snprintf(path, sizeof(path), "%s/fifo.conf", dir);
+	CHECK(mkfifo(path, 0600) == 0);
+	pid_t pid = fork();
+	if (pid == 0) {
+		mc_err err = {{0}};
+		int rc = mcd_config_load(path, &cfg, &err);
+		char want[400];
+		snprintf(want, sizeof(want), "%s: not a regular file (a FIFO); refused", path);
+		if (rc == -1 && strcmp(err.msg, want) != 0)
+			fprintf(stderr, "got '%s'\n", err.msg);
+		_exit(rc == -1 && strcmp(err.msg, want) == 0 ? 0 : 1);
+	}
+	int status = 0;
+	bool done = false;
+	for (int i = 0; i < 300 && !done; i++) {
+		done = waitpid(pid, &status, WNOHANG) == pid;
+		if (!done)
+			usleep(10000);
+	}
+	if (!done) {
+		kill(pid, SIGKILL);
+		waitpid(pid, &status, 0);
+	}
+	CHECK_MSG(done, "mcd_config_load blocked on a FIFO for 3 s");
+	CHECK_MSG(done && WIFEXITED(status) && WEXITSTATUS(status) == 0, "FIFO config not refused as expected");
+	mc_err err = {{0}};
+	CHECK(mcd_config_load(dir, &cfg, &err) == -1);
+	char want[400];
+	snprintf(want, sizeof(want), "%s: not a regular file (a directory); refused", dir);
+	CHECK_MSG(strcmp(err.msg, want) == 0, "%s", err.msg);
+	unlink(path);
+	rmdir(dir);
+}
+
 /* The configs the project ships parse, and mean what they say. */
 static void test_shipped_configs(void)
 {
@@ -398,7 +488,8 @@ static void test_detector(void)
 		     "mocapd.conf:6: [detector] rate: expected a number from 0 to 1000, got '-1'");
 	expect_error(CAM NOTRACK "[detector]\nthreads = 0\n",
 		     "mocapd.conf:6: [detector] threads: expected an integer from 1 to 64, got '0'");
-	expect_error(CAM NOTRACK "[detector]\nmodle = x.onnx\n", "mocapd.conf:6: [detector] modle: unknown key");
+	expect_error(CAM NOTRACK "[detector]\nmodle = x.onnx\n",
+		     "mocapd.conf:6: [detector] modle: unknown key (did you mean 'model'?)");
 	/* A reload takes rate, threads and min_confidence, not the model. */
 	static mcd_config cur, neu;
 	CHECK(mcd_config_parse(CAM NOTRACK "[detector]\nmodel = a.onnx\nrate = 5\n", "mocapd.conf", "/etc/mocapd", &cur,
@@ -491,6 +582,8 @@ int main(void)
 	test_structure_errors();
 	test_cross_checks();
 	test_load_file();
+	test_load_not_regular();
+	test_all_errors();
 	test_shipped_configs();
 	test_reload();
 	test_detector();

@@ -114,7 +114,7 @@ static void test_build_dir(void)
 	expect_loaded(drivers_dir, "faulty");
 	char bad[PATH_MAX + 8];
 	snprintf(bad, sizeof(bad), "%s/bad", drivers_dir);
-	expect_refused(bad, "badabi", "built for driver ABI version 999, but this mocapd speaks version 2");
+	expect_refused(bad, "badabi", "built for driver ABI version 999, but this mocapd speaks version 3");
 	expect_refused(bad, "noentry", "exports no mdrv_entry(); not a mocapd driver plugin");
 	expect_refused(drivers_dir, "nosuch", "no mocap-driver-nosuch.so in");
 	expect_refused(drivers_dir, "nosuch", "(drivers there: faulty)");

@@ -36,6 +36,7 @@
 typedef struct {
 	const char *rig_path, *model_path, *pose_path, *out, *cam, *overlay, *gt_path;
 	int width, height, frame;
+	int scale; /* --overlay: the image enlarged this many times (1: as it is) */
 	bool skeleton;
 	double background[3];
 } options;
@@ -50,9 +51,10 @@ static void usage(FILE *f)
 		   "                    [--width W --height H] [--background grey|black] [--cam NAME]\n"
 		   "                    [--skeleton] --out PREFIX\n"
 		   "       mocap-render --rig RIG.json --model MODEL.json [--pose POSE.json | --rest]\n"
-		   "                    --cam NAME --overlay IMAGE [--gt gt.json --frame K] --out PREFIX\n"
+		   "                    --cam NAME --overlay IMAGE [--gt gt.json --frame K] [--scale N] --out PREFIX\n"
 		   "Renders the body model through every rig camera into PREFIX_<cam>.png, or draws\n"
-		   "the projected skeleton over IMAGE into PREFIX_<cam>_overlay.png. See docs/RENDER.md.\n");
+		   "the projected skeleton over IMAGE into PREFIX_<cam>_overlay.png (--scale N: IMAGE\n"
+		   "enlarged N times first, 1..8, so that thin bones stay visible). See docs/RENDER.md.\n");
 }
 
 static int parse_int(const char *opt, const char *s, int lo, int hi, int *out)
@@ -77,10 +79,12 @@ static int parse_args(int argc, char **argv, options *o)
 		{"skeleton", no_argument, 0, 's'},     {"overlay", required_argument, 0, 'o'},
 		{"gt", required_argument, 0, 'g'},     {"frame", required_argument, 0, 'f'},
 		{"out", required_argument, 0, 'O'},    {"help", no_argument, 0, 'h'},
+		{"scale", required_argument, 0, 'S'},
 		{"version", no_argument, 0, 'V'},      {0, 0, 0, 0},
 	};
 	memset(o, 0, sizeof(*o));
 	o->frame = -1;
+	o->scale = 1;
 	o->background[0] = o->background[1] = o->background[2] = 0.5;
 	int ch;
 	while ((ch = getopt_long(argc, argv, "hV", longopts, NULL)) != -1) {
@@ -92,6 +96,7 @@ static int parse_args(int argc, char **argv, options *o)
 		case 'W': if (parse_int("--width", optarg, 1, 4096, &o->width)) return -1; break;
 		case 'H': if (parse_int("--height", optarg, 1, 4096, &o->height)) return -1; break;
 		case 'f': if (parse_int("--frame", optarg, 0, 1000000, &o->frame)) return -1; break;
+		case 'S': if (parse_int("--scale", optarg, 1, 8, &o->scale)) return -1; break;
 		case 'c': o->cam = optarg; break;
 		case 's': o->skeleton = true; break;
 		case 'o': o->overlay = optarg; break;
@@ -128,6 +133,10 @@ static int parse_args(int argc, char **argv, options *o)
 	}
 	if (o->overlay && !o->cam) {
 		fprintf(stderr, "mocap-render: --overlay needs --cam NAME (the camera that took the image)\n");
+		return -1;
+	}
+	if (o->scale != 1 && !o->overlay) {
+		fprintf(stderr, "mocap-render: --scale goes with --overlay\n");
 		return -1;
 	}
 	if ((o->gt_path != NULL) != (o->frame >= 0) || (o->gt_path && !o->overlay)) {
@@ -316,6 +325,26 @@ static int run_render(const options *o, const mc_rig *rig, const mc_model *model
 	return 0;
 }
 
+/* Enlarges im n times, each pixel a block (the camera's pixels stay
+ * visible under the skeleton). */
+static int enlarge(image *im, int n, mc_err *err)
+{
+	if (n == 1)
+		return 0;
+	uint8_t *big = malloc((size_t)im->width * n * im->height * n * 3);
+	if (!big)
+		return mc_err_set(err, "out of memory");
+	for (int y = 0; y < im->height * n; y++)
+		for (int x = 0; x < im->width * n; x++)
+			memcpy(big + ((size_t)y * im->width * n + x) * 3, im->rgb + ((size_t)(y / n) * im->width + x / n) * 3,
+			       3);
+	free(im->rgb);
+	im->rgb = big;
+	im->width *= n;
+	im->height *= n;
+	return 0;
+}
+
 static int run_overlay(const options *o, const mc_rig *rig, const mc_model *model, const mc_fk *fk, mc_err *err)
 {
 	const mc_camera *cam = &rig->cams[mc_rig_find(rig, o->cam)];
@@ -331,7 +360,9 @@ static int run_overlay(const options *o, const mc_rig *rig, const mc_model *mode
 		fprintf(stderr, "mocap-render: warning: %s is %dx%d, camera '%s' is %dx%d: aspect ratios differ\n",
 			o->overlay, im.width, im.height, cam->name, cam->width, cam->height);
 	char path[4096];
-	r = output_path(path, sizeof(path), o->out, cam->name, "_overlay", err);
+	r = enlarge(&im, o->scale, err);
+	if (r == 0)
+		r = output_path(path, sizeof(path), o->out, cam->name, "_overlay", err);
 	if (r == 0 && o->gt_path)
 		r = draw_ground_truth(&im, cam, model, o->gt_path, o->frame, err);
 	if (r == 0) {

@@ -665,6 +665,69 @@ static int aravis_probe(const mdrv_host *host, mdrv_device_info *out, int max, c
 	return n < max ? n : max;
 }
 
+/* One mode per pixel format the camera offers and this driver takes, at
+ * the largest region its Width and Height allow, with the frame rate
+ * range at the current settings.  Reads the camera's features only. */
+static int list_modes(ArvCamera *cam, const char *id, mdrv_mode *out, int max, char *err, size_t errlen)
+{
+	GError *e = NULL;
+	gint wmin = 0, wmax = 0, hmin = 0, hmax = 0;
+	double fmin = 0, fmax = 0;
+	arv_camera_get_width_bounds(cam, &wmin, &wmax, &e);
+	if (!e)
+		arv_camera_get_height_bounds(cam, &hmin, &hmax, &e);
+	if (e)
+		return take_error(&e, id, "reading the region bounds", err, errlen);
+	arv_camera_get_frame_rate_bounds(cam, &fmin, &fmax, &e);
+	g_clear_error(&e); /* some cameras have no AcquisitionFrameRate: rates unknown */
+	guint nfmt = 0;
+	gint64 *fmts = arv_camera_dup_available_pixel_formats(cam, &nfmt, &e);
+	if (e)
+		return take_error(&e, id, "listing pixel formats", err, errlen);
+	/* The current format first: --probe suggests the first one listed. */
+	gint64 current = (gint64)arv_camera_get_pixel_format(cam, &e);
+	g_clear_error(&e);
+	for (guint i = 1; i < nfmt; i++)
+		if (fmts[i] == current) {
+			fmts[i] = fmts[0];
+			fmts[0] = current;
+		}
+	int n = 0;
+	for (guint i = 0; i < nfmt; i++)
+		for (int k = 0; k < N_PIXFMTS && n < max; k++) {
+			if ((gint64)pixfmts[k].arv != fmts[i])
+				continue;
+			mdrv_mode *m = &out[n++];
+			memset(m, 0, sizeof *m);
+			drv_strlcpy(m->pixel_format, pixfmts[k].name, sizeof m->pixel_format);
+			m->pixfmt = pixfmts[k].fmt;
+			m->width = (uint32_t)wmax;
+			m->height = (uint32_t)hmax;
+			m->fps_min = fmin;
+			m->fps_max = fmax;
+		}
+	g_free(fmts);
+	return n;
+}
+
+static int aravis_modes(const mdrv_host *host, const char *id, mdrv_mode *out, int max, char *err, size_t errlen)
+{
+	(void)host;
+	GError *e = NULL;
+	pthread_mutex_lock(&arv_list_lock);
+	ArvCamera *cam = arv_camera_new(id, &e);
+	pthread_mutex_unlock(&arv_list_lock);
+	if (!cam) {
+		drv_errf(err, errlen, MDRV_ERR_NODEV, DRV ": cannot open camera '%s': %s", id,
+			 e ? e->message : "not found");
+		g_clear_error(&e);
+		return MDRV_ERR_NODEV;
+	}
+	int n = list_modes(cam, id, out, max, err, errlen);
+	g_object_unref(cam);
+	return n;
+}
+
 /* The keys, parsed as open() parses them; no camera is looked for. */
 static int aravis_check(const mdrv_host *host, char *err, size_t errlen)
 {
@@ -672,5 +735,5 @@ static int aravis_check(const mdrv_host *host, char *err, size_t errlen)
 	return parse_config(host, &c, err, errlen);
 }
 
-MDRV_DEFINE_DRIVER(aravis, "aravis",
+MDRV_DEFINE_DRIVER_MODES(aravis, "aravis",
 		   "GigE Vision / USB3 Vision cameras through Aravis 0.8")

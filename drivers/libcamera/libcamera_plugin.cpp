@@ -482,6 +482,64 @@ int libcamera_probe(const mdrv_host *host, mdrv_device_info *out, int max, char 
 	}
 }
 
+/* The camera's frame duration limits as a rate range into m (0, 0 if it
+ * has no such control). */
+static void rate_range(const Camera &cam, mdrv_mode &m)
+{
+	auto it = cam.controls().find(&controls::FrameDurationLimits);
+	if (it == cam.controls().end())
+		return;
+	int64_t shortest = it->second.min().get<int64_t>(), longest = it->second.max().get<int64_t>();
+	if (shortest > 0 && longest >= shortest) {
+		m.fps_min = 1e6 / (double)longest;
+		m.fps_max = 1e6 / (double)shortest;
+	}
+}
+
+/* Fills out from camera `id`'s video configuration, without acquiring it. */
+static int list_modes(CameraManager *cm, const char *id, mdrv_mode *out, int max, char *err, size_t errlen)
+{
+	std::shared_ptr<Camera> cam = cm->get(id);
+	if (!cam)
+		return drv_errf(err, errlen, MDRV_ERR_NODEV, DRV ": no camera '%s' (found: %s)", id,
+				list_cameras(cm).c_str());
+	std::unique_ptr<CameraConfiguration> cfg = cam->generateConfiguration({StreamRole::VideoRecording});
+	if (!cfg || cfg->empty())
+		return drv_errf(err, errlen, MDRV_ERR_FORMAT, DRV ": camera '%s' offers no video stream", id);
+	const StreamFormats &formats = cfg->at(0).formats();
+	int n = 0;
+	for (const PixelFormat &pf : formats.pixelformats()) {
+		const FormatMap *fm = find_format(pf);
+		for (const Size &sz : formats.sizes(pf)) {
+			if (!fm || n >= max)
+				break;
+			mdrv_mode &m = out[n++];
+			memset(&m, 0, sizeof m);
+			drv_strlcpy(m.pixel_format, fm->name, sizeof m.pixel_format);
+			m.pixfmt = fm->fmt;
+			m.width = sz.width;
+			m.height = sz.height;
+			rate_range(*cam, m);
+		}
+	}
+	return n;
+}
+
+int libcamera_modes(const mdrv_host *host, const char *id, mdrv_mode *out, int max, char *err, size_t errlen)
+{
+	(void)host;
+	try {
+		CameraManager *cm = acquire_manager(err, errlen);
+		if (!cm)
+			return MDRV_ERR_IO;
+		int n = list_modes(cm, id, out, max, err, errlen);
+		release_manager();
+		return n;
+	} catch (const std::exception &e) {
+		return drv_errf(err, errlen, MDRV_ERR_IO, DRV ": %s", e.what());
+	}
+}
+
 void *libcamera_open(const mdrv_host *host, char *err, size_t errlen)
 {
 	try {
@@ -564,5 +622,5 @@ int libcamera_check(const mdrv_host *host, char *err, size_t errlen)
 
 } /* namespace */
 
-MDRV_DEFINE_DRIVER(libcamera, "libcamera",
+MDRV_DEFINE_DRIVER_MODES(libcamera, "libcamera",
 		   "cameras through libcamera (UVC, Raspberry Pi, IPU3, RkISP1, simple pipelines)")

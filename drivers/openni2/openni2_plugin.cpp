@@ -437,6 +437,68 @@ int openni2_probe(const mdrv_host *host, mdrv_device_info *out, int max, char *e
 	}
 }
 
+/* Appends the modes of one sensor in the formats the driver delivers,
+ * one entry per size with its rates; returns the new count. */
+int add_sensor_modes(Device &dev, SensorType type, const char *stream, mdrv_mode *out, int n, int max)
+{
+	const SensorInfo *info = dev.getSensorInfo(type);
+	if (!info)
+		return n;
+	const Array<VideoMode> &modes = info->getSupportedVideoModes();
+	for (int i = 0; i < modes.getSize(); i++) {
+		unsigned bpp;
+		mc_pixfmt fmt = to_mocap(modes[i].getPixelFormat(), &bpp);
+		if (fmt == MC_PIXFMT_NONE)
+			continue;
+		uint32_t w = (uint32_t)modes[i].getResolutionX(), h = (uint32_t)modes[i].getResolutionY();
+		mdrv_mode *m = nullptr;
+		for (int k = 0; k < n && !m; k++)
+			if (!strcmp(out[k].pixel_format, stream) && out[k].width == w && out[k].height == h)
+				m = &out[k];
+		if (!m) {
+			if (n >= max)
+				continue;
+			m = &out[n++];
+			memset(m, 0, sizeof *m);
+			drv_strlcpy(m->format_key, "stream", sizeof m->format_key);
+			drv_strlcpy(m->pixel_format, stream, sizeof m->pixel_format);
+			m->pixfmt = fmt;
+			m->width = w;
+			m->height = h;
+		}
+		double fps = modes[i].getFps();
+		uint32_t k = 0;
+		while (k < m->nfps && m->fps[k] != fps)
+			k++;
+		if (k < m->nfps || m->nfps >= MDRV_MODE_RATES)
+			continue; /* listed once (several pixel formats at one rate) */
+		for (k = m->nfps++; k > 0 && m->fps[k - 1] < fps; k--)
+			m->fps[k] = m->fps[k - 1]; /* highest first */
+		m->fps[k] = fps;
+	}
+	return n;
+}
+
+int openni2_modes(const mdrv_host *host, const char *id, mdrv_mode *out, int max, char *err, size_t errlen)
+{
+	(void)host;
+	try {
+		int st = start_runtime(err, errlen);
+		if (st)
+			return st;
+		SharedDevice *d = acquire_device(id, err, errlen);
+		if (!d)
+			return MDRV_ERR_NODEV;
+		int n = add_sensor_modes(d->device, SENSOR_DEPTH, "depth", out, 0, max);
+		n = add_sensor_modes(d->device, SENSOR_COLOR, "color", out, n, max);
+		n = add_sensor_modes(d->device, SENSOR_IR, "ir", out, n, max);
+		release_device(id);
+		return n;
+	} catch (const std::exception &e) {
+		return drv_errf(err, errlen, MDRV_ERR_IO, DRV ": %s", e.what());
+	}
+}
+
 void *openni2_open(const mdrv_host *host, char *err, size_t errlen)
 {
 	try {
@@ -523,5 +585,5 @@ int openni2_check(const mdrv_host *host, char *err, size_t errlen)
 
 } /* namespace */
 
-MDRV_DEFINE_DRIVER(openni2, "openni2",
+MDRV_DEFINE_DRIVER_MODES(openni2, "openni2",
 		   "OpenNI2 depth cameras (depth as DEPTH16 millimetres, colour, IR) and .oni recordings")

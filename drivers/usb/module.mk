@@ -5,7 +5,8 @@ include drivers/common/common.mk
 
 USB_PKG := libusb-1.0
 USB_PLUGIN := $(BUILD)/drivers/mocap-driver-usb.so
-USB_OBJ := $(BUILD)/drivers/usb/usb_plugin.o $(BUILD)/drivers/v4l2/drv_v4l2.o $(BUILD)/drivers/v4l2/drv_sysfs.o \
+USB_OBJ := $(BUILD)/drivers/usb/usb_plugin.o $(BUILD)/drivers/v4l2/drv_v4l2.o $(BUILD)/drivers/v4l2/drv_v4l2_modes.o \
+	$(BUILD)/drivers/v4l2/drv_sysfs.o \
 	$(HWDRV_COMMON_OBJ)
 
 $(BUILD)/drivers/usb/%.o: CPPFLAGS += -Idrivers/common -Idrivers/v4l2 $(shell $(PKG_CONFIG) --cflags $(USB_PKG))

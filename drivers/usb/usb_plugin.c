@@ -371,6 +371,11 @@ static void usb_close(void *dev)
 	free(u);
 }
 
+static void usb_id(const drv_usb_video_info *d, char *id, size_t n)
+{
+	snprintf(id, n, "%04x:%04x%s%s", d->vendor, d->product, d->serial[0] ? ":" : "", d->serial);
+}
+
 /* Lists USB devices that have a V4L2 node: id is VENDOR:PRODUCT[:SERIAL]. */
 static int usb_probe(const mdrv_host *host, mdrv_device_info *out, int max, char *err, size_t errlen)
 {
@@ -387,13 +392,30 @@ static int usb_probe(const mdrv_host *host, mdrv_device_info *out, int max, char
 			continue;
 		mdrv_device_info *o = &out[n++];
 		memset(o, 0, sizeof *o);
-		snprintf(o->id, sizeof o->id, "%04x:%04x%s%s", d->vendor, d->product, d->serial[0] ? ":" : "",
-			 d->serial);
+		usb_id(d, o->id, sizeof o->id);
 		snprintf(o->name, sizeof o->name, "%s (/dev/%s)", d->name[0] ? d->name : "USB camera", node);
 		snprintf(o->bus_info, sizeof o->bus_info, "usb port %s", d->port);
 		drv_strlcpy(o->serial, d->serial, sizeof o->serial);
 	}
 	return n;
+}
+
+/* The modes of the V4L2 node of the camera that probe listed as `id`. */
+static int usb_modes(const mdrv_host *host, const char *id, mdrv_mode *out, int max, char *err, size_t errlen)
+{
+	(void)host;
+	drv_usb_video_info list[MAX_USB_DEVICES];
+	int count = drv_sysfs_list_usb_devices(SYSFS, list, MAX_USB_DEVICES);
+	for (int i = 0; i < count; i++) {
+		char this_id[128], node[32], path[48];
+		usb_id(&list[i], this_id, sizeof this_id);
+		if (strcmp(this_id, id) != 0 ||
+		    drv_sysfs_find_usb_video(SYSFS, list[i].busnum, list[i].devnum, node, sizeof node) != 0)
+			continue;
+		snprintf(path, sizeof path, "/dev/%s", node);
+		return drv_v4l2_modes(path, DRV, out, max, err, errlen);
+	}
+	return drv_errf(err, errlen, MDRV_ERR_NODEV, DRV ": %s is not plugged in", id);
 }
 
 /* The keys, parsed as open() parses them; the ctrl.NAME keys are checked
@@ -409,5 +431,5 @@ static int usb_check(const mdrv_host *host, char *err, size_t errlen)
 	return st;
 }
 
-MDRV_DEFINE_DRIVER(usb, "usb",
+MDRV_DEFINE_DRIVER_MODES(usb, "usb",
 		   "USB cameras by vendor/product/serial, opened on plug-in (libusb hotplug + V4L2)")

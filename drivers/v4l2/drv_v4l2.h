@@ -61,4 +61,9 @@ int drv_v4l2_list(const char *dev_dir, const char *sysfs_root, drv_v4l2_node *ou
  * "YUYV 640x480@30,15 320x240@30; GREY 640x480@30", into buf. */
 void drv_v4l2_describe_modes(int fd, char *buf, size_t n);
 
+/* The modes of the node at `path` in the formats this driver delivers
+ * (mdrv_driver.modes): how many (at most max), or a negative mdrv_status
+ * with err.  Opens the node without streaming or changing its format. */
+int drv_v4l2_modes(const char *path, const char *drv, mdrv_mode *out, int max, char *err, size_t errlen);
+
 #endif

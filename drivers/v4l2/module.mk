@@ -5,7 +5,8 @@ include drivers/common/common.mk
 V4L2_PLUGIN := $(BUILD)/drivers/mocap-driver-v4l2.so
 $(BUILD)/drivers/v4l2/%.o: CPPFLAGS += -Idrivers/common
 # The V4L2 core and sysfs helpers are shared with the usb plugin.
-V4L2_CORE_OBJ := $(BUILD)/drivers/v4l2/drv_v4l2.o $(BUILD)/drivers/v4l2/drv_sysfs.o $(HWDRV_COMMON_OBJ)
+V4L2_CORE_OBJ := $(BUILD)/drivers/v4l2/drv_v4l2.o $(BUILD)/drivers/v4l2/drv_v4l2_modes.o \
+	$(BUILD)/drivers/v4l2/drv_sysfs.o $(HWDRV_COMMON_OBJ)
 V4L2_OBJ := $(BUILD)/drivers/v4l2/v4l2_plugin.o $(V4L2_CORE_OBJ)
 
 $(V4L2_PLUGIN): $(V4L2_OBJ)
@@ -32,6 +33,13 @@ $(HWDRV_TEST_DIR)/test_uvc_vm: tests/drivers/test_uvc_vm.c $(HWDRV_HARNESS_OBJ)
 
 UVC_VM_DEPS := $(BUILD)/tests/vm/uvc_gadget $(HWDRV_TEST_DIR)/test_uvc_vm $(V4L2_PLUGIN) \
 	$(BUILD)/drivers/mocap-driver-usb.so
+
+# mocapd --probe against the fake GigE camera and vivid in the VM, and its
+# pasted [camera] sections through --check (README.md, "First real camera").
+.PHONY: check-probe
+check-probe: $(V4L2_PLUGIN) $(BUILD)/bin/mocapd
+	$(HWDRV_RUN) tests/vm/probe-test.sh
+CHECKS += check-probe
 
 .PHONY: check-v4l2 check-uvc
 check-v4l2: $(V4L2_PLUGIN) $(HWDRV_TEST_DIR)/test_v4l2 $(HWDRV_TEST_DIR)/test_v4l2_vivid

@@ -96,6 +96,12 @@ static int v4l2_probe(const mdrv_host *host, mdrv_device_info *out, int max, cha
 	return n;
 }
 
+static int v4l2_modes(const mdrv_host *host, const char *id, mdrv_mode *out, int max, char *err, size_t errlen)
+{
+	(void)host;
+	return drv_v4l2_modes(id, DRV, out, max, err, errlen);
+}
+
 static void *v4l2_open(const mdrv_host *host, char *err, size_t errlen)
 {
 	drv_v4l2_settings s;
@@ -148,5 +154,5 @@ static int v4l2_check(const mdrv_host *host, char *err, size_t errlen)
 	return st;
 }
 
-MDRV_DEFINE_DRIVER(v4l2, "v4l2",
+MDRV_DEFINE_DRIVER_MODES(v4l2, "v4l2",
 		   "V4L2 capture devices (USB UVC cameras): YUYV, MJPEG, GREY")

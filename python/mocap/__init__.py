@@ -1,6 +1,6 @@
 """mocap: a client of mocapd for lab scripts, in pure Python (standard library).
 
-Speaks protocol versions 1 and 2 of docs/PROTOCOL.md over the daemon's
+Speaks protocol versions 1 to 3 of docs/PROTOCOL.md over the daemon's
 SOCK_SEQPACKET Unix socket, or over TCP to a daemon on another machine
 (path "tcp://HOST:PORT"; the daemon's token from token=, $MOCAP_TOKEN or
 the file $MOCAP_TOKEN_FILE).  Install it with `pip install ./python`, or

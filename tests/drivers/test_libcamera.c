@@ -33,6 +33,11 @@ int main(void)
 		expect_open_error("no camera found; set 'device' to one of: none");
 		drv_harness_set(&H, "device", "\\_SB_.PCI0.XHC_.RHUB.HS05-5:1.0-0c45:6366");
 		expect_open_error("no camera '\\_SB_.PCI0.XHC_.RHUB.HS05-5:1.0-0c45:6366' (found: none)");
+		/* modes (driver ABI 3, mocapd --probe) of a camera that is not there */
+		mdrv_mode m[4];
+		CHECK(H.drv->modes != NULL);
+		CHECK(H.drv->modes && H.drv->modes(&H.host, "no-such-camera", m, 4, err, sizeof err) == MDRV_ERR_NODEV);
+		CHECK_MSG(strstr(err, "libcamera: no camera 'no-such-camera' (found: none)"), "%s", err);
 	} else {
 		printf("cameras are present: the no-camera checks are left out\n");
 	}

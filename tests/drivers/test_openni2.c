@@ -124,9 +124,33 @@ static void test_streams(void)
 	}
 }
 
+/* mdrv_driver.modes (driver ABI 3, mocapd --probe): the Dummy device's
+ * depth and colour streams, each 320x240 at 30 fps, under the `stream`
+ * key; a device that is not there is NODEV. */
+static void test_modes(void)
+{
+	CHECK(H.drv->modes != NULL);
+	if (!H.drv->modes)
+		return;
+	mdrv_mode m[16];
+	char err[512] = "";
+	int n = H.drv->modes(&H.host, "Dummy", m, 16, err, sizeof err);
+	CHECK_MSG(n == 2, "modes: %d (%s)", n, err);
+	for (int i = 0; i < n; i++)
+		printf("modes: %s = %s %ux%u @ %g (%u rates)\n", m[i].format_key, m[i].pixel_format, m[i].width,
+		       m[i].height, m[i].nfps ? m[i].fps[0] : 0.0, m[i].nfps);
+	CHECK(n >= 1 && !strcmp(m[0].format_key, "stream") && !strcmp(m[0].pixel_format, "depth") &&
+	      m[0].pixfmt == MC_PIXFMT_DEPTH16 && m[0].width == 320 && m[0].height == 240 && m[0].nfps == 1 &&
+	      m[0].fps[0] == 30);
+	CHECK(n >= 2 && !strcmp(m[1].pixel_format, "color") && m[1].pixfmt == MC_PIXFMT_RGB24 && m[1].width == 320);
+	CHECK(H.drv->modes(&H.host, "/nonexistent/take1.oni", m, 16, err, sizeof err) == MDRV_ERR_NODEV);
+	CHECK_MSG(strstr(err, "cannot open device '/nonexistent/take1.oni'"), "%s", err);
+}
+
 int main(void)
 {
 	drv_check_load(&H, "openni2");
+	test_modes();
 	mdrv_device_info info[8];
 	int n = drv_check_probe(&H, info, 8, "devices");
 

@@ -48,7 +48,8 @@ PFUZZ_LIBS := $(CORE_LIBS) $(shell $(PKG_CONFIG) --libs inih 2>/dev/null) -lz
 # target uses) and the config parser with its key table and logger.
 PFUZZ_CORE := $(PFUZZ)/libcore.a
 PFUZZ_CORE_OBJ := $(CORE_SRC:%.c=$(PFUZZ)/obj/%.o)
-PFUZZ_CONFIG_OBJ := $(PFUZZ)/obj/daemon/config.o $(PFUZZ)/obj/daemon/config_keys.o $(PFUZZ)/obj/daemon/log.o
+PFUZZ_CONFIG_OBJ := $(PFUZZ)/obj/daemon/config.o $(PFUZZ)/obj/daemon/config_keys.o $(PFUZZ)/obj/daemon/config_suggest.o \
+	$(PFUZZ)/obj/daemon/log.o
 
 $(PFUZZ)/obj/%.o: %.c
 	@mkdir -p $(@D)
