@@ -108,7 +108,7 @@ bench-detector: $(BUILD)/bin/mocap-bench
 # Outside-in clips (shared/data/outside): every clip with all four cameras,
 # with two neighbouring cameras (90 degrees apart) and with two opposite
 # ones, from colour alone and, when the outside-in detector ships, with it
-# (docs/BENCHMARKS.md, "Outside-in").
+# (docs/BENCHMARKS_TRACKING.md, "Outside-in").
 OUTSIDE_DETECTOR ?= $(firstword $(wildcard config/models/outside_detector.onnx))
 BENCHES += bench-outside
 .PHONY: bench-outside

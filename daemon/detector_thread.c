@@ -177,7 +177,7 @@ static void apply_settings(worker *w)
 /* The tracking thread and its OpenCL workers get the cores first when
  * both want them ([detector] nice): a pose should not wait for a
  * detection, whose keypoints join the tracking when they come
- * (docs/BENCHMARKS.md, "The detector's priority"). */
+ * (docs/BENCHMARKS_HISTORY.md, "The budget with the detector, and the detector's priority"). */
 static void name_and_lower_priority(worker *w)
 {
 	mcd_detector_thread *d = w->d;

@@ -30,7 +30,7 @@ $(BUILD)/motion/tests/%: motion/tests/%.c $(MOTION_LINK_DEPS) | $(MOCAP_GRAPH)
 	@mkdir -p $(@D) $(BUILD)/tests
 	$(CC) $(CPPFLAGS) -Imotion -Irecord -Itests $(CFLAGS) -MMD -MP $< -o $@ $(LDFLAGS) $(MOTION_LINK)
 
-# The measurements of docs/BENCHMARKS.md ("Motion graphs"): tests/bench/graph.sh.
+# The measurements of docs/BENCHMARKS_SYSTEM.md ("Motion graphs"): tests/bench/graph.sh.
 BENCHES += bench-graph
 .PHONY: bench-graph
 bench-graph: $(MOCAP_GRAPH)

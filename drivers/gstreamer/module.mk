@@ -52,7 +52,7 @@ check-gstreamer: $(GST_PLUGIN) $(FILES_PLUGIN) $(GST_TESTS) $(GST_RTSP_SERVE) $(
 CHECKS += check-gstreamer
 
 # The capture cost of a 1280x720 30 fps H.264 file against gst-launch
-# decoding it to a fakesink (docs/BENCHMARKS.md, "GStreamer driver").
+# decoding it to a fakesink (docs/BENCHMARKS_SYSTEM.md, "GStreamer driver").
 GST_BENCH_CLIP := $(BUILD)/bench/gst-720p30.mp4
 $(HWDRV_TEST_DIR)/bench_gstreamer: tests/drivers/bench_gstreamer.c $(HWDRV_HARNESS_OBJ)
 	$(HWDRV_LINK_TEST)

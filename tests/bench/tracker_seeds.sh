@@ -2,7 +2,7 @@
 # Tracker accuracy over many seeds on every evaluation clip (ego and
 # outside-in), for judging a tracker change: one seed moves a clip's MPJPE
 # by up to 4 cm, so a change is compared on the mean of many seeds and its
-# standard error (docs/BENCHMARKS.md, "Tracker budget against accuracy").
+# standard error (docs/BENCHMARKS_TRACKING.md, "Tracker budget against accuracy").
 #
 # usage: tracker_seeds.sh [-n SEEDS] [-s FIRST] [-j JOBS] [-b MOCAP_BENCH] [-- MOCAP_BENCH_OPTIONS]
 #   -n  seeds per clip (default 10)
