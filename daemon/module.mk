@@ -9,7 +9,7 @@ DAEMON_CFLAGS := $(shell $(PKG_CONFIG) --cflags $(DAEMON_PKGS) 2>/dev/null)
 DAEMON_LIBS := $(shell $(PKG_CONFIG) --libs $(DAEMON_PKGS) 2>/dev/null) -ldl
 DAEMON_SRC := $(filter-out daemon/main.c,$(wildcard daemon/*.c))
 # The project's one version: the programs' --version, the .deb packages
-# (debian/changelog), the Python package (python/mocap.py) and libmocap's
+# (debian/changelog), the Python package (python/mocap/__init__.py) and libmocap's
 # IPC_SO_VERSION (ipc/module.mk) agree (tests/cli-test.sh checks).
 MOCAPD_VERSION := 1.2.0
 DAEMON_OBJ := $(DAEMON_SRC:%.c=$(BUILD)/%.o)

@@ -55,10 +55,10 @@ repo=$(dirname "$0")/..
 if [ -x "$bindir/mocapd" ] && [ -f "$repo/debian/changelog" ]; then
 	v=$("$bindir/mocapd" --version | sed -n 's/^mocapd \([^ ]*\).*/\1/p')
 	deb=$(sed -n '1s/^mocapd (\([^)-]*\).*/\1/p' "$repo/debian/changelog")
-	py=$(sed -n 's/^__version__ = "\(.*\)"/\1/p' "$repo/python/mocap.py")
+	py=$(sed -n 's/^__version__ = "\(.*\)"/\1/p' "$repo/python/mocap/__init__.py")
 	so=$(sed -n 's/^IPC_SO_VERSION := //p' "$repo/ipc/module.mk")
 	[ "$v" = "$deb" ] && [ "$v" = "$py" ] && [ "$v" = "$so" ] ||
-		fail "versions differ: mocapd $v, debian/changelog $deb, python/mocap.py $py, libmocap $so"
+		fail "versions differ: mocapd $v, debian/changelog $deb, python/mocap $py, libmocap $so"
 fi
 [ $failures -eq 0 ] || exit 1
 echo "cli-test: $n programs ok"
