@@ -29,7 +29,10 @@ static void install_units(void)
 static void test_verify(void)
 {
 	char cmd[512], out[8192];
-	snprintf(cmd, sizeof(cmd), "cd %s && systemd-analyze verify ./mocapd.service ./mocapd.socket 2>&1", scratch);
+	/* --man=no: the units name mocapd(8) and mocapd.conf(5), which a
+	 * build tree has not installed (the package tests check them there) */
+	snprintf(cmd, sizeof(cmd), "cd %s && systemd-analyze verify --man=no ./mocapd.service ./mocapd.socket 2>&1",
+		 scratch);
 	int rc = mc_test_run(cmd, out, sizeof(out));
 	CHECK_MSG(rc == 0, "systemd-analyze verify: exit %d:\n%s", rc, out);
 	/* verify prints warnings with exit 0; ours must have none */
