@@ -15,8 +15,7 @@
  * (nll itself where it is below 0).  The robust form pulls like the
  * mixture near the poses it knows and ever less far from them: a motion
  * unlike any in the training clips is left to the images (measured in
- * docs/TRACKER.md, "Pose prior": the plain mixture cost 3.4 cm on a walk
- * unlike the training walks).  Plain arithmetic, double precision. */
+ * docs/TRACKER.md, "Pose prior").  Plain arithmetic, double precision. */
 #ifndef MC_POSE_PRIOR_H
 #define MC_POSE_PRIOR_H
 

@@ -43,7 +43,8 @@ typedef struct {
 	 * keeps weakly observed dofs from random-walking (docs/TRACKER.md). */
 	double lambda_anchor;
 	/* Weight of the learned pose prior (mc_tracker_load_pose_prior); no
-	 * effect while none is loaded. */
+	 * effect while none is loaded.  0 by default (on head-mounted rigs it
+	 * measured worse), 1e-3 on outside-in rigs (mc_tracker_outside_in). */
 	double lambda_prior;
 	/* Outside-in rigs (world frame z up, floor at z = 0): weight of the
 	 * floor prior, a squared penalty on every Gaussian reaching below the
@@ -81,6 +82,7 @@ typedef struct {
 	double lambda_smooth, lambda_floor;
 	double lambda_detection;             /* 0.3: measured with MoveNet and sides (docs/BENCHMARKS.md) */
 	bool assign_sides;                   /* the views can settle left and right */
+	double lambda_prior;                 /* the learned pose prior helps here */
 } mc_tracker_outside_in_defaults;
 extern const mc_tracker_outside_in_defaults mc_tracker_outside_in;
 /* camera_iterations / ncams, within [min_iterations, max_iterations]: 80
@@ -93,6 +95,7 @@ int mc_tracker_outside_in_iterations(int ncams);
 #define MC_GIVEN_LAMBDA_FLOOR 4u
 #define MC_GIVEN_LAMBDA_DETECTION 8u
 #define MC_GIVEN_ASSIGN_SIDES 16u
+#define MC_GIVEN_LAMBDA_PRIOR 32u
 /* Sets the outside-in values for a rig of ncams cameras in every setting
  * not in `given` (MC_GIVEN_* flags). */
 void mc_tracker_settings_outside_in(mc_tracker_settings *s, int ncams, unsigned given);

@@ -23,7 +23,7 @@ static void usage(FILE *f)
 		   "  --lambda-floor L      outside-in: weight of the floor prior (default: mocapd's outside-in value)\n"
 		   "  --pose-prior FILE     the learned pose prior (default config/models/pose_prior.json when\n"
 		   "                        there; 'none': without one)\n"
-		   "  --lambda-prior L      weight of the pose prior (default 1e-3)\n"
+		   "  --lambda-prior L      weight of the pose prior (default 0 head-mounted, 1e-3 outside-in)\n"
 		   "  --frames N            track only the first N frames\n"
 		   "  --fps F               the clip's frame rate (default: gt.json's, else 30)\n"
 		   "  --frame-step N        track every Nth frame set only, as cameras at 1/N of the clip's rate\n"
@@ -166,7 +166,7 @@ static int apply_option(options *o, int c, const char *name, const char *arg, bo
 	case OPT_LPOSE: s->lambda_pose = v; break;
 	case OPT_LLIMIT: s->lambda_limit = v; break;
 	case OPT_LANCHOR: s->lambda_anchor = v; break;
-	case OPT_LPRIOR: s->lambda_prior = v; break;
+	case OPT_LPRIOR: s->lambda_prior = v; o->given |= MC_GIVEN_LAMBDA_PRIOR; break;
 	case OPT_LFLOOR: s->lambda_floor = v; o->given |= MC_GIVEN_LAMBDA_FLOOR; break;
 	case OPT_LDET: s->lambda_detection = v; o->given |= MC_GIVEN_LAMBDA_DETECTION; break;
 	case OPT_LCOLOR: s->lambda_color = v; break;
