@@ -74,6 +74,9 @@ bool mcd_pipeline_cameras_attempted(mcd_pipeline *p);
 /* True when no camera will deliver again (all ended or failed for good)
  * and every frame set was tracked and published. */
 bool mcd_pipeline_finished(mcd_pipeline *p);
+/* Offline mode ([daemon] offline): logs the progress line at most once a
+ * second, or with `final` the totals; nothing otherwise.  Main thread. */
+void mcd_pipeline_offline_progress(mcd_pipeline *p, uint64_t now, bool final);
 /* True when finished because every camera failed for good (none reached
  * an end): --exit-at-end should then exit non-zero. */
 bool mcd_pipeline_all_failed(mcd_pipeline *p);
