@@ -2,6 +2,53 @@
 
 #include "log.h"
 
+#include <limits.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+/* Drivers of live cameras (the others play recordings). */
+static bool live_driver(const char *driver)
+{
+	static const char *const live[] = {"v4l2", "usb", "aravis", "libcamera", "openni2", "sim"};
+	for (size_t i = 0; i < sizeof(live) / sizeof(live[0]); i++)
+		if (strcmp(driver, live[i]) == 0)
+			return true;
+	return false;
+}
+
+/* The camera's value of a driver key, and its line; NULL if not given. */
+static const char *driver_key(const mcd_camera_config *cam, const char *key, int *line)
+{
+	for (int i = 0; i < cam->nkeys; i++)
+		if (strcmp(cam->keys[i].key, key) == 0) {
+			*line = cam->keys[i].line;
+			return cam->keys[i].value;
+		}
+	return NULL;
+}
+
+void mcd_lockstep_check_config(const mcd_config *cfg)
+{
+	char where[PATH_MAX + 64];
+	const char *mode = mcd_config_is_set(cfg, "daemon", "offline")
+				   ? mcd_config_where(cfg, "daemon", "offline", where, sizeof(where))
+				   : "--offline";
+	for (int c = 0; c < cfg->ncams; c++) {
+		const mcd_camera_config *cam = &cfg->cams[c];
+		int line = cam->line;
+		const char *rate = strcmp(cam->driver, "files") == 0 ? driver_key(cam, "rate", &line) : NULL;
+		if (live_driver(cam->driver))
+			mcd_warn("camera %s: the %s driver is a live camera; with %s it loses the frames the tracker is "
+				 "not ready for", cam->name, cam->driver, mode);
+		else if (rate && strtod(rate, NULL) == 0)
+			mcd_warn("%s:%d: [camera %s] rate = %s: the files driver then stamps each frame with the time it "
+				 "is read, so with %s the cameras' frames do not group into frame sets; give the "
+				 "recording's rate (offline, every frame is delivered at once all the same)",
+				 cfg->file, line, cam->name, rate, mode);
+	}
+}
+
 
 void mcd_lockstep_init(mcd_lockstep *l, mcd_tracking_thread *tracker, int ncams, uint64_t now)
 {

@@ -22,6 +22,7 @@
 #define MCD_LOCKSTEP_H
 
 #include "base/mc_limits.h"
+#include "config.h"
 #include "tracking_thread.h"
 
 #include <stdatomic.h>
@@ -45,6 +46,11 @@ typedef struct {
 	/* The progress line (main thread only). */
 	uint64_t start_ns, next_ns, prev_ns, prev_done;
 } mcd_lockstep;
+
+/* Warns of cameras that offline mode does not suit: live ones (held back,
+ * they lose frames) and a files camera with rate = 0 (stamped when read,
+ * its frames do not group with the other cameras'). */
+void mcd_lockstep_check_config(const mcd_config *cfg);
 
 void mcd_lockstep_init(mcd_lockstep *l, mcd_tracking_thread *tracker, int ncams, uint64_t now);
 /* Camera `cam` handed a frame to the tracking thread (its capture thread). */

@@ -184,29 +184,6 @@ static int create_recorder(mcd_pipeline *p, const mcd_config *cfg, mcd_tracking 
 	return p->recorder ? 0 : -1;
 }
 
-/* Drivers that are live cameras: offline mode holds them back, and they
- * drop the frames it does not take. */
-static bool live_driver(const char *driver)
-{
-	static const char *const live[] = {"v4l2", "usb", "aravis", "libcamera", "openni2", "sim"};
-	for (size_t i = 0; i < sizeof(live) / sizeof(live[0]); i++)
-		if (strcmp(driver, live[i]) == 0)
-			return true;
-	return false;
-}
-
-static void warn_live_cameras(const mcd_config *cfg)
-{
-	char where[PATH_MAX + 64];
-	for (int c = 0; c < cfg->ncams; c++)
-		if (live_driver(cfg->cams[c].driver))
-			mcd_warn("camera %s: the %s driver is a live camera; with %s it loses the frames the tracker is "
-				 "not ready for", cfg->cams[c].name, cfg->cams[c].driver,
-				 mcd_config_is_set(cfg, "daemon", "offline")
-					 ? mcd_config_where(cfg, "daemon", "offline", where, sizeof(where))
-					 : "--offline");
-}
-
 /* Loads the drivers and creates the cameras, all with one time origin. */
 static int create_cameras(mcd_pipeline *p, const mcd_config *cfg, mc_err *err)
 {
@@ -215,7 +192,7 @@ static int create_cameras(mcd_pipeline *p, const mcd_config *cfg, mc_err *err)
 	uint64_t epoch = p->offline ? MCD_OFFLINE_EPOCH_NS : mc_now_ns() + EPOCH_AHEAD_NS;
 	if (p->offline) {
 		mcd_info("offline: every frame set is tracked; the cameras wait for the tracker");
-		warn_live_cameras(cfg);
+		mcd_lockstep_check_config(cfg);
 	}
 	for (int c = 0; c < p->ncams; c++) {
 		const mcd_camera_config *cc = &cfg->cams[c];

@@ -2,8 +2,9 @@
 # test_offline.sh: mocapd --offline tracks every frame set of recorded
 # footage.  The demo clip (tests/data/ego_demo: two cameras, 60 frames at
 # 30 fps) through config/demo.conf's tracker:
-#   1. files driver, tracker off: 60 complete frame sets at t = k/30 s (the
-#      offline time origin keeps each frame's time in the recording);
+#   1. files driver, tracker off, `[daemon] offline = true` and
+#      --exit-at-end: 60 complete frame sets at t = k/30 s (the offline
+#      time origin keeps each frame's time in the recording);
 #   2. files driver (rate = 30, as in the demo), tracking: exits 0 and all
 #      60 frame sets are tracked, by --print and by the final "offline:"
 #      log line, with none skipped;
@@ -43,9 +44,9 @@ to_mkv() { # to_mkv NAME: the cameras play $tmp/left.mkv and right.mkv as fast a
 		-e "s#^path = .*/ego_demo/\(left\|right\)\$#uri = $tmp/\1.mkv\npace = asap#" "$tmp/$1.conf"
 }
 
-run() { # run NAME: mocapd --offline to the end; sets rc and secs
+run() { # run NAME [OPTION]: mocapd (--offline unless told) to the end; sets rc and secs
 	start=$(date +%s.%N)
-	timeout 300 "$mocapd" --config "$tmp/$1.conf" --plugin-dir "$build/drivers" --offline --print \
+	timeout 300 "$mocapd" --config "$tmp/$1.conf" --plugin-dir "$build/drivers" "${2:---offline}" --print \
 		>"$tmp/$1.txt" 2>"$tmp/$1.log"
 	rc=$?
 	secs=$(echo "$(date +%s.%N) $start" | awk '{ printf "%.1f", $1 - $2 }')
@@ -80,16 +81,20 @@ print(tracked, "%.2f" % (100 * sum(errors) / len(errors)) if errors else "none")
 PY
 }
 
-# 1. grouping only: every set, on the clip's time grid
+# 1. grouping only: every set, on the clip's time grid; the config key
+# instead of --offline
 make_conf group
 tracker_off group
-run group
+sed -i 's/^\[daemon\]/[daemon]\noffline = true/' "$tmp/group.conf"
+run group --exit-at-end
 sets=$(grep -c "cams 2/2 (not tracked)" "$tmp/group.txt")
 grid=$(awk '/^frame/ { split($3, t, "="); k = NR - 1; if ((t[2] - k / 30) ^ 2 > 0.000001) bad++ }
 	END { print bad ? 0 : 1 }' "$tmp/group.txt")
 echo "files, tracker off: exit $rc, $sets complete frame sets in $secs s (the clip is 2.0 s)"
 check "files, tracker off: exits 0" "$([ "$rc" = 0 ] && echo 1)"
 check "files, tracker off: 60 complete frame sets, t = k/30 s" "$([ "$sets" = 60 ] && [ "$grid" = 1 ] && echo 1)"
+check "files, tracker off: offline by the config key (its final line)" \
+	"$(grep -q "offline: 60 frame sets, 0 tracked, .*skipped 0 behind" "$tmp/group.log" && echo 1)"
 
 track() { # track NAME LABEL: runs the tracking config NAME and checks it
 	run "$1"
