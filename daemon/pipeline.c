@@ -81,7 +81,7 @@ static void on_frame(void *ctx, int cam, uint64_t generation, const mc_ring_meta
 {
 	mcd_pipeline *p = ctx;
 	atomic_store(&p->ring_generation[cam], generation);
-	if (p->offline) /* counted before the push, so that the frame is never taken before it was counted */
+	if (p->offline) /* on the camera's own thread, the only one that asks may_deliver for it */
 		mcd_lockstep_delivered(&p->lockstep, cam);
 	mcd_tracking_thread_push(p->tracker, cam, generation, meta);
 	mcd_detector_thread_push(p->detector, cam, generation, meta);

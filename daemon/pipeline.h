@@ -7,7 +7,9 @@
  * detector thread (detector_thread.h) that detects on the newest frames
  * and hands its keypoints to the tracking thread.  The pipeline creates them,
  * connects each capture thread's reports to the tracking thread, and
- * answers the main thread, which only starts, watches, reloads and stops. */
+ * answers the main thread, which only starts, watches, reloads and stops.
+ * In offline mode ([daemon] offline) each capture thread also waits for
+ * the tracking thread to take its camera's frames (lockstep.h). */
 #ifndef MCD_PIPELINE_H
 #define MCD_PIPELINE_H
 
