@@ -88,10 +88,14 @@ static void on_frame(void *ctx, int cam, uint64_t generation, const mc_ring_meta
 	mcd_recorder_push_frame(p->recorder, cam, generation, meta);
 }
 
+/* Offline: not before every camera has tried to open (a camera whose
+ * thread has not started yet is not waited for, and the first frame sets
+ * would go on without it; live, EPOCH_AHEAD_NS gives them that time), then
+ * in step with the tracking thread. */
 static bool may_deliver(void *ctx, int cam)
 {
 	mcd_pipeline *p = ctx;
-	return mcd_lockstep_may_deliver(&p->lockstep, cam);
+	return mcd_pipeline_cameras_attempted(p) && mcd_lockstep_may_deliver(&p->lockstep, cam);
 }
 
 static void on_change(void *ctx, int cam)
