@@ -6,11 +6,12 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <strings.h>
 
 /* Drivers of live cameras (the others play recordings). */
 static bool live_driver(const char *driver)
 {
-	static const char *const live[] = {"v4l2", "usb", "aravis", "libcamera", "openni2", "sim"};
+	static const char *const live[] = {"v4l2", "usb", "aravis", "libcamera", "openni2"};
 	for (size_t i = 0; i < sizeof(live) / sizeof(live[0]); i++)
 		if (strcmp(driver, live[i]) == 0)
 			return true;
@@ -36,8 +37,13 @@ void mcd_lockstep_check_config(const mcd_config *cfg)
 				   : "--offline";
 	for (int c = 0; c < cfg->ncams; c++) {
 		const mcd_camera_config *cam = &cfg->cams[c];
-		int line = cam->line;
+		int line = cam->line, loop_line = cam->line;
 		const char *rate = strcmp(cam->driver, "files") == 0 ? driver_key(cam, "rate", &line) : NULL;
+		const char *loop = driver_key(cam, "loop", &loop_line);
+		if (loop && (!strcasecmp(loop, "true") || !strcasecmp(loop, "yes") || !strcasecmp(loop, "on") ||
+			     !strcmp(loop, "1")))
+			mcd_warn("%s:%d: [camera %s] loop = %s: the camera never ends, so neither does %s", cfg->file,
+				 loop_line, cam->name, loop, mode);
 		if (live_driver(cam->driver))
 			mcd_warn("camera %s: the %s driver is a live camera; with %s it loses the frames the tracker is "
 				 "not ready for", cam->name, cam->driver, mode);

@@ -48,8 +48,9 @@ typedef struct {
 } mcd_lockstep;
 
 /* Warns of cameras that offline mode does not suit: live ones (held back,
- * they lose frames) and a files camera with rate = 0 (stamped when read,
- * its frames do not group with the other cameras'). */
+ * they lose frames), a files camera with rate = 0 (stamped when read, its
+ * frames do not group with the other cameras') and a looping one (it
+ * never ends). */
 void mcd_lockstep_check_config(const mcd_config *cfg);
 
 void mcd_lockstep_init(mcd_lockstep *l, mcd_tracking_thread *tracker, int ncams, uint64_t now);
