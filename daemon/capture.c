@@ -23,6 +23,7 @@
  * (reopening restarted a folder's playback at its first frame). */
 #define FORMAT_ERRORS_BEFORE_REOPEN 30
 #define NAP_STEP_NS (100 * MC_NS_PER_MS) /* a napping thread's heartbeat */
+#define TURN_POLL_MS 1.0 /* offline mode: how often a waiting camera looks again */
 
 struct mcd_camera {
 	int index;
@@ -519,6 +520,24 @@ static int handle_error(mcd_camera *c, stream_state *s, int rc, const char *err)
 	}
 }
 
+/* Offline mode: waits until the tracking thread took the camera's frames
+ * (sink.may_deliver); false when stopping.  The time waited does not count
+ * towards the stall limit: the camera is held back, not quiet. */
+static bool wait_for_turn(mcd_camera *c, stream_state *s)
+{
+	if (!c->sink.may_deliver)
+		return true;
+	bool waited = false;
+	while (!c->sink.may_deliver(c->sink.ctx, c->index)) {
+		if (!nap(c, TURN_POLL_MS))
+			return false;
+		waited = true;
+	}
+	if (waited)
+		s->last_good = mc_now_ns();
+	return true;
+}
+
 /* Reads frames until the device fails, ends or we are asked to stop. */
 static run_result stream(mcd_camera *c, void *dev, mcd_backoff *backoff)
 {
@@ -526,6 +545,8 @@ static run_result stream(mcd_camera *c, void *dev, mcd_backoff *backoff)
 	stream_state s = {.backoff = backoff, .first = true, .last_good = mc_now_ns()};
 	while (!atomic_load(&c->stop)) {
 		atomic_fetch_add(&c->heartbeat, 1);
+		if (!wait_for_turn(c, &s))
+			break;
 		size_t cap;
 		uint8_t *data = mc_ring_slot_begin(c->ring.ring, &cap);
 		if (!data) {

@@ -64,6 +64,11 @@ typedef struct {
 	void (*on_frame)(void *ctx, int cam, uint64_t generation, const mc_ring_meta *meta);
 	/* The state changed, or the ring was replaced (new fd). */
 	void (*on_change)(void *ctx, int cam);
+	/* NULL for live cameras.  Offline mode (lockstep.h): whether the
+	 * camera may ask its driver for the next frame; until it may, the
+	 * capture thread waits, polling every millisecond, and the wait is
+	 * not a stall. */
+	bool (*may_deliver)(void *ctx, int cam);
 } mcd_camera_sink;
 
 typedef struct mcd_camera mcd_camera;

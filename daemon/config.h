@@ -142,6 +142,9 @@ typedef struct {
 	double stall_timeout_ms;
 	double status_interval_s;
 	double stats_log_interval_s;
+	/* Track every frame set of finite recordings, capture waiting for the
+	 * tracker (lockstep.h); mocapd --offline sets it. */
+	bool offline;
 
 	int ncams;
 	mcd_camera_config cams[MC_MAX_CAMERAS];

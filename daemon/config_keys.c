@@ -61,6 +61,7 @@ static const mcd_config_key keys[] = {
 	{MCD_SEC_DAEMON, "stall_timeout_ms", MCD_KEY_POSITIVE, D(stall_timeout_ms), 0, 600000, NULL, "3000", true},
 	{MCD_SEC_DAEMON, "status_interval_s", MCD_KEY_POSITIVE, D(status_interval_s), 0, 3600, NULL, "1", true},
 	{MCD_SEC_DAEMON, "stats_log_interval_s", MCD_KEY_REAL, D(stats_log_interval_s), 0, 86400, NULL, "10", true},
+	{MCD_SEC_DAEMON, "offline", MCD_KEY_BOOL, D(offline), 0, 0, NULL, "false", false},
 
 	{MCD_SEC_CAMERA, "driver", MCD_KEY_NAME, C(driver), 0, 0, NULL, NULL, false},
 	{MCD_SEC_CAMERA, "rig_camera", MCD_KEY_STRING, C(rig_camera), 0, 0, NULL, NULL, false},

@@ -59,6 +59,7 @@ typedef struct {
 	int log_level; /* -1: from the config */
 	bool print;
 	bool exit_at_end;
+	bool offline; /* --offline: [daemon] offline, and --exit-at-end */
 	bool check_only;
 	bool probe;
 } options;
@@ -91,6 +92,8 @@ static void usage(FILE *f)
 		"  -l, --log-level LEVEL  error, warn, info or debug (overrides [daemon] log_level)\n"
 		"  -p, --print            print every tracked skeleton as a text line on stdout\n"
 		"      --exit-at-end      exit when every camera's stream has ended (files without loop)\n"
+		"      --offline          track every frame set of recorded cameras as fast as the\n"
+		"                         machine goes ([daemon] offline), then exit (--exit-at-end)\n"
 		"      --save-poses DIR   write the tracker's actor model (DIR/actor.json) and every\n"
 		"                         tracked pose (DIR/pose_<frame>.json) for tools/mocap-render\n"
 		"      --check            check the config and the plugins, then exit\n"
@@ -102,7 +105,7 @@ static void usage(FILE *f)
 		"See mocapd(8) and mocapd.conf(5) (docs/CONFIG.md in the source) for the config file.\n");
 }
 
-enum { OPT_PLUGIN_DIR = 256, OPT_EXIT_AT_END, OPT_CHECK, OPT_SOCKET, OPT_SAVE_POSES, OPT_PROBE };
+enum { OPT_PLUGIN_DIR = 256, OPT_EXIT_AT_END, OPT_CHECK, OPT_SOCKET, OPT_SAVE_POSES, OPT_PROBE, OPT_OFFLINE };
 
 /* One option of getopt_long: -1 to go on, else the exit status. */
 static int take_option(int c, options *o)
@@ -137,6 +140,9 @@ static int take_option(int c, options *o)
 	case OPT_EXIT_AT_END:
 		o->exit_at_end = true;
 		return -1;
+	case OPT_OFFLINE:
+		o->offline = o->exit_at_end = true;
+		return -1;
 	case OPT_CHECK:
 		o->check_only = true;
 		return -1;
@@ -166,6 +172,7 @@ static int parse_options(int argc, char **argv, options *o)
 		{"log-level", required_argument, NULL, 'l'},
 		{"print", no_argument, NULL, 'p'},
 		{"exit-at-end", no_argument, NULL, OPT_EXIT_AT_END},
+		{"offline", no_argument, NULL, OPT_OFFLINE},
 		{"check", no_argument, NULL, OPT_CHECK},
 		{"probe", no_argument, NULL, OPT_PROBE},
 		{"version", no_argument, NULL, 'V'},
@@ -213,6 +220,8 @@ static mcd_config *load_config_all(const options *o, mcd_config_errors *all, mc_
 		cfg->log_level = o->log_level;
 	if (o->print)
 		cfg->print = true;
+	if (o->offline)
+		cfg->offline = true;
 	return cfg;
 }
 
@@ -546,6 +555,8 @@ static void do_timers(daemon_ctx *d, uint64_t now)
 		feed_watchdog(d);
 		d->next_watchdog_ns = now + d->watchdog_usec * 1000 / 2;
 	}
+	if (d->pipe)
+		mcd_pipeline_offline_progress(d->pipe, now, false);
 }
 
 /* How long to poll: until the next timer, at most a second. */
@@ -567,6 +578,11 @@ static void log_totals(daemon_ctx *d)
 	mcd_pipeline_status *st = calloc(1, sizeof(*st));
 	if (!st)
 		return;
+	if (d->cfg->offline) { /* frames carry their time in the recording: no latency to tell */
+		mcd_pipeline_offline_progress(d->pipe, mc_now_ns(), true);
+		free(st);
+		return;
+	}
 	mcd_pipeline_get_status(d->pipe, st, false);
 	const srv_latency_status *l = &st->latency;
 	mcd_info("totals: %llu frame sets tracked; skipped: %llu behind (a newer set was due), %llu stale (over "

@@ -1,5 +1,6 @@
 #include "pipeline.h"
 
+#include "lockstep.h"
 #include "log.h"
 #include "plugin.h"
 #include "recorder.h"
@@ -36,6 +37,8 @@ struct mcd_pipeline {
 	bool tracking; /* a tracker is configured */
 	const mc_rig *rig; /* its rig (NULL: none), for the settings a reload gives it */
 	int event_fd;
+	bool offline; /* [daemon] offline: capture waits for the tracker */
+	mcd_lockstep lockstep;
 	bool started; /* the tracking thread runs */
 	bool stopped; /* mcd_pipeline_stop ran */
 
@@ -78,9 +81,21 @@ static void on_frame(void *ctx, int cam, uint64_t generation, const mc_ring_meta
 {
 	mcd_pipeline *p = ctx;
 	atomic_store(&p->ring_generation[cam], generation);
+	if (p->offline) /* on the camera's own thread, the only one that asks may_deliver for it */
+		mcd_lockstep_delivered(&p->lockstep, cam);
 	mcd_tracking_thread_push(p->tracker, cam, generation, meta);
 	mcd_detector_thread_push(p->detector, cam, generation, meta);
 	mcd_recorder_push_frame(p->recorder, cam, generation, meta);
+}
+
+/* Offline: not before every camera has tried to open (a camera whose
+ * thread has not started yet is not waited for, and the first frame sets
+ * would go on without it; live, EPOCH_AHEAD_NS gives them that time), then
+ * in step with the tracking thread. */
+static bool may_deliver(void *ctx, int cam)
+{
+	mcd_pipeline *p = ctx;
+	return mcd_pipeline_cameras_attempted(p) && mcd_lockstep_may_deliver(&p->lockstep, cam);
 }
 
 static void on_change(void *ctx, int cam)
@@ -93,6 +108,23 @@ static void on_change(void *ctx, int cam)
 
 /* ---- lifetime -------------------------------------------------------------------------- */
 
+/* Offline mode waits for every camera that may still deliver: a view
+ * that comes after its frame set went on is dropped as late, and a
+ * decoder held back by the tracker can take longer than the live
+ * deadline to deliver (a camera that ended or failed is not waited for). */
+static double group_deadline_ms(const mcd_config *cfg)
+{
+	if (cfg->offline && cfg->stall_timeout_ms > cfg->group_deadline_ms)
+		return cfg->stall_timeout_ms;
+	return cfg->group_deadline_ms;
+}
+
+/* Offline, every frame set is tracked however old it is. */
+static double max_frame_age_ms(const mcd_config *cfg)
+{
+	return cfg->offline ? 0 : cfg->max_frame_age_ms;
+}
+
 static int create_tracking_thread(mcd_pipeline *p, const mcd_config *cfg, mcd_tracking *tracking, mc_err *err)
 {
 	mcd_tracking_thread_config tc = {
@@ -101,12 +133,14 @@ static int create_tracking_thread(mcd_pipeline *p, const mcd_config *cfg, mcd_tr
 		.tracking = tracking,
 		.keypoints = p->srv ? srv_keypoints_inbox(p->srv) : NULL,
 		.group_tolerance_ms = cfg->group_tolerance_ms,
-		.group_deadline_ms = cfg->group_deadline_ms,
-		.max_frame_age_ms = cfg->max_frame_age_ms,
+		.group_deadline_ms = group_deadline_ms(cfg),
+		.max_frame_age_ms = max_frame_age_ms(cfg),
 		.on_finished = wake_main,
 		.ctx = p,
 	};
 	p->tracker = mcd_tracking_thread_create(&tc, err);
+	if (p->tracker)
+		mcd_lockstep_init(&p->lockstep, p->tracker, p->ncams, mc_now_ns());
 	if (tracking)
 		p->rig = &tracking->rig;
 	return p->tracker ? 0 : -1;
@@ -157,8 +191,13 @@ static int create_recorder(mcd_pipeline *p, const mcd_config *cfg, mcd_tracking 
 /* Loads the drivers and creates the cameras, all with one time origin. */
 static int create_cameras(mcd_pipeline *p, const mcd_config *cfg, mc_err *err)
 {
-	mcd_camera_sink sink = {.ctx = p, .on_frame = on_frame, .on_change = on_change};
-	uint64_t epoch = mc_now_ns() + EPOCH_AHEAD_NS;
+	mcd_camera_sink sink = {.ctx = p, .on_frame = on_frame, .on_change = on_change,
+				.may_deliver = p->offline ? may_deliver : NULL};
+	uint64_t epoch = p->offline ? MCD_OFFLINE_EPOCH_NS : mc_now_ns() + EPOCH_AHEAD_NS;
+	if (p->offline) {
+		mcd_info("offline: every frame set is tracked; the cameras wait for the tracker");
+		mcd_lockstep_check_config(cfg);
+	}
 	for (int c = 0; c < p->ncams; c++) {
 		const mcd_camera_config *cc = &cfg->cams[c];
 		const mcd_plugin *pl = mcd_plugin_set_get(&p->plugins, cfg, cc, err);
@@ -183,6 +222,7 @@ mcd_pipeline *mcd_pipeline_create(const mcd_config *cfg, mcd_tracking *tracking,
 	p->print = cfg->print;
 	p->output = cfg->output;
 	p->tracking = tracking != NULL;
+	p->offline = cfg->offline;
 	p->event_fd = eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC);
 	if (p->event_fd < 0) {
 		mc_err_set(err, "eventfd: %s", strerror(errno));
@@ -364,6 +404,12 @@ bool mcd_pipeline_finished(mcd_pipeline *p)
 	return mcd_tracking_thread_finished(p->tracker) && mcd_publisher_idle(p->pub);
 }
 
+void mcd_pipeline_offline_progress(mcd_pipeline *p, uint64_t now, bool final)
+{
+	if (p->offline && p->tracker)
+		mcd_lockstep_progress(&p->lockstep, now, final);
+}
+
 bool mcd_pipeline_all_failed(mcd_pipeline *p)
 {
 	return mcd_tracking_thread_all_failed(p->tracker);
@@ -452,7 +498,7 @@ void mcd_pipeline_reload(mcd_pipeline *p, const mcd_config *cfg)
 	mc_tracker_settings settings = cfg->tracker.settings;
 	if (p->rig)
 		mcd_tracker_settings(cfg, p->rig, &settings);
-	mcd_tracking_thread_reload(p->tracker, cfg->group_tolerance_ms, cfg->group_deadline_ms, cfg->max_frame_age_ms,
+	mcd_tracking_thread_reload(p->tracker, cfg->group_tolerance_ms, group_deadline_ms(cfg), max_frame_age_ms(cfg),
 				   &settings);
 	mcd_detector_thread_reload(p->detector, &cfg->detector);
 	for (int c = 0; c < p->ncams; c++)

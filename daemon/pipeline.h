@@ -7,7 +7,9 @@
  * detector thread (detector_thread.h) that detects on the newest frames
  * and hands its keypoints to the tracking thread.  The pipeline creates them,
  * connects each capture thread's reports to the tracking thread, and
- * answers the main thread, which only starts, watches, reloads and stops. */
+ * answers the main thread, which only starts, watches, reloads and stops.
+ * In offline mode ([daemon] offline) each capture thread also waits for
+ * the tracking thread to take its camera's frames (lockstep.h). */
 #ifndef MCD_PIPELINE_H
 #define MCD_PIPELINE_H
 
@@ -74,6 +76,9 @@ bool mcd_pipeline_cameras_attempted(mcd_pipeline *p);
 /* True when no camera will deliver again (all ended or failed for good)
  * and every frame set was tracked and published. */
 bool mcd_pipeline_finished(mcd_pipeline *p);
+/* Offline mode ([daemon] offline): logs the progress line at most once a
+ * second, or with `final` the totals; nothing otherwise.  Main thread. */
+void mcd_pipeline_offline_progress(mcd_pipeline *p, uint64_t now, bool final);
 /* True when finished because every camera failed for good (none reached
  * an end): --exit-at-end should then exit non-zero. */
 bool mcd_pipeline_all_failed(mcd_pipeline *p);

@@ -234,8 +234,10 @@ void mcd_plugin_unload(mcd_plugin *p)
 
 void mcd_plugin_keep(mcd_plugin *p)
 {
-	if (p->fd >= 0)
-		close(p->fd);
+	/* The descriptor stays open too: the library was loaded as
+	 * /proc/self/fd/N, and dlopen takes a later plugin opened on the same
+	 * N for this one, already loaded (--probe then asked the first driver
+	 * nine times: "the driver calls itself 'files', not 'gstreamer'"). */
 	p->fd = -1;
 	p->handle = NULL; /* stays mapped until the process exits */
 	p->driver = NULL;

@@ -16,6 +16,7 @@
 #include <stdbool.h>
 #include <dirent.h>
 #include <errno.h>
+#include <math.h>
 #include <stdlib.h>
 #include <string.h>
 #include <unistd.h>
@@ -109,10 +110,45 @@ static void section_name(const char *driver, const char *id, char *out, size_t c
 			*c = '_';
 }
 
+/* A rate as a GStreamer fraction: 30/1, 30000/1001; "" when neither. */
+static void rate_fraction(double fps, char *out, size_t cap)
+{
+	out[0] = 0;
+	if (fps > 0 && fabs(fps - round(fps)) < 1e-6)
+		snprintf(out, cap, ",framerate=%.0f/1", fps);
+	else if (fps > 0 && fabs(fps * 1.001 - round(fps * 1.001)) < 1e-3)
+		snprintf(out, cap, ",framerate=%.0f/1001", round(fps * 1.001) * 1000);
+}
+
+/* The gstreamer driver takes a device as the start of a `pipeline` (its
+ * id is the capturing element's description): the mode as caps, then a
+ * conversion for raw video, then the appsink. */
+static void print_pipeline(FILE *out, const mdrv_device_info *dev, const mdrv_mode *m)
+{
+	if (!m) {
+		fprintf(out, "      pipeline = %s ! videoconvert ! appsink name=mocap\n", dev->id);
+		return;
+	}
+	char rate[48];
+	rate_fraction(m->nfps ? m->fps[0] : m->fps_max, rate, sizeof rate);
+	if (m->pixfmt == MC_PIXFMT_MJPEG)
+		fprintf(out, "      pipeline = %s ! image/jpeg,width=%u,height=%u%s ! appsink name=mocap\n", dev->id,
+			(unsigned)m->width, (unsigned)m->height, rate);
+	else
+		fprintf(out, "      pipeline = %s ! video/x-raw,format=%s,width=%u,height=%u%s ! videoconvert ! appsink "
+			"name=mocap\n", dev->id, m->pixel_format, (unsigned)m->width, (unsigned)m->height, rate);
+}
+
 static void print_section(FILE *out, const char *driver, const mdrv_device_info *dev, const mdrv_mode *m)
 {
 	char name[sizeof dev->id];
 	section_name(driver, dev->id, name, sizeof name);
+	if (!strcmp(driver, "gstreamer")) {
+		fprintf(out, "    paste into mocapd.conf (set rig_camera to this camera's name in your rig file):\n");
+		fprintf(out, "      [camera %s]\n      driver = gstreamer\n      rig_camera = %s\n", name, name);
+		print_pipeline(out, dev, m);
+		return;
+	}
 	fprintf(out, "    paste into mocapd.conf (set rig_camera to this camera's name in your rig file):\n");
 	fprintf(out, "      [camera %s]\n      driver = %s\n      rig_camera = %s\n      device = %s\n", name, driver,
 		name, dev->id);

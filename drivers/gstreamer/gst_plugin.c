@@ -5,6 +5,7 @@
  * "gstreamer", documents the keys, the timestamps and the errors. */
 #include "drv_common.h"
 #include "gst_internal.h"
+#include "gst_probe.h"
 #include "mdrv.h"
 
 #include <errno.h>
@@ -108,15 +109,18 @@ static int parse_config(gst_dev *d, gp_config *cfg, char *err, size_t errlen)
 
 /* ---- the ABI ---- */
 
-/* Devices are not listed here: mocapd --probe is another piece of work.
- * A probe would run a GstDeviceMonitor over "Video/Source" and list each
- * GstDevice: its display name as `name`, a `pipeline` value built from
- * gst_device_create_element's factory and properties (v4l2src device=...,
- * pipewiresrc path=...) as `id`, and its caps as the modes. */
+/* mocapd --probe: the video sources GStreamer's device providers find
+ * (gst_probe.c); the config takes each one's id in `pipeline`. */
 static int gstreamer_probe(const mdrv_host *host, mdrv_device_info *out, int max, char *err, size_t errlen)
 {
-	(void)host, (void)out, (void)max, (void)err, (void)errlen;
-	return 0;
+	(void)host;
+	return gp_probe_devices(out, max, err, errlen);
+}
+
+static int gstreamer_modes(const mdrv_host *host, const char *id, mdrv_mode *out, int max, char *err, size_t errlen)
+{
+	(void)host;
+	return gp_probe_modes(id, out, max, err, errlen);
 }
 
 static void gstreamer_close(void *dev)
@@ -206,4 +210,4 @@ static int gstreamer_check(const mdrv_host *host, char *err, size_t errlen)
 	return rc == MDRV_OK ? MDRV_OK : MDRV_ERR_CONFIG;
 }
 
-MDRV_DEFINE_DRIVER(gstreamer, DRV, "any video GStreamer decodes (files, RTSP, pipelines) through appsink")
+MDRV_DEFINE_DRIVER_MODES(gstreamer, DRV, "any video GStreamer decodes (files, RTSP, pipelines) through appsink")

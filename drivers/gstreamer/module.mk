@@ -4,7 +4,7 @@ include drivers/common/common.mk
 
 GST_PKGS := gstreamer-1.0 gstreamer-app-1.0 gstreamer-video-1.0 gstreamer-pbutils-1.0
 GST_PLUGIN := $(BUILD)/drivers/mocap-driver-gstreamer.so
-GST_OBJ := $(addprefix $(BUILD)/drivers/gstreamer/,gst_plugin.o gst_pipe.o gst_frames.o gst_errors.o) \
+GST_OBJ := $(addprefix $(BUILD)/drivers/gstreamer/,gst_plugin.o gst_pipe.o gst_frames.o gst_errors.o gst_probe.o) \
 	$(HWDRV_COMMON_OBJ)
 
 $(BUILD)/drivers/gstreamer/%.o: CPPFLAGS += -Idrivers/common $(shell $(PKG_CONFIG) --cflags $(GST_PKGS))
@@ -23,10 +23,11 @@ DEB_PACKAGES += libgstreamer1.0-dev libgstreamer-plugins-base1.0-dev libgstrtsps
 	gstreamer1.0-plugins-ugly gstreamer1.0-tools
 
 # Tests: files made from the demo frames (test_gstreamer) and a loopback
-# RTSP server (test_gstreamer_rtsp, with the server program it starts).
+# RTSP server (test_gstreamer_rtsp, with the server program it starts);
+# probe() and modes() with a device provider of its own (test_gstreamer_probe).
 GST_TEST_CFLAGS := $(shell $(PKG_CONFIG) --cflags gstreamer-1.0)
 GST_TEST_LIBS := $(shell $(PKG_CONFIG) --libs gstreamer-1.0)
-GST_TESTS := $(HWDRV_TEST_DIR)/test_gstreamer $(HWDRV_TEST_DIR)/test_gstreamer_rtsp
+GST_TESTS := $(HWDRV_TEST_DIR)/test_gstreamer $(HWDRV_TEST_DIR)/test_gstreamer_rtsp $(HWDRV_TEST_DIR)/test_gstreamer_probe
 GST_RTSP_SERVE := $(HWDRV_TEST_DIR)/gst_rtsp_serve
 
 $(GST_TESTS): $(HWDRV_TEST_DIR)/%: tests/drivers/%.c $(HWDRV_HARNESS_OBJ)
