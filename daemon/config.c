@@ -3,16 +3,15 @@
  * (type, range, default, reload) is the table in config_keys.c. */
 #include "config.h"
 
+#include "base/mc_file.h"
+
 #include <ctype.h>
 #include <errno.h>
-#include <fcntl.h>
 #include <ini.h>
 #include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <sys/stat.h>
-#include <unistd.h>
 
 /* ---- parsing ----------------------------------------------------------- */
 
@@ -546,44 +545,15 @@ static char *read_file(FILE *f, const char *path, mc_err *err)
 	return text;
 }
 
-static const char *file_kind(mode_t m)
-{
-	return S_ISDIR(m)    ? "a directory"
-	       : S_ISFIFO(m) ? "a FIFO"
-	       : S_ISSOCK(m) ? "a socket"
-	       : S_ISCHR(m)  ? "a character device"
-	       : S_ISBLK(m)  ? "a block device"
-			     : "not a plain file";
-}
-
 /* Opens the config for reading, refusing anything but a regular file: a
- * FIFO without a writer would block `mocapd --check` for ever, so it is
- * opened non-blocking and checked with fstat before the first read. */
+ * FIFO without a writer would block `mocapd --check` for ever
+ * (mc_file_open_regular opens it non-blocking and checks it first). */
 static FILE *open_config(const char *path, mc_err *err)
 {
-	int fd = open(path, O_RDONLY | O_NONBLOCK | O_CLOEXEC | O_NOCTTY);
-	if (fd < 0) {
-		mc_err_set(err, "%s: cannot open: %s", path, strerror(errno));
-		return NULL;
-	}
-	struct stat st;
-	if (fstat(fd, &st) != 0) {
-		mc_err_set(err, "%s: %s", path, strerror(errno));
-		close(fd);
-		return NULL;
-	}
-	if (!S_ISREG(st.st_mode)) {
-		mc_err_set(err, "%s: not a regular file (%s); refused", path, file_kind(st.st_mode));
-		close(fd);
-		return NULL;
-	}
-	int flags = fcntl(fd, F_GETFL);
-	if (flags >= 0)
-		fcntl(fd, F_SETFL, flags & ~O_NONBLOCK);
-	FILE *f = fdopen(fd, "rb");
-	if (!f) {
-		mc_err_set(err, "%s: %s", path, strerror(errno));
-		close(fd);
+	FILE *f = mc_file_open_regular(path, err);
+	if (!f && strstr(err->msg, ": not a regular file (")) {
+		size_t n = strlen(err->msg);
+		snprintf(err->msg + n, sizeof(err->msg) - n, "; refused");
 	}
 	return f;
 }
