@@ -3,6 +3,9 @@
 # `make deps-train` and take an hour or more.  See docs/DETECTOR.md.
 #
 #   make detector-data      render DETECTOR_FRAMES stereo pairs (resumes)
+#   make detector-data-v2   the v2 data (held-out factors, bystanders): a resumable
+#                           job into $(DETECTOR_DIR)/v2 (progress: detector-progress-v2)
+#   make detector-train-v2  stage 1 on the v2 data (resumes from $(DETECTOR_DIR)/v2/ckpt.pt)
 #   make detector-train     train, stage 1 (resumes from $(DETECTOR_DIR)/ckpt.pt)
 #   make detector-finetune  stage 2 (resumes from $(DETECTOR_DIR)/stage2/ckpt.pt)
 #   make detector-export    export stage 2's best checkpoint to config/models/ego_detector.onnx
@@ -45,6 +48,35 @@ detector-data:
 	        --first $$f --count $$c 2>&1 | grep -a --line-buffered 'synth:' > $(DETECTOR_DIR)/logs/render_$$f.log || exit 1; \
 	      f=$$(( f + c )); done ) & \
 	done; wait; grep -h 'synth:' $(DETECTOR_DIR)/logs/render_*.log | tail -n 4
+
+# The v2 data (docs/DETECTOR.md, "v2 data", issue 36): 4x the v1 training
+# views, validation held out by motion family, build, garment and scene kind
+# together.  tools/synth/job.py keeps DETECTOR_SHARDS Blender processes busy
+# on DETECTOR_V2_CHUNK-pair chunks; every pair is a checkpoint, so running
+# the same command again resumes.  Progress and ETA: $(DETECTOR_V2_DIR)/progress.txt
+# (make detector-progress-v2).  Start it with
+#   nohup nice -n 19 make detector-data-v2 > build/detector/v2.log 2>&1 &
+DETECTOR_V2_DIR ?= $(DETECTOR_DIR)/v2
+DETECTOR_V2_SEED ?= 21
+DETECTOR_V2_TRAIN ?= 55200
+DETECTOR_V2_VAL ?= 6000
+DETECTOR_V2_CHUNK ?= 400
+DETECTOR_V2_NICE ?= 19
+DETECTOR_V2_EPOCHS ?= 80
+.PHONY: detector-data-v2 detector-progress-v2 detector-train-v2
+detector-data-v2:
+	$(TRAIN_PYTHON) tools/synth/job.py --out $(DETECTOR_V2_DIR) --blender $(BLENDER) --mocap $(MOCAP_TRAIN_DIR) \
+	  --seed $(DETECTOR_V2_SEED) --train $(DETECTOR_V2_TRAIN) --val $(DETECTOR_V2_VAL) --shards $(DETECTOR_SHARDS) \
+	  --chunk $(DETECTOR_V2_CHUNK) --nice $(DETECTOR_V2_NICE)
+
+detector-progress-v2:
+	@$(TRAIN_PYTHON) tools/synth/job.py --out $(DETECTOR_V2_DIR) --train $(DETECTOR_V2_TRAIN) \
+	  --val $(DETECTOR_V2_VAL) --seed $(DETECTOR_V2_SEED) --status
+
+detector-train-v2:
+	nice -n 10 $(TRAIN_PYTHON) tools/train/train.py --data $(DETECTOR_V2_DIR)/data \
+	  --ckpt $(DETECTOR_V2_DIR)/ckpt.pt --seed $(DETECTOR_V2_SEED) --data-seed $(DETECTOR_V2_SEED) \
+	  --epochs $(DETECTOR_V2_EPOCHS) --resume
 
 # Outside-in pinhole views (docs/DETECTOR.md, "Outside-in model"): frames of
 # DETECTOR_OUTSIDE_VIEWS cameras each, into $(DETECTOR_DIR)/outside/data.

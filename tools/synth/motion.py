@@ -83,7 +83,27 @@ class Clip:
             self.is_val[:] = (key % VAL_EVERY) == 0
 
     def split_frames(self, split):
+        if split == "all":
+            return self.frames
         return self.frames[self.is_val] if split == "val" else self.frames[~self.is_val]
+
+
+# The held-out split of the v2 data (render.py --split, docs/DETECTOR.md,
+# "v2 data"): motion families are CMU subjects (the clip name's prefix, e.g.
+# cmu_iclone/02_07 -> s02).  Validation: subject 02 (walk, run, jump, bend
+# over and scoop, swordplay, wash: cmu_mb/02_01 and cmu_iclone/02_*) and
+# subjects 60 and 61 (salsa); every other subject is training.
+VAL_FAMILIES = ("s02", "s60", "s61")
+
+
+def family_of(name):
+    """Motion family of a clip name (e.g. 'cmu_daz/94_06' -> 's94')."""
+    return "s%02d" % int(name.split("/")[-1].split("_")[0])
+
+
+def clips_of_split(clips, split):
+    """The clips of one v2 split (train: every family but VAL_FAMILIES)."""
+    return [c for c in clips if (family_of(c.name) in VAL_FAMILIES) == (split == "val")]
 
 
 def load_clips(root):

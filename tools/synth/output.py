@@ -20,6 +20,20 @@ def done_indices(out):
     return done
 
 
+def open_labels(path):
+    """The label file, opened for appending; a partial last line (a renderer
+    killed while writing it) is ended first, so that the next record starts
+    on a line of its own (the partial one is skipped by every reader)."""
+    if os.path.exists(path) and os.path.getsize(path) > 0:
+        with open(path, "rb") as f:
+            f.seek(-1, os.SEEK_END)
+            partial = f.read(1) != b"\n"
+        if partial:
+            with open(path, "a") as f:
+                f.write("\n")
+    return open(path, "a")
+
+
 def postprocess(png, jpg, rng):
     from PIL import Image, ImageFilter
     im = Image.open(png).convert("RGB")

@@ -6,6 +6,11 @@ views (--kind ego, the default) or outside-in pinhole views (--kind outside).
     blender -b --factory-startup --python tools/synth/render.py -- --kind outside \
         --out build/detector/outside --seed 11 --first 0 --count 1000
 
+With --split train|val (ego only), frame i is a v2 frame: the split's
+motion families, builds, garments and scene kinds only, and a bystander in
+some frames (docs/DETECTOR.md, "v2 data"; tools/synth/job.py runs the long
+job).
+
 With --kind outside, frame i is one posed actor seen by --views static
 pinhole cameras (default 4) at random distances, heights, fields of view
 and aims; labels go one line per frame with one entry per view.
@@ -31,11 +36,11 @@ import time
 import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from motion import JOINTS, load_clips, sample_pose  # noqa: E402
+from motion import JOINTS, clips_of_split, family_of, load_clips, sample_pose  # noqa: E402
 from fisheye import project_cam, rig_from_cam_matrix  # noqa: E402
-from output import done_indices, postprocess  # noqa: E402
+from output import done_indices, open_labels, postprocess  # noqa: E402
 from outside import main_outside, relabel_outside, test_projection_outside  # noqa: E402
-from scene import Scene, render_marker  # noqa: E402
+from scene import BUILDS, BYSTANDER_P, GARMENTS, SCENE_KINDS, Scene, render_marker  # noqa: E402
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(os.path.dirname(HERE))
@@ -61,9 +66,15 @@ def parse_args():
     ap.add_argument("--samples", type=int, default=8)
     ap.add_argument("--threads", type=int, default=1)
     ap.add_argument("--val-fraction", type=float, default=0.1)
+    ap.add_argument("--split", choices=("train", "val"), default=None,
+                    help="ego, v2 data: render this split only, with the held-out factors (motion families, "
+                         "builds, garments, scene kinds) of docs/DETECTOR.md 'v2 data', and a bystander in "
+                         "some frames; without it the v1 data (split by motion segment)")
     ap.add_argument("--test-projection", action="store_true",
                     help="render marker spheres and check them against r = f*theta")
     a = ap.parse_args(argv)
+    if a.split and a.kind != "ego":
+        ap.error("--split (the v2 data) is for --kind ego only")
     if a.kind == "ego":
         a.res_w = a.res_h = a.res
     else:
@@ -162,6 +173,20 @@ def test_projection(args, cams):
     print("PROJECTION", "OK" if ok else "MISMATCH")
 
 
+def draw_v2(clips, rng, split):
+    """Wearer's pose, look (build, garment, scene kind) and the bystander's
+    pose (None in 1 - BYSTANDER_P of the frames) of a v2 frame; clips are
+    the split's only, so is every factor."""
+    pose = sample_pose(clips, rng, "all")
+    look = {"split": split, "build": str(rng.choice(BUILDS[split])), "garment": str(rng.choice(GARMENTS[split])),
+            "scene": str(rng.choice(SCENE_KINDS[split]))}
+    bypose = None
+    if rng.random() < BYSTANDER_P:
+        others = [c for c in clips if c.name != pose["clip"]]
+        bypose = sample_pose(others, rng, "all")
+    return pose, look, bypose
+
+
 def main():
     args = parse_args()
     if args.kind == "outside":
@@ -187,14 +212,23 @@ def main():
         return
     clips = load_clips(args.mocap)
     scene = Scene(args, cams)
-    lab = open(os.path.join(out, "labels_%06d.jsonl" % args.first), "a")
+    if args.split:
+        clips = clips_of_split(clips, args.split)
+        scene.init_v2()
+    lab = open_labels(os.path.join(out, "labels_%06d.jsonl" % args.first))
     tmp = os.path.join(out, "tmp_%06d.png" % args.first)
     t0 = time.time()
     for n, i in enumerate(todo):
         rng = np.random.default_rng([args.seed, i])
-        split = "val" if rng.random() < args.val_fraction else "train"
-        pose = sample_pose(clips, rng, split)
-        J = scene.setup(pose, rng)
+        if args.split:
+            split = args.split
+            pose, look, bypose = draw_v2(clips, rng, split)
+            J = scene.setup_v2(pose, rng, look, bypose)
+        else:
+            split = "val" if rng.random() < args.val_fraction else "train"
+            pose = sample_pose(clips, rng, split)
+            J = scene.setup(pose, rng)
+            look = None
         T_wl = rig_pose(pose["head"], J["neck"], rng)
         rec, views = labels_for(scene, cams, T_wl, J, pose)
         for cam in cams:
@@ -204,6 +238,12 @@ def main():
         rec.update({"id": i, "seed": args.seed, "split": split, "clip": pose["clip"], "frame": pose["frame"],
                     "mirror": pose["mirror"], "height_m": round(pose["height"], 3),
                     "images": {c["name"]: "images/%06d_%s.jpg" % (i, c["name"]) for c in cams}})
+        if look is not None:
+            rec.update({"data": "v2", "family": family_of(pose["clip"]), "build": look["build"],
+                        "garment": look["garment"], "longpants": look["longpants"], "scene": look["scene"],
+                        "bystander": bypose is not None})
+            if bypose is not None:
+                rec.update({"bystander_clip": look["bystander_clip"], "bystander_m": look["bystander_m"]})
         lab.write(json.dumps(rec) + "\n")
         lab.flush()
         if (n + 1) % 10 == 0 or n + 1 == len(todo):
