@@ -7,8 +7,9 @@
  * gradient with respect to the Gaussians come from the OpenCL backend (or
  * the reference implementation); the host does kinematics, the chain rule
  * and the priors, and takes a step conditioned per parameter by how far it
- * moves the Gaussians, with momentum (docs/TRACKER.md).  The actor
- * calibration is in mc_calibrate.c. */
+ * moves the Gaussians, with momentum (docs/TRACKER.md).  The settings are
+ * in mc_tracker_settings.c, the pixels (views, candidates, samples) in
+ * mc_pixels.c, the actor calibration in mc_calibrate.c. */
 #include "track/mc_tracker.h"
 
 #include "base/mc_time.h"
@@ -20,129 +21,11 @@
 #include <stdlib.h>
 #include <string.h>
 
-/* Extra angular margin (metres at the Gaussian) around each Gaussian when
- * choosing candidate pixels: covers the motion within one frame. */
-#define CANDIDATE_MARGIN_M 0.06
-/* A camera whose value channel varies less than this is blank. */
-#define BLANK_STDDEV 0.02
 /* Tracking quality (data energy relative to the calibrated baseline) below
  * which the state is uncertain, and lost. */
 #define QUALITY_UNCERTAIN 0.6
 #define QUALITY_LOST 0.3
 
-void mc_tracker_settings_default(mc_tracker_settings *s)
-{
-	memset(s, 0, sizeof(*s));
-	s->backend = MC_BACKEND_OPENCL;
-	s->width = 128;
-	s->height = 128;
-	s->iterations = 50;
-	s->pixel_fraction = 0.07;
-	s->dropout = 0.2;
-	s->step = 0.004;
-	s->momentum = 0.7;
-	s->lambda_detection = 1.0 / 3.0;
-	s->lambda_color = 1.0;
-	s->lambda_limit = 0.1;
-	s->lambda_pose = 1e-4;
-	s->lambda_smooth = 0.1;
-	s->lambda_anchor = 0; /* off: it biases real motion (docs/TRACKER.md) */
-	s->lambda_prior = 0; /* head-mounted: measured worse; outside-in: mc_tracker_outside_in */
-	s->recover = true;
-	s->assign_sides = false; /* on for outside-in rigs: mc_tracker_outside_in */
-	s->fit_limbs = false; /* measured: no gain yet (docs/TRACKER.md) */
-	s->cl_platform = -1;
-	s->cl_device = -1;
-	s->seed = 1;
-}
-
-const char *mc_track_state_name(mc_track_state s)
-{
-	switch (s) {
-	case MC_TRACK_OK:
-		return "ok";
-	case MC_TRACK_UNCERTAIN:
-		return "uncertain";
-	case MC_TRACK_LOST:
-		return "lost";
-	case MC_TRACK_INITIALISING:
-		return "initialising";
-	}
-	return "unknown";
-}
-
-const mc_tracker_outside_in_defaults mc_tracker_outside_in = {
-	.camera_iterations = 320,
-	.min_iterations = 40,
-	.max_iterations = 160,
-	.lambda_smooth = 0.01,
-	.lambda_floor = 0,
-	/* docs/TRACKER.md "Outside-in rigs": with MoveNet (11 % of keypoints
-	 * far off, sides assigned) 0.3 against 0.1: walk_131_01 seeds 1-3
-	 * 4.03 / 3.92 / 4.04 against 5.75 / 5.37 / 5.94 cm, jumps_01_01
-	 * 4.00 / 4.01 / 3.97 against 4.15 / 4.06 / 4.01 cm; 1.0: 4.18 and
-	 * 4.45 cm, jitter up.
-	 * (0.1 was right for the mannequin-trained model, 30 % far off.) */
-	.lambda_detection = 0.3,
-	/* docs/TRACKER.md "Sides": MoveNet on the outside-in renders, seeds
-	 * 1-2, walk 6.18 / 6.53 -> 5.75 / 5.37 cm, jumps 4.92 -> 4.15 cm; on
-	 * the head-mounted rig (two cameras, our own model) within the spread,
-	 * slightly worse: 13.89 / 14.45 -> 13.63 / 14.73, 9.28 / 9.32 -> 9.37 / 9.75 */
-	.assign_sides = true,
-	/* docs/TRACKER.md "Pose prior": walk_131_01 4.03 -> 3.84, jumps_01_01
-	 * 4.00 -> 3.46 cm (seed 1); on the head-mounted rig it made the walk
-	 * worse (14.33 -> 17.22 cm, seeds 1-3), so there it is off. */
-	.lambda_prior = 1e-3,
-};
-
-int mc_tracker_outside_in_iterations(int ncams)
-{
-	const mc_tracker_outside_in_defaults *d = &mc_tracker_outside_in;
-	int n = d->camera_iterations / (ncams > 0 ? ncams : 1);
-	return n < d->min_iterations ? d->min_iterations : n > d->max_iterations ? d->max_iterations : n;
-}
-
-void mc_tracker_settings_outside_in(mc_tracker_settings *s, int ncams, unsigned given)
-{
-	const mc_tracker_outside_in_defaults *d = &mc_tracker_outside_in;
-	if (!(given & MC_GIVEN_ITERATIONS))
-		s->iterations = mc_tracker_outside_in_iterations(ncams);
-	if (!(given & MC_GIVEN_LAMBDA_SMOOTH))
-		s->lambda_smooth = d->lambda_smooth;
-	if (!(given & MC_GIVEN_LAMBDA_FLOOR))
-		s->lambda_floor = d->lambda_floor;
-	if (!(given & MC_GIVEN_LAMBDA_DETECTION))
-		s->lambda_detection = d->lambda_detection;
-	if (!(given & MC_GIVEN_ASSIGN_SIDES))
-		s->assign_sides = d->assign_sides;
-	if (!(given & MC_GIVEN_LAMBDA_PRIOR))
-		s->lambda_prior = d->lambda_prior;
-}
-
-static int validate_settings(const mc_tracker_settings *s, mc_err *err)
-{
-	if (s->width < 8 || s->height < 8 || s->width > 2048 || s->height > 2048)
-		return mc_err_set(err, "tracker: width and height must be in 8..2048, got %dx%d", s->width, s->height);
-	if (s->iterations < 1 || s->iterations > 100000)
-		return mc_err_set(err, "tracker: iterations must be in 1..100000, got %d", s->iterations);
-	if (!(s->pixel_fraction > 0 && s->pixel_fraction <= 1))
-		return mc_err_set(err, "tracker: pixel_fraction must be in (0, 1], got %g", s->pixel_fraction);
-	if (!(s->dropout >= 0 && s->dropout < 1))
-		return mc_err_set(err, "tracker: dropout must be in [0, 1), got %g", s->dropout);
-	if (!(s->step > 0 && s->step < 1))
-		return mc_err_set(err, "tracker: step must be in (0, 1), got %g", s->step);
-	if (!(s->momentum >= 0 && s->momentum < 1))
-		return mc_err_set(err, "tracker: momentum must be in [0, 1), got %g", s->momentum);
-	if (!(s->lambda_color >= 0 && s->lambda_color < 1e6))
-		return mc_err_set(err, "tracker: lambda_color must be in [0, 1e6), got %g", s->lambda_color);
-	if (!(s->lambda_floor >= 0 && s->lambda_floor < 1e6))
-		return mc_err_set(err, "tracker: lambda_floor must be in [0, 1e6), got %g", s->lambda_floor);
-	if (!(s->lambda_anchor >= 0 && s->lambda_anchor < 1e6))
-		return mc_err_set(err, "tracker: lambda_anchor must be in [0, 1e6), got %g", s->lambda_anchor);
-	if (!(s->lambda_prior >= 0 && s->lambda_prior < 1e6))
-		return mc_err_set(err, "tracker: lambda_prior must be in [0, 1e6), got %g", s->lambda_prior);
-	return 0;
-}
 
 /* On an egocentric rig the cameras sit in front of the wearer's face and
  * look down: the head itself is behind them or at the very edge of the
@@ -198,7 +81,7 @@ static int alloc_buffers(mc_tracker *t, mc_err *err)
 
 mc_tracker *mc_tracker_create(const mc_rig *rig, const mc_model *model, const mc_tracker_settings *s, mc_err *err)
 {
-	if (validate_settings(s, err) < 0)
+	if (mc_trk_validate_settings(s, err) < 0)
 		return NULL;
 	if (rig->ncams < 1 || rig->ncams > MC_MAX_CAMERAS) {
 		mc_err_set(err, "tracker: the rig has %d cameras", rig->ncams);
@@ -245,7 +128,7 @@ int mc_tracker_set_budget(mc_tracker *t, int iterations, double pixel_fraction, 
 	s.dropout = dropout;
 	s.step = step;
 	s.momentum = momentum;
-	if (validate_settings(&s, err) < 0)
+	if (mc_trk_validate_settings(&s, err) < 0)
 		return -1;
 	t->s = s;
 	return 0;
@@ -352,208 +235,6 @@ int mc_tracker_init_from_joints(mc_tracker *t, const char *const *names, const m
 		return -1;
 	mc_tracker_set_pose(t, pose);
 	return 0;
-}
-
-/* ---- images ---------------------------------------------------------- */
-
-/* Box-filters a packed RGB24 view down (or nearest-samples up) to the
- * working resolution, as floats in [0, 1]. */
-static void resample_rgb(const mc_frame_view *v, int W, int H, float *out)
-{
-	double sx = (double)v->width / W, sy = (double)v->height / H;
-	for (int j = 0; j < H; j++) {
-		int y0 = (int)(j * sy), y1 = (int)((j + 1) * sy);
-		if (y1 <= y0)
-			y1 = y0 + 1;
-		if (y1 > v->height)
-			y1 = v->height;
-		for (int i = 0; i < W; i++) {
-			int x0 = (int)(i * sx), x1 = (int)((i + 1) * sx);
-			if (x1 <= x0)
-				x1 = x0 + 1;
-			if (x1 > v->width)
-				x1 = v->width;
-			double acc[3] = {0, 0, 0};
-			int n = 0;
-			for (int y = y0; y < y1; y++) {
-				const uint8_t *row = v->rgb + (size_t)y * v->stride;
-				for (int x = x0; x < x1; x++, n++)
-					for (int k = 0; k < 3; k++)
-						acc[k] += row[3 * x + k];
-			}
-			float *o = out + 3 * ((size_t)j * W + i);
-			for (int k = 0; k < 3; k++)
-				o[k] = (float)(n ? acc[k] / (255.0 * n) : 0.0);
-		}
-	}
-}
-
-static bool view_usable(const mc_frame_view *v)
-{
-	return v && v->rgb && v->width > 0 && v->height > 0 && v->stride >= 3 * v->width;
-}
-
-/* Converts the views; returns how many cameras carry a usable, non-blank image. */
-int mc_trk_load_views(mc_tracker *t, const mc_frame_view *views, int nviews)
-{
-	int W = t->s.width, H = t->s.height, present = 0;
-	for (int c = 0; c < t->rig.ncams; c++) {
-		t->present[c] = false;
-		if (c >= nviews || !view_usable(&views[c]))
-			continue;
-		const float *rgb_c = t->rgb[c];
-		resample_rgb(&views[c], W, H, t->rgb[c]);
-		double sum = 0, sum2 = 0;
-		int n = 0;
-		for (int p = 0; p < W * H; p++) {
-			double rgb[3] = {rgb_c[3 * p], rgb_c[3 * p + 1], rgb_c[3 * p + 2]}, hsv[3];
-			mc_rgb_to_hsv(rgb, hsv);
-			for (int k = 0; k < 3; k++)
-				t->hsv[c][3 * p + k] = (float)hsv[k];
-			if (t->rays[c].valid[p]) {
-				sum += hsv[2];
-				sum2 += hsv[2] * hsv[2];
-				n++;
-			}
-		}
-		double var = n ? sum2 / n - (sum / n) * (sum / n) : 0;
-		if (!(sqrt(fmax(var, 0)) > BLANK_STDDEV))
-			continue; /* blank or constant: no evidence */
-		t->present[c] = true;
-		present++;
-		if (t->cl) {
-			mc_err err;
-			if (mc_cl_energy_set_image(t->cl, c, t->hsv[c], &err) < 0) {
-				t->present[c] = false;
-				present--;
-			}
-		}
-	}
-	return present;
-}
-
-/* ---- candidate pixels -------------------------------------------------- */
-
-static void rasterize_disc(unsigned char *mask, int W, int H, double cu, double cv, double r)
-{
-	int i0 = (int)floor(cu - r), i1 = (int)ceil(cu + r);
-	int j0 = (int)floor(cv - r), j1 = (int)ceil(cv + r);
-	i0 = i0 < 0 ? 0 : i0;
-	j0 = j0 < 0 ? 0 : j0;
-	i1 = i1 >= W ? W - 1 : i1;
-	j1 = j1 >= H ? H - 1 : j1;
-	for (int j = j0; j <= j1; j++)
-		for (int i = i0; i <= i1; i++)
-			if ((i - cu) * (i - cu) + (j - cv) * (j - cv) <= r * r)
-				mask[j * W + i] = 1;
-}
-
-/* Native pixel -> working pixel coordinates (see mc_raytable). */
-static void to_working(const mc_raytable *rt, double u, double v, double *wu, double *wv)
-{
-	*wu = (u + 0.5) / rt->scale_x - 0.5;
-	*wv = (v + 0.5) / rt->scale_y - 0.5;
-}
-
-int mc_trk_working_pixel(const mc_tracker *t, int c, mc_vec3 p_rig)
-{
-	const mc_camera *cam = &t->rig.cams[c];
-	const mc_raytable *rt = &t->rays[c];
-	double u, v, wu, wv;
-	if (!mc_camera_project(cam, mc_xform_apply(mc_xform_inverse(cam->rig_from_cam), p_rig), &u, &v))
-		return -1;
-	to_working(rt, u, v, &wu, &wv);
-	int x = (int)lround(wu), y = (int)lround(wv);
-	if (x < 0 || y < 0 || x >= rt->width || y >= rt->height || !rt->valid[y * rt->width + x])
-		return -1;
-	return y * rt->width + x;
-}
-
-/* Marks the working pixels whose rays pass within 3 sigma + margin of a
- * Gaussian: only they can see the body, so only they are sampled. */
-static void mark_gaussian(const mc_camera *cam, const mc_raytable *rt, mc_vec3 p, double radius, unsigned char *mask)
-{
-	double dist = mc_v3_norm(p);
-	if (dist < 1e-6)
-		return;
-	if (radius >= dist) { /* the camera is inside the Gaussian */
-		memset(mask, 1, (size_t)rt->width * rt->height);
-		return;
-	}
-	double alpha = asin(radius / dist);
-	mc_vec3 d = mc_v3_scale(p, 1.0 / dist);
-	mc_vec3 any = fabs(d.x) < 0.9 ? mc_v3(1, 0, 0) : mc_v3(0, 1, 0);
-	mc_vec3 e1 = mc_v3_normalize(mc_v3_cross(d, any)), e2 = mc_v3_cross(d, e1);
-	double u, v, cu, cv, r = 0;
-	bool centre = mc_camera_project(cam, d, &u, &v);
-	if (centre)
-		to_working(rt, u, v, &cu, &cv);
-	double ex[4][2] = {{1, 0}, {-1, 0}, {0, 1}, {0, -1}};
-	double pu[4], pv[4];
-	int np = 0;
-	for (int k = 0; k < 4; k++) {
-		mc_vec3 e = mc_v3_add(mc_v3_scale(e1, ex[k][0]), mc_v3_scale(e2, ex[k][1]));
-		mc_vec3 q = mc_v3_add(mc_v3_scale(d, cos(alpha)), mc_v3_scale(e, sin(alpha)));
-		if (mc_camera_project(cam, q, &u, &v)) {
-			to_working(rt, u, v, &pu[np], &pv[np]);
-			np++;
-		}
-	}
-	if (!np)
-		return;
-	if (!centre) { /* centre outside the field of view: use the edge points */
-		cu = cv = 0;
-		for (int k = 0; k < np; k++) {
-			cu += pu[k] / np;
-			cv += pv[k] / np;
-		}
-	}
-	for (int k = 0; k < np; k++)
-		r = fmax(r, hypot(pu[k] - cu, pv[k] - cv));
-	rasterize_disc(mask, rt->width, rt->height, cu, cv, r + 1.5);
-}
-
-void mc_trk_choose_candidates(mc_tracker *t, const mc_fk *fk)
-{
-	for (int c = 0; c < t->rig.ncams; c++) {
-		const mc_camera *cam = &t->rig.cams[c];
-		const mc_raytable *rt = &t->rays[c];
-		int n = rt->width * rt->height;
-		memset(t->mask, 0, (size_t)n);
-		mc_xform cam_from_rig = mc_xform_inverse(cam->rig_from_cam);
-		for (int q = 0; q < t->model.ngauss; q++) {
-			if (t->hidden[q])
-				continue;
-			mc_vec3 p = mc_xform_apply(cam_from_rig, fk->mu[q]);
-			mark_gaussian(cam, rt, p, 3 * t->model.gauss[q].sigma + CANDIDATE_MARGIN_M, t->mask);
-		}
-		t->ncandidates[c] = 0;
-		for (int p = 0; p < n; p++)
-			if (t->mask[p] && rt->valid[p])
-				t->candidates[c][t->ncandidates[c]++] = p;
-	}
-}
-
-/* Draws this iteration's pixels: a partial Fisher-Yates shuffle of each
- * camera's candidates, so that no pixel is drawn twice. */
-int mc_trk_sample_pixels(mc_tracker *t, double fraction)
-{
-	int total = 0;
-	for (int c = 0; c < t->rig.ncams; c++) {
-		int n = t->present[c] ? t->ncandidates[c] : 0;
-		int k = (int)ceil(fraction * n);
-		int *cand = t->candidates[c];
-		for (int i = 0; i < k; i++) {
-			int j = i + (int)(mc_rng_next(&t->rng) % (uint64_t)(n - i));
-			int chosen = cand[j];
-			cand[j] = cand[i];
-			cand[i] = chosen;
-			t->samples[c][i] = chosen;
-		}
-		t->nsamples[c] = k;
-		total += k;
-	}
-	return total;
 }
 
 /* ---- energy ------------------------------------------------------------ */
@@ -855,7 +536,7 @@ static int track_frame_set(mc_tracker *t, const mc_frame_view *views, int nviews
 	uint64_t start = mc_now_ns();
 	memset(out, 0, sizeof(*out));
 	for (int c = 0; c < nviews && c < t->rig.ncams; c++)
-		if (view_usable(&views[c]) && views[c].timestamp_ns > out->timestamp_ns)
+		if (mc_trk_view_usable(&views[c]) && views[c].timestamp_ns > out->timestamp_ns)
 			out->timestamp_ns = views[c].timestamp_ns;
 	int present = mc_trk_load_views(t, views, nviews);
 	keypoints_given(t, kp, nkp);

@@ -93,6 +93,11 @@ int mc_trk_calibrate(mc_tracker *t, const mc_frame_view *views, int nviews, bool
 
 /* Converts the views to working-resolution RGB (t->rgb) and HSV (t->hsv);
  * returns how many cameras carry a usable, non-blank image (t->present). */
+/* The settings' check (mc_tracker_settings.c): -1 with err naming the
+ * setting out of range. */
+int mc_trk_validate_settings(const mc_tracker_settings *s, mc_err *err);
+/* A view with an image the tracker can read (mc_pixels.c). */
+bool mc_trk_view_usable(const mc_frame_view *v);
 int mc_trk_load_views(mc_tracker *t, const mc_frame_view *views, int nviews);
 /* The Gaussians at a pose, as the image energy sees them. */
 void mc_trk_make_scene(const mc_tracker *t, const mc_fk *fk, mc_scene *scene);
