@@ -40,7 +40,8 @@ from motion import JOINTS, clips_of_split, family_of, load_clips, sample_pose  #
 from fisheye import project_cam, rig_from_cam_matrix  # noqa: E402
 from output import done_indices, open_labels, postprocess  # noqa: E402
 from outside import main_outside, relabel_outside, test_projection_outside  # noqa: E402
-from scene import BUILDS, BYSTANDER_P, GARMENTS, SCENE_KINDS, Scene, render_marker  # noqa: E402
+from scene import Scene, render_marker  # noqa: E402
+from scene_v2 import BUILDS, BYSTANDER_P, GARMENTS, SCENE_KINDS  # noqa: E402
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(os.path.dirname(HERE))
