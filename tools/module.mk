@@ -78,7 +78,7 @@ detector-train-v2:
 	  --ckpt $(DETECTOR_V2_DIR)/ckpt.pt --seed $(DETECTOR_V2_SEED) --data-seed $(DETECTOR_V2_SEED) \
 	  --epochs $(DETECTOR_V2_EPOCHS) --resume
 
-# Outside-in pinhole views (docs/DETECTOR.md, "Outside-in model"): frames of
+# Outside-in pinhole views (docs/DETECTOR_OUTSIDE.md): frames of
 # DETECTOR_OUTSIDE_VIEWS cameras each, into $(DETECTOR_DIR)/outside/data.
 DETECTOR_OUTSIDE_DIR ?= $(DETECTOR_DIR)/outside
 DETECTOR_OUTSIDE_SEED ?= 3

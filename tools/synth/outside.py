@@ -1,6 +1,6 @@
 """--kind outside of the detector's data generator (tools/synth/render.py):
 one posed actor seen by static pinhole cameras at random distances, heights,
-fields of view and aims (docs/DETECTOR.md, "Outside-in model"); the frame
+fields of view and aims (docs/DETECTOR_OUTSIDE.md); the frame
 loop, relabelling (--relabel) and the projection check (--test-projection).
 Runs inside Blender (bpy, through scene.py).
 """
@@ -16,7 +16,7 @@ from motion import JOINTS, load_clips, sample_pose
 from output import done_indices, postprocess
 from scene import Scene, render_marker
 
-# Camera randomisation for --kind outside (docs/DETECTOR.md, "Outside-in model").
+# Camera randomisation for --kind outside (docs/DETECTOR_OUTSIDE.md).
 OUT_DIST = (2.5, 8.0)       # m, horizontal distance from the torso
 OUT_HEIGHT = (0.8, 3.0)     # m above the floor
 OUT_HFOV = (40.0, 80.0)     # degrees, horizontal field of view (aspect from the image)
