@@ -159,6 +159,87 @@ static void test_real_views(mc_detector *d)
 		}
 }
 
+
+/* The hint (mc_detector_set_person_square): a square around the person
+ * found without one needs one look and puts the joints where the two looks
+ * did; a square on an empty corner misses the torso, so the two looks run
+ * and give exactly the unhinted keypoints; a hint is for one view only. */
+static void test_hint(mc_detector *d)
+{
+	mc_detector_set_refine(d, 1);
+	mc_detector_set_threshold(d, 0);
+	const char *name = "cam1/00050.jpg";
+	mc_detection ref[MC_DETECTOR_MAX_JOINTS], det[MC_DETECTOR_MAX_JOINTS];
+	int n = detect_file(d, name, ref);
+	CHECK(n == J);
+	float lo_u = 1e9f, lo_v = 1e9f, hi_u = -1e9f, hi_v = -1e9f;
+	for (int k = 0; k < n; k++) {
+		lo_u = fminf(lo_u, ref[k].u), hi_u = fmaxf(hi_u, ref[k].u);
+		lo_v = fminf(lo_v, ref[k].v), hi_v = fmaxf(hi_v, ref[k].v);
+	}
+	float half = 0.6f * fmaxf(hi_u - lo_u, hi_v - lo_v);
+	mc_detector_square around = {0.5f * (lo_u + hi_u) - half, 0.5f * (lo_v + hi_v) - half, 2 * half};
+	mc_detector_timing before, after;
+	mc_detector_get_timing(d, &before);
+	mc_detector_set_person_square(d, &around);
+	CHECK(detect_file(d, name, det) == J);
+	mc_detector_get_timing(d, &after);
+	CHECK(after.one_look == before.one_look + 1);
+	/* a crop a little different from the second look's: the same joints,
+	 * a few pixels apart (a joint on the wrong limb would be 50 or more) */
+	double d_px[J], worst = 0;
+	int nd = 0;
+	for (int k = 0; k < J; k++)
+		if (ref[k].confidence > 0.5f && det[k].confidence > 0.5f) {
+			d_px[nd] = hypot(det[k].u - ref[k].u, det[k].v - ref[k].v);
+			worst = fmax(worst, d_px[nd++]);
+		}
+	int below = 0;
+	for (int i = 0; i < nd; i++)
+		below += d_px[i] < 12.0;
+	printf("hint around the person: one look; %d of %d confident joints within 12 px of the two looks, worst "
+	       "%.1f px\n",
+	       below, nd, worst);
+	CHECK(nd >= 10);
+	CHECK(below * 4 >= nd * 3);
+	CHECK(worst < 40.0);
+	/* an empty corner (the ceiling): the two looks, the same keypoints */
+	mc_detector_square corner = {0, 0, 60};
+	mc_detector_set_person_square(d, &corner);
+	CHECK(detect_file(d, name, det) == J);
+	mc_detector_get_timing(d, &before);
+	CHECK(before.one_look == after.one_look);
+	for (int k = 0; k < J; k++)
+		CHECK(det[k].u == ref[k].u && det[k].v == ref[k].v && det[k].confidence == ref[k].confidence);
+	/* the hint was used up: the next view looks twice */
+	mc_detector_set_person_square(d, &around);
+	CHECK(detect_file(d, name, det) == J);
+	CHECK(detect_file(d, name, det) == J);
+	mc_detector_get_timing(d, &after);
+	CHECK(after.one_look == before.one_look + 1);
+}
+
+/* mc_detector_square_around: joints 2 m in front of a pinhole camera. */
+static void test_square_around(void)
+{
+	mc_camera cam;
+	memset(&cam, 0, sizeof(cam));
+	cam.model = MC_CAM_PINHOLE;
+	cam.width = 640, cam.height = 480;
+	cam.fx = cam.fy = 500, cam.cx = 319.5, cam.cy = 239.5;
+	cam.max_theta = 1.2;
+	cam.rig_from_cam = mc_xform_identity();
+	mc_vec3 joints[3] = {mc_v3(-0.2, -0.4, 2), mc_v3(0.2, 0.4, 2), mc_v3(0, 0, 2)};
+	mc_detector_square sq;
+	CHECK(mc_detector_square_around(&cam, joints, 3, &sq) == 0);
+	/* the box is 100 x 200 px around the centre: half 1.25 * 100 + 3 % of 640 */
+	CHECK_NEAR(sq.size, 2 * (125 + 19.2), 1e-3);
+	CHECK_NEAR(sq.x0 + sq.size / 2, 319.5, 1e-3);
+	CHECK_NEAR(sq.y0 + sq.size / 2, 239.5, 1e-3);
+	mc_vec3 behind[3] = {mc_v3(0, 0, -1), mc_v3(0.1, 0, -1), mc_v3(0, 0.1, 2)};
+	CHECK(mc_detector_square_around(&cam, behind, 3, &sq) < 0);
+}
+
 static void test_bad_sidecar(void)
 {
 	char dir[] = "/tmp/mc_movenet_XXXXXX", onnx[600], json[600], target[600];
@@ -182,6 +263,7 @@ int main(void)
 {
 	test_decode();
 	test_square();
+	test_square_around();
 	if (access(MODEL, R_OK) != 0)
 		TEST_SKIP("%s is not there (run from the repository root)", MODEL);
 	mc_err err = {{0}};
@@ -195,6 +277,7 @@ int main(void)
 		CHECK(w == 48 && h == 48);
 		test_reference(d);
 		test_real_views(d);
+		test_hint(d);
 		mc_detector_free(d);
 	}
 	test_bad_sidecar();
