@@ -59,9 +59,7 @@ static int connect_socket(const char *path)
 					   "daemon not running at %s (the socket is left over, nobody listens)", path);
 		case EACCES:
 		case EPERM:
-			return mcl_set_err(MOCAP_E_ACCESS,
-					   "permission denied connecting to %s: your user needs to be in the daemon's group",
-					   path);
+			return mcl_access_error(path);
 		case EPROTOTYPE:
 			return mcl_set_err(MOCAP_E_PROTOCOL, "%s is not a mocapd socket (wrong socket type)", path);
 		case ENOTDIR:
