@@ -69,6 +69,7 @@ struct mocap_client {
 	pthread_mutex_t send_lock; /* TCP: one message at a time on the stream */
 	bool privileged;
 	unsigned version;     /* the protocol version negotiated in HELLO */
+	char daemon_version[PROTO_NAME_MAX + 1]; /* WELCOME's, e.g. "mocapd 1.2.0" */
 	int timeout_ms;
 	atomic_uint next_id;
 
