@@ -74,6 +74,10 @@ struct mcd_tracking_thread {
 	int nkp;
 	uint64_t awaited_ns[MC_MAX_CAMERAS];
 	uint64_t kp_tol_ns;
+	/* When a client's batch for each rig camera last came (mc_now_ns; 0:
+	 * never): such a camera's keypoints are awaited like the in-process
+	 * detector's (client_feeds). */
+	uint64_t client_kp_ns[MC_MAX_CAMERAS];
 };
 
 /* ---- one frame set ---------------------------------------------------------------- */
@@ -204,15 +208,59 @@ static void count_detected(mcd_tracking_thread *t, int views)
 	pthread_mutex_unlock(&t->lock);
 }
 
+/* A client (mocap-detect, say) whose batches for rig camera r came this
+ * recently is taken to be sending them for every frame, so its keypoints
+ * are awaited during the iterations; a client that stopped is not waited
+ * for after this. */
+#define CLIENT_FEED_NS (2000 * MC_NS_PER_MS)
+
+static bool client_feeds(const mcd_tracking_thread *t, int r, uint64_t now)
+{
+	return t->client_kp_ns[r] && now - t->client_kp_ns[r] <= CLIENT_FEED_NS;
+}
+
+/* Appends batch b of rig camera r to the frame set's keypoints and to the
+ * poll's output kp (room for cap - *n more); false if it does not fit. */
+static bool join_late(mcd_tracking_thread *t, const srv_keypoints *b, int r, mc_keypoint *kp, int *n, int cap)
+{
+	if (b->nkeypoints > cap - *n)
+		return false;
+	t->awaited_ns[r] = 0;
+	int first = t->nkp;
+	append_keypoints(t, b, r);
+	memcpy(kp + *n, t->kp + first, sizeof(*kp) * (size_t)b->nkeypoints);
+	*n += b->nkeypoints;
+	return true;
+}
+
+/* Takes the batches clients sent since the last look, keeping the newest
+ * per rig camera.  During the iterations (kp non-NULL) a batch that is the
+ * awaited detection of its camera's view joins at once, before a newer
+ * batch behind it in the inbox replaces it. */
+static void take_client_batches(mcd_tracking_thread *t, int nviews, mc_keypoint *kp, int *n, int cap)
+{
+	uint64_t now = mc_now_ns();
+	srv_keypoints *b = t->kp_batch;
+	while (t->inbox && srv_inbox_pop_keypoints(t->inbox, b) == 1) {
+		int r = b->cam;
+		if (r < 0 || r >= nviews)
+			continue;
+		t->client_kp_ns[r] = now;
+		if (kp && t->awaited_ns[r] && same_instant(b, t->awaited_ns[r], t->kp_tol_ns))
+			join_late(t, b, r, kp, n, cap);
+		t->kp_latest[r] = *b;
+	}
+}
+
 /* Keypoints for the frames of this set: per rig camera, the newest batch
  * of the in-process detector if its capture time is that of the camera's
  * view, else the newest batch a client sent, on the same condition.  A
- * camera with neither awaits its detection (late_detections). */
+ * camera with neither awaits its detection (late_detections) when a
+ * detector feeds it: the in-process one, or a client lately. */
 static int collect_keypoints(mcd_tracking_thread *t, const mc_frame_view *views, int nviews)
 {
-	while (t->inbox && srv_inbox_pop_keypoints(t->inbox, t->kp_batch) == 1)
-		if (t->kp_batch->cam >= 0 && t->kp_batch->cam < nviews)
-			t->kp_latest[t->kp_batch->cam] = *t->kp_batch;
+	take_client_batches(t, nviews, NULL, NULL, 0);
+	uint64_t now = mc_now_ns();
 	pthread_mutex_lock(&t->lock);
 	uint64_t tol = t->grouper.tolerance_ns;
 	if (t->st.total.track_state == MC_TRACK_INITIALISING && tol < INIT_KEYPOINT_AGE_NS)
@@ -230,7 +278,7 @@ static int collect_keypoints(mcd_tracking_thread *t, const mc_frame_view *views,
 		if (same_instant(b, views[r].timestamp_ns, tol))
 			detected++;
 		else if (!same_instant(b = &t->kp_latest[r], views[r].timestamp_ns, tol)) {
-			if (atomic_load(&t->det_runs))
+			if (atomic_load(&t->det_runs) || client_feeds(t, r, now))
 				t->awaited_ns[r] = views[r].timestamp_ns;
 			continue;
 		}
@@ -241,13 +289,17 @@ static int collect_keypoints(mcd_tracking_thread *t, const mc_frame_view *views,
 }
 
 /* The tracker's keypoint poll (mc_tracker_set_keypoint_poll), between its
- * gradient iterations: the in-process detector's batches that came for
- * this frame set after its tracking began.  The tracking thread does not
- * wait for the detector (a pose should not wait), but a detection takes
- * a few milliseconds, so when the tracker starts on a frame set at once
- * (cameras at 30 fps on an idle machine) the keypoints would otherwise
- * come too late for nearly every frame set (5 of 60 views a second in
- * bench-latency); now they join the remaining iterations. */
+ * gradient iterations: the batches of the in-process detector and of
+ * clients that came for this frame set after its tracking began.  The
+ * tracking thread does not wait for the detector (a pose should not
+ * wait), but a detection takes a few milliseconds, so when the tracker
+ * starts on a frame set at once (cameras at 30 fps on an idle machine) the
+ * keypoints would otherwise come too late for nearly every frame set (5 of
+ * 60 views a second in bench-latency); now they join the remaining
+ * iterations.  A detector in another process (mocap-detect) is later
+ * still, the more so on a loaded machine, where it was in time for 2 of
+ * 25 frame sets when only this thread's first look took clients'
+ * batches (issue 34). */
 static int late_detections(void *ctx, int iteration, mc_keypoint *kp, int cap)
 {
 	mcd_tracking_thread *t = ctx;
@@ -258,17 +310,20 @@ static int late_detections(void *ctx, int iteration, mc_keypoint *kp, int cap)
 			continue;
 		take_detected(t, r);
 		const srv_keypoints *b = &t->det_latest[r];
-		if (!same_instant(b, t->awaited_ns[r], t->kp_tol_ns) || b->nkeypoints > cap - n)
-			continue;
-		t->awaited_ns[r] = 0;
-		int first = t->nkp;
-		append_keypoints(t, b, r);
-		memcpy(kp + n, t->kp + first, sizeof(*kp) * (size_t)b->nkeypoints);
-		n += b->nkeypoints;
-		detected++;
+		if (same_instant(b, t->awaited_ns[r], t->kp_tol_ns) && join_late(t, b, r, kp, &n, cap))
+			detected++;
 	}
 	count_detected(t, detected);
+	take_client_batches(t, t->tracking->rig.ncams, kp, &n, cap);
 	return n;
+}
+
+static bool awaiting(const mcd_tracking_thread *t)
+{
+	for (int r = 0; r < MC_MAX_CAMERAS; r++)
+		if (t->awaited_ns[r])
+			return true;
+	return false;
 }
 
 /* On the first frame set with every camera, when the config asks for it. */
@@ -342,7 +397,8 @@ static void track(mcd_tracking_thread *t, const mc_frame_view *views, int presen
 	int nkp = collect_keypoints(t, views, nviews);
 	mc_err err = {{0}};
 	/* Set for every frame set: a reload can replace the tracker. */
-	mc_tracker_set_keypoint_poll(tr->tracker, atomic_load(&t->det_runs) ? late_detections : NULL, t);
+	bool poll = atomic_load(&t->det_runs) || awaiting(t);
+	mc_tracker_set_keypoint_poll(tr->tracker, poll ? late_detections : NULL, t);
 	int rc = mc_tracker_track(tr->tracker, views, nviews, nkp ? t->kp : NULL, nkp, &o->sk, &err);
 	nkp = t->nkp; /* with the late ones */
 	o->nkp = nkp < MCD_OUTPUT_KEYPOINTS ? nkp : MCD_OUTPUT_KEYPOINTS;

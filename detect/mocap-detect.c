@@ -33,8 +33,9 @@
  * top-left pixel) with a confidence in [0, 1]; send only joints the
  * detector found.  A detector slower than the cameras is fine: it skips to
  * the newest frame each time, and the tracker uses keypoints for the frame
- * sets they arrive in time for (it does not wait for them: see
- * docs/DETECT_RUNTIME.md, "Timing against the tracker").
+ * sets they arrive in time for: before its last gradient iteration on that
+ * frame set (it does not wait for them; docs/TRACKER.md, "Keypoints that
+ * come during tracking").
  *
  * Exit status: 0 after SIGINT or SIGTERM, 1 on an error (no daemon, no
  * permission, a bad model, the daemon went away), 2 for a bad command line. */

@@ -215,6 +215,12 @@ void mocap_close(mocap_client *c);
 /* 1 if this client may control the daemon, map rings and send inputs. */
 int mocap_is_privileged(const mocap_client *c);
 
+/* What the daemon said of itself when this client connected (WELCOME's
+ * daemon_version, e.g. "mocapd 1.2.0"; "" if it said nothing), and the
+ * protocol version of this connection.  Since libmocap 1.2 (MOCAP_3). */
+const char *mocap_daemon_version(const mocap_client *c);
+int mocap_protocol_version(const mocap_client *c);
+
 /* Timeout for requests (status, control, ...), milliseconds; default 10000. */
 void mocap_set_timeout(mocap_client *c, int timeout_ms);
 

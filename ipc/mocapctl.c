@@ -51,6 +51,7 @@ static const char usage[] =
 	"                         direction DEG [speed M/S], speed M/S, or none (daemon's user or\n"
 	"                         group)\n"
 	"  ping                   round-trip time to the daemon\n"
+	"  --version, -V          this program's version and the daemon's, if one answers\n"
 	"\n"
 	"The socket is --socket PATH, else $MOCAP_SOCKET, else " MOCAP_DEFAULT_SOCKET ".\n"
 	"PATH may be tcp://HOST:PORT for a daemon on another machine ([network] in its\n"
@@ -423,11 +424,33 @@ static int cmd_ping(mocap_client *c)
 	return EXIT_OK;
 }
 
+/* --version: this program's and, when one answers at path, the daemon's
+ * (what it says in WELCOME, and the protocol version both speak).  Exits
+ * 0 without a daemon too: the client's version is still the answer. */
+static int print_versions(const char *path)
+{
+	printf("mocapctl (libmocap %s, protocol %d)\n", MOCAP_LIB_VERSION, MOCAP_PROTOCOL_VERSION);
+	if (!path)
+		path = mocap_default_socket();
+	mocap_client *c = mocap_connect(path, "mocapctl --version");
+	if (!c) {
+		if (mocap_errcode() == MOCAP_E_NOT_RUNNING)
+			printf("daemon: not running (at %s)\n", path);
+		else
+			printf("daemon: unknown: %s\n", mocap_errmsg());
+		return EXIT_OK;
+	}
+	const char *v = mocap_daemon_version(c);
+	printf("daemon: %s, protocol %d, at %s\n", v[0] ? v : "(it gives no version)", mocap_protocol_version(c), path);
+	mocap_close(c);
+	return EXIT_OK;
+}
+
 int main(int argc, char **argv)
 {
 	const char *path = NULL, *pos[5] = {0};
 	int npos = 0;
-	bool json = false, all = false, world = false;
+	bool json = false, all = false, world = false, version = false;
 	const char *name = NULL;
 	long count = 0;
 	for (int i = 1; i < argc; i++) {
@@ -436,8 +459,7 @@ int main(int argc, char **argv)
 			fputs(usage, stdout);
 			return EXIT_OK;
 		} else if (!strcmp(a, "--version") || !strcmp(a, "-V")) {
-			printf("mocapctl (libmocap %s, protocol %d)\n", MOCAP_LIB_VERSION, MOCAP_PROTOCOL_VERSION);
-			return EXIT_OK;
+			version = true;
 		} else if (!strcmp(a, "--socket") || !strcmp(a, "-s")) {
 			if (++i >= argc) {
 				fprintf(stderr, "mocapctl: %s needs a path\n%s", a, usage);
@@ -477,6 +499,8 @@ int main(int argc, char **argv)
 			return EXIT_USAGE;
 		}
 	}
+	if (version)
+		return print_versions(path);
 	if (!npos) {
 		fputs(usage, stderr);
 		return EXIT_USAGE;

@@ -2,7 +2,9 @@
 subclasses of mocap.Error, each raised where libmocap returns its code."""
 import asyncio
 import errno
+import grp
 import os
+import pwd
 import re
 import shutil
 import socket
@@ -237,8 +239,38 @@ def test_access_denied():
         r = subprocess.run(prefix + [sys.executable, "-B", "-c", ACCESS_CHECK, path], capture_output=True,
                            text=True, timeout=60, env=dict(os.environ, PYTHONPATH=HERE))
     assert r.returncode == 0, r.stderr
-    assert r.stdout.splitlines() == ["%s: permission denied connecting to %s: your user needs to be in the "
-                                     "daemon's group" % (kind, path) for kind in ("blocking", "asyncio")]
+    # Mode 0: the group may not connect either, so the message names the
+    # owner rather than a group to join (as libmocap's, test_ipc_access).
+    owner, group = pwd.getpwuid(os.getuid())[0], grp.getgrgid(os.getgid())[0]
+    assert r.stdout.splitlines() == ["%s: permission denied connecting to %s: the socket belongs to user %s, group "
+                                     "%s, with mode 0000: only its owner may connect (the daemon's [socket] mode "
+                                     "sets it)" % (kind, path, owner, group) for kind in ("blocking", "asyncio")]
+
+
+def test_access_denied_names_the_group():
+    # The socket's group may connect: the message names it and how to join.
+    prefix = []
+    if os.geteuid() == 0:
+        if not shutil.which("setpriv"):
+            pytest.skip("root, and no setpriv to run as another user")
+        prefix = ["setpriv", "--reuid=65534", "--regid=65534", "--clear-groups"]
+    with tempfile.TemporaryDirectory(prefix="mocap-access-") as d, \
+            socket.socket(socket.AF_UNIX, socket.SOCK_SEQPACKET) as s:
+        os.chmod(d, 0o755)
+        path = os.path.join(d, "mocapd.sock")
+        s.bind(path)
+        s.listen(1)
+        os.chmod(path, 0o660)
+        group = grp.getgrgid(os.stat(path).st_gid)[0]
+        r = subprocess.run(prefix + [sys.executable, "-B", "-c", ACCESS_CHECK, path], capture_output=True,
+                           text=True, timeout=60, env=dict(os.environ, PYTHONPATH=HERE))
+    if not prefix and group in [grp.getgrgid(g)[0] for g in os.getgroups()]:
+        pytest.skip("this user is in the socket's group")
+    assert r.returncode == 0, r.stderr
+    assert r.stdout.splitlines() == ["%s: permission denied connecting to %s: the socket belongs to group %s (mode "
+                                     "0660) and your user is not in it: sudo usermod -aG %s $USER, then log in "
+                                     "again (or newgrp %s in one shell)" % (kind, path, group, group, group)
+                                     for kind in ("blocking", "asyncio")]
 
 
 def test_version_mismatch(daemon, monkeypatch):

@@ -7,7 +7,13 @@
  * left camera only.  From the daemon's side: the published right wrist,
  * about 0.5 m off that pixel's ray at the start, must end up on it (within
  * 5 cm), which only happens if the keypoints reached the tracker with the
- * right capture times, camera and joint.  mocap-detect must exit 0 on
+ * right capture times, camera and joint.  It must stay there: the frame
+ * sets after the first few must nearly all (ON_RAY_SHARE) have the wrist
+ * on the ray, with two busy loops beside the test for the whole time
+ * (start_hog), because a loaded machine is when keypoints from another
+ * process come late (issue 34: 2 of 25 frame sets with load 3 on 2 cores,
+ * when they only joined a frame set if they came before its tracking
+ * began).  mocap-detect must exit 0 on
  * SIGTERM with its statistics (views, batches, no refusals).  With the
  * shipped model present, it also runs on both cameras for a few seconds.
  * And the errors: a bad model, no daemon. */
@@ -21,6 +27,11 @@
 #include <glob.h>
 
 #define RATE 5
+/* Frame sets the wrist may take to reach the ray (the first ones start
+ * 50 cm off), and the share of the others it must be on it in. */
+#define SETTLE_FRAMES 6
+#define ON_RAY_SHARE 0.85
+#define HOGS 2
 
 static char repo[PATH_MAX];
 static char mocap_detect[PATH_MAX + 32];
@@ -57,6 +68,18 @@ static pid_t start_detect(const char *const *args, const char *out)
 	return mcd_spawn(mocap_detect, args, out);
 }
 
+/* The same, niced by DETECT_NICE as systemd/mocap-detect.service's
+ * CPUWeight=50 does (weight 50 of the default 100 is about nice 3), so
+ * that busy loops at normal priority delay it more than mocapd. */
+#define DETECT_NICE "3"
+static pid_t start_detect_niced(const char *const *args, const char *out)
+{
+	const char *argv[16] = {"-n", DETECT_NICE, mocap_detect};
+	for (int i = 0; args[i] && i < 12; i++)
+		argv[3 + i] = args[i];
+	return mcd_spawn("/usr/bin/nice", argv, out);
+}
+
 static void dump(const char *what, const char *path)
 {
 	char *s = mcd_read_file(path);
@@ -64,8 +87,30 @@ static void dump(const char *what, const char *path)
 	free(s);
 }
 
+/* HOGS busy loops at normal priority, so that mocapd, mocap-detect and
+ * this test compete for the cores as they do on a busy machine (one per
+ * core of the 2-core machines this runs on; more cores only soften it).  The pids go to hog[]; stop_hog ends them. */
+static void start_hog(pid_t *hog)
+{
+	for (int i = 0; i < HOGS; i++) {
+		hog[i] = fork();
+		if (hog[i] == 0)
+			for (volatile unsigned long spin = 0;; spin++)
+				;
+	}
+}
+
+static void stop_hog(const pid_t *hog)
+{
+	for (int i = 0; i < HOGS; i++)
+		if (hog[i] > 0) {
+			kill(hog[i], SIGKILL);
+			waitpid(hog[i], NULL, 0);
+		}
+}
+
 /* The fixed model's right wrist on the left camera: the wrist moves onto
- * the keypoint's ray. */
+ * the keypoint's ray and stays there, on a loaded machine. */
 static void test_fixed(mcd_run *r, const mc_rig *rig)
 {
 	const double ku = 139.5, kv = 75.5; /* fixed_wrist.onnx on a 256x256 view */
@@ -89,20 +134,38 @@ static void test_fixed(mcd_run *r, const mc_rig *rig)
 	char model[PATH_MAX + 64];
 	snprintf(model, sizeof(model), "%s/detect/tests/data/fixed_wrist.onnx", repo);
 	const char *const args[] = {"--socket", r->sock, "--model", model, "--cameras", "left", NULL};
-	pid_t pid = start_detect(args, out);
+	pid_t hog[HOGS];
+	start_hog(hog);
+	pid_t pid = start_detect_niced(args, out);
 	CHECK(pid > 0);
-	/* 5 s of frames (25 frame sets at 5 fps). */
-	uint64_t end = mcd_now_ms() + 5000;
+	/* 8 s of frames (40 frame sets at 5 fps, fewer when the tracker
+	 * skips some under the load): enough that a few frame sets whose
+	 * keypoints came after their tracking ended do not decide it. */
+	uint64_t end = mcd_now_ms() + 8000;
 	double after = before, closest = before;
-	int frames = 0, on_ray = 0;
-	char series[2048] = "";
+	int frames = 0, on_ray = 0, settled = 0, settled_on_ray = 0;
+	char series[4096] = "";
 	size_t len = 0;
-	while (mcd_now_ms() < end && mocap_read_frame(c, f, 2000) == 1) {
+	while (mcd_now_ms() < end) {
+		/* mocapd's sd_notify blocks once 10 of its messages wait
+		 * unread (net.unix.max_dgram_qlen), and then so does its main
+		 * loop, SIGTERM included: read them as they come. */
+		mcd_run_read_notify(r);
+		/* A loaded machine may publish nothing for a while: wait on. */
+		int got = mocap_read_frame(c, f, 1000);
+		if (got < 0)
+			break;
+		if (got == 0)
+			continue;
 		frames++;
 		after = mcd_ray_distance(&rig->cams[0], ku, kv, mcd_joint_position(f, wrist));
 		if (after < closest)
 			closest = after;
 		on_ray += after < 0.05;
+		if (frames > SETTLE_FRAMES) {
+			settled++;
+			settled_on_ray += after < 0.05;
+		}
 		if (len < sizeof(series) - 16)
 			len += (size_t)snprintf(series + len, sizeof(series) - len, " %.1f", 100 * after);
 	}
@@ -110,10 +173,13 @@ static void test_fixed(mcd_run *r, const mc_rig *rig)
 	CHECK(st && mocap_get_status(c, st) == 0);
 	kill(pid, SIGTERM);
 	int rc = mcd_wait_pid(pid, 10000);
+	stop_hog(hog);
 	char *log = mcd_read_file(out);
-	printf("right wrist from the keypoint ray: %.1f cm before mocap-detect, then per frame (cm):%s\n"
-	       "%d of %d frames within 5 cm (closest %.1f cm); daemon: %llu skeletons published\n",
-	       100 * before, series, on_ray, frames, 100 * closest,
+	printf("with %d busy loops beside: right wrist from the keypoint ray: %.1f cm before mocap-detect, then per "
+	       "frame (cm):%s\n"
+	       "%d of %d frames within 5 cm (closest %.1f cm), %d of the %d after the first %d; daemon: %llu "
+	       "skeletons published\n",
+	       HOGS, 100 * before, series, on_ray, frames, 100 * closest, settled_on_ray, settled, SETTLE_FRAMES,
 	       st ? (unsigned long long)st->frames_published : 0ull);
 	printf("mocap-detect said:\n%s", log ? log : "");
 	CHECK_MSG(rc == 0, "mocap-detect exited with %d after SIGTERM", rc);
@@ -121,6 +187,10 @@ static void test_fixed(mcd_run *r, const mc_rig *rig)
 	CHECK_MSG(before > 0.15, "the keypoint is only %.1f cm off the wrist at the start", 100 * before);
 	CHECK_MSG(on_ray >= 3, "the wrist came within 5 cm of the keypoint's ray in %d frames (closest %.1f cm)", on_ray,
 		  100 * closest);
+	CHECK_MSG(settled >= 8 && settled_on_ray >= ON_RAY_SHARE * settled,
+		  "after the first %d frames the wrist was within 5 cm of the keypoint's ray in only %d of %d: keypoints "
+		  "from mocap-detect missed their frame sets",
+		  SETTLE_FRAMES, settled_on_ray, settled);
 	unsigned long long views = 0, kps = 0, batches = 0;
 	const char *line = log ? strstr(log, "camera left: ") : NULL;
 	CHECK_MSG(line && sscanf(line, "camera left: %llu views", &views) == 1 && views >= 10,
@@ -161,6 +231,7 @@ static void test_shipped(mcd_run *r)
 	const char *const args[] = {"--socket", r->sock, "--model", model, "--rate", "5", NULL};
 	pid_t pid = start_detect(args, out);
 	mcd_sleep_ms(4000);
+	mcd_run_read_notify(r);
 	kill(pid, SIGINT);
 	int rc = mcd_wait_pid(pid, 10000);
 	char *log = mcd_read_file(out);
@@ -231,7 +302,8 @@ int main(void)
 	test_shipped(&r);
 	test_errors(&r);
 	mcd_run_signal(&r, SIGTERM);
-	CHECK(mcd_run_wait_exit(&r, 20000) == 0);
+	int exit_code = mcd_run_wait_exit(&r, 20000);
+	CHECK_MSG(exit_code == 0, "mocapd exited with %d after SIGTERM (-1: not within 20 s)", exit_code);
 	if (mc_test_failures)
 		mcd_run_dump(&r, "mocap-detect test");
 	mcd_run_cleanup(&r);

@@ -59,9 +59,7 @@ static int connect_socket(const char *path)
 					   "daemon not running at %s (the socket is left over, nobody listens)", path);
 		case EACCES:
 		case EPERM:
-			return mcl_set_err(MOCAP_E_ACCESS,
-					   "permission denied connecting to %s: your user needs to be in the daemon's group",
-					   path);
+			return mcl_access_error(path);
 		case EPROTOTYPE:
 			return mcl_set_err(MOCAP_E_PROTOCOL, "%s is not a mocapd socket (wrong socket type)", path);
 		case ENOTDIR:
@@ -114,6 +112,7 @@ static int handshake(mocap_client *c, const char *client_name)
 	if (rc == 0) {
 		c->privileged = (m->u.welcome.flags & MC_WELCOME_PRIVILEGED) != 0;
 		c->version = m->u.welcome.version;
+		snprintf(c->daemon_version, sizeof(c->daemon_version), "%s", m->u.welcome.daemon_version);
 	}
 	free(m);
 	return rc;
@@ -187,5 +186,7 @@ void mocap_close(mocap_client *c)
 }
 
 int mocap_is_privileged(const mocap_client *c) { return c->privileged; }
+const char *mocap_daemon_version(const mocap_client *c) { return c->daemon_version; }
+int mocap_protocol_version(const mocap_client *c) { return (int)c->version; }
 void mocap_set_timeout(mocap_client *c, int timeout_ms) { c->timeout_ms = timeout_ms < 0 ? -1 : timeout_ms; }
 int mocap_fd(mocap_client *c) { return c->epfd; }

@@ -69,6 +69,7 @@ struct mocap_client {
 	pthread_mutex_t send_lock; /* TCP: one message at a time on the stream */
 	bool privileged;
 	unsigned version;     /* the protocol version negotiated in HELLO */
+	char daemon_version[PROTO_NAME_MAX + 1]; /* WELCOME's, e.g. "mocapd 1.2.0" */
 	int timeout_ms;
 	atomic_uint next_id;
 
@@ -166,6 +167,17 @@ void mcl_update_event(mocap_client *c);
 void mcl_fq_clear(mocap_client *c);
 /* Queues a received frame (taking it); LATEST mode keeps only the newest. */
 void mcl_fq_push(mocap_client *c, mocap_skeleton_frame *f);
+
+/* --- access.c --- */
+
+struct stat;
+/* The message for a connect() to path refused with EACCES: what (e.g.
+ * "the socket") with the stat st belongs to a group and mode; says which
+ * group to join and how, or that only the owner may connect. */
+void mcl_access_message(char *out, size_t cap, const char *path, const char *what, const struct stat *st);
+/* Sets MOCAP_E_ACCESS with that message for path (or its folder, when the
+ * socket cannot be looked at); returns the code. */
+int mcl_access_error(const char *path);
 
 /* --- request.c --- */
 

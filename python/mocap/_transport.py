@@ -2,7 +2,10 @@
 as libmocap words them) and TCP to a daemon on another machine (address,
 token, and the length-prefixed message stream)."""
 import errno as _errno
+import grp
 import os
+import pwd
+import stat
 import socket
 import struct
 
@@ -129,6 +132,38 @@ def _new_socket():
         raise SystemCallError("system", "socket: %s" % (e.strerror or e)) from None
 
 
+def _access_message(path):
+    """Why path refused this user, as libmocap says it (ipc/client/access.c): the socket's group and mode, or
+    its folder's when the folder keeps the user out, and how to join that group."""
+    what = "the socket"
+    try:
+        st = os.stat(path)
+    except OSError:
+        folder = os.path.dirname(path) or "/"
+        what = "its folder %s" % folder
+        try:
+            st = os.stat(folder)
+        except OSError:
+            return "permission denied connecting to %s: your user needs to be in the daemon's group" % path
+    group, owner = _id_name(grp.getgrgid, st.st_gid), _id_name(pwd.getpwuid, st.st_uid)
+    mode = stat.S_IMODE(st.st_mode)
+    # Without group access, joining the group would not help.
+    group_may = st.st_mode & (stat.S_IXGRP if stat.S_ISDIR(st.st_mode) else stat.S_IWGRP)
+    if group_may:
+        return ("permission denied connecting to %s: %s belongs to group %s (mode %04o) and your user is not in "
+                "it: sudo usermod -aG %s $USER, then log in again (or newgrp %s in one shell)"
+                % (path, what, group, mode, group, group))
+    return ("permission denied connecting to %s: %s belongs to user %s, group %s, with mode %04o: only its owner "
+            "may connect (the daemon's [socket] mode sets it)" % (path, what, owner, group, mode))
+
+
+def _id_name(lookup, n):
+    try:
+        return lookup(n)[0]
+    except KeyError:
+        return str(n)
+
+
 def _connect_error(path, e):
     """The exception for a failed connect() to path."""
     if isinstance(e, FileNotFoundError):
@@ -136,8 +171,7 @@ def _connect_error(path, e):
     if isinstance(e, ConnectionRefusedError):
         return NotRunning("not running", "daemon not running at %s (the socket is left over, nobody listens)" % path)
     if isinstance(e, PermissionError):
-        return AccessDenied("access", "permission denied connecting to %s: your user needs to be in the daemon's "
-                            "group" % path)
+        return AccessDenied("access", _access_message(path))
     if e.errno == _errno.EPROTOTYPE:
         return ProtocolError("protocol", "%s is not a mocapd socket (wrong socket type)" % path)
     if e.errno in (_errno.ENOTDIR, _errno.ENOTSOCK):
