@@ -65,9 +65,10 @@ const mc_tracker_outside_in_defaults mc_tracker_outside_in = {
 	 * the head-mounted rig (two cameras, our own model) within the spread,
 	 * slightly worse: 13.89 / 14.45 -> 13.63 / 14.73, 9.28 / 9.32 -> 9.37 / 9.75 */
 	.assign_sides = true,
-	/* docs/TRACKER.md "Pose prior": walk_131_01 4.03 -> 3.84, jumps_01_01
-	 * 4.00 -> 3.46 cm (seed 1); on the head-mounted rig it made the walk
-	 * worse (14.33 -> 17.22 cm, seeds 1-3), so there it is off. */
+	/* docs/TRACKER.md "Pose prior": seeds 1-3, walk_131_01 4.03 / 3.92 /
+	 * 4.04 -> 3.84 / 3.83 / 3.91, jumps_01_01 4.00 / 4.01 / 3.97 -> 3.46 /
+	 * 3.50 / 3.51 cm; on the head-mounted rig it made the walk worse
+	 * (14.33 -> 17.22 cm, means of seeds 1-3), so there it is off. */
 	.lambda_prior = 1e-3,
 };
 
