@@ -103,7 +103,11 @@ typedef struct {
 	int threads;           /* OpenCV threads (process-wide) */
 	double min_confidence; /* keypoints below it are dropped; < 0: the model's threshold */
 	int nice;              /* the detector threads' nice value above the daemon's */
+	int hint;              /* mcd_detector_hint: MoveNet looks where the tracked pose is */
 } mcd_detector_config;
+
+/* [detector] hint: where a MoveNet model looks first (docs/DETECT_RUNTIME.md). */
+typedef enum { MCD_HINT_NONE = 0, MCD_HINT_POSE = 1 } mcd_detector_hint;
 
 /* The [output] section: what is done to the skeletons before clients get
  * them (publish.h).  The One-Euro filter's parameters

@@ -32,6 +32,8 @@ static const mcd_key_choice graph_kinds[] = {
 	{"essential", MC_EDGE_ESSENTIAL, false}, {"motion", MC_EDGE_MOTION, false}, {NULL, 0, false}};
 static const mcd_key_choice filters[] = {
 	{"none", MCD_FILTER_NONE, false}, {"one_euro", MCD_FILTER_ONE_EURO, false}, {NULL, 0, false}};
+static const mcd_key_choice detector_hints[] = {
+	{"none", MCD_HINT_NONE, false}, {"pose", MCD_HINT_POSE, false}, {NULL, 0, false}};
 static const mcd_key_choice backends[] = {
 	{"opencl", MC_BACKEND_OPENCL, false}, {"reference", MC_BACKEND_REFERENCE, false}, {NULL, 0, false}};
 
@@ -131,6 +133,7 @@ static const mcd_config_key keys[] = {
 	{MCD_SEC_DETECTOR, "threads", MCD_KEY_INT, K(threads), 1, 64, NULL, "1", true},
 	{MCD_SEC_DETECTOR, "min_confidence", MCD_KEY_REAL_AUTO, K(min_confidence), 0, 1, NULL, "auto", true},
 	{MCD_SEC_DETECTOR, "nice", MCD_KEY_INT, K(nice), 0, 19, NULL, "10", false},
+	{MCD_SEC_DETECTOR, "hint", MCD_KEY_ENUM, K(hint), 0, 0, detector_hints, "none", false},
 
 	/* The publishing thread takes a new filter between two skeletons (and
 	 * starts it again), so all of these reload. */

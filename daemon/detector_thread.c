@@ -51,6 +51,7 @@ typedef struct {
 	mc_keypoint kps[MC_DETECTOR_MAX_JOINTS];
 	pthread_t thread;
 	bool started;
+	uint64_t one_look_seen; /* the detector's one-look count already in the stats */
 	/* Under d->lock: */
 	bool pending;
 	frame_ref next;
@@ -76,6 +77,7 @@ struct mcd_detector_thread {
 	bool stop;
 	mcd_detector_config cfg;
 	mcd_detector_stats st;
+	mcd_publisher *pose_source; /* [detector] hint = pose; set before the start */
 };
 
 const char *mcd_detector_state_name(mcd_detector_state s)
@@ -118,6 +120,27 @@ static int scale_to_rig(const mcd_detector_thread *d, int rig, int width, int he
 	return 0;
 }
 
+/* A pose at most this much older or newer than the frame gives the hint. */
+#define HINT_MAX_AGE_NS 500000000ull
+
+/* [detector] hint = pose: the square around the newest tracked pose in
+ * the worker's camera, when there is one and the frame is at the rig
+ * camera's size (a MoveNet model then looks there first). */
+static void set_hint(worker *w, int rig, uint64_t capture_ns, int width, int height)
+{
+	mcd_detector_thread *d = w->d;
+	mc_vec3 joints[MC_MAX_JOINTS];
+	mc_detector_set_person_square(w->det, NULL);
+	if (d->cfg.hint != MCD_HINT_POSE || !d->pose_source || !d->rig)
+		return;
+	const mc_camera *cam = &d->rig->cams[rig];
+	int n = mcd_publisher_latest_joints(d->pose_source, capture_ns, HINT_MAX_AGE_NS, joints, MC_MAX_JOINTS);
+	mc_detector_square sq;
+	if (n > 0 && width == cam->width && height == cam->height &&
+	    mc_detector_square_around(cam, joints, n, &sq) == 0)
+		mc_detector_set_person_square(w->det, &sq);
+}
+
 /* Reads, converts and detects the worker's camera's frame `f`; hands the
  * keypoints on. */
 static void detect_view(worker *w, const frame_ref *f)
@@ -139,12 +162,13 @@ static void detect_view(worker *w, const frame_ref *f)
 		note_error(d, c, &err);
 		return;
 	}
+	int rig = d->cam_to_rig[c];
+	set_hint(w, rig, meta.timestamp_ns, width, height);
 	int n = mc_detector_detect(w->det, w->rgb, width, height, 0, w->dets, MC_DETECTOR_MAX_JOINTS, &err);
 	if (n < 0) {
 		note_error(d, c, &err);
 		return;
 	}
-	int rig = d->cam_to_rig[c];
 	int nk = mc_detections_to_keypoints(w->dets, n, rig, d->map, w->kps, MC_DETECTOR_MAX_JOINTS);
 	if (scale_to_rig(d, rig, width, height, w->kps, nk))
 		return; /* a size that does not fit: the tracking thread says so */
@@ -153,6 +177,8 @@ static void detect_view(worker *w, const frame_ref *f)
 	mc_detector_get_timing(w->det, &tm);
 	pthread_mutex_lock(&d->lock);
 	d->st.detections++;
+	d->st.one_look += tm.one_look - w->one_look_seen;
+	w->one_look_seen = tm.one_look;
 	d->st.keypoints += (uint64_t)nk;
 	d->st.ms_last = tm.last_ms;
 	d->st.ms_total += tm.last_ms;
@@ -307,6 +333,11 @@ mcd_detector_thread *mcd_detector_thread_create(const mcd_detector_thread_config
 	d->st.state = MCD_DETECTOR_RUNNING;
 	log_running(d);
 	return d;
+}
+
+void mcd_detector_thread_set_pose_source(mcd_detector_thread *d, mcd_publisher *pub)
+{
+	d->pose_source = pub;
 }
 
 int mcd_detector_thread_start(mcd_detector_thread *d, mc_err *err)

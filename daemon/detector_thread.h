@@ -22,6 +22,7 @@
 #include "geom/mc_rig.h"
 #include "capture.h"
 #include "config.h"
+#include "publish.h"
 #include "tracking_thread.h"
 
 #include <stdbool.h>
@@ -45,6 +46,7 @@ typedef struct {
 	uint64_t errors;          /* views that failed (conversion, network) */
 	double ms_last, ms_max;   /* per view: read, conversion, network and decoding */
 	double ms_total;          /* sum over all detected views (means over intervals) */
+	uint64_t one_look;        /* [detector] hint = pose: views that needed only the look at the tracked pose */
 } mcd_detector_stats;
 
 typedef struct {
@@ -63,6 +65,9 @@ typedef struct mcd_detector_thread mcd_detector_thread;
 /* Loads the model.  NULL only when out of memory; a model that does not
  * load gives a thread in state FAILED (logged), whose start does nothing. */
 mcd_detector_thread *mcd_detector_thread_create(const mcd_detector_thread_config *cfg, mc_err *err);
+/* Where the tracked pose comes from, for [detector] hint = pose (set before
+ * the start; NULL: no hint). */
+void mcd_detector_thread_set_pose_source(mcd_detector_thread *d, mcd_publisher *pub);
 int mcd_detector_thread_start(mcd_detector_thread *d, mc_err *err);
 void mcd_detector_thread_stop(mcd_detector_thread *d);
 void mcd_detector_thread_destroy(mcd_detector_thread *d);

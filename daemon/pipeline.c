@@ -251,6 +251,8 @@ int mcd_pipeline_start(mcd_pipeline *p, const char *pose_dir, mc_err *err)
 	if (mcd_tracking_thread_start(p->tracker, p->pub, err))
 		return -1;
 	p->started = true;
+	if (p->detector)
+		mcd_detector_thread_set_pose_source(p->detector, p->pub);
 	if (p->detector && mcd_detector_thread_start(p->detector, err))
 		return -1;
 	for (int c = 0; c < p->ncams; c++) {

@@ -43,6 +43,11 @@ struct mcd_publisher {
 	unsigned filter_gen, filter_seen_gen;
 	mc_skeleton_filter filter;
 	mc_skeleton filtered;
+	/* The newest tracked pose's joints, for the detector's hint (under the
+	 * lock; mcd_publisher_latest_joints). */
+	int latest_n;
+	uint64_t latest_ns;
+	mc_vec3 latest[MC_MAX_JOINTS];
 };
 
 /* The settings handle() works with, taken under the lock. */
@@ -238,8 +243,27 @@ void mcd_publisher_push(mcd_publisher *p, const mcd_output *o)
 	}
 	p->queue[(p->head + p->count) % QUEUE_LEN] = *o;
 	p->count++;
+	if (o->tracked && (o->sk.state == MC_TRACK_OK || o->sk.state == MC_TRACK_UNCERTAIN)) {
+		p->latest_n = o->sk.njoints;
+		p->latest_ns = o->timestamp_ns;
+		for (int j = 0; j < o->sk.njoints; j++)
+			p->latest[j] = o->sk.joints[j].position;
+	}
 	pthread_cond_signal(&p->cond);
 	pthread_mutex_unlock(&p->lock);
+}
+
+int mcd_publisher_latest_joints(mcd_publisher *p, uint64_t now_ns, uint64_t max_age_ns, mc_vec3 *out, int max)
+{
+	pthread_mutex_lock(&p->lock);
+	int n = p->latest_n < max ? p->latest_n : max;
+	bool fresh = p->latest_ns <= now_ns + max_age_ns && now_ns <= p->latest_ns + max_age_ns;
+	if (!fresh)
+		n = 0;
+	for (int j = 0; j < n; j++)
+		out[j] = p->latest[j];
+	pthread_mutex_unlock(&p->lock);
+	return n;
 }
 
 void mcd_publisher_set_print(mcd_publisher *p, bool print)

@@ -54,6 +54,10 @@ typedef struct mcd_publisher mcd_publisher;
 mcd_publisher *mcd_publisher_create(srv_server *srv, FILE *out, bool print, mc_err *err);
 void mcd_publisher_destroy(mcd_publisher *p); /* stops the thread after draining */
 void mcd_publisher_push(mcd_publisher *p, const mcd_output *o);
+/* The joints (rig frame) of the newest skeleton pushed whose state was ok
+ * or uncertain, if it is at most max_age_ns older than now_ns: their count
+ * (at most max), else 0.  Any thread. */
+int mcd_publisher_latest_joints(mcd_publisher *p, uint64_t now_ns, uint64_t max_age_ns, mc_vec3 *out, int max);
 void mcd_publisher_set_print(mcd_publisher *p, bool print);
 /* The output filter: params NULL turns it off.  A call that changes
  * anything starts the filter again at the next skeleton. */

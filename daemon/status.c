@@ -43,11 +43,15 @@ static void detector_line(const mcd_pipeline_status *now, const mcd_pipeline_sta
 	const mcd_detector_stats *d = &now->detector, *p = &prev->detector;
 	if (d->state == MCD_DETECTOR_FAILED)
 		mcd_appendf(buf, cap, len, " | detector failed (%s)", d->message);
-	else if (d->state == MCD_DETECTOR_RUNNING)
-		mcd_appendf(buf, cap, len, " | detector %.1f views/s, %.2f ms per view (max %.2f), %.1f used/s, %llu skipped",
-			    rate(d->detections, p->detections, dt_s), mean_detect_ms(d, p), d->ms_max,
-			    rate(now->track.detector_views, prev->track.detector_views, dt_s),
-			    (unsigned long long)d->skipped);
+	if (d->state != MCD_DETECTOR_RUNNING)
+		return;
+	mcd_appendf(buf, cap, len, " | detector %.1f views/s, %.2f ms per view (max %.2f), %.1f used/s, %llu skipped",
+		    rate(d->detections, p->detections, dt_s), mean_detect_ms(d, p), d->ms_max,
+		    rate(now->track.detector_views, prev->track.detector_views, dt_s),
+		    (unsigned long long)d->skipped);
+	if (d->one_look > 0) /* [detector] hint = pose */
+		mcd_appendf(buf, cap, len, ", one look in %llu of %llu views",
+			    (unsigned long long)d->one_look, (unsigned long long)d->detections);
 }
 
 void mcd_status_line(const mcd_pipeline_status *now, const mcd_pipeline_status *prev, double dt_s, char *buf,

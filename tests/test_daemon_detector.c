@@ -298,6 +298,42 @@ static void test_bad(const char *model, const char *file, const char *why)
 	mcd_run_cleanup(&r);
 }
 
+/* [detector] hint = pose on the bundled outside-in clip with MoveNet: once
+ * the tracker has a pose, the detector looks once at the square around it
+ * in most views, and the status line says so.  Without the hint no view
+ * is looked at once (the line has no such count). */
+static void test_hint(const char *hint, bool expect_one_look)
+{
+	char text[8 * PATH_MAX];
+	char cams[4 * PATH_MAX] = "";
+	for (int c = 0; c < 4; c++) {
+		size_t n = strlen(cams);
+		snprintf(cams + n, sizeof(cams) - n,
+			 "[camera cam%d]\ndriver = files\nrig_camera = cam%d\npath = %s/tests/data/outside_demo/cam%d\n"
+			 "rate = 10\nloop = true\n",
+			 c, c, repo, c);
+	}
+	snprintf(text, sizeof(text),
+		 "[daemon]\nstats_log_interval_s = 1\n%s[tracker]\nrig = %s/tests/data/outside_demo/cameras.json\n"
+		 "rig_format = cameras-json\nmodel = %s/config/models/default.json\n"
+		 "init_joints = %s/tests/data/outside_demo/gt.json\n[socket]\npath = @SOCK@\n"
+		 "[detector]\nmodel = %s/config/models/outside_detector.onnx\nhint = %s\n",
+		 cams, repo, repo, repo, repo, hint);
+	mcd_run r;
+	CHECK(mcd_run_init(&r));
+	mcd_run_config(&r, text);
+	CHECK(mcd_run_start(&r, NULL, NULL));
+	bool ready = mcd_run_wait_notify(&r, "READY=1", 60000);
+	CHECK_MSG(ready, "mocapd did not start");
+	if (ready) {
+		/* the stats line comes every second; give the detector 4 of them */
+		bool seen = mcd_run_wait_log(&r, ", one look in ", 8000);
+		CHECK_MSG(seen == expect_one_look, "hint = %s: the status line %s 'one look'", hint,
+			  seen ? "has" : "lacks");
+	}
+	mcd_run_stop(&r, 20000, hint);
+}
+
 int main(void)
 {
 	mcd_require_build_and_clip(repo, sizeof(repo));
@@ -320,6 +356,10 @@ int main(void)
 	test_bad(path, "not_onnx.onnx", "not an ONNX model");
 	snprintf(path, sizeof(path), "%s/build/no/such/model.onnx", repo);
 	test_bad(path, "no/such/model.onnx", "No such file or directory");
+	if (access("config/models/outside_detector.onnx", R_OK) == 0) {
+		test_hint("pose", true);
+		test_hint("none", false);
+	}
 	mc_gt_free(&gt);
 	return mc_test_finish("test_daemon_detector");
 }
