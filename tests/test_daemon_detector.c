@@ -304,8 +304,8 @@ static void test_bad(const char *model, const char *file, const char *why)
  * is looked at once (the line has no such count). */
 static void test_hint(const char *hint, bool expect_one_look)
 {
-	char text[8 * PATH_MAX];
-	char cams[4 * PATH_MAX] = "";
+	static char text[16 * PATH_MAX], cams[8 * PATH_MAX];
+	cams[0] = 0;
 	for (int c = 0; c < 4; c++) {
 		size_t n = strlen(cams);
 		snprintf(cams + n, sizeof(cams) - n,
