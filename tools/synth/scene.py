@@ -54,6 +54,35 @@ def blender_cam_matrix(T_world_cv):
     return Matrix(M.tolist())
 
 
+def segment_matrix(J, name, a, b, Lax, rad, depth=1.0):
+    """The ellipsoid of segment `name` from joint a to b (J), radius rad, its
+    x axis across the shoulders (Lax); depth scales the trunk's front-back
+    radius.  Returns the 4x4 world matrix and the segment's unit axis (for
+    a caller that moves the centre: v2's belly)."""
+    pa, pb = J[a], J[b]
+    if name == "chest":
+        pb = pa + 0.88 * (pb - pa)
+    d = pb - pa
+    ln = max(np.linalg.norm(d), 1e-4)
+    z = d / ln
+    x = Lax - np.dot(Lax, z) * z
+    if np.linalg.norm(x) < 1e-6:
+        x = np.cross(z, [0.3, 0.2, 0.9])
+    x /= np.linalg.norm(x)
+    y = np.cross(z, x)
+    half = 0.5 * ln * (1.12 if name not in ("hips", "shoulders") else 1.0) + \
+        (rad * 0.7 if name in ("hips", "shoulders") else 0.0)
+    rx, ry = rad, rad
+    if name in ("abdomen", "chest"):
+        rx, ry = rad * 1.1, rad * 0.75 * depth
+    if name == "hips":
+        rx, ry = rad, rad * 1.1
+    M = np.eye(4)
+    M[:3, 0], M[:3, 1], M[:3, 2] = x * rx, y * ry, z * max(half, rad * 0.9)
+    M[:3, 3] = 0.5 * (pa + pb)
+    return M, z
+
+
 def make_material(name, kind="pattern"):
     m = bpy.data.materials.new(name)
     m.use_nodes = True
@@ -264,28 +293,8 @@ class Scene:
             J[s + "_toetip"] = J[s + "_toe"] + 0.35 * (J[s + "_toe"] - J[s + "_ankle"])
         Lax = J["left_shoulder"] - J["right_shoulder"]
         for name, a, b, r, mat in SEGMENTS:
-            pa, pb = J[a], J[b]
-            if name == "chest":
-                pb = pa + 0.88 * (pb - pa)
-            d = pb - pa
-            ln = max(np.linalg.norm(d), 1e-4)
-            z = d / ln
-            x = Lax - np.dot(Lax, z) * z
-            if np.linalg.norm(x) < 1e-6:
-                x = np.cross(z, [0.3, 0.2, 0.9])
-            x /= np.linalg.norm(x)
-            y = np.cross(z, x)
             rad = r * g * girth * rng.uniform(0.92, 1.08)
-            half = 0.5 * ln * (1.12 if name not in ("hips", "shoulders") else 1.0) + \
-                (rad * 0.7 if name in ("hips", "shoulders") else 0.0)
-            rx, ry = rad, rad
-            if name in ("abdomen", "chest"):
-                rx, ry = rad * 1.1, rad * 0.75
-            if name == "hips":
-                rx, ry = rad, rad * 1.1
-            M = np.eye(4)
-            M[:3, 0], M[:3, 1], M[:3, 2] = x * rx, y * ry, z * max(half, rad * 0.9)
-            M[:3, 3] = 0.5 * (pa + pb)
+            M, _ = segment_matrix(J, name, a, b, Lax, rad)
             self.seg[name].matrix_world = Matrix(M.tolist())
         if self.head is not None:
             # skull: from the head joint (base of the skull) up past head_top

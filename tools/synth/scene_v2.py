@@ -11,7 +11,7 @@ import numpy as np
 from mathutils import Matrix, Vector
 
 from scene import (N_CLUTTER, SEGMENTS, Scene, make_material, random_colour,  # noqa: F401
-                   set_material, skin_colour)
+                   segment_matrix, set_material, skin_colour)
 
 # ------------------------------------------------------------------ v2 data
 # Factors of the v2 data (render.py --split; docs/DETECTOR.md, "v2 data").
@@ -150,33 +150,12 @@ def _place_body(objs, J, g, fac, depth, head_ob=None, hr=None):
     per segment (rng-free)."""
     Lax = J["left_shoulder"] - J["right_shoulder"]
     for name, a, b, r, mat in SEGMENTS:
-        pa, pb = J[a], J[b]
-        if name == "chest":
-            pb = pa + 0.88 * (pb - pa)
-        d = pb - pa
-        ln = max(np.linalg.norm(d), 1e-4)
-        z = d / ln
-        x = Lax - np.dot(Lax, z) * z
-        if np.linalg.norm(x) < 1e-6:
-            x = np.cross(z, [0.3, 0.2, 0.9])
-        x /= np.linalg.norm(x)
-        y = np.cross(z, x)
         rad = r * g * fac[name]
-        half = 0.5 * ln * (1.12 if name not in ("hips", "shoulders") else 1.0) + \
-            (rad * 0.7 if name in ("hips", "shoulders") else 0.0)
-        rx, ry = rad, rad
-        if name in ("abdomen", "chest"):
-            rx, ry = rad * 1.1, rad * 0.75 * depth
-        if name == "hips":
-            rx, ry = rad, rad * 1.1
-        M = np.eye(4)
-        M[:3, 0], M[:3, 1], M[:3, 2] = x * rx, y * ry, z * max(half, rad * 0.9)
-        c = 0.5 * (pa + pb)
+        M, z = segment_matrix(J, name, a, b, Lax, rad, depth)
         if name == "abdomen" and depth > 1.05:  # a belly sticks out forwards
             fwd = np.cross(z, Lax / max(np.linalg.norm(Lax), 1e-6))
             fwd /= max(np.linalg.norm(fwd), 1e-6)
-            c = c + fwd * rad * 0.75 * (depth - 1.0)
-        M[:3, 3] = c
+            M[:3, 3] = M[:3, 3] + fwd * rad * 0.75 * (depth - 1.0)
         objs[name].matrix_world = Matrix(M.tolist())
     if head_ob is not None:
         up = J["head_top"] - J["neck"]
