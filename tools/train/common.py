@@ -38,24 +38,38 @@ def set_kind(kind):
     HM_W, HM_H = IN_W // 4, IN_H // 4
 
 
-def build_model():
-    import torch.nn as nn
+ARCHS = ("v1", "v2")
 
-    def cbr(i, o, s=1, k=3):
-        return [nn.Conv2d(i, o, k, s, k // 2, bias=False), nn.BatchNorm2d(o), nn.ReLU(inplace=True)]
+
+def _cbr(i, o, s=1, k=3):
+    import torch.nn as nn
+    return [nn.Conv2d(i, o, k, s, k // 2, bias=False), nn.BatchNorm2d(o), nn.ReLU(inplace=True)]
+
+
+def build_model(arch="v1"):
+    """v1: the 103k-parameter encoder-decoder shipped until stop 38 (three
+    scales, 29 M multiply-adds at 128x128).  v2 (issue 36): wider, and a
+    fourth scale at 1/32 whose 3x3 convolutions see the whole view, so that
+    a joint's channel can use the whole body's layout to tell left from
+    right (about 84 M multiply-adds).  Both use only Conv/BN/ReLU, MaxPool,
+    nearest Upsample, Add and Sigmoid: the ONNX contract of docs/DETECTOR.md."""
+    import torch.nn as nn
+    if arch not in ARCHS:
+        raise ValueError("unknown architecture %r (known: %s)" % (arch, ", ".join(ARCHS)))
+    cbr = _cbr
+    up = lambda i, o: nn.Sequential(nn.Upsample(scale_factor=2, mode="nearest"), *cbr(i, o, k=1))  # noqa: E731
 
     class Net(nn.Module):
-        """3xHxW -> 18x(H/4)x(W/4) (ego: 128x128 -> 32x32; H, W divisible by 16).
-        Conv/BN/ReLU, MaxPool, nearest Upsample, Add, Sigmoid."""
+        """3xHxW -> 18x(H/4)x(W/4) (ego: 128x128 -> 32x32; H, W divisible by 16)."""
 
         def __init__(self):
             super().__init__()
             self.s32 = nn.Sequential(*cbr(3, 12, 2), *cbr(12, 24, 2), *cbr(24, 24))          # 32x32
             self.s16 = nn.Sequential(nn.MaxPool2d(2), *cbr(24, 40), *cbr(40, 40))           # 16x16
             self.s8 = nn.Sequential(nn.MaxPool2d(2), *cbr(40, 56), *cbr(56, 56))            # 8x8
-            self.up8 = nn.Sequential(nn.Upsample(scale_factor=2, mode="nearest"), *cbr(56, 40, k=1))
+            self.up8 = up(56, 40)
             self.m16 = nn.Sequential(*cbr(40, 40))
-            self.up16 = nn.Sequential(nn.Upsample(scale_factor=2, mode="nearest"), *cbr(40, 24, k=1))
+            self.up16 = up(40, 24)
             self.m32 = nn.Sequential(*cbr(24, 24))
             self.head = nn.Conv2d(24, len(JOINTS), 1)
 
@@ -67,7 +81,31 @@ def build_model():
             a = self.m32(a + self.up16(b))
             return self.head(a)
 
-    return Net()
+    class NetV2(nn.Module):
+        """As Net, wider, with a 1/32 scale (4x4 at 128x128) for whole-view context."""
+
+        def __init__(self):
+            super().__init__()
+            self.s32 = nn.Sequential(*cbr(3, 16, 2), *cbr(16, 32, 2), *cbr(32, 32))                 # 32x32
+            self.s16 = nn.Sequential(nn.MaxPool2d(2), *cbr(32, 64), *cbr(64, 64))                  # 16x16
+            self.s8 = nn.Sequential(nn.MaxPool2d(2), *cbr(64, 96), *cbr(96, 96), *cbr(96, 96))     # 8x8
+            self.s4 = nn.Sequential(nn.MaxPool2d(2), *cbr(96, 128), *cbr(128, 128), *cbr(128, 128))  # 4x4
+            self.up4, self.m8 = up(128, 96), nn.Sequential(*cbr(96, 96))
+            self.up8, self.m16 = up(96, 64), nn.Sequential(*cbr(64, 64))
+            self.up16, self.m32 = up(64, 32), nn.Sequential(*cbr(32, 32))
+            self.head = nn.Conv2d(32, len(JOINTS), 1)
+
+        def forward(self, x):  # returns logits
+            a = self.s32(x)
+            b = self.s16(a)
+            c = self.s8(b)
+            d = self.s4(c)
+            c = self.m8(c + self.up4(d))
+            b = self.m16(b + self.up8(c))
+            a = self.m32(a + self.up16(b))
+            return self.head(a)
+
+    return Net() if arch == "v1" else NetV2()
 
 
 def decode(hm):

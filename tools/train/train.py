@@ -163,10 +163,27 @@ def batch(data, idx, rng, augment):
     return x, uv, st
 
 
-def loss_fn(logits, tgt):
+# left/right channel pairs: (left index, right index)
+PAIRS = [(JOINTS.index("left_" + p), JOINTS.index("right_" + p))
+         for p in ("shoulder", "elbow", "wrist", "hip", "knee", "ankle", "toe")]
+
+
+def loss_fn(logits, tgt, uv=None, st=None, pair_weight=0.0):
+    """Weighted squared error of the heat maps; with pair_weight > 0 also the
+    overlap of a left/right pair's two channels (sum over cells of their
+    product) where the two truths are more than 20 input pixels apart: a
+    penalty on one limb reported under both labels (issue 36, item 2)."""
     p = torch.sigmoid(logits)
     w = 1.0 + 30.0 * tgt
-    return ((p - tgt) ** 2 * w).mean() * 10.0
+    loss = ((p - tgt) ** 2 * w).mean() * 10.0
+    if pair_weight > 0 and uv is not None:
+        li, ri = [a for a, _ in PAIRS], [b for _, b in PAIRS]
+        overlap = (p[:, li] * p[:, ri]).sum(dim=(2, 3))                      # (B, P)
+        apart = (uv[:, li] - uv[:, ri]).norm(dim=-1) > 20.0
+        inside = (st[:, li] < 2) & (st[:, ri] < 2)
+        mask = (apart & inside).float().to(p.device)
+        loss = loss + pair_weight * 10.0 * (overlap * mask).sum() / p.numel()
+    return loss
 
 
 # ------------------------------------------------------------------ metrics
@@ -188,7 +205,33 @@ def score(pred, uv, st):
     res["false"] = float((det & ((st == 2) | (err > 10))).sum() / max(1, det.sum()))
     res["false_outside"] = int((det & (st == 2)).sum())
     res["n_detected"] = int(det.sum())
+    for name, state in (("median_visible", 0), ("median_occluded", 1)):
+        e = err[det & (st == state)]
+        res[name] = float(np.median(e)) if len(e) else float("nan")
+    res.update(pair_rates(pred, uv, st))
     return res
+
+
+def pair_rates(pred, uv, st):
+    """The left/right figures of tools/bench/keypoint_report.py, on decoded
+    detections: of the pairs whose truths (both in the image) are more than
+    20 px apart and whose two joints are detected, the share whose
+    keypoints lie within 2 px of each other (collapse), and of the rest the
+    share closer to the truth with the labels exchanged (swap)."""
+    det = pred[..., 2] >= THRESHOLD
+    pairs = collapsed = swapped = compared = 0
+    for a, b in PAIRS:
+        ok = (det[:, a] & det[:, b] & (st[:, a] < 2) & (st[:, b] < 2)
+              & (np.linalg.norm(uv[:, a] - uv[:, b], axis=-1) > 20))
+        pa, pb, ta, tb = pred[ok, a, :2], pred[ok, b, :2], uv[ok, a], uv[ok, b]
+        close = np.linalg.norm(pa - pb, axis=-1) <= 2
+        d = lambda x, y: np.linalg.norm(x - y, axis=-1)  # noqa: E731
+        exchanged = d(pa, tb) + d(pb, ta) < d(pa, ta) + d(pb, tb)
+        pairs += int(ok.sum())
+        collapsed += int(close.sum())
+        compared += int((~close).sum())
+        swapped += int((exchanged & ~close).sum())
+    return {"pairs": pairs, "collapse": collapsed / max(1, pairs), "swap": swapped / max(1, compared)}
 
 
 def predict(model, x, bs=64):
@@ -220,10 +263,13 @@ def validate(model, val):
 
 
 def fmt(r):
-    return ("loss %.4f  torso %.2f/%.2f  arms %.2f/%.2f  legs %.2f/%.2f px (median/p90)  "
-            "missed vis %.1f%% occl %.1f%%  false %.1f%%" % (
-                r.get("loss", float("nan")), *r["torso"], *r["arms"], *r["legs"],
-                100 * r["miss_visible"], 100 * r["miss_occluded"], 100 * r["false"]))
+    loss = "loss %.4f  " % r["loss"] if "loss" in r else ""
+    return loss + ("torso %.2f/%.2f  arms %.2f/%.2f  legs %.2f/%.2f px (median/p90)  "
+            "median visible %.2f occluded %.2f px  missed vis %.1f%% occl %.1f%%  gross %.1f%%  "
+            "collapse %.1f%%  swap %.1f%%" % (
+                *r["torso"], *r["arms"], *r["legs"], r["median_visible"],
+                r["median_occluded"], 100 * r["miss_visible"], 100 * r["miss_occluded"], 100 * r["false"],
+                100 * r["collapse"], 100 * r["swap"]))
 
 
 # ------------------------------------------------------------------ train
@@ -231,7 +277,7 @@ def train(a):
     torch.set_num_threads(a.threads)
     dev = torch.device("cuda" if torch.cuda.is_available() else "cpu")
     torch.manual_seed(a.seed)
-    model = build_model().to(dev)
+    model = build_model(a.arch).to(dev)
     opt = torch.optim.AdamW(model.parameters(), lr=a.lr, weight_decay=1e-4)
     total = a.epochs * a.steps_per_epoch
     state = {"epoch": 0, "step": 0, "best": None, "history": [], "train_s": 0.0}
@@ -277,7 +323,7 @@ def train(a):
             idx = rng.integers(0, len(tr), a.batch)
             x, uv, st = batch(tr, idx, rng, True)
             tgt = targets(uv, st)
-            loss = loss_fn(model(x.to(dev)), tgt.to(dev))
+            loss = loss_fn(model(x.to(dev)), tgt.to(dev), uv, st, a.pair_weight)
             opt.zero_grad()
             loss.backward()
             opt.step()
@@ -306,7 +352,7 @@ def train(a):
             key = r["loss"]
             if state["best"] is None or key < state["best"]:
                 state["best"] = key
-                torch.save({"model": model.state_dict(), "state": dict(state), "params": nparam},
+                torch.save({"model": model.state_dict(), "state": dict(state), "params": nparam, "arch": a.arch},
                            os.path.join(os.path.dirname(a.ckpt), "best.pt"))
         state["train_s"] += time.time() - last_ck
         last_ck = time.time()
@@ -324,9 +370,38 @@ class Exported(torch.nn.Module):
         return torch.sigmoid(self.m(image))
 
 
+def ck_arch(ck):
+    """The architecture a checkpoint was trained with (v1 before --arch existed)."""
+    return (ck.get("args") or {}).get("arch") or ck.get("arch") or "v1"
+
+
+class OnnxModel:
+    """A shipped ONNX detector through OpenCV DNN, called like the torch
+    model (returns logits), so that --report can score a model whose
+    checkpoint is gone (the v1 model shipped before issue 36)."""
+
+    def __init__(self, path):
+        import cv2
+        cv2.setNumThreads(1)
+        self.net = cv2.dnn.readNetFromONNX(path)
+
+    def eval(self):
+        return self
+
+    def __call__(self, x):
+        out = []
+        for i in range(len(x)):
+            self.net.setInput(x[i:i + 1].numpy(), "image")
+            out.append(self.net.forward("heatmaps"))
+        p = torch.from_numpy(np.concatenate(out)).clamp(1e-6, 1 - 1e-6)
+        return torch.log(p / (1 - p))
+
+
 def load_model(path):
+    if path.endswith(".onnx"):
+        return OnnxModel(path), {}
     ck = torch.load(path, map_location="cpu")
-    m = build_model()
+    m = build_model(ck_arch(ck))
     m.load_state_dict(ck["model"])
     m.eval()
     return m, ck
@@ -350,6 +425,7 @@ def export(a):
                               os.path.basename(path), st.get("epoch", -1), st.get("step", -1),
                               st.get("best") or float("nan")),
             "seed": a.seed,
+            "arch": ck_arch(ck),
             "parameters": ck.get("params"),
             "input_format": "float32 NCHW 1x3x%dx%d, RGB, [0,1]; output heatmaps float32 1x18x%dx%d in [0,1]" % (
                 C.IN_H, C.IN_W, C.HM_H, C.HM_W)}
@@ -422,10 +498,13 @@ def report(a):
         r["views"] = int(len(pred))
         r["in_image"] = int((st < 2).sum())
         out[name] = r
-        log("%s (%d views): torso %.2f/%.2f  arms %.2f/%.2f  legs %.2f/%.2f px (median/p90); "
-            "missed %.1f%% of in-image joints; false %.1f%% of detections (%d outside)" % (
-                name, len(pred), *r["torso"], *r["arms"], *r["legs"], 100 * r["miss_visible"], 100 * r["false"],
-                r["false_outside"]))
+        log("%s (%d views): %s (%d outside)" % (name, len(pred), fmt(r), r["false_outside"]))
+    if os.path.isdir(a.data):
+        va = Data(a.data, "val")
+        if va.refresh():
+            r = validate(m, va)
+            out["validation"] = dict(r, views=len(va), data=a.data)
+            log("validation %s (%d views): %s" % (a.data, len(va), fmt(r)))
     if a.report_out:
         with open(a.report_out, "w") as f:
             json.dump(out, f, indent=1)
@@ -533,6 +612,9 @@ def main():
     ap.add_argument("--resume", action="store_true")
     ap.add_argument("--init", help="start from these weights (a ckpt.pt/best.pt), new optimiser and schedule")
     ap.add_argument("--warmup", type=int, default=200, help="warm-up steps")
+    ap.add_argument("--arch", choices=C.ARCHS, default="v1", help="network (common.build_model)")
+    ap.add_argument("--pair-weight", type=float, default=0.0,
+                    help="weight of the left/right overlap penalty (0: off; see loss_fn)")
     ap.add_argument("--epochs", type=int, default=30)
     ap.add_argument("--steps-per-epoch", type=int, default=250)
     ap.add_argument("--batch", type=int, default=32)
