@@ -384,6 +384,18 @@ int gp_open(gp_config *cfg, gp_pipe **out, char *err, size_t errlen)
 }
 
 void gp_format(const gp_pipe *p, mdrv_format *fmt) { *fmt = p->fmt; }
+
+int gp_frame_count(gp_pipe *p, uint64_t *frames)
+{
+	gint64 dur = -1;
+	if (p->live || p->fmt.fps <= 0 || !gst_element_query_duration(p->pipeline, GST_FORMAT_TIME, &dur) || dur <= 0)
+		return MDRV_ERR_IO; /* not known */
+	double n = ((double)dur / GST_SECOND - p->cfg.start_s) * p->fmt.fps;
+	if (n < 0.5)
+		return MDRV_ERR_IO;
+	*frames = (uint64_t)(n + 0.5);
+	return MDRV_OK;
+}
 bool gp_is_live(const gp_pipe *p) { return p->live; }
 
 int gp_start(gp_pipe *p, bool epoch_given, uint64_t epoch_ns, char *err, size_t errlen)

@@ -62,6 +62,10 @@ int gp_init(char *err, size_t errlen);
 int gp_open(gp_config *cfg, gp_pipe **out, char *err, size_t errlen);
 void gp_format(const gp_pipe *p, mdrv_format *fmt);
 bool gp_is_live(const gp_pipe *p);
+/* A file's frames from `start` to its end: its duration times the frame
+ * rate of its caps, rounded.  MDRV_ERR_IO when not known (a live source,
+ * no duration, a variable frame rate). */
+int gp_frame_count(gp_pipe *p, uint64_t *frames);
 
 /* Plays: files from base time epoch_ns (the time of the call when
  * !epoch_given). */

@@ -187,6 +187,8 @@ static int gstreamer_next_frame(void *dev, mdrv_frame *slot, int timeout_ms, cha
 	return rc;
 }
 
+static int gstreamer_frame_count(void *dev, uint64_t *frames) { return gp_frame_count(((gst_dev *)dev)->pipe, frames); }
+
 /* The pipeline cannot be restarted in place: stop() ends it, and the host
  * closes and reopens. */
 static void gstreamer_stop(void *dev) { gp_stop(((gst_dev *)dev)->pipe); }
@@ -218,4 +220,5 @@ static int gstreamer_check(const mdrv_host *host, char *err, size_t errlen)
 	return rc == MDRV_OK ? MDRV_OK : MDRV_ERR_CONFIG;
 }
 
-MDRV_DEFINE_DRIVER_MODES(gstreamer, DRV, "any video GStreamer decodes (files, RTSP, pipelines) through appsink")
+MDRV_DEFINE_DRIVER_ALL(gstreamer, DRV, "any video GStreamer decodes (files, RTSP, pipelines) through appsink",
+		       gstreamer_modes, gstreamer_frame_count)
