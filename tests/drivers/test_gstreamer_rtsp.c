@@ -26,6 +26,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include "gst_rtsp_spawn.h"
 #include "gst_test_util.h"
 
 static drv_harness G;
@@ -48,32 +49,14 @@ static void stop_server(void) { kill_wait(&server); }
  * `mode` ("" or "auth"), and reads the port it listens on. */
 static int start_server_as(int want, const char *mode, pid_t *pid)
 {
-	char exe[512], path[600], arg[16];
+	char exe[512], path[600];
 	ssize_t n = readlink("/proc/self/exe", exe, sizeof exe - 1);
 	exe[n > 0 ? n : 0] = 0;
 	char *slash = strrchr(exe, '/');
 	if (slash)
 		*slash = 0;
 	snprintf(path, sizeof path, "%s/gst_rtsp_serve", exe);
-	snprintf(arg, sizeof arg, "%d", want);
-	int fds[2];
-	if (pipe(fds) != 0)
-		return -1;
-	*pid = fork();
-	if (*pid == 0) {
-		dup2(fds[1], STDOUT_FILENO);
-		close(fds[0]);
-		execl(path, path, arg, mode[0] ? mode : (char *)NULL, (char *)NULL);
-		_exit(127);
-	}
-	close(fds[1]);
-	FILE *f = fdopen(fds[0], "r");
-	int got = -1;
-	if (!f || fscanf(f, "PORT %d", &got) != 1)
-		got = -1;
-	if (f)
-		fclose(f);
-	return got;
+	return gst_rtsp_spawn(path, want, mode, pid);
 }
 
 static int start_server(int want) { return start_server_as(want, "", &server); }
