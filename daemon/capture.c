@@ -367,8 +367,10 @@ static void *open_device(mcd_camera *c, run_result *result)
 		set_error(c, "frame ring", merr.msg);
 		*result = RUN_REOPEN;
 	} else {
+		uint64_t expected = mcd_driver_frame_count(c->drv, dev);
 		pthread_mutex_lock(&c->lock);
 		c->format = fmt;
+		c->counters.expected_frames = expected;
 		pthread_mutex_unlock(&c->lock);
 		c->opened_once = true;
 		mcd_info("camera %s: opened (%s driver, %s %ux%u, %.4g fps)", c->cfg.name, c->drv->name,

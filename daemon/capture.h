@@ -54,6 +54,7 @@ typedef struct {
 	uint64_t nospace;        /* frames that did not fit the slot */
 	uint64_t lost;           /* never delivered: gaps in the driver's frame sequence */
 	uint64_t last_frame_ns;  /* commit time of the newest frame, 0 = none */
+	uint64_t expected_frames; /* what the driver said its recording has at the last opening; 0 = not known */
 } mcd_cam_counters;
 
 /* Where a camera reports; called on its capture thread. */

@@ -89,7 +89,7 @@ bool mcd_lockstep_may_deliver(mcd_lockstep *l, int cam)
 	return taken(&st, cam) >= atomic_load(&l->delivered[cam]);
 }
 
-void mcd_lockstep_progress(mcd_lockstep *l, uint64_t now, bool final)
+void mcd_lockstep_progress(mcd_lockstep *l, uint64_t now, bool final, uint64_t total)
 {
 	if (!final && now < l->next_ns)
 		return;
@@ -97,15 +97,22 @@ void mcd_lockstep_progress(mcd_lockstep *l, uint64_t now, bool final)
 	mcd_tracking_thread_stats(l->tracker, &st, false);
 	const mcd_track_totals *t = &st.total;
 	double since_start = (double)(now - l->start_ns) / 1e9, since_prev = (double)(now - l->prev_ns) / 1e9;
-	/* The number of frame sets in the recording is not known to the
-	 * daemon (the driver ABI has no frame count), so no total nor ETA. */
 	if (final)
 		mcd_info("offline: %llu frame sets, %llu tracked, in %.1f s (%.1f per second); skipped %llu behind, "
 			 "%llu with a tracker error, %llu without every camera",
 			 (unsigned long long)t->sets, (unsigned long long)t->tracked, since_start,
 			 since_start > 0 ? (double)t->sets / since_start : 0.0, (unsigned long long)t->skipped,
 			 (unsigned long long)t->track_errors, (unsigned long long)(t->sets - t->complete_sets));
-	else
+	else if (total)
+		/* The time left at the mean rate so far (the last second's
+		 * varies with the tracker's iterations). */
+		mcd_info("offline: %llu / %llu frame sets, %.0f %%, %llu tracked, %.1f per second, %.0f s in, ETA %.0f s",
+			 (unsigned long long)t->sets, (unsigned long long)total,
+			 100.0 * (double)(t->sets < total ? t->sets : total) / (double)total,
+			 (unsigned long long)t->tracked,
+			 since_prev > 0 ? (double)(t->sets - l->prev_done) / since_prev : 0.0, since_start,
+			 t->sets > 0 && t->sets < total ? (double)(total - t->sets) * since_start / (double)t->sets : 0.0);
+	else /* a camera's driver does not know its length (or it is live) */
 		mcd_info("offline: %llu frame sets, %llu tracked, %.1f per second, %.0f s in",
 			 (unsigned long long)t->sets, (unsigned long long)t->tracked,
 			 since_prev > 0 ? (double)(t->sets - l->prev_done) / since_prev : 0.0, since_start);

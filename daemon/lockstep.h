@@ -17,7 +17,8 @@
  * takes tens of milliseconds or more.
  *
  * It also logs the progress line (frame sets tracked, per second), at most
- * once a second. */
+ * once a second; with the recording's length (the drivers' frame counts)
+ * also the share done and the time left. */
 #ifndef MCD_LOCKSTEP_H
 #define MCD_LOCKSTEP_H
 
@@ -60,7 +61,8 @@ void mcd_lockstep_delivered(mcd_lockstep *l, int cam);
  * taken every frame it delivered so far (its capture thread). */
 bool mcd_lockstep_may_deliver(mcd_lockstep *l, int cam);
 /* Logs the progress line when a second has passed since the last one, or
- * with `final` the totals; main thread. */
-void mcd_lockstep_progress(mcd_lockstep *l, uint64_t now, bool final);
+ * with `final` the totals; `total`: the frame sets expected (0: not
+ * known).  Main thread. */
+void mcd_lockstep_progress(mcd_lockstep *l, uint64_t now, bool final, uint64_t total);
 
 #endif

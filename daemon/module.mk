@@ -20,7 +20,8 @@ MOCAPD := $(BUILD)/bin/mocapd
 # it that the plugin loader must refuse.
 FAULTY_DIR := $(BUILD)/tests/faulty
 FAULTY_SO := $(FAULTY_DIR)/mocap-driver-faulty.so
-FAULTY_BAD := $(FAULTY_DIR)/bad/mocap-driver-badabi.so $(FAULTY_DIR)/bad/mocap-driver-noentry.so
+FAULTY_BAD := $(FAULTY_DIR)/bad/mocap-driver-badabi.so $(FAULTY_DIR)/bad/mocap-driver-noentry.so \
+	$(FAULTY_DIR)/bad/mocap-driver-oldabi.so
 FAULTY_LIBS := $(shell $(PKG_CONFIG) --libs libturbojpeg 2>/dev/null)
 
 # The socket server library of ipc/module.mk (included after this file, so
@@ -59,6 +60,11 @@ $(FAULTY_SO): tests/drivers/faulty/faulty.c drivers/mdrv.h
 $(FAULTY_DIR)/bad/mocap-driver-badabi.so: tests/drivers/faulty/faulty.c drivers/mdrv.h
 	@mkdir -p $(@D)
 	$(CC) $(CPPFLAGS) $(CFLAGS) -DFAULTY_ABI_VERSION=999 -DFAULTY_NAME='"badabi"' -shared $< -o $@ $(LDFLAGS) $(FAULTY_LIBS)
+
+# An ABI 3 plugin (before frame_count): still loaded, frame_count not read.
+$(FAULTY_DIR)/bad/mocap-driver-oldabi.so: tests/drivers/faulty/faulty.c drivers/mdrv.h
+	@mkdir -p $(@D)
+	$(CC) $(CPPFLAGS) $(CFLAGS) -DFAULTY_ABI_VERSION=3 -DFAULTY_NAME='"oldabi"' -shared $< -o $@ $(LDFLAGS) $(FAULTY_LIBS)
 
 $(FAULTY_DIR)/bad/mocap-driver-noentry.so: tests/drivers/faulty/faulty.c drivers/mdrv.h
 	@mkdir -p $(@D)

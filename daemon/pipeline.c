@@ -406,10 +406,26 @@ bool mcd_pipeline_finished(mcd_pipeline *p)
 	return mcd_tracking_thread_finished(p->tracker) && mcd_publisher_idle(p->pub);
 }
 
+/* The frame sets a recording makes: the longest camera's frames (the
+ * others' frame sets go on without the cameras that ended); 0 when a
+ * camera does not say how many it has. */
+static uint64_t expected_sets(mcd_pipeline *p)
+{
+	uint64_t most = 0;
+	for (int c = 0; c < p->ncams; c++) {
+		mcd_cam_counters k;
+		mcd_camera_counters(p->cams[c], &k);
+		if (!k.expected_frames)
+			return 0;
+		most = k.expected_frames > most ? k.expected_frames : most;
+	}
+	return most;
+}
+
 void mcd_pipeline_offline_progress(mcd_pipeline *p, uint64_t now, bool final)
 {
 	if (p->offline && p->tracker)
-		mcd_lockstep_progress(&p->lockstep, now, final);
+		mcd_lockstep_progress(&p->lockstep, now, final, expected_sets(p));
 }
 
 bool mcd_pipeline_all_failed(mcd_pipeline *p)

@@ -108,12 +108,15 @@ static int check_descriptor(const mdrv_driver *drv, const char *path, mc_err *er
 	if (!drv)
 		return mc_err_set(err, "%s: mdrv_entry() returned NULL; refused", path);
 	/* abi_version is the first member in every ABI version, so reading it
-	 * is safe whatever the plugin was built against. */
-	if (drv->abi_version != MDRV_ABI_VERSION)
+	 * is safe whatever the plugin was built against.  Versions from
+	 * MDRV_ABI_MIN_VERSION on only appended optional members, which the
+	 * host reads from plugins that have them (mcd_driver_frame_count). */
+	if (drv->abi_version < MDRV_ABI_MIN_VERSION || drv->abi_version > MDRV_ABI_VERSION)
 		return mc_err_set(err,
-				  "%s: built for driver ABI version %u, but this mocapd speaks version %u; "
+				  "%s: built for driver ABI version %u, but this mocapd speaks versions %u to %u; "
 				  "rebuild the plugin against this mocapd's mdrv.h",
-				  path, (unsigned)drv->abi_version, (unsigned)MDRV_ABI_VERSION);
+				  path, (unsigned)drv->abi_version, (unsigned)MDRV_ABI_MIN_VERSION,
+				  (unsigned)MDRV_ABI_VERSION);
 	const char *missing = !drv->name         ? "name"
 			      : !drv->open       ? "open"
 			      : !drv->get_format ? "get_format"
@@ -219,6 +222,14 @@ int mcd_plugin_load(const char *dir, const char *name, uid_t uid, gid_t gid, mcd
 	snprintf(out->name, sizeof(out->name), "%s", name);
 	out->fd = fd;
 	return 0;
+}
+
+uint64_t mcd_driver_frame_count(const mdrv_driver *drv, void *dev)
+{
+	uint64_t n = 0;
+	if (drv->abi_version < 4 || !drv->frame_count) /* an ABI 3 descriptor ends before it */
+		return 0;
+	return drv->frame_count(dev, &n) == MDRV_OK ? n : 0;
 }
 
 void mcd_plugin_unload(mcd_plugin *p)

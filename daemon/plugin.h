@@ -19,8 +19,9 @@
  * the file loaded.
  *
  * A plugin must export mdrv_entry() returning a descriptor whose
- * abi_version equals MDRV_ABI_VERSION and whose function pointers
- * are all set; anything else is refused with a message saying why. */
+ * abi_version is one this host speaks (MDRV_ABI_MIN_VERSION to
+ * MDRV_ABI_VERSION) and whose function pointers are all set; anything else
+ * is refused with a message saying why. */
 #ifndef MCD_PLUGIN_H
 #define MCD_PLUGIN_H
 
@@ -54,6 +55,10 @@ int mcd_dir_trusted(const char *dir, uid_t uid, gid_t gid, mc_err *err);
  * (normally geteuid(), getegid()). Returns 0 or -1 with err. */
 int mcd_plugin_load(const char *dir, const char *name, uid_t uid, gid_t gid, mcd_plugin *out, mc_err *err);
 void mcd_plugin_unload(mcd_plugin *p);
+/* The frames an opened device will deliver (mdrv_driver.frame_count), or
+ * 0 when not known: the driver says so, has no frame_count, or was built
+ * for ABI 3 (its descriptor has no such member, which is not read). */
+uint64_t mcd_driver_frame_count(const mdrv_driver *drv, void *dev);
 /* Lets go of p but leaves its library loaded for the rest of the process:
  * for a short-lived process (mocapd --probe) that has started a camera
  * library.  Aravis, libcamera and OpenNI2 start threads and keep state

@@ -5,13 +5,17 @@
  *     const mdrv_driver *mdrv_entry(void);
  *
  * The host checks `abi_version` against MDRV_ABI_VERSION and refuses
- * a mismatch.  The host owns the threads: for each opened camera it calls
+ * a plugin built for a version it does not speak (below
+ * MDRV_ABI_MIN_VERSION or above MDRV_ABI_VERSION).  The host owns the threads: for each opened camera it calls
  * next_frame() in a loop on a capture thread of its own, giving the driver a
  * slot (memory in the camera's frame ring) to fill.  Drivers never allocate
  * frame memory the host must free, never call exit(), and report every
  * failure as a negative mdrv_status with a message in `err`.
  *
- * Any change to a struct or function here bumps MDRV_ABI_VERSION. */
+ * Any change to a struct or function here bumps MDRV_ABI_VERSION.  A
+ * version that only appends an optional member to mdrv_driver keeps
+ * MDRV_ABI_MIN_VERSION: the host reads the new member only from plugins
+ * whose abi_version has it. */
 #ifndef MDRV_H
 #define MDRV_H
 
@@ -26,8 +30,11 @@ extern "C" {
 
 /* 2: mdrv_driver.check (keys checked without a device, for mocapd --check)
  * 3: mdrv_mode and mdrv_driver.modes (a found device's modes, for
- *    mocapd --probe), appended at the end of mdrv_driver */
-#define MDRV_ABI_VERSION 3u
+ *    mocapd --probe), appended at the end of mdrv_driver
+ * 4: mdrv_driver.frame_count (how many frames a recording delivers, for
+ *    mocapd --offline's progress), appended; ABI 3 plugins still load */
+#define MDRV_ABI_VERSION 4u
+#define MDRV_ABI_MIN_VERSION 3u
 #define MDRV_ENTRY_SYMBOL "mdrv_entry"
 
 typedef enum {
@@ -141,6 +148,14 @@ typedef struct mdrv_driver {
 	 * descriptor with MDRV_DEFINE_DRIVER get NULL here; those that
 	 * implement it use MDRV_DEFINE_DRIVER_MODES. */
 	int (*modes)(const mdrv_host *host, const char *id, mdrv_mode *out, int max, char *err, size_t errlen);
+	/* ABI 4.  How many frames the opened device will deliver from
+	 * start() to its end (MDRV_ERR_END): a recording's frame count, from
+	 * where the config starts it.  MDRV_OK with *frames, or a negative
+	 * mdrv_status when it is not known (a live camera, a recording that
+	 * loops, a file without a duration).  Called after open(), on the
+	 * capture thread.  May be NULL; the host reads it only from plugins
+	 * whose abi_version is 4 or more (MDRV_DEFINE_DRIVER_COUNT sets it). */
+	int (*frame_count)(void *dev, uint64_t *frames);
 } mdrv_driver;
 
 typedef const mdrv_driver *(*mdrv_entry_fn)(void);
@@ -154,22 +169,28 @@ typedef const mdrv_driver *(*mdrv_entry_fn)(void);
 /* Defines a plugin's descriptor and its entry point in one place.  The
  * plugin names its callbacks after itself: PREFIX_probe, PREFIX_open,
  * PREFIX_get_format, PREFIX_start, PREFIX_next_frame, PREFIX_stop and
- * PREFIX_close and PREFIX_check; MODES is PREFIX_modes or NULL.
- * Positional initialisers, so that C++ plugins use it too. */
-#define MDRV_DEFINE_DRIVER_WITH(PREFIX, NAME, DESCRIPTION, MODES)                                             \
+ * PREFIX_close and PREFIX_check; MODES is PREFIX_modes or NULL, COUNT
+ * PREFIX_frame_count or NULL.  Positional initialisers, so that C++
+ * plugins use it too. */
+#define MDRV_DEFINE_DRIVER_ALL(PREFIX, NAME, DESCRIPTION, MODES, COUNT)                                        \
 	static const mdrv_driver PREFIX##_driver = {MDRV_ABI_VERSION,      NAME,           DESCRIPTION,          \
 						    PREFIX##_probe,        PREFIX##_open,  PREFIX##_get_format,  \
 						    PREFIX##_start,        PREFIX##_next_frame, PREFIX##_stop, \
-						    PREFIX##_close,        PREFIX##_check, MODES};              \
+						    PREFIX##_close,        PREFIX##_check, MODES, COUNT};       \
 	MDRV_ENTRY_LINKAGE __attribute__((visibility("default"))) const mdrv_driver *mdrv_entry(void)        \
 	{                                                                                                    \
 		return &PREFIX##_driver;                                                                     \
 	}
+#define MDRV_DEFINE_DRIVER_WITH(PREFIX, NAME, DESCRIPTION, MODES) \
+	MDRV_DEFINE_DRIVER_ALL(PREFIX, NAME, DESCRIPTION, MODES, NULL)
 /* A plugin without modes() (mocapd --probe lists its devices without modes). */
 #define MDRV_DEFINE_DRIVER(PREFIX, NAME, DESCRIPTION) MDRV_DEFINE_DRIVER_WITH(PREFIX, NAME, DESCRIPTION, NULL)
 /* A plugin with PREFIX_modes. */
 #define MDRV_DEFINE_DRIVER_MODES(PREFIX, NAME, DESCRIPTION)                                                  \
 	MDRV_DEFINE_DRIVER_WITH(PREFIX, NAME, DESCRIPTION, PREFIX##_modes)
+/* A plugin of recordings with PREFIX_frame_count (and no modes()). */
+#define MDRV_DEFINE_DRIVER_COUNT(PREFIX, NAME, DESCRIPTION)                                                  \
+	MDRV_DEFINE_DRIVER_ALL(PREFIX, NAME, DESCRIPTION, NULL, PREFIX##_frame_count)
 
 #ifdef __cplusplus
 }

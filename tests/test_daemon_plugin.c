@@ -44,6 +44,12 @@ static int copy_file(const char *from, const char *to, mode_t mode)
 	return chmod(to, mode);
 }
 
+static const char *end_after_42(void *ctx, const char *key)
+{
+	(void)ctx;
+	return strcmp(key, "end_after") == 0 ? "42" : NULL;
+}
+
 static void expect_refused(const char *dir, const char *name, const char *needle)
 {
 	mcd_plugin p;
@@ -109,12 +115,46 @@ static void test_rule(void)
 	CHECK(mcd_path_trusted("/x", &st, me, mygroup, true, &err) == -1);
 }
 
+/* The frame count the host reads from an opened faulty camera with
+ * end_after = 42 (0: not known). */
+static uint64_t faulty_frame_count(const mdrv_driver *drv)
+{
+	mdrv_host host = {.config_get = end_after_42};
+	char err[256];
+	void *dev = drv->open(&host, err, sizeof err);
+	CHECK_MSG(dev != NULL, "open: %s", err);
+	uint64_t n = dev ? mcd_driver_frame_count(drv, dev) : 0;
+	if (dev)
+		drv->close(dev);
+	return n;
+}
+
+/* An ABI 3 plugin (built before frame_count was appended) loads; its
+ * descriptor has no frame_count, so the host does not read one, even
+ * where (as in this build of faulty) the memory after `modes` holds one. */
+static void test_old_abi(const char *bad)
+{
+	mcd_plugin p;
+	mc_err err = {{0}};
+	CHECK_MSG(mcd_plugin_load(bad, "oldabi", uid, gid, &p, &err) == 0, "an ABI 3 plugin refused: %s", err.msg);
+	if (!p.driver)
+		return;
+	CHECK(p.driver->abi_version == 3 && p.driver->frame_count != NULL);
+	CHECK(faulty_frame_count(p.driver) == 0);
+	mcd_plugin_unload(&p);
+	CHECK(mcd_plugin_load(drivers_dir, "faulty", uid, gid, &p, &err) == 0);
+	if (p.driver)
+		CHECK(faulty_frame_count(p.driver) == 42);
+	mcd_plugin_unload(&p);
+}
+
 static void test_build_dir(void)
 {
 	expect_loaded(drivers_dir, "faulty");
 	char bad[PATH_MAX + 8];
 	snprintf(bad, sizeof(bad), "%s/bad", drivers_dir);
-	expect_refused(bad, "badabi", "built for driver ABI version 999, but this mocapd speaks version 3");
+	expect_refused(bad, "badabi", "built for driver ABI version 999, but this mocapd speaks versions 3 to 4");
+	test_old_abi(bad);
 	expect_refused(bad, "noentry", "exports no mdrv_entry(); not a mocapd driver plugin");
 	expect_refused(drivers_dir, "nosuch", "no mocap-driver-nosuch.so in");
 	expect_refused(drivers_dir, "nosuch", "(drivers there: faulty)");

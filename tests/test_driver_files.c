@@ -76,6 +76,8 @@ static void test_mjpeg(void)
 		return;
 	CHECK(fmt.pixfmt == MC_PIXFMT_MJPEG && fmt.width == 256 && fmt.height == 256 && fmt.stride == 0);
 	CHECK(fmt.max_bytes > 1000 && fmt.max_bytes < 100000);
+	uint64_t frames = 0; /* start 3, count 5: the offline progress's total */
+	CHECK(drv->frame_count && drv->frame_count(dev, &frames) == MDRV_OK && frames == 5);
 	uint8_t *buf = malloc(fmt.max_bytes);
 	mdrv_frame f;
 	uint64_t last_ts = 0;
@@ -195,6 +197,8 @@ static void test_loop(void)
 	CHECK(dev != NULL);
 	if (!dev)
 		return;
+	uint64_t frames = 0;
+	CHECK(drv->frame_count(dev, &frames) != MDRV_OK); /* a loop never ends */
 	uint8_t *buf = malloc(1 << 20);
 	mdrv_frame f;
 	for (int k = 0; k < 7; k++) {

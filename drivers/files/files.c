@@ -24,7 +24,8 @@
  * the same `epoch`.  With rate 0 the timestamp is the delivery time.
  *
  * probe() lists nothing (files are not hardware).  next_frame() returns
- * MDRV_ERR_END after the last frame unless loop is set. */
+ * MDRV_ERR_END after the last frame unless loop is set; frame_count() says
+ * how many frames that is (unknown with loop). */
 #include "drv_common.h"
 #include "image/mc_image.h"
 #include "mdrv.h"
@@ -431,6 +432,16 @@ static int files_next_frame(void *dev, mdrv_frame *slot, int timeout_ms, char *e
 	return MDRV_OK;
 }
 
+/* The files from `start` (and up to `count`), unless they loop. */
+static int files_frame_count(void *dev, uint64_t *frames)
+{
+	files_dev *d = dev;
+	if (d->loop)
+		return MDRV_ERR_IO;
+	*frames = (uint64_t)d->nfiles;
+	return MDRV_OK;
+}
+
 /* The keys, and that the folder holds numbered images (it is listed, no
  * image is decoded). */
 static int files_check(const mdrv_host *host, char *err, size_t errlen)
@@ -448,5 +459,5 @@ static int files_check(const mdrv_host *host, char *err, size_t errlen)
 	return rc == MDRV_OK ? MDRV_OK : MDRV_ERR_CONFIG;
 }
 
-MDRV_DEFINE_DRIVER(files, DRV,
+MDRV_DEFINE_DRIVER_COUNT(files, DRV,
 		   "plays a folder of numbered JPEG/PNG/PPM files as a camera")

@@ -6,6 +6,8 @@
 #include "base/mc_time.h"
 #include "drv_common.h"
 
+#include <math.h>
+#include <stdio.h>
 #include <string.h>
 
 /* JPEG headers and tables on top of the pixels, as the files driver
@@ -141,6 +143,39 @@ static int copy_jpeg(GstBuffer *buf, mdrv_frame *slot, char *err, size_t errlen)
 	return MDRV_OK;
 }
 
+/* NTP (ns since 1900) to CLOCK_MONOTONIC, through CLOCK_REALTIME now. */
+#define NTP_UNIX_OFFSET_NS (2208988800ull * 1000000000ull)
+static int64_t ntp_to_monotonic(uint64_t ntp_ns)
+{
+	int64_t realtime = (int64_t)(ntp_ns - NTP_UNIX_OFFSET_NS);
+	return realtime - ((int64_t)mc_realtime_ns() - (int64_t)mc_now_ns());
+}
+
+/* rtsp_timestamps = sender: the first frame with the sender's time (its
+ * first RTCP sender report came) says whether rtpbin applied it (the
+ * buffer's time is the sender's) or refused it (the sender's clock is
+ * more than GP_SENDER_MAX_OFFSET_NS off ours: arrival times go on). */
+static void note_sender_time(gp_pipe *p, GstBuffer *buf, uint64_t t)
+{
+	if (p->sender_seen || !p->live || p->cfg.rtsp_timestamps != GP_STAMP_SENDER)
+		return;
+	GstReferenceTimestampMeta *m = gst_buffer_get_reference_timestamp_meta(buf, p->ntp_caps);
+	if (!m)
+		return; /* before the first report: arrival times */
+	p->sender_seen = p->note_pending = true;
+	double off_ms = (double)(ntp_to_monotonic(m->timestamp) - (int64_t)t) / 1e6;
+	char line[300];
+	gp_config_line(p, line, sizeof line);
+	p->note_level = fabs(off_ms) < 1.0 ? MDRV_LOG_INFO : MDRV_LOG_WARN;
+	if (fabs(off_ms) < 1.0)
+		snprintf(p->note, sizeof p->note, "%s: %s: timestamps are the sender's capture times from frame %llu on "
+			 "(its RTCP sender reports; config key 'rtsp_timestamps')", DRV, line,
+			 (unsigned long long)p->seq);
+	else
+		snprintf(p->note, sizeof p->note, "%s: %s: the sender's clock is %.3f s off ours (not NTP/PTP-synced?): "
+			 "timestamps stay arrival times (config key 'rtsp_timestamps')", DRV, line, off_ms / 1e3);
+}
+
 int gp_fill_slot(gp_pipe *p, GstSample *s, mdrv_frame *slot, char *err, size_t errlen)
 {
 	GstBuffer *buf = gst_sample_get_buffer(s);
@@ -151,6 +186,7 @@ int gp_fill_slot(gp_pipe *p, GstSample *s, mdrv_frame *slot, char *err, size_t e
 	if (rc != MDRV_OK)
 		return rc;
 	slot->timestamp_ns = buffer_time(p, s, buf);
+	note_sender_time(p, buf, slot->timestamp_ns);
 	/* A live frame was not captured after it arrived.  rtspsrc's jitter
 	 * buffer slaves its timestamps to the arrivals, and on a loaded
 	 * machine (over TCP, where it stamps only the first packet) it has
@@ -160,6 +196,12 @@ int gp_fill_slot(gp_pipe *p, GstSample *s, mdrv_frame *slot, char *err, size_t e
 	uint64_t now = mc_now_ns();
 	if (p->live && slot->timestamp_ns > now)
 		slot->timestamp_ns = now;
+	/* When the first sender report is applied the times move back from
+	 * the arrivals to the captures (tens of ms): the frames that would go
+	 * back are not delivered (the host would drop them as late). */
+	if (p->live && p->seq > 0 && slot->timestamp_ns <= p->last_ts)
+		return MDRV_ERR_TIMEOUT;
+	p->last_ts = slot->timestamp_ns;
 	slot->sequence = p->seq++;
 	slot->flags = GST_BUFFER_FLAG_IS_SET(buf, GST_BUFFER_FLAG_CORRUPTED) ? MDRV_FRAME_CORRUPT : 0;
 	slot->format = p->fmt;

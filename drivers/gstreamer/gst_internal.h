@@ -26,6 +26,14 @@ struct gp_pipe {
 	GstSample *pending; /* a live source's first frame, pulled by open() */
 	mdrv_format fmt;
 	uint64_t seq;
+	uint64_t last_ts; /* the newest delivered timestamp (live: kept increasing) */
+	/* rtsp_timestamps = sender: the caps of the sender-time meta, whether
+	 * a frame carried one yet, and a line for the plugin to log once. */
+	GstCaps *ntp_caps;
+	bool sender_seen;
+	char note[512];
+	bool note_pending;
+	int note_level; /* MDRV_LOG_* */
 	/* Set from streaming threads (pad-added, no-more-pads), read after
 	 * the state waits: under `lock`. */
 	GMutex lock;
@@ -53,7 +61,9 @@ const char *gp_config_line(const gp_pipe *p, char *buf, size_t n);
 int gp_format_from_caps(const gp_pipe *p, GstCaps *caps, mdrv_format *fmt, char *err, size_t errlen);
 /* The appsink caps for a GP_FMT_*. */
 GstCaps *gp_sink_caps(int format);
-/* Copies a sample into the slot, timestamped (see gst_pipe.h). */
+/* Copies a sample into the slot, timestamped (see gst_pipe.h).
+ * MDRV_ERR_TIMEOUT for a live frame whose time is not after the previous
+ * one's (the first sender report moved the times back): not delivered. */
 int gp_fill_slot(gp_pipe *p, GstSample *s, mdrv_frame *slot, char *err, size_t errlen);
 
 #endif

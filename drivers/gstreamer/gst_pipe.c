@@ -103,7 +103,24 @@ static void on_no_more_pads(GstElement *src, gpointer data)
 	g_mutex_unlock(&p->lock);
 }
 
-/* RTSP sources get the latency and transport from the config. */
+/* rtsp_timestamps = sender: rtpbin maps each RTP timestamp to the
+ * sender's NTP time through its RTCP sender reports, and that to our
+ * running time through our own NTP clock (ntp-sync; both NTP clocks read
+ * CLOCK_REALTIME, so the hosts' realtime clocks must agree: NTP or PTP).
+ * `synced` keeps the RTP timestamps' spacing (no arrival jitter, no drift
+ * between reports); an offset over GP_SENDER_MAX_OFFSET_NS (a sender
+ * whose clock is not on ours) is not applied, leaving arrival times; the
+ * reference-timestamp meta (the sender's NTP time of each frame, once a
+ * report came) tells the driver which it got (gst_frames.c). */
+static void use_sender_reports(GstElement *source)
+{
+	g_object_set(source, "ntp-sync", TRUE, "max-ts-offset", (gint64)GP_SENDER_MAX_OFFSET_NS,
+		     "add-reference-timestamp-meta", TRUE, NULL);
+	gst_util_set_object_arg(G_OBJECT(source), "buffer-mode", "synced");
+	gst_util_set_object_arg(G_OBJECT(source), "ntp-time-source", "ntp");
+}
+
+/* RTSP sources get the latency, transport and timestamps from the config. */
 static void on_source_setup(GstElement *bin, GstElement *source, gpointer data)
 {
 	gp_pipe *p = data;
@@ -114,6 +131,9 @@ static void on_source_setup(GstElement *bin, GstElement *source, gpointer data)
 	if (g_object_class_find_property(klass, "protocols") && p->cfg.rtsp_transport != GP_RTSP_AUTO)
 		gst_util_set_object_arg(G_OBJECT(source), "protocols",
 					p->cfg.rtsp_transport == GP_RTSP_TCP ? "tcp" : "udp+udp-mcast");
+	if (p->cfg.rtsp_timestamps == GP_STAMP_SENDER && g_object_class_find_property(klass, "ntp-sync") &&
+	    g_object_class_find_property(klass, "add-reference-timestamp-meta"))
+		use_sender_reports(source);
 }
 
 /* What uridecodebin stops at: its defaults, plus JPEG when JPEG may be
@@ -346,6 +366,7 @@ int gp_open(gp_config *cfg, gp_pipe **out, char *err, size_t errlen)
 	p->cfg = *cfg;
 	memset(cfg, 0, sizeof(*cfg)); /* the strings are ours now */
 	p->network = p->cfg.launch || !g_str_has_prefix(p->cfg.uri, "file:");
+	p->ntp_caps = gst_caps_new_empty_simple("timestamp/x-ntp");
 	int rc = p->cfg.uri ? build_uri(p, err, errlen) : build_launch(p, err, errlen);
 	if (rc == MDRV_OK) {
 		GstClock *clock = gst_system_clock_obtain();
@@ -363,6 +384,18 @@ int gp_open(gp_config *cfg, gp_pipe **out, char *err, size_t errlen)
 }
 
 void gp_format(const gp_pipe *p, mdrv_format *fmt) { *fmt = p->fmt; }
+
+int gp_frame_count(gp_pipe *p, uint64_t *frames)
+{
+	gint64 dur = -1;
+	if (p->live || p->fmt.fps <= 0 || !gst_element_query_duration(p->pipeline, GST_FORMAT_TIME, &dur) || dur <= 0)
+		return MDRV_ERR_IO; /* not known */
+	double n = ((double)dur / GST_SECOND - p->cfg.start_s) * p->fmt.fps;
+	if (n < 0.5)
+		return MDRV_ERR_IO;
+	*frames = (uint64_t)(n + 0.5);
+	return MDRV_OK;
+}
 bool gp_is_live(const gp_pipe *p) { return p->live; }
 
 int gp_start(gp_pipe *p, bool epoch_given, uint64_t epoch_ns, char *err, size_t errlen)
@@ -434,7 +467,18 @@ int gp_next(gp_pipe *p, mdrv_frame *slot, int timeout_ms, char *err, size_t errl
 		return fail(p, no_sample(p, err, errlen), err);
 	rc = gp_fill_slot(p, s, slot, err, errlen);
 	gst_sample_unref(s);
+	if (rc == MDRV_ERR_TIMEOUT) /* a frame not delivered: its time went back */
+		drv_errf(err, errlen, rc, "%s: a frame stamped before the previous one, not delivered", DRV);
 	return rc;
+}
+
+const char *gp_take_note(gp_pipe *p, int *level)
+{
+	if (!p->note_pending)
+		return NULL;
+	p->note_pending = false;
+	*level = p->note_level;
+	return p->note;
 }
 
 void gp_stop(gp_pipe *p)
@@ -458,6 +502,8 @@ void gp_close(gp_pipe *p)
 		gst_object_unref(p->sink);
 	if (p->bus)
 		gst_object_unref(p->bus);
+	if (p->ntp_caps)
+		gst_caps_unref(p->ntp_caps);
 	gp_config_clear(&p->cfg);
 	g_mutex_clear(&p->lock);
 	free(p);

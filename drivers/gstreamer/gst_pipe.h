@@ -13,7 +13,9 @@
  * several files opened with one epoch carry the same timestamps for frames
  * recorded together; for a live source (RTSP, a camera) GStreamer chooses
  * the base when the pipeline goes to PLAYING and the running time is the
- * capture (arrival) time. */
+ * arrival time, or for RTSP with rtsp_timestamps = sender (the default) the
+ * sender's capture time from its RTCP sender reports (rtpbin's ntp-sync),
+ * once the first report came and when the sender's clock is on ours. */
 #ifndef GST_PIPE_H
 #define GST_PIPE_H
 
@@ -29,6 +31,11 @@
 enum { GP_FMT_AUTO, GP_FMT_RGB24, GP_FMT_GRAY8, GP_FMT_YUYV, GP_FMT_MJPEG };
 enum { GP_PACE_REALTIME, GP_PACE_ASAP };
 enum { GP_RTSP_AUTO, GP_RTSP_TCP, GP_RTSP_UDP };
+enum { GP_STAMP_SENDER, GP_STAMP_ARRIVAL };
+
+/* rtsp_timestamps = sender: a sender report whose clock is further than
+ * this from ours is not applied (the sender's clock is not on ours). */
+#define GP_SENDER_MAX_OFFSET_NS 1000000000ll
 
 typedef struct {
 	char *uri;    /* a URI (g_free'd by gp_config_clear), or NULL */
@@ -39,6 +46,7 @@ typedef struct {
 	double start_s; /* files: where running time 0 is, seconds into the file */
 	unsigned latency_ms;      /* RTSP jitter buffer */
 	int rtsp_transport;       /* GP_RTSP_* */
+	int rtsp_timestamps;      /* GP_STAMP_*: RTCP sender reports or arrival */
 	unsigned open_timeout_ms; /* open(): preroll, or the first frame of a live source */
 } gp_config;
 
@@ -54,11 +62,19 @@ int gp_init(char *err, size_t errlen);
 int gp_open(gp_config *cfg, gp_pipe **out, char *err, size_t errlen);
 void gp_format(const gp_pipe *p, mdrv_format *fmt);
 bool gp_is_live(const gp_pipe *p);
+/* A file's frames from `start` to its end: its duration times the frame
+ * rate of its caps, rounded.  MDRV_ERR_IO when not known (a live source,
+ * no duration, a variable frame rate). */
+int gp_frame_count(gp_pipe *p, uint64_t *frames);
 
 /* Plays: files from base time epoch_ns (the time of the call when
  * !epoch_given). */
 int gp_start(gp_pipe *p, bool epoch_given, uint64_t epoch_ns, char *err, size_t errlen);
 int gp_next(gp_pipe *p, mdrv_frame *slot, int timeout_ms, char *err, size_t errlen);
+/* A line to log once about the live timestamps (the sender's reports
+ * applied, or refused) and its MDRV_LOG_* level, or NULL; cleared by the
+ * call. */
+const char *gp_take_note(gp_pipe *p, int *level);
 void gp_stop(gp_pipe *p);
 void gp_close(gp_pipe *p);
 

@@ -91,6 +91,7 @@ static int parse_config(gst_dev *d, gp_config *cfg, char *err, size_t errlen)
 	static const char *const formats[] = {"auto", "rgb24", "gray8", "yuyv", "mjpeg"};
 	static const char *const paces[] = {"realtime", "asap"};
 	static const char *const transports[] = {"auto", "tcp", "udp"};
+	static const char *const stamps[] = {"sender", "arrival"};
 	*cfg = (gp_config){.latency_ms = DEFAULT_LATENCY_MS, .open_timeout_ms = DEFAULT_OPEN_TIMEOUT_MS};
 	int rc;
 	if ((rc = gp_init(err, errlen)) != MDRV_OK ||
@@ -100,6 +101,7 @@ static int parse_config(gst_dev *d, gp_config *cfg, char *err, size_t errlen)
 	    (rc = drv_cfg_uint(h, DRV, "latency", 0, 60000, &cfg->latency_ms, err, errlen)) != MDRV_OK ||
 	    (rc = drv_cfg_choice(h, DRV, "rtsp_transport", transports, 3, &cfg->rtsp_transport, err, errlen)) !=
 		    MDRV_OK ||
+	    (rc = drv_cfg_choice(h, DRV, "rtsp_timestamps", stamps, 2, &cfg->rtsp_timestamps, err, errlen)) != MDRV_OK ||
 	    (rc = drv_cfg_uint(h, DRV, "open_timeout", 100, 600000, &cfg->open_timeout_ms, err, errlen)) != MDRV_OK ||
 	    (rc = drv_cfg_monotonic_ns(h, DRV, "epoch", &d->epoch_ns, &d->epoch_given, err, errlen)) != MDRV_OK)
 		return rc;
@@ -176,8 +178,16 @@ static int gstreamer_start(void *dev, char *err, size_t errlen)
 
 static int gstreamer_next_frame(void *dev, mdrv_frame *slot, int timeout_ms, char *err, size_t errlen)
 {
-	return gp_next(((gst_dev *)dev)->pipe, slot, timeout_ms, err, errlen);
+	gst_dev *d = dev;
+	int rc = gp_next(d->pipe, slot, timeout_ms, err, errlen);
+	int level;
+	const char *note = gp_take_note(d->pipe, &level);
+	if (note)
+		drv_logf(d->host, level, "%s", note);
+	return rc;
 }
+
+static int gstreamer_frame_count(void *dev, uint64_t *frames) { return gp_frame_count(((gst_dev *)dev)->pipe, frames); }
 
 /* The pipeline cannot be restarted in place: stop() ends it, and the host
  * closes and reopens. */
@@ -210,4 +220,5 @@ static int gstreamer_check(const mdrv_host *host, char *err, size_t errlen)
 	return rc == MDRV_OK ? MDRV_OK : MDRV_ERR_CONFIG;
 }
 
-MDRV_DEFINE_DRIVER_MODES(gstreamer, DRV, "any video GStreamer decodes (files, RTSP, pipelines) through appsink")
+MDRV_DEFINE_DRIVER_ALL(gstreamer, DRV, "any video GStreamer decodes (files, RTSP, pipelines) through appsink",
+		       gstreamer_modes, gstreamer_frame_count)

@@ -10,7 +10,14 @@
  *            is installed;
  * With `auth`, every mount asks for basic authentication (user "mocap",
  * password "secret"): clients without a token get 401, not the 404 a
- * token without the mount's role gets (gst-rtsp-server hides mounts so). */
+ * token without the mount's role gets (gst-rtsp-server hides mounts so).
+ *
+ * Its RTCP sender reports map RTP timestamps to the frames' capture times
+ * (rtpbin rtcp-sync-send-time = false; GStreamer's default is the time of
+ * sending, here about 50 ms later), on the NTP clock read from
+ * CLOCK_REALTIME, as an IP camera on an NTP- or PTP-synced clock does.
+ * With `offclock` the reports' NTP times are CLOCK_MONOTONIC instead (a
+ * sender whose clock is not on the receiver's: about 126 years off). */
 #include <gst/gst.h>
 #include <gst/rtsp-server/rtsp-server.h>
 #include <stdbool.h>
@@ -39,12 +46,29 @@ static GstPadProbeReturn stamp_frame(GstPad *pad, GstPadProbeInfo *info, gpointe
 	return GST_PAD_PROBE_OK;
 }
 
+/* The media's rtpbin, once it is added to the media's pipeline. */
+static void on_element_added(GstBin *bin, GstElement *el, gpointer data)
+{
+	(void)bin;
+	GObjectClass *klass = G_OBJECT_GET_CLASS(el);
+	if (!g_object_class_find_property(klass, "rtcp-sync-send-time"))
+		return;
+	g_object_set(el, "rtcp-sync-send-time", FALSE, NULL);
+	if (GPOINTER_TO_INT(data))
+		gst_util_set_object_arg(G_OBJECT(el), "ntp-time-source", "clock-time");
+}
+
 static void on_media_configure(GstRTSPMediaFactory *f, GstRTSPMedia *media, gpointer data)
 {
-	(void)f, (void)data;
+	(void)f;
 	GstElement *el = gst_rtsp_media_get_element(media);
+	GstObject *pipeline = gst_object_get_parent(GST_OBJECT(el)); /* the factory made it */
+	if (pipeline) {
+		g_signal_connect(pipeline, "element-added", G_CALLBACK(on_element_added), data);
+		gst_object_unref(pipeline);
+	}
 	GstElement *stamp = gst_bin_get_by_name_recurse_up(GST_BIN(el), "stamp");
-	if (stamp) {
+	if (stamp) { /* only /raw has it */
 		GstPad *src = gst_element_get_static_pad(stamp, "src");
 		gst_pad_add_probe(src, GST_PAD_PROBE_TYPE_BUFFER, stamp_frame, NULL, NULL);
 		gst_object_unref(src);
@@ -53,13 +77,12 @@ static void on_media_configure(GstRTSPMediaFactory *f, GstRTSPMedia *media, gpoi
 	gst_object_unref(el);
 }
 
-static GstRTSPMediaFactory *factory(const char *launch, bool stamp)
+static GstRTSPMediaFactory *factory(const char *launch, bool offclock)
 {
 	GstRTSPMediaFactory *f = gst_rtsp_media_factory_new();
 	gst_rtsp_media_factory_set_launch(f, launch);
 	gst_rtsp_media_factory_set_shared(f, TRUE);
-	if (stamp)
-		g_signal_connect(f, "media-configure", G_CALLBACK(on_media_configure), NULL);
+	g_signal_connect(f, "media-configure", G_CALLBACK(on_media_configure), GINT_TO_POINTER(offclock));
 	return f;
 }
 
@@ -85,23 +108,24 @@ int main(int argc, char **argv)
 {
 	gst_init(&argc, &argv);
 	if (argc < 2 || argc > 3) {
-		fprintf(stderr, "usage: %s PORT [auth]\n", argv[0]);
+		fprintf(stderr, "usage: %s PORT [auth|offclock]\n", argv[0]);
 		return 2;
 	}
 	bool auth = argc == 3 && !strcmp(argv[2], "auth");
+	bool offclock = argc == 3 && !strcmp(argv[2], "offclock");
 	GstRTSPServer *server = gst_rtsp_server_new();
 	gst_rtsp_server_set_address(server, "127.0.0.1");
 	gst_rtsp_server_set_service(server, argv[1]);
 	if (auth)
 		require_auth(server);
 	GstRTSPMountPoints *mounts = gst_rtsp_server_get_mount_points(server);
-	GstRTSPMediaFactory *raw = factory(RAW_LAUNCH, true);
+	GstRTSPMediaFactory *raw = factory(RAW_LAUNCH, offclock);
 	gst_rtsp_mount_points_add_factory(mounts, "/raw", raw);
 	if (auth)
 		allow_user(raw);
 	GstElementFactory *x264 = gst_element_factory_find("x264enc");
 	if (x264) {
-		gst_rtsp_mount_points_add_factory(mounts, "/h264", factory(H264_LAUNCH, false));
+		gst_rtsp_mount_points_add_factory(mounts, "/h264", factory(H264_LAUNCH, offclock));
 		gst_object_unref(x264);
 	}
 	g_object_unref(mounts);

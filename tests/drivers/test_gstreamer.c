@@ -333,6 +333,34 @@ static void test_start_offset(void)
 	CHECK(st.misplaced == 0);
 }
 
+/* frame_count(): a file's frames from `start` on (offline progress). */
+static void expect_frame_count(const char *file, const char *start, uint64_t want)
+{
+	char err[1024];
+	set_source(file, NULL, "asap");
+	drv_harness_set(&G, "start", start);
+	void *dev = drv_harness_open_start(&G, err, sizeof err);
+	CHECK_MSG(dev != NULL, "%s: %s", file, err);
+	uint64_t n = 0;
+	int rc = dev && G.drv->frame_count ? G.drv->frame_count(dev, &n) : MDRV_ERR_IO;
+	printf("  %s, start %s: frame_count %d, %llu frames\n", file, start, rc, (unsigned long long)n);
+	CHECK_MSG(rc == MDRV_OK && n == want, "%s from %s s: %llu frames, not %llu", file, start,
+		  (unsigned long long)n, (unsigned long long)want);
+	if (dev) {
+		G.drv->stop(dev);
+		G.drv->close(dev);
+	}
+}
+
+static void test_frame_count(void)
+{
+	printf("frame_count()\n");
+	expect_frame_count("mjpeg.mkv", "0", NFRAMES);
+	expect_frame_count("mjpeg.mkv", "1.0", NFRAMES - 30);
+	expect_frame_count("h264.mp4", "0", NFRAMES);
+	expect_frame_count("h264.mp4", "1.0", NFRAMES - 30);
+}
+
 static void test_pipeline(void)
 {
 	printf("pipeline = videotestsrc (white) ! appsink name=mocap, format gray8\n");
@@ -529,6 +557,7 @@ int main(void)
 	test_mkv_decoded();
 	test_mp4();
 	test_start_offset();
+	test_frame_count();
 	test_pipeline();
 	test_errors();
 	test_check();

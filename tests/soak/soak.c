@@ -34,10 +34,8 @@
  *
  * Exit status 0 pass, 1 fail, 77 skip (mocapd or the plugins not built).
  * Run from the repository root (it needs tests/data/sim and config/). */
-#include "daemon/harness.h"
-#include "mocap.h"
+#include "soak_util.h"
 
-#include <dirent.h>
 #include <pthread.h>
 #include <stdatomic.h>
 
@@ -254,57 +252,8 @@ static pid_t spawn_child(const char *mode)
 
 /* ---- sampling ----------------------------------------------------------------- */
 
-typedef struct {
-	double t;
-	long rss_kb, threads, fds;
-} sample;
-
-static bool sample_daemon(pid_t pid, sample *s)
-{
-	char path[64];
-	snprintf(path, sizeof(path), "/proc/%d/status", (int)pid);
-	FILE *f = fopen(path, "r");
-	if (!f)
-		return false;
-	char line[256];
-	s->rss_kb = s->threads = -1;
-	while (fgets(line, sizeof(line), f)) {
-		if (strncmp(line, "VmRSS:", 6) == 0)
-			s->rss_kb = atol(line + 6);
-		else if (strncmp(line, "Threads:", 8) == 0)
-			s->threads = atol(line + 8);
-	}
-	fclose(f);
-	snprintf(path, sizeof(path), "/proc/%d/fd", (int)pid);
-	DIR *d = opendir(path);
-	if (!d)
-		return false;
-	s->fds = 0;
-	for (struct dirent *e; (e = readdir(d));)
-		if (e->d_name[0] != '.')
-			s->fds++;
-	closedir(d);
-	return s->rss_kb >= 0;
-}
-
 /* The daemon's status through a fresh connection; false if unavailable. */
-static bool daemon_status(mocap_daemon_status *st)
-{
-	mocap_client *c = mocap_connect(sock_path, "soak-main");
-	if (!c)
-		return false;
-	bool ok = mocap_get_status(c, st) == 0;
-	mocap_close(c);
-	return ok;
-}
-
-/* A camera's STATUS state as mocapctl names it (mocap.h): 4, failed for
- * good, comes from protocol version 3 daemons, which libmocap speaks. */
-static const char *camera_state_name(int state)
-{
-	static const char *const names[] = {"ok", "stalled", "error", "off", "failed"};
-	return state >= 0 && state < 5 ? names[state] : "unknown";
-}
+static bool daemon_status(mocap_daemon_status *st) { return soak_status(sock_path, st); }
 
 /* True when every camera streams (state 0). */
 static bool all_streaming(mocap_daemon_status *st)
@@ -333,15 +282,6 @@ static const char rig_json[] =
 	" \"cx\": 127.5, \"cy\": 127.5, \"k\": [0, 0, 0, 0], \"fov_deg\": 180,"
 	" \"rig_from_cam\": [[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]}\n"
 	"]}\n";
-
-static bool write_file(const char *path, const char *text)
-{
-	FILE *f = fopen(path, "w");
-	if (!f)
-		return false;
-	bool ok = fputs(text, f) >= 0;
-	return fclose(f) == 0 && ok;
-}
 
 static bool copy_file(const char *from, const char *to)
 {

@@ -29,6 +29,7 @@
  *                            open fail with MDRV_ERR_NODEV ...
  *   return_after_ms = T      ... until T ms later (default: never)
  *   end_after = N            the stream ends (MDRV_ERR_END) after N frames
+ *                            (frame_count() says N; without it, not known)
  *   hang_after = N           after N frames next_frame blocks, ignoring its
  *   hang_ms = T              timeout, for T ms (10000), as a stuck driver would
  *   timestamp_offset_ms = T  added to every timestamp (may be negative)
@@ -501,6 +502,17 @@ static void drv_close(void *dev)
 	free(d);
 }
 
+static int drv_frame_count(void *dev, uint64_t *frames)
+{
+	faulty_dev *d = dev;
+	if (d->end_after < 0)
+		return MDRV_ERR_IO;
+	*frames = (uint64_t)d->end_after;
+	return MDRV_OK;
+}
+
+/* Built with FAULTY_ABI_VERSION=3 (mocap-driver-oldabi.so) it still sets
+ * frame_count, which the host must not read from an ABI 3 plugin. */
 static const mdrv_driver faulty_driver = {
 	.abi_version = FAULTY_ABI_VERSION,
 	.name = FAULTY_NAME,
@@ -512,6 +524,7 @@ static const mdrv_driver faulty_driver = {
 	.next_frame = drv_next_frame,
 	.stop = drv_stop,
 	.close = drv_close,
+	.frame_count = drv_frame_count,
 };
 
 #ifndef FAULTY_NO_ENTRY
