@@ -62,7 +62,7 @@ DETECTOR_V2_TRAIN ?= 55200
 DETECTOR_V2_VAL ?= 6000
 DETECTOR_V2_CHUNK ?= 400
 DETECTOR_V2_NICE ?= 19
-DETECTOR_V2_EPOCHS ?= 80
+DETECTOR_V2_EPOCHS ?= 36
 .PHONY: detector-data-v2 detector-progress-v2 detector-train-v2
 detector-data-v2:
 	$(TRAIN_PYTHON) tools/synth/job.py --out $(DETECTOR_V2_DIR) --blender $(BLENDER) --mocap $(MOCAP_TRAIN_DIR) \
@@ -73,10 +73,18 @@ detector-progress-v2:
 	@$(TRAIN_PYTHON) tools/synth/job.py --out $(DETECTOR_V2_DIR) --train $(DETECTOR_V2_TRAIN) \
 	  --val $(DETECTOR_V2_VAL) --seed $(DETECTOR_V2_SEED) --status
 
+# The v2 network (common.build_model("v2")) with the left/right overlap
+# penalty.  One torch thread: two ran 10x slower here whenever anything else
+# (a renderer, a build) shared the two cores.
+DETECTOR_V2_ARCH ?= v2
+DETECTOR_V2_PAIR ?= 10
+DETECTOR_V2_STEPS ?= 500
+DETECTOR_V2_THREADS ?= 1
 detector-train-v2:
 	nice -n 10 $(TRAIN_PYTHON) tools/train/train.py --data $(DETECTOR_V2_DIR)/data \
 	  --ckpt $(DETECTOR_V2_DIR)/ckpt.pt --seed $(DETECTOR_V2_SEED) --data-seed $(DETECTOR_V2_SEED) \
-	  --epochs $(DETECTOR_V2_EPOCHS) --resume
+	  --arch $(DETECTOR_V2_ARCH) --pair-weight $(DETECTOR_V2_PAIR) --epochs $(DETECTOR_V2_EPOCHS) \
+	  --steps-per-epoch $(DETECTOR_V2_STEPS) --threads $(DETECTOR_V2_THREADS) --resume
 
 # Outside-in pinhole views (docs/DETECTOR_OUTSIDE.md): frames of
 # DETECTOR_OUTSIDE_VIEWS cameras each, into $(DETECTOR_DIR)/outside/data.
@@ -152,9 +160,14 @@ detector-export:
 	$(TRAIN_PYTHON) tools/train/train.py --data $(DETECTOR_DIR)/data --seed 2 --data-seed $(DETECTOR_SEED) \
 	  --weights $(DETECTOR_WEIGHTS) --export config/models/ego_detector.onnx
 
+# The 2D report of a head-mounted model (a checkpoint, or by default the
+# shipped ONNX file through OpenCV DNN) on the dev clips and, when the v2
+# data is there, on its held-out validation (docs/DETECTOR.md, "Accuracy").
+DETECTOR_REPORT_MODEL ?= config/models/ego_detector.onnx
 detector-report:
-	$(TRAIN_PYTHON) tools/train/train.py --weights $(DETECTOR_WEIGHTS) --ego $(MOCAP_EGO_DIR) \
-	  --report --report-out $(DETECTOR_DIR)/report.json
+	mkdir -p $(DETECTOR_DIR)
+	$(TRAIN_PYTHON) tools/train/train.py --weights $(DETECTOR_REPORT_MODEL) --ego $(MOCAP_EGO_DIR) \
+	  --data $(DETECTOR_V2_DIR)/data --report --report-out $(DETECTOR_DIR)/report.json
 
 # Pretrained networks converted from TensorFlow.js (make models-movenet).
 include tools/convert/module.mk

@@ -23,7 +23,9 @@ void mc_tracker_settings_default(mc_tracker_settings *s)
 	s->lambda_pose = 1e-4;
 	s->lambda_smooth = 0.1;
 	s->lambda_anchor = 0; /* off: it biases real motion (docs/TRACKER.md) */
-	s->lambda_prior = 0; /* head-mounted: measured worse; outside-in: mc_tracker_outside_in */
+	/* head-mounted, measured with the v2 detector (docs/TRACKER.md, "Pose prior");
+	 * outside-in: mc_tracker_outside_in */
+	s->lambda_prior = 3e-3;
 	s->recover = true;
 	s->assign_sides = false; /* on for outside-in rigs: mc_tracker_outside_in */
 	s->fit_limbs = false; /* measured: no gain yet (docs/TRACKER.md) */

@@ -407,6 +407,15 @@ def load_model(path):
     return m, ck
 
 
+def validation_card(r):
+    """The headline figures of a checkpoint's validation, for the sidecar."""
+    if not r or "median_visible" not in r:
+        return None
+    return {"gross_pct": round(100 * r["false"], 1), "median_visible_px": round(r["median_visible"], 2),
+            "median_occluded_px": round(r["median_occluded"], 2), "collapse_pct": round(100 * r["collapse"], 1),
+            "swap_pct": round(100 * r["swap"], 1), "note": "px at 128x128; the held-out split of docs/DETECTOR.md"}
+
+
 def export(a):
     path = a.weights or a.ckpt
     m, ck = load_model(path)
@@ -426,6 +435,7 @@ def export(a):
                               st.get("best") or float("nan")),
             "seed": a.seed,
             "arch": ck_arch(ck),
+            "validation": validation_card((st.get("history") or [{}])[-1].get("val")),
             "parameters": ck.get("params"),
             "input_format": "float32 NCHW 1x3x%dx%d, RGB, [0,1]; output heatmaps float32 1x18x%dx%d in [0,1]" % (
                 C.IN_H, C.IN_W, C.HM_H, C.HM_W)}
