@@ -28,6 +28,16 @@ MOCAP_TRAIN_DIR ?= $(or $(MOCAP_DATA_DIR),../shared/data)/mocap-train
 MOCAP_EGO_DIR ?= $(or $(MOCAP_DATA_DIR),../shared/data)/ego
 
 .PHONY: detector-data detector-train detector-finetune detector-export detector-report
+
+# The trainer's left/right figures and penalty (tools/train/test_metrics.py).
+# It needs `make deps-train` (python3-torch, python3-numpy); without them it
+# says so and skips, as on CI.
+CHECKS += check-train-tools
+.PHONY: check-train-tools
+check-train-tools:
+	@if $(TRAIN_PYTHON) -c 'import torch, numpy, pytest' 2>/dev/null; then \
+		PYTHONDONTWRITEBYTECODE=1 $(TRAIN_PYTHON) -m pytest -q -p no:cacheprovider tools/train/test_metrics.py; \
+	else echo "SKIP check-train-tools: no python3-torch, python3-numpy or pytest for $(TRAIN_PYTHON) (make deps-train)"; fi
 .PHONY: detector-data-outside detector-train-outside detector-finetune-outside detector-export-outside \
 	detector-report-outside
 
