@@ -31,14 +31,23 @@ IN_W, IN_H, HM_W, HM_H = IN, IN, HM, HM
 KIND = "ego"
 
 
-def set_kind(kind):
+ARCHS = ("v1", "v2", "v3")
+# Heat-map cells per input pixel side, per architecture: v3's heat maps are
+# half the input (64x64 at 128x128) for sub-pixel keypoints.
+HM_DIV = {"v1": 4, "v2": 4, "v3": 2}
+
+
+def set_kind(kind, arch="v1"):
     global IN_W, IN_H, HM_W, HM_H, KIND
     KIND = kind
     IN_W, IN_H = KINDS[kind]
-    HM_W, HM_H = IN_W // 4, IN_H // 4
+    HM_W, HM_H = IN_W // HM_DIV[arch], IN_H // HM_DIV[arch]
 
 
-ARCHS = ("v1", "v2")
+def set_heatmap(h, w):
+    """Heat maps of h x w (an exported model's own, from its sidecar)."""
+    global HM_W, HM_H
+    HM_W, HM_H = w, h
 
 
 def _cbr(i, o, s=1, k=3):
@@ -105,7 +114,38 @@ def build_model(arch="v1"):
             a = self.m32(a + self.up16(b))
             return self.head(a)
 
-    return Net() if arch == "v1" else NetV2()
+    class NetV3(nn.Module):
+        """As NetV2, wider at 1/8 and 1/16, and with a 1/2 scale: heat maps of
+        half the input (64x64 at 128x128), so that a keypoint's sub-cell
+        position is a 2-pixel matter rather than a 4-pixel one (issue 36,
+        item 3).  Trained on a GPU (docs/DETECTOR.md, "v3 network")."""
+
+        def __init__(self):
+            super().__init__()
+            self.s64 = nn.Sequential(*cbr(3, 16, 2))                                               # 64x64
+            self.s32 = nn.Sequential(*cbr(16, 32, 2), *cbr(32, 32))                                # 32x32
+            self.s16 = nn.Sequential(nn.MaxPool2d(2), *cbr(32, 80), *cbr(80, 80))                  # 16x16
+            self.s8 = nn.Sequential(nn.MaxPool2d(2), *cbr(80, 128), *cbr(128, 128), *cbr(128, 128))  # 8x8
+            self.s4 = nn.Sequential(nn.MaxPool2d(2), *cbr(128, 192), *cbr(192, 192), *cbr(192, 192))  # 4x4
+            self.up4, self.m8 = up(192, 128), nn.Sequential(*cbr(128, 128))
+            self.up8, self.m16 = up(128, 80), nn.Sequential(*cbr(80, 80))
+            self.up16, self.m32 = up(80, 32), nn.Sequential(*cbr(32, 32))
+            self.up32, self.m64 = up(32, 16), nn.Sequential(*cbr(16, 16))
+            self.head = nn.Conv2d(16, len(JOINTS), 1)
+
+        def forward(self, x):  # returns logits
+            e = self.s64(x)
+            a = self.s32(e)
+            b = self.s16(a)
+            c = self.s8(b)
+            d = self.s4(c)
+            c = self.m8(c + self.up4(d))
+            b = self.m16(b + self.up8(c))
+            a = self.m32(a + self.up16(b))
+            e = self.m64(e + self.up32(a))
+            return self.head(e)
+
+    return {"v1": Net, "v2": NetV2, "v3": NetV3}[arch]()
 
 
 def decode(hm):

@@ -84,6 +84,7 @@ def test_pair_penalty_only_for_a_collapse():
 def test_architectures():
     for arch in C.ARCHS:
         out = C.build_model(arch).eval()(torch.rand(1, 3, C.IN, C.IN))
-        assert tuple(out.shape) == (1, len(C.JOINTS), C.HM, C.HM)
+        hm = C.IN // C.HM_DIV[arch]
+        assert tuple(out.shape) == (1, len(C.JOINTS), hm, hm)
     with pytest.raises(ValueError, match="unknown architecture"):
         C.build_model("v9")

@@ -33,7 +33,9 @@ from common import EVALUATED, GROUPS, JOINTS, THRESHOLD, build_model, decode, lo
 import torch  # noqa: E402
 import torch.nn.functional as Fn  # noqa: E402
 
-SIGMA = 1.0  # target Gaussian sigma in heatmap cells (4 input pixels)
+# target Gaussian sigma in heat-map cells, by cells per input pixel side:
+# 4 input pixels on 1/4 heat maps (v1, v2), 3 on v3's 1/2 heat maps
+SIGMA = {4: 1.0, 2: 1.5}
 # geometric augmentation per kind: roll (rad), zoom range, shift (input px)
 AUG = {"ego": (0.2, (0.92, 1.08), 3.0), "outside": (0.2, (0.8, 1.2), 8.0)}
 
@@ -51,6 +53,15 @@ class Data:
         self.keys, self.uv, self.st = [], [], []
         self.img = np.zeros((0, C.IN_H, C.IN_W, 3), np.uint8)
         self.seen = set()
+        self.device = torch.device("cpu")  # where images() keeps its tensor
+        self.img_t = None
+
+    def images(self):
+        """The cached images as a uint8 NHWC tensor on self.device (on the
+        CPU a view of self.img; on a GPU a copy, made again after a refresh)."""
+        if self.img_t is None or len(self.img_t) != len(self.img):
+            self.img_t = torch.from_numpy(self.img).to(self.device)
+        return self.img_t
 
     def refresh(self):
         from PIL import Image
@@ -99,33 +110,39 @@ def targets(uv, st):
     """uv (B,J,2) input pixels, st (B,J) states -> (B,J,HM_H,HM_W) Gaussian targets."""
     B, J = st.shape
     W, H = C.HM_W, C.HM_H
+    sigma = SIGMA[C.IN_W // W]
     xc = (uv[..., 0] + 0.5) * W / C.IN_W - 0.5
     yc = (uv[..., 1] + 0.5) * H / C.IN_H - 0.5
-    gxs = torch.arange(W, dtype=torch.float32)
-    gys = torch.arange(H, dtype=torch.float32)
-    gx = torch.exp(-(gxs.view(1, 1, W) - xc.unsqueeze(-1)) ** 2 / (2 * SIGMA ** 2))
-    gy = torch.exp(-(gys.view(1, 1, H) - yc.unsqueeze(-1)) ** 2 / (2 * SIGMA ** 2))
+    gxs = torch.arange(W, dtype=torch.float32, device=uv.device)
+    gys = torch.arange(H, dtype=torch.float32, device=uv.device)
+    gx = torch.exp(-(gxs.view(1, 1, W) - xc.unsqueeze(-1)) ** 2 / (2 * sigma ** 2))
+    gy = torch.exp(-(gys.view(1, 1, H) - yc.unsqueeze(-1)) ** 2 / (2 * sigma ** 2))
     peak = torch.where(st == 0, 1.0, torch.where(st == 1, 0.5, 0.0)).float()
     return gy.unsqueeze(-1) * gx.unsqueeze(-2) * peak.view(B, J, 1, 1)
 
 
 def batch(data, idx, rng, augment):
-    x = torch.from_numpy(data.img[idx]).permute(0, 3, 1, 2).float() / 255.0
-    uv = torch.from_numpy(data.uv[idx]).float()
-    st = torch.from_numpy(data.st[idx]).clone()
+    """Images (B,3,H,W) in [0,1], truths uv (B,J,2) and states (B,J) of the
+    views idx, augmented or not, on data.device."""
+    dev = data.device
+    x = data.images()[torch.from_numpy(np.asarray(idx)).to(dev)].permute(0, 3, 1, 2).float() / 255.0
+    uv = torch.from_numpy(data.uv[idx]).float().to(dev)
+    st = torch.from_numpy(data.st[idx]).clone().to(dev)
     B = x.shape[0]
     if augment:
+        def draw(a):  # the random draws, as float tensors beside the images
+            return torch.from_numpy(np.asarray(a)).float().to(dev)
         # roll about the image centre (a camera roll: consistent with the lens),
         # small zoom and shift
         roll, zoom, shift = AUG[C.KIND]
-        ang = torch.from_numpy(rng.uniform(-roll, roll, B)).float()
-        sc = torch.from_numpy(rng.uniform(zoom[0], zoom[1], B)).float()
-        sh = torch.from_numpy(rng.uniform(-shift, shift, (B, 2))).float()
+        ang = draw(rng.uniform(-roll, roll, B))
+        sc = draw(rng.uniform(zoom[0], zoom[1], B))
+        sh = draw(rng.uniform(-shift, shift, (B, 2)))
         W, H = C.IN_W, C.IN_H
-        c = torch.tensor([(W - 1) / 2.0, (H - 1) / 2.0])
+        c = draw([(W - 1) / 2.0, (H - 1) / 2.0])
         ca, sa = torch.cos(ang), torch.sin(ang)
         # output pixel p -> input pixel q = c + R^T (p - c - sh) / sc
-        A = torch.zeros(B, 2, 3)
+        A = torch.zeros(B, 2, 3, device=dev)
         A[:, 0, 0], A[:, 0, 1] = ca / sc, sa / sc
         A[:, 1, 0], A[:, 1, 1] = -sa / sc, ca / sc
         # affine_grid works in normalised coords with align_corners=False: n = (p + 0.5) / W * 2 - 1
@@ -146,19 +163,20 @@ def batch(data, idx, rng, augment):
         out = (uv < -0.5).any(-1) | (uv[..., 0] > W - 0.5) | (uv[..., 1] > H - 0.5)
         st[out] = 2
         # photometric
-        gain = torch.from_numpy(rng.uniform(0.7, 1.3, (B, 1, 1, 1))).float()
-        ch = torch.from_numpy(rng.uniform(0.85, 1.15, (B, 3, 1, 1))).float()
+        gain = draw(rng.uniform(0.7, 1.3, (B, 1, 1, 1)))
+        ch = draw(rng.uniform(0.85, 1.15, (B, 3, 1, 1)))
         mean = x.mean(dim=(1, 2, 3), keepdim=True)
-        con = torch.from_numpy(rng.uniform(0.7, 1.3, (B, 1, 1, 1))).float()
+        con = draw(rng.uniform(0.7, 1.3, (B, 1, 1, 1)))
         gray = x.mean(1, keepdim=True)
-        sat = torch.from_numpy(rng.uniform(0.5, 1.4, (B, 1, 1, 1))).float()
+        sat = draw(rng.uniform(0.5, 1.4, (B, 1, 1, 1)))
         x = gray + (x - gray) * sat
         x = ((x - mean) * con + mean) * gain * ch
-        x = x + torch.randn_like(x) * torch.from_numpy(rng.uniform(0, 0.04, (B, 1, 1, 1))).float()
+        x = x + torch.randn_like(x) * draw(rng.uniform(0, 0.04, (B, 1, 1, 1)))
         perm = rng.random(B) < 0.3  # channel swap: colours of clothes are not a cue
         if perm.any():
             p = rng.permutation(3)
-            x[torch.from_numpy(perm)] = x[torch.from_numpy(perm)][:, p]
+            sel = torch.from_numpy(perm).to(dev)
+            x[sel] = x[sel][:, torch.from_numpy(p).to(dev)]
         x = x.clamp(0, 1)
     return x, uv, st
 
@@ -239,7 +257,7 @@ def predict(model, x, bs=64):
     model.eval()
     with torch.no_grad():
         for i in range(0, len(x), bs):
-            hm = torch.sigmoid(model(x[i:i + bs])).numpy()
+            hm = torch.sigmoid(model(x[i:i + bs]).float()).cpu().numpy()
             out += [decode(h) for h in hm]
     return np.array(out)
 
@@ -249,8 +267,8 @@ def validate(model, val):
         return None
     idx = np.arange(len(val))
     x, uv, st = batch(val, idx, None, False)
-    pred = predict(model, x)
-    r = score(pred, uv.numpy(), st.numpy())
+    pred = predict(model, x, 256)
+    r = score(pred, uv.cpu().numpy(), st.cpu().numpy())
     with torch.no_grad():
         if C.KIND == "ego":
             r["loss"] = float(loss_fn(model(x), targets(uv, st)))
@@ -276,6 +294,8 @@ def fmt(r):
 def train(a):
     torch.set_num_threads(a.threads)
     dev = torch.device("cuda" if torch.cuda.is_available() else "cpu")
+    torch.backends.cudnn.benchmark = dev.type == "cuda"
+    amp = a.amp and dev.type == "cuda"  # bfloat16 on a GPU; the loss stays in float32
     torch.manual_seed(a.seed)
     model = build_model(a.arch).to(dev)
     opt = torch.optim.AdamW(model.parameters(), lr=a.lr, weight_decay=1e-4)
@@ -296,6 +316,15 @@ def train(a):
     log("model: %d parameters, device %s, %d epochs x %d steps x batch %d" % (
         nparam, dev, a.epochs, a.steps_per_epoch, a.batch))
     tr, va = Data(a.data, "train"), Data(a.data, "val")
+    tr.device = va.device = dev
+    budget = a.minutes * 60 if a.minutes else None
+
+    def progress():
+        """Where the learning-rate schedule is: by steps, or by time spent
+        when --minutes gives the training a time budget."""
+        if budget:
+            return min(1.0, (state["train_s"] + time.time() - last_ck) / budget)
+        return min(1.0, state["step"] / total)
 
     def save(path):
         tmp = path + ".tmp"
@@ -316,14 +345,16 @@ def train(a):
         ep_start_step = state["step"] - state["epoch"] * a.steps_per_epoch
         run = 0.0
         for s in range(ep_start_step, a.steps_per_epoch):
-            lr = a.lr * 0.5 * (1 + math.cos(math.pi * min(1.0, state["step"] / total)))
+            lr = a.lr * 0.5 * (1 + math.cos(math.pi * progress()))
             warm = min(1.0, (state["step"] + 1) / max(1, a.warmup))
             for gp in opt.param_groups:
                 gp["lr"] = lr * warm
             idx = rng.integers(0, len(tr), a.batch)
             x, uv, st = batch(tr, idx, rng, True)
             tgt = targets(uv, st)
-            loss = loss_fn(model(x.to(dev)), tgt.to(dev), uv, st, a.pair_weight)
+            with torch.autocast(dev.type, dtype=torch.bfloat16, enabled=amp):
+                logits = model(x)
+            loss = loss_fn(logits.float(), tgt, uv, st, a.pair_weight)
             opt.zero_grad()
             loss.backward()
             opt.step()
@@ -333,7 +364,7 @@ def train(a):
             done = s + 1 - ep_start_step
             if done % 10 == 0 or s + 1 == a.steps_per_epoch:
                 ips = done * a.batch / el
-                left = (total - state["step"]) * a.batch / ips
+                left = ((1 - progress()) * budget if budget else (total - state["step"]) * a.batch / ips)
                 sys.stderr.write("\r  epoch %d/%d step %d/%d loss %.4f lr %.2e %.0f img/s ETA epoch %.0fs, all %.0f min " % (
                     state["epoch"] + 1, a.epochs, s + 1, a.steps_per_epoch, run, lr * warm, ips,
                     (a.steps_per_epoch - s - 1) * a.batch / ips, left / 60))
@@ -357,6 +388,8 @@ def train(a):
         state["train_s"] += time.time() - last_ck
         last_ck = time.time()
         save(a.ckpt)
+        if budget and state["train_s"] >= budget:
+            break
     log("training done: %d steps, %.1f min" % (state["step"], state["train_s"] / 60))
 
 
@@ -398,9 +431,14 @@ class OnnxModel:
 
 
 def load_model(path):
+    """The model at path (a checkpoint or an exported ONNX with its sidecar)
+    and its checkpoint dict; sets the heat-map size to the model's."""
     if path.endswith(".onnx"):
+        side = json.load(open(os.path.splitext(path)[0] + ".json"))
+        C.set_heatmap(*side["heatmap"])
         return OnnxModel(path), {}
     ck = torch.load(path, map_location="cpu")
+    C.set_kind(C.KIND, ck_arch(ck))
     m = build_model(ck_arch(ck))
     m.load_state_dict(ck["model"])
     m.eval()
@@ -632,6 +670,10 @@ def main():
     ap.add_argument("--seed", type=int, default=1, help="training seed (init, sampling, augmentation)")
     ap.add_argument("--data-seed", type=int, default=1, help="the renderer's --seed, for the sidecar")
     ap.add_argument("--threads", type=int, default=2)
+    ap.add_argument("--minutes", type=float, default=0,
+                    help="time budget: the learning rate follows the time spent, and training ends after the "
+                         "epoch that reaches it (0: --epochs decide)")
+    ap.add_argument("--amp", action="store_true", help="on a GPU, the network in bfloat16 (autocast)")
     ap.add_argument("--ckpt-minutes", type=float, default=3.0)
     ap.add_argument("--export", metavar="ONNX")
     ap.add_argument("--report", action="store_true")
@@ -641,7 +683,7 @@ def main():
     ap.add_argument("--ego", default="/work/shared/data/ego")
     ap.add_argument("--outside", default="/work/shared/data/outside", help="outside-in clips for --report")
     a = ap.parse_args()
-    C.set_kind(a.kind)
+    C.set_kind(a.kind, a.arch)
     sub = "build/detector" if a.kind == "ego" else "build/detector/outside"
     a.data = a.data or os.path.join(ROOT, sub, "data")
     a.ckpt = a.ckpt or os.path.join(ROOT, sub, "ckpt.pt")
