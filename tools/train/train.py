@@ -16,6 +16,7 @@ motion segments (split "val").  The evaluation clips' gt.json is read only by
 """
 import argparse
 import glob
+import inspect
 import json
 import math
 import os
@@ -384,7 +385,7 @@ def train(a):
             if state["best"] is None or key < state["best"]:
                 state["best"] = key
                 torch.save({"model": model.state_dict(), "state": dict(state), "params": nparam, "arch": a.arch},
-                           os.path.join(os.path.dirname(a.ckpt), "best.pt"))
+                           a.best or os.path.join(os.path.dirname(a.ckpt), "best.pt"))
         state["train_s"] += time.time() - last_ck
         last_ck = time.time()
         save(a.ckpt)
@@ -459,8 +460,11 @@ def export(a):
     m, ck = load_model(path)
     net = Exported(m).eval()
     x = torch.rand(1, 3, C.IN_H, C.IN_W)
+    # torch 2.5 and later would otherwise use its dynamo exporter, whose
+    # graphs (opset 18) OpenCV 4.6 does not read
+    legacy = {"dynamo": False} if "dynamo" in inspect.signature(torch.onnx.export).parameters else {}
     torch.onnx.export(net, x, a.export, opset_version=11, input_names=["image"], output_names=["heatmaps"],
-                      do_constant_folding=True)
+                      do_constant_folding=True, **legacy)
     st = ck.get("state", {})
     what = ("synthetic head-mounted stereo fisheye views (tools/synth/render.py --seed %d, " if C.KIND == "ego" else
             "synthetic outside-in pinhole views, 4:3 (tools/synth/render.py --kind outside --seed %d, ")
@@ -657,6 +661,7 @@ def main():
     ap.add_argument("--data", default=None, help="default build/detector/data (outside: build/detector/outside/data)")
     ap.add_argument("--ckpt", default=None, help="default build/detector/ckpt.pt (outside: build/detector/outside/ckpt.pt)")
     ap.add_argument("--weights", help="checkpoint for --export/--report (default --ckpt)")
+    ap.add_argument("--best", help="where training keeps its best epoch (default best.pt beside --ckpt)")
     ap.add_argument("--resume", action="store_true")
     ap.add_argument("--init", help="start from these weights (a ckpt.pt/best.pt), new optimiser and schedule")
     ap.add_argument("--warmup", type=int, default=200, help="warm-up steps")
