@@ -88,3 +88,15 @@ def test_architectures():
         assert tuple(out.shape) == (1, len(C.JOINTS), hm, hm)
     with pytest.raises(ValueError, match="unknown architecture"):
         C.build_model("v9")
+
+
+def test_feet_weight():
+    """--feet-weight scales the ankles' and toes' share of the loss only."""
+    tgt = torch.zeros(1, len(C.JOINTS), C.HM, C.HM)
+    logits = torch.full_like(tgt, -12.0)
+    LA = C.JOINTS.index("left_ankle")
+    logits[0, LA, 3, 3] = 5.0  # a wrong peak on the ankle's channel
+    plain, heavy = float(T.loss_fn(logits, tgt)), float(T.loss_fn(logits, tgt, feet_weight=3.0))
+    assert heavy == pytest.approx(3 * plain, rel=1e-3)
+    logits[0, LA, 3, 3], logits[0, LW, 3, 3] = -12.0, 5.0  # the same on a wrist's channel
+    assert float(T.loss_fn(logits, tgt, feet_weight=3.0)) == pytest.approx(float(T.loss_fn(logits, tgt)))

@@ -187,13 +187,21 @@ PAIRS = [(JOINTS.index("left_" + p), JOINTS.index("right_" + p))
          for p in ("shoulder", "elbow", "wrist", "hip", "knee", "ankle", "toe")]
 
 
-def loss_fn(logits, tgt, uv=None, st=None, pair_weight=0.0):
+FEET = [JOINTS.index(s + "_" + j) for s in ("left", "right") for j in ("ankle", "toe")]
+
+
+def loss_fn(logits, tgt, uv=None, st=None, pair_weight=0.0, feet_weight=1.0):
     """Weighted squared error of the heat maps; with pair_weight > 0 also the
     overlap of a left/right pair's two channels (sum over cells of their
     product) where the two truths are more than 20 input pixels apart: a
-    penalty on one limb reported under both labels (issue 36, item 2)."""
+    penalty on one limb reported under both labels (issue 36, item 2).
+    feet_weight scales the ankles' and toes' channels (the weakest joints)."""
     p = torch.sigmoid(logits)
     w = 1.0 + 30.0 * tgt
+    if feet_weight != 1.0:
+        jw = torch.ones(len(JOINTS), device=p.device)
+        jw[FEET] = feet_weight
+        w = w * jw.view(1, -1, 1, 1)
     loss = ((p - tgt) ** 2 * w).mean() * 10.0
     if pair_weight > 0 and uv is not None:
         li, ri = [a for a, _ in PAIRS], [b for _, b in PAIRS]
@@ -355,7 +363,7 @@ def train(a):
             tgt = targets(uv, st)
             with torch.autocast(dev.type, dtype=torch.bfloat16, enabled=amp):
                 logits = model(x)
-            loss = loss_fn(logits.float(), tgt, uv, st, a.pair_weight)
+            loss = loss_fn(logits.float(), tgt, uv, st, a.pair_weight, a.feet_weight)
             opt.zero_grad()
             loss.backward()
             opt.step()
@@ -668,6 +676,8 @@ def main():
     ap.add_argument("--arch", choices=C.ARCHS, default="v1", help="network (common.build_model)")
     ap.add_argument("--pair-weight", type=float, default=0.0,
                     help="weight of the left/right overlap penalty (0: off; see loss_fn)")
+    ap.add_argument("--feet-weight", type=float, default=1.0,
+                    help="weight of the ankles' and toes' heat maps in the training loss (not in validation's)")
     ap.add_argument("--epochs", type=int, default=30)
     ap.add_argument("--steps-per-epoch", type=int, default=250)
     ap.add_argument("--batch", type=int, default=32)

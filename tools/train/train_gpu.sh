@@ -10,7 +10,7 @@
 # epoch with the lowest validation loss) and train.log; the checkpoint with
 # the optimiser goes to build/gpu/NAME/ckpt.pt (NAME: RESULT's last part).
 # Environment: ARCH (v3), SEED (21), BATCH (256), LR (3e-3), STEPS (1000
-# steps per epoch), PAIR_WEIGHT (10), PYTHON (python3).  Several can run side
+# steps per epoch), PAIR_WEIGHT (10), FEET_WEIGHT (1), PYTHON (python3).  Several can run side
 # by side on one GPU, each with its own RESULT.
 # Export on the CPU machine afterwards:
 #   train.py --arch v3 --weights RESULT/best.pt --export config/models/ego_detector.onnx
@@ -21,7 +21,7 @@ name=$(basename "$result")
 mkdir -p "$result" "build/gpu/$name"
 PYTHONUNBUFFERED=1 ${PYTHON:-python3} "$here/train.py" --data "$data" --ckpt "build/gpu/$name/ckpt.pt" \
 	--best "$result/best.pt" \
-	--arch "${ARCH:-v3}" --pair-weight "${PAIR_WEIGHT:-10}" --seed "${SEED:-21}" --data-seed 21 \
+	--arch "${ARCH:-v3}" --pair-weight "${PAIR_WEIGHT:-10}" --feet-weight "${FEET_WEIGHT:-1}" --seed "${SEED:-21}" --data-seed 21 \
 	--batch "${BATCH:-256}" --lr "${LR:-3e-3}" --warmup 500 --epochs 100000 --steps-per-epoch "${STEPS:-1000}" \
 	--minutes "$minutes" --amp --threads 4 --ckpt-minutes 2 2>&1 | tr '\r' '\n' \
 	| awk '{ if (match($0, / step [0-9]+\//)) { n = substr($0, RSTART + 6, RLENGTH - 7) + 0; if (n % 250) next }
