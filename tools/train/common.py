@@ -57,95 +57,80 @@ def _cbr(i, o, s=1, k=3):
 
 def build_model(arch="v1"):
     """v1: the 103k-parameter encoder-decoder shipped until stop 38 (three
-    scales, 29 M multiply-adds at 128x128).  v2 (issue 36): wider, and a
-    fourth scale at 1/32 whose 3x3 convolutions see the whole view, so that
-    a joint's channel can use the whole body's layout to tell left from
-    right (about 84 M multiply-adds).  Both use only Conv/BN/ReLU, MaxPool,
+    scales, 29 M multiply-adds at 128x128, heat maps of 1/4 the input).
+    v2 (issue 36): wider, and a fourth scale at 1/32 whose 3x3 convolutions
+    see the whole view, so that a joint's channel can use the whole body's
+    layout to tell left from right (80 M multiply-adds).  v3: wider at 1/8
+    and 1/16, and a 1/2 scale, so that the heat maps are half the input
+    (64x64 at 128x128) and a keypoint's sub-cell position is a 2-pixel
+    matter rather than a 4-pixel one (129 M multiply-adds; trained on a GPU,
+    docs/DETECTOR.md "v3 network").  All use only Conv/BN/ReLU, MaxPool,
     nearest Upsample, Add and Sigmoid: the ONNX contract of docs/DETECTOR.md."""
     import torch.nn as nn
     if arch not in ARCHS:
         raise ValueError("unknown architecture %r (known: %s)" % (arch, ", ".join(ARCHS)))
     cbr = _cbr
-    up = lambda i, o: nn.Sequential(nn.Upsample(scale_factor=2, mode="nearest"), *cbr(i, o, k=1))  # noqa: E731
+    pool = nn.MaxPool2d
 
-    class Net(nn.Module):
-        """3xHxW -> 18x(H/4)x(W/4) (ego: 128x128 -> 32x32; H, W divisible by 16)."""
+    def seq(*layers):
+        return nn.Sequential(*layers)
 
-        def __init__(self):
+    def up(i, o):
+        return seq(nn.Upsample(scale_factor=2, mode="nearest"), *cbr(i, o, k=1))
+
+    class Pyramid(nn.Module):
+        """Encoder stages, finest first, each one scale coarser than the one
+        before; then from the coarsest up, at each finer scale, the coarser
+        result up-sampled (`up`), added to that scale's encoder output and
+        merged by a convolution (`merge`); a 1x1 head on the finest.  The
+        attribute names (s32, up8, m16, ...: the scale's cells at 128x128)
+        are the checkpoints' keys."""
+
+        def __init__(self, stages, merges, head_in):
             super().__init__()
-            self.s32 = nn.Sequential(*cbr(3, 12, 2), *cbr(12, 24, 2), *cbr(24, 24))          # 32x32
-            self.s16 = nn.Sequential(nn.MaxPool2d(2), *cbr(24, 40), *cbr(40, 40))           # 16x16
-            self.s8 = nn.Sequential(nn.MaxPool2d(2), *cbr(40, 56), *cbr(56, 56))            # 8x8
-            self.up8 = up(56, 40)
-            self.m16 = nn.Sequential(*cbr(40, 40))
-            self.up16 = up(40, 24)
-            self.m32 = nn.Sequential(*cbr(24, 24))
-            self.head = nn.Conv2d(24, len(JOINTS), 1)
+            self.encoder = [name for name, _ in stages]
+            self.decoder = [(u, m) for u, _, m, _ in merges]
+            for name, module in stages:
+                setattr(self, name, module)
+            for u, up_module, m, merge in merges:
+                setattr(self, u, up_module)
+                setattr(self, m, merge)
+            self.head = nn.Conv2d(head_in, len(JOINTS), 1)
 
         def forward(self, x):  # returns logits
-            a = self.s32(x)
-            b = self.s16(a)
-            c = self.s8(b)
-            b = self.m16(b + self.up8(c))
-            a = self.m32(a + self.up16(b))
-            return self.head(a)
+            feats = []
+            for name in self.encoder:
+                x = getattr(self, name)(x)
+                feats.append(x)
+            y = feats[-1]
+            for (u, m), skip in zip(self.decoder, reversed(feats[:-1])):
+                y = getattr(self, m)(skip + getattr(self, u)(y))
+            return self.head(y)
 
-    class NetV2(nn.Module):
-        """As Net, wider, with a 1/32 scale (4x4 at 128x128) for whole-view context."""
-
-        def __init__(self):
-            super().__init__()
-            self.s32 = nn.Sequential(*cbr(3, 16, 2), *cbr(16, 32, 2), *cbr(32, 32))                 # 32x32
-            self.s16 = nn.Sequential(nn.MaxPool2d(2), *cbr(32, 64), *cbr(64, 64))                  # 16x16
-            self.s8 = nn.Sequential(nn.MaxPool2d(2), *cbr(64, 96), *cbr(96, 96), *cbr(96, 96))     # 8x8
-            self.s4 = nn.Sequential(nn.MaxPool2d(2), *cbr(96, 128), *cbr(128, 128), *cbr(128, 128))  # 4x4
-            self.up4, self.m8 = up(128, 96), nn.Sequential(*cbr(96, 96))
-            self.up8, self.m16 = up(96, 64), nn.Sequential(*cbr(64, 64))
-            self.up16, self.m32 = up(64, 32), nn.Sequential(*cbr(32, 32))
-            self.head = nn.Conv2d(32, len(JOINTS), 1)
-
-        def forward(self, x):  # returns logits
-            a = self.s32(x)
-            b = self.s16(a)
-            c = self.s8(b)
-            d = self.s4(c)
-            c = self.m8(c + self.up4(d))
-            b = self.m16(b + self.up8(c))
-            a = self.m32(a + self.up16(b))
-            return self.head(a)
-
-    class NetV3(nn.Module):
-        """As NetV2, wider at 1/8 and 1/16, and with a 1/2 scale: heat maps of
-        half the input (64x64 at 128x128), so that a keypoint's sub-cell
-        position is a 2-pixel matter rather than a 4-pixel one (issue 36,
-        item 3).  Trained on a GPU (docs/DETECTOR.md, "v3 network")."""
-
-        def __init__(self):
-            super().__init__()
-            self.s64 = nn.Sequential(*cbr(3, 16, 2))                                               # 64x64
-            self.s32 = nn.Sequential(*cbr(16, 32, 2), *cbr(32, 32))                                # 32x32
-            self.s16 = nn.Sequential(nn.MaxPool2d(2), *cbr(32, 80), *cbr(80, 80))                  # 16x16
-            self.s8 = nn.Sequential(nn.MaxPool2d(2), *cbr(80, 128), *cbr(128, 128), *cbr(128, 128))  # 8x8
-            self.s4 = nn.Sequential(nn.MaxPool2d(2), *cbr(128, 192), *cbr(192, 192), *cbr(192, 192))  # 4x4
-            self.up4, self.m8 = up(192, 128), nn.Sequential(*cbr(128, 128))
-            self.up8, self.m16 = up(128, 80), nn.Sequential(*cbr(80, 80))
-            self.up16, self.m32 = up(80, 32), nn.Sequential(*cbr(32, 32))
-            self.up32, self.m64 = up(32, 16), nn.Sequential(*cbr(16, 16))
-            self.head = nn.Conv2d(16, len(JOINTS), 1)
-
-        def forward(self, x):  # returns logits
-            e = self.s64(x)
-            a = self.s32(e)
-            b = self.s16(a)
-            c = self.s8(b)
-            d = self.s4(c)
-            c = self.m8(c + self.up4(d))
-            b = self.m16(b + self.up8(c))
-            a = self.m32(a + self.up16(b))
-            e = self.m64(e + self.up32(a))
-            return self.head(e)
-
-    return {"v1": Net, "v2": NetV2, "v3": NetV3}[arch]()
+    if arch == "v1":  # 3xHxW -> 18x(H/4)x(W/4)
+        return Pyramid([("s32", seq(*cbr(3, 12, 2), *cbr(12, 24, 2), *cbr(24, 24))),
+                        ("s16", seq(pool(2), *cbr(24, 40), *cbr(40, 40))),
+                        ("s8", seq(pool(2), *cbr(40, 56), *cbr(56, 56)))],
+                       [("up8", up(56, 40), "m16", seq(*cbr(40, 40))),
+                        ("up16", up(40, 24), "m32", seq(*cbr(24, 24)))], 24)
+    if arch == "v2":  # as v1, wider, with a 1/32 scale (4x4 at 128x128) for whole-view context
+        return Pyramid([("s32", seq(*cbr(3, 16, 2), *cbr(16, 32, 2), *cbr(32, 32))),
+                        ("s16", seq(pool(2), *cbr(32, 64), *cbr(64, 64))),
+                        ("s8", seq(pool(2), *cbr(64, 96), *cbr(96, 96), *cbr(96, 96))),
+                        ("s4", seq(pool(2), *cbr(96, 128), *cbr(128, 128), *cbr(128, 128)))],
+                       [("up4", up(128, 96), "m8", seq(*cbr(96, 96))),
+                        ("up8", up(96, 64), "m16", seq(*cbr(64, 64))),
+                        ("up16", up(64, 32), "m32", seq(*cbr(32, 32)))], 32)
+    # v3: 3xHxW -> 18x(H/2)x(W/2)
+    return Pyramid([("s64", seq(*cbr(3, 16, 2))),
+                    ("s32", seq(*cbr(16, 32, 2), *cbr(32, 32))),
+                    ("s16", seq(pool(2), *cbr(32, 80), *cbr(80, 80))),
+                    ("s8", seq(pool(2), *cbr(80, 128), *cbr(128, 128), *cbr(128, 128))),
+                    ("s4", seq(pool(2), *cbr(128, 192), *cbr(192, 192), *cbr(192, 192)))],
+                   [("up4", up(192, 128), "m8", seq(*cbr(128, 128))),
+                    ("up8", up(128, 80), "m16", seq(*cbr(80, 80))),
+                    ("up16", up(80, 32), "m32", seq(*cbr(32, 32))),
+                    ("up32", up(32, 16), "m64", seq(*cbr(16, 16)))], 16)
 
 
 def decode(hm):
