@@ -55,7 +55,7 @@ class Part:
             with open(os.path.join(self.dir, rel), "wb") as f:
                 f.write(blob)
             self.bytes += len(blob)
-        line = json.dumps(rec) + "\n"
+        line = json.dumps(rec, separators=(",", ":")) + "\n"
         self.labels.write(line)
         self.bytes += len(line)
         self.n += 1
