@@ -492,8 +492,48 @@ void mc_detector_fill_blob(mc_detector *d, const cv::Mat &img)
 
 namespace {
 
-// A heatmap network: the view resized to the input, one forward pass, the
-// per-joint argmax (mc_detector_decode).
+// One forward pass of the view in d->blob; its heat maps in *o.
+int forward_heatmaps(mc_detector *d, cv::Mat *o, double *infer_ms, mc_err *err)
+{
+	uint64_t t1 = mc_now_ns();
+	d->net.setInput(d->blob, d->input_name);
+	*o = d->net.forward(d->output_name);
+	*infer_ms += mc_ms_since(t1);
+	if (o->dims != 4 || o->size[1] != d->njoints || o->size[2] != d->hm_h || o->size[3] != d->hm_w ||
+	    o->type() != CV_32F)
+		return mc_err_set(err, "%s: the network's output changed shape", d->path.c_str());
+	if (!o->isContinuous())
+		return mc_err_set(err, "%s: the network's output is not contiguous", d->path.c_str());
+	return 0;
+}
+
+// The flip test: the mirrored view's heat maps, mirrored back, each channel
+// taken from its left/right partner, averaged into d->heatmaps.  A mirrored
+// input column x is column W - 1 - x of the heat map exactly, because the
+// cells' centres map to input pixels symmetrically.
+int add_mirrored_pass(mc_detector *d, const cv::Mat &img, double *infer_ms, mc_err *err)
+{
+	cv::flip(img, d->flipped, 1);
+	mc_detector_fill_blob(d, d->flipped);
+	cv::Mat o;
+	if (forward_heatmaps(d, &o, infer_ms, err) < 0)
+		return -1;
+	const float *m = o.ptr<float>();
+	const size_t plane = (size_t)d->hm_w * (size_t)d->hm_h;
+	for (int j = 0; j < d->njoints; j++) {
+		float *h = d->heatmaps.data() + (size_t)j * plane;
+		const float *p = m + (size_t)d->mirror[(size_t)j] * plane;
+		for (int y = 0; y < d->hm_h; y++)
+			for (int x = 0; x < d->hm_w; x++) {
+				size_t i = (size_t)y * (size_t)d->hm_w;
+				h[i + (size_t)x] = 0.5f * (h[i + (size_t)x] + p[i + (size_t)(d->hm_w - 1 - x)]);
+			}
+	}
+	return 0;
+}
+
+// A heatmap network: the view resized to the input, one forward pass (two
+// with the flip test), the per-joint argmax (mc_detector_decode).
 int detect_heatmap(mc_detector *d, const cv::Mat &src, mc_detection *out, int max, double *infer_ms, mc_err *err)
 {
 	const cv::Mat *img = &src;
@@ -502,17 +542,13 @@ int detect_heatmap(mc_detector *d, const cv::Mat &src, mc_detection *out, int ma
 		img = &d->resized;
 	}
 	mc_detector_fill_blob(d, *img);
-	uint64_t t1 = mc_now_ns();
-	d->net.setInput(d->blob, d->input_name);
-	cv::Mat o = d->net.forward(d->output_name);
-	*infer_ms = mc_ms_since(t1);
-	if (o.dims != 4 || o.size[1] != d->njoints || o.size[2] != d->hm_h || o.size[3] != d->hm_w ||
-	    o.type() != CV_32F)
-		return mc_err_set(err, "%s: the network's output changed shape", d->path.c_str());
-	if (o.isContinuous())
-		memcpy(d->heatmaps.data(), o.ptr<float>(), d->heatmaps.size() * sizeof(float));
-	else
-		return mc_err_set(err, "%s: the network's output is not contiguous", d->path.c_str());
+	cv::Mat o;
+	*infer_ms = 0;
+	if (forward_heatmaps(d, &o, infer_ms, err) < 0)
+		return -1;
+	memcpy(d->heatmaps.data(), o.ptr<float>(), d->heatmaps.size() * sizeof(float));
+	if (d->flip && add_mirrored_pass(d, *img, infer_ms, err) < 0)
+		return -1;
 	return mc_detector_decode(d->heatmaps.data(), d->njoints, d->hm_h, d->hm_w, d->in_w, d->in_h, src.cols,
 				  src.rows, d->threshold, out, max);
 }
@@ -633,6 +669,22 @@ void mc_detector_set_person_square(mc_detector *d, const mc_detector_square *sq)
 	d->has_hint = sq && std::isfinite(sq->x0) && std::isfinite(sq->y0) && sq->size >= 8.0f;
 	if (d->has_hint)
 		d->hint = *sq;
+}
+
+void mc_detector_set_flip(mc_detector *d, int on)
+{
+	if (!d || d->decoder != mc_decoder::heatmap)
+		return;
+	d->flip = on != 0;
+	d->mirror.resize((size_t)d->njoints);
+	for (int j = 0; j < d->njoints; j++) {
+		const std::string &name = d->joints[(size_t)j];
+		std::string other = name.rfind("left_", 0) == 0    ? "right_" + name.substr(5)
+				    : name.rfind("right_", 0) == 0 ? "left_" + name.substr(6)
+								   : name;
+		int k = mc_detector_find_joint(d, other.c_str());
+		d->mirror[(size_t)j] = k >= 0 ? k : j;
+	}
 }
 
 void mc_detector_set_refine(mc_detector *d, int on)

@@ -91,6 +91,13 @@ const char *mc_detector_path(const mc_detector *d);
 float mc_detector_threshold(const mc_detector *d);
 void mc_detector_set_threshold(mc_detector *d, float threshold);
 
+/* Heatmap models: whether each view is also run mirrored (left to right),
+ * its heat maps mirrored back with each left/right pair's channels
+ * exchanged, and averaged with the plain pass's (a flip test: twice the
+ * network's cost; docs/DETECT_RUNTIME.md, "Flip test").  Off by default; no
+ * effect on MoveNet models. */
+void mc_detector_set_flip(mc_detector *d, int on);
+
 /* MoveNet models (sidecar "decoder": "movenet"): whether a second pass looks
  * at a square around the person the first pass found (the sidecar's
  * "refine", default on).  No effect on heatmap models. */

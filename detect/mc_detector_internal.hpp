@@ -35,6 +35,9 @@ struct mc_detector {
 	cv::Mat blob;              // 1x3xHinxWin
 	cv::Mat resized;           // Hin x Win RGB
 	std::vector<float> heatmaps; // J x H x W of the last call
+	bool flip = false;        // heatmap models: average with the mirrored view (mc_detector_set_flip)
+	std::vector<int> mirror;  // each joint's left/right partner (itself for the middle joints)
+	cv::Mat flipped;          // the mirrored view
 	mc_detector_timing timing{};
 	double total_ms = 0;
 };

@@ -488,9 +488,10 @@ static int open_detector(const options *o, const mc_tracker *t, const mc_clip *c
 		return -1;
 	if (o->detector_threshold >= 0)
 		mc_detector_set_threshold(det->det, (float)o->detector_threshold);
-	printf("detector: %s, every %d frame set(s), %s, lambda_detection %.3g, lambda_color %.3g\n",
+	mc_detector_set_flip(det->det, o->detector_flip);
+	printf("detector: %s, every %d frame set(s), %s%s, lambda_detection %.3g, lambda_color %.3g\n",
 	       o->detector_path, det->every, o->detector_serial ? "serial (detect, then track)" : "pipelined (as in mocapd)",
-	       o->s.lambda_detection, o->s.lambda_color);
+	       o->detector_flip ? ", flip test" : "", o->s.lambda_detection, o->s.lambda_color);
 	return 0;
 }
 

@@ -9,7 +9,9 @@
  * joints are detected and the median pixel error over them is at most
  * BOUND_FRAME0_PX; over frames 0, 15, 30, 45 of both cameras (8 views) the
  * median is at most BOUND_ALL_PX.  Each view's median and 90th percentile
- * and its misses are printed.  Skips (77) when no model is there. */
+ * and its misses are printed.  The flip test (mc_detector_set_flip) makes
+ * the detector mirror-symmetric on left/00000.jpg.  Skips (77) when no
+ * model is there. */
 #include "base/mc_stats.h"
 #include "eval/mc_clip.h"
 #include "geom/mc_camera.h"
@@ -17,6 +19,7 @@
 #include "test_util.h"
 
 #include <glob.h>
+#include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -73,6 +76,67 @@ static int measure(mc_detector *d, const mc_clip *clip, const mc_frame_view *vie
 	return n;
 }
 
+/* The joint's left/right partner (itself for the middle joints). */
+static int partner(const mc_detector *d, int j)
+{
+	const char *name = mc_detector_joint_name(d, j);
+	char other[64];
+	if (!strncmp(name, "left_", 5))
+		snprintf(other, sizeof(other), "right_%s", name + 5);
+	else if (!strncmp(name, "right_", 6))
+		snprintf(other, sizeof(other), "left_%s", name + 6);
+	else
+		return j;
+	return mc_detector_find_joint(d, other);
+}
+
+/* How many joints break the mirror symmetry: detected on the view and on its
+ * mirror image, joint j of the one against its partner of the other (u to
+ * width - 1 - u) more than 0.01 px or 1e-4 in confidence apart, or found in
+ * one only.  With the flip test the detector is symmetric by construction
+ * (its heat maps are an average of both passes), so the count is 0. */
+static int mirror_mismatches(mc_detector *d, const mc_frame_view *view)
+{
+	int w = view->width, h = view->height, bad = 0;
+	uint8_t *mirrored = malloc((size_t)w * (size_t)h * 3);
+	if (!mirrored)
+		return -1;
+	for (int y = 0; y < h; y++)
+		for (int x = 0; x < w; x++)
+			memcpy(mirrored + ((size_t)y * (size_t)w + (size_t)(w - 1 - x)) * 3,
+			       view->rgb + (size_t)y * (size_t)view->stride + (size_t)x * 3, 3);
+	mc_detection a[MC_DETECTOR_MAX_JOINTS], b[MC_DETECTOR_MAX_JOINTS];
+	mc_err err = {{0}};
+	int na = mc_detector_detect(d, view->rgb, w, h, view->stride, a, MC_DETECTOR_MAX_JOINTS, &err);
+	int nb = mc_detector_detect(d, mirrored, w, h, 0, b, MC_DETECTOR_MAX_JOINTS, &err);
+	free(mirrored);
+	if (na < 0 || nb < 0)
+		return -1;
+	bad = na != nb;
+	for (int i = 0; i < na; i++) {
+		int k = 0, p = partner(d, a[i].joint);
+		while (k < nb && b[k].joint != p)
+			k++;
+		if (k == nb || fabs(b[k].u - (w - 1 - a[i].u)) > 0.01 || fabs(b[k].v - a[i].v) > 0.01 ||
+		    fabs(b[k].confidence - a[i].confidence) > 1e-4)
+			bad++;
+	}
+	return bad;
+}
+
+/* The flip test (mc_detector_set_flip) on the demo's first left view. */
+static void test_flip(mc_detector *d, const mc_frame_view *view)
+{
+	int plain = mirror_mismatches(d, view);
+	mc_detector_set_flip(d, 1);
+	int flipped = mirror_mismatches(d, view);
+	mc_detector_set_flip(d, 0);
+	printf("flip test: %d joints break the mirror symmetry without it, %d with it\n", plain, flipped);
+	CHECK_MSG(plain > 0, "the plain network is mirror-symmetric on this view (%d): the check below proves nothing",
+		  plain);
+	CHECK_MSG(flipped == 0, "%d joints break the mirror symmetry with the flip test", flipped);
+}
+
 int main(void)
 {
 	char model[4096] = "";
@@ -125,6 +189,7 @@ int main(void)
 			printf("frame %2d %-5s: %2d joints detected, %d missed, median %.1f px, p90 %.1f px\n", frames[f],
 			       cam ? "right" : "left", found, missed, med, p90);
 			if (first) {
+				test_flip(d, &views[cam]);
 				CHECK_MSG(found >= MIN_FOUND, "only %d joints detected on left/00000.jpg (at least %d expected)",
 					  found, MIN_FOUND);
 				CHECK_MSG(ne > 0 && med <= BOUND_FRAME0_PX,

@@ -60,6 +60,7 @@ static void usage(FILE *f)
 		   "                        thread of its own while k is tracked, and the speed counts the\n"
 		   "                        tracking and any wait for the detection\n"
 		   "  --detector-serial     detect, then track, one frame set after the other (both timed)\n"
+		   "  --detector-flip       heatmap models: also detect on the mirrored view and average (twice the cost)\n"
 		   "  --detector-hint pose|none  MoveNet models look once where the tracked pose is, as mocapd\n"
 		   "                        does, and at the whole view only when that misses (default none)\n"
 		   "  --keypoints-at-iteration N  the keypoints (detector or simulated) join the tracking at\n"
@@ -96,7 +97,7 @@ enum { OPT_MODEL = 256, OPT_OUT, OPT_FRAMES, OPT_BACKEND, OPT_WIDTH, OPT_HEIGHT,
        OPT_NOTHESIS, OPT_QUIET, OPT_CLIP, OPT_HELP, OPT_OVERLAY, OPT_OVERLAY_EVERY, OPT_LANCHOR,
        OPT_SIMDET, OPT_LDET, OPT_DETECTOR, OPT_DET_EVERY, OPT_LCOLOR, OPT_DET_THRESHOLD, OPT_INIT,
        OPT_NORECOVER, OPT_CAMERAS, OPT_LFLOOR, OPT_DET_SERIAL, OPT_KP_AT, OPT_FRAME_STEP, OPT_KP_OUT, OPT_FPS, OPT_SIM_PRESET, OPT_SIM_COLLAPSE, OPT_SIM_SWAP, OPT_SIM_OUTLIER, OPT_SIM_OCC,
-       OPT_SIM_BLIND, OPT_SIDES, OPT_FIT_LIMBS, OPT_PRIOR, OPT_LPRIOR, OPT_DET_HINT, OPT_VERSION = 'V' };
+       OPT_SIM_BLIND, OPT_SIDES, OPT_FIT_LIMBS, OPT_PRIOR, OPT_LPRIOR, OPT_DET_HINT, OPT_DET_FLIP, OPT_VERSION = 'V' };
 
 static int apply_option(options *o, int c, const char *name, const char *arg, bool *thesis)
 {
@@ -125,6 +126,7 @@ static int apply_option(options *o, int c, const char *name, const char *arg, bo
 		o->given |= MC_GIVEN_ASSIGN_SIDES;
 		return 0;
 	case OPT_DET_SERIAL: o->detector_serial = true; return 0;
+	case OPT_DET_FLIP: o->detector_flip = true; return 0;
 	case OPT_DET_HINT:
 		if (strcmp(arg, "pose") != 0 && strcmp(arg, "none") != 0) {
 			fprintf(stderr, "mocap-bench: --detector-hint: expected pose or none, got '%s'\n", arg);
@@ -242,6 +244,7 @@ int bench_parse_options(int argc, char **argv, options *o, bool *thesis)
 		{"overlay-every", 1, 0, OPT_OVERLAY_EVERY}, {"quiet", 0, 0, OPT_QUIET}, {"help", 0, 0, OPT_HELP},
 		{"init", 1, 0, OPT_INIT}, {"no-recover", 0, 0, OPT_NORECOVER}, {"sides", 1, 0, OPT_SIDES}, {"fit-limbs", 0, 0, OPT_FIT_LIMBS}, {"cameras", 1, 0, OPT_CAMERAS},
 		{"lambda-floor", 1, 0, OPT_LFLOOR}, {"detector-serial", 0, 0, OPT_DET_SERIAL},
+		{"detector-flip", 0, 0, OPT_DET_FLIP},
 		{"keypoints-at-iteration", 1, 0, OPT_KP_AT}, {"frame-step", 1, 0, OPT_FRAME_STEP},
 		{"keypoints-out", 1, 0, OPT_KP_OUT}, {"fps", 1, 0, OPT_FPS}, {"sim-preset", 1, 0, OPT_SIM_PRESET},
 		{"sim-collapse", 1, 0, OPT_SIM_COLLAPSE}, {"sim-swap", 1, 0, OPT_SIM_SWAP},

@@ -37,6 +37,7 @@ typedef struct {
 	const char *detector_path; /* --detector MODEL: the 2D joint detector feeds the tracker */
 	int detector_every;        /* detect on every Nth frame set */
 	bool detector_serial;      /* detect and track one after the other (default: pipelined) */
+	bool detector_flip;        /* heatmap models: the flip test (mc_detector_set_flip) */
 	bool detector_hint;        /* --detector-hint pose: MoveNet looks where the tracked pose is */
 	int keypoints_at_iteration; /* > 0: keypoints join the tracking at this iteration */
 	double detector_threshold; /* < 0: the model's own */
