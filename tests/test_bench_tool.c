@@ -292,6 +292,31 @@ static void test_detector_pipelined(void)
 	      strstr(out, "/nonexistent/model.onnx"));
 }
 
+/* --detector-flip: the detector line says so, and the keypoints the tracker
+ * is given are not the plain ones (mc_detector_set_flip took effect). */
+static void test_detector_flip(void)
+{
+	static char out[1 << 16], kp[2][1 << 18];
+	const char *model = "config/models/ego_detector.onnx";
+	if (access(model, R_OK) != 0)
+		return;
+	char args[512], path[128];
+	snprintf(path, sizeof(path), "%s/flip.jsonl", tmpdir);
+	for (int flip = 0; flip < 2; flip++) {
+		snprintf(args, sizeof(args),
+			 "--clip tests/data/ego_demo --frames 2 --reference-frames 0 --no-thesis --quiet --detector %s "
+			 "--keypoints-out %s%s",
+			 model, path, flip ? " --detector-flip" : "");
+		int rc = run_tool(args, out, sizeof(out));
+		CHECK_MSG(rc == 0 && strstr(line_of(out, "RESULT "), "RESULT clip=ego_demo frames=2"), "exit %d:\n%s", rc,
+			  out);
+		CHECK_MSG(!strstr(line_of(out, "detector: "), ", flip test,") == !flip, "%s", line_of(out, "detector: "));
+		CHECK(slurp(path, kp[flip], sizeof(kp[flip])) && strlen(kp[flip]) > 100);
+	}
+	CHECK_MSG(strcmp(kp[0], kp[1]) != 0, "the same keypoints with and without --detector-flip");
+	unlink(path);
+}
+
 /* --frame-step N: every Nth frame set is tracked and scored (cameras at
  * 1/N of the clip's rate), without the detector and with it (pipelined). */
 static void test_frame_step(void)
@@ -536,6 +561,7 @@ int main(int argc, char **argv)
 	test_run();
 	test_outside_in();
 	test_detector_pipelined();
+	test_detector_flip();
 	test_frame_step();
 	test_keypoints_out();
 	test_unscored_clip();
