@@ -6,6 +6,8 @@
 #   make detector-data-v2   the v2 data (held-out factors, bystanders): a resumable
 #                           job into $(DETECTOR_DIR)/v2 (progress: detector-progress-v2)
 #   make detector-train-v2  stage 1 on the v2 data (resumes from $(DETECTOR_DIR)/v2/ckpt.pt)
+#   make detector-pack-v2   the v2 data as WebP parts in $(DETECTOR_DIR)/v2/pack, each one
+#                           tar.gz, for training on a GPU machine (tools/train/train_gpu.sh)
 #   make detector-train     train, stage 1 (resumes from $(DETECTOR_DIR)/ckpt.pt)
 #   make detector-finetune  stage 2 (resumes from $(DETECTOR_DIR)/stage2/ckpt.pt)
 #   make detector-export    export stage 2's best checkpoint to config/models/ego_detector.onnx
@@ -82,6 +84,17 @@ detector-data-v2:
 detector-progress-v2:
 	@$(TRAIN_PYTHON) tools/synth/job.py --out $(DETECTOR_V2_DIR) --train $(DETECTOR_V2_TRAIN) \
 	  --val $(DETECTOR_V2_VAL) --seed $(DETECTOR_V2_SEED) --status
+
+# For a GPU machine (docs/DETECTOR.md, "v3 network and GPU training"): parts
+# of at most DETECTOR_PACK_MB MB of WebP views, each packed as PART.tar.gz;
+# there, unpack them all into one folder and run tools/train/train_gpu.sh.
+DETECTOR_PACK_MB ?= 42.5
+.PHONY: detector-pack-v2
+detector-pack-v2:
+	rm -rf $(DETECTOR_V2_DIR)/pack
+	$(TRAIN_PYTHON) tools/train/pack.py --data $(DETECTOR_V2_DIR)/data --out $(DETECTOR_V2_DIR)/pack \
+	  --part-mb $(DETECTOR_PACK_MB)
+	cd $(DETECTOR_V2_DIR)/pack && for p in part*; do tar -czf $$p.tar.gz $$p && rm -r $$p; done
 
 # The v2 network (common.build_model("v2")) with the left/right overlap
 # penalty.  One torch thread: two ran 10x slower here whenever anything else

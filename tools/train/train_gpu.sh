@@ -4,8 +4,9 @@
 #
 #   tools/train/train_gpu.sh DATA RESULT MINUTES
 #
-# DATA is a data folder: tools/synth's, or the parts of tools/train/pack.py
-# copied into one folder (cp -r PACK/part*/. DATA/).  The learning rate
+# DATA is a data folder: tools/synth's, or the parts of `make
+# detector-pack-v2` unpacked into one folder (for each part:
+# tar -xzf PART.tar.gz -C DATA --strip-components=1).  The learning rate
 # follows the time spent (train.py --minutes).  RESULT gets best.pt (the
 # epoch with the lowest validation loss) and train.log; the checkpoint with
 # the optimiser goes to build/gpu/NAME/ckpt.pt (NAME: RESULT's last part).
