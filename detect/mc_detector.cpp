@@ -523,11 +523,12 @@ int add_mirrored_pass(mc_detector *d, const cv::Mat &img, double *infer_ms, mc_e
 	for (int j = 0; j < d->njoints; j++) {
 		float *h = d->heatmaps.data() + (size_t)j * plane;
 		const float *p = m + (size_t)d->mirror[(size_t)j] * plane;
-		for (int y = 0; y < d->hm_h; y++)
-			for (int x = 0; x < d->hm_w; x++) {
-				size_t i = (size_t)y * (size_t)d->hm_w;
-				h[i + (size_t)x] = 0.5f * (h[i + (size_t)x] + p[i + (size_t)(d->hm_w - 1 - x)]);
-			}
+		for (int y = 0; y < d->hm_h; y++) {
+			float *row = h + (size_t)y * (size_t)d->hm_w;
+			const float *mirrored_row = p + (size_t)y * (size_t)d->hm_w;
+			for (int x = 0; x < d->hm_w; x++)
+				row[x] = 0.5f * (row[x] + mirrored_row[d->hm_w - 1 - x]);
+		}
 	}
 	return 0;
 }
