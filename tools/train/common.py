@@ -31,10 +31,10 @@ IN_W, IN_H, HM_W, HM_H = IN, IN, HM, HM
 KIND = "ego"
 
 
-ARCHS = ("v1", "v2", "v3")
+ARCHS = ("v1", "v2", "v3", "mn")
 # Heat-map cells per input pixel side, per architecture: v3's heat maps are
 # half the input (64x64 at 128x128) for sub-pixel keypoints.
-HM_DIV = {"v1": 4, "v2": 4, "v3": 2}
+HM_DIV = {"v1": 4, "v2": 4, "v3": 2, "mn": 4}
 
 
 def set_kind(kind, arch="v1"):
@@ -64,11 +64,16 @@ def build_model(arch="v1"):
     and 1/16, and a 1/2 scale, so that the heat maps are half the input
     (64x64 at 128x128) and a keypoint's sub-cell position is a 2-pixel
     matter rather than a 4-pixel one (129 M multiply-adds; trained on a GPU,
-    docs/DETECTOR.md "v3 network").  All use only Conv/BN/ReLU, MaxPool,
+    docs/DETECTOR.md "v3 network").  mn: pretrained MoveNet Lightning's
+    backbone and pyramid with a head for our joints (pretrained.py; heat
+    maps of 1/4 the input).  v1-v3 use only Conv/BN/ReLU, MaxPool,
     nearest Upsample, Add and Sigmoid: the ONNX contract of docs/DETECTOR.md."""
     import torch.nn as nn
     if arch not in ARCHS:
         raise ValueError("unknown architecture %r (known: %s)" % (arch, ", ".join(ARCHS)))
+    if arch == "mn":
+        from pretrained import MoveNetEgo
+        return MoveNetEgo(JOINTS)
     cbr = _cbr
     pool = nn.MaxPool2d
 

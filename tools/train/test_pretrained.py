@@ -1,0 +1,103 @@
+#!/usr/bin/python3
+"""Tests of pretrained.py: the shipped MoveNet read back into torch, and the
+head rig's network started from it (`make check-train-tools`; needs
+`make deps-train` and python3-onnx).
+
+    /usr/bin/python3 -m pytest -q tools/train/test_pretrained.py
+"""
+import os
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path.insert(0, HERE)
+torch = pytest.importorskip("torch")
+pytest.importorskip("onnx")
+import common as C  # noqa: E402
+import pretrained as P  # noqa: E402
+
+F = torch.nn.functional
+
+
+def test_symmetric_padding_matches_tensorflow_same():
+    """A stride-2 convolution padded (0, 0, 1, 1), as TensorFlow's SAME
+    pads it, equals the wider kernel with symmetric padding."""
+    g = torch.Generator().manual_seed(1)
+    x, w = torch.randn(2, 3, 16, 16, generator=g), torch.randn(5, 3, 3, 3, generator=g)
+    want = F.conv2d(F.pad(x, (0, 1, 0, 1)), w, stride=2)
+    w2, pad = P._symmetric(w, [0, 0, 1, 1])
+    assert w2.shape == (5, 3, 4, 4) and pad == (1, 1)
+    got = F.conv2d(x, w2, stride=2, padding=pad)
+    assert got.shape == want.shape
+    assert float((got - want).abs().max()) < 1e-5
+    with pytest.raises(ValueError):
+        P._symmetric(w, [1, 1, 0, 0])
+
+
+def test_hard_sigmoid_is_onnx_hard_sigmoid():
+    x = torch.linspace(-10, 10, 101)
+    for alpha, beta in ((1 / 6, 0.0), (0.2, 0.5)):
+        want = torch.clamp(x * alpha + beta, 0, 1)
+        assert float((P._hard_sigmoid(x, alpha, beta) - want).abs().max()) < 1e-6
+
+
+def test_trunk_reproduces_movenet():
+    """The whole MoveNet graph run by OnnxTrunk gives OpenCV DNN's heat
+    maps (the converter's own check is against TensorFlow.js)."""
+    cv2 = pytest.importorskip("cv2")
+    trunk = P.OnnxTrunk(P.MOVENET_ONNX, "heatmaps")
+    x = torch.rand(1, 3, 192, 192, generator=torch.Generator().manual_seed(2))
+    with torch.no_grad():
+        got = trunk(x).numpy()
+    net = cv2.dnn.readNetFromONNX(P.MOVENET_ONNX)
+    net.setInput(x.numpy(), "image")
+    want = net.forward("heatmaps")
+    assert got.shape == want.shape == (1, 17, 48, 48)
+    assert float(np.abs(got - want).max()) < 1e-4
+
+
+def test_head_starts_as_movenets_coco_head():
+    """Before training, our shoulder channel is MoveNet's shoulder channel
+    and the neck the mean of both shoulders' logits."""
+    C.set_kind("ego", "mn")
+    model = C.build_model("mn").eval()
+    ref = P.OnnxTrunk(P.MOVENET_ONNX, "BiasAdd_330")  # COCO heat-map logits
+    x = torch.rand(2, 3, 128, 128, generator=torch.Generator().manual_seed(3))
+    with torch.no_grad():
+        ours, coco = model(x), ref(x)
+    assert ours.shape == (2, len(C.JOINTS), 32, 32)
+    ls, rs = P.COCO.index("left_shoulder"), P.COCO.index("right_shoulder")
+    assert float((ours[:, C.JOINTS.index("left_shoulder")] - coco[:, ls]).abs().max()) < 1e-4
+    neck = (coco[:, ls] + coco[:, rs]) / 2
+    assert float((ours[:, C.JOINTS.index("neck")] - neck).abs().max()) < 1e-4
+
+
+def test_unsupported_op_is_named(tmp_path):
+    onnx = pytest.importorskip("onnx")
+    from onnx import TensorProto, helper
+    g = helper.make_graph([helper.make_node("Tanh", ["x"], ["y"], name="squash")], "g",
+                          [helper.make_tensor_value_info("x", TensorProto.FLOAT, [1, 1])],
+                          [helper.make_tensor_value_info("y", TensorProto.FLOAT, [1, 1])])
+    path = str(tmp_path / "tanh.onnx")
+    onnx.save(helper.make_model(g), path)
+    with pytest.raises(ValueError, match="squash.*Tanh"):
+        P.OnnxTrunk(path, "y")
+
+
+def test_export_reads_in_opencv(tmp_path):
+    """The exported network (sigmoid heat maps) runs in OpenCV 4.6 DNN as
+    in torch: no Pad or three-input Clip nodes that it cannot read."""
+    pytest.importorskip("cv2")
+    C.set_kind("ego", "mn")
+    model = C.build_model("mn")
+    ck = str(tmp_path / "mn.pt")
+    torch.save({"model": model.state_dict(), "state": {}, "params": 0, "arch": "mn"}, ck)
+    out = subprocess.run([sys.executable, os.path.join(HERE, "train.py"), "--arch", "mn", "--weights", ck,
+                          "--export", str(tmp_path / "mn.onnx")], capture_output=True, text=True, timeout=300)
+    assert out.returncode == 0, out.stderr[-2000:]
+    line = [s for s in out.stderr.splitlines() if "max |cv - torch|" in s]
+    assert line, out.stderr[-2000:]
+    assert float(line[0].split("=")[1].split(",")[0]) < 1e-4
