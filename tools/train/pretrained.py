@@ -109,6 +109,11 @@ class OnnxTrunk(nn.Module):
                         self.register_buffer(key, t)
                     self.names[name] = key
         self.attrs = [_attrs(n) for n in self.nodes]
+        last = {name: k for k, n in enumerate(self.nodes) for name in n.input}
+        # per node, the values no later node reads: dropped, so that inference
+        # holds only live activations (training keeps them for backward anyway)
+        self.dead = [[name for name in set(n.input) if last.get(name) == k and name != output]
+                     for k, n in enumerate(self.nodes)]
 
     @staticmethod
     def _needed(nodes, output):
@@ -135,7 +140,7 @@ class OnnxTrunk(nn.Module):
         def val(name):
             return self.const(name) if name in self.names else env[name]
 
-        for n, a in zip(self.nodes, self.attrs):
+        for n, a, dead in zip(self.nodes, self.attrs, self.dead):
             op, ins = n.op_type, n.input
             if op == "Conv":
                 p = a.get("pads", [0, 0, 0, 0])
@@ -161,6 +166,8 @@ class OnnxTrunk(nn.Module):
             else:  # Identity
                 y = val(ins[0])
             env[n.output[0]] = y
+            for name in dead:
+                env.pop(name, None)
         return env[self.output]
 
 
