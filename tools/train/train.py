@@ -486,6 +486,9 @@ def export(a):
             "parameters": ck.get("params"),
             "input_format": "float32 NCHW 1x3x%dx%d, RGB, [0,1]; output heatmaps float32 1x18x%dx%d in [0,1]" % (
                 C.IN_H, C.IN_W, C.HM_H, C.HM_W)}
+    if ck_arch(ck) == "mn":  # the weights it started from, and their terms
+        from pretrained import PRETRAINED_CARD
+        side.update(PRETRAINED_CARD)
     side_path = os.path.splitext(a.export)[0] + ".json"
     with open(side_path, "w") as f:
         json.dump(side, f, indent=1)
