@@ -123,6 +123,56 @@ class OnnxTrunk(nn.Module):
         self.dead = [[name for name in set(n.input) if last.get(name) == k and name != output]
                      for k, n in enumerate(self.nodes)]
 
+    def fold_relu6(self):
+        """For export: the same function with fewer ONNX nodes.  MoveNet's
+        ReLU6 is HardSigmoid(x/6) then a Mul by 6, and torch's hardsigmoid
+        needs an Add of -3 before it: 3 nodes after each convolution, where
+        OpenCV fuses only one activation into a convolution.  The -3 moves
+        into the convolution's bias and the 6 into the next convolutions'
+        weights, leaving Conv, HardSigmoid, Conv (at 128x128 in OpenCV 4.6,
+        one thread: 17.0 -> 15.7 ms per view).
+        Returns how many activations were folded."""
+        uses = {}
+        for k, n in enumerate(self.nodes):
+            for i, name in enumerate(n.input):
+                uses.setdefault(name, []).append((k, i))
+        producer = {n.output[0]: k for k, n in enumerate(self.nodes)}
+        folded = 0
+        with torch.no_grad():
+            for k, n in enumerate(self.nodes):
+                a = self.attrs[k]
+                if n.op_type != "HardSigmoid" or abs(a.get("alpha", 0.2) - 1 / 6) > 1e-7:
+                    continue
+                p = producer.get(n.input[0])
+                pn = self.nodes[p] if p is not None else None
+                if (pn is None or pn.op_type != "Conv" or len(pn.input) < 3 or len(uses[pn.output[0]]) != 1
+                        or len(uses[pn.input[2]]) != 1):
+                    continue
+                self.const(pn.input[2]).add_(6 * a.get("beta", 0.5) - 3)
+                a["_shifted"] = True
+                folded += 1
+                for m, _ in uses.get(n.output[0], []):
+                    self._fold_scale(m, n.output[0], uses)
+        return folded
+
+    def _fold_scale(self, m, src, uses):
+        """A Mul of `src` by a scalar whose result only convolutions read:
+        the scalar into their weights, the Mul made a pass-through."""
+        mn = self.nodes[m]
+        if mn.op_type != "Mul":
+            return
+        other = [i for i in mn.input if i != src]
+        if len(other) != 1 or other[0] not in self.names or self.names[other[0]] not in self.scalars:
+            return
+        readers = uses.get(mn.output[0], [])
+        if not readers or any(self.nodes[r].op_type != "Conv" or i != 0 or len(uses[self.nodes[r].input[1]]) != 1
+                              for r, i in readers):
+            return
+        c = self.scalars[self.names[other[0]]]
+        for r, _ in readers:
+            self.const(self.nodes[r].input[1]).mul_(c)
+        self.attrs[m]["_pass"] = src
+
     @staticmethod
     def _needed(nodes, output):
         """The nodes `output` depends on, in graph order."""
@@ -160,9 +210,10 @@ class OnnxTrunk(nn.Module):
             elif op == "Sub":
                 y = val(ins[0]) - val(ins[1])
             elif op == "Mul":
-                y = val(ins[0]) * val(ins[1])
+                y = val(a["_pass"]) if "_pass" in a else val(ins[0]) * val(ins[1])
             elif op == "HardSigmoid":
-                y = _hard_sigmoid(val(ins[0]), a.get("alpha", 0.2), a.get("beta", 0.5))
+                y = (F.hardsigmoid(val(ins[0])) if a.get("_shifted") else
+                     _hard_sigmoid(val(ins[0]), a.get("alpha", 0.2), a.get("beta", 0.5)))
             elif op == "Relu":
                 y = F.relu(val(ins[0]))
             elif op == "Sigmoid":

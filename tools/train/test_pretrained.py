@@ -101,3 +101,17 @@ def test_export_reads_in_opencv(tmp_path):
     line = [s for s in out.stderr.splitlines() if "max |cv - torch|" in s]
     assert line, out.stderr[-2000:]
     assert float(line[0].split("=")[1].split(",")[0]) < 1e-4
+
+
+def test_fold_relu6_keeps_the_function():
+    """Folding ReLU6's shift into the biases and its scale into the next
+    weights changes no output, and leaves no Mul by 6 behind."""
+    trunk = P.OnnxTrunk(P.MOVENET_ONNX, "heatmaps").eval()
+    x = torch.rand(2, 3, 192, 192, generator=torch.Generator().manual_seed(4))
+    with torch.no_grad():
+        before = trunk(x)
+        assert trunk.fold_relu6() == 35
+        after = trunk(x)
+    assert float((before - after).abs().max()) < 1e-5
+    passed = sum(1 for n, a in zip(trunk.nodes, trunk.attrs) if n.op_type == "Mul" and "_pass" in a)
+    assert passed == 35

@@ -463,6 +463,8 @@ def validation_card(r):
 def export(a):
     path = a.weights or a.ckpt
     m, ck = load_model(path)
+    if hasattr(m, "trunk"):  # --arch mn: ReLU6 in fewer nodes (pretrained.OnnxTrunk.fold_relu6)
+        log("folded %d activations for export" % m.trunk.fold_relu6())
     net = Exported(m).eval()
     x = torch.rand(1, 3, C.IN_H, C.IN_W)
     # torch 2.5 and later would otherwise use its dynamo exporter, whose
