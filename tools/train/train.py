@@ -214,6 +214,12 @@ def loss_fn(logits, tgt, uv=None, st=None, pair_weight=0.0, feet_weight=1.0):
 
 
 # ------------------------------------------------------------------ metrics
+def gross_mask(pred, uv, st):
+    """(N,J): detections more than 10 px off, or of joints outside the image."""
+    err = np.linalg.norm(pred[..., :2] - uv, axis=-1)
+    return (pred[..., 2] >= THRESHOLD) & ((st == 2) | (err > 10))
+
+
 def score(pred, uv, st):
     """pred (N,J,3) decoded; uv, st ground truth. Returns dict of metrics."""
     det = pred[..., 2] >= THRESHOLD
@@ -229,7 +235,7 @@ def score(pred, uv, st):
     vis = st == 0
     res["miss_visible"] = float((~det & vis).sum() / max(1, vis.sum()))
     res["miss_occluded"] = float((~det & (st == 1)).sum() / max(1, (st == 1).sum()))
-    res["false"] = float((det & ((st == 2) | (err > 10))).sum() / max(1, det.sum()))
+    res["false"] = float(gross_mask(pred, uv, st).sum() / max(1, det.sum()))
     res["false_outside"] = int((det & (st == 2)).sum())
     res["n_detected"] = int(det.sum())
     for name, state in (("median_visible", 0), ("median_occluded", 1)):
