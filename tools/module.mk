@@ -6,6 +6,8 @@
 #   make detector-data-v2   the v2 data (held-out factors, bystanders): a resumable
 #                           job into $(DETECTOR_DIR)/v2 (progress: detector-progress-v2)
 #   make detector-train-v2  stage 1 on the v2 data (resumes from $(DETECTOR_DIR)/v2/ckpt.pt)
+#   make detector-train-mn  the head rig's network started from MoveNet (--arch mn), 75 min
+#   make detector-offline   config/models/ego_offline_detector.onnx: mn and the live model averaged
 #   make detector-pack-v2   the v2 data as WebP parts in $(DETECTOR_DIR)/v2/pack, each one
 #                           tar.gz, for training on a GPU machine (tools/train/train_gpu.sh)
 #   make detector-train     train, stage 1 (resumes from $(DETECTOR_DIR)/ckpt.pt)
@@ -109,6 +111,31 @@ detector-train-v2:
 	  --ckpt $(DETECTOR_V2_DIR)/ckpt.pt --seed $(DETECTOR_V2_SEED) --data-seed $(DETECTOR_V2_SEED) \
 	  --arch $(DETECTOR_V2_ARCH) --pair-weight $(DETECTOR_V2_PAIR) --epochs $(DETECTOR_V2_EPOCHS) \
 	  --steps-per-epoch $(DETECTOR_V2_STEPS) --threads $(DETECTOR_V2_THREADS) --resume
+
+# The head rig's network started from MoveNet (--arch mn, docs/DETECTOR.md
+# "Offline model"): 75 minutes of training on the v2 data, two threads (this
+# network is 8x slower to train than v2), resumable; then the offline model,
+# its heat maps averaged with the shipped live model's, and its report.
+DETECTOR_MN_DIR ?= $(DETECTOR_DIR)/mn
+DETECTOR_MN_MINUTES ?= 75
+DETECTOR_OFFLINE ?= config/models/ego_offline_detector.onnx
+.PHONY: detector-train-mn detector-offline
+detector-train-mn:
+	mkdir -p $(DETECTOR_MN_DIR)
+	nice -n 5 $(TRAIN_PYTHON) tools/train/train.py --data $(DETECTOR_V2_DIR)/data \
+	  --ckpt $(DETECTOR_MN_DIR)/ckpt.pt --seed $(DETECTOR_V2_SEED) --data-seed $(DETECTOR_V2_SEED) \
+	  --arch mn --pair-weight $(DETECTOR_V2_PAIR) --epochs 40 --steps-per-epoch $(DETECTOR_V2_STEPS) \
+	  --threads 2 --lr 1e-3 --minutes $(DETECTOR_MN_MINUTES) --resume
+
+detector-offline:
+	$(TRAIN_PYTHON) tools/train/train.py --weights $(DETECTOR_MN_DIR)/best.pt --seed $(DETECTOR_V2_SEED) \
+	  --data-seed $(DETECTOR_V2_SEED) --export $(DETECTOR_MN_DIR)/ego_mn.onnx
+	$(TRAIN_PYTHON) tools/train/ensemble.py config/models/ego_detector.onnx $(DETECTOR_MN_DIR)/ego_mn.onnx \
+	  $(DETECTOR_OFFLINE)
+	$(TRAIN_PYTHON) tools/train/train.py --weights $(DETECTOR_OFFLINE) --ego $(MOCAP_EGO_DIR) \
+	  --data $(DETECTOR_V2_DIR)/data --report --report-out $(DETECTOR_MN_DIR)/offline_report.json
+	$(TRAIN_PYTHON) tools/train/ensemble.py config/models/ego_detector.onnx $(DETECTOR_MN_DIR)/ego_mn.onnx \
+	  $(DETECTOR_OFFLINE) --validation $(DETECTOR_MN_DIR)/offline_report.json
 
 # Outside-in pinhole views (docs/DETECTOR_OUTSIDE.md): frames of
 # DETECTOR_OUTSIDE_VIEWS cameras each, into $(DETECTOR_DIR)/outside/data.

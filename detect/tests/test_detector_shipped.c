@@ -1,5 +1,6 @@
-/* The shipped detector (the one file in config/models that matches
- * *ego*.onnx, or $MOCAP_DETECT_MODEL) on real frames of the bundled demo clip
+/* The shipped head-mounted detectors (every file in config/models that
+ * matches *ego*.onnx: the live ego_detector.onnx and the offline
+ * ego_offline_detector.onnx; or $MOCAP_DETECT_MODEL) on real frames of the bundled demo clip
  * (tests/data/ego_demo): the ground-truth joints of gt.json
  * (joints_left_cam) projected through calib.json (equidistant, r = f theta
  * about (cx, cy); the right camera through right_from_left, by mc_clip)
@@ -137,28 +138,14 @@ static void test_flip(mc_detector *d, const mc_frame_view *view)
 	CHECK_MSG(flipped == 0, "%d joints break the mirror symmetry with the flip test", flipped);
 }
 
-int main(void)
+/* The checks above on one model. */
+static void test_model(const char *model, mc_clip *clip)
 {
-	char model[4096] = "";
-	const char *env = getenv("MOCAP_DETECT_MODEL");
-	if (env && *env)
-		snprintf(model, sizeof(model), "%s", env);
-	else {
-		glob_t g;
-		if (glob("config/models/*ego*.onnx", 0, NULL, &g) == 0 && g.gl_pathc > 0)
-			snprintf(model, sizeof(model), "%s", g.gl_pathv[0]);
-		globfree(&g);
-	}
-	if (!*model)
-		TEST_SKIP("no shipped detector model (config/models/*ego*.onnx) yet; set MOCAP_DETECT_MODEL to test another");
-	mc_clip *clip = calloc(1, sizeof(*clip));
 	mc_err err = {{0}};
-	if (!clip || mc_clip_open("tests/data/ego_demo", false, clip, &err) < 0)
-		TEST_SKIP("run from the repository root (tests/data/ego_demo: %s)", err.msg);
 	mc_detector *d = mc_detector_load(model, &err);
-	CHECK_MSG(d, "%s", err.msg);
+	CHECK_MSG(d, "%s: %s", model, err.msg);
 	if (!d)
-		return mc_test_finish("test_detector_shipped");
+		return;
 	int hw, hh;
 	mc_detector_heatmap_size(d, &hw, &hh);
 	printf("%s: %d joints, heatmaps %dx%d, threshold %.2f\n", model, mc_detector_njoints(d), hw, hh,
@@ -168,7 +155,6 @@ int main(void)
 		CHECK_MSG(!strcmp(mc_detector_joint_name(d, j), mc_detector_default_joint_name(j)),
 			  "joint %d is %s, the contract says %s", j, mc_detector_joint_name(d, j),
 			  mc_detector_default_joint_name(j));
-
 	static double errs[4 * 2 * MC_DETECTOR_MAX_JOINTS];
 	const int frames[] = {0, 15, 30, 45};
 	int nall = 0, missed_all = 0;
@@ -190,10 +176,11 @@ int main(void)
 			       cam ? "right" : "left", found, missed, med, p90);
 			if (first) {
 				test_flip(d, &views[cam]);
-				CHECK_MSG(found >= MIN_FOUND, "only %d joints detected on left/00000.jpg (at least %d expected)",
-					  found, MIN_FOUND);
+				CHECK_MSG(found >= MIN_FOUND, "%s: only %d joints detected on left/00000.jpg (at least %d expected)",
+					  model, found, MIN_FOUND);
 				CHECK_MSG(ne > 0 && med <= BOUND_FRAME0_PX,
-					  "median error %.1f px on left/00000.jpg (bound %.1f px)", med, BOUND_FRAME0_PX);
+					  "%s: median error %.1f px on left/00000.jpg (bound %.1f px)", model, med,
+					  BOUND_FRAME0_PX);
 			}
 		}
 		mc_clip_free_frame(views);
@@ -201,12 +188,34 @@ int main(void)
 	double med = percentile(errs, nall, 50), p90 = percentile(errs, nall, 90);
 	printf("frames 0, 15, 30, 45, both cameras: %d detections, %d missed, median %.1f px, p90 %.1f px\n", nall,
 	       missed_all, med, p90);
-	CHECK_MSG(nall > 0 && med <= BOUND_ALL_PX, "median error %.1f px over the 8 views (bound %.1f px)", med,
-		  BOUND_ALL_PX);
+	CHECK_MSG(nall > 0 && med <= BOUND_ALL_PX, "%s: median error %.1f px over the 8 views (bound %.1f px)", model,
+		  med, BOUND_ALL_PX);
 	mc_detector_timing t;
 	mc_detector_get_timing(d, &t);
 	printf("%.2f ms per 256x256 view (mean of %llu)\n", t.mean_ms, (unsigned long long)t.calls);
 	mc_detector_free(d);
+}
+
+int main(void)
+{
+	glob_t g = {0};
+	const char *env = getenv("MOCAP_DETECT_MODEL");
+	bool from_env = env && *env;
+	if (!from_env && (glob("config/models/*ego*.onnx", 0, NULL, &g) != 0 || g.gl_pathc == 0)) {
+		globfree(&g);
+		TEST_SKIP("no shipped detector model (config/models/*ego*.onnx) yet; set MOCAP_DETECT_MODEL to test another");
+	}
+	mc_clip *clip = calloc(1, sizeof(*clip));
+	mc_err err = {{0}};
+	if (!clip || mc_clip_open("tests/data/ego_demo", false, clip, &err) < 0) {
+		globfree(&g);
+		TEST_SKIP("run from the repository root (tests/data/ego_demo: %s)", err.msg);
+	}
+	if (from_env)
+		test_model(env, clip);
+	for (size_t i = 0; !from_env && i < g.gl_pathc; i++)
+		test_model(g.gl_pathv[i], clip);
+	globfree(&g);
 	mc_clip_close(clip);
 	free(clip);
 	return mc_test_finish("test_detector_shipped");

@@ -117,6 +117,9 @@ class OnnxTrunk(nn.Module):
                         self.register_buffer(key, t)
                     self.names[name] = key
         self.attrs = [_attrs(n) for n in self.nodes]
+        for n, a in zip(self.nodes, self.attrs):
+            if n.op_type == "Resize":  # the scales as numbers: a constant to the ONNX trace
+                a["_scales"] = [float(v) for v in consts[n.input[2]].ravel()]
         last = {name: k for k, n in enumerate(self.nodes) for name in n.input}
         # per node, the values no later node reads: dropped, so that inference
         # holds only live activations (training keeps them for backward anyway)
@@ -219,7 +222,7 @@ class OnnxTrunk(nn.Module):
             elif op == "Sigmoid":
                 y = torch.sigmoid(val(ins[0]))
             elif op == "Resize":
-                s = self.const(ins[2]).tolist()
+                s = a["_scales"]
                 y = F.interpolate(val(ins[0]), scale_factor=(s[2], s[3]), mode="bilinear",
                                   align_corners=False)
             else:  # Identity

@@ -115,3 +115,56 @@ def test_fold_relu6_keeps_the_function():
     assert float((before - after).abs().max()) < 1e-5
     passed = sum(1 for n, a in zip(trunk.nodes, trunk.attrs) if n.op_type == "Mul" and "_pass" in a)
     assert passed == 35
+
+
+def _ensemble(*args):
+    return subprocess.run([sys.executable, os.path.join(HERE, "ensemble.py")] + list(args),
+                          capture_output=True, text=True, timeout=300)
+
+
+def test_ensemble_is_the_weighted_mean(tmp_path):
+    """Two models as one: the shipped model with a copy of itself whose
+    heat maps are scaled, so that the mean is known; the sidecar lists both."""
+    cv2 = pytest.importorskip("cv2")
+    import json
+    import shutil
+    import onnx
+    from onnx import helper
+    ego = os.path.join(P.ROOT, "config", "models", "ego_detector.onnx")
+    a, b = str(tmp_path / "a.onnx"), str(tmp_path / "b.onnx")
+    shutil.copy(ego, a)
+    shutil.copy(os.path.splitext(ego)[0] + ".json", str(tmp_path / "a.json"))
+    m = onnx.load(ego)  # b: the same network, heat maps x 0.5
+    for n in m.graph.node:
+        n.output[:] = ["raw" if o == "heatmaps" else o for o in n.output]
+    m.graph.node.append(helper.make_node("Mul", ["raw", "half"], ["heatmaps"]))
+    m.graph.initializer.append(helper.make_tensor("half", onnx.TensorProto.FLOAT, [1], [0.5]))
+    onnx.save(m, b)
+    shutil.copy(os.path.splitext(ego)[0] + ".json", str(tmp_path / "b.json"))
+    out = str(tmp_path / "e.onnx")
+    r = _ensemble(a, b, out, "--weight-a", "0.25")
+    assert r.returncode == 0, r.stderr
+    x = np.random.default_rng(5).random((1, 3, 128, 128), dtype=np.float32)
+    heat = {}
+    for p in (a, out):
+        net = cv2.dnn.readNetFromONNX(p)
+        net.setInput(x, "image")
+        heat[p] = net.forward("heatmaps")
+    assert float(np.abs(heat[out] - (0.25 + 0.75 * 0.5) * heat[a]).max()) < 1e-5
+    side = json.load(open(str(tmp_path / "e.json")))
+    assert side["arch"] == "ensemble" and [w["weight"] for w in side["members"]] == [0.25, 0.75]
+    assert side["joints"] == C.JOINTS and side["heatmap"] == [32, 32]
+
+
+def test_ensemble_refuses_members_that_differ(tmp_path):
+    import json
+    import shutil
+    ego = os.path.join(P.ROOT, "config", "models", "ego_detector")
+    for name in ("a", "b"):
+        shutil.copy(ego + ".onnx", str(tmp_path / (name + ".onnx")))
+    side = json.load(open(ego + ".json"))
+    json.dump(side, open(str(tmp_path / "a.json"), "w"))
+    json.dump(dict(side, heatmap=[64, 64]), open(str(tmp_path / "b.json"), "w"))
+    r = _ensemble(str(tmp_path / "a.onnx"), str(tmp_path / "b.onnx"), str(tmp_path / "e.onnx"))
+    assert r.returncode != 0 and "'heatmap'" in r.stderr
+    assert not os.path.exists(str(tmp_path / "e.onnx"))
