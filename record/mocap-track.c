@@ -3,18 +3,21 @@
  * skeletons into the take as TAKE/poses-NAME.mcr (docs/RECORDING.md,
  * "Tracking a take again").
  *
- *   mocap-track [--iterations N] [--resolution N] [--name NAME] [--quiet] TAKE_DIR
+ *   mocap-track [--iterations N] [--resolution N] [--name NAME] [--detector MODEL] [--quiet] TAKE_DIR
  *
  * The rig and the body model are the take's copies (the actor file when the
  * take has one); the tracker starts from the first skeleton recorded live,
  * and calibrates (colours, reference energy) on the first complete frame set.
  * Frame sets are the reference camera's frames with the other cameras'
- * frames taken within 10 ms of them. */
+ * frames taken within 10 ms of them.  The keypoints are those recorded live,
+ * or with --detector those of another model run on every frame set (the
+ * slower, more accurate config/models/ego_offline_detector.onnx, say). */
 #include "base/mc_time.h"
 #include "body/mc_model.h"
 #include "geom/mc_rig.h"
 #include "image/mc_image.h"
 #include "image/mc_pixfmt.h"
+#include "mc_detector.h"
 #include "mc_install_paths.h" /* generated: MC_VERSION */
 #include "take.h"
 #include "track/mc_tracker.h"
@@ -32,6 +35,7 @@
 typedef struct {
 	int iterations, resolution;
 	const char *name;
+	const char *detector; /* NULL: the keypoints recorded live */
 	bool quiet;
 	const char *take;
 } options;
@@ -45,6 +49,8 @@ static void usage(FILE *f)
 		   "                   tracker's default)\n"
 		   "  --resolution N   working resolution per camera, N x N (default: the tracker's)\n"
 		   "  --name NAME      the track's name (default retrack): poses-NAME.mcr\n"
+		   "  --detector MODEL detect keypoints on every frame set with this ONNX model\n"
+		   "                   (docs/DETECTOR.md) instead of using those recorded live\n"
 		   "  --quiet          no progress bar\n"
 		   "  -h, --help       this text\n"
 		   "  -V, --version    the version\n");
@@ -55,6 +61,7 @@ static void parse_options(int argc, char **argv, options *o)
 	static const struct option opts[] = {
 		{"iterations", required_argument, NULL, 'i'}, {"resolution", required_argument, NULL, 'r'},
 		{"name", required_argument, NULL, 'n'},       {"quiet", no_argument, NULL, 'q'},
+		{"detector", required_argument, NULL, 'd'},
 		{"help", no_argument, NULL, 'h'},             {"version", no_argument, NULL, 'V'},
 		{NULL, 0, NULL, 0},
 	};
@@ -76,6 +83,7 @@ static void parse_options(int argc, char **argv, options *o)
 			if (!*optarg || strpbrk(optarg, "/ ") || strlen(optarg) > 64)
 				fail(2, "--name %s: a short name without '/' or spaces", optarg);
 			break;
+		case 'd': o->detector = optarg; break;
 		case 'q': o->quiet = true; break;
 		case 'h': usage(stdout); exit(0);
 		case 'V': printf("mocap-track %s\n", MC_VERSION); exit(0);
@@ -204,6 +212,19 @@ static const keypoint_set *keypoints_at(const keypoint_set *sets, int n, int *at
 	while (*at < n && sets[*at].capture_ns < t)
 		(*at)++;
 	return *at < n && sets[*at].capture_ns == t ? &sets[*at] : NULL;
+}
+
+/* The --detector model, its joints mapped to the tracker's model's; exits
+ * with the model's file named when it does not load or shares no joint. */
+static mc_detector *load_detector(const options *o, const mc_tracker *t, int *map)
+{
+	mc_err err = {""};
+	mc_detector *d = mc_detector_load(o->detector, &err);
+	if (!d)
+		fail(1, "--detector %s: %s", o->detector, err.msg);
+	if (mc_detector_map_model(d, mc_tracker_model(t), map) == 0)
+		fail(1, "--detector %s: none of its joints is a joint of the take's body model", o->detector);
+	return d;
 }
 
 /* ---- the tracker ---- */
@@ -369,7 +390,10 @@ int main(int argc, char **argv)
 	if (!conv)
 		fail(1, "%s", err.msg);
 	keypoint_set *kps = NULL;
-	int nkps = load_keypoints(o.take, &kps), kp_at = 0, kp_used = 0;
+	int nkps = o.detector ? 0 : load_keypoints(o.take, &kps), kp_at = 0, kp_used = 0;
+	int det_map[MC_DETECTOR_MAX_JOINTS];
+	mc_detector *det = o.detector ? load_detector(&o, t, det_map) : NULL;
+	static mc_keypoint detected[MC_MAX_CAMERAS * MC_DETECTOR_MAX_JOINTS];
 	uint64_t start = mc_now_ns();
 	int done = 0, states[MC_TRACK_INITIALISING + 1] = {0};
 	bool calibrated = false;
@@ -390,8 +414,17 @@ int main(int argc, char **argv)
 		}
 		mc_skeleton sk;
 		const keypoint_set *ks = keypoints_at(kps, nkps, &kp_at, t0);
-		kp_used += ks != NULL;
-		if (mc_tracker_track(t, views, rig.ncams, ks ? ks->kp : NULL, ks ? ks->n : 0, &sk, &err) < 0)
+		const mc_keypoint *kp = ks ? ks->kp : NULL;
+		int nkp = ks ? ks->n : 0;
+		if (det) {
+			kp = detected;
+			nkp = mc_detector_detect_views(det, views, rig.ncams, det_map, detected,
+						       (int)(sizeof(detected) / sizeof(detected[0])), &err);
+			if (nkp < 0)
+				fail(1, "%s: frame set %d: --detector %s: %s", o.take, done, o.detector, err.msg);
+		}
+		kp_used += nkp > 0;
+		if (mc_tracker_track(t, views, rig.ncams, kp, nkp, &sk, &err) < 0)
 			fail(1, "%s: frame set %d: %s", o.take, done, err.msg);
 		write_pose(&out, &live, &sk, (uint64_t)done + 1, t0, cams[ref].m.realtime_ns);
 		states[sk.state]++;
@@ -408,9 +441,10 @@ int main(int argc, char **argv)
 	take_file_close(&out);
 	double secs = (double)(mc_now_ns() - start) * 1e-9;
 	printf("mocap-track: %d frame sets in %.1f s (%.1f per s) into %s: %d ok, %d uncertain, %d lost; "
-	       "%d with the keypoints recorded live\n",
+	       "%d with %s\n",
 	       done, secs, secs > 0 ? done / secs : 0.0, path, states[MC_TRACK_OK], states[MC_TRACK_UNCERTAIN],
-	       states[MC_TRACK_LOST], kp_used);
+	       states[MC_TRACK_LOST], kp_used, det ? "keypoints from --detector" : "the keypoints recorded live");
+	mc_detector_free(det);
 	for (int i = 0; i < nkps; i++)
 		free(kps[i].kp);
 	free(kps);

@@ -26,10 +26,12 @@ $(MOCAP_EXPORT): record/mocap-export.c $(RECORD_LIB) $(CORE_LIB) $(INSTALL_PATHS
 	@mkdir -p $(@D)
 	$(CC) $(CPPFLAGS) -Irecord $(RECORD_AV_CFLAGS) $(CFLAGS) -MMD -MP $< -o $@ $(LDFLAGS) $(RECORD_LINK) $(RECORD_AV_LIBS)
 
-# mocap-track runs the tracker (the core, OpenCL).
-$(MOCAP_TRACK): record/mocap-track.c $(RECORD_LIB) $(CORE_LIB) $(INSTALL_PATHS_H)
+# mocap-track runs the tracker (the core, OpenCL), and with --detector the
+# 2D joint detector (OpenCV DNN).
+$(MOCAP_TRACK): record/mocap-track.c $(RECORD_LIB) $(DETECT_LIB) $(CORE_LIB) $(INSTALL_PATHS_H)
 	@mkdir -p $(@D)
-	$(CC) $(CPPFLAGS) -Irecord $(CFLAGS) -MMD -MP $< -o $@ $(LDFLAGS) $(RECORD_LINK)
+	$(CC) $(CPPFLAGS) -Irecord -Idetect $(CFLAGS) -MMD -MP $< -o $@ $(LDFLAGS) $(DETECT_LIB) $(RECORD_LINK) \
+		$(DETECT_LIBS)
 
 # The format's unit test; the end-to-end test runs mocapd on the bundled
 # clip, records, kills it, and exports (daemon harness, libmocap).

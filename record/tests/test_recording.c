@@ -16,6 +16,7 @@
 
 #include <sys/mount.h>
 #include <sys/resource.h>
+#include <unistd.h>
 
 static char repo[PATH_MAX], mocapctl[PATH_MAX + 32], export_bin[PATH_MAX + 32];
 
@@ -374,6 +375,39 @@ static void check_retrack(const char *take, const char *scratch)
 	CHECK_MSG(rc == 1 && strstr(out, "poses-nosuch.mcr"), "exit %d: %s", rc, out);
 }
 
+/* mocap-track --detector: the shipped head-mounted model's keypoints on
+ * every frame set instead of those recorded live; a model that is not
+ * there is refused with its file named. */
+static void check_redetect(const char *take)
+{
+	const char *model = "config/models/ego_detector.onnx";
+	if (access(model, R_OK) != 0) {
+		printf("mocap-track --detector: skipped (%s is not there: run from the repository root)\n", model);
+		return;
+	}
+	char cmd[PATH_MAX * 3], out[8192], track_bin[PATH_MAX + 32];
+	snprintf(track_bin, sizeof(track_bin), "%s/bin/mocap-track", mcd_build_dir);
+	snprintf(cmd, sizeof(cmd), "%s --quiet --iterations 20 --name redetect --detector %s %s 2>&1", track_bin, model,
+		 take);
+	int rc = mc_test_run(cmd, out, sizeof(out));
+	int sets = 0, ok = 0, used = 0;
+	const char *in = strstr(out, "mocap-track: ");
+	CHECK_MSG(rc == 0 && in && sscanf(in, "mocap-track: %d frame sets", &sets) == 1, "exit %d: %s", rc, out);
+	const char *counts = strstr(out, "/poses-redetect.mcr: ");
+	const char *with = strstr(out, " with keypoints from --detector");
+	CHECK_MSG(counts && sscanf(counts, "/poses-redetect.mcr: %d ok", &ok) == 1 && with, "%s", out);
+	while (with && with > out && with[-1] >= '0' && with[-1] <= '9')
+		with--;
+	used = with ? atoi(with) : 0;
+	printf("%s", out);
+	CHECK_MSG(sets > 0 && used * 10 >= sets * 9 && ok * 2 > sets,
+		  "--detector: %d frame sets, %d with keypoints, %d ok: %s", sets, used, ok, out);
+	snprintf(cmd, sizeof(cmd), "%s --quiet --name nomodel --detector /nonexistent/model.onnx %s 2>&1", track_bin,
+		 take);
+	rc = mc_test_run(cmd, out, sizeof(out));
+	CHECK_MSG(rc == 1 && strstr(out, "/nonexistent/model.onnx"), "exit %d: %s", rc, out);
+}
+
 /* The frames of a camera file: their capture times, and a hash of their
  * bytes each. */
 static int read_frames(const char *take, const char *cam, uint64_t *t, uint64_t *hash, int max)
@@ -561,6 +595,7 @@ int main(void)
 	char second[PATH_MAX];
 	snprintf(second, sizeof(second), "%s/second", takes);
 	check_retrack(second, r.dir);
+	check_redetect(second);
 	mcd_run_cleanup(&r);
 
 	check_full_disk();
