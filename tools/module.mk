@@ -88,7 +88,7 @@ detector-progress-v2:
 	@$(TRAIN_PYTHON) tools/synth/job.py --out $(DETECTOR_V2_DIR) --train $(DETECTOR_V2_TRAIN) \
 	  --val $(DETECTOR_V2_VAL) --seed $(DETECTOR_V2_SEED) --status
 
-# For a GPU machine (docs/DETECTOR.md, "v3 network and GPU training"): parts
+# For a GPU machine (docs/DETECTOR_EXPERIMENTS.md, "v3 network and GPU training"): parts
 # of at most DETECTOR_PACK_MB MB of WebP views, each packed as PART.tar.gz;
 # there, unpack them all into one folder and run tools/train/train_gpu.sh.
 DETECTOR_PACK_MB ?= 42.5

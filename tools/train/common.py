@@ -64,7 +64,7 @@ def build_model(arch="v1"):
     and 1/16, and a 1/2 scale, so that the heat maps are half the input
     (64x64 at 128x128) and a keypoint's sub-cell position is a 2-pixel
     matter rather than a 4-pixel one (129 M multiply-adds; trained on a GPU,
-    docs/DETECTOR.md "v3 network").  mn: pretrained MoveNet Lightning's
+    docs/DETECTOR_EXPERIMENTS.md "v3 network").  mn: pretrained MoveNet Lightning's
     backbone and pyramid with a head for our joints (pretrained.py; heat
     maps of 1/4 the input).  v1-v3 use only Conv/BN/ReLU, MaxPool,
     nearest Upsample, Add and Sigmoid: the ONNX contract of docs/DETECTOR.md."""

@@ -1,6 +1,6 @@
 #!/bin/sh
 # Train a head-mounted detector on a CUDA machine for a fixed wall-clock
-# time (docs/DETECTOR.md, "v3 network").
+# time (docs/DETECTOR_EXPERIMENTS.md, "v3 network").
 #
 #   tools/train/train_gpu.sh DATA RESULT MINUTES
 #
