@@ -53,6 +53,10 @@ static int mc_test_failures;
 		exit(77);                                                             \
 	} while (0)
 
+/* The live head-mounted detector, relative to the repository root
+ * (config/models also ships the slower ego_offline_detector.onnx). */
+#define MC_TEST_LIVE_EGO_MODEL "config/models/ego_detector.onnx"
+
 /* The folder `up` levels above this test program (/proc/self/exe), e.g.
  * the build folder for up = 2 from <build>/tests/TEST; false if there is
  * none. */
