@@ -89,12 +89,14 @@ bench-tracker-seeds: $(BUILD)/bin/mocap-bench
 # The shipped detector inside the protocol on every evaluation clip: 2D
 # error and cost, and the tracker's MPJPE and fps with detection, with and
 # without the colour term, and started from the detections alone (--init
-# detect, nothing from gt.json) (docs/BENCHMARKS.md, docs/DETECTOR.md).
-DETECTOR_MODEL ?= $(firstword $(wildcard config/models/*ego*.onnx))
+# detect, nothing from gt.json) (docs/BENCHMARKS.md, docs/DETECTOR.md); then
+# the offline model when it ships, side by side.
+DETECTOR_MODEL ?= $(wildcard config/models/ego_detector.onnx)
+DETECTOR_OFFLINE_MODEL ?= $(wildcard config/models/ego_offline_detector.onnx)
 BENCHES += bench-detector
 .PHONY: bench-detector
 bench-detector: $(BUILD)/bin/mocap-bench
-	@if [ -z "$(DETECTOR_MODEL)" ]; then echo "bench-detector: no config/models/*ego*.onnx, skipped"; \
+	@if [ -z "$(DETECTOR_MODEL)" ]; then echo "bench-detector: no config/models/ego_detector.onnx, skipped"; \
 	elif [ -d $(DATA_DIR)/ego ]; then \
 		for c in $(DATA_DIR)/ego/*/; do \
 			$(BUILD)/bin/mocap-bench --clip $$c --detector $(DETECTOR_MODEL) --quiet --no-thesis || exit 1; \
@@ -102,6 +104,10 @@ bench-detector: $(BUILD)/bin/mocap-bench
 				--no-thesis --reference-frames 0 | grep -E '^(RESULT|DETECT2D)' | sed 's/^/no colour term: /' || exit 1; \
 			$(BUILD)/bin/mocap-bench --clip $$c --detector $(DETECTOR_MODEL) --init detect --quiet --no-thesis \
 				--reference-frames 0 | grep -E '^(RESULT|BONES|init from)' | sed 's/^/--init detect: /' || exit 1; \
+			if [ -n "$(DETECTOR_OFFLINE_MODEL)" ]; then \
+				$(BUILD)/bin/mocap-bench --clip $$c --detector $(DETECTOR_OFFLINE_MODEL) --quiet --no-thesis \
+					--reference-frames 0 | grep -E '^(RESULT|DETECT2D|JITTER|LIMBS)' | sed 's/^/offline model: /' \
+					|| exit 1; fi; \
 		done; \
 	else echo "bench-detector: $(DATA_DIR)/ego not found, skipped"; fi
 
