@@ -679,11 +679,10 @@ void mc_detector_set_flip(mc_detector *d, int on)
 	d->flip = on != 0;
 	d->mirror.resize((size_t)d->njoints);
 	for (int j = 0; j < d->njoints; j++) {
-		const std::string &name = d->joints[(size_t)j];
-		std::string other = name.rfind("left_", 0) == 0    ? "right_" + name.substr(5)
-				    : name.rfind("right_", 0) == 0 ? "left_" + name.substr(6)
-								   : name;
-		int k = mc_detector_find_joint(d, other.c_str());
+		char other[MC_JOINT_NAME_MAX + 8];
+		int k = mc_joint_other_side_name(d->joints[(size_t)j].c_str(), other, sizeof(other)) == 1
+				? mc_detector_find_joint(d, other)
+				: -1;
 		d->mirror[(size_t)j] = k >= 0 ? k : j;
 	}
 }

@@ -20,6 +20,18 @@ int mc_model_find_joint(const mc_model *model, const char *name)
 	return -1;
 }
 
+int mc_joint_other_side_name(const char *name, char *out, size_t cap)
+{
+	int n;
+	if (strncmp(name, "left_", 5) == 0)
+		n = snprintf(out, cap, "right_%s", name + 5);
+	else if (strncmp(name, "right_", 6) == 0)
+		n = snprintf(out, cap, "left_%s", name + 6);
+	else
+		return 0;
+	return n >= 0 && (size_t)n < cap ? 1 : -1;
+}
+
 /* ---- kinematics ---- */
 
 static mc_vec3 unit_axis(int axis)

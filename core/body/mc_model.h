@@ -123,6 +123,10 @@ void mc_model_fold_root_base(mc_model *model, double *const *poses, int n);
 
 /* Index of a joint by name, or -1. */
 int mc_model_find_joint(const mc_model *model, const char *name);
+/* The name of the same joint on the other side of the body (left_X <->
+ * right_X) into out[cap]: 1 when written, 0 for a joint of neither side,
+ * -1 when out is too small. */
+int mc_joint_other_side_name(const char *name, char *out, size_t cap);
 
 /* Smoothness levels m accepted by mc_sphere_to_gaussian. */
 #define MC_SMOOTHNESS_MIN 0.01

@@ -130,11 +130,7 @@ static double gaussian_noise(uint64_t *rng)
 static int partner_of(const char *const *joints, int njoints, const char *name)
 {
 	char other[MC_JOINT_NAME_MAX + 8];
-	if (!strncmp(name, "left_", 5))
-		snprintf(other, sizeof(other), "right_%s", name + 5);
-	else if (!strncmp(name, "right_", 6))
-		snprintf(other, sizeof(other), "left_%s", name + 6);
-	else
+	if (mc_joint_other_side_name(name, other, sizeof(other)) != 1)
 		return -1;
 	for (int e = 0; e < njoints; e++)
 		if (!strcmp(joints[e], other))

@@ -38,13 +38,9 @@ static int other_side(const mc_model *m, int joint)
 {
 	const char *name = m->joints[joint].name;
 	char want[MC_JOINT_NAME_MAX + 8];
-	if (strncmp(name, "left_", 5) != 0)
+	if (strncmp(name, "left_", 5) != 0 || mc_joint_other_side_name(name, want, sizeof(want)) != 1)
 		return -1;
-	snprintf(want, sizeof(want), "right_%s", name + 5);
-	for (int j = 0; j < m->njoints; j++)
-		if (strcmp(m->joints[j].name, want) == 0)
-			return j;
-	return -1;
+	return mc_model_find_joint(m, want);
 }
 
 static void exchange(mc_trk_keypoint_ray *a, mc_trk_keypoint_ray *b)

@@ -80,13 +80,8 @@ static int measure(mc_detector *d, const mc_clip *clip, const mc_frame_view *vie
 /* The joint's left/right partner (itself for the middle joints). */
 static int partner(const mc_detector *d, int j)
 {
-	const char *name = mc_detector_joint_name(d, j);
 	char other[64];
-	if (!strncmp(name, "left_", 5))
-		snprintf(other, sizeof(other), "right_%s", name + 5);
-	else if (!strncmp(name, "right_", 6))
-		snprintf(other, sizeof(other), "left_%s", name + 6);
-	else
+	if (mc_joint_other_side_name(mc_detector_joint_name(d, j), other, sizeof(other)) != 1)
 		return j;
 	return mc_detector_find_joint(d, other);
 }
