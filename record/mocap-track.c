@@ -378,6 +378,10 @@ int main(int argc, char **argv)
 	open_cameras(o.take, &info, &rig, cams, &ref);
 	int total = (int)info.frames[ref];
 	mc_tracker *t = start_tracker(&o, &live, &rig);
+	/* Before the output is created, so that a model that does not load
+	 * leaves no poses-NAME.mcr behind. */
+	int det_map[MC_DETECTOR_MAX_JOINTS];
+	mc_detector *det = o.detector ? load_detector(&o, t, det_map) : NULL;
 
 	/* The output: a definition from the live track, then the skeletons. */
 	take_file out;
@@ -391,8 +395,6 @@ int main(int argc, char **argv)
 		fail(1, "%s", err.msg);
 	keypoint_set *kps = NULL;
 	int nkps = o.detector ? 0 : load_keypoints(o.take, &kps), kp_at = 0, kp_used = 0;
-	int det_map[MC_DETECTOR_MAX_JOINTS];
-	mc_detector *det = o.detector ? load_detector(&o, t, det_map) : NULL;
 	static mc_keypoint detected[MC_MAX_CAMERAS * MC_DETECTOR_MAX_JOINTS];
 	uint64_t start = mc_now_ns();
 	int done = 0, states[MC_TRACK_INITIALISING + 1] = {0};
@@ -423,7 +425,7 @@ int main(int argc, char **argv)
 			if (nkp < 0)
 				fail(1, "%s: frame set %d: --detector %s: %s", o.take, done, o.detector, err.msg);
 		}
-		kp_used += nkp > 0;
+		kp_used += det ? nkp > 0 : ks != NULL;
 		if (mc_tracker_track(t, views, rig.ncams, kp, nkp, &sk, &err) < 0)
 			fail(1, "%s: frame set %d: %s", o.take, done, err.msg);
 		write_pose(&out, &live, &sk, (uint64_t)done + 1, t0, cams[ref].m.realtime_ns);

@@ -406,6 +406,9 @@ static void check_redetect(const char *take)
 		 take);
 	rc = mc_test_run(cmd, out, sizeof(out));
 	CHECK_MSG(rc == 1 && strstr(out, "/nonexistent/model.onnx"), "exit %d: %s", rc, out);
+	char left[PATH_MAX + 32];
+	snprintf(left, sizeof(left), "%s/poses-nomodel.mcr", take);
+	CHECK_MSG(access(left, F_OK) != 0, "%s was left behind by a model that did not load", left);
 }
 
 /* The frames of a camera file: their capture times, and a hash of their
