@@ -18,10 +18,9 @@ import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import common as C  # noqa: E402
+from overlay import BONES  # noqa: E402  (tools/synth, on the path through common)
 from train import Data, batch, gross_mask, load_model, predict  # noqa: E402
 
-BONES = [(0, 1), (1, 2), (2, 3), (1, 4), (4, 5), (5, 6), (3, 7), (7, 8), (8, 9), (9, 10),
-         (1, 11), (11, 12), (12, 13), (3, 14), (14, 15), (15, 16), (16, 17)]
 SCALE = 3
 
 

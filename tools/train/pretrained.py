@@ -100,7 +100,8 @@ class OnnxTrunk(nn.Module):
         self.params = nn.ParameterDict()
         self.names = {}  # ONNX name -> key in params / scalars / buffer name
         self.scalars = {}
-        for n in self.nodes:
+        self.attrs = [_attrs(n) for n in self.nodes]
+        for n, a in zip(self.nodes, self.attrs):
             if n.op_type not in self.OPS:
                 raise ValueError("%s: node %s: op %s is not supported" % (path, n.name, n.op_type))
             for k, name in enumerate(n.input):
@@ -108,7 +109,7 @@ class OnnxTrunk(nn.Module):
                     key = "c%d" % len(self.names)
                     t = torch.from_numpy(consts[name].copy())
                     if n.op_type == "Conv" and k == 1:  # weights: padding made symmetric here
-                        self.params[key] = nn.Parameter(_symmetric(t, _attrs(n).get("pads", [0] * 4))[0])
+                        self.params[key] = nn.Parameter(_symmetric(t, a.get("pads", [0] * 4))[0])
                     elif n.op_type == "Conv":
                         self.params[key] = nn.Parameter(t)
                     elif t.numel() == 1:  # a scalar (the many "six" of ReLU6) as a number:
@@ -116,7 +117,6 @@ class OnnxTrunk(nn.Module):
                     else:
                         self.register_buffer(key, t)
                     self.names[name] = key
-        self.attrs = [_attrs(n) for n in self.nodes]
         for n, a in zip(self.nodes, self.attrs):
             if n.op_type == "Resize":  # the scales as numbers: a constant to the ONNX trace
                 a["_scales"] = [float(v) for v in consts[n.input[2]].ravel()]
