@@ -31,10 +31,13 @@ IN_W, IN_H, HM_W, HM_H = IN, IN, HM, HM
 KIND = "ego"
 
 
-ARCHS = ("v1", "v2", "v3", "mn")
+ARCHS = ("v1", "v2", "v3", "mn", "v2s")
+# Networks that see the stereo pair: the view and its partner camera's view
+# stacked as 6 input channels, heat maps for the first (issue 36 item 4).
+STEREO = ("v2s",)
 # Heat-map cells per input pixel side, per architecture: v3's heat maps are
 # half the input (64x64 at 128x128) for sub-pixel keypoints.
-HM_DIV = {"v1": 4, "v2": 4, "v3": 2, "mn": 4}
+HM_DIV = {"v1": 4, "v2": 4, "v3": 2, "mn": 4, "v2s": 4}
 
 
 def set_kind(kind, arch="v1"):
@@ -66,7 +69,8 @@ def build_model(arch="v1"):
     matter rather than a 4-pixel one (129 M multiply-adds; trained on a GPU,
     docs/DETECTOR_EXPERIMENTS.md "v3 network").  mn: pretrained MoveNet Lightning's
     backbone and pyramid with a head for our joints (pretrained.py; heat
-    maps of 1/4 the input).  v1-v3 use only Conv/BN/ReLU, MaxPool,
+    maps of 1/4 the input).  v2s: v2 with the partner camera's view as three
+    more input channels (an experiment: the runtime feeds one view).  v1-v3 use only Conv/BN/ReLU, MaxPool,
     nearest Upsample, Add and Sigmoid: the ONNX contract of docs/DETECTOR.md."""
     import torch.nn as nn
     if arch not in ARCHS:
@@ -118,8 +122,8 @@ def build_model(arch="v1"):
                         ("s8", seq(pool(2), *cbr(40, 56), *cbr(56, 56)))],
                        [("up8", up(56, 40), "m16", seq(*cbr(40, 40))),
                         ("up16", up(40, 24), "m32", seq(*cbr(24, 24)))], 24)
-    if arch == "v2":  # as v1, wider, with a 1/32 scale (4x4 at 128x128) for whole-view context
-        return Pyramid([("s32", seq(*cbr(3, 16, 2), *cbr(16, 32, 2), *cbr(32, 32))),
+    if arch in ("v2", "v2s"):  # as v1, wider, with a 1/32 scale (4x4 at 128x128) for whole-view context
+        return Pyramid([("s32", seq(*cbr(6 if arch == "v2s" else 3, 16, 2), *cbr(16, 32, 2), *cbr(32, 32))),
                         ("s16", seq(pool(2), *cbr(32, 64), *cbr(64, 64))),
                         ("s8", seq(pool(2), *cbr(64, 96), *cbr(96, 96), *cbr(96, 96))),
                         ("s4", seq(pool(2), *cbr(96, 128), *cbr(128, 128), *cbr(128, 128)))],

@@ -54,6 +54,8 @@ class Data:
         self.keys, self.uv, self.st = [], [], []
         self.img = np.zeros((0, C.IN_H, C.IN_W, 3), np.uint8)
         self.seen = set()
+        self.stereo = False   # batch() stacks each view with its partner's (common.STEREO)
+        self.partner = np.zeros(0, np.int64)
         self.device = torch.device("cpu")  # where images() keeps its tensor
         self.img_t = None
 
@@ -101,7 +103,16 @@ class Data:
             self.st = np.concatenate([np.asarray(self.st, dtype=np.int64).reshape(-1, len(JOINTS)),
                                       np.array(new_st, dtype=np.int64)], 0)
             self.img = np.concatenate([self.img, np.stack(new_img)], 0)
+            self.pair_views()
         return len(new_keys)
+
+    def pair_views(self):
+        """partner[i]: the other camera's view of view i's frame (i itself
+        when that view is missing)."""
+        index = {k: i for i, k in enumerate(self.keys)}
+        other = {"left": "right", "right": "left"}
+        self.partner = np.array([index.get((f, other.get(cam, cam)), i) for i, (f, cam) in enumerate(self.keys)],
+                                np.int64)
 
     def __len__(self):
         return len(self.keys)
@@ -127,6 +138,9 @@ def batch(data, idx, rng, augment):
     views idx, augmented or not, on data.device."""
     dev = data.device
     x = data.images()[torch.from_numpy(np.asarray(idx)).to(dev)].permute(0, 3, 1, 2).float() / 255.0
+    if data.stereo:  # the partner's view as channels 3-5, augmented alike
+        pidx = torch.from_numpy(data.partner[np.asarray(idx)]).to(dev)
+        x = torch.cat([x, data.images()[pidx].permute(0, 3, 1, 2).float() / 255.0], 1)
     uv = torch.from_numpy(data.uv[idx]).float().to(dev)
     st = torch.from_numpy(data.st[idx]).clone().to(dev)
     B = x.shape[0]
@@ -163,22 +177,27 @@ def batch(data, idx, rng, augment):
         uv = c + sh.unsqueeze(1) + sc.view(B, 1, 1) * torch.einsum("bij,bkj->bki", R, d)
         out = (uv < -0.5).any(-1) | (uv[..., 0] > W - 0.5) | (uv[..., 1] > H - 0.5)
         st[out] = 2
-        # photometric
-        gain = draw(rng.uniform(0.7, 1.3, (B, 1, 1, 1)))
-        ch = draw(rng.uniform(0.85, 1.15, (B, 3, 1, 1)))
-        mean = x.mean(dim=(1, 2, 3), keepdim=True)
-        con = draw(rng.uniform(0.7, 1.3, (B, 1, 1, 1)))
-        gray = x.mean(1, keepdim=True)
-        sat = draw(rng.uniform(0.5, 1.4, (B, 1, 1, 1)))
+        # photometric, per image (B, views, 3, H, W): a stereo pair's two
+        # views get the same draws, as one camera model would
+        x = x.view(B, -1, 3, x.shape[-2], x.shape[-1])
+
+        def draw5(a):
+            return draw(a).unsqueeze(1)
+        gain = draw5(rng.uniform(0.7, 1.3, (B, 1, 1, 1)))
+        ch = draw5(rng.uniform(0.85, 1.15, (B, 3, 1, 1)))
+        mean = x.mean(dim=(2, 3, 4), keepdim=True)
+        con = draw5(rng.uniform(0.7, 1.3, (B, 1, 1, 1)))
+        gray = x.mean(2, keepdim=True)
+        sat = draw5(rng.uniform(0.5, 1.4, (B, 1, 1, 1)))
         x = gray + (x - gray) * sat
         x = ((x - mean) * con + mean) * gain * ch
-        x = x + torch.randn_like(x) * draw(rng.uniform(0, 0.04, (B, 1, 1, 1)))
+        x = x + torch.randn_like(x) * draw5(rng.uniform(0, 0.04, (B, 1, 1, 1)))
         perm = rng.random(B) < 0.3  # channel swap: colours of clothes are not a cue
         if perm.any():
             p = rng.permutation(3)
             sel = torch.from_numpy(perm).to(dev)
-            x[sel] = x[sel][:, torch.from_numpy(p).to(dev)]
-        x = x.clamp(0, 1)
+            x[sel] = x[sel][:, :, torch.from_numpy(p).to(dev)]
+        x = x.clamp(0, 1).view(B, -1, x.shape[-2], x.shape[-1])
     return x, uv, st
 
 
@@ -329,6 +348,7 @@ def train(a):
         nparam, dev, a.epochs, a.steps_per_epoch, a.batch))
     tr, va = Data(a.data, "train"), Data(a.data, "val")
     tr.device = va.device = dev
+    tr.stereo = va.stereo = a.arch in C.STEREO
     budget = a.minutes * 60 if a.minutes else None
 
     def progress():
@@ -469,6 +489,9 @@ def validation_card(r):
 def export(a):
     path = a.weights or a.ckpt
     m, ck = load_model(path)
+    if ck and ck_arch(ck) in C.STEREO:
+        sys.exit("%s: a stereo network (--arch %s) has no runtime yet: the detector runtime "
+                 "feeds one view (docs/DETECTOR_EXPERIMENTS.md, \"Both views at once\")" % (path, ck_arch(ck)))
     if hasattr(m, "trunk"):  # --arch mn: ReLU6 in fewer nodes (pretrained.OnnxTrunk.fold_relu6)
         log("folded %d activations for export" % m.trunk.fold_relu6())
     net = Exported(m).eval()
@@ -537,6 +560,7 @@ def report(a):
     from PIL import Image
     path = a.weights or a.ckpt
     m, ck = load_model(path)
+    stereo = ck_arch(ck) in C.STEREO if ck else False
     torch.set_num_threads(a.threads)
     cams = load_rig(a.rig)
     out = {}
@@ -547,13 +571,16 @@ def report(a):
         names = gt["joint_names"]
         order = [names.index(j) for j in JOINTS]
         allp, alluv, allst = [], [], []
-        for cam in ("left", "right"):
+
+        def view(cam, k):
+            im = Image.open(os.path.join(d, cam, "%05d.jpg" % k)).convert("RGB").resize((C.IN, C.IN), Image.BILINEAR)
+            return np.asarray(im)
+        for cam, partner in (("left", "right"), ("right", "left")):
             xs, uvs, sts = [], [], []
             for k, fr in enumerate(gt["frames"]):
                 P = np.array([fr["joints_left_cam"][n] for n in names])[order]
                 u, v, inside = project(cams[cam], P)
-                im = Image.open(os.path.join(d, cam, "%05d.jpg" % k)).convert("RGB").resize((C.IN, C.IN), Image.BILINEAR)
-                xs.append(np.asarray(im))
+                xs.append(np.concatenate([view(cam, k), view(partner, k)], -1) if stereo else view(cam, k))
                 uvs.append(np.stack([u, v], -1))
                 sts.append(np.where(inside, 0, 2))
             x = torch.from_numpy(np.stack(xs)).permute(0, 3, 1, 2).float() / 255.0
@@ -569,6 +596,7 @@ def report(a):
         log("%s (%d views): %s (%d outside)" % (name, len(pred), fmt(r), r["false_outside"]))
     if os.path.isdir(a.data):
         va = Data(a.data, "val")
+        va.stereo = stereo
         if va.refresh():
             r = validate(m, va)
             out["validation"] = dict(r, views=len(va), data=a.data)
