@@ -135,7 +135,7 @@ detector-offline:
 	$(TRAIN_PYTHON) tools/train/train.py --weights $(DETECTOR_OFFLINE) --ego $(MOCAP_EGO_DIR) \
 	  --data $(DETECTOR_V2_DIR)/data --report --report-out $(DETECTOR_MN_DIR)/offline_report.json
 	$(TRAIN_PYTHON) tools/train/ensemble.py config/models/ego_detector.onnx $(DETECTOR_MN_DIR)/ego_mn.onnx \
-	  $(DETECTOR_OFFLINE) --validation $(DETECTOR_MN_DIR)/offline_report.json
+	  $(DETECTOR_OFFLINE) --validation $(DETECTOR_MN_DIR)/offline_report.json --sidecar-only
 
 # Outside-in pinhole views (docs/DETECTOR_OUTSIDE.md): frames of
 # DETECTOR_OUTSIDE_VIEWS cameras each, into $(DETECTOR_DIR)/outside/data.

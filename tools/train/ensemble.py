@@ -2,7 +2,7 @@
 """Two heat-map detectors as one ONNX model whose heat maps are the
 weighted mean of theirs (docs/DETECTOR.md, "Offline model"):
 
-    ensemble.py A.onnx B.onnx OUT.onnx [--weight-a 0.5] [--validation REPORT.json]
+    ensemble.py A.onnx B.onnx OUT.onnx [--weight-a 0.5] [--validation REPORT.json] [--sidecar-only]
 
 Both models must take the same input and give heat maps of the same joints
 and size; their sidecars (A.json, B.json) are read and OUT.json written:
@@ -10,7 +10,9 @@ A's input, joints, threshold and heat-map size, the members with their
 weights, where their weights came from, and, with --validation (a
 `train.py --report --report-out` file of OUT.onnx), the validation's
 headline figures.  The result is checked in OpenCV DNN against the members
-run on their own."""
+run on their own.  --sidecar-only leaves an existing OUT.onnx as it is and
+writes OUT.json alone (to add the validation once OUT.onnx has been
+scored, without merging and checking again)."""
 import argparse
 import json
 import os
@@ -72,6 +74,7 @@ def main():
     ap.add_argument("out")
     ap.add_argument("--weight-a", type=float, default=0.5)
     ap.add_argument("--validation", help="train.py --report-out file of OUT.onnx")
+    ap.add_argument("--sidecar-only", action="store_true", help="OUT.onnx is made: write OUT.json only")
     a = ap.parse_args()
     if not 0 <= a.weight_a <= 1:
         sys.exit("--weight-a %g: must be within 0..1" % a.weight_a)
@@ -79,11 +82,22 @@ def main():
     for k in SIDE_KEYS:
         if sa.get(k) != sb.get(k):
             sys.exit("%s and %s differ in %r: %s against %s" % (a.a, a.b, k, sa.get(k), sb.get(k)))
-    import onnx
-    onnx.save(merge(a.a, a.b, a.weight_a), a.out)
-    err = check(a.out, a.a, a.b, a.weight_a, sa["input"])
-    if err > 1e-5:
-        sys.exit("%s: differs from its members by %.2e" % (a.out, err))
+    if a.sidecar_only:
+        if not os.path.exists(a.out):
+            sys.exit("%s: not there; --sidecar-only writes the sidecar of a model already made" % a.out)
+    else:
+        import onnx
+        onnx.save(merge(a.a, a.b, a.weight_a), a.out)
+        err = check(a.out, a.a, a.b, a.weight_a, sa["input"])
+        if err > 1e-5:
+            sys.exit("%s: differs from its members by %.2e" % (a.out, err))
+        print("%s: %d bytes, max |ensemble - members| = %.1e" % (a.out, os.path.getsize(a.out), err))
+    write_sidecar(a, sa, sb)
+
+
+def write_sidecar(a, sa, sb):
+    """OUT.json: A's input contract, the members, their licences, and the
+    validation's headline figures when given."""
     side = {k: sa[k] for k in SIDE_KEYS}
     side["threshold"] = sa.get("threshold", 0.3)
     side["arch"] = "ensemble"
@@ -105,8 +119,8 @@ def main():
     with open(os.path.splitext(a.out)[0] + ".json", "w") as f:
         json.dump(side, f, indent=1)
         f.write("\n")
-    print("%s: %d bytes, %d parameters, max |ensemble - members| = %.1e" % (
-        a.out, os.path.getsize(a.out), side["parameters"], err))
+    print("%s: %d parameters%s" % (os.path.splitext(a.out)[0] + ".json", side["parameters"],
+                                   ", with the validation" if "validation" in side else ""))
 
 
 if __name__ == "__main__":

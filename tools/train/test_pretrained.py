@@ -153,7 +153,20 @@ def test_ensemble_is_the_weighted_mean(tmp_path):
     assert float(np.abs(heat[out] - (0.25 + 0.75 * 0.5) * heat[a]).max()) < 1e-5
     side = json.load(open(str(tmp_path / "e.json")))
     assert side["arch"] == "ensemble" and [w["weight"] for w in side["members"]] == [0.25, 0.75]
-    assert side["joints"] == C.JOINTS and side["heatmap"] == [32, 32]
+    assert side["joints"] == C.JOINTS and side["heatmap"] == [32, 32] and "validation" not in side
+    # --sidecar-only: the validation added, the model file left as it was
+    report = tmp_path / "report.json"
+    json.dump({"validation": {"false": 0.285, "median_visible": 3.97, "median_occluded": 7.63, "collapse": 0.001,
+                              "swap": 0.03}}, open(str(report), "w"))
+    before = open(out, "rb").read()
+    os.utime(out, (1, 1))
+    r = _ensemble(a, b, out, "--weight-a", "0.25", "--validation", str(report), "--sidecar-only")
+    assert r.returncode == 0, r.stderr
+    assert open(out, "rb").read() == before and os.stat(out).st_mtime == 1
+    side = json.load(open(str(tmp_path / "e.json")))
+    assert side["validation"]["gross_pct"] == 28.5 and [w["weight"] for w in side["members"]] == [0.25, 0.75]
+    r = _ensemble(a, b, str(tmp_path / "none.onnx"), "--sidecar-only")
+    assert r.returncode != 0 and "none.onnx: not there" in r.stderr
 
 
 def test_ensemble_refuses_members_that_differ(tmp_path):
