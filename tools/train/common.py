@@ -35,6 +35,11 @@ ARCHS = ("v1", "v2", "v3", "mn", "v2s")
 # Networks that see the stereo pair: the view and its partner camera's view
 # stacked as 6 input channels, heat maps for the first (issue 36 item 4).
 STEREO = ("v2s",)
+
+
+def in_channels(arch):
+    """Input channels of an architecture: RGB, or two views' RGB."""
+    return 6 if arch in STEREO else 3
 # Heat-map cells per input pixel side, per architecture: v3's heat maps are
 # half the input (64x64 at 128x128) for sub-pixel keypoints.
 HM_DIV = {"v1": 4, "v2": 4, "v3": 2, "mn": 4, "v2s": 4}
@@ -70,8 +75,9 @@ def build_model(arch="v1"):
     docs/DETECTOR_EXPERIMENTS.md "v3 network").  mn: pretrained MoveNet Lightning's
     backbone and pyramid with a head for our joints (pretrained.py; heat
     maps of 1/4 the input).  v2s: v2 with the partner camera's view as three
-    more input channels (an experiment: the runtime feeds one view).  v1-v3 use only Conv/BN/ReLU, MaxPool,
-    nearest Upsample, Add and Sigmoid: the ONNX contract of docs/DETECTOR.md."""
+    more input channels (an experiment: the runtime feeds one view).  v1-v3
+    use only Conv/BN/ReLU, MaxPool, nearest Upsample, Add and Sigmoid: the
+    ONNX contract of docs/DETECTOR.md."""
     import torch.nn as nn
     if arch not in ARCHS:
         raise ValueError("unknown architecture %r (known: %s)" % (arch, ", ".join(ARCHS)))
@@ -123,7 +129,7 @@ def build_model(arch="v1"):
                        [("up8", up(56, 40), "m16", seq(*cbr(40, 40))),
                         ("up16", up(40, 24), "m32", seq(*cbr(24, 24)))], 24)
     if arch in ("v2", "v2s"):  # as v1, wider, with a 1/32 scale (4x4 at 128x128) for whole-view context
-        return Pyramid([("s32", seq(*cbr(6 if arch == "v2s" else 3, 16, 2), *cbr(16, 32, 2), *cbr(32, 32))),
+        return Pyramid([("s32", seq(*cbr(in_channels(arch), 16, 2), *cbr(16, 32, 2), *cbr(32, 32))),
                         ("s16", seq(pool(2), *cbr(32, 64), *cbr(64, 64))),
                         ("s8", seq(pool(2), *cbr(64, 96), *cbr(96, 96), *cbr(96, 96))),
                         ("s4", seq(pool(2), *cbr(96, 128), *cbr(128, 128), *cbr(128, 128)))],

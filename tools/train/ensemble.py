@@ -116,11 +116,11 @@ def write_sidecar(a, sa, sb):
         if card:
             side["validation"] = card
     side["model_card"] = "docs/DETECTOR.md, \"Offline model\""
-    with open(os.path.splitext(a.out)[0] + ".json", "w") as f:
+    path = os.path.splitext(a.out)[0] + ".json"
+    with open(path, "w") as f:
         json.dump(side, f, indent=1)
         f.write("\n")
-    print("%s: %d parameters%s" % (os.path.splitext(a.out)[0] + ".json", side["parameters"],
-                                   ", with the validation" if "validation" in side else ""))
+    print("%s: %d parameters%s" % (path, side["parameters"], ", with the validation" if "validation" in side else ""))
 
 
 if __name__ == "__main__":

@@ -83,8 +83,7 @@ def test_pair_penalty_only_for_a_collapse():
 
 def test_architectures():
     for arch in C.ARCHS:
-        channels = 6 if arch in C.STEREO else 3  # a stereo network sees the pair
-        out = C.build_model(arch).eval()(torch.rand(1, channels, C.IN, C.IN))
+        out = C.build_model(arch).eval()(torch.rand(1, C.in_channels(arch), C.IN, C.IN))
         hm = C.IN // C.HM_DIV[arch]
         assert tuple(out.shape) == (1, len(C.JOINTS), hm, hm)
     with pytest.raises(ValueError, match="unknown architecture"):

@@ -571,16 +571,15 @@ def report(a):
         names = gt["joint_names"]
         order = [names.index(j) for j in JOINTS]
         allp, alluv, allst = [], [], []
-
-        def view(cam, k):
-            im = Image.open(os.path.join(d, cam, "%05d.jpg" % k)).convert("RGB").resize((C.IN, C.IN), Image.BILINEAR)
-            return np.asarray(im)
+        views = {cam: [np.asarray(Image.open(os.path.join(d, cam, "%05d.jpg" % k)).convert("RGB")
+                                  .resize((C.IN, C.IN), Image.BILINEAR)) for k in range(len(gt["frames"]))]
+                 for cam in ("left", "right")}
         for cam, partner in (("left", "right"), ("right", "left")):
             xs, uvs, sts = [], [], []
             for k, fr in enumerate(gt["frames"]):
                 P = np.array([fr["joints_left_cam"][n] for n in names])[order]
                 u, v, inside = project(cams[cam], P)
-                xs.append(np.concatenate([view(cam, k), view(partner, k)], -1) if stereo else view(cam, k))
+                xs.append(np.concatenate([views[cam][k], views[partner][k]], -1) if stereo else views[cam][k])
                 uvs.append(np.stack([u, v], -1))
                 sts.append(np.where(inside, 0, 2))
             x = torch.from_numpy(np.stack(xs)).permute(0, 3, 1, 2).float() / 255.0
