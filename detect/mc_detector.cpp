@@ -282,6 +282,15 @@ int read_sidecar(mc_detector *d, const std::string &json_path, int *expect_hm_w,
 		else
 			d->threshold = (float)t;
 	}
+	json_t *sigma = rc ? nullptr : json_object_get(root, "heatmap_sigma");
+	if (sigma) {
+		double s = json_number_value(sigma);
+		if (!json_is_number(sigma) || !(s >= 0 && s <= 8))
+			rc = mc_err_set(err, "%s: heatmap_sigma: expected a number of heat-map cells in [0, 8]",
+					json_path.c_str());
+		else
+			d->heatmap_sigma = (float)s;
+	}
 	json_t *dec = rc ? nullptr : json_object_get(root, "decoder");
 	if (dec) {
 		const char *v = json_string_value(dec);
@@ -551,7 +560,7 @@ int detect_heatmap(mc_detector *d, const cv::Mat &src, mc_detection *out, int ma
 	if (d->flip && add_mirrored_pass(d, *img, infer_ms, err) < 0)
 		return -1;
 	return mc_detector_decode(d->heatmaps.data(), d->njoints, d->hm_h, d->hm_w, d->in_w, d->in_h, src.cols,
-				  src.rows, d->threshold, out, max);
+				  src.rows, d->threshold, d->heatmap_sigma, out, max);
 }
 
 int detect(mc_detector *d, const uint8_t *rgb, int width, int height, int stride, mc_detection *out, int max,

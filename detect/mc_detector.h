@@ -18,7 +18,9 @@
  *   output `heatmaps` float32 1xJxHxW (J joints, H, W read from the model),
  *                     values in [0, 1].
  * A sidecar MODEL.json next to MODEL.onnx (same name, .json) may give
- * {"input": [Hin, Win], "joints": [J names], "threshold": t, "heatmap": [H, W]};
+ * {"input": [Hin, Win], "joints": [J names], "threshold": t, "heatmap": [H, W],
+ *  "heatmap_sigma": s} (s: the training targets' Gaussian in heat-map cells,
+ * which selects the decoding of mc_detector_decode; 0 when absent);
  * without it the joints are the 18 of mc_detector_default_joint_name() and
  * the threshold is 0.3.
  *
@@ -140,16 +142,20 @@ const float *mc_detector_heatmaps(const mc_detector *d, int *njoints, int *heigh
 void mc_detector_get_timing(const mc_detector *d, mc_detector_timing *t);
 
 /* The decoding on its own (what mc_detector_detect applies to the network's
- * output; the trainer's metrics use the same): for each of J heatmaps
- * (H x W, row major), the argmax cell (x, y) (the first in raster order on
- * ties), confidence = its value, sub-pixel (x_c, y_c) = the centroid of the
- * 3x3 window around it weighted by the values (clipped at the borders;
- * negative values weigh 0), then input pixels u_in = (x_c + 0.5) * in_w / W
- * - 0.5, native pixels u = (u_in + 0.5) * native_w / in_w - 0.5 (same for
- * v).  Heatmaps whose peak is below threshold are skipped.  Returns the
- * count written (at most max). */
+ * output; tools/train/common.py decode() is the same): for each of J
+ * heatmaps (H x W, row major), confidence = the map's maximum; heatmaps
+ * whose maximum is below threshold are skipped.  The keypoint (x_c, y_c) in
+ * cells: with sigma 0, the argmax cell (the first in raster order on ties)
+ * moved to the centroid of its 3x3 window weighted by the values (clipped at
+ * the borders; negative values weigh 0); with sigma > 0 (the sidecar's
+ * heatmap_sigma, the training targets' Gaussian), the map is smoothed by a
+ * Gaussian of sigma cells, and the smoothed map's argmax moves to the
+ * vertex of the parabola through its logs at the cell and its two
+ * neighbours, in x and in y (DARK).  Then input pixels u_in = (x_c + 0.5) *
+ * in_w / W - 0.5, native pixels u = (u_in + 0.5) * native_w / in_w - 0.5
+ * (same for v).  Returns the count written (at most max). */
 int mc_detector_decode(const float *heatmaps, int njoints, int height, int width, int in_w, int in_h, int native_w,
-		       int native_h, float threshold, mc_detection *out, int max);
+		       int native_h, float threshold, float sigma, mc_detection *out, int max);
 
 /* Default joint names, in the order of the shipped model's heatmaps:
  * head_top, neck, spine, pelvis, left_shoulder, left_elbow, left_wrist,

@@ -30,6 +30,7 @@ struct mc_detector {
 	int njoints = 0, hm_w = 0, hm_h = 0;
 	std::vector<std::string> joints;
 	float threshold = MC_DETECTOR_DEFAULT_THRESHOLD;
+	float heatmap_sigma = 0; // the sidecar's: DARK decoding when > 0 (mc_detector_decode)
 	bool sidecar_joints = false; // the joints come from the sidecar
 	std::string sidecar;
 	cv::Mat blob;              // 1x3xHinxWin

@@ -11,6 +11,7 @@
 #include "test_util.h"
 
 #include <stdlib.h>
+#include <math.h>
 #include <string.h>
 #include <unistd.h>
 
@@ -37,7 +38,7 @@ static void test_decode(void)
 	hm[3 * H * W + 9 * W + 30] = 0.5f;
 	hm[3 * H * W + 7 * W + 4] = -0.7f;
 	mc_detection d[J];
-	int n = mc_detector_decode(hm, J, H, W, 128, 128, 256, 256, 0.3f, d, J);
+	int n = mc_detector_decode(hm, J, H, W, 128, 128, 256, 256, 0.3f, 0, d, J);
 	CHECK(n == 3);
 	if (n != 3)
 		return;
@@ -59,13 +60,55 @@ static void test_decode(void)
 	static float hm2[64 * 64];
 	memset(hm2, 0, sizeof(hm2));
 	hm2[31 * 64 + 17] = 1.0f;
-	n = mc_detector_decode(hm2, 1, 64, 64, 128, 128, 640, 480, 0.3f, d, 1);
+	n = mc_detector_decode(hm2, 1, 64, 64, 128, 128, 640, 480, 0.3f, 0, d, 1);
 	CHECK(n == 1);
 	CHECK_NEAR(d[0].u, (17 + 0.5) * 640 / 64.0 - 0.5, 1e-3);
 	CHECK_NEAR(d[0].v, (31 + 0.5) * 480 / 64.0 - 0.5, 1e-3);
 	/* max limits the output; threshold 0 reports everything. */
-	CHECK(mc_detector_decode(hm, J, H, W, 128, 128, 256, 256, 0.3f, d, 1) == 1);
-	CHECK(mc_detector_decode(hm, J, H, W, 128, 128, 256, 256, 0.0f, d, J) == J);
+	CHECK(mc_detector_decode(hm, J, H, W, 128, 128, 256, 256, 0.3f, 0, d, 1) == 1);
+	CHECK(mc_detector_decode(hm, J, H, W, 128, 128, 256, 256, 0.0f, 0, d, J) == J);
+}
+
+/* A Gaussian of sigma_cells cells at (x0, y0) with peak height peak, added
+ * to one H x W plane. */
+static void add_gaussian(float *plane, int w, int h, double x0, double y0, double sigma_cells, double peak)
+{
+	for (int y = 0; y < h; y++)
+		for (int x = 0; x < w; x++)
+			plane[y * w + x] += (float)(peak * exp(-((x - x0) * (x - x0) + (y - y0) * (y - y0)) /
+							   (2 * sigma_cells * sigma_cells)));
+}
+
+/* DARK decoding (sigma > 0): a Gaussian target's centre comes back to a
+ * hundredth of a cell where the 3x3 centroid is pulled toward the cell's
+ * middle; a broad peak wins over a taller lone spike; the confidence stays
+ * the map's maximum. */
+static void test_decode_dark(void)
+{
+	enum { H = 32, W = 32 };
+	static float hm[2 * H * W];
+	memset(hm, 0, sizeof(hm));
+	add_gaussian(hm, W, H, 10.4, 20.3, 1.0, 0.9);
+	mc_detection d[2];
+	/* Input 128 = native 128: u = (x_c + 0.5) * 4 - 0.5. */
+	CHECK(mc_detector_decode(hm, 1, H, W, 128, 128, 128, 128, 0.3f, 1.0f, d, 1) == 1);
+	CHECK_NEAR((d[0].u + 0.5) / 4 - 0.5, 10.4, 0.01);
+	CHECK_NEAR((d[0].v + 0.5) / 4 - 0.5, 20.3, 0.01);
+	CHECK_NEAR(d[0].confidence, hm[20 * W + 10], 1e-6);
+	CHECK(mc_detector_decode(hm, 1, H, W, 128, 128, 128, 128, 0.3f, 0, d, 1) == 1);
+	CHECK_MSG(fabs((d[0].u + 0.5) / 4 - 0.5 - 10.4) > 0.1, "the centroid at %.3f", (d[0].u + 0.5) / 4 - 0.5);
+	/* A spike of 0.95 at (5, 5) against a Gaussian of 0.8 at (24, 12). */
+	float *two = hm + H * W;
+	add_gaussian(two, W, H, 24, 12, 1.0, 0.8);
+	two[5 * W + 5] = 0.95f;
+	CHECK(mc_detector_decode(two, 1, H, W, 128, 128, 128, 128, 0.3f, 1.0f, d, 1) == 1);
+	CHECK_NEAR((d[0].u + 0.5) / 4 - 0.5, 24, 0.01);
+	CHECK_NEAR((d[0].v + 0.5) / 4 - 0.5, 12, 0.01);
+	CHECK_NEAR(d[0].confidence, 0.95, 1e-6);
+	CHECK(mc_detector_decode(two, 1, H, W, 128, 128, 128, 128, 0.3f, 0, d, 1) == 1);
+	CHECK_NEAR(d[0].u, 5 * 4 + 1.5, 1e-4);
+	/* Below the threshold, nothing, whatever the decoding. */
+	CHECK(mc_detector_decode(two, 1, H, W, 128, 128, 128, 128, 0.96f, 1.0f, d, 1) == 0);
 }
 
 /* ---- bad models */
@@ -145,6 +188,9 @@ static void test_bad_models(void)
 	const char *thr = "{\"threshold\": 2}";
 	CHECK(write_file(json, thr, strlen(thr)));
 	expect_error_naming(onnx, json, "threshold: expected a number in [0, 1]", NULL);
+	const char *sigma = "{\"heatmap_sigma\": \"wide\"}";
+	CHECK(write_file(json, sigma, strlen(sigma)));
+	expect_error_naming(onnx, json, "heatmap_sigma: expected a number of heat-map cells in [0, 8]", NULL);
 	/* A good sidecar: its joints and threshold are used. */
 	const char *good = "{\"input\": [128, 128], \"heatmap\": [32, 32], \"threshold\": 0.5, \"joints\": [\"head_top\","
 			   "\"neck\",\"spine\",\"pelvis\",\"left_shoulder\",\"left_elbow\",\"left_wrist\",\"left_hip\","
@@ -283,6 +329,7 @@ int main(void)
 	if (access(DATA "fixed_wrist.onnx", R_OK) != 0 || access("tests/data/ego_demo/left/00000.jpg", R_OK) != 0)
 		TEST_SKIP("run from the repository root (" DATA " or tests/data/ego_demo not found)");
 	test_decode();
+	test_decode_dark();
 	test_bad_models();
 	test_fixed_model();
 	return mc_test_finish("test_detector");

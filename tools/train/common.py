@@ -148,26 +148,74 @@ def build_model(arch="v1"):
                     ("up32", up(32, 16), "m64", seq(*cbr(16, 16)))], 16)
 
 
-def decode(hm):
+# target Gaussian sigma in heat-map cells, by input pixels per cell side:
+# 4 input pixels on 1/4 heat maps (v1, v2), 2 on v3's 1/2 heat maps
+SIGMA = {4: 1.0, 2: 1.5}
+
+
+def target_sigma():
+    """The training targets' Gaussian sigma (cells) at today's heat-map size;
+    the export writes it to the sidecar as heatmap_sigma."""
+    return SIGMA[IN_W // HM_W]
+
+
+def blur(h, sigma):
+    """h (H, W) smoothed by a Gaussian of sigma cells: separable, radius
+    ceil(3 sigma) (at most 8), edges repeated.  The same arithmetic as
+    blur_plane() in detect/mc_detector_decode.c."""
+    r = min(8, int(math.ceil(3 * sigma)))
+    k = np.exp(-0.5 * np.arange(-r, r + 1) ** 2 / sigma ** 2)
+    k /= k.sum()
+    p = np.pad(h.astype(np.float64), r, mode="edge")
+    H, W = h.shape
+    rows = sum(k[i] * p[r:r + H, i:i + W] for i in range(2 * r + 1))
+    p = np.pad(rows, ((r, r), (0, 0)), mode="edge")
+    return sum(k[i] * p[i:i + H, :] for i in range(2 * r + 1))
+
+
+def _log_parabola(a, b, c):
+    """The vertex of the parabola through log a, log b, log c (at -1, 0, 1),
+    clipped to [-1, 1]; 0 when they do not curve down."""
+    la, lb, lc = (math.log(max(float(t), 1e-10)) for t in (a, b, c))
+    d2 = la - 2 * lb + lc
+    return float(np.clip(-0.5 * (lc - la) / d2, -1, 1)) if d2 < 0 else 0.0
+
+
+def _centroid3x3(h, x, y):
+    H, W = h.shape
+    y0, y1, x0, x1 = max(0, y - 1), min(H, y + 2), max(0, x - 1), min(W, x + 2)
+    win = np.maximum(h[y0:y1, x0:x1].astype(np.float64), 0)
+    s = win.sum()
+    if s <= 0:
+        return float(x), float(y)
+    yy, xx = np.mgrid[y0:y1, x0:x1]
+    return (win * xx).sum() / s, (win * yy).sum() / s
+
+
+def decode(hm, sigma=None):
     """hm: (J, H, W) array of values in [0, 1].  Returns (J, 3): u, v (input
-    pixels, IN_W x IN_H: 128x128 for ego), confidence.  Argmax cell,
-    confidence = value there, sub-cell position = weighted centroid of the
-    3x3 window (clipped at the borders), u = (x_c + 0.5) * IN_W / W - 0.5,
-    v = (y_c + 0.5) * IN_H / H - 0.5."""
+    pixels, IN_W x IN_H: 128x128 for ego), confidence = the map's maximum.
+    sigma (cells; default target_sigma()) > 0: the map smoothed by a
+    Gaussian of sigma, its argmax cell, the sub-cell position from the
+    parabola through the smoothed map's logs at the cell and its two
+    neighbours in x and in y (DARK, Zhang et al. 2020).  sigma 0: the raw
+    argmax and the weighted centroid of its 3x3 window.  Then
+    u = (x_c + 0.5) * IN_W / W - 0.5, v = (y_c + 0.5) * IN_H / H - 0.5.
+    detect/mc_detector_decode.c does the same."""
     J, H, W = hm.shape
+    sigma = target_sigma() if sigma is None else sigma
     out = np.zeros((J, 3))
     for j in range(J):
-        k = int(np.argmax(hm[j]))
-        y, x = divmod(k, W)
-        y0, y1, x0, x1 = max(0, y - 1), min(H, y + 2), max(0, x - 1), min(W, x + 2)
-        win = hm[j, y0:y1, x0:x1].astype(np.float64)
-        s = win.sum()
-        if s > 0:
-            yy, xx = np.mgrid[y0:y1, x0:x1]
-            xc, yc = (win * xx).sum() / s, (win * yy).sum() / s
+        y, x = divmod(int(np.argmax(hm[j])), W)
+        conf = hm[j, y, x]
+        if sigma > 0:
+            h = blur(hm[j], sigma)
+            y, x = divmod(int(np.argmax(h)), W)
+            xc = x + (_log_parabola(h[y, x - 1], h[y, x], h[y, x + 1]) if 0 < x < W - 1 else 0.0)
+            yc = y + (_log_parabola(h[y - 1, x], h[y, x], h[y + 1, x]) if 0 < y < H - 1 else 0.0)
         else:
-            xc, yc = float(x), float(y)
-        out[j] = ((xc + 0.5) * IN_W / W - 0.5, (yc + 0.5) * IN_H / H - 0.5, hm[j, y, x])
+            xc, yc = _centroid3x3(hm[j], x, y)
+        out[j] = ((xc + 0.5) * IN_W / W - 0.5, (yc + 0.5) * IN_H / H - 0.5, conf)
     return out
 
 

@@ -20,7 +20,7 @@ import sys
 
 import numpy as np
 
-SIDE_KEYS = ("input", "joints", "heatmap")
+SIDE_KEYS = ("input", "joints", "heatmap", "heatmap_sigma")
 
 
 def sidecar(path):
@@ -98,7 +98,7 @@ def main():
 def write_sidecar(a, sa, sb):
     """OUT.json: A's input contract, the members, their licences, and the
     validation's headline figures when given."""
-    side = {k: sa[k] for k in SIDE_KEYS}
+    side = {k: sa[k] for k in SIDE_KEYS if k in sa}
     side["threshold"] = sa.get("threshold", 0.3)
     side["arch"] = "ensemble"
     side["members"] = [dict(file=os.path.basename(p), weight=w, arch=s.get("arch"), trained_on=s.get("trained_on"),

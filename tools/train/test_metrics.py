@@ -100,3 +100,26 @@ def test_feet_weight():
     assert heavy == pytest.approx(3 * plain, rel=1e-3)
     logits[0, LA, 3, 3], logits[0, LW, 3, 3] = -12.0, 5.0  # the same on a wrist's channel
     assert float(T.loss_fn(logits, tgt, feet_weight=3.0)) == pytest.approx(float(T.loss_fn(logits, tgt)))
+
+
+def gaussian(x0, y0, sigma, peak, size=32):
+    yy, xx = np.mgrid[0:size, 0:size]
+    return peak * np.exp(-((xx - x0) ** 2 + (yy - y0) ** 2) / (2 * sigma ** 2))
+
+
+def test_decode_dark_matches_the_runtime():
+    """The numbers of test_decode_dark in detect/tests/test_detector.c: a
+    Gaussian's centre to a hundredth of a cell (the centroid is pulled to the
+    cell's middle), a broad peak over a taller spike, confidence the map's
+    maximum."""
+    cells = lambda u: (u + 0.5) * C.HM_W / C.IN_W - 0.5  # noqa: E731
+    assert C.target_sigma() == 1.0 and (C.HM_W, C.IN_W) == (32, 128)
+    hm = gaussian(10.4, 20.3, 1.0, 0.9)[None]
+    u, v, conf = C.decode(hm)[0]
+    assert abs(cells(u) - 10.4) < 0.01 and abs(cells(v) - 20.3) < 0.01 and conf == hm[0, 20, 10]
+    assert abs(cells(C.decode(hm, sigma=0)[0, 0]) - 10.4) > 0.1
+    two = gaussian(24, 12, 1.0, 0.8)
+    two[5, 5] = 0.95
+    u, v, conf = C.decode(two[None])[0]
+    assert abs(cells(u) - 24) < 0.01 and abs(cells(v) - 12) < 0.01 and conf == 0.95
+    assert cells(C.decode(two[None], sigma=0)[0, 0]) == 5

@@ -34,9 +34,6 @@ from common import EVALUATED, GROUPS, JOINTS, THRESHOLD, build_model, decode, lo
 import torch  # noqa: E402
 import torch.nn.functional as Fn  # noqa: E402
 
-# target Gaussian sigma in heat-map cells, by cells per input pixel side:
-# 4 input pixels on 1/4 heat maps (v1, v2), 3 on v3's 1/2 heat maps
-SIGMA = {4: 1.0, 2: 1.5}
 # geometric augmentation per kind: roll (rad), zoom range, shift (input px)
 AUG = {"ego": (0.2, (0.92, 1.08), 3.0), "outside": (0.2, (0.8, 1.2), 8.0)}
 
@@ -122,7 +119,7 @@ def targets(uv, st):
     """uv (B,J,2) input pixels, st (B,J) states -> (B,J,HM_H,HM_W) Gaussian targets."""
     B, J = st.shape
     W, H = C.HM_W, C.HM_H
-    sigma = SIGMA[C.IN_W // W]
+    sigma = C.target_sigma()
     xc = (uv[..., 0] + 0.5) * W / C.IN_W - 0.5
     yc = (uv[..., 1] + 0.5) * H / C.IN_H - 0.5
     gxs = torch.arange(W, dtype=torch.float32, device=uv.device)
@@ -505,6 +502,7 @@ def export(a):
     what = ("synthetic head-mounted stereo fisheye views (tools/synth/render.py --seed %d, " if C.KIND == "ego" else
             "synthetic outside-in pinhole views, 4:3 (tools/synth/render.py --kind outside --seed %d, ")
     side = {"input": [C.IN_H, C.IN_W], "joints": JOINTS, "threshold": THRESHOLD, "heatmap": [C.HM_H, C.HM_W],
+            "heatmap_sigma": C.target_sigma(),
             "trained_on": (what +
                            "%s training views) of CMU motions from mocap-train only (mocap/ held out); "
                            "%s: epoch %d, step %d, synthetic validation loss %.4f; see docs/DETECTOR.md") % (
