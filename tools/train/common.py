@@ -153,6 +153,11 @@ def build_model(arch="v1"):
 SIGMA = {4: 1.0, 2: 1.5}
 
 
+# decode()'s sigma when not given: None for target_sigma(); an exported
+# model's sidecar heatmap_sigma (train.py load_model), or --decode-sigma.
+DECODE_SIGMA = None
+
+
 def target_sigma():
     """The training targets' Gaussian sigma (cells) at today's heat-map size;
     the export writes it to the sidecar as heatmap_sigma."""
@@ -195,7 +200,7 @@ def _centroid3x3(h, x, y):
 def decode(hm, sigma=None):
     """hm: (J, H, W) array of values in [0, 1].  Returns (J, 3): u, v (input
     pixels, IN_W x IN_H: 128x128 for ego), confidence = the map's maximum.
-    sigma (cells; default target_sigma()) > 0: the map smoothed by a
+    sigma (cells; default DECODE_SIGMA, else target_sigma()) > 0: the map smoothed by a
     Gaussian of sigma, its argmax cell, the sub-cell position from the
     parabola through the smoothed map's logs at the cell and its two
     neighbours in x and in y (DARK, Zhang et al. 2020).  sigma 0: the raw
@@ -203,7 +208,8 @@ def decode(hm, sigma=None):
     u = (x_c + 0.5) * IN_W / W - 0.5, v = (y_c + 0.5) * IN_H / H - 0.5.
     detect/mc_detector_decode.c does the same."""
     J, H, W = hm.shape
-    sigma = target_sigma() if sigma is None else sigma
+    if sigma is None:
+        sigma = target_sigma() if DECODE_SIGMA is None else DECODE_SIGMA
     out = np.zeros((J, 3))
     for j in range(J):
         y, x = divmod(int(np.argmax(hm[j])), W)

@@ -154,6 +154,7 @@ def test_ensemble_is_the_weighted_mean(tmp_path):
     side = json.load(open(str(tmp_path / "e.json")))
     assert side["arch"] == "ensemble" and [w["weight"] for w in side["members"]] == [0.25, 0.75]
     assert side["joints"] == C.JOINTS and side["heatmap"] == [32, 32] and "validation" not in side
+    assert side["heatmap_sigma"] == 1.0  # the members' decoding carries over
     # --sidecar-only: the validation added, the model file left as it was
     report = tmp_path / "report.json"
     json.dump({"validation": {"false": 0.285, "median_visible": 3.97, "median_occluded": 7.63, "collapse": 0.001,

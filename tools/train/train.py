@@ -465,6 +465,8 @@ def load_model(path):
     if path.endswith(".onnx"):
         side = json.load(open(os.path.splitext(path)[0] + ".json"))
         C.set_heatmap(*side["heatmap"])
+        if C.DECODE_SIGMA is None:  # decoded as the runtime would (0 when the sidecar is silent)
+            C.DECODE_SIGMA = side.get("heatmap_sigma", 0)
         return OnnxModel(path), {}
     ck = torch.load(path, map_location="cpu")
     C.set_kind(C.KIND, ck_arch(ck))
@@ -725,6 +727,9 @@ def main():
     ap.add_argument("--ckpt-minutes", type=float, default=3.0)
     ap.add_argument("--export", metavar="ONNX")
     ap.add_argument("--report", action="store_true")
+    ap.add_argument("--decode-sigma", type=float, default=None,
+                    help="--report: decode with this smoothing (cells; 0 = the 3x3 centroid) instead of the "
+                         "model's (its sidecar heatmap_sigma, or the training targets' sigma)")
     ap.add_argument("--report-out", default=None,
                     help="default build/detector/report.json (outside: build/detector/outside/report.json)")
     ap.add_argument("--rig", default=os.path.join(ROOT, "config/rigs/ego_stereo.json"))
@@ -732,6 +737,7 @@ def main():
     ap.add_argument("--outside", default="/work/shared/data/outside", help="outside-in clips for --report")
     a = ap.parse_args()
     C.set_kind(a.kind, a.arch)
+    C.DECODE_SIGMA = a.decode_sigma
     sub = "build/detector" if a.kind == "ego" else "build/detector/outside"
     a.data = a.data or os.path.join(ROOT, sub, "data")
     a.ckpt = a.ckpt or os.path.join(ROOT, sub, "ckpt.pt")
