@@ -5,6 +5,8 @@
 #   make detector-data      render DETECTOR_FRAMES stereo pairs (resumes)
 #   make detector-data-v2   the v2 data (held-out factors, bystanders): a resumable
 #                           job into $(DETECTOR_DIR)/v2 (progress: detector-progress-v2)
+#   make detector-data-v3   the v3 data (v2 + feet and shoulders of more shapes and
+#                           colours, spine label fixed): into $(DETECTOR_DIR)/v3
 #   make detector-train-v2  stage 1 on the v2 data (resumes from $(DETECTOR_DIR)/v2/ckpt.pt)
 #   make detector-train-mn  the head rig's network started from MoveNet (--arch mn), 75 min
 #   make detector-offline   config/models/ego_offline_detector.onnx: mn and the live model averaged
@@ -41,7 +43,7 @@ CHECKS += check-train-tools
 check-train-tools:
 	@if $(TRAIN_PYTHON) -c 'import torch, numpy, pytest' 2>/dev/null; then \
 		PYTHONDONTWRITEBYTECODE=1 $(TRAIN_PYTHON) -m pytest -q -p no:cacheprovider tools/train/test_metrics.py tools/train/test_pack.py \
-		  tools/train/test_pretrained.py tools/train/test_stereo.py; \
+		  tools/train/test_pretrained.py tools/train/test_stereo.py tools/synth/test_job.py; \
 	else echo "SKIP check-train-tools: no python3-torch, python3-numpy or pytest for $(TRAIN_PYTHON) (make deps-train)"; fi
 .PHONY: detector-data-outside detector-train-outside detector-finetune-outside detector-export-outside \
 	detector-report-outside
@@ -87,6 +89,23 @@ detector-data-v2:
 detector-progress-v2:
 	@$(TRAIN_PYTHON) tools/synth/job.py --out $(DETECTOR_V2_DIR) --train $(DETECTOR_V2_TRAIN) \
 	  --val $(DETECTOR_V2_VAL) --seed $(DETECTOR_V2_SEED) --status
+
+# The v3 data: v2's held-out factors and sizes, plus feet and shoulders of
+# more shapes and colours and cmu_mb's spine at the evaluation's place
+# (render.py --data-version 3; docs/DETECTOR_EXPERIMENTS.md, "v3 data").  Another seed,
+# so that its poses are not v2's.  Resumable like v2:
+#   nohup nice -n 19 make detector-data-v3 > build/detector/v3.log 2>&1 &
+DETECTOR_V3_DIR ?= $(DETECTOR_DIR)/v3
+DETECTOR_V3_SEED ?= 31
+.PHONY: detector-data-v3 detector-progress-v3
+detector-data-v3:
+	$(TRAIN_PYTHON) tools/synth/job.py --out $(DETECTOR_V3_DIR) --blender $(BLENDER) --mocap $(MOCAP_TRAIN_DIR) \
+	  --seed $(DETECTOR_V3_SEED) --train $(DETECTOR_V2_TRAIN) --val $(DETECTOR_V2_VAL) --shards $(DETECTOR_SHARDS) \
+	  --chunk $(DETECTOR_V2_CHUNK) --nice $(DETECTOR_V2_NICE) --data-version 3
+
+detector-progress-v3:
+	@$(TRAIN_PYTHON) tools/synth/job.py --out $(DETECTOR_V3_DIR) --train $(DETECTOR_V2_TRAIN) \
+	  --val $(DETECTOR_V2_VAL) --seed $(DETECTOR_V3_SEED) --data-version 3 --status
 
 # For a GPU machine (docs/DETECTOR_EXPERIMENTS.md, "v3 network and GPU training"): parts
 # of at most DETECTOR_PACK_MB MB of WebP views, each packed as PART.tar.gz;

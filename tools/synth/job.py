@@ -48,6 +48,8 @@ def parse_args():
     ap.add_argument("--blender", default="blender")
     ap.add_argument("--mocap", default=os.path.join(ROOT, "../shared/data/mocap-train"))
     ap.add_argument("--nice", type=int, default=19, help="niceness of the Blender processes")
+    ap.add_argument("--data-version", type=int, choices=(2, 3), default=2,
+                    help="render.py --data-version: 2 for the v2 job, 3 for the v3 job")
     ap.add_argument("--every", type=float, default=60.0, help="seconds between progress reports")
     ap.add_argument("--status", action="store_true", help="print the progress and exit (renders nothing)")
     return ap.parse_args()
@@ -133,6 +135,21 @@ class Progress:
         return d
 
 
+def settings_clash(a):
+    """Why resuming the job in a.out with these settings would mix two data
+    sets (its job.json says another seed or data version), or None."""
+    try:
+        old = json.load(open(os.path.join(a.out, "job.json")))
+    except (OSError, ValueError):
+        return None
+    for key, default in (("seed", None), ("data_version", 2)):
+        was = old.get(key, default)
+        if was is not None and was != getattr(a, key):
+            return ("%s/job.json: this job was started with --%s %s, not %s; resume it with the same "
+                    "settings, or give another --out" % (a.out, key.replace("_", "-"), was, getattr(a, key)))
+    return None
+
+
 def main():
     a = parse_args()
     a.out, a.mocap = os.path.abspath(a.out), os.path.abspath(a.mocap)
@@ -141,6 +158,10 @@ def main():
     if a.status:
         Progress(a).report()
         return 0
+    clash = settings_clash(a)
+    if clash:
+        print("job: %s" % clash, file=sys.stderr)
+        return 1
     os.makedirs(data, exist_ok=True)
     os.makedirs(logs, exist_ok=True)
     lockf = open(os.path.join(a.out, "job.lock"), "w")
@@ -172,7 +193,8 @@ def main():
             split, first, count = c
             cmd = ["nice", "-n", str(a.nice), a.blender, "-b", "--factory-startup", "--python",
                    os.path.join(HERE, "render.py"), "--", "--out", data, "--mocap", a.mocap, "--seed", str(a.seed),
-                   "--first", str(first), "--count", str(count), "--split", split]
+                   "--first", str(first), "--count", str(count), "--split", split,
+                   "--data-version", str(a.data_version)]
             log = open(os.path.join(logs, "render_%s_%06d.log" % (split, first)), "a")
             log.write("# %s %s\n" % (time.strftime("%Y-%m-%d %H:%M:%S", time.gmtime()), " ".join(cmd)))
             log.flush()

@@ -64,6 +64,9 @@ def parse_args():
     ap.add_argument("--views", type=int, default=4, help="outside: cameras per posed actor")
     ap.add_argument("--relabel", action="store_true",
                     help="outside: recompute the labels of the frames already in OUT (same scenes, no rendering)")
+    ap.add_argument("--data-version", type=int, choices=(2, 3), default=2,
+                    help="with --split: 2 as the v2 job was rendered; 3 adds feet and shoulders of more "
+                         "shapes and colours and cmu_mb's spine label at the evaluation's place")
     ap.add_argument("--samples", type=int, default=8)
     ap.add_argument("--threads", type=int, default=1)
     ap.add_argument("--val-fraction", type=float, default=0.1)
@@ -211,7 +214,7 @@ def main():
           flush=True)
     if not todo:
         return
-    clips = load_clips(args.mocap)
+    clips = load_clips(args.mocap, args.data_version)
     scene = Scene(args, cams)
     if args.split:
         clips = clips_of_split(clips, args.split)
@@ -224,6 +227,7 @@ def main():
         if args.split:
             split = args.split
             pose, look, bypose = draw_v2(clips, rng, split)
+            look["version"] = args.data_version
             J = scene.setup_v2(pose, rng, look, bypose)
         else:
             split = "val" if rng.random() < args.val_fraction else "train"
@@ -240,7 +244,7 @@ def main():
                     "mirror": pose["mirror"], "height_m": round(pose["height"], 3),
                     "images": {c["name"]: "images/%06d_%s.jpg" % (i, c["name"]) for c in cams}})
         if look is not None:
-            rec.update({"data": "v2", "family": family_of(pose["clip"]), "build": look["build"],
+            rec.update({"data": "v%d" % args.data_version, "family": family_of(pose["clip"]), "build": look["build"],
                         "garment": look["garment"], "longpants": look["longpants"], "scene": look["scene"],
                         "bystander": bypose is not None})
             if bypose is not None:

@@ -169,11 +169,33 @@ def _place_body(objs, J, g, fac, depth, head_ob=None, hr=None):
         head_ob.matrix_world = Matrix(M.tolist())
 
 
-def _extremities(J, g):
+def _extremities(J, g, toe_reach=0.35):
+    """Hands and toe tips (geometry only: the labels stay the wrist and the
+    toe base); toe_reach = how far the foot goes past the toe base, as a
+    fraction of ankle -> toe base."""
     for s in ("left", "right"):
         J[s + "_hand"] = J[s + "_wrist"] + 0.17 * g * (J[s + "_wrist"] - J[s + "_elbow"]) / \
             max(1e-6, np.linalg.norm(J[s + "_wrist"] - J[s + "_elbow"]))
-        J[s + "_toetip"] = J[s + "_toe"] + 0.35 * (J[s + "_toe"] - J[s + "_ankle"])
+        J[s + "_toetip"] = J[s + "_toe"] + toe_reach * (J[s + "_toe"] - J[s + "_ankle"])
+
+
+# Data version 3 (issue 36; docs/DETECTOR_EXPERIMENTS.md, "Labels against
+# the evaluation's joints"): the dev clips' mannequin has small feet the
+# colour of its trousers and narrow shoulders, where the v2 renders' feet
+# were one size in shoe colours; the detector put those ankles 3-4 px past
+# the leg's end.  Ranges, drawn per actor:
+V3_TOE_REACH = (0.1, 0.6)         # foot past the toe base (v2: 0.35)
+V3_FOOT_GIRTH = (0.7, 1.35)       # foot radius factor (v2: build and garment only)
+V3_SHOULDER_GIRTH = (0.7, 1.3)    # shoulder bar radius factor
+V3_SHOES_AS_TROUSERS = 0.35       # the shoes take the trousers' (or legs') material
+
+
+def _v3_shapes(fac, rng):
+    """Version 3's feet and shoulders on top of fac (radius factors)."""
+    foot = rng.uniform(*V3_FOOT_GIRTH)
+    for n in ("l_foot", "r_foot"):
+        fac[n] *= foot * rng.uniform(0.95, 1.05)
+    fac["shoulders"] *= rng.uniform(*V3_SHOULDER_GIRTH)
 
 
 def _dress(self, mats, garment, sleeve, longpants, rng):
@@ -196,12 +218,17 @@ def setup_v2(self, pose, rng, look, bypose=None):
     H = pose["height"]
     J = {k: np.asarray(v, dtype=float) for k, v in pose["joints"].items()}
     g = H / 1.75
-    _extremities(J, g)
+    v3 = look.get("version", 2) >= 3  # v2's random draws stay as they were
+    _extremities(J, g, rng.uniform(*V3_TOE_REACH) if v3 else 0.35)
     bf, depth = build_girth(look["build"], rng)
     gf, sleeve, longpants = garment_cut(look["garment"], rng)
     fac = {n: bf[n] * gf[n] * rng.uniform(0.92, 1.08) for n, *_ in SEGMENTS}
+    if v3:
+        _v3_shapes(fac, rng)
     _place_body(self.seg, J, g, fac, depth)
     _dress(self, self.mats, look["garment"], sleeve, longpants, rng)
+    if v3 and rng.random() < V3_SHOES_AS_TROUSERS:
+        self._copy(self.mats["legwear"], self.mats["shoes"])
     look["longpants"] = bool(longpants)
     # bystander
     on = bypose is not None
