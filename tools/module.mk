@@ -97,15 +97,18 @@ detector-progress-v2:
 #   nohup nice -n 19 make detector-data-v3 > build/detector/v3.log 2>&1 &
 DETECTOR_V3_DIR ?= $(DETECTOR_DIR)/v3
 DETECTOR_V3_SEED ?= 31
+# half of v2's size: trained together with v2, it adds variety, not volume
+DETECTOR_V3_TRAIN ?= 27600
+DETECTOR_V3_VAL ?= 3000
 .PHONY: detector-data-v3 detector-progress-v3
 detector-data-v3:
 	$(TRAIN_PYTHON) tools/synth/job.py --out $(DETECTOR_V3_DIR) --blender $(BLENDER) --mocap $(MOCAP_TRAIN_DIR) \
-	  --seed $(DETECTOR_V3_SEED) --train $(DETECTOR_V2_TRAIN) --val $(DETECTOR_V2_VAL) --shards $(DETECTOR_SHARDS) \
+	  --seed $(DETECTOR_V3_SEED) --train $(DETECTOR_V3_TRAIN) --val $(DETECTOR_V3_VAL) --shards $(DETECTOR_SHARDS) \
 	  --chunk $(DETECTOR_V2_CHUNK) --nice $(DETECTOR_V2_NICE) --data-version 3
 
 detector-progress-v3:
-	@$(TRAIN_PYTHON) tools/synth/job.py --out $(DETECTOR_V3_DIR) --train $(DETECTOR_V2_TRAIN) \
-	  --val $(DETECTOR_V2_VAL) --seed $(DETECTOR_V3_SEED) --data-version 3 --status
+	@$(TRAIN_PYTHON) tools/synth/job.py --out $(DETECTOR_V3_DIR) --train $(DETECTOR_V3_TRAIN) \
+	  --val $(DETECTOR_V3_VAL) --seed $(DETECTOR_V3_SEED) --data-version 3 --status
 
 # For a GPU machine (docs/DETECTOR_EXPERIMENTS.md, "v3 network and GPU training"): parts
 # of at most DETECTOR_PACK_MB MB of WebP views, each packed as PART.tar.gz;
