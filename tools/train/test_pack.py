@@ -98,3 +98,22 @@ def test_time_budget_training(tmp_path):
     assert r.returncode == 0, r.stderr
     assert "training done: 2 steps" in r.stderr, r.stderr[-500:]
     assert best.exists() and not (tmp_path / "best.pt").exists()
+
+
+def test_two_data_folders_train_together(tmp_path):
+    """--data A,B: every view of both, the second folder's ids kept apart
+    from the first's, each view paired with its own folder's partner."""
+    a, b = tmp_path / "v2", tmp_path / "v3"
+    make_data(str(a))
+    make_data(str(b), n_train=4)
+    one, both = T.Data(str(a), "train"), T.Data("%s,%s" % (a, b), "train")
+    assert one.refresh() == 12 and both.refresh() == 12 + 8
+    assert both.keys[:12] == one.keys and both.keys[12] == ("1:0", "left")
+    assert len(set(both.keys)) == len(both.keys)
+    for i, (f, cam) in enumerate(both.keys):
+        j = both.partner[i]
+        assert both.keys[j] == (f, "right" if cam == "left" else "left")
+    assert np.array_equal(both.img[:12], one.img)
+    b_only = T.Data(str(b), "train")
+    b_only.refresh()
+    assert np.array_equal(both.img[12:], b_only.img) and np.array_equal(both.uv[12:], b_only.uv)

@@ -44,10 +44,14 @@ def log(*a):
 
 # ------------------------------------------------------------------ data
 class Data:
-    """All views of a split, images cached as uint8 in memory."""
+    """All views of a split, images cached as uint8 in memory.  root: one
+    data folder, or several joined by commas (v2 and v3 trained together);
+    a view's key is (id, camera) in the first folder and ("K:id", camera)
+    in the K-th (from 0), since each folder numbers its own frames."""
 
     def __init__(self, root, split):
         self.root, self.split = root, split
+        self.roots = [r for r in root.split(",") if r]
         self.keys, self.uv, self.st = [], [], []
         self.img = np.zeros((0, C.IN_H, C.IN_W, 3), np.uint8)
         self.seen = set()
@@ -66,7 +70,8 @@ class Data:
     def refresh(self):
         from PIL import Image
         new_keys, new_uv, new_st, new_img = [], [], [], []
-        for fn in sorted(glob.glob(os.path.join(self.root, "labels*.jsonl"))):
+        for k, fn in ((k, fn) for k, root in enumerate(self.roots)
+                      for fn in sorted(glob.glob(os.path.join(root, "labels*.jsonl")))):
             for line in open(fn):
                 try:
                     r = json.loads(line)
@@ -75,10 +80,10 @@ class Data:
                 if r["split"] != self.split:
                     continue
                 for cam, v in r["views"].items():
-                    key = (r["id"], cam)
+                    key = (r["id"] if k == 0 else "%d:%s" % (k, r["id"]), cam)
                     if key in self.seen:
                         continue
-                    path = os.path.join(self.root, r["images"][cam])
+                    path = os.path.join(self.roots[k], r["images"][cam])
                     uv = v["uv"]
                     try:
                         im = Image.open(path).convert("RGB")
@@ -593,7 +598,7 @@ def report(a):
         r["in_image"] = int((st < 2).sum())
         out[name] = r
         log("%s (%d views): %s (%d outside)" % (name, len(pred), fmt(r), r["false_outside"]))
-    if os.path.isdir(a.data):
+    if all(os.path.isdir(d) for d in a.data.split(",")):
         va = Data(a.data, "val")
         va.stereo = stereo
         if va.refresh():
@@ -701,7 +706,8 @@ def main():
     ap.add_argument("--kind", choices=("ego", "outside"), default="ego",
                     help="ego: 128x128 head-mounted fisheye views (default); outside: 192x144 outside-in "
                          "pinhole views (defaults under build/detector/outside/)")
-    ap.add_argument("--data", default=None, help="default build/detector/data (outside: build/detector/outside/data)")
+    ap.add_argument("--data", default=None, help="default build/detector/data (outside: build/detector/outside/data); "
+                    "several folders joined by commas are trained on together")
     ap.add_argument("--ckpt", default=None, help="default build/detector/ckpt.pt (outside: build/detector/outside/ckpt.pt)")
     ap.add_argument("--weights", help="checkpoint for --export/--report (default --ckpt)")
     ap.add_argument("--best", help="where training keeps its best epoch (default best.pt beside --ckpt)")
