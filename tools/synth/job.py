@@ -114,7 +114,8 @@ class Progress:
         rate = rate15 if rate15 > 0 else rate_all
         eta = left / rate if rate > 0 else None
         lines = [
-            "render job %s (data v%d, seed %d) at %s" % (a.out, a.data_version, a.seed, time.strftime("%Y-%m-%d %H:%M:%S UTC", time.gmtime(now))),
+            "render job %s (data v%d, seed %d) at %s" % (
+                a.out, a.data_version, a.seed, time.strftime("%Y-%m-%d %H:%M:%S UTC", time.gmtime(now))),
             "train %d / %d pairs (%.1f %%), val %d / %d pairs (%.1f %%), %d left" % (
                 nt, a.train, 100.0 * nt / max(a.train, 1), nv, a.val, 100.0 * nv / max(a.val, 1), left),
             "rate %.1f pairs/min over the last %.0f min, %.1f since this run started (%s ago, %d pairs)" % (
