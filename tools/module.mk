@@ -6,7 +6,7 @@
 #   make detector-data-v2   the v2 data (held-out factors, bystanders): a resumable
 #                           job into $(DETECTOR_DIR)/v2 (progress: detector-progress-v2)
 #   make detector-data-v3   the v3 data (v2 + feet and shoulders of more shapes and
-#                           colours, spine label fixed): into $(DETECTOR_DIR)/v3
+#                           colours): into $(DETECTOR_DIR)/v3
 #   make detector-train-v2  stage 1 on the v2 data (resumes from $(DETECTOR_DIR)/v2/ckpt.pt)
 #   make detector-train-mn  the head rig's network started from MoveNet (--arch mn), 75 min
 #   make detector-offline   config/models/ego_offline_detector.onnx: mn and the live model averaged
@@ -91,9 +91,9 @@ detector-progress-v2:
 	  --val $(DETECTOR_V2_VAL) --seed $(DETECTOR_V2_SEED) --status
 
 # The v3 data: v2's held-out factors and sizes, plus feet and shoulders of
-# more shapes and colours and cmu_mb's spine at the evaluation's place
-# (render.py --data-version 3; docs/DETECTOR_EXPERIMENTS.md, "v3 data").  Another seed,
-# so that its poses are not v2's.  Resumable like v2:
+# more shapes and colours (render.py --data-version 3;
+# docs/DETECTOR_EXPERIMENTS.md, "v3 data").  Another seed, so that its
+# poses are not v2's.  Resumable like v2:
 #   nohup nice -n 19 make detector-data-v3 > build/detector/v3.log 2>&1 &
 DETECTOR_V3_DIR ?= $(DETECTOR_DIR)/v3
 DETECTOR_V3_SEED ?= 31

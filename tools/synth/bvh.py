@@ -41,24 +41,6 @@ FAMILIES = {
     },
 }
 
-# Label fixes from a data version on (older versions keep their labels, so
-# that a render job keeps one definition from start to end).  v3: the
-# evaluation's spine is 0.28 of the way from the pelvis to the neck (the
-# Hahne conversion's Chest, docs/DETECTOR_EXPERIMENTS.md "Labels against
-# the evaluation's joints"); cmu_mb's Spine1 sits at 0.54, its Spine near it.
-LABEL_FIXES = {3: {"cmu_mb": {"spine": "Spine"}}}
-
-
-def families(version=2):
-    """FAMILIES with the label fixes of every data version up to version."""
-    out = {f: dict(m) for f, m in FAMILIES.items()}
-    for v, fixes in sorted(LABEL_FIXES.items()):
-        if v <= version:
-            for f, m in fixes.items():
-                out[f].update(m)
-    return out
-
-
 JOINTS = ["head_top", "neck", "spine", "pelvis",
           "left_shoulder", "left_elbow", "left_wrist", "left_hip", "left_knee", "left_ankle", "left_toe",
           "right_shoulder", "right_elbow", "right_wrist", "right_hip", "right_knee", "right_ankle",

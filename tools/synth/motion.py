@@ -11,7 +11,7 @@ import zlib
 import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from bvh import Bvh, JOINTS, families, fk  # noqa: E402
+from bvh import Bvh, FAMILIES, JOINTS, fk  # noqa: E402
 
 SEG_LEN = 150          # frames (5 s at 30 fps) per train/validation segment
 VAL_EVERY = 8          # one segment in 8 is held out for validation
@@ -48,12 +48,12 @@ def _frame(U, Lraw):
 
 
 class Clip:
-    def __init__(self, path, version=2):
+    def __init__(self, path):
         self.path = path
         self.family = os.path.basename(os.path.dirname(path))
         self.name = self.family + "/" + os.path.basename(path)[:-4]
         self.b = b = Bvh(path)
-        m = families(version)[self.family]
+        m = FAMILIES[self.family]
         self.jidx = {k: b.index[v] for k, v in m.items()}
         self.need = set(self.jidx.values())
         self.group = [_group(n) for n in b.names]
@@ -106,11 +106,9 @@ def clips_of_split(clips, split):
     return [c for c in clips if (family_of(c.name) in VAL_FAMILIES) == (split == "val")]
 
 
-def load_clips(root, version=2):
-    """Every BVH under root/FAMILY/, labelled as data version `version`
-    labels them (bvh.LABEL_FIXES)."""
+def load_clips(root):
     paths = sorted(glob.glob(os.path.join(root, "*", "*.bvh")))
-    return [Clip(p, version) for p in paths]
+    return [Clip(p) for p in paths]
 
 
 def _rand_rot(rng, sigma_deg):

@@ -66,7 +66,7 @@ def parse_args():
                     help="outside: recompute the labels of the frames already in OUT (same scenes, no rendering)")
     ap.add_argument("--data-version", type=int, choices=(2, 3), default=2,
                     help="with --split: 2 as the v2 job was rendered; 3 adds feet and shoulders of more "
-                         "shapes and colours and cmu_mb's spine label at the evaluation's place")
+                         "shapes and colours")
     ap.add_argument("--samples", type=int, default=8)
     ap.add_argument("--threads", type=int, default=1)
     ap.add_argument("--val-fraction", type=float, default=0.1)
@@ -214,7 +214,7 @@ def main():
           flush=True)
     if not todo:
         return
-    clips = load_clips(args.mocap, args.data_version)
+    clips = load_clips(args.mocap)
     scene = Scene(args, cams)
     if args.split:
         clips = clips_of_split(clips, args.split)
