@@ -11,7 +11,8 @@
 #   make detector-train-mn  the head rig's network started from MoveNet (--arch mn), 75 min
 #   make detector-offline   config/models/ego_offline_detector.onnx: mn and the live model averaged
 #   make detector-pack-v2   the v2 data as WebP parts in $(DETECTOR_DIR)/v2/pack, each one
-#                           tar.gz, for training on a GPU machine (tools/train/train_gpu.sh)
+#                           tar.gz, for training on a GPU machine (tools/train/train_gpu.sh);
+#                           detector-pack-v3 the same for v3
 #   make detector-train     train, stage 1 (resumes from $(DETECTOR_DIR)/ckpt.pt)
 #   make detector-finetune  stage 2 (resumes from $(DETECTOR_DIR)/stage2/ckpt.pt)
 #   make detector-export    export stage 2's best checkpoint to config/models/ego_detector.onnx
@@ -114,12 +115,19 @@ detector-progress-v3:
 # of at most DETECTOR_PACK_MB MB of WebP views, each packed as PART.tar.gz;
 # there, unpack them all into one folder and run tools/train/train_gpu.sh.
 DETECTOR_PACK_MB ?= 42.5
-.PHONY: detector-pack-v2
+# detector-pack-v3 does the same for the v3 data: unpack v2's and v3's
+# parts into two folders there and give train_gpu.sh both, joined by a
+# comma (each numbers its own frames).
+define detector_pack
+	rm -rf $(1)/pack
+	$(TRAIN_PYTHON) tools/train/pack.py --data $(1)/data --out $(1)/pack --part-mb $(DETECTOR_PACK_MB)
+	cd $(1)/pack && for p in part*; do tar -czf $$p.tar.gz $$p && rm -r $$p; done
+endef
+.PHONY: detector-pack-v2 detector-pack-v3
 detector-pack-v2:
-	rm -rf $(DETECTOR_V2_DIR)/pack
-	$(TRAIN_PYTHON) tools/train/pack.py --data $(DETECTOR_V2_DIR)/data --out $(DETECTOR_V2_DIR)/pack \
-	  --part-mb $(DETECTOR_PACK_MB)
-	cd $(DETECTOR_V2_DIR)/pack && for p in part*; do tar -czf $$p.tar.gz $$p && rm -r $$p; done
+	$(call detector_pack,$(DETECTOR_V2_DIR))
+detector-pack-v3:
+	$(call detector_pack,$(DETECTOR_V3_DIR))
 
 # The v2 network (common.build_model("v2")) with the left/right overlap
 # penalty.  One torch thread: two ran 10x slower here whenever anything else

@@ -6,7 +6,8 @@
 #
 # DATA is a data folder: tools/synth's, or the parts of `make
 # detector-pack-v2` unpacked into one folder (for each part:
-# tar -xzf PART.tar.gz -C DATA --strip-components=1).  The learning rate
+# tar -xzf PART.tar.gz -C DATA --strip-components=1); or several such
+# folders joined by commas (v2's and v3's parts each in its own).  The learning rate
 # follows the time spent (train.py --minutes).  RESULT gets best.pt (the
 # epoch with the lowest validation loss) and train.log; the checkpoint with
 # the optimiser goes to build/gpu/NAME/ckpt.pt (NAME: RESULT's last part).
