@@ -123,3 +123,15 @@ def test_decode_dark_matches_the_runtime():
     u, v, conf = C.decode(two[None])[0]
     assert abs(cells(u) - 24) < 0.01 and abs(cells(v) - 12) < 0.01 and conf == 0.95
     assert cells(C.decode(two[None], sigma=0)[0, 0]) == 5
+
+
+def test_confidence_study_statistics():
+    import confidence_study as S
+    assert S.auc([0.9, 0.8, 0.2, 0.1], [True, True, False, False]) == 1.0
+    assert S.auc([0.1, 0.2, 0.8, 0.9], [True, True, False, False]) == 0.0
+    assert S.auc([0.5, 0.5, 0.5, 0.5], [True, False, True, False]) == 0.5
+    lone = gaussian(12, 20, 1.0, 0.9)
+    peak, ratio, q = S.statistics(lone)
+    assert abs(q - 1) < 0.02 and ratio > 10
+    two = lone + gaussian(25, 5, 1.0, 0.9)
+    assert abs(S.statistics(two)[2] - 0.5) < 0.02 and S.statistics(two)[1] < 1.05
