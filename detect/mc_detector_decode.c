@@ -19,13 +19,13 @@ static void blur_plane(const float *restrict in, float *restrict tmp, float *res
 {
 	enum { MAX_R = 8 };
 	float k[2 * MAX_R + 1], row[BLUR_MAX_W + 2 * MAX_R];
-	double ks = 0;
+	double e[2 * MAX_R + 1], ks = 0;
 	int r = (int)ceil(3 * sigma);
 	r = r > MAX_R ? MAX_R : r;
 	for (int i = -r; i <= r; i++)
-		ks += exp(-0.5 * i * i / (sigma * sigma));
-	for (int i = -r; i <= r; i++)
-		k[i + r] = (float)(exp(-0.5 * i * i / (sigma * sigma)) / ks);
+		ks += e[i + r] = exp(-0.5 * i * i / (sigma * sigma));
+	for (int i = 0; i <= 2 * r; i++)
+		k[i] = (float)(e[i] / ks);
 	for (int y = 0; y < h; y++) {
 		const float *restrict src = in + (size_t)y * (size_t)w;
 		for (int i = 0; i < r; i++)
@@ -89,18 +89,19 @@ static void centroid3x3(const float *h, int width, int height, int bx, int by, d
 	*xc = sw > 0 ? sx / sw : bx, *yc = sw > 0 ? sy / sw : by;
 }
 
-/* One heatmap's keypoint in heat-map cells: the raw argmax with the 3x3
- * centroid (sigma 0), or DARK's: the map smoothed by the training target's
- * Gaussian, its argmax, the log-parabola vertex in x and in y.  The
+/* One heatmap's keypoint in heat-map cells, given its raw argmax best: that
+ * cell moved to the 3x3 centroid (sigma 0), or DARK's: the map smoothed by
+ * the training target's Gaussian, its argmax, the log-parabola vertex in x
+ * and in y.  The
  * smoothing makes the argmax pick the peak with the most mass over a lone
  * spike, and the log of a Gaussian is a parabola, so the vertex has none of
  * the centroid's pull toward the cell's middle (up to 0.23 cell at 0.5
  * cell off with the centroid, a step of 1.9 input pixels when the argmax
  * moves on). */
-static void locate(const float *h, int width, int height, float sigma, float *scratch, double *xc, double *yc)
+static void locate(const float *h, size_t best, int width, int height, float sigma, float *scratch, double *xc,
+		   double *yc)
 {
 	size_t plane = (size_t)width * (size_t)height;
-	size_t best = argmax_plane(h, plane);
 	int bx = (int)(best % (size_t)width), by = (int)(best / (size_t)width);
 	if (!(sigma > 0) || !scratch || width > BLUR_MAX_W) {
 		centroid3x3(h, width, height, bx, by, xc, yc);
@@ -126,13 +127,14 @@ int mc_detector_decode(const float *heatmaps, int njoints, int height, int width
 	float *scratch = sigma > 0 ? malloc(2 * plane * sizeof(float)) : NULL;
 	for (int j = 0; j < njoints && n < max; j++) {
 		const float *h = heatmaps + (size_t)j * plane;
-		float conf = h[argmax_plane(h, plane)];
+		size_t best = argmax_plane(h, plane);
+		float conf = h[best];
 		/* NaN never passes; confidences outside [0, 1] (a model that
 		 * breaks the contract) are clamped. */
 		if (!(conf >= threshold))
 			continue;
 		double xc, yc;
-		locate(h, width, height, sigma, scratch, &xc, &yc);
+		locate(h, best, width, height, sigma, scratch, &xc, &yc);
 		double u_in = (xc + 0.5) * in_w / width - 0.5, v_in = (yc + 0.5) * in_h / height - 0.5;
 		double u = (u_in + 0.5) * native_w / in_w - 0.5, v = (v_in + 0.5) * native_h / in_h - 0.5;
 		out[n++] = (mc_detection){.joint = j,
