@@ -82,14 +82,17 @@ DETECTOR_V2_CHUNK ?= 400
 DETECTOR_V2_NICE ?= 19
 DETECTOR_V2_EPOCHS ?= 36
 .PHONY: detector-data-v2 detector-progress-v2 detector-train-v2
+# One render job (tools/synth/job.py): folder, seed, training and
+# validation pairs, data version; the data targets add how to render, the
+# progress targets --status.
+render_job = $(TRAIN_PYTHON) tools/synth/job.py --out $(1) --seed $(2) --train $(3) --val $(4) --data-version $(5)
+render_how = --blender $(BLENDER) --mocap $(MOCAP_TRAIN_DIR) --shards $(DETECTOR_SHARDS) \
+	--chunk $(DETECTOR_V2_CHUNK) --nice $(DETECTOR_V2_NICE)
 detector-data-v2:
-	$(TRAIN_PYTHON) tools/synth/job.py --out $(DETECTOR_V2_DIR) --blender $(BLENDER) --mocap $(MOCAP_TRAIN_DIR) \
-	  --seed $(DETECTOR_V2_SEED) --train $(DETECTOR_V2_TRAIN) --val $(DETECTOR_V2_VAL) --shards $(DETECTOR_SHARDS) \
-	  --chunk $(DETECTOR_V2_CHUNK) --nice $(DETECTOR_V2_NICE)
+	$(call render_job,$(DETECTOR_V2_DIR),$(DETECTOR_V2_SEED),$(DETECTOR_V2_TRAIN),$(DETECTOR_V2_VAL),2) $(render_how)
 
 detector-progress-v2:
-	@$(TRAIN_PYTHON) tools/synth/job.py --out $(DETECTOR_V2_DIR) --train $(DETECTOR_V2_TRAIN) \
-	  --val $(DETECTOR_V2_VAL) --seed $(DETECTOR_V2_SEED) --status
+	@$(call render_job,$(DETECTOR_V2_DIR),$(DETECTOR_V2_SEED),$(DETECTOR_V2_TRAIN),$(DETECTOR_V2_VAL),2) --status
 
 # The v3 data: v2's held-out factors and sizes, plus feet and shoulders of
 # more shapes and colours (render.py --data-version 3;
@@ -103,13 +106,10 @@ DETECTOR_V3_TRAIN ?= 27600
 DETECTOR_V3_VAL ?= 3000
 .PHONY: detector-data-v3 detector-progress-v3
 detector-data-v3:
-	$(TRAIN_PYTHON) tools/synth/job.py --out $(DETECTOR_V3_DIR) --blender $(BLENDER) --mocap $(MOCAP_TRAIN_DIR) \
-	  --seed $(DETECTOR_V3_SEED) --train $(DETECTOR_V3_TRAIN) --val $(DETECTOR_V3_VAL) --shards $(DETECTOR_SHARDS) \
-	  --chunk $(DETECTOR_V2_CHUNK) --nice $(DETECTOR_V2_NICE) --data-version 3
+	$(call render_job,$(DETECTOR_V3_DIR),$(DETECTOR_V3_SEED),$(DETECTOR_V3_TRAIN),$(DETECTOR_V3_VAL),3) $(render_how)
 
 detector-progress-v3:
-	@$(TRAIN_PYTHON) tools/synth/job.py --out $(DETECTOR_V3_DIR) --train $(DETECTOR_V3_TRAIN) \
-	  --val $(DETECTOR_V3_VAL) --seed $(DETECTOR_V3_SEED) --data-version 3 --status
+	@$(call render_job,$(DETECTOR_V3_DIR),$(DETECTOR_V3_SEED),$(DETECTOR_V3_TRAIN),$(DETECTOR_V3_VAL),3) --status
 
 # For a GPU machine (docs/DETECTOR_EXPERIMENTS.md, "v3 network and GPU training"): parts
 # of at most DETECTOR_PACK_MB MB of WebP views, each packed as PART.tar.gz;
