@@ -2,9 +2,12 @@
 # test_gstreamer_daemon.sh: mocapd itself on the demo clip
 # (tests/data/ego_demo, two cameras, 60 frames) made into two MKVs (the
 # JPEGs passed through), against the files driver on the image folders:
-#   1. tracker off, gstreamer pace = realtime: all 60 frame sets complete
-#      (cams 2/2) at t = k/30 s, as with the files driver: the two files'
-#      frames carry the timestamps that group them;
+#   1. tracker off, gstreamer pace = realtime, --offline: all 60 frame
+#      sets complete (cams 2/2) at t = k/30 s, as with the files driver:
+#      the two files' frames carry the timestamps that group them.  Offline
+#      (lockstep), since live a loaded machine rightly drops a frame that
+#      comes more than group_deadline_ms late or a set that falls behind:
+#      CI once saw 59 of 60 so, and six busy processes gave 0-35;
 #   2. config/demo.conf's tracking with each driver: both exit at the end
 #      (--exit-at-end) and track; the gstreamer run tracks at least half as
 #      many frame sets as the files run and its mean joint error is within
@@ -55,8 +58,8 @@ make_conf() { # make_conf NAME DRIVER TRACKER(true|false)
 	fi
 }
 
-run() { # run NAME: mocapd to the end; prints its exit status
-	timeout 120 "$mocapd" --config "$tmp/$1.conf" --plugin-dir "$build/drivers" --exit-at-end --print \
+run() { # run NAME [MODE]: mocapd to the end (MODE --exit-at-end or --offline); prints its exit status
+	timeout 120 "$mocapd" --config "$tmp/$1.conf" --plugin-dir "$build/drivers" "${2:---exit-at-end}" --print \
 		>"$tmp/$1.txt" 2>"$tmp/$1.log"
 	echo $?
 }
@@ -64,7 +67,7 @@ run() { # run NAME: mocapd to the end; prints its exit status
 # 1. grouping, tracker off
 for d in files gstreamer; do
 	make_conf "group-$d" "$d" false
-	rc=$(run "group-$d")
+	rc=$(run "group-$d" --offline)
 	sets=$(grep -c "cams 2/2 (not tracked)" "$tmp/group-$d.txt")
 	grid=$(awk '/^frame/ { split($3, t, "="); k = NR - 1; if ((t[2] - k / 30) ^ 2 > 0.000001) bad++ }
 		END { print bad ? 0 : 1 }' "$tmp/group-$d.txt")
