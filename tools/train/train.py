@@ -33,6 +33,7 @@ from common import EVALUATED, GROUPS, JOINTS, THRESHOLD, build_model, decode, lo
 
 import torch  # noqa: E402
 import torch.nn.functional as Fn  # noqa: E402
+import onnx_import as I  # noqa: E402
 
 # geometric augmentation per kind: roll (rad), zoom range, shift (input px)
 AUG = {"ego": (0.2, (0.92, 1.08), 3.0), "outside": (0.2, (0.8, 1.2), 8.0)}
@@ -324,6 +325,24 @@ def fmt(r):
 
 
 # ------------------------------------------------------------------ train
+def init_weights(model, path, arch):
+    """model's weights from a checkpoint or from a shipped ONNX model of
+    the same architecture (onnx_import: its BatchNorms are folded away, so
+    training must keep them frozen). Returns whether they must be."""
+    if not path.endswith(".onnx"):
+        model.load_state_dict(torch.load(path, map_location="cpu")["model"])
+        return False
+    side_path = os.path.splitext(path)[0] + ".json"
+    have = json.load(open(side_path)).get("arch", "v1")
+    if have != arch:
+        sys.exit("%s: --init %s is a %s network (its %s), not --arch %s" % (path, path, have, side_path, arch))
+    try:
+        I.load_fused_weights(model, path, Exported, (C.IN_H, C.IN_W))
+    except ValueError as e:
+        sys.exit("--init: %s" % e)
+    return True
+
+
 def train(a):
     torch.set_num_threads(a.threads)
     dev = torch.device("cuda" if torch.cuda.is_available() else "cpu")
@@ -336,8 +355,8 @@ def train(a):
     state = {"epoch": 0, "step": 0, "best": None, "history": [], "train_s": 0.0}
     rng = np.random.default_rng(a.seed)
     if a.init and not (a.resume and os.path.exists(a.ckpt)):
-        model.load_state_dict(torch.load(a.init, map_location="cpu")["model"])
-        log("initialised from %s" % a.init)
+        state["frozen_bn"] = init_weights(model, a.init, a.arch)
+        log("initialised from %s%s" % (a.init, " (BatchNorms frozen)" if state["frozen_bn"] else ""))
     if a.resume and os.path.exists(a.ckpt):
         ck = torch.load(a.ckpt, map_location="cpu")
         model.load_state_dict(ck["model"])
@@ -375,6 +394,8 @@ def train(a):
             time.sleep(60)
             continue
         model.train()
+        if state.get("frozen_bn"):
+            I.freeze_batchnorm(model)
         t0 = time.time()
         ep_start_step = state["step"] - state["epoch"] * a.steps_per_epoch
         run = 0.0
@@ -712,7 +733,8 @@ def main():
     ap.add_argument("--weights", help="checkpoint for --export/--report (default --ckpt)")
     ap.add_argument("--best", help="where training keeps its best epoch (default best.pt beside --ckpt)")
     ap.add_argument("--resume", action="store_true")
-    ap.add_argument("--init", help="start from these weights (a ckpt.pt/best.pt), new optimiser and schedule")
+    ap.add_argument("--init", help="start from these weights (a ckpt.pt/best.pt, or a shipped MODEL.onnx of the "
+                    "same --arch: its BatchNorms stay frozen), new optimiser and schedule")
     ap.add_argument("--warmup", type=int, default=200, help="warm-up steps")
     ap.add_argument("--arch", choices=C.ARCHS, default="v1", help="network (common.build_model)")
     ap.add_argument("--pair-weight", type=float, default=0.0,
