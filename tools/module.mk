@@ -7,6 +7,7 @@
 #                           job into $(DETECTOR_DIR)/v2 (progress: detector-progress-v2)
 #   make detector-data-v3   the v3 data (v2 + feet and shoulders of more shapes and
 #                           colours): into $(DETECTOR_DIR)/v3
+#   make detector-finetune-v3  the shipped live model trained further on the v3 data
 #   make detector-train-v2  stage 1 on the v2 data (resumes from $(DETECTOR_DIR)/v2/ckpt.pt)
 #   make detector-train-mn  the head rig's network started from MoveNet (--arch mn), 75 min
 #   make detector-offline   config/models/ego_offline_detector.onnx: mn and the live model averaged
@@ -110,6 +111,21 @@ detector-data-v3:
 
 detector-progress-v3:
 	@$(call render_job,$(DETECTOR_V3_DIR),$(DETECTOR_V3_SEED),$(DETECTOR_V3_TRAIN),$(DETECTOR_V3_VAL),3) --status
+
+# The shipped live model trained further on the v3 data for
+# DETECTOR_FT_MINUTES (train.py --init MODEL.onnx: its checkpoint is gone,
+# so its weights come from the ONNX file and its BatchNorms stay frozen;
+# docs/DETECTOR_EXPERIMENTS.md, "Fine-tuning the shipped model").  It can
+# start while the render job runs: the labels are read again each epoch.
+DETECTOR_FT_DIR ?= $(DETECTOR_DIR)/ft
+DETECTOR_FT_MINUTES ?= 40
+.PHONY: detector-finetune-v3
+detector-finetune-v3:
+	mkdir -p $(DETECTOR_FT_DIR)
+	nice -n 10 $(TRAIN_PYTHON) tools/train/train.py --data $(DETECTOR_V3_DIR)/data --ckpt $(DETECTOR_FT_DIR)/ckpt.pt \
+	  --init config/models/ego_detector.onnx --arch v2 --seed 44 --data-seed $(DETECTOR_V3_SEED) \
+	  --pair-weight $(DETECTOR_V2_PAIR) --epochs 200 --steps-per-epoch 500 --lr 5e-4 --threads 1 \
+	  --minutes $(DETECTOR_FT_MINUTES) --resume
 
 # For a GPU machine (docs/DETECTOR_EXPERIMENTS.md, "v3 network and GPU training"): parts
 # of at most DETECTOR_PACK_MB MB of WebP views, each packed as PART.tar.gz;
