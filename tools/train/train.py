@@ -356,6 +356,7 @@ def train(a):
     rng = np.random.default_rng(a.seed)
     if a.init and not (a.resume and os.path.exists(a.ckpt)):
         state["frozen_bn"] = init_weights(model, a.init, a.arch)
+        state["init"] = a.init
         log("initialised from %s%s" % (a.init, " (BatchNorms frozen)" if state["frozen_bn"] else ""))
     if a.resume and os.path.exists(a.ckpt):
         ck = torch.load(a.ckpt, map_location="cpu")
@@ -543,6 +544,8 @@ def export(a):
             "parameters": ck.get("params"),
             "input_format": "float32 NCHW 1x3x%dx%d, RGB, [0,1]; output heatmaps float32 1x18x%dx%d in [0,1]" % (
                 C.IN_H, C.IN_W, C.HM_H, C.HM_W)}
+    if st.get("init"):  # trained further from another model (--init)
+        side["started_from"] = "%s (train.py --init)" % st["init"]
     if ck_arch(ck) == "mn":  # the weights it started from, and their terms
         from pretrained import PRETRAINED_CARD
         side.update(PRETRAINED_CARD)
