@@ -118,13 +118,17 @@ detector-progress-v3:
 # docs/DETECTOR_EXPERIMENTS.md, "Fine-tuning the shipped model").  It can
 # start while the render job runs: the labels are read again each epoch.
 DETECTOR_FT_DIR ?= $(DETECTOR_DIR)/ft
-DETECTOR_FT_MINUTES ?= 40
+DETECTOR_FT_MINUTES ?= 30
+DETECTOR_FT_LR ?= 3e-4
+# 2 when nothing else runs; 1 beside a render job (two torch threads then
+# crawl)
+DETECTOR_FT_THREADS ?= 2
 .PHONY: detector-finetune-v3
 detector-finetune-v3:
 	mkdir -p $(DETECTOR_FT_DIR)
 	nice -n 10 $(TRAIN_PYTHON) tools/train/train.py --data $(DETECTOR_V3_DIR)/data --ckpt $(DETECTOR_FT_DIR)/ckpt.pt \
 	  --init config/models/ego_detector.onnx --arch v2 --seed 44 --data-seed $(DETECTOR_V3_SEED) \
-	  --pair-weight $(DETECTOR_V2_PAIR) --epochs 200 --steps-per-epoch 500 --lr 5e-4 --threads 1 \
+	  --pair-weight $(DETECTOR_V2_PAIR) --epochs 200 --steps-per-epoch 500 --lr $(DETECTOR_FT_LR) --threads $(DETECTOR_FT_THREADS) \
 	  --minutes $(DETECTOR_FT_MINUTES) --resume
 
 # For a GPU machine (docs/DETECTOR_EXPERIMENTS.md, "v3 network and GPU training"): parts
