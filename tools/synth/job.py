@@ -19,7 +19,8 @@ Progress: OUT/progress.txt (rewritten every --every seconds) and
 OUT/logs/job.log (one line each time): pairs done per split, rate in pairs
 per minute over the last 15 minutes and since the job started, ETA.  Each
 Blender process logs its own 'synth:' lines to OUT/logs/render_SPLIT_FIRST.log.
-A lock file (OUT/job.lock) stops a second job on the same folder.
+`--status` (make detector-progress-v2, -v3) prints the pairs on disk now,
+whether a job is running, and its last progress report.  A lock file (OUT/job.lock) stops a second job on the same folder.
 No Blender here (/usr/bin/python3 runs it)."""
 import argparse
 import fcntl
@@ -136,6 +137,45 @@ class Progress:
         return d
 
 
+def job_running(out):
+    """Whether a job holds out/job.lock (it keeps it locked while it runs)."""
+    try:
+        f = open(os.path.join(out, "job.lock"))
+    except OSError:
+        return False
+    with f:
+        try:
+            fcntl.flock(f, fcntl.LOCK_SH | fcntl.LOCK_NB)
+        except OSError:
+            return True
+        fcntl.flock(f, fcntl.LOCK_UN)
+    return False
+
+
+def print_status(a):
+    """--status: the pairs on disk now, and the rate, ETA and chunks from
+    the job's own last report (progress.txt): a separate process cannot
+    measure a rate, and printed 0 pairs/min and "running: nothing" while the
+    job rendered."""
+    d = done_ids(os.path.join(a.out, "data"))
+    nt, nv = len(d["train"]), len(d["val"])
+    print("render job %s (data v%d, seed %d) at %s" % (
+        a.out, a.data_version, a.seed, time.strftime("%Y-%m-%d %H:%M:%S UTC", time.gmtime())))
+    print("train %d / %d pairs (%.1f %%), val %d / %d pairs (%.1f %%), %d left" % (
+        nt, a.train, 100.0 * nt / max(a.train, 1), nv, a.val, 100.0 * nv / max(a.val, 1), a.train + a.val - nt - nv))
+    try:
+        last = open(os.path.join(a.out, "progress.txt")).read().splitlines()
+    except OSError:
+        last = []
+    report = "; its last report, at %s:" % last[0].rsplit(" at ", 1)[-1] if last else ""
+    if job_running(a.out):
+        print("job: running" + (report or "; no report yet"))
+    else:
+        print("job: not running (the same command without --status starts or resumes it)" + report)
+    for line in last[2:]:
+        print("  " + line)
+
+
 def settings_clash(a):
     """Why resuming the job in a.out with these settings would mix two data
     sets (its job.json says another seed or data version), or None."""
@@ -157,7 +197,7 @@ def main():
     data = os.path.join(a.out, "data")
     logs = os.path.join(a.out, "logs")
     if a.status:
-        Progress(a).report()
+        print_status(a)
         return 0
     clash = settings_clash(a)
     if clash:

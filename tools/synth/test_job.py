@@ -4,6 +4,7 @@ Blender: a stand-in records its command).
 
     /usr/bin/python3 -m pytest -q tools/synth/test_job.py
 """
+import fcntl
 import json
 import os
 import subprocess
@@ -51,3 +52,19 @@ def test_a_job_from_before_data_versions_is_version_2(tmp_path):
     assert r.returncode == 1 and "--data-version 2, not 3" in r.stderr
     run_job(out, blender=exe)
     assert all(line.endswith("--data-version 2") for line in calls.read_text().splitlines())
+
+
+def test_status_tells_a_running_job_and_its_last_report(tmp_path):
+    exe, _ = stand_in(tmp_path)
+    out = tmp_path / "job"
+    run_job(out, blender=exe)  # renders nothing, reports, ends
+    r = run_job(out, "--status", blender=exe)
+    assert r.returncode == 0, r.stderr
+    assert "train 0 / 2 pairs" in r.stdout and "job: not running" in r.stdout, r.stdout
+    assert "last report, at" in r.stdout and "  ETA" in r.stdout, r.stdout
+    # a job that runs holds job.lock: --status says so (it printed "running:
+    # nothing" and 0 pairs/min while a job rendered)
+    with open(str(out / "job.lock"), "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        r = run_job(out, "--status", blender=exe)
+    assert "job: running; its last report, at" in r.stdout, r.stdout
