@@ -333,9 +333,12 @@ def init_weights(model, path, arch):
         model.load_state_dict(torch.load(path, map_location="cpu")["model"])
         return False
     side_path = os.path.splitext(path)[0] + ".json"
-    have = json.load(open(side_path)).get("arch", "v1")
+    try:
+        have = json.load(open(side_path)).get("arch", "v1")
+    except (OSError, ValueError) as e:
+        sys.exit("--init %s: its sidecar %s, which names its architecture, cannot be read: %s" % (path, side_path, e))
     if have != arch:
-        sys.exit("%s: --init %s is a %s network (its %s), not --arch %s" % (path, path, have, side_path, arch))
+        sys.exit("--init %s is a %s network (its sidecar %s says), not --arch %s" % (path, have, side_path, arch))
     try:
         I.load_fused_weights(model, path, Exported, (C.IN_H, C.IN_W))
     except ValueError as e:
