@@ -20,7 +20,8 @@ OUT/logs/job.log (one line each time): pairs done per split, rate in pairs
 per minute over the last 15 minutes and since the job started, ETA.  Each
 Blender process logs its own 'synth:' lines to OUT/logs/render_SPLIT_FIRST.log.
 `--status` (make detector-progress-v2, -v3) prints the pairs on disk now,
-whether a job is running, and its last progress report.  A lock file (OUT/job.lock) stops a second job on the same folder.
+whether a job is running, and its last progress report.  A lock file
+(OUT/job.lock) stops a second job on the same folder.
 No Blender here (/usr/bin/python3 runs it)."""
 import argparse
 import fcntl
@@ -91,6 +92,18 @@ def fmt_min(m):
     return "%dh%02dm" % (int(m // 60), int(m % 60))
 
 
+def head_lines(a, nt, nv, now):
+    """The first two lines of a progress report: the job, and the pairs on
+    disk per split."""
+    return [
+        "render job %s (data v%d, seed %d) at %s" % (
+            a.out, a.data_version, a.seed, time.strftime("%Y-%m-%d %H:%M:%S UTC", time.gmtime(now))),
+        "train %d / %d pairs (%.1f %%), val %d / %d pairs (%.1f %%), %d left" % (
+            nt, a.train, 100.0 * nt / max(a.train, 1), nv, a.val, 100.0 * nv / max(a.val, 1),
+            a.train + a.val - nt - nv),
+    ]
+
+
 class Progress:
     def __init__(self, a):
         self.a = a
@@ -114,11 +127,7 @@ class Progress:
         left = a.train + a.val - n
         rate = rate15 if rate15 > 0 else rate_all
         eta = left / rate if rate > 0 else None
-        lines = [
-            "render job %s (data v%d, seed %d) at %s" % (
-                a.out, a.data_version, a.seed, time.strftime("%Y-%m-%d %H:%M:%S UTC", time.gmtime(now))),
-            "train %d / %d pairs (%.1f %%), val %d / %d pairs (%.1f %%), %d left" % (
-                nt, a.train, 100.0 * nt / max(a.train, 1), nv, a.val, 100.0 * nv / max(a.val, 1), left),
+        lines = head_lines(a, nt, nv, now) + [
             "rate %.1f pairs/min over the last %.0f min, %.1f since this run started (%s ago, %d pairs)" % (
                 rate15, (now - t1) / 60.0, rate_all, fmt_min((now - self.t0) / 60.0), n - self.n0),
             "ETA %s%s" % (fmt_min(eta), (" (about %s)" % time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime(now + eta * 60)))
@@ -126,13 +135,12 @@ class Progress:
             "running: %s" % (", ".join("%s %d+%d" % c for c in running) or "nothing"),
         ]
         txt = "\n".join(lines) + "\n"
-        if not a.status:
-            tmp = os.path.join(a.out, "progress.txt.tmp")
-            with open(tmp, "w") as f:
-                f.write(txt)
-            os.replace(tmp, os.path.join(a.out, "progress.txt"))
-            with open(os.path.join(a.out, "logs", "job.log"), "a") as f:
-                f.write(" | ".join(lines) + "\n")
+        tmp = os.path.join(a.out, "progress.txt.tmp")
+        with open(tmp, "w") as f:
+            f.write(txt)
+        os.replace(tmp, os.path.join(a.out, "progress.txt"))
+        with open(os.path.join(a.out, "logs", "job.log"), "a") as f:
+            f.write(" | ".join(lines) + "\n")
         print(txt, end="", flush=True)
         return d
 
@@ -158,11 +166,7 @@ def print_status(a):
     measure a rate, and printed 0 pairs/min and "running: nothing" while the
     job rendered."""
     d = done_ids(os.path.join(a.out, "data"))
-    nt, nv = len(d["train"]), len(d["val"])
-    print("render job %s (data v%d, seed %d) at %s" % (
-        a.out, a.data_version, a.seed, time.strftime("%Y-%m-%d %H:%M:%S UTC", time.gmtime())))
-    print("train %d / %d pairs (%.1f %%), val %d / %d pairs (%.1f %%), %d left" % (
-        nt, a.train, 100.0 * nt / max(a.train, 1), nv, a.val, 100.0 * nv / max(a.val, 1), a.train + a.val - nt - nv))
+    print("\n".join(head_lines(a, len(d["train"]), len(d["val"]), time.time())))
     try:
         last = open(os.path.join(a.out, "progress.txt")).read().splitlines()
     except OSError:

@@ -41,14 +41,22 @@ def conv_bn_pairs(model):
     return pairs
 
 
-def _export(net, shape):
-    """net (image -> heat maps) as an ONNX ModelProto, exported as
-    train.py --export does."""
-    import onnx
+def export_onnx(net, shape, target):
+    """Writes net (image -> heat maps, input of shape (h, w)) as ONNX to
+    target (a path or a binary file): the detector runtime's contract, as
+    train.py --export ships it."""
+    # torch 2.5 and later would otherwise use its dynamo exporter, whose
+    # graphs (opset 18) OpenCV 4.6 does not read
     legacy = {"dynamo": False} if "dynamo" in inspect.signature(torch.onnx.export).parameters else {}
-    buf = io.BytesIO()
-    torch.onnx.export(net, torch.zeros(1, 3, *shape), buf, opset_version=11, input_names=["image"],
+    torch.onnx.export(net, torch.zeros(1, 3, *shape), target, opset_version=11, input_names=["image"],
                       output_names=["heatmaps"], do_constant_folding=True, **legacy)
+
+
+def _export(net, shape):
+    """net as an ONNX ModelProto, exported as export_onnx does."""
+    import onnx
+    buf = io.BytesIO()
+    export_onnx(net, shape, buf)
     return onnx.load_from_string(buf.getvalue())
 
 
@@ -75,12 +83,11 @@ def _identity_bn(bn, bias):
         bn.running_var.fill_(1.0 - bn.eps)
 
 
-def _order(model, wrap, shape):
-    """For each Conv node of the export, in node order, its index in
-    conv_bn_pairs(model): each convolution's first weight is set to its
+def _order(model, pairs, wrap, shape):
+    """For each Conv node of the export, in node order, its index in pairs
+    (conv_bn_pairs(model)): each convolution's first weight is set to its
     index + 1 and BatchNorms to identities, then read back from a fresh
     export.  Changes the model's weights (they are overwritten next)."""
-    pairs = conv_bn_pairs(model)
     with torch.no_grad():
         for k, (conv, bn) in enumerate(pairs):
             conv.weight.zero_()
@@ -104,7 +111,7 @@ def load_fused_weights(model, onnx_path, wrap, shape):
     import onnx
     got = _conv_weights(onnx.load(onnx_path).graph)
     pairs = conv_bn_pairs(model)
-    order = _order(model, wrap, shape)
+    order = _order(model, pairs, wrap, shape)
     if len(got) != len(order):
         raise ValueError("%s: %d convolutions, the model has %d: another architecture?" % (
             onnx_path, len(got), len(order)))

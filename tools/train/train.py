@@ -16,7 +16,6 @@ motion segments (split "val").  The evaluation clips' gt.json is read only by
 """
 import argparse
 import glob
-import inspect
 import json
 import math
 import os
@@ -524,12 +523,7 @@ def export(a):
     if hasattr(m, "trunk"):  # --arch mn: ReLU6 in fewer nodes (pretrained.OnnxTrunk.fold_relu6)
         log("folded %d activations for export" % m.trunk.fold_relu6())
     net = Exported(m).eval()
-    x = torch.rand(1, 3, C.IN_H, C.IN_W)
-    # torch 2.5 and later would otherwise use its dynamo exporter, whose
-    # graphs (opset 18) OpenCV 4.6 does not read
-    legacy = {"dynamo": False} if "dynamo" in inspect.signature(torch.onnx.export).parameters else {}
-    torch.onnx.export(net, x, a.export, opset_version=11, input_names=["image"], output_names=["heatmaps"],
-                      do_constant_folding=True, **legacy)
+    I.export_onnx(net, (C.IN_H, C.IN_W), a.export)
     st = ck.get("state", {})
     what = ("synthetic head-mounted stereo fisheye views (tools/synth/render.py --seed %d, " if C.KIND == "ego" else
             "synthetic outside-in pinhole views, 4:3 (tools/synth/render.py --kind outside --seed %d, ")
@@ -557,7 +551,8 @@ def export(a):
         json.dump(side, f, indent=1)
         f.write("\n")
     log("exported %s (%d bytes) and %s" % (a.export, os.path.getsize(a.export), side_path))
-    # check: the exported graph through OpenCV DNN if present
+    # check: the exported graph through OpenCV DNN if present, on a random view
+    x = torch.rand(1, 3, C.IN_H, C.IN_W)
     try:
         import cv2
         cv2.setNumThreads(1)
