@@ -26,6 +26,10 @@ const char *const head_names[4] = {"heatmaps", "centers", "regress", "offsets"};
 // The second look needs the torso with at least this score in the first.
 const float refine_min_score = 0.2f;
 
+// A limb split from its twin needs at least this score at its own peak
+// (it then reports the pair's score; mc_movenet_separate_pairs).
+const float separate_min_score = 0.1f;
+
 // Where the square's input pixels lie in the native image: input pixel
 // edge coordinate e maps to native edge coordinate x0 + e / scale.
 struct placement {
@@ -64,8 +68,11 @@ placement fill_square(mc_detector *d, const cv::Mat &src, const mc_movenet_squar
 }
 
 // One look: the network on square sq, decoded to native pixels (xy, score
-// per joint).  Returns the network's time, ms.
-double look(mc_detector *d, const cv::Mat &src, const mc_movenet_square &sq, std::vector<float> &xy,
+// per joint).  On a square around the person (separate), a limb decoded
+// under both labels is split (mc_movenet_separate_pairs); the letterboxed
+// whole view is decoded as MoveNet does, since there a small person's two
+// ankles may lie within a cell of each other.  Returns the network's time, ms.
+double look(mc_detector *d, const cv::Mat &src, const mc_movenet_square &sq, bool separate, std::vector<float> &xy,
 	    std::vector<float> &score)
 {
 	placement p = fill_square(d, src, sq);
@@ -81,6 +88,8 @@ double look(mc_detector *d, const cv::Mat &src, const mc_movenet_square &sq, std
 				  outs[3].ptr<float>(), d->njoints, d->hm_h, d->hm_w};
 	std::vector<mc_movenet_point> pts((size_t)d->njoints);
 	mc_movenet_decode(&heads, pts.data());
+	if (separate)
+		mc_movenet_separate_pairs(&heads, separate_min_score, pts.data());
 	for (int j = 0; j < d->njoints; j++) {
 		// MoveNet's fractions are of the input's edges; native pixel
 		// centres sit at edge coordinate + 0.5.
@@ -94,10 +103,10 @@ double look(mc_detector *d, const cv::Mat &src, const mc_movenet_square &sq, std
 // The two looks: the whole view, letterboxed, then the person found there.
 double look_twice(mc_detector *d, const cv::Mat &src, std::vector<float> &xy, std::vector<float> &score)
 {
-	double ms = look(d, src, mc_movenet_full_square(src.cols, src.rows), xy, score);
+	double ms = look(d, src, mc_movenet_full_square(src.cols, src.rows), false, xy, score);
 	mc_movenet_square person;
 	if (d->refine && mc_movenet_person_square(xy.data(), score.data(), d->njoints, refine_min_score, &person) == 0)
-		ms += look(d, src, person, xy, score);
+		ms += look(d, src, person, true, xy, score);
 	return ms;
 }
 
@@ -142,7 +151,7 @@ int mc_movenet_detect(mc_detector *d, const cv::Mat &src, mc_detection *out, int
 	*infer_ms = 0;
 	if (d->has_hint) {
 		mc_movenet_square unused;
-		*infer_ms = look(d, src, mc_movenet_square{d->hint.x0, d->hint.y0, d->hint.size}, xy, score);
+		*infer_ms = look(d, src, mc_movenet_square{d->hint.x0, d->hint.y0, d->hint.size}, true, xy, score);
 		one_look = mc_movenet_person_square(xy.data(), score.data(), d->njoints, refine_min_score, &unused) == 0;
 	}
 	if (!one_look)

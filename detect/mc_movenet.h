@@ -36,6 +36,21 @@ typedef struct {
 /* The pose the heads hold: out[0..njoints-1]. */
 void mc_movenet_decode(const mc_movenet_heads *heads, mc_movenet_point *out);
 
+/* One limb under both labels: where a left/right pair's two joints were
+ * decoded within MC_MOVENET_PAIR_CELLS cells of each other, and the
+ * regressed place of one of them (the one farther from that spot) lies
+ * more than MC_MOVENET_PAIR_EXCLUDE cells away, that joint moves to its
+ * heat map's best other peak: a local maximum more than
+ * MC_MOVENET_PAIR_EXCLUDE cells from the spot, nearer its regressed place
+ * than the spot is, weighted as the decoding weighs, of min_score or more.
+ * It keeps the pair's score.  With no such peak both stay.  MoveNet puts
+ * one leg of a faceless mannequin under both labels where the other leg is
+ * plain to see; its heat map and its regression usually hold that other
+ * leg (docs/DETECT_RUNTIME.md, "MoveNet"). */
+#define MC_MOVENET_PAIR_CELLS 1.5f
+#define MC_MOVENET_PAIR_EXCLUDE 2.5f
+void mc_movenet_separate_pairs(const mc_movenet_heads *heads, float min_score, mc_movenet_point *out);
+
 /* A square region of a native image, pixels; it may reach outside the image
  * (that part is black in the network's input). */
 typedef struct {

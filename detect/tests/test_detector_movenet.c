@@ -64,6 +64,60 @@ static void test_decode(void)
 	}
 }
 
+/* Both knees decoded at one cell (the right knee's peak, where the left's
+ * heat map is strongest too): the left knee, whose regressed place is 3
+ * cells away, moves to its own second peak and keeps the pair's score;
+ * with that peak too weak, or the left's regressed place at the spot too
+ * (legs together), or a pair apart already, nothing moves. */
+static void test_separate_pairs(void)
+{
+	enum { LEFT_KNEE = 13, RIGHT_KNEE = 14 };
+	memset(heat, 0, sizeof(heat));
+	memset(center, 0, sizeof(center));
+	memset(regress, 0, sizeof(regress));
+	memset(offsets, 0, sizeof(offsets));
+	put(center, 8, 8, 0.9f);
+	/* Rough places: the right knee at (12, 9), the left at (12, 5). */
+	put(regress + (2 * RIGHT_KNEE) * G * G, 8, 8, 4.0f);
+	put(regress + (2 * RIGHT_KNEE + 1) * G * G, 8, 8, 1.0f);
+	put(regress + (2 * LEFT_KNEE) * G * G, 8, 8, 4.0f);
+	put(regress + (2 * LEFT_KNEE + 1) * G * G, 8, 8, -3.0f);
+	put(heat + RIGHT_KNEE * G * G, 12, 8, 0.9f);
+	put(heat + LEFT_KNEE * G * G, 12, 8, 0.8f);  /* the right knee's place */
+	put(heat + LEFT_KNEE * G * G, 12, 7, 0.5f);  /* the same peak's flank */
+	put(heat + LEFT_KNEE * G * G, 12, 3, 0.3f);  /* the left knee, weaker */
+	put(heat + LEFT_KNEE * G * G, 2, 14, 0.35f); /* a stray peak far away */
+	mc_movenet_heads h = {heat, center, regress, offsets, J, G, G};
+	mc_movenet_point p[J];
+	mc_movenet_decode(&h, p);
+	CHECK_NEAR(p[LEFT_KNEE].x, p[RIGHT_KNEE].x, 1e-6); /* collapsed */
+	mc_movenet_separate_pairs(&h, 0.1f, p);
+	CHECK_NEAR(p[RIGHT_KNEE].y * G, 12, 1e-5);
+	CHECK_NEAR(p[RIGHT_KNEE].x * G, 8, 1e-5);
+	CHECK_NEAR(p[RIGHT_KNEE].score, 0.9, 1e-6);
+	CHECK_NEAR(p[LEFT_KNEE].y * G, 12, 1e-5);
+	CHECK_NEAR(p[LEFT_KNEE].x * G, 3, 1e-5);
+	CHECK_NEAR(p[LEFT_KNEE].score, 0.8, 1e-6);
+	/* The second peak below the minimum score: both stay. */
+	mc_movenet_decode(&h, p);
+	mc_movenet_separate_pairs(&h, 0.4f, p);
+	CHECK_NEAR(p[LEFT_KNEE].x * G, 8, 1e-5);
+	CHECK_NEAR(p[RIGHT_KNEE].x * G, 8, 1e-5);
+	/* The left knee's regressed place at the spot too: both stay. */
+	put(regress + (2 * LEFT_KNEE + 1) * G * G, 8, 8, -1.0f);
+	mc_movenet_decode(&h, p);
+	mc_movenet_separate_pairs(&h, 0.1f, p);
+	CHECK_NEAR(p[LEFT_KNEE].x * G, 8, 1e-5);
+	CHECK_NEAR(p[RIGHT_KNEE].x * G, 8, 1e-5);
+	/* Apart already (3 cells): the decoding stands. */
+	put(regress + (2 * LEFT_KNEE + 1) * G * G, 8, 8, -3.0f);
+	put(heat + LEFT_KNEE * G * G, 12, 5, 0.95f);
+	mc_movenet_decode(&h, p);
+	mc_movenet_separate_pairs(&h, 0.1f, p);
+	CHECK_NEAR(p[LEFT_KNEE].x * G, 5, 1e-5);
+	CHECK_NEAR(p[RIGHT_KNEE].x * G, 8, 1e-5);
+}
+
 static void test_square(void)
 {
 	float xy[2 * J], score[J];
@@ -262,6 +316,7 @@ static void test_bad_sidecar(void)
 int main(void)
 {
 	test_decode();
+	test_separate_pairs();
 	test_square();
 	test_square_around();
 	if (access(MODEL, R_OK) != 0)
