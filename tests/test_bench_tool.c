@@ -207,6 +207,58 @@ static void test_run(void)
 	CHECK_MSG(sim && sscanf(sim, "swapped_pct=%lf", &swapped) == 1 && swapped > 25 && swapped < 75, "%s", out);
 }
 
+/* The FLOOR line's error; -1 when the run or the line fails. */
+static double floor_of(const char *clip, const char *model, char *out, size_t cap)
+{
+	char args[512];
+	snprintf(args, sizeof(args), "--clip %s --model %s --model-floor", clip, model);
+	int rc = run_tool(args, out, cap);
+	double cm = -1;
+	int frames = 0;
+	const char *line = strstr(out, "FLOOR clip=");
+	CHECK_MSG(rc == 0 && line && sscanf(strstr(line, "frames="), "frames=%d mpjpe_cm=%lf", &frames, &cm) == 2,
+		  "exit %d:\n%s", rc, out);
+	CHECK(frames > 0);
+	return cm;
+}
+
+/* A copy of the default model with every joint's dofs locked at 0. */
+static void write_locked_model(const char *path)
+{
+	json_error_t jerr;
+	json_t *m = json_load_file("config/models/default.json", 0, &jerr);
+	CHECK_MSG(m, "default.json:%d: %s", jerr.line, jerr.text);
+	size_t i, k;
+	json_t *joint, *dof;
+	json_array_foreach(json_object_get(m, "joints"), i, joint) json_array_foreach(json_object_get(joint, "dofs"), k, dof)
+	{
+		json_object_set_new(dof, "min_deg", json_real(0));
+		json_object_set_new(dof, "max_deg", json_real(0));
+	}
+	CHECK(json_dump_file(m, path, 0) == 0);
+	json_decref(m);
+}
+
+/* --model-floor: the body model fitted to each frame's ground truth, no
+ * tracking.  Both layouts fit within a few centimetres; a model whose
+ * joints cannot turn stays far off (so the fit is what moves the joints).
+ * test_unscored_clip checks that a clip without gt.json is refused. */
+static void test_model_floor(void)
+{
+	static char out[1 << 15];
+	char locked[128];
+	double ego = floor_of("tests/data/ego_demo", "config/models/default.json", out, sizeof(out));
+	CHECK_MSG(strstr(out, "left_wrist") && !strstr(out, "RESULT "), "%s", out);
+	double outside = floor_of("tests/data/outside_demo", "config/models/default.json", out, sizeof(out));
+	snprintf(locked, sizeof(locked), "%s/locked.json", tmpdir);
+	write_locked_model(locked);
+	double stiff = floor_of("tests/data/ego_demo", locked, out, sizeof(out));
+	printf("model floor: ego_demo %.2f cm (joints locked: %.2f), outside_demo %.2f cm\n", ego, stiff, outside);
+	CHECK(ego > 0 && ego < 3 && outside > 0 && outside < 3);
+	CHECK(stiff > ego + 5);
+	unlink(locked);
+}
+
 /* The outside-in layout (tests/data/outside_demo: cameras.json, camK/):
  * detected, tracked with a free root and scored in the world frame; the
  * --out joints are world coordinates (scored here against joints_world);
@@ -492,6 +544,8 @@ static void test_unscored_clip(void)
 	snprintf(args, sizeof(args), "--clip %s --frames 2 --no-thesis", dir);
 	CHECK_MSG(run_tool(args, out, sizeof(out)) == 1 && strstr(out, "has no gt.json") && strstr(out, "--init detect"),
 		  "%s", out);
+	snprintf(args, sizeof(args), "--clip %s --model-floor", dir);
+	CHECK_MSG(run_tool(args, out, sizeof(out)) == 1 && strstr(out, "has no gt.json: --model-floor"), "%s", out);
 	snprintf(args, sizeof(args), "--clip %s --frames 2 --init detect --simulated-detector 2", dir);
 	CHECK_MSG(run_tool(args, out, sizeof(out)) == 1 && strstr(out, "--simulated-detector projects the ground truth"),
 		  "%s", out);
@@ -559,6 +613,7 @@ int main(int argc, char **argv)
 	}
 	test_bad_command_lines();
 	test_run();
+	test_model_floor();
 	test_outside_in();
 	test_detector_pipelined();
 	test_detector_flip();

@@ -25,6 +25,7 @@
 #include "track/mc_tracker.h"
 #include "bench/detector_eval.h"
 #include "bench/keypoints_out.h"
+#include "bench/model_floor.h"
 #include "bench/options.h"
 #include "bench/score.h"
 #include "bench/thesis.h"
@@ -533,6 +534,8 @@ static int run_tracker(options *o, mc_tracker *t, const mc_clip *clip, int nfram
  * start only from the detections. */
 static int check_unscored(const options *o, const mc_clip *clip, mc_err *err)
 {
+	if (o->model_floor)
+		return mc_err_set(err, "%s has no gt.json: --model-floor fits the ground truth", clip->dir);
 	if (o->simulated_detector_px >= 0)
 		return mc_err_set(err, "%s has no gt.json: --simulated-detector projects the ground truth", clip->dir);
 	if (!o->init_detect)
@@ -558,6 +561,11 @@ static int run(const options *cmdline, bool thesis, mc_err *err)
 		mc_tracker_settings_outside_in(&o->s, clip.rig.ncams, o->given);
 	if (o->fps > 0)
 		clip.gt.fps = o->fps;
+	if (o->model_floor) {
+		int rc = bench_model_floor(&clip, o->model_path, err);
+		mc_clip_close(&clip);
+		return rc;
+	}
 	int nframes = o->max_frames > 0 && o->max_frames < clip.gt.nframes ? o->max_frames : clip.gt.nframes;
 	mc_tracker *t = start_tracker(o, &clip, &o->s, err);
 	int rc = t ? run_tracker(o, t, &clip, nframes, thesis, err) : -1;

@@ -78,7 +78,10 @@ static void usage(FILE *f)
 		   "                        head-mounted rigs) or the views' agreement and the tracked pose\n"
 		   "                        (default outside-in; docs/TRACKER.md \"Sides\")\n"
 		   "  --fit-limbs           after the actor's size, scale each limb pair on its own\n"
-		   "                        (settings.fit_limbs, off by default: not yet shown to help)\n");
+		   "                        (settings.fit_limbs, off by default: not yet shown to help)\n"
+		   "  --model-floor         no tracking: fit the body model to each frame's ground truth by\n"
+		   "                        inverse kinematics and print its error (FLOOR line), the\n"
+		   "                        skeleton's own floor\n");
 }
 
 static int parse_number(const char *opt, const char *arg, double lo, double hi, double *out)
@@ -97,7 +100,7 @@ enum { OPT_MODEL = 256, OPT_OUT, OPT_FRAMES, OPT_BACKEND, OPT_WIDTH, OPT_HEIGHT,
        OPT_NOTHESIS, OPT_QUIET, OPT_CLIP, OPT_HELP, OPT_OVERLAY, OPT_OVERLAY_EVERY, OPT_LANCHOR,
        OPT_SIMDET, OPT_LDET, OPT_DETECTOR, OPT_DET_EVERY, OPT_LCOLOR, OPT_DET_THRESHOLD, OPT_INIT,
        OPT_NORECOVER, OPT_CAMERAS, OPT_LFLOOR, OPT_DET_SERIAL, OPT_KP_AT, OPT_FRAME_STEP, OPT_KP_OUT, OPT_FPS, OPT_SIM_PRESET, OPT_SIM_COLLAPSE, OPT_SIM_SWAP, OPT_SIM_OUTLIER, OPT_SIM_OCC,
-       OPT_SIM_BLIND, OPT_SIDES, OPT_FIT_LIMBS, OPT_PRIOR, OPT_LPRIOR, OPT_DET_HINT, OPT_DET_FLIP, OPT_VERSION = 'V' };
+       OPT_SIM_BLIND, OPT_SIDES, OPT_FIT_LIMBS, OPT_PRIOR, OPT_LPRIOR, OPT_DET_HINT, OPT_DET_FLIP, OPT_MODEL_FLOOR, OPT_VERSION = 'V' };
 
 static int apply_option(options *o, int c, const char *name, const char *arg, bool *thesis)
 {
@@ -117,6 +120,7 @@ static int apply_option(options *o, int c, const char *name, const char *arg, bo
 	case OPT_QUIET: o->quiet = true; return 0;
 	case OPT_NORECOVER: o->s.recover = false; return 0;
 	case OPT_FIT_LIMBS: o->s.fit_limbs = true; return 0;
+	case OPT_MODEL_FLOOR: o->model_floor = true; return 0;
 	case OPT_SIDES:
 		if (strcmp(arg, "labels") != 0 && strcmp(arg, "tracker") != 0) {
 			fprintf(stderr, "mocap-bench: --sides: expected labels or tracker, got '%s'\n", arg);
@@ -242,7 +246,7 @@ int bench_parse_options(int argc, char **argv, options *o, bool *thesis)
 		{"seed", 1, 0, OPT_SEED}, {"ocam", 0, 0, OPT_OCAM}, {"reference-frames", 1, 0, OPT_REF},
 		{"no-thesis", 0, 0, OPT_NOTHESIS}, {"overlay-dir", 1, 0, OPT_OVERLAY},
 		{"overlay-every", 1, 0, OPT_OVERLAY_EVERY}, {"quiet", 0, 0, OPT_QUIET}, {"help", 0, 0, OPT_HELP},
-		{"init", 1, 0, OPT_INIT}, {"no-recover", 0, 0, OPT_NORECOVER}, {"sides", 1, 0, OPT_SIDES}, {"fit-limbs", 0, 0, OPT_FIT_LIMBS}, {"cameras", 1, 0, OPT_CAMERAS},
+		{"init", 1, 0, OPT_INIT}, {"no-recover", 0, 0, OPT_NORECOVER}, {"sides", 1, 0, OPT_SIDES}, {"fit-limbs", 0, 0, OPT_FIT_LIMBS}, {"model-floor", 0, 0, OPT_MODEL_FLOOR}, {"cameras", 1, 0, OPT_CAMERAS},
 		{"lambda-floor", 1, 0, OPT_LFLOOR}, {"detector-serial", 0, 0, OPT_DET_SERIAL},
 		{"detector-flip", 0, 0, OPT_DET_FLIP},
 		{"keypoints-at-iteration", 1, 0, OPT_KP_AT}, {"frame-step", 1, 0, OPT_FRAME_STEP},

@@ -24,6 +24,7 @@ typedef struct {
 	int reference_frames;
 	bool use_ocam;
 	bool quiet;
+	bool model_floor; /* --model-floor: fit the model to the ground truth, no tracking */
 	/* > = 0: feed keypoints projected from the ground truth with this much
 	 * noise (native pixels): a stand-in for a 2D detector, which is not
 	 * the evaluation protocol */
