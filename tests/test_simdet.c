@@ -193,6 +193,60 @@ static void test_outliers(double rate)
 	check_rate("outliers", off, n, rate);
 }
 
+/* Mean length of the runs of outlier keypoints (a camera's joint over
+ * consecutive frame sets that report it), over `seeds` seeds; the share of
+ * outlier keypoints in *rate, and in *same the share of consecutive
+ * outlier pairs with the very same offset. */
+static double outlier_run_length(int persist, int seeds, double *rate, double *same)
+{
+	long n = 0, off = 0, runs = 0, pairs = 0, same_pairs = 0;
+	for (int seed = 1; seed <= seeds; seed++) {
+		mc_simdet sd = {.outlier = 0.2, .persist = persist, .seed = (uint64_t)seed};
+		uint64_t rng = (uint64_t)seed;
+		bool was[MC_MAX_CAMERAS][NJ] = {{false}};
+		double du[MC_MAX_CAMERAS][NJ], dv[MC_MAX_CAMERAS][NJ];
+		for (int k = 0; k < clip.gt.nframes; k++) {
+			frame_kp f;
+			simulate(k, &sd, &rng, &f, NULL);
+			for (int c = 0; c < clip.rig.ncams; c++)
+				for (int e = 0; e < NJ; e++) {
+					if (!f.have[c][e])
+						continue;
+					double u = f.u[c][e] - f.tu[c][e], v = f.v[c][e] - f.tv[c][e];
+					bool is = hypot(u, v) > 1e-9;
+					n++;
+					off += is;
+					runs += is && !was[c][e];
+					if (is && was[c][e]) {
+						pairs++;
+						same_pairs += fabs(u - du[c][e]) < 1e-9 && fabs(v - dv[c][e]) < 1e-9;
+					}
+					was[c][e] = is;
+					du[c][e] = u;
+					dv[c][e] = v;
+				}
+		}
+	}
+	*rate = n ? (double)off / n : 0;
+	*same = pairs ? (double)same_pairs / pairs : 0;
+	return runs ? (double)off / runs : 0;
+}
+
+/* Persistent outliers (persist N): the same rate, in runs about N frame
+ * sets long with one offset each; drawn afresh (persist 0), runs of about
+ * 1 / (1 - rate) and offsets that change. */
+static void test_persistent_outliers(void)
+{
+	double rate, same, fresh_rate, fresh_same;
+	double len = outlier_run_length(8, 12, &rate, &same);
+	double fresh = outlier_run_length(0, 12, &fresh_rate, &fresh_same);
+	printf("outlier runs: persist 8: mean %.2f frame sets, rate %.3f, same offset %.2f; afresh: %.2f, %.3f, %.2f\n",
+	       len, rate, same, fresh, fresh_rate, fresh_same);
+	CHECK(len > 4 && fresh < 2);
+	CHECK(fabs(rate - 0.2) < 0.06 && fabs(fresh_rate - 0.2) < 0.03);
+	CHECK(same > 0.8 && fresh_same < 0.05);
+}
+
 /* Occluded keypoints of paired joints go to the other limb's truth at
  * their rate; visible ones never move. */
 static void test_occluded(double rate)
@@ -311,6 +365,7 @@ int main(void)
 	test_pairs(0, 0.3);
 	test_pairs(0.5, 0.3);
 	test_outliers(0.2);
+	test_persistent_outliers();
 	test_occluded(0.5);
 	test_blind_confidence();
 	test_occlusion_geometry();

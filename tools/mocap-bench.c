@@ -506,10 +506,11 @@ static int run_tracker(options *o, mc_tracker *t, const mc_clip *clip, int nfram
 	print_settings(&o->s, mc_tracker_device_name(t));
 	if (o->simulated_detector_px >= 0)
 		printf("WARNING: simulated detector: keypoints from the ground truth, %.1f px noise, %.0f%% missed, "
-		       "collapse %.2f, swap %.2f, occluded on the wrong limb %.2f, outliers %.2f, confidences %s. "
-		       "Not the evaluation protocol.\n",
+		       "collapse %.2f, swap %.2f, occluded on the wrong limb %.2f, outliers %.2f (lasting %d frame "
+		       "sets), confidences %s. Not the evaluation protocol.\n",
 		       o->simulated_detector_px, 100 * MC_CLIP_SIMULATED_MISS, o->sim.collapse, o->sim.swap,
-		       o->sim.occluded_wrong, o->sim.outlier, o->sim.blind_confidence ? "blind" : "1");
+		       o->sim.occluded_wrong, o->sim.outlier, o->sim.persist > 1 ? o->sim.persist : 1,
+		       o->sim.blind_confidence ? "blind" : "1");
 	bench_detector det, *bd = NULL;
 	if (o->detector_path && open_detector(o, t, clip, nframes, &det, err) < 0) {
 		close_outputs(o, out);

@@ -15,7 +15,11 @@
  *                   another body part (mc_simdet_occluded): placed on the
  *                   other limb (its partner's projection, its own noise)
  *   outlier         per kept keypoint: moved 1.5-5x the far threshold
- *                   (mc_simdet_far_px) in a random direction
+ *                   (mc_simdet_far_px) in a random direction; with persist
+ *                   N > 1, drawn per camera and joint for runs of N frame
+ *                   sets (each run's start offset per camera and joint), so
+ *                   the same keypoint stays wrong, the same way, for the
+ *                   run, as the shipped detectors' gross errors do
  *   blind_confidence  every confidence uniform in [0.3, 1], drawn alike for
  *                   good and wrong keypoints (else 1)
  * Deterministic for a given rng state. */
@@ -34,6 +38,8 @@ typedef struct {
 	double noise_px;
 	double collapse, swap, occluded_wrong, outlier;
 	bool blind_confidence;
+	int persist;   /* frame sets an outlier lasts (0 or 1: drawn afresh each frame set) */
+	uint64_t seed; /* of the persistent outliers' draws (with persist > 1) */
 } mc_simdet;
 
 /* What a run produced, summed over calls (for the report and the tests). */

@@ -52,6 +52,8 @@ static void usage(FILE *f)
 		   "  --sim-swap R          share of left/right pairs per view with their labels exchanged\n"
 		   "  --sim-occluded-wrong R  share of occluded paired joints placed on the other limb\n"
 		   "  --sim-outlier R       share of keypoints moved 1.5-5x 10 px (at 128-wide scale) off\n"
+		   "  --sim-persist N       an outlier stays for runs of N frame sets (ego preset 5; 0: drawn\n"
+		   "                        afresh each frame set)\n"
 		   "  --sim-blind-confidence  confidences uniform in [0.3, 1] for good and wrong keypoints alike\n"
 		   "                        (rates override the preset; docs/man/mocap-bench.1 gives the sources)\n"
 		   "  --lambda-detection L  weight of the keypoint term\n"
@@ -100,7 +102,7 @@ enum { OPT_MODEL = 256, OPT_OUT, OPT_FRAMES, OPT_BACKEND, OPT_WIDTH, OPT_HEIGHT,
        OPT_NOTHESIS, OPT_QUIET, OPT_CLIP, OPT_HELP, OPT_OVERLAY, OPT_OVERLAY_EVERY, OPT_LANCHOR,
        OPT_SIMDET, OPT_LDET, OPT_DETECTOR, OPT_DET_EVERY, OPT_LCOLOR, OPT_DET_THRESHOLD, OPT_INIT,
        OPT_NORECOVER, OPT_CAMERAS, OPT_LFLOOR, OPT_DET_SERIAL, OPT_KP_AT, OPT_FRAME_STEP, OPT_KP_OUT, OPT_FPS, OPT_SIM_PRESET, OPT_SIM_COLLAPSE, OPT_SIM_SWAP, OPT_SIM_OUTLIER, OPT_SIM_OCC,
-       OPT_SIM_BLIND, OPT_SIDES, OPT_FIT_LIMBS, OPT_PRIOR, OPT_LPRIOR, OPT_DET_HINT, OPT_DET_FLIP, OPT_MODEL_FLOOR, OPT_VERSION = 'V' };
+       OPT_SIM_BLIND, OPT_SIDES, OPT_FIT_LIMBS, OPT_PRIOR, OPT_LPRIOR, OPT_DET_HINT, OPT_DET_FLIP, OPT_MODEL_FLOOR, OPT_SIM_PERSIST, OPT_VERSION = 'V' };
 
 static int apply_option(options *o, int c, const char *name, const char *arg, bool *thesis)
 {
@@ -189,6 +191,7 @@ static int apply_option(options *o, int c, const char *name, const char *arg, bo
 	case OPT_SIM_SWAP: o->sim_swap = v; break;
 	case OPT_SIM_OUTLIER: o->sim_outlier = v; break;
 	case OPT_SIM_OCC: o->sim_occluded_wrong = v; break;
+	case OPT_SIM_PERSIST: o->sim_persist = (int)v; break;
 	}
 	return 0;
 }
@@ -199,7 +202,7 @@ static int sim_settings(options *o)
 {
 	const double given[4] = {o->sim_collapse, o->sim_swap, o->sim_outlier, o->sim_occluded_wrong};
 	static const char *const names[4] = {"--sim-collapse", "--sim-swap", "--sim-outlier", "--sim-occluded-wrong"};
-	bool any = o->sim_preset || o->sim_blind_confidence;
+	bool any = o->sim_preset || o->sim_blind_confidence || o->sim_persist >= 0;
 	for (int i = 0; i < 4; i++) {
 		if (given[i] > 1) {
 			fprintf(stderr, "mocap-bench: %s: expected a rate in [0, 1], got %g\n", names[i], given[i]);
@@ -211,7 +214,7 @@ static int sim_settings(options *o)
 		fprintf(stderr, "mocap-bench: --sim-* options need --simulated-detector PX\n");
 		return -1;
 	}
-	o->sim = (mc_simdet){.noise_px = o->simulated_detector_px};
+	o->sim = (mc_simdet){.noise_px = o->simulated_detector_px, .seed = o->s.seed};
 	if (o->sim_preset && !mc_simdet_preset(o->sim_preset, &o->sim)) {
 		fprintf(stderr, "mocap-bench: --sim-preset: expected ego, outside or none, got '%s'\n", o->sim_preset);
 		return -1;
@@ -221,6 +224,8 @@ static int sim_settings(options *o)
 		if (given[i] >= 0)
 			*rate[i] = given[i];
 	o->sim.blind_confidence = o->sim.blind_confidence || o->sim_blind_confidence;
+	if (o->sim_persist >= 0)
+		o->sim.persist = o->sim_persist;
 	if (o->sim.collapse + o->sim.swap > 1) {
 		fprintf(stderr, "mocap-bench: --sim-collapse and --sim-swap add up to more than 1\n");
 		return -1;
@@ -253,6 +258,7 @@ int bench_parse_options(int argc, char **argv, options *o, bool *thesis)
 		{"keypoints-out", 1, 0, OPT_KP_OUT}, {"fps", 1, 0, OPT_FPS}, {"sim-preset", 1, 0, OPT_SIM_PRESET},
 		{"sim-collapse", 1, 0, OPT_SIM_COLLAPSE}, {"sim-swap", 1, 0, OPT_SIM_SWAP},
 		{"sim-outlier", 1, 0, OPT_SIM_OUTLIER}, {"sim-occluded-wrong", 1, 0, OPT_SIM_OCC},
+		{"sim-persist", 1, 0, OPT_SIM_PERSIST},
 		{"sim-blind-confidence", 0, 0, OPT_SIM_BLIND},
 		{"version", 0, 0, OPT_VERSION},
 		{0, 0, 0, 0}};
@@ -310,6 +316,7 @@ void bench_options_init(options *o)
 	o->frame_step = 1;
 	o->simulated_detector_px = -1;
 	o->sim_collapse = o->sim_swap = o->sim_outlier = o->sim_occluded_wrong = -1;
+	o->sim_persist = -1;
 	o->detector_threshold = -1;
 	mc_tracker_settings_default(&o->s);
 }

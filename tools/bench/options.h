@@ -33,6 +33,7 @@ typedef struct {
 	 * (-1: not given) on top (bench_parse_options fills sim) */
 	const char *sim_preset;
 	double sim_collapse, sim_swap, sim_outlier, sim_occluded_wrong;
+	int sim_persist; /* --sim-persist, -1: the preset's */
 	bool sim_blind_confidence;
 	mc_simdet sim;
 	const char *detector_path; /* --detector MODEL: the 2D joint detector feeds the tracker */
