@@ -66,6 +66,23 @@ static int partner(int e)
 	return e == 0 ? -1 : (e <= 7 ? e + 7 : e - 7);
 }
 
+/* Calls visit for every keypoint of `repeats` passes over the clip's frame
+ * sets (k, camera c, evaluated joint e, and the frame set's keypoints). */
+typedef void keypoint_visit(const frame_kp *f, int k, int c, int e, void *ctx);
+static void visit_keypoints(const mc_simdet *sd, uint64_t *rng, int repeats, mc_simdet_stats *st,
+			    keypoint_visit *visit, void *ctx)
+{
+	for (int r = 0; r < repeats; r++)
+		for (int k = 0; k < clip.gt.nframes; k++) {
+			frame_kp f;
+			simulate(k, sd, rng, &f, st);
+			for (int c = 0; c < clip.rig.ncams; c++)
+				for (int e = 0; e < NJ; e++)
+					if (f.have[c][e])
+						visit(&f, k, c, e, ctx);
+		}
+}
+
 /* Within 4 binomial standard errors of the rate. */
 static void check_rate(const char *what, long hits, long n, double rate)
 {
@@ -169,67 +186,74 @@ static void test_pairs(double collapse, double swap)
 
 /* Outliers: more than 1.5 times the far threshold off, at most 5 times,
  * at their rate; everything else exact (no noise). */
+typedef struct {
+	long n, off;
+} outlier_count;
+
+static void count_outlier(const frame_kp *f, int k, int c, int e, void *ctx)
+{
+	(void)k;
+	outlier_count *oc = ctx;
+	double d = hypot(f->u[c][e] - f->tu[c][e], f->v[c][e] - f->tv[c][e]), far = mc_simdet_far_px(&clip, c);
+	CHECK_MSG(d < 1e-9 || (d > 1.5 * far - 1e-9 && d < 5 * far + 1e-9), "%.2f px off", d);
+	oc->n++;
+	oc->off += d > far;
+}
+
 static void test_outliers(double rate)
 {
 	mc_simdet sd = {.outlier = rate};
 	mc_simdet_stats st = {0};
 	uint64_t rng = 13;
-	long n = 0, off = 0;
-	for (int r = 0; r < REPEATS; r++)
-		for (int k = 0; k < clip.gt.nframes; k++) {
-			frame_kp f;
-			simulate(k, &sd, &rng, &f, &st);
-			for (int c = 0; c < clip.rig.ncams; c++)
-				for (int e = 0; e < NJ; e++) {
-					if (!f.have[c][e])
-						continue;
-					double d = hypot(f.u[c][e] - f.tu[c][e], f.v[c][e] - f.tv[c][e]), far = mc_simdet_far_px(&clip, c);
-					CHECK_MSG(d < 1e-9 || (d > 1.5 * far - 1e-9 && d < 5 * far + 1e-9), "%.2f px off", d);
-					n++;
-					off += d > far;
-				}
-		}
-	CHECK(st.keypoints == n && st.far == off && st.outliers == off);
-	check_rate("outliers", off, n, rate);
+	outlier_count oc = {0, 0};
+	visit_keypoints(&sd, &rng, REPEATS, &st, count_outlier, &oc);
+	CHECK(st.keypoints == oc.n && st.far == oc.off && st.outliers == oc.off);
+	check_rate("outliers", oc.off, oc.n, rate);
 }
 
-/* Mean length of the runs of outlier keypoints (a camera's joint over
- * consecutive frame sets that report it), over `seeds` seeds; the share of
- * outlier keypoints in *rate, and in *same the share of consecutive
- * outlier pairs with the very same offset. */
+/* Runs of outlier keypoints (a camera's joint over consecutive frame sets
+ * that report it) and whether consecutive outliers keep their offset. */
+typedef struct {
+	long n, off, runs, pairs, same_pairs;
+	bool was[MC_MAX_CAMERAS][NJ];
+	double du[MC_MAX_CAMERAS][NJ], dv[MC_MAX_CAMERAS][NJ];
+} outlier_runs;
+
+static void count_run(const frame_kp *f, int k, int c, int e, void *ctx)
+{
+	(void)k;
+	outlier_runs *r = ctx;
+	double u = f->u[c][e] - f->tu[c][e], v = f->v[c][e] - f->tv[c][e];
+	bool is = hypot(u, v) > 1e-9;
+	r->n++;
+	r->off += is;
+	r->runs += is && !r->was[c][e];
+	if (is && r->was[c][e]) {
+		r->pairs++;
+		r->same_pairs += fabs(u - r->du[c][e]) < 1e-9 && fabs(v - r->dv[c][e]) < 1e-9;
+	}
+	r->was[c][e] = is;
+	r->du[c][e] = u;
+	r->dv[c][e] = v;
+}
+
+/* Mean run length over `seeds` seeds (one pass each); the share of outlier
+ * keypoints in *rate, of consecutive outlier pairs with one offset in *same. */
 static double outlier_run_length(int persist, int seeds, double *rate, double *same)
 {
-	long n = 0, off = 0, runs = 0, pairs = 0, same_pairs = 0;
+	static outlier_runs total, r;
+	memset(&total, 0, sizeof(total));
 	for (int seed = 1; seed <= seeds; seed++) {
 		mc_simdet sd = {.outlier = 0.2, .persist = persist, .seed = (uint64_t)seed};
 		uint64_t rng = (uint64_t)seed;
-		bool was[MC_MAX_CAMERAS][NJ] = {{false}};
-		double du[MC_MAX_CAMERAS][NJ], dv[MC_MAX_CAMERAS][NJ];
-		for (int k = 0; k < clip.gt.nframes; k++) {
-			frame_kp f;
-			simulate(k, &sd, &rng, &f, NULL);
-			for (int c = 0; c < clip.rig.ncams; c++)
-				for (int e = 0; e < NJ; e++) {
-					if (!f.have[c][e])
-						continue;
-					double u = f.u[c][e] - f.tu[c][e], v = f.v[c][e] - f.tv[c][e];
-					bool is = hypot(u, v) > 1e-9;
-					n++;
-					off += is;
-					runs += is && !was[c][e];
-					if (is && was[c][e]) {
-						pairs++;
-						same_pairs += fabs(u - du[c][e]) < 1e-9 && fabs(v - dv[c][e]) < 1e-9;
-					}
-					was[c][e] = is;
-					du[c][e] = u;
-					dv[c][e] = v;
-				}
-		}
+		memset(&r, 0, sizeof(r));
+		visit_keypoints(&sd, &rng, 1, NULL, count_run, &r);
+		total.n += r.n, total.off += r.off, total.runs += r.runs;
+		total.pairs += r.pairs, total.same_pairs += r.same_pairs;
 	}
-	*rate = n ? (double)off / n : 0;
-	*same = pairs ? (double)same_pairs / pairs : 0;
-	return runs ? (double)off / runs : 0;
+	*rate = total.n ? (double)total.off / total.n : 0;
+	*same = total.pairs ? (double)total.same_pairs / total.pairs : 0;
+	return total.runs ? (double)total.off / total.runs : 0;
 }
 
 /* Persistent outliers (persist N): the same rate, in runs about N frame
@@ -277,32 +301,34 @@ static void test_occluded(double rate)
 
 /* Blind confidences: uniform in [0.3, 1] whether the keypoint is good or an
  * outlier (the same mean), so they cannot tell one from the other. */
+typedef struct {
+	double sum[2], sum2;
+	long n[2];
+} confidence_sums;
+
+static void add_confidence(const frame_kp *f, int k, int c, int e, void *ctx)
+{
+	(void)k;
+	confidence_sums *cs = ctx;
+	double conf = f->conf[c][e];
+	int bad = hypot(f->u[c][e] - f->tu[c][e], f->v[c][e] - f->tv[c][e]) > mc_simdet_far_px(&clip, c);
+	CHECK_MSG(conf >= 0.3 && conf <= 1, "confidence %g", conf);
+	cs->sum[bad] += conf;
+	cs->sum2 += conf * conf;
+	cs->n[bad]++;
+}
+
 static void test_blind_confidence(void)
 {
 	mc_simdet sd = {.noise_px = 1, .outlier = 0.3, .blind_confidence = true};
 	uint64_t rng = 19;
-	double sum[2] = {0}, sum2 = 0;
-	long n[2] = {0};
-	for (int r = 0; r < REPEATS; r++)
-		for (int k = 0; k < clip.gt.nframes; k++) {
-			frame_kp f;
-			simulate(k, &sd, &rng, &f, NULL);
-			for (int c = 0; c < clip.rig.ncams; c++)
-				for (int e = 0; e < NJ; e++) {
-					if (!f.have[c][e])
-						continue;
-					double conf = f.conf[c][e];
-					int bad = hypot(f.u[c][e] - f.tu[c][e], f.v[c][e] - f.tv[c][e]) > mc_simdet_far_px(&clip, c);
-					CHECK_MSG(conf >= 0.3 && conf <= 1, "confidence %g", conf);
-					sum[bad] += conf;
-					sum2 += conf * conf;
-					n[bad]++;
-				}
-		}
-	double good = sum[0] / n[0], bad = sum[1] / n[1], all = (sum[0] + sum[1]) / (n[0] + n[1]);
-	double sd_all = sqrt(sum2 / (n[0] + n[1]) - all * all);
-	printf("confidence: good %.4f (%ld), wrong %.4f (%ld), sd %.4f\n", good, n[0], bad, n[1], sd_all);
-	CHECK(n[1] > 500 && fabs(good - 0.65) < 0.01 && fabs(bad - 0.65) < 0.015);
+	confidence_sums cs = {{0, 0}, 0, {0, 0}};
+	visit_keypoints(&sd, &rng, REPEATS, NULL, add_confidence, &cs);
+	long all_n = cs.n[0] + cs.n[1];
+	double good = cs.sum[0] / cs.n[0], bad = cs.sum[1] / cs.n[1], all = (cs.sum[0] + cs.sum[1]) / all_n;
+	double sd_all = sqrt(cs.sum2 / all_n - all * all);
+	printf("confidence: good %.4f (%ld), wrong %.4f (%ld), sd %.4f\n", good, cs.n[0], bad, cs.n[1], sd_all);
+	CHECK(cs.n[1] > 500 && fabs(good - 0.65) < 0.01 && fabs(bad - 0.65) < 0.015);
 	CHECK_NEAR(sd_all, 0.7 / sqrt(12), 0.01); /* uniform over [0.3, 1] */
 }
 
