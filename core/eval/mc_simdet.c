@@ -212,16 +212,12 @@ static void pair_errors(const sim_joint *sj, int njoints, const mc_simdet *sd, u
 	}
 }
 
-/* A hash of four numbers (splitmix64's finaliser), as a uniform in [0, 1). */
+/* A uniform in [0, 1) that depends only on four numbers: their mix as the
+ * state of the project's generator (mc_rng_uniform, splitmix64). */
 static double hash_uniform(uint64_t a, uint64_t b, uint64_t c, uint64_t d)
 {
-	uint64_t x = a ^ (b * 0x9e3779b97f4a7c15ull) ^ (c * 0xbf58476d1ce4e5b9ull) ^ (d * 0x94d049bb133111ebull);
-	x ^= x >> 30;
-	x *= 0xbf58476d1ce4e5b9ull;
-	x ^= x >> 27;
-	x *= 0x94d049bb133111ebull;
-	x ^= x >> 31;
-	return (double)(x >> 11) / 9007199254740992.0;
+	uint64_t state = a ^ (b * 0x9e3779b97f4a7c15ull) ^ (c * 0xbf58476d1ce4e5b9ull) ^ (d * 0x94d049bb133111ebull);
+	return mc_rng_uniform(&state);
 }
 
 /* The outlier draws (whether, direction, distance) of camera c's joint e
