@@ -5,16 +5,17 @@
 
 #include <stdio.h>
 
-/* Frame k's evaluated joints as targets; returns their count. */
-static int frame_targets(const mc_clip *clip, const int *model_joint, int k, mc_ik_target *t, int *eval_of)
+/* Frame k's evaluated joints as targets (evaluated joint e is the clip's
+ * gt_joint[e] and the model's model_joint[e]); returns their count. */
+static int frame_targets(const mc_clip *clip, const int *gt_joint, const int *model_joint, int k, mc_ik_target *t,
+			 int *eval_of)
 {
 	int n = 0;
 	for (int e = 0; e < BENCH_NEVAL; e++) {
-		int g = mc_clip_joint(clip, bench_eval_joints[e]);
-		if (g < 0 || model_joint[e] < 0)
+		if (gt_joint[e] < 0 || model_joint[e] < 0)
 			continue;
 		eval_of[n] = e;
-		t[n++] = (mc_ik_target){model_joint[e], mc_clip_gt(clip, k, g), 1.0, {0, 0, 0}};
+		t[n++] = (mc_ik_target){model_joint[e], mc_clip_gt(clip, k, gt_joint[e]), 1.0, {0, 0, 0}};
 	}
 	return n;
 }
@@ -40,15 +41,17 @@ int bench_model_floor(const mc_clip *clip, const char *model_path, mc_err *err)
 	if (mc_model_load(model_path, &m, err) < 0 ||
 	    (clip->layout == MC_CLIP_OUTSIDE && mc_model_make_root_free(&m, err) < 0))
 		return -1;
-	int model_joint[BENCH_NEVAL];
-	for (int e = 0; e < BENCH_NEVAL; e++)
+	int gt_joint[BENCH_NEVAL], model_joint[BENCH_NEVAL];
+	for (int e = 0; e < BENCH_NEVAL; e++) {
+		gt_joint[e] = mc_clip_joint(clip, bench_eval_joints[e]);
 		model_joint[e] = mc_model_find_joint(&m, bench_eval_joints[e]);
+	}
 	double pose[MC_MAX_DOF], sum[BENCH_NEVAL] = {0}, total = 0;
 	int count[BENCH_NEVAL] = {0}, total_n = 0;
 	mc_model_rest_pose(&m, pose);
 	for (int k = 0; k < clip->gt.nframes; k++) {
 		mc_ik_target t[BENCH_NEVAL];
-		int eval_of[BENCH_NEVAL], n = frame_targets(clip, model_joint, k, t, eval_of);
+		int eval_of[BENCH_NEVAL], n = frame_targets(clip, gt_joint, model_joint, k, t, eval_of);
 		if (fit_frame(&m, pose, t, n, k, err) < 0) {
 			char why[sizeof(err->msg)];
 			snprintf(why, sizeof(why), "%s", err->msg);
