@@ -72,12 +72,6 @@ void mc_movenet_decode(const mc_movenet_heads *h, mc_movenet_point *out)
  * knees, ankles. */
 static const int COCO_PAIRS[][2] = {{5, 6}, {7, 8}, {9, 10}, {11, 12}, {13, 14}, {15, 16}};
 
-static float cell_distance(const mc_movenet_heads *h, const mc_movenet_point *a, float y, float x)
-{
-	float dy = a->y * (float)h->height - y, dx = a->x * (float)h->width - x;
-	return sqrtf(dy * dy + dx * dx);
-}
-
 static int local_maximum(const float *map, int height, int width, int y, int x)
 {
 	float v = map[y * width + x];
@@ -124,7 +118,7 @@ void mc_movenet_separate_pairs(const mc_movenet_heads *h, float min_score, mc_mo
 		if (b >= h->njoints)
 			continue;
 		float sy = out[a].y * (float)h->height, sx = out[a].x * (float)h->width;
-		if (cell_distance(h, &out[b], sy, sx) > MC_MOVENET_PAIR_CELLS)
+		if (hypotf(out[b].y * (float)h->height - sy, out[b].x * (float)h->width - sx) > MC_MOVENET_PAIR_CELLS)
 			continue;
 		/* The joint whose rough place lies farther from the shared spot
 		 * is the one misplaced; when that place is at the spot too, the
