@@ -521,6 +521,112 @@ static void test_keypoints_out(void)
 	mc_clip_close(&clip);
 }
 
+/* The largest distance between a joint of one --out file and the same
+ * joint of the same line of another (metres); infinite when their lines
+ * or joints differ. */
+static double max_joint_difference(const char *a, const char *b)
+{
+	double worst = 0;
+	while (*a && *b) {
+		json_t *ja = json_loadb(a, strcspn(a, "\n"), 0, NULL), *jb = json_loadb(b, strcspn(b, "\n"), 0, NULL);
+		const json_t *joints_a = json_object_get(ja, "joints"), *joints_b = json_object_get(jb, "joints");
+		if (!joints_a || json_object_size(joints_a) != json_object_size(joints_b))
+			worst = INFINITY;
+		const char *name;
+		const json_t *pa;
+		json_object_foreach ((json_t *)joints_a, name, pa) {
+			const json_t *pb = json_object_get(joints_b, name);
+			double d2 = pb ? 0 : INFINITY;
+			for (int i = 0; i < 3 && pb; i++) {
+				double d = json_number_value(json_array_get(pa, i)) - json_number_value(json_array_get(pb, i));
+				d2 += d * d;
+			}
+			worst = fmax(worst, sqrt(d2));
+		}
+		json_decref(ja);
+		json_decref(jb);
+		a += strcspn(a, "\n") + (a[strcspn(a, "\n")] != 0);
+		b += strcspn(b, "\n") + (b[strcspn(b, "\n")] != 0);
+	}
+	return *a || *b ? INFINITY : worst;
+}
+
+/* Writes text to tmpdir/name; its path in path. */
+static void write_tmp(const char *name, const char *text, char *path, size_t cap)
+{
+	snprintf(path, cap, "%s/%s", tmpdir, name);
+	FILE *f = fopen(path, "w");
+	CHECK(f && fputs(text, f) >= 0);
+	if (f)
+		fclose(f);
+}
+
+/* --keypoints-in: a file of keypoints stands in for the detector.  What
+ * the tracker is given (--keypoints-out) is the file to the byte, frame set
+ * by frame set, and the same keypoints give the estimates they gave when
+ * simulated; a file without a frame set's line gives it none; bad files
+ * are refused naming the line. */
+static void test_keypoints_in(void)
+{
+	static char out[1 << 16], a[1 << 17], b[1 << 17];
+	char args[1024], given[128], replayed[128], est[2][128], bad[160];
+	const char *common = "--clip tests/data/ego_demo --frames 6 --reference-frames 0 --no-thesis --quiet --seed 3";
+	snprintf(given, sizeof(given), "%s/given.jsonl", tmpdir);
+	snprintf(replayed, sizeof(replayed), "%s/replayed.jsonl", tmpdir);
+	for (int i = 0; i < 2; i++)
+		snprintf(est[i], sizeof(est[i]), "%s/est%d.jsonl", tmpdir, i);
+	snprintf(args, sizeof(args), "%s --simulated-detector 2 --keypoints-out %s --out %s", common, given, est[0]);
+	CHECK_MSG(run_tool(args, out, sizeof(out)) == 0, "%s", out);
+	snprintf(args, sizeof(args), "%s --keypoints-in %s --keypoints-out %s --out %s", common, given, replayed, est[1]);
+	CHECK_MSG(run_tool(args, out, sizeof(out)) == 0 && strstr(out, "keypoints: "), "%s", out);
+	CHECK(slurp(given, a, sizeof(a)) && slurp(replayed, b, sizeof(b)));
+	CHECK_MSG(strlen(a) > 1000 && !strcmp(a, b), "the tracker was not given the file's keypoints");
+	/* 1e-4 px of rounding in the file: the estimates within 1 mm */
+	CHECK(slurp(est[0], a, sizeof(a)) && slurp(est[1], b, sizeof(b)));
+	CHECK_MSG(max_joint_difference(a, b) < 1e-3, "estimates %.4f m apart", max_joint_difference(a, b));
+
+	/* only frame set 1 given: the others get none */
+	CHECK(slurp(given, a, sizeof(a)));
+	char *second = strchr(a, '\n') + 1;
+	second[strcspn(second, "\n") + 1] = 0;
+	write_tmp("one.jsonl", second, bad, sizeof(bad));
+	snprintf(args, sizeof(args), "%s --keypoints-in %s --keypoints-out %s", common, bad, replayed);
+	CHECK_MSG(run_tool(args, out, sizeof(out)) == 0, "%s", out);
+	CHECK(slurp(replayed, b, sizeof(b)));
+	CHECK_MSG(strstr(b, second) && strstr(b, "{\"index\": 0, \"views\": [{\"camera\": \"left\", \"joints\": {}}"),
+		  "%s", b);
+
+	static const struct {
+		const char *text, *error;
+	} bad_files[] = {
+		{"{\"index\": 0, \"views\": []}\n{\"index\": 0, \"views\": []}\n", ":2: index 0 given twice"},
+		{"\n{\"index\": 0, \"views\": [{\"camera\": \"left\", \"joints\": {\"nose\": [1, 2, 0.5]}}]}\n",
+		 ":2: joint \"nose\": the body model has no such joint"},
+		{"{\"index\": 0, \"views\": [{\"camera\": \"left\", \"joints\": {\"neck\": [1, 2, 1.5]}}]}\n",
+		 ":1: joint \"neck\": expected [u, v, confidence]"},
+		{"{\"index\": 99, \"views\": []}\n", ":1: index: "},
+		{"{\"index\": 0, \"views\": [\n", ":1:"},
+		{"{\"index\": 0, \"views\": [{\"camera\": \"cam7\", \"joints\": {}}]}\n", "no view names a camera"},
+	};
+	for (size_t i = 0; i < sizeof(bad_files) / sizeof(bad_files[0]); i++) {
+		write_tmp("bad.jsonl", bad_files[i].text, bad, sizeof(bad));
+		snprintf(args, sizeof(args), "%s --keypoints-in %s", common, bad);
+		CHECK_MSG(run_tool(args, out, sizeof(out)) == 1 && strstr(out, bad) && strstr(out, bad_files[i].error),
+			  "file %zu: %s", i, out);
+	}
+	snprintf(args, sizeof(args), "%s --keypoints-in %s --simulated-detector 2", common, given);
+	CHECK(run_tool(args, out, sizeof(out)) == 2 && strstr(out, "exclude each other"));
+	snprintf(args, sizeof(args), "%s --keypoints-in %s/none.jsonl", common, tmpdir);
+	CHECK(run_tool(args, out, sizeof(out)) == 1 && strstr(out, "none.jsonl: cannot read"));
+	unlink(bad);
+	unlink(given);
+	unlink(replayed);
+	unlink(est[0]);
+	unlink(est[1]);
+	snprintf(args, sizeof(args), "%s/one.jsonl", tmpdir);
+	unlink(args);
+}
+
 /* A clip without gt.json (real footage): tests/data/outside_demo copied
  * without it opens with the frame sets found on disk and no truth; the
  * tool tracks it from the detections and writes --out, scores nothing
@@ -619,6 +725,7 @@ int main(int argc, char **argv)
 	test_detector_flip();
 	test_frame_step();
 	test_keypoints_out();
+	test_keypoints_in();
 	test_unscored_clip();
 	rmdir(tmpdir);
 	return mc_test_finish("test_bench_tool");

@@ -138,7 +138,8 @@ static void current_skeleton(const mc_tracker *t, mc_skeleton *sk)
 }
 
 /* The keypoints of frame set k: the detector's (timed with the frame, as
- * part of the cost of tracking it), the simulated detector's, or none. */
+ * part of the cost of tracking it), the simulated detector's, the file's,
+ * or none. */
 static int frame_keypoints(const options *o, bench_detector *bd, mc_tracker *t, const mc_clip *clip, int k,
 			   const mc_frame_view *views, uint64_t *rng, mc_simdet_stats *sim_stats, mc_keypoint *kp, int cap,
 			   mc_err *err)
@@ -153,6 +154,8 @@ static int frame_keypoints(const options *o, bench_detector *bd, mc_tracker *t, 
 	if (o->simulated_detector_px >= 0)
 		return mc_simdet_keypoints(clip, mc_tracker_model(t), bench_eval_joints, BENCH_NEVAL, k, &o->sim, rng, kp,
 					   cap, sim_stats);
+	if (o->keypoints_in_path)
+		return bench_keypoints_frame(&o->keypoints_in, k, kp, cap);
 	return 0;
 }
 
@@ -446,17 +449,23 @@ static void report(const options *o, const mc_clip *clip, bench_detector *bd, co
 		bench_print_simdet(clip, &st->sim);
 }
 
-/* Opens --out and --keypoints-out; -1 (with err) when one cannot be
- * written, with nothing left open. */
-static int open_outputs(options *o, FILE **out, mc_err *err)
+/* Reads --keypoints-in, opens --out and --keypoints-out; -1 (with err)
+ * when one cannot be read or written, with nothing left open. */
+static int open_outputs(options *o, const mc_tracker *t, const mc_clip *clip, int nframes, FILE **out, mc_err *err)
 {
 	*out = NULL;
-	if (o->out_path && !(*out = fopen(o->out_path, "w")))
+	if (o->keypoints_in_path &&
+	    bench_keypoints_read(o->keypoints_in_path, &clip->rig, mc_tracker_model(t), nframes, &o->keypoints_in, err) < 0)
+		return -1;
+	if (o->out_path && !(*out = fopen(o->out_path, "w"))) {
+		bench_keypoints_in_free(&o->keypoints_in);
 		return mc_err_set(err, "%s: cannot write", o->out_path);
+	}
 	if (o->keypoints_out_path && !(o->keypoints_file = fopen(o->keypoints_out_path, "w"))) {
 		if (*out)
 			fclose(*out);
 		*out = NULL;
+		bench_keypoints_in_free(&o->keypoints_in);
 		return mc_err_set(err, "%s: cannot write", o->keypoints_out_path);
 	}
 	return 0;
@@ -469,6 +478,7 @@ static void close_outputs(options *o, FILE *out)
 	if (o->keypoints_file)
 		fclose(o->keypoints_file);
 	o->keypoints_file = NULL;
+	bench_keypoints_in_free(&o->keypoints_in);
 }
 
 static void print_clip(const mc_clip *clip, int nframes)
@@ -500,10 +510,13 @@ static int open_detector(const options *o, const mc_tracker *t, const mc_clip *c
 static int run_tracker(options *o, mc_tracker *t, const mc_clip *clip, int nframes, bool thesis, mc_err *err)
 {
 	FILE *out;
-	if (open_outputs(o, &out, err) < 0)
+	if (open_outputs(o, t, clip, nframes, &out, err) < 0)
 		return -1;
 	print_clip(clip, nframes);
 	print_settings(&o->s, mc_tracker_device_name(t));
+	if (o->keypoints_in_path)
+		printf("keypoints: %s, %d of them, lambda_detection %.3g\n", o->keypoints_in_path, o->keypoints_in.nkp,
+		       o->s.lambda_detection);
 	if (o->simulated_detector_px >= 0)
 		printf("WARNING: simulated detector: keypoints from the ground truth, %.1f px noise, %.0f%% missed, "
 		       "collapse %.2f, swap %.2f, occluded on the wrong limb %.2f, outliers %.2f (lasting %d frame "

@@ -19,6 +19,8 @@ static void usage(FILE *f)
 		   "                        left camera, or the world frame of an outside-in clip)\n"
 		   "  --keypoints-out FILE  write the keypoints the tracker was given (detector or simulated) as\n"
 		   "                        JSON lines, one per tracked frame set, native pixels\n"
+		   "  --keypoints-in FILE   track from the keypoints in FILE (--keypoints-out's format, joints\n"
+		   "                        named as the body model names them) instead of a detector's\n"
 		   "  --cameras LIST        outside-in: use only these clip cameras, e.g. 0,2 (default: all)\n"
 		   "  --lambda-floor L      outside-in: weight of the floor prior (default: mocapd's outside-in value)\n"
 		   "  --pose-prior FILE     the learned pose prior (default config/models/pose_prior.json when\n"
@@ -101,7 +103,7 @@ enum { OPT_MODEL = 256, OPT_OUT, OPT_FRAMES, OPT_BACKEND, OPT_WIDTH, OPT_HEIGHT,
        OPT_STEP, OPT_MOM, OPT_LSMOOTH, OPT_LPOSE, OPT_LLIMIT, OPT_PLAT, OPT_DEV, OPT_SEED, OPT_OCAM, OPT_REF,
        OPT_NOTHESIS, OPT_QUIET, OPT_CLIP, OPT_HELP, OPT_OVERLAY, OPT_OVERLAY_EVERY, OPT_LANCHOR,
        OPT_SIMDET, OPT_LDET, OPT_DETECTOR, OPT_DET_EVERY, OPT_LCOLOR, OPT_DET_THRESHOLD, OPT_INIT,
-       OPT_NORECOVER, OPT_CAMERAS, OPT_LFLOOR, OPT_DET_SERIAL, OPT_KP_AT, OPT_FRAME_STEP, OPT_KP_OUT, OPT_FPS, OPT_SIM_PRESET, OPT_SIM_COLLAPSE, OPT_SIM_SWAP, OPT_SIM_OUTLIER, OPT_SIM_OCC,
+       OPT_NORECOVER, OPT_CAMERAS, OPT_LFLOOR, OPT_DET_SERIAL, OPT_KP_AT, OPT_FRAME_STEP, OPT_KP_OUT, OPT_KP_IN, OPT_FPS, OPT_SIM_PRESET, OPT_SIM_COLLAPSE, OPT_SIM_SWAP, OPT_SIM_OUTLIER, OPT_SIM_OCC,
        OPT_SIM_BLIND, OPT_SIDES, OPT_FIT_LIMBS, OPT_PRIOR, OPT_LPRIOR, OPT_DET_HINT, OPT_DET_FLIP, OPT_MODEL_FLOOR, OPT_SIM_PERSIST, OPT_VERSION = 'V' };
 
 static int apply_option(options *o, int c, const char *name, const char *arg, bool *thesis)
@@ -114,6 +116,7 @@ static int apply_option(options *o, int c, const char *name, const char *arg, bo
 	case OPT_MODEL: o->model_path = arg; return 0;
 	case OPT_OUT: o->out_path = arg; return 0;
 	case OPT_KP_OUT: o->keypoints_out_path = arg; return 0;
+	case OPT_KP_IN: o->keypoints_in_path = arg; return 0;
 	case OPT_DETECTOR: o->detector_path = arg; return 0;
 	case OPT_PRIOR: o->prior_path = strcmp(arg, "none") == 0 ? NULL : arg; return 0;
 	case OPT_OVERLAY: o->overlay_dir = arg; return 0;
@@ -255,7 +258,8 @@ int bench_parse_options(int argc, char **argv, options *o, bool *thesis)
 		{"lambda-floor", 1, 0, OPT_LFLOOR}, {"detector-serial", 0, 0, OPT_DET_SERIAL},
 		{"detector-flip", 0, 0, OPT_DET_FLIP},
 		{"keypoints-at-iteration", 1, 0, OPT_KP_AT}, {"frame-step", 1, 0, OPT_FRAME_STEP},
-		{"keypoints-out", 1, 0, OPT_KP_OUT}, {"fps", 1, 0, OPT_FPS}, {"sim-preset", 1, 0, OPT_SIM_PRESET},
+		{"keypoints-out", 1, 0, OPT_KP_OUT}, {"keypoints-in", 1, 0, OPT_KP_IN},
+		{"fps", 1, 0, OPT_FPS}, {"sim-preset", 1, 0, OPT_SIM_PRESET},
 		{"sim-collapse", 1, 0, OPT_SIM_COLLAPSE}, {"sim-swap", 1, 0, OPT_SIM_SWAP},
 		{"sim-outlier", 1, 0, OPT_SIM_OUTLIER}, {"sim-occluded-wrong", 1, 0, OPT_SIM_OCC},
 		{"sim-persist", 1, 0, OPT_SIM_PERSIST},
@@ -277,14 +281,15 @@ int bench_parse_options(int argc, char **argv, options *o, bool *thesis)
 			return -1;
 		}
 	}
-	if (o->init_detect && !o->detector_path && o->simulated_detector_px < 0) {
-		fprintf(stderr, "mocap-bench: --init detect needs --detector MODEL (or --simulated-detector PX)\n");
+	if (o->init_detect && !o->detector_path && o->simulated_detector_px < 0 && !o->keypoints_in_path) {
+		fprintf(stderr, "mocap-bench: --init detect needs --detector MODEL (or --simulated-detector PX, or "
+				"--keypoints-in FILE)\n");
 		return -1;
 	}
 	if (sim_settings(o) < 0)
 		return -1;
-	if (o->detector_path && o->simulated_detector_px >= 0) {
-		fprintf(stderr, "mocap-bench: --detector and --simulated-detector exclude each other\n");
+	if ((o->detector_path != NULL) + (o->simulated_detector_px >= 0) + (o->keypoints_in_path != NULL) > 1) {
+		fprintf(stderr, "mocap-bench: --detector, --simulated-detector and --keypoints-in exclude each other\n");
 		return -1;
 	}
 	if (!o->clip) {

@@ -3,6 +3,7 @@
 #ifndef BENCH_OPTIONS_H
 #define BENCH_OPTIONS_H
 
+#include "bench/keypoints_in.h"
 #include "eval/mc_simdet.h"
 #include "track/mc_tracker.h"
 
@@ -16,6 +17,8 @@ typedef struct {
 	const char *out_path;
 	const char *keypoints_out_path; /* --keypoints-out FILE */
 	FILE *keypoints_file;           /* open while tracking (bench/keypoints_out.h) */
+	const char *keypoints_in_path;  /* --keypoints-in FILE */
+	bench_keypoints_in keypoints_in; /* read from it while tracking */
 	const char *overlay_dir;
 	const char *cameras; /* --cameras 0,2: the clip cameras used, NULL: all */
 	int overlay_every;
