@@ -80,6 +80,7 @@ static const mcd_config_key keys[] = {
 	{MCD_SEC_TRACKER, "actor_dir", MCD_KEY_PATH, T(actor_dir), 0, 0, NULL, "/var/lib/mocapd/actors", true},
 	{MCD_SEC_TRACKER, "calibrate_colors", MCD_KEY_BOOL, T(calibrate_colors), 0, 0, NULL, "false", false},
 	{MCD_SEC_TRACKER, "recover", MCD_KEY_BOOL, T(settings.recover), 0, 0, NULL, "true", false},
+	{MCD_SEC_TRACKER, "ray_fit", MCD_KEY_BOOL, T(settings.ray_fit), 0, 0, NULL, "true", false},
 	{MCD_SEC_TRACKER, "backend", MCD_KEY_ENUM, T(settings.backend), 0, 0, backends, TRACKER_DEFAULT, false},
 	{MCD_SEC_TRACKER, "width", MCD_KEY_INT, T(settings.width), 1, 8192, NULL, TRACKER_DEFAULT, false},
 	{MCD_SEC_TRACKER, "height", MCD_KEY_INT, T(settings.height), 1, 8192, NULL, TRACKER_DEFAULT, false},

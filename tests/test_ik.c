@@ -17,6 +17,50 @@ static void random_pose(const mc_model *m, double *pose, unsigned long long *rng
 	mc_model_clamp_pose(m, pose);
 }
 
+/* prior_pose: with few targets a strong Tikhonov term decides the dofs
+ * they leave free.  Pulling toward a given pose (the tracker's prediction),
+ * a fit to targets of that very pose stays on it, from the rest pose, with
+ * the root fixed or solved for too (the solved vector then starts with six
+ * root dofs); pulling toward 0 it does not. */
+static void test_prior_pose(const mc_model *truth)
+{
+	unsigned long long rng = 7;
+	double pose[MC_MAX_DOF];
+	random_pose(truth, pose, &rng, 0.5);
+	mc_fk fk;
+	mc_model_fk(truth, pose, &fk);
+	static const char *const names[] = {"left_wrist", "right_wrist", "left_ankle"};
+	mc_ik_target tg[3];
+	for (int i = 0; i < 3; i++) {
+		int j = mc_model_find_joint(truth, names[i]);
+		CHECK(j >= 0);
+		tg[i] = (mc_ik_target){j, fk.rig_from_joint[j].t, 1.0, {0, 0, 0}};
+	}
+	for (int variant = 0; variant < 3; variant++) {
+		mc_model m = *truth;
+		mc_ik_options o;
+		mc_ik_options_default(&o);
+		o.iterations = 50;
+		o.pose_prior = 1e-2;
+		o.fit_bone_scale = false;
+		o.restarts = false;
+		o.fit_root = variant == 1;
+		o.prior_pose = variant < 2 ? pose : NULL;
+		double est[MC_MAX_DOF], worst = 0;
+		mc_model_rest_pose(&m, est);
+		mc_err err = {{0}};
+		CHECK_MSG(mc_ik_solve(&m, est, tg, 3, &o, &err) >= 0, "%s", err.msg);
+		for (int k = 0; k < m.ndof; k++)
+			worst = fmax(worst, fabs(est[k] - pose[k]));
+		printf("prior toward %s%s: largest dof off the pose %.4f rad\n", variant < 2 ? "the pose" : "0",
+		       variant == 1 ? ", root solved for" : "", worst);
+		if (variant < 2)
+			CHECK_MSG(worst < 1e-3, "variant %d: %g rad", variant, worst);
+		else
+			CHECK_MSG(worst > 0.1, "toward 0: %g rad", worst);
+	}
+}
+
 int main(void)
 {
 	mc_model truth;
@@ -70,5 +114,6 @@ int main(void)
 	same[1].position = mc_v3(1e308, 0, 0);
 	CHECK_MSG(mc_ik_solve(&m, est, same, 3, &o, &err) < 0 && strstr(err.msg, "more than 100 m from the rig"), "%s",
 		  err.msg);
+	test_prior_pose(&truth);
 	return mc_test_finish("test_ik");
 }

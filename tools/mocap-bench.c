@@ -451,11 +451,12 @@ static void report(const options *o, const mc_clip *clip, bench_detector *bd, co
 
 /* Reads --keypoints-in, opens --out and --keypoints-out; -1 (with err)
  * when one cannot be read or written, with nothing left open. */
-static int open_outputs(options *o, const mc_tracker *t, const mc_clip *clip, int nframes, FILE **out, mc_err *err)
+static int open_outputs(options *o, const mc_tracker *t, const mc_clip *clip, FILE **out, mc_err *err)
 {
 	*out = NULL;
 	if (o->keypoints_in_path &&
-	    bench_keypoints_read(o->keypoints_in_path, &clip->rig, mc_tracker_model(t), nframes, &o->keypoints_in, err) < 0)
+	    bench_keypoints_read(o->keypoints_in_path, &clip->rig, mc_tracker_model(t), clip->gt.nframes, &o->keypoints_in,
+				 err) < 0)
 		return -1;
 	if (o->out_path && !(*out = fopen(o->out_path, "w"))) {
 		bench_keypoints_in_free(&o->keypoints_in);
@@ -510,7 +511,7 @@ static int open_detector(const options *o, const mc_tracker *t, const mc_clip *c
 static int run_tracker(options *o, mc_tracker *t, const mc_clip *clip, int nframes, bool thesis, mc_err *err)
 {
 	FILE *out;
-	if (open_outputs(o, t, clip, nframes, &out, err) < 0)
+	if (open_outputs(o, t, clip, &out, err) < 0)
 		return -1;
 	print_clip(clip, nframes);
 	print_settings(&o->s, mc_tracker_device_name(t));

@@ -8,6 +8,7 @@ void mc_ik_options_default(mc_ik_options *o)
 {
 	o->iterations = 100;
 	o->pose_prior = 1e-4;
+	o->prior_pose = NULL;
 	o->fit_bone_scale = true;
 	o->fit_root = true;
 	o->restarts = true;
@@ -62,7 +63,14 @@ void mc_ik_fit_bone_scale(mc_model *model, const mc_ik_target *targets, int n)
 			model->bone_scale[j] = median;
 }
 
-static double ik_cost(const mc_model *m, const double *p, const mc_ik_target *t, int n, double prior, int first_joint_dof)
+/* A dof's offset from where the pose prior pulls it. */
+static double prior_offset(const double *p, const double *p0, int k)
+{
+	return p0 ? p[k] - p0[k] : p[k];
+}
+
+static double ik_cost(const mc_model *m, const double *p, const mc_ik_target *t, int n, double prior, const double *p0,
+		      int first_joint_dof)
 {
 	mc_fk fk;
 	mc_model_fk(m, p, &fk);
@@ -72,13 +80,13 @@ static double ik_cost(const mc_model *m, const double *p, const mc_ik_target *t,
 		c += t[i].weight * mc_v3_norm2(r);
 	}
 	for (int k = first_joint_dof; k < m->ndof; k++)
-		c += prior * p[k] * p[k];
+		c += prior * prior_offset(p, p0, k) * prior_offset(p, p0, k);
 	return c;
 }
 
 /* One Levenberg-Marquardt step: solves (J^T W J + mu D + prior) d = -g. */
-static bool ik_step(const mc_model *m, const double *p, const mc_ik_target *t, int n, double prior, double mu,
-		    int first_joint_dof, int nfrozen, double *step, mc_vec3 *J)
+static bool ik_step(const mc_model *m, const double *p, const mc_ik_target *t, int n, double prior, const double *p0,
+		    double mu, int first_joint_dof, int nfrozen, double *step, mc_vec3 *J)
 {
 	int nd = m->ndof;
 	double A[MC_MAX_DOF * MC_MAX_DOF];
@@ -104,7 +112,7 @@ static bool ik_step(const mc_model *m, const double *p, const mc_ik_target *t, i
 		for (int b = 0; b < a; b++)
 			A[a * nd + b] = A[b * nd + a];
 		double reg = a >= first_joint_dof ? prior : 0.0;
-		g[a] = -(g[a] + reg * p[a]);
+		g[a] = -(g[a] + reg * prior_offset(p, p0, a));
 		A[a * nd + a] += reg + mu * (A[a * nd + a] + 1e-6);
 	}
 	for (int a = 0; a < nfrozen; a++) { /* frozen dofs: zero step */
@@ -121,16 +129,16 @@ static double lm_solve(const mc_model *m, double *p, const mc_ik_target *t, int 
 {
 	mc_vec3 *J = malloc(sizeof(mc_vec3) * MC_MAX_JOINTS * MC_MAX_DOF);
 	double step[MC_MAX_DOF], trial[MC_MAX_DOF];
-	double mu = 1e-3, cost = ik_cost(m, p, t, n, o->pose_prior, first_joint_dof);
+	double mu = 1e-3, cost = ik_cost(m, p, t, n, o->pose_prior, o->prior_pose, first_joint_dof);
 	for (int it = 0; it < o->iterations && J; it++) {
-		if (!ik_step(m, p, t, n, o->pose_prior, mu, first_joint_dof, nfrozen, step, J)) {
+		if (!ik_step(m, p, t, n, o->pose_prior, o->prior_pose, mu, first_joint_dof, nfrozen, step, J)) {
 			mu *= 10;
 			continue;
 		}
 		for (int k = 0; k < m->ndof; k++)
 			trial[k] = p[k] + step[k];
 		mc_model_clamp_pose(m, trial);
-		double c = ik_cost(m, trial, t, n, o->pose_prior, first_joint_dof);
+		double c = ik_cost(m, trial, t, n, o->pose_prior, o->prior_pose, first_joint_dof);
 		if (c < cost) {
 			double gain = cost - c;
 			memcpy(p, trial, sizeof(double) * m->ndof);
@@ -273,7 +281,15 @@ double mc_ik_solve(mc_model *model, double *pose, const mc_ik_target *targets, i
 		align_free_root(&work, p, targets, n);
 	int first_joint_dof = work.root_free ? 6 : 0;
 	int nfrozen = (work.root_free && !o->fit_root) ? 6 : 0;
-	double cost = solve_with_restarts(&work, p, targets, n, o, first_joint_dof, nfrozen, wsum);
+	/* the prior's pose in the solved vector (after the six root dofs when
+	 * a fixed root is solved for) */
+	mc_ik_options solve = *o;
+	double p0[MC_MAX_DOF] = {0};
+	if (o->prior_pose && solve_root) {
+		memcpy(p0 + 6, o->prior_pose, sizeof(double) * model->ndof);
+		solve.prior_pose = p0;
+	}
+	double cost = solve_with_restarts(&work, p, targets, n, &solve, first_joint_dof, nfrozen, wsum);
 	if (solve_root) {
 		model->rig_from_root.t = mc_v3(p[0], p[1], p[2]);
 		model->rig_from_root.R = mc_m3_from_rotvec(mc_v3(p[3], p[4], p[5]));

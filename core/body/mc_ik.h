@@ -28,7 +28,8 @@ typedef struct {
 
 typedef struct {
 	int iterations;       /* Levenberg-Marquardt iterations */
-	double pose_prior;    /* Tikhonov weight pulling joint dofs to 0 */
+	double pose_prior;    /* Tikhonov weight pulling joint dofs to 0, or to prior_pose */
+	const double *prior_pose; /* NULL: 0; else the pose the prior pulls toward (ndof values) */
 	bool fit_bone_scale;  /* set bone_scale from target bone lengths first */
 	bool fit_root;        /* also solve for the root placement */
 	bool restarts;        /* try other starts while the fit is poor (default true) */

@@ -172,45 +172,81 @@ static void mark_gaussian(const mc_camera *cam, const mc_raytable *rt, mc_vec3 p
 	rasterize_disc(mask, rt->width, rt->height, cu, cv, r + 1.5);
 }
 
-void mc_trk_choose_candidates(mc_tracker *t, const mc_fk *fk)
+/* Adds to t->mask camera c's pixels near the Gaussians at fk (those
+ * `only` marks; NULL: all), hidden ones left out. */
+static void mark_body(mc_tracker *t, int c, const mc_fk *fk, const bool *only)
 {
-	for (int c = 0; c < t->rig.ncams; c++) {
-		const mc_camera *cam = &t->rig.cams[c];
-		const mc_raytable *rt = &t->rays[c];
-		int n = rt->width * rt->height;
-		memset(t->mask, 0, (size_t)n);
-		mc_xform cam_from_rig = mc_xform_inverse(cam->rig_from_cam);
-		for (int q = 0; q < t->model.ngauss; q++) {
-			if (t->hidden[q])
-				continue;
-			mc_vec3 p = mc_xform_apply(cam_from_rig, fk->mu[q]);
-			mark_gaussian(cam, rt, p, 3 * t->model.gauss[q].sigma + CANDIDATE_MARGIN_M, t->mask);
-		}
-		t->ncandidates[c] = 0;
-		for (int p = 0; p < n; p++)
-			if (t->mask[p] && rt->valid[p])
-				t->candidates[c][t->ncandidates[c]++] = p;
+	const mc_camera *cam = &t->rig.cams[c];
+	mc_xform cam_from_rig = mc_xform_inverse(cam->rig_from_cam);
+	for (int q = 0; q < t->model.ngauss; q++) {
+		if (t->hidden[q] || (only && !only[q]))
+			continue;
+		mc_vec3 p = mc_xform_apply(cam_from_rig, fk->mu[q]);
+		mark_gaussian(cam, &t->rays[c], p, 3 * t->model.gauss[q].sigma + CANDIDATE_MARGIN_M, t->mask);
 	}
 }
 
-/* Draws this iteration's pixels: a partial Fisher-Yates shuffle of each
- * camera's candidates, so that no pixel is drawn twice. */
+/* The valid pixels t->mask marks, into out; the count. */
+static int masked_pixels(const mc_tracker *t, int c, int *out)
+{
+	const mc_raytable *rt = &t->rays[c];
+	int n = 0;
+	for (int p = 0; p < rt->width * rt->height; p++)
+		if (t->mask[p] && rt->valid[p])
+			out[n++] = p;
+	return n;
+}
+
+void mc_trk_choose_candidates(mc_tracker *t, const mc_fk *fk)
+{
+	for (int c = 0; c < t->rig.ncams; c++) {
+		memset(t->mask, 0, (size_t)t->rays[c].width * t->rays[c].height);
+		mark_body(t, c, fk, NULL);
+		t->ncandidates[c] = masked_pixels(t, c, t->candidates[c]);
+	}
+}
+
+
+/* A share of pixels[0..n) into out, drawn by a partial Fisher-Yates
+ * shuffle (in place), so that no pixel is drawn twice; the count. */
+static int draw_pixels(mc_tracker *t, int *pixels, int n, double fraction, int *out)
+{
+	int k = (int)ceil(fraction * n);
+	for (int i = 0; i < k; i++) {
+		int j = i + (int)(mc_rng_next(&t->rng) % (uint64_t)(n - i));
+		int chosen = pixels[j];
+		pixels[j] = pixels[i];
+		pixels[i] = chosen;
+		out[i] = chosen;
+	}
+	return k;
+}
+
+/* Draws this iteration's pixels from each camera's candidates. */
 int mc_trk_sample_pixels(mc_tracker *t, double fraction)
 {
 	int total = 0;
 	for (int c = 0; c < t->rig.ncams; c++) {
 		int n = t->present[c] ? t->ncandidates[c] : 0;
-		int k = (int)ceil(fraction * n);
-		int *cand = t->candidates[c];
-		for (int i = 0; i < k; i++) {
-			int j = i + (int)(mc_rng_next(&t->rng) % (uint64_t)(n - i));
-			int chosen = cand[j];
-			cand[j] = cand[i];
-			cand[i] = chosen;
-			t->samples[c][i] = chosen;
-		}
-		t->nsamples[c] = k;
-		total += k;
+		t->nsamples[c] = draw_pixels(t, t->candidates[c], n, fraction, t->samples[c]);
+		total += t->nsamples[c];
+	}
+	return total;
+}
+
+int mc_trk_sample_near(mc_tracker *t, const mc_fk *a, const mc_fk *b, const bool *gauss, double fraction)
+{
+	int total = 0;
+	for (int c = 0; c < t->rig.ncams; c++) {
+		t->nsamples[c] = 0;
+		if (!t->present[c])
+			continue;
+		memset(t->mask, 0, (size_t)t->rays[c].width * t->rays[c].height);
+		mark_body(t, c, a, gauss);
+		mark_body(t, c, b, gauss);
+		int n = masked_pixels(t, c, t->samples[c]);
+		t->nsamples[c] = draw_pixels(t, t->samples[c], n, fraction, t->samples[c]);
+		total += t->nsamples[c];
 	}
 	return total;
 }

@@ -401,18 +401,20 @@ int mc_keypoints_at_poll(void *ctx, int iteration, mc_keypoint *kp, int cap)
 	return n;
 }
 
-/* Before iteration `it`: keypoints that came since (mc_tracker_set_keypoint_poll). */
-static void keypoints_poll(mc_tracker *t, int it)
+/* Before iteration `it`: keypoints that came since (mc_tracker_set_keypoint_poll).
+ * Returns whether any came. */
+static bool keypoints_poll(mc_tracker *t, int it)
 {
 	mc_trk_frame_keypoints *k = t->fkp;
 	int room = MC_TRK_MAX_KEYPOINTS - k->ngiven;
 	if (!t->kp_poll || room <= 0)
-		return;
+		return false;
 	int got = t->kp_poll(t->kp_poll_ctx, it, k->given + k->ngiven, room);
 	if (got <= 0)
-		return;
+		return false;
 	k->ngiven += got < room ? got : room;
 	k->nrays = mc_trk_prepare_keypoints(t, k->given, k->ngiven, k->rays, k->cam);
+	return true;
 }
 
 /* Runs the iteration budget from `pose` (in/out). Returns the mean data
@@ -430,7 +432,15 @@ static int optimise(mc_tracker *t, double *pose, const double *pred, double *fin
 		mc_fk fk;
 		mc_scene scene;
 		double grad[MC_MAX_DOF] = {0}, E;
-		keypoints_poll(t, it);
+		/* Keypoints that join in the first half of the budget (mocapd's
+		 * detector is often a few ms late) get the ray fit too, from and
+		 * held to the pose reached so far. */
+		if (keypoints_poll(t, it) && it < iters / 2) {
+			double now[MC_MAX_DOF];
+			memcpy(now, pose, sizeof(now));
+			if (mc_trk_ray_fit(t, now, pose, err) < 0)
+				return -1;
+		}
 		mc_model_fk(&t->model, pose, &fk);
 		mc_trk_make_scene(t, &fk, &scene);
 		if (color_term(t, &scene, &E, dmu, err) < 0)
@@ -566,7 +576,7 @@ static int track_frame_set(mc_tracker *t, const mc_frame_view *views, int nviews
 		mc_fk fk;
 		mc_model_fk(&t->model, pred, &fk);
 		mc_trk_choose_candidates(t, &fk);
-		if (optimise(t, pose, pred, &E, err) < 0)
+		if (mc_trk_ray_fit(t, pred, pose, err) < 0 || optimise(t, pose, pred, &E, err) < 0)
 			return -1;
 		quality = E / t->baseline;
 		out->iterations = t->s.iterations;

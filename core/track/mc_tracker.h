@@ -65,6 +65,12 @@ typedef struct {
 	 * on their own, each pair within 10 % of that size (docs/TRACKER.md,
 	 * "Starting without ground truth"). */
 	bool fit_limbs;
+	/* Before the iterations, fit the predicted pose to the frame set's
+	 * keypoint rays (held to the prediction, robust) and keep each limb
+	 * of that fit whose colour energy is lower (docs/TRACKER.md, "The ray
+	 * fit").  On by default; outside-in only with 3 cameras or more
+	 * (mc_tracker_outside_in). */
+	bool ray_fit;
 	int cl_platform, cl_device; /* -1: first GPU, else first CPU */
 	uint64_t seed;
 } mc_tracker_settings;
@@ -83,6 +89,7 @@ typedef struct {
 	double lambda_detection;             /* 0.3: measured with MoveNet and sides (docs/BENCHMARKS.md) */
 	bool assign_sides;                   /* the views can settle left and right */
 	double lambda_prior;                 /* the learned pose prior helps here */
+	int ray_fit_min_cameras;             /* the ray fit with this many cameras or more */
 } mc_tracker_outside_in_defaults;
 extern const mc_tracker_outside_in_defaults mc_tracker_outside_in;
 /* camera_iterations / ncams, within [min_iterations, max_iterations]: 80
@@ -96,6 +103,7 @@ int mc_tracker_outside_in_iterations(int ncams);
 #define MC_GIVEN_LAMBDA_DETECTION 8u
 #define MC_GIVEN_ASSIGN_SIDES 16u
 #define MC_GIVEN_LAMBDA_PRIOR 32u
+#define MC_GIVEN_RAY_FIT 64u
 /* Sets the outside-in values for a rig of ncams cameras in every setting
  * not in `given` (MC_GIVEN_* flags). */
 void mc_tracker_settings_outside_in(mc_tracker_settings *s, int ncams, unsigned given);

@@ -106,6 +106,10 @@ void mc_trk_choose_candidates(mc_tracker *t, const mc_fk *fk);
 /* Draws a share of each present camera's candidates into t->samples;
  * returns how many in all. */
 int mc_trk_sample_pixels(mc_tracker *t, double fraction);
+/* A share (fraction) of the pixels near the marked Gaussians (gauss[q])
+ * at pose a or at pose b, in the present cameras, as the sample of the
+ * next evaluation (the candidates are left alone); returns how many. */
+int mc_trk_sample_near(mc_tracker *t, const mc_fk *a, const mc_fk *b, const bool *gauss, double fraction);
 /* E_color over t->samples as a mean per sampled pixel, and its gradient
  * with respect to the Gaussian centres. */
 int mc_trk_data_term(mc_tracker *t, const mc_scene *scene, int nsampled, double dropout, double *E, mc_vec3 *dmu,
@@ -162,6 +166,10 @@ typedef struct mc_trk_frame_keypoints {
  * gradient to grad. */
 double mc_trk_detection_term(mc_tracker *t, const double *pose, const mc_fk *fk, const mc_trk_keypoint_ray *kp, int n,
 			     double *grad);
+
+/* Before the iterations: pose (the prediction, in/out) fitted to the frame
+ * set's keypoint rays where that helps (mc_ray_fit.c); -1 with err. */
+int mc_trk_ray_fit(mc_tracker *t, const double *pred, double *pose, mc_err *err);
 
 /* ---- starting and recovering from detections (mc_init.c) ---- */
 

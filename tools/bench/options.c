@@ -78,6 +78,9 @@ static void usage(FILE *f)
 		   "                        detect: from the detections alone (needs --detector or\n"
 		   "                        --simulated-detector), nothing from gt.json\n"
 		   "  --no-recover          never re-fit the pose to the detections when lost or stuck\n"
+		   "  --ray-fit on|off      fit the predicted pose to the keypoints' rays before the iterations,\n"
+		   "                        limb by limb where the colours agree (default on; outside-in with\n"
+		   "                        3 cameras or more)\n"
 		   "  --sides labels|tracker  who decides left from right: the detector's labels (default on\n"
 		   "                        head-mounted rigs) or the views' agreement and the tracked pose\n"
 		   "                        (default outside-in; docs/TRACKER.md \"Sides\")\n"
@@ -103,7 +106,7 @@ enum { OPT_MODEL = 256, OPT_OUT, OPT_FRAMES, OPT_BACKEND, OPT_WIDTH, OPT_HEIGHT,
        OPT_STEP, OPT_MOM, OPT_LSMOOTH, OPT_LPOSE, OPT_LLIMIT, OPT_PLAT, OPT_DEV, OPT_SEED, OPT_OCAM, OPT_REF,
        OPT_NOTHESIS, OPT_QUIET, OPT_CLIP, OPT_HELP, OPT_OVERLAY, OPT_OVERLAY_EVERY, OPT_LANCHOR,
        OPT_SIMDET, OPT_LDET, OPT_DETECTOR, OPT_DET_EVERY, OPT_LCOLOR, OPT_DET_THRESHOLD, OPT_INIT,
-       OPT_NORECOVER, OPT_CAMERAS, OPT_LFLOOR, OPT_DET_SERIAL, OPT_KP_AT, OPT_FRAME_STEP, OPT_KP_OUT, OPT_KP_IN, OPT_FPS, OPT_SIM_PRESET, OPT_SIM_COLLAPSE, OPT_SIM_SWAP, OPT_SIM_OUTLIER, OPT_SIM_OCC,
+       OPT_NORECOVER, OPT_RAY_FIT, OPT_CAMERAS, OPT_LFLOOR, OPT_DET_SERIAL, OPT_KP_AT, OPT_FRAME_STEP, OPT_KP_OUT, OPT_KP_IN, OPT_FPS, OPT_SIM_PRESET, OPT_SIM_COLLAPSE, OPT_SIM_SWAP, OPT_SIM_OUTLIER, OPT_SIM_OCC,
        OPT_SIM_BLIND, OPT_SIDES, OPT_FIT_LIMBS, OPT_PRIOR, OPT_LPRIOR, OPT_DET_HINT, OPT_DET_FLIP, OPT_MODEL_FLOOR, OPT_SIM_PERSIST, OPT_VERSION = 'V' };
 
 static int apply_option(options *o, int c, const char *name, const char *arg, bool *thesis)
@@ -124,6 +127,14 @@ static int apply_option(options *o, int c, const char *name, const char *arg, bo
 	case OPT_NOTHESIS: *thesis = false; return 0;
 	case OPT_QUIET: o->quiet = true; return 0;
 	case OPT_NORECOVER: o->s.recover = false; return 0;
+	case OPT_RAY_FIT:
+		if (strcmp(arg, "on") && strcmp(arg, "off")) {
+			fprintf(stderr, "mocap-bench: --ray-fit: expected on or off, got '%s'\n", arg);
+			return -1;
+		}
+		o->s.ray_fit = !strcmp(arg, "on");
+		o->given |= MC_GIVEN_RAY_FIT;
+		return 0;
 	case OPT_FIT_LIMBS: o->s.fit_limbs = true; return 0;
 	case OPT_MODEL_FLOOR: o->model_floor = true; return 0;
 	case OPT_SIDES:
@@ -254,7 +265,7 @@ int bench_parse_options(int argc, char **argv, options *o, bool *thesis)
 		{"seed", 1, 0, OPT_SEED}, {"ocam", 0, 0, OPT_OCAM}, {"reference-frames", 1, 0, OPT_REF},
 		{"no-thesis", 0, 0, OPT_NOTHESIS}, {"overlay-dir", 1, 0, OPT_OVERLAY},
 		{"overlay-every", 1, 0, OPT_OVERLAY_EVERY}, {"quiet", 0, 0, OPT_QUIET}, {"help", 0, 0, OPT_HELP},
-		{"init", 1, 0, OPT_INIT}, {"no-recover", 0, 0, OPT_NORECOVER}, {"sides", 1, 0, OPT_SIDES}, {"fit-limbs", 0, 0, OPT_FIT_LIMBS}, {"model-floor", 0, 0, OPT_MODEL_FLOOR}, {"cameras", 1, 0, OPT_CAMERAS},
+		{"init", 1, 0, OPT_INIT}, {"no-recover", 0, 0, OPT_NORECOVER}, {"ray-fit", 1, 0, OPT_RAY_FIT}, {"sides", 1, 0, OPT_SIDES}, {"fit-limbs", 0, 0, OPT_FIT_LIMBS}, {"model-floor", 0, 0, OPT_MODEL_FLOOR}, {"cameras", 1, 0, OPT_CAMERAS},
 		{"lambda-floor", 1, 0, OPT_LFLOOR}, {"detector-serial", 0, 0, OPT_DET_SERIAL},
 		{"detector-flip", 0, 0, OPT_DET_FLIP},
 		{"keypoints-at-iteration", 1, 0, OPT_KP_AT}, {"frame-step", 1, 0, OPT_FRAME_STEP},

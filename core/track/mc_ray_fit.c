@@ -1,0 +1,154 @@
+/* The ray fit (settings.ray_fit; docs/TRACKER.md, "The ray fit"): before
+ * the colour iterations, the predicted pose fitted by the inverse
+ * kinematics to the frame set's keypoint rays, held to the prediction and
+ * robust, and then kept part by part (each limb; the torso and a free
+ * root) where the images agree: where the colour energy of the prediction
+ * with that part from the fit is lower.
+ *
+ * Why: the keypoint term is a nudge within the colour iterations (issue
+ * 35: with exact keypoints the tracker stays 3 cm above what the skeleton
+ * can do), while a fit moves a limb onto its keypoints in one step.  Held
+ * to the prediction, a ray cannot throw a joint along itself (the feet's
+ * depth); robust, one wrong keypoint pulls little; and checked against the
+ * colours, a limb the detector placed on the other leg or the floor is
+ * refused. */
+#include "body/mc_ik.h"
+#include "track/mc_tracker_internal.h"
+
+#include <math.h>
+#include <string.h>
+
+/* Measured on the head rig's dev clips (docs/TRACKER.md, "The ray fit"):
+ * the Tikhonov weight toward the prediction per rad^2 (1e-2 chased 8 px
+ * noise: jumps 13.5 cm with the ego preset; 1e-1 kept most of the gain
+ * away), the Cauchy scale of each ray's weight (0.10 m let more wrong
+ * keypoints pull), and two rounds of two Levenberg-Marquardt iterations
+ * (three of three: the same figures, slower). */
+#define FIT_PRIOR 3e-2
+#define FIT_TAU_M 0.05
+#define FIT_ROUNDS 2
+#define FIT_ITERATIONS 2
+/* The share of the pixels near a part (at either pose) its colour check
+ * evaluates: 0.3 gave the same figures as all of them at a third of the
+ * cost (walk 11.18 against 11.34 cm, seed 1). */
+#define CHECK_PIXELS 0.3
+/* The limbs, by the joint whose dofs swing them. */
+static const char *const limb_roots[] = {"left_shoulder", "right_shoulder", "left_hip", "right_hip"};
+#define NLIMBS ((int)(sizeof(limb_roots) / sizeof(limb_roots[0])))
+
+/* The usable rays as inverse-kinematics targets, each weighed by its
+ * confidence and the Cauchy factor of its joint's distance at pose (the
+ * keypoint term's loss, as iteratively reweighted least squares); the
+ * count. */
+static int ray_targets(const mc_tracker *t, const double *pose, mc_ik_target *tg)
+{
+	const mc_trk_frame_keypoints *kp = t->fkp;
+	mc_fk fk;
+	mc_model_fk(&t->model, pose, &fk);
+	int n = 0;
+	for (int i = 0; i < kp->nrays; i++) {
+		const mc_trk_keypoint_ray *r = &kp->rays[i];
+		if (r->weight <= 0 || t->fixed_joint[r->joint])
+			continue;
+		mc_vec3 off = mc_v3_reject(mc_v3_sub(fk.rig_from_joint[r->joint].t, r->origin), r->dir);
+		double x = mc_v3_norm(off) / FIT_TAU_M;
+		tg[n++] = (mc_ik_target){r->joint, r->origin, r->weight / (1 + x * x), r->dir};
+	}
+	return n;
+}
+
+/* fit: pred fitted to the rays; false when too few rays. */
+static bool fit_to_rays(mc_tracker *t, const double *pred, double *fit)
+{
+	mc_ik_target tg[MC_TRK_MAX_KEYPOINTS];
+	mc_ik_options o;
+	mc_ik_options_default(&o);
+	o.iterations = FIT_ITERATIONS;
+	o.pose_prior = FIT_PRIOR;
+	o.prior_pose = pred;
+	o.fit_bone_scale = false;
+	o.fit_root = t->model.root_free; /* a fixed root is the head's place on the rig */
+	o.restarts = false;
+	memcpy(fit, pred, sizeof(double) * (size_t)t->model.ndof);
+	for (int round = 0; round < FIT_ROUNDS; round++) {
+		int n = ray_targets(t, fit, tg);
+		mc_err err;
+		if (n < 3 || mc_ik_solve(&t->model, fit, tg, n, &o, &err) < 0)
+			return false;
+	}
+	return true;
+}
+
+/* Marks joint `root` and every joint below it. */
+static void mark_limb(const mc_model *m, int root, bool *joint)
+{
+	for (int j = 0; j < m->njoints; j++)
+		if (j == root || (m->joints[j].parent >= 0 && joint[m->joints[j].parent] && j > root))
+			joint[j] = true;
+}
+
+/* The joints of part p: limb p, or for p = NLIMBS those of no limb (the
+ * torso, and a free root). */
+static void part_joints(const mc_model *m, int p, bool *joint)
+{
+	bool limb[MC_MAX_JOINTS] = {false};
+	for (int l = 0; l < NLIMBS; l++) {
+		int root = mc_model_find_joint(m, limb_roots[l]);
+		if (root >= 0 && (l == p || p == NLIMBS))
+			mark_limb(m, root, limb);
+	}
+	for (int j = 0; j < m->njoints; j++)
+		joint[j] = p == NLIMBS ? !limb[j] : limb[j];
+}
+
+/* The colour energy of poses a and b on every pixel near the Gaussians
+ * that differ between them (those of the part's joints): the other
+ * pixels add the same to both, only noise to the comparison. */
+static int compare_part(mc_tracker *t, const double *a, const double *b, const bool *joint, double *Ea, double *Eb,
+			mc_err *err)
+{
+	bool gauss[MC_MAX_GAUSSIANS];
+	for (int q = 0; q < t->model.ngauss; q++)
+		gauss[q] = joint[t->model.gauss[q].joint];
+	mc_fk fa, fb;
+	mc_scene sa, sb;
+	mc_vec3 dmu[MC_MAX_GAUSSIANS];
+	mc_model_fk(&t->model, a, &fa);
+	mc_model_fk(&t->model, b, &fb);
+	int n = mc_trk_sample_near(t, &fa, &fb, gauss, CHECK_PIXELS);
+	mc_trk_make_scene(t, &fa, &sa);
+	mc_trk_make_scene(t, &fb, &sb);
+	if (mc_trk_data_term(t, &sa, n, 0.0, Ea, dmu, err) < 0 || mc_trk_data_term(t, &sb, n, 0.0, Eb, dmu, err) < 0)
+		return -1;
+	return 0;
+}
+
+int mc_trk_ray_fit(mc_tracker *t, const double *pred, double *pose, mc_err *err)
+{
+	double fit[MC_MAX_DOF];
+	/* no colours to check the fit with, or the keypoints ignored */
+	if (!t->s.ray_fit || t->s.lambda_color <= 0 || t->s.lambda_detection <= 0 || !fit_to_rays(t, pred, fit))
+		return 0;
+	/* The torso first, and only with a free root (outside-in): on the head
+	 * rig, the spine from the fit made both clips worse (walk 11.28 ->
+	 * 11.39, jumps 8.15 -> 8.25 cm). */
+	int parts[NLIMBS + 1], nparts = 0;
+	if (t->model.root_free)
+		parts[nparts++] = NLIMBS;
+	for (int l = 0; l < NLIMBS; l++)
+		parts[nparts++] = l;
+	for (int i = 0; i < nparts; i++) {
+		bool joint[MC_MAX_JOINTS];
+		double trial[MC_MAX_DOF], E_now, E_fit;
+		part_joints(&t->model, parts[i], joint);
+		memcpy(trial, pose, sizeof(trial));
+		for (int j = 0; j < t->model.njoints; j++)
+			for (int d = 0; joint[j] && d < t->model.joints[j].ndof; d++)
+				trial[t->model.joints[j].dof0 + d] = fit[t->model.joints[j].dof0 + d];
+		if (compare_part(t, pose, trial, joint, &E_now, &E_fit, err) < 0)
+			return -1;
+		if (E_fit < E_now)
+			memcpy(pose, trial, sizeof(trial));
+	}
+	return 0;
+}
