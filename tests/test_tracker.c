@@ -406,6 +406,35 @@ static int late_poll_fn(void *ctx, int iteration, mc_keypoint *kp, int cap)
 	return mc_keypoints_at_poll(&l->at, iteration, kp, cap);
 }
 
+/* Both views' keypoints of the right elbow and wrist at `pose`. */
+static int arm_keypoints(const synth *s, const double *pose, mc_keypoint *kp)
+{
+	static const char *const names[2] = {"right_elbow", "right_wrist"};
+	mc_fk fk;
+	mc_model_fk(&s->model, pose, &fk);
+	int n = 0;
+	for (int c = 0; c < 2; c++)
+		for (int i = 0; i < 2; i++) {
+			const mc_camera *cam = &s->rig.cams[c];
+			int j = mc_model_find_joint(&s->model, names[i]);
+			mc_vec3 p = mc_xform_apply(mc_xform_inverse(cam->rig_from_cam), fk.rig_from_joint[j].t);
+			double u, v;
+			if (mc_camera_project(cam, p, &u, &v))
+				kp[n++] = (mc_keypoint){c, j, u, v, 1.0};
+		}
+	return n;
+}
+
+/* pose with the right shoulder's dofs 0.6 rad off (within the limits). */
+static void arm_off(const synth *s, const double *pose, double *off)
+{
+	int shoulder = mc_model_find_joint(&s->model, "right_shoulder");
+	memcpy(off, pose, sizeof(double) * MC_MAX_DOF);
+	for (int d = 0; d < s->model.joints[shoulder].ndof; d++)
+		off[s->model.joints[shoulder].dof0 + d] += 0.6;
+	mc_model_clamp_pose(&s->model, off);
+}
+
 /* Keypoints (the detection term) at the true right elbow and wrist bring
  * back an arm that tracking starts far from, which the colour term alone
  * does not; so do the same keypoints when they only come a fifth into each
@@ -432,25 +461,12 @@ static void test_keypoints(void)
 	views_of(&s, v, 0);
 	mc_tracker_set_pose(t, pose0);
 	CHECK_MSG(mc_tracker_calibrate_colors(t, v, 2, &err) == 0, "%s", err.msg);
-	int shoulder = mc_model_find_joint(&s.model, "right_shoulder");
 	int targets[2] = {mc_model_find_joint(&s.model, "right_elbow"), mc_model_find_joint(&s.model, "right_wrist")};
-	memcpy(start, pose0, sizeof(start));
-	for (int d = 0; d < s.model.joints[shoulder].ndof; d++)
-		start[s.model.joints[shoulder].dof0 + d] += 0.6;
-	mc_model_clamp_pose(&s.model, start);
-
+	arm_off(&s, pose0, start);
 	mc_fk fk;
 	mc_model_fk(&s.model, pose0, &fk);
 	mc_keypoint kp[4];
-	int nkp = 0;
-	for (int c = 0; c < 2; c++)
-		for (int i = 0; i < 2; i++) {
-			const mc_camera *cam = &s.rig.cams[c];
-			mc_vec3 p = mc_xform_apply(mc_xform_inverse(cam->rig_from_cam), fk.rig_from_joint[targets[i]].t);
-			double u, vv;
-			if (mc_camera_project(cam, p, &u, &vv))
-				kp[nkp++] = (mc_keypoint){c, targets[i], u, vv, 1.0};
-		}
+	int nkp = arm_keypoints(&s, pose0, kp);
 	CHECK(nkp >= 2);
 	double wrist_error[3];
 	static const char *const how[3] = {"without keypoints", "with keypoints", "with keypoints from iteration 10"};
@@ -481,24 +497,6 @@ static void test_keypoints(void)
 	synth_close(&s);
 }
 
-/* Both views' keypoints of the right elbow and wrist at `pose`. */
-static int arm_keypoints(const synth *s, const double *pose, mc_keypoint *kp)
-{
-	static const char *const names[2] = {"right_elbow", "right_wrist"};
-	mc_fk fk;
-	mc_model_fk(&s->model, pose, &fk);
-	int n = 0;
-	for (int c = 0; c < 2; c++)
-		for (int i = 0; i < 2; i++) {
-			const mc_camera *cam = &s->rig.cams[c];
-			int j = mc_model_find_joint(&s->model, names[i]);
-			mc_vec3 p = mc_xform_apply(mc_xform_inverse(cam->rig_from_cam), fk.rig_from_joint[j].t);
-			double u, v;
-			if (mc_camera_project(cam, p, &u, &v))
-				kp[n++] = (mc_keypoint){c, j, u, v, 1.0};
-		}
-	return n;
-}
 
 /* The right wrist's error (m) after one frame set of `iterations` tracked
  * from `from`, the images rendered at pose0, with the given keypoints. */
@@ -544,11 +542,7 @@ static void test_ray_fit(void)
 		mc_test_failures++;
 		return;
 	}
-	int shoulder = mc_model_find_joint(&s.model, "right_shoulder");
-	memcpy(off, pose0, sizeof(off));
-	for (int d = 0; d < s.model.joints[shoulder].ndof; d++)
-		off[s.model.joints[shoulder].dof0 + d] += 0.6;
-	mc_model_clamp_pose(&s.model, off);
+	arm_off(&s, pose0, off);
 	mc_keypoint right[4], wrong[4];
 	int nright = arm_keypoints(&s, pose0, right), nwrong = arm_keypoints(&s, off, wrong);
 	CHECK(nright == 4 && nwrong == 4);
