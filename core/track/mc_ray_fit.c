@@ -7,7 +7,7 @@
  *
  * Why: the keypoint term is a nudge within the colour iterations (issue
  * 35: with exact keypoints the tracker stays 3 cm above what the skeleton
- * can do), while a fit moves a limb onto its keypoints in one step.  Held
+ * can do), while a fit moves a limb toward its keypoints in one step.  Held
  * to the prediction, a ray cannot throw a joint along itself (the feet's
  * depth); robust, one wrong keypoint pulls little; and checked against the
  * colours, a limb the detector placed on the other leg or the floor is
