@@ -81,11 +81,12 @@ static bool fit_to_rays(mc_tracker *t, const double *pred, double *fit)
 	return true;
 }
 
-/* Marks joint `root` and every joint below it. */
+/* Marks joint `root` and every joint below it (parents come before their
+ * children). */
 static void mark_limb(const mc_model *m, int root, bool *joint)
 {
-	for (int j = 0; j < m->njoints; j++)
-		if (j == root || (m->joints[j].parent >= 0 && joint[m->joints[j].parent] && j > root))
+	for (int j = root; j < m->njoints; j++)
+		if (j == root || (m->joints[j].parent >= 0 && joint[m->joints[j].parent]))
 			joint[j] = true;
 }
 

@@ -2,7 +2,6 @@
 
 #include "base/mc_json.h"
 
-#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -36,17 +35,18 @@ static int grow(reader *r, bench_keypoints_in *in, mc_err *err)
 	return 0;
 }
 
-static int read_joint(reader *r, bench_keypoints_in *in, int k, int cam, const char *name, const json_t *value,
-		      mc_err *err)
+/* joints.name, [u, v, confidence], of camera cam at frame set k (where:
+ * the path of joints, for errors). */
+static int read_joint(reader *r, bench_keypoints_in *in, int k, int cam, const json_t *joints, const char *name,
+		      const char *where, mc_err *err)
 {
 	int joint = mc_model_find_joint(r->m, name);
 	if (joint < 0)
 		return mc_err_set(err, "%s:%d: joint \"%s\": the body model has no such joint", r->path, r->line, name);
 	double uvc[3];
-	for (int i = 0; i < 3; i++)
-		uvc[i] = json_array_size(value) == 3 ? json_number_value(json_array_get(value, i)) : NAN;
-	if (!json_is_array(value) || json_array_size(value) != 3 || !(uvc[2] >= 0 && uvc[2] <= 1) || !isfinite(uvc[0]) ||
-	    !isfinite(uvc[1]) || !json_is_number(json_array_get(value, 0)) || !json_is_number(json_array_get(value, 1)))
+	if (mc_json_numbers(joints, name, where, uvc, 3, true, err) < 0)
+		return -1;
+	if (!(uvc[2] >= 0 && uvc[2] <= 1))
 		return mc_err_set(err, "%s:%d: joint \"%s\": expected [u, v, confidence], confidence in [0, 1]",
 				  r->path, r->line, name);
 	if (grow(r, in, err) < 0)
@@ -71,10 +71,12 @@ static int read_view(reader *r, bench_keypoints_in *in, int k, const json_t *vie
 	if (cam < 0)
 		return 0;
 	r->rig_views++;
+	char joints_where[600];
+	snprintf(joints_where, sizeof(joints_where), "%s.joints", where);
 	const char *name;
 	const json_t *value;
 	json_object_foreach ((json_t *)joints, name, value)
-		if (read_joint(r, in, k, cam, name, value, err) < 0)
+		if (read_joint(r, in, k, cam, joints, name, joints_where, err) < 0)
 			return -1;
 	return 0;
 }
