@@ -341,7 +341,7 @@ static void calibrate_once(mcd_tracking_thread *t, const mc_frame_view *views, i
 }
 
 /* Counts a tracked frame set (rc == 0) or a failure; returns the failures so far. */
-static uint64_t count_tracked(mcd_tracking_thread *t, int rc, const mcd_output *o)
+static uint64_t count_tracked(mcd_tracking_thread *t, int rc, const mcd_output *o, int inits)
 {
 	bool started = false;
 	pthread_mutex_lock(&t->lock);
@@ -351,7 +351,7 @@ static uint64_t count_tracked(mcd_tracking_thread *t, int rc, const mcd_output *
 		tt->track_ms_total += o->sk.track_ms;
 		if (o->sk.track_ms > tt->track_ms_max)
 			tt->track_ms_max = o->sk.track_ms;
-		started = tt->track_state == MC_TRACK_INITIALISING && o->sk.state != MC_TRACK_INITIALISING;
+		started = mcd_first_pose_found(tt->track_state, o->sk.state, inits);
 		tt->track_state = (int)o->sk.state;
 	} else
 		tt->track_errors++;
@@ -410,7 +410,9 @@ static void track(mcd_tracking_thread *t, const mc_frame_view *views, int presen
 	}
 	if (rc == 0)
 		snapshot_actor(t, tr->tracker);
-	uint64_t errors = count_tracked(t, rc, o);
+	mc_tracker_init_info init;
+	mc_tracker_get_init_info(tr->tracker, &init);
+	uint64_t errors = count_tracked(t, rc, o, init.inits);
 	if (rc != 0 && mc_throttle_should_log(errors))
 		mcd_warn("tracker: %s (%llu failures so far)", err.msg, (unsigned long long)errors);
 }

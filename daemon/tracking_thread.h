@@ -102,6 +102,14 @@ void mcd_tracking_thread_wake(mcd_tracking_thread *t);
 void mcd_tracking_thread_reload(mcd_tracking_thread *t, double group_tolerance_ms, double group_deadline_ms,
 				double max_frame_age_ms, const mc_tracker_settings *budget);
 
+/* Whether a frame set tracked in state `now`, after one in `last_state`
+ * (-1: none yet), is the first pose found from the detections (the
+ * tracker's `inits` first fits so far): the log says so once. */
+static inline bool mcd_first_pose_found(int last_state, mc_track_state now, int inits)
+{
+	return inits > 0 && now != MC_TRACK_INITIALISING && (last_state < 0 || last_state == MC_TRACK_INITIALISING);
+}
+
 /* True once every stream ended and every frame set was handed on. */
 bool mcd_tracking_thread_finished(mcd_tracking_thread *t);
 /* True once finished with every camera failed for good (none ended). */
