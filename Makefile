@@ -111,11 +111,25 @@ bench-detector: $(BUILD)/bin/mocap-bench
 		done; \
 	else echo "bench-detector: $(DATA_DIR)/ego not found, skipped"; fi
 
+# The held-out clips that `make eval-clips` renders (other motions, builds,
+# garments and scenes than the dev clips, some with a bystander): the shipped
+# detectors beside the tracker, seeds 1-3 (docs/BENCHMARKS.md, "Held-out clips").
+EVAL_CLIPS_DIR ?= $(BUILD)/clips
+OUTSIDE_DETECTOR ?= $(firstword $(wildcard config/models/outside_detector.onnx))
+BENCHES += bench-heldout
+.PHONY: bench-heldout
+bench-heldout: $(BUILD)/bin/mocap-bench
+	@if [ -z "$(DETECTOR_MODEL)" ] || [ -z "$(OUTSIDE_DETECTOR)" ]; then \
+		echo "bench-heldout: no shipped detector in config/models, skipped"; \
+	else tests/bench/tracker_seeds.sh -n 3 -j 1 -b $(BUILD)/bin/mocap-bench -d $(EVAL_CLIPS_DIR)/ego -- \
+			--detector $(DETECTOR_MODEL) && \
+		tests/bench/tracker_seeds.sh -n 3 -j 1 -b $(BUILD)/bin/mocap-bench -d $(EVAL_CLIPS_DIR)/outside -- \
+			--detector $(OUTSIDE_DETECTOR); fi
+
 # Outside-in clips (shared/data/outside): every clip with all four cameras,
 # with two neighbouring cameras (90 degrees apart) and with two opposite
 # ones, from colour alone and, when the outside-in detector ships, with it
 # (docs/BENCHMARKS_TRACKING.md, "Outside-in").
-OUTSIDE_DETECTOR ?= $(firstword $(wildcard config/models/outside_detector.onnx))
 BENCHES += bench-outside
 .PHONY: bench-outside
 bench-outside: $(BUILD)/bin/mocap-bench

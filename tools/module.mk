@@ -18,6 +18,9 @@
 #   make detector-finetune  stage 2 (resumes from $(DETECTOR_DIR)/stage2/ckpt.pt)
 #   make detector-export    export stage 2's best checkpoint to config/models/ego_detector.onnx
 #   make detector-report    2D error report on ../shared/data/ego/*
+#   make eval-clips         the held-out head-rig evaluation clips (tools/synth/clip.py, the
+#                           list in tools/synth/eval_clips.sh) into $(EVAL_CLIPS_DIR), about 6
+#                           minutes a clip on one core; resumes; `make bench-heldout` tracks them
 #   make detector-data-outside, detector-train-outside, detector-finetune-outside,
 #   detector-export-outside, detector-report-outside: the same for the outside-in model
 #   ($(DETECTOR_OUTSIDE_DIR)/outside_detector.onnx: the shipped outside-in model is now
@@ -45,7 +48,8 @@ CHECKS += check-train-tools
 check-train-tools:
 	@if $(TRAIN_PYTHON) -c 'import torch, numpy, pytest' 2>/dev/null; then \
 		PYTHONDONTWRITEBYTECODE=1 $(TRAIN_PYTHON) -m pytest -q -p no:cacheprovider tools/train/test_metrics.py tools/train/test_pack.py \
-		  tools/train/test_pretrained.py tools/train/test_stereo.py tools/train/test_onnx_import.py tools/synth/test_job.py; \
+		  tools/train/test_pretrained.py tools/train/test_stereo.py tools/train/test_onnx_import.py tools/synth/test_job.py \
+		  tools/synth/test_clip.py; \
 	else echo "SKIP check-train-tools: no python3-torch, python3-numpy or pytest for $(TRAIN_PYTHON) (make deps-train)"; fi
 .PHONY: detector-data-outside detector-train-outside detector-finetune-outside detector-export-outside \
 	detector-report-outside
@@ -290,3 +294,10 @@ pose-prior: $(PRIOR_FIT)
 	$(TRAIN_PYTHON) tools/prior/export_joints.py $(MOCAP_TRAIN_DIR) --stride 2 > $(PRIOR_DIR)/joints.txt
 	$(PRIOR_FIT) config/models/default.json < $(PRIOR_DIR)/joints.txt > $(PRIOR_DIR)/poses.txt
 	$(TRAIN_PYTHON) tools/prior/train_prior.py $(PRIOR_DIR)/poses.txt --out config/models/pose_prior.json
+
+# Evaluation clips of our own, held out from the detectors' training by
+# motion family (and, the "val" ones, build, garment and scene kind).
+EVAL_CLIPS_DIR ?= $(BUILD)/clips
+.PHONY: eval-clips
+eval-clips:
+	tools/synth/eval_clips.sh $(EVAL_CLIPS_DIR) $(BLENDER)

@@ -4,8 +4,10 @@
 # by up to 4 cm, so a change is compared on the mean of many seeds and its
 # standard error (docs/BENCHMARKS_TRACKING.md, "Tracker budget against accuracy").
 #
-# usage: tracker_seeds.sh [-n SEEDS] [-s FIRST] [-j JOBS] [-b MOCAP_BENCH] [-- MOCAP_BENCH_OPTIONS]
+# usage: tracker_seeds.sh [-n SEEDS] [-s FIRST] [-j JOBS] [-b MOCAP_BENCH] [-d DIR] [-- MOCAP_BENCH_OPTIONS]
 #   -n  seeds per clip (default 10)
+#   -d  the clips are DIR's sub-folders with a gt.json (default: DATA_DIR's
+#       ego/ and outside/ clips), e.g. the held-out clips of `make eval-clips`
 #   -s  the first seed (default 1): seeds FIRST..FIRST+N-1
 #   -j  runs at once (default 2; the fps column is only meaningful with -j 1)
 # Prints one line per clip: mean MPJPE, its standard error, min and max over
@@ -17,13 +19,15 @@ first=1
 jobs=2
 bench=build/bin/mocap-bench
 data=${DATA_DIR:-../shared/data}
-while getopts n:s:j:b: opt; do
+dir=
+while getopts n:s:j:b:d: opt; do
 	case $opt in
 	n) seeds=$OPTARG ;;
 	s) first=$OPTARG ;;
 	j) jobs=$OPTARG ;;
 	b) bench=$OPTARG ;;
-	*) echo "usage: $0 [-n SEEDS] [-s FIRST] [-j JOBS] [-b MOCAP_BENCH] [-- OPTIONS]" >&2; exit 2 ;;
+	d) dir=$OPTARG ;;
+	*) echo "usage: $0 [-n SEEDS] [-s FIRST] [-j JOBS] [-b MOCAP_BENCH] [-d DIR] [-- OPTIONS]" >&2; exit 2 ;;
 	esac
 done
 shift $((OPTIND - 1))
@@ -33,9 +37,15 @@ if [ ! -x "$bench" ]; then
 	echo "tracker_seeds: $bench not built (make $bench)" >&2
 	exit 1
 fi
-clips=$(ls -d "$data"/ego/*/ "$data"/outside/*/ 2>/dev/null || true)
+if [ -n "$dir" ]; then
+	clips=$(for g in "$dir"/*/gt.json; do [ -f "$g" ] && dirname "$g"; done | sed 's|$|/|')
+	where=$dir
+else
+	clips=$(ls -d "$data"/ego/*/ "$data"/outside/*/ 2>/dev/null || true)
+	where="$data/ego or $data/outside"
+fi
 if [ -z "$clips" ]; then
-	echo "tracker_seeds: no clips under $data/ego or $data/outside, skipped"
+	echo "tracker_seeds: no clips under $where, skipped"
 	exit 0
 fi
 

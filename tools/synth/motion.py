@@ -165,6 +165,43 @@ def sample_pose(clips, rng, split):
             "mirror": mirror, "split": split}
 
 
+def clip_sequence(c, first, n, H, mirror=False):
+    """Frames first .. first + n - 1 of clip c (indices into c.frames) as one
+    motion in one world, for an actor H m tall: pose dicts like
+    sample_pose's (metric, Z up, the floor at z = 0, the origin on the floor
+    under the first frame's pelvis), with no proportions changed and no
+    joint perturbed (a perturbation held for a whole clip is a stiff joint,
+    not a style).  For the evaluation clips of tools/synth/clip.py."""
+    fr = c.frames[first:first + n]
+    if len(fr) < n:
+        raise ValueError("%s has %d frames from %d, not %d" % (c.name, len(fr), first, n))
+    ref = np.linspace(c.frames[0], c.frames[-1], 30).astype(int)
+    pos, rot = fk(c.b, np.concatenate([fr, ref]), need=c.need)
+    s = NECK_ABOVE_ANKLE * H / c.neck_height_units
+    pos = np.einsum("ij,nkj->nki", c.R_up, pos) * s
+    J = c.jidx
+    feet = pos[:, [J["left_toe"], J["right_toe"], J["left_ankle"], J["right_ankle"]], 2].min(axis=1)
+    # as sample_pose's floor, and under every foot of the sequence
+    floor = min(float(np.percentile(feet, 5)) - 0.02 * H, float(feet[:n].min()) - 0.015 * H)
+    centre = pos[0, J["pelvis"]].copy()
+    centre[2] = floor
+    M = np.diag([-1.0, 1.0, 1.0])
+    out = []
+    for i in range(n):
+        joints = {k: pos[i, j] - centre for k, j in J.items()}
+        Hf = c.R_up @ rot[i, J["neck"]] @ c.A
+        joints["head_top"] = joints["neck"] + HEAD_TOP * H * Hf[:, 1]
+        if mirror:
+            j2 = {k: M @ v for k, v in joints.items()}
+            for a, b in LEFT_RIGHT:
+                j2[a], j2[b] = j2[b], j2[a]
+            joints = j2
+            Hf = np.stack([M @ Hf[:, 0], M @ Hf[:, 1], -(M @ Hf[:, 2])], 1)
+        out.append({"joints": joints, "head": Hf, "height": H, "clip": c.name, "frame": int(fr[i]),
+                    "mirror": mirror, "split": "all"})
+    return out
+
+
 if __name__ == "__main__":
     clips = load_clips(sys.argv[1] if len(sys.argv) > 1 else "/work/shared/data/mocap-train")
     rng = np.random.default_rng(0)

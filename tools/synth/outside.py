@@ -40,15 +40,16 @@ def _rot(axis, a):
     return Rl
 
 
-def outside_cams(J, rng, n, w, h):
-    """n static pinhole cameras around the actor: list of (intrinsics,
-    world-from-camera 4x4, OpenCV axes).  They aim at the torso with jitter."""
+def outside_cams(J, rng, n, w, h, dist=OUT_DIST):
+    """n static pinhole cameras around the actor, `dist` m away (a range):
+    list of (intrinsics, world-from-camera 4x4, OpenCV axes).  They aim at
+    the torso with jitter."""
     torso = (J["pelvis"] + J["spine"] + J["neck"]) / 3.0
     a0 = rng.uniform(0, 2 * math.pi)
     out = []
     for k in range(n):
         az = a0 + 2 * math.pi * k / n + rng.uniform(-OUT_AZ_JITTER, OUT_AZ_JITTER)
-        d = rng.uniform(*OUT_DIST)
+        d = rng.uniform(*dist)
         ch = rng.uniform(*OUT_HEIGHT)
         hfov = math.radians(rng.uniform(*OUT_HFOV))
         K = outside_intrinsics(w, h, hfov)

@@ -211,12 +211,26 @@ def _dress(self, mats, garment, sleeve, longpants, rng):
     set_material(mats["shoes"], rng, pattern=rng.choice(["solid", "noise"]))
 
 
-def setup_v2(self, pose, rng, look, bypose=None):
+def setup_v2(self, pose, rng, look, bypose=None, env=None):
     """The v2 frame: the wearer with look["build"] and look["garment"], the
     scene look["scene"], and the bystander posed by bypose (None: none).
-    Returns the wearer's joints (labels are the wearer's only)."""
+    Returns the wearer's joints (labels are the wearer's only).
+
+    env (tools/synth/clip.py's sequences): the room, its furniture, lamps and
+    clutter and the bystander's place are set around the wearer's whole path
+    instead of this frame's pelvis: {"centre": (x, y) of the path, "half":
+    (x, y) half extents, "facing": the first frame's forward, and optionally
+    "room_half": the half extents the room must hold (outside-in: the
+    cameras too)}.  With the
+    same rng state every frame, every frame then gets the same scene.
+    Without it the draws and the scene are as they always were."""
     H = pose["height"]
     J = {k: np.asarray(v, dtype=float) for k, v in pose["joints"].items()}
+    if env is None:
+        cx, cy, hx, hy, facing = J["pelvis"][0], J["pelvis"][1], 0.0, 0.0, pose["head"][:, 0]
+    else:
+        (cx, cy), (hx, hy), facing = env["centre"], env["half"], np.asarray(env["facing"], dtype=float)
+    reach = max(hx, hy)
     g = H / 1.75
     v3 = look.get("version", 2) >= 3  # v2's random draws stay as they were
     _extremities(J, g, rng.uniform(*V3_TOE_REACH) if v3 else 0.35)
@@ -225,7 +239,8 @@ def setup_v2(self, pose, rng, look, bypose=None):
     fac = {n: bf[n] * gf[n] * rng.uniform(0.92, 1.08) for n, *_ in SEGMENTS}
     if v3:
         _v3_shapes(fac, rng)
-    _place_body(self.seg, J, g, fac, depth)
+    # the wearer's own head: outside-in only (no draw: the v2 data are ego)
+    _place_body(self.seg, J, g, fac, depth, self.head, 0.085 * g)
     _dress(self, self.mats, look["garment"], sleeve, longpants, rng)
     if v3 and rng.random() < V3_SHOES_AS_TROUSERS:
         self._copy(self.mats["legwear"], self.mats["shoes"])
@@ -239,7 +254,7 @@ def setup_v2(self, pose, rng, look, bypose=None):
         Jb = {k: np.asarray(v, dtype=float) for k, v in bypose["joints"].items()}
         gb = Hb / 1.75
         _extremities(Jb, gb)
-        F = pose["head"][:, 0].copy()
+        F = facing.copy()
         F[2] = 0.0
         a_f = math.atan2(F[1], F[0]) if np.linalg.norm(F) > 1e-6 else 0.0
         az = a_f + (rng.uniform(-1.75, 1.75) if rng.random() < 0.8 else rng.uniform(-math.pi, math.pi))
@@ -247,7 +262,7 @@ def setup_v2(self, pose, rng, look, bypose=None):
         yaw = rng.uniform(-math.pi, math.pi)
         c, s = math.cos(yaw), math.sin(yaw)
         Rz = np.array([[c, -s, 0], [s, c, 0], [0, 0, 1.0]])
-        off = np.array([J["pelvis"][0] + dist * math.cos(az), J["pelvis"][1] + dist * math.sin(az), 0.0])
+        off = np.array([cx + (dist + reach) * math.cos(az), cy + (dist + reach) * math.sin(az), 0.0])
         Jb = {k: Rz @ v + off for k, v in Jb.items()}
         bb = rng.choice(BUILDS[look["split"]])
         bgar = rng.choice(GARMENTS[look["split"]])
@@ -276,10 +291,15 @@ def setup_v2(self, pose, rng, look, bypose=None):
         ox = rng.uniform(-0.25, 0.25) * w
         oy = rng.uniform(-0.25, 0.25) * d
         if on:
-            ox = 0.5 * self._by_xy[0] + rng.uniform(-0.1, 0.1) * w
-            oy = 0.5 * self._by_xy[1] + rng.uniform(-0.1, 0.1) * d
-            w = max(w, abs(self._by_xy[0]) * 2 + 1.2)
-            d = max(d, abs(self._by_xy[1]) * 2 + 1.2)
+            ox = 0.5 * (self._by_xy[0] + cx) + rng.uniform(-0.1, 0.1) * w
+            oy = 0.5 * (self._by_xy[1] + cy) + rng.uniform(-0.1, 0.1) * d
+            w = max(w, abs(self._by_xy[0] - cx) * 2 + 1.2 + 2 * hx)
+            d = max(d, abs(self._by_xy[1] - cy) * 2 + 1.2 + 2 * hy)
+        elif env is not None:
+            ox, oy = cx + ox, cy + oy
+        if env is not None:  # the whole path (and any cameras) inside, 0.8 m from the walls
+            rhx, rhy = env.get("room_half", (hx, hy))
+            w, d = max(w, 2 * (rhx + abs(ox - cx)) + 1.6), max(d, 2 * (rhy + abs(oy - cy)) + 1.6)
         self.room.scale = (w, d, h)
         self.room.location = (ox, oy, h / 2 - 0.01)
         set_material(self.wall_mat, rng, scale=rng.uniform(0.1, 1.0), smax=0.35 if pale or kind == "room" else 1.0)
@@ -315,8 +335,8 @@ def setup_v2(self, pose, rng, look, bypose=None):
         wall = int(rng.integers(4))
         t = rng.uniform(-0.4, 0.4)
         # keep 0.55 m between the furniture and the wearer's pelvis
-        px, py = J["pelvis"][0], J["pelvis"][1]
-        gap = [rl[1] + rs[1] / 2 - py, py - (rl[1] - rs[1] / 2), rl[0] + rs[0] / 2 - px, px - (rl[0] - rs[0] / 2)][wall]
+        gap = [rl[1] + rs[1] / 2 - cy - hy, cy - hy - (rl[1] - rs[1] / 2),
+               rl[0] + rs[0] / 2 - cx - hx, cx - hx - (rl[0] - rs[0] / 2)][wall]
         sy = min(sy, gap - 0.55)
         if sy < 0.2:
             self._show(ob, False)
@@ -343,7 +363,7 @@ def setup_v2(self, pose, rng, look, bypose=None):
         ang = rng.uniform(0, 2 * math.pi)
         x = rl[0] + 0.5 * rs[0] * math.cos(ang) * rng.uniform(0.3, 0.85)
         y = rl[1] + 0.5 * rs[1] * math.sin(ang) * rng.uniform(0.3, 0.85)
-        if np.hypot(x - J["pelvis"][0], y - J["pelvis"][1]) < 0.7:
+        if np.hypot(x - cx, y - cy) < 0.7 + reach:
             x += 0.8 * math.cos(ang)
             y += 0.8 * math.sin(ang)
         top = rng.uniform(0.7, 1.8)
@@ -381,7 +401,7 @@ def setup_v2(self, pose, rng, look, bypose=None):
         if ck == 2:
             sz[:] = sz[0]
         ob.scale = tuple(sz)
-        ob.location = (J["pelvis"][0] + rr * math.cos(a), J["pelvis"][1] + rr * math.sin(a), sz[2] / 2)
+        ob.location = (cx + (rr + reach) * math.cos(a), cy + (rr + reach) * math.sin(a), sz[2] / 2)
         ob.rotation_euler = (0, 0, rng.uniform(0, 6.3))
         set_material(m, rng)
     bpy.context.view_layer.update()
