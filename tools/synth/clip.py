@@ -147,11 +147,15 @@ CLIP_KEYS = ("kind", "motion", "first", "frames", "seed", "mirror", "bystander",
              "data_version", "res", "samples", "rig")
 
 
+FINISH = "median 3x3, noise 0.01, JPEG 92"  # finish_jpeg's, kept in clip.json
+
+
 def check_same_clip(a, H):
     """Writes OUT/clip.json, or refuses (exit 1) to resume a folder that
     another command line started: its frames would mix two clips."""
     want = {k: getattr(a, k) for k in CLIP_KEYS}
     want["height"] = round(H, 4)
+    want["finish"] = FINISH
     path = os.path.join(a.out, "clip.json")
     if os.path.exists(path):
         have = json.load(open(path))
@@ -225,12 +229,26 @@ def main():
     write_json(os.path.join(a.out, "gt.json"), gt_json(a, seq, rigs, look))
 
 
+def finish_jpeg(png, jpg, rng):
+    """A camera's frame: the render with mild sensor noise, as a JPEG.  Not
+    the detector data's postprocess, whose gain, gamma and blur are drawn
+    anew for every view: in a sequence that is a camera whose exposure
+    jumps from frame to frame, which no real one does.  A 3x3 median takes
+    out most of the path tracer's noise at 8 samples (Debian's Blender has
+    no denoiser; 24 samples look the same at three times the time)."""
+    from PIL import Image, ImageFilter
+    im = Image.open(png).convert("RGB").filter(ImageFilter.MedianFilter(3))
+    im = np.asarray(im).astype(np.float32) / 255.0
+    im = im + rng.normal(0, 0.01, im.shape)
+    Image.fromarray((np.clip(im, 0, 1) * 255 + 0.5).astype(np.uint8)).save(jpg, quality=92)
+
+
 def render(a, cams, todo, seq, byseq, env, views, look, jpg):
-    from output import postprocess
     from outside import set_pinhole
     from scene import Scene
     scene = Scene(a, cams)
     scene.init_v2()
+
     tmp = os.path.join(a.out, "tmp.png")
     t0 = time.time()
     for n, k in enumerate(todo):
@@ -241,7 +259,7 @@ def render(a, cams, todo, seq, byseq, env, views, look, jpg):
                 set_pinhole(scene, K)
             scene.render_view(T_wc, tmp)
             part = jpg[k][ci][:-4] + ".part.jpg"  # a killed render leaves no whole-looking JPEG
-            postprocess(tmp, part, np.random.default_rng([a.seed, 3, k, ci]))
+            finish_jpeg(tmp, part, np.random.default_rng([a.seed, 3, k, ci]))
             os.replace(part, jpg[k][ci])
         if (n + 1) % 10 == 0 or n + 1 == len(todo):
             rate = (n + 1) / (time.time() - t0)
