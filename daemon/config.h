@@ -104,6 +104,7 @@ typedef struct {
 	double min_confidence; /* keypoints below it are dropped; < 0: the model's threshold */
 	int nice;              /* the detector threads' nice value above the daemon's */
 	int hint;              /* mcd_detector_hint: MoveNet looks where the tracked pose is */
+	bool flip;             /* heatmap models: the flip test (mirrored view averaged in) */
 } mcd_detector_config;
 
 /* [detector] hint: where a MoveNet model looks first (docs/DETECT_RUNTIME.md). */

@@ -135,6 +135,7 @@ static const mcd_config_key keys[] = {
 	{MCD_SEC_DETECTOR, "min_confidence", MCD_KEY_REAL_AUTO, K(min_confidence), 0, 1, NULL, "auto", true},
 	{MCD_SEC_DETECTOR, "nice", MCD_KEY_INT, K(nice), 0, 19, NULL, "10", false},
 	{MCD_SEC_DETECTOR, "hint", MCD_KEY_ENUM, K(hint), 0, 0, detector_hints, "none", false},
+	{MCD_SEC_DETECTOR, "flip", MCD_KEY_BOOL, K(flip), 0, 0, NULL, "false", true},
 
 	/* The publishing thread takes a new filter between two skeletons (and
 	 * starts it again), so all of these reload. */

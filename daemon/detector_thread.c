@@ -196,6 +196,7 @@ static void apply_settings(worker *w)
 	w->cfg_changed = false;
 	float thr = d->cfg.min_confidence < 0 ? d->model_threshold : (float)d->cfg.min_confidence;
 	mc_detector_set_threshold(w->det, thr);
+	mc_detector_set_flip(w->det, d->cfg.flip);
 	if (w->cam == 0) /* process-wide: one worker sets it */
 		mc_detector_set_threads(d->cfg.threads);
 }
@@ -287,10 +288,10 @@ static void log_running(const mcd_detector_thread *d)
 	char rate[64] = "every frame";
 	if (d->cfg.rate > 0)
 		snprintf(rate, sizeof(rate), "at most %g views/s per camera", d->cfg.rate);
-	mcd_info("detector: %s (%d joints, %dx%d input), %s, threshold %.2f, %d OpenCV thread%s, one worker per camera "
+	mcd_info("detector: %s (%d joints, %dx%d input), %s, threshold %.2f%s, %d OpenCV thread%s, one worker per camera "
 		 "at nice +%d",
-		 d->cfg.model, mc_detector_njoints(det), iw, ih, rate, (double)mc_detector_threshold(det), d->cfg.threads,
-		 d->cfg.threads == 1 ? "" : "s", d->cfg.nice);
+		 d->cfg.model, mc_detector_njoints(det), iw, ih, rate, (double)mc_detector_threshold(det),
+		 mc_detector_flip(det) ? ", flip test" : "", d->cfg.threads, d->cfg.threads == 1 ? "" : "s", d->cfg.nice);
 }
 
 mcd_detector_thread *mcd_detector_thread_create(const mcd_detector_thread_config *cfg, mc_err *err)
@@ -423,6 +424,9 @@ void mcd_detector_thread_reload(mcd_detector_thread *d, const mcd_detector_confi
 	d->cfg.rate = cfg->rate;
 	d->cfg.threads = cfg->threads;
 	d->cfg.min_confidence = cfg->min_confidence;
+	if (cfg->flip != d->cfg.flip && d->w[0].det)
+		mcd_info("detector: flip test %s from the next detection", cfg->flip ? "on" : "off");
+	d->cfg.flip = cfg->flip;
 	for (int c = 0; c < d->ncams; c++) {
 		d->w[c].cfg_changed = true;
 		pthread_cond_signal(&d->cond[c]);

@@ -681,6 +681,11 @@ void mc_detector_set_person_square(mc_detector *d, const mc_detector_square *sq)
 		d->hint = *sq;
 }
 
+int mc_detector_flip(const mc_detector *d)
+{
+	return d && d->flip;
+}
+
 void mc_detector_set_flip(mc_detector *d, int on)
 {
 	if (!d || d->decoder != mc_decoder::heatmap)

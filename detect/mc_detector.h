@@ -99,6 +99,8 @@ void mc_detector_set_threshold(mc_detector *d, float threshold);
  * network's cost; docs/DETECT_RUNTIME.md, "Flip test").  Off by default; no
  * effect on MoveNet models. */
 void mc_detector_set_flip(mc_detector *d, int on);
+/* Whether the flip test is on (never for MoveNet models). */
+int mc_detector_flip(const mc_detector *d);
 
 /* MoveNet models (sidecar "decoder": "movenet"): whether a second pass looks
  * at a square around the person the first pass found (the sidecar's

@@ -37,12 +37,17 @@ static char repo[PATH_MAX];
 static mc_rig rig;
 static mc_gt gt; /* the clip's ground truth, rig frame */
 
-static void write_config(mcd_run *r, const char *model, double rate)
+static void write_config_flip(mcd_run *r, const char *model, double rate, const char *flip)
 {
-	char text[8 * PATH_MAX], detector[PATH_MAX + 64];
-	snprintf(detector, sizeof(detector), "[detector]\nmodel = %s\nrate = %g\n", model, rate);
+	char text[8 * PATH_MAX], detector[PATH_MAX + 96];
+	snprintf(detector, sizeof(detector), "[detector]\nmodel = %s\nrate = %g\nflip = %s\n", model, rate, flip);
 	mcd_demo_clip_config(text, sizeof(text), repo, RATE, "status_interval_s = 0.5\n", "", NULL, detector);
 	mcd_run_config(r, text);
+}
+
+static void write_config(mcd_run *r, const char *model, double rate)
+{
+	write_config_flip(r, model, rate, "false");
 }
 
 /* Starts mocapd; false (and *skip set) when OpenCL is not usable here. */
@@ -248,6 +253,29 @@ static void test_good(void)
 	mcd_run_stop(&r, 20000, "good model");
 }
 
+/* [detector] flip reaches the shipped head-rig model (the log line says
+ * what the detector does, mc_detector_flip), and a reload turns it off. */
+static void test_flip(void)
+{
+	char model[PATH_MAX + 64];
+	snprintf(model, sizeof(model), "%s/%s", repo, MC_TEST_LIVE_EGO_MODEL);
+	if (access(model, R_OK) != 0)
+		return;
+	mcd_run r;
+	CHECK(mcd_run_init(&r));
+	write_config_flip(&r, model, 0, "true");
+	CHECK(mcd_run_start(&r, NULL, NULL));
+	if (!mcd_run_wait_notify(&r, "READY=1", 60000)) {
+		mcd_run_stop(&r, 20000, "flip");
+		return; /* test_good said why */
+	}
+	CHECK_MSG(mcd_run_wait_log(&r, "threshold 0.30, flip test, ", 5000), "the detector's line lacks the flip test");
+	write_config_flip(&r, model, 0, "false");
+	mcd_run_signal(&r, SIGHUP);
+	CHECK(mcd_run_wait_log(&r, "detector: flip test off from the next detection", 5000));
+	mcd_run_stop(&r, 20000, "flip");
+}
+
 /* A bad model: tracking goes on, the status says failed and why. */
 static void test_bad(const char *model, const char *file, const char *why)
 {
@@ -349,6 +377,7 @@ int main(void)
 		return 1;
 	}
 	test_good();
+	test_flip();
 	char path[PATH_MAX + 64];
 	snprintf(path, sizeof(path), "%s/detect/tests/data/bad_channels.onnx", repo);
 	test_bad(path, "bad_channels.onnx", "17 heatmap channels");

@@ -271,6 +271,10 @@ static inline bool mcd_run_wait_log(mcd_run *r, const char *needle, int timeout_
 {
 	uint64_t end = mcd_now_ms() + (uint64_t)timeout_ms;
 	for (;;) {
+		/* sd_notify blocks once the socket's queue is full (10
+		 * datagrams: 5 s of STATUS at status_interval_s = 0.5), and with
+		 * it the daemon's main loop: read what came, as systemd does */
+		mcd_run_read_notify(r);
 		char *log = mcd_read_file(r->log);
 		bool found = log && strstr(log, needle);
 		free(log);
@@ -319,6 +323,7 @@ static inline int mcd_run_wait_exit(mcd_run *r, int timeout_ms)
 		}
 		if (mcd_now_ms() >= end)
 			return -1;
+		mcd_run_read_notify(r); /* a blocked sd_notify would hold the shutdown */
 		mcd_sleep_ms(10);
 	}
 	mcd_run_read_notify(r);
