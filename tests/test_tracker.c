@@ -166,6 +166,28 @@ static int synth_open(synth *s, double *pose0, mc_err *err)
 	return 0;
 }
 
+/* synth_open for a test: a failure is counted and printed. */
+static bool synth_start(synth *s, double *pose0)
+{
+	mc_err err = {{0}};
+	if (synth_open(s, pose0, &err) == 0)
+		return true;
+	fprintf(stderr, "setup: %s\n", err.msg);
+	mc_test_failures++;
+	return false;
+}
+
+/* Renders pose0, sets the tracker there and calibrates the actor's colours
+ * on those views (v gets them). */
+static void calibrate_at(synth *s, mc_tracker *t, const double *pose0, mc_frame_view v[2])
+{
+	mc_err err = {{0}};
+	render(s, pose0);
+	views_of(s, v, 0);
+	mc_tracker_set_pose(t, pose0);
+	CHECK_MSG(mc_tracker_calibrate_colors(t, v, 2, &err) == 0, "%s", err.msg);
+}
+
 static void synth_close(synth *s)
 {
 	for (int c = 0; c < 2; c++) {
@@ -214,11 +236,8 @@ static void test_synthetic(mc_backend backend)
 	synth s;
 	mc_err err = {{0}};
 	double pose0[MC_MAX_DOF], delta[MC_MAX_DOF] = {0}, truth[MC_MAX_DOF];
-	if (synth_open(&s, pose0, &err) < 0) {
-		fprintf(stderr, "setup: %s\n", err.msg);
-		mc_test_failures++;
+	if (!synth_start(&s, pose0))
 		return;
-	}
 	unsigned long long rng = 11;
 	for (int j = 0; j < s.model.njoints; j++)
 		for (int d = 0; d < s.model.joints[j].ndof; d++)
@@ -237,10 +256,7 @@ static void test_synthetic(mc_backend backend)
 		  "%s", err.msg);
 	mc_frame_view v[2];
 	mc_skeleton sk;
-	render(&s, pose0);
-	views_of(&s, v, 0);
-	mc_tracker_set_pose(t, pose0);
-	CHECK_MSG(mc_tracker_calibrate_colors(t, v, 2, &err) == 0, "%s", err.msg);
+	calibrate_at(&s, t, pose0, v);
 	int k = 1;
 	for (; k <= 8; k++) {
 		pose_at(&s.model, pose0, delta, k, truth);
@@ -311,11 +327,8 @@ static void test_loud_background(void)
 	synth s;
 	mc_err err = {{0}};
 	double pose0[MC_MAX_DOF], delta[MC_MAX_DOF] = {0}, truth[MC_MAX_DOF];
-	if (synth_open(&s, pose0, &err) < 0) {
-		fprintf(stderr, "setup: %s\n", err.msg);
-		mc_test_failures++;
+	if (!synth_start(&s, pose0))
 		return;
-	}
 	s.loud_bg = true;
 	unsigned long long rng = 5;
 	for (int d = 0; d < s.model.ndof; d++)
@@ -328,10 +341,7 @@ static void test_loud_background(void)
 	}
 	mc_frame_view v[2];
 	mc_skeleton sk;
-	render(&s, pose0);
-	views_of(&s, v, 0);
-	mc_tracker_set_pose(t, pose0);
-	CHECK_MSG(mc_tracker_calibrate_colors(t, v, 2, &err) == 0, "%s", err.msg);
+	calibrate_at(&s, t, pose0, v);
 	int ok = 0;
 	double mean = 0, worst;
 	for (int k = 1; k <= 6; k++) {
