@@ -206,7 +206,6 @@ void mc_trk_choose_candidates(mc_tracker *t, const mc_fk *fk)
 	}
 }
 
-
 /* A share of pixels[0..n) into out, drawn by a partial Fisher-Yates
  * shuffle (in place), so that no pixel is drawn twice; the count. */
 static int draw_pixels(mc_tracker *t, int *pixels, int n, double fraction, int *out)

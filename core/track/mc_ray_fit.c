@@ -81,27 +81,23 @@ static bool fit_to_rays(mc_tracker *t, const double *pred, double *fit)
 	return true;
 }
 
-/* Marks joint `root` and every joint below it (parents come before their
- * children). */
-static void mark_limb(const mc_model *m, int root, bool *joint)
-{
-	for (int j = root; j < m->njoints; j++)
-		if (j == root || (m->joints[j].parent >= 0 && joint[m->joints[j].parent]))
-			joint[j] = true;
-}
-
-/* The joints of part p: limb p, or for p = NLIMBS those of no limb (the
- * torso, and a free root). */
+/* The joints of part p: limb p (mc_model_subtree of its root), or for
+ * p = NLIMBS those of no limb (the torso, and a free root). */
 static void part_joints(const mc_model *m, int p, bool *joint)
 {
-	bool limb[MC_MAX_JOINTS] = {false};
-	for (int l = 0; l < NLIMBS; l++) {
-		int root = mc_model_find_joint(m, limb_roots[l]);
-		if (root >= 0 && (l == p || p == NLIMBS))
-			mark_limb(m, root, limb);
+	if (p < NLIMBS) {
+		if (!mc_model_subtree(m, mc_model_find_joint(m, limb_roots[p]), joint))
+			memset(joint, 0, sizeof(bool) * (size_t)m->njoints);
+		return;
 	}
 	for (int j = 0; j < m->njoints; j++)
-		joint[j] = p == NLIMBS ? !limb[j] : limb[j];
+		joint[j] = true;
+	for (int l = 0; l < NLIMBS; l++) {
+		bool limb[MC_MAX_JOINTS];
+		if (mc_model_subtree(m, mc_model_find_joint(m, limb_roots[l]), limb))
+			for (int j = 0; j < m->njoints; j++)
+				joint[j] = joint[j] && !limb[j];
+	}
 }
 
 /* The colour energy of poses a and b on every pixel near the Gaussians
