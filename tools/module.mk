@@ -18,9 +18,10 @@
 #   make detector-finetune  stage 2 (resumes from $(DETECTOR_DIR)/stage2/ckpt.pt)
 #   make detector-export    export stage 2's best checkpoint to config/models/ego_detector.onnx
 #   make detector-report    2D error report on ../shared/data/ego/*
-#   make eval-clips         the held-out head-rig evaluation clips (tools/synth/clip.py, the
-#                           list in tools/synth/eval_clips.sh) into $(EVAL_CLIPS_DIR), about 6
-#                           minutes a clip on one core; resumes; `make bench-heldout` tracks them
+#   make eval-clips         the held-out evaluation clips, head-mounted and outside-in
+#                           (tools/synth/clip.py, the list in tools/synth/eval_clips.sh) into
+#                           $(EVAL_CLIPS_DIR), 6-15 minutes a clip on one core; resumes;
+#                           `make bench-heldout` tracks them
 #   make detector-data-outside, detector-train-outside, detector-finetune-outside,
 #   detector-export-outside, detector-report-outside: the same for the outside-in model
 #   ($(DETECTOR_OUTSIDE_DIR)/outside_detector.onnx: the shipped outside-in model is now
@@ -296,8 +297,8 @@ pose-prior: $(PRIOR_FIT)
 	$(TRAIN_PYTHON) tools/prior/train_prior.py $(PRIOR_DIR)/poses.txt --out config/models/pose_prior.json
 
 # Evaluation clips of our own, held out from the detectors' training by
-# motion family (and, the "val" ones, build, garment and scene kind).
-EVAL_CLIPS_DIR ?= $(BUILD)/clips
+# motion family (and, the "val" ones, build, garment and scene kind), into
+# EVAL_CLIPS_DIR (the Makefile's, beside bench-heldout).
 .PHONY: eval-clips
 eval-clips:
 	tools/synth/eval_clips.sh $(EVAL_CLIPS_DIR) $(BLENDER)

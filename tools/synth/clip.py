@@ -81,6 +81,44 @@ def find_clip(clips, name, split, what):
     return c
 
 
+def ping_pong(k, n):
+    """Frame k of a motion of n frames played forward, back, forward..."""
+    m = k % (2 * n - 2)
+    return m if m < n else 2 * n - 2 - m
+
+
+def ego_cams(rig, res):
+    """The head rig's cameras at res x res, as calib_json takes them."""
+    from fisheye import load_rig
+    return [dict(c, res=res, rig_path=rig) for c in load_rig(rig, res)]
+
+
+def ego_views(a, seq):
+    """The head rig: its cameras, the left camera's world pose per frame
+    (fixed to the head, the mounting drawn once from --seed), each frame's
+    views (name, world-from-camera, None) and the lens file."""
+    from render import rig_pose
+    cams = ego_cams(a.rig, a.res)
+    rigs = [rig_pose(s["head"], s["joints"]["neck"], np.random.default_rng([a.seed, 2])) for s in seq]
+    views = [[(cam["name"], rigs[k] @ cam["rig_from_cam"], None) for cam in cams] for k in range(a.frames)]
+    return cams, rigs, views, ("calib.json", calib_json(cams))
+
+
+def outside_views(a, env):
+    """Outside-in: four static pinhole cameras around the path's centre
+    (drawn once from --seed), the same views (name, world-from-camera,
+    intrinsics) every frame, and the lens file; env's room grows to hold
+    the cameras."""
+    from outside import outside_cams
+    c3 = np.array([env["centre"][0], env["centre"][1], 1.0])
+    fixed = outside_cams({"pelvis": c3, "spine": c3, "neck": c3}, np.random.default_rng([a.seed, 2]), 4,
+                         a.res_w, a.res_h, dist=OUTSIDE_DIST)
+    views = [("cam%d" % i, T, K) for i, (K, T) in enumerate(fixed)]
+    far = max(float(np.linalg.norm(T[:2, 3] - c3[:2])) for _, T, _ in views)
+    env["room_half"] = (far + 0.3, far + 0.3)
+    return [], None, [views] * a.frames, ("cameras.json", cameras_json(views))
+
+
 def path_env(seq):
     """The wearer's path (pelvis, on the floor) for scene_v2.setup_v2's env."""
     p = np.array([s["joints"]["pelvis"][:2] for s in seq])
@@ -195,26 +233,12 @@ def main():
             sys.exit("clip.py: --bystander %s has no frames from %d" % (a.bystander, a.bystander_first))
         bs = clip_sequence(b, a.bystander_first, n, float(look_rng.uniform(1.5, 2.0)))
         # a short motion plays forward and back (no jump at its end)
-        byseq = [bs[k % (2 * n - 2) if k % (2 * n - 2) < n else 2 * n - 2 - k % (2 * n - 2)] for k in range(a.frames)]
+        byseq = [bs[ping_pong(k, n)] for k in range(a.frames)]
     env = path_env(seq)
     if a.kind == "ego":
-        from render import load_rig, rig_pose
-        cams = load_rig(a.rig, a.res)
-        for cam in cams:
-            cam.update({"res": a.res, "rig_path": a.rig})
-        rigs = [rig_pose(s["head"], s["joints"]["neck"], np.random.default_rng([a.seed, 2])) for s in seq]
-        views = [[(cam["name"], rigs[k] @ cam["rig_from_cam"], None) for cam in cams] for k in range(a.frames)]
-        lens = ("calib.json", calib_json(cams))
+        cams, rigs, views, lens = ego_views(a, seq)
     else:
-        from outside import outside_cams
-        cams, rigs = [], None
-        c3 = np.array([env["centre"][0], env["centre"][1], 1.0])
-        fixed = outside_cams({"pelvis": c3, "spine": c3, "neck": c3}, np.random.default_rng([a.seed, 2]), 4,
-                             a.res_w, a.res_h, dist=OUTSIDE_DIST)
-        views = [[("cam%d" % i, T, K) for i, (K, T) in enumerate(fixed)]] * a.frames
-        far = max(float(np.linalg.norm(T[:2, 3] - c3[:2])) for _, T, _ in views[0])
-        env["room_half"] = (far + 0.3, far + 0.3)
-        lens = ("cameras.json", cameras_json(views[0]))
+        cams, rigs, views, lens = outside_views(a, env)
     for name, _, _ in views[0]:
         os.makedirs(os.path.join(a.out, name), exist_ok=True)
     check_same_clip(a, H)

@@ -37,7 +37,7 @@ import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from motion import JOINTS, clips_of_split, family_of, load_clips, sample_pose  # noqa: E402
-from fisheye import project_cam, rig_from_cam_matrix  # noqa: E402
+from fisheye import load_rig, project_cam  # noqa: E402
 from output import done_indices, open_labels, postprocess  # noqa: E402
 from outside import main_outside, relabel_outside, test_projection_outside  # noqa: E402
 from scene import Scene, render_marker  # noqa: E402
@@ -87,19 +87,6 @@ def parse_args():
 
 
 # ---------------------------------------------------------------- rig / camera
-def load_rig(path, res):
-    rig = json.load(open(path))
-    cams = []
-    for c in rig["cameras"]:
-        assert c["model"] == "equidistant", c["model"]
-        s = res / c["width"]
-        M = rig_from_cam_matrix(c["rig_from_cam"])
-        cams.append({"name": c["name"], "f": c["f"] * s, "cx": (c["cx"] + 0.5) * s - 0.5,
-                     "cy": (c["cy"] + 0.5) * s - 0.5, "k": list(c.get("k", [0, 0, 0, 0])),
-                     "fov": math.radians(c.get("fov_deg", 180.0)), "rig_from_cam": M})
-    return cams
-
-
 project = project_cam
 
 

@@ -221,9 +221,9 @@ def setup_v2(self, pose, rng, look, bypose=None, env=None):
     instead of this frame's pelvis: {"centre": (x, y) of the path, "half":
     (x, y) half extents, "facing": the first frame's forward, and optionally
     "room_half": the half extents the room must hold (outside-in: the
-    cameras too)}.  With the
-    same rng state every frame, every frame then gets the same scene.
-    Without it the draws and the scene are as they always were."""
+    cameras too)}.  With the same rng state every frame, every frame then
+    gets the same scene.  Without it the draws and the scene are as they
+    always were."""
     H = pose["height"]
     J = {k: np.asarray(v, dtype=float) for k, v in pose["joints"].items()}
     if env is None:

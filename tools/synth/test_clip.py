@@ -64,6 +64,10 @@ def test_mirror_swaps_sides(clips):
         assert np.allclose(b[k]["joints"]["neck"], M @ a[k]["joints"]["neck"])
 
 
+def test_bystander_plays_forward_and_back():
+    assert [clip.ping_pong(k, 3) for k in range(7)] == [0, 1, 2, 1, 0, 1, 2]
+
+
 def test_too_few_frames_refused(clips):
     c = clips["cmu_mb/02_01"]
     with pytest.raises(ValueError, match="02_01 has"):
@@ -80,18 +84,8 @@ def test_val_split_takes_held_out_motions_only(clips):
         clip.find_clip(list(clips.values()), "cmu_mb/99_99", "train", "--motion")
 
 
-def rig_cams(res=256):
-    """The rig as render.load_rig reads it (that module needs Blender)."""
-    import json
-    from fisheye import rig_from_cam_matrix
-    rig = json.load(open(RIG))
-    return [{"name": c["name"], "f": c["f"], "cx": c["cx"], "cy": c["cy"], "fov": math.radians(c["fov_deg"]),
-             "rig_from_cam": rig_from_cam_matrix(c["rig_from_cam"]), "res": res, "rig_path": RIG}
-            for c in rig["cameras"]]
-
-
 def test_calib_is_the_dev_clips_lens():
-    c = clip.calib_json(rig_cams())
+    c = clip.calib_json(clip.ego_cams(RIG, 256))
     assert c["model"] == "equidistant-fisheye" and c["width"] == 256 and c["fov_deg"] == 180
     assert abs(c["baseline_m"] - 0.30) < 1e-6
     # right_from_left takes the left camera's origin 0.3 m to the right camera's left

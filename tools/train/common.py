@@ -1,6 +1,5 @@
 """Shared pieces of the 2D joint detector: joint list, network, heatmap decoding,
 fisheye projection.  The decoding here is the one the C runtime implements."""
-import json
 import math
 import os
 import sys
@@ -8,7 +7,8 @@ import sys
 import numpy as np
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "synth"))
-from fisheye import project_cam, rig_from_cam_matrix  # noqa: E402
+import fisheye  # noqa: E402
+from fisheye import project_cam  # noqa: E402
 
 JOINTS = ["head_top", "neck", "spine", "pelvis",
           "left_shoulder", "left_elbow", "left_wrist", "left_hip", "left_knee", "left_ankle", "left_toe",
@@ -226,15 +226,8 @@ def decode(hm, sigma=None):
 
 
 def load_rig(path, res=IN):
-    rig = json.load(open(path))
-    cams = {}
-    for c in rig["cameras"]:
-        s = res / c["width"]
-        M = rig_from_cam_matrix(c["rig_from_cam"])
-        cams[c["name"]] = {"f": c["f"] * s, "cx": (c["cx"] + 0.5) * s - 0.5, "cy": (c["cy"] + 0.5) * s - 0.5,
-                           "k": c.get("k", [0, 0, 0, 0]), "fov": math.radians(c.get("fov_deg", 180.0)),
-                           "rig_from_cam": M}
-    return cams
+    """The rig's cameras by name (fisheye.load_rig, the renderer's reader)."""
+    return {c["name"]: c for c in fisheye.load_rig(path, res)}
 
 
 def project(cam, P_rig):
