@@ -228,9 +228,9 @@ def main():
     byseq = None
     if a.bystander:
         b = find_clip(clips, a.bystander, a.split, "--bystander")
-        n = min(a.frames, len(b.frames) - a.bystander_first)
+        n = min(max(a.frames, 2), len(b.frames) - a.bystander_first)
         if n < 2:
-            sys.exit("clip.py: --bystander %s has no frames from %d" % (a.bystander, a.bystander_first))
+            sys.exit("clip.py: --bystander %s has fewer than 2 frames from %d" % (a.bystander, a.bystander_first))
         bs = clip_sequence(b, a.bystander_first, n, float(look_rng.uniform(1.5, 2.0)))
         # a short motion plays forward and back (no jump at its end)
         byseq = [bs[ping_pong(k, n)] for k in range(a.frames)]
