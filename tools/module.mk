@@ -49,7 +49,7 @@ CHECKS += check-train-tools
 check-train-tools:
 	@if $(TRAIN_PYTHON) -c 'import torch, numpy, pytest' 2>/dev/null; then \
 		PYTHONDONTWRITEBYTECODE=1 $(TRAIN_PYTHON) -m pytest -q -p no:cacheprovider tools/train/test_metrics.py tools/train/test_pack.py \
-		  tools/train/test_pretrained.py tools/train/test_stereo.py tools/train/test_onnx_import.py tools/synth/test_job.py \
+		  tools/train/test_pretrained.py tools/train/test_stereo.py tools/train/test_onnx_import.py tools/train/test_augment_look.py tools/synth/test_job.py \
 		  tools/synth/test_clip.py; \
 	else echo "SKIP check-train-tools: no python3-torch, python3-numpy or pytest for $(TRAIN_PYTHON) (make deps-train)"; fi
 .PHONY: detector-data-outside detector-train-outside detector-finetune-outside detector-export-outside \

@@ -33,6 +33,7 @@ from common import EVALUATED, GROUPS, JOINTS, THRESHOLD, build_model, decode, lo
 import torch  # noqa: E402
 import torch.nn.functional as Fn  # noqa: E402
 import onnx_import as I  # noqa: E402
+from augment_look import augment_look  # noqa: E402
 
 # geometric augmentation per kind: roll (rad), zoom range, shift (input px)
 AUG = {"ego": (0.2, (0.92, 1.08), 3.0), "outside": (0.2, (0.8, 1.2), 8.0)}
@@ -135,9 +136,10 @@ def targets(uv, st):
     return gy.unsqueeze(-1) * gx.unsqueeze(-2) * peak.view(B, J, 1, 1)
 
 
-def batch(data, idx, rng, augment):
+def batch(data, idx, rng, augment, look=False):
     """Images (B,3,H,W) in [0,1], truths uv (B,J,2) and states (B,J) of the
-    views idx, augmented or not, on data.device."""
+    views idx, augmented or not, on data.device; look: also the looks of
+    augment_look.py (--aug-look)."""
     dev = data.device
     x = data.images()[torch.from_numpy(np.asarray(idx)).to(dev)].permute(0, 3, 1, 2).float() / 255.0
     if data.stereo:  # the partner's view as channels 3-5, augmented alike
@@ -199,7 +201,10 @@ def batch(data, idx, rng, augment):
             p = rng.permutation(3)
             sel = torch.from_numpy(perm).to(dev)
             x[sel] = x[sel][:, :, torch.from_numpy(p).to(dev)]
-        x = x.clamp(0, 1).view(B, -1, x.shape[-2], x.shape[-1])
+        x = x.clamp(0, 1)
+        if look:
+            x = augment_look(x, rng)
+        x = x.view(B, -1, x.shape[-2], x.shape[-1])
     return x, uv, st
 
 
@@ -408,7 +413,7 @@ def train(a):
             for gp in opt.param_groups:
                 gp["lr"] = lr * warm
             idx = rng.integers(0, len(tr), a.batch)
-            x, uv, st = batch(tr, idx, rng, True)
+            x, uv, st = batch(tr, idx, rng, True, a.aug_look)
             tgt = targets(uv, st)
             with torch.autocast(dev.type, dtype=torch.bfloat16, enabled=amp):
                 logits = model(x)
@@ -742,6 +747,8 @@ def main():
                     help="weight of the left/right overlap penalty (0: off; see loss_fn)")
     ap.add_argument("--feet-weight", type=float, default=1.0,
                     help="weight of the ankles' and toes' heat maps in the training loss (not in validation's)")
+    ap.add_argument("--aug-look", action="store_true",
+                    help="also hue, grey, gamma, haze, blur and cut-out augmentation (augment_look.py)")
     ap.add_argument("--epochs", type=int, default=30)
     ap.add_argument("--steps-per-epoch", type=int, default=250)
     ap.add_argument("--batch", type=int, default=32)
