@@ -93,6 +93,8 @@ static const mcd_config_key keys[] = {
 	{MCD_SEC_TRACKER, "momentum", MCD_KEY_REAL, T(settings.momentum), 0, 0.999, NULL, TRACKER_DEFAULT, true},
 	{MCD_SEC_TRACKER, "lambda_detection", MCD_KEY_REAL, T(settings.lambda_detection), 0, 1000, NULL,
 	 TRACKER_DEFAULT, false},
+	{MCD_SEC_TRACKER, "detection_trust_max", MCD_KEY_REAL, T(settings.detection_trust_max), 1, 100, NULL,
+	 TRACKER_DEFAULT, false},
 	{MCD_SEC_TRACKER, "lambda_smooth", MCD_KEY_REAL, T(settings.lambda_smooth), 0, 1000, NULL, TRACKER_DEFAULT,
 	 false},
 	{MCD_SEC_TRACKER, "lambda_floor", MCD_KEY_REAL, T(settings.lambda_floor), 0, 1000, NULL, TRACKER_DEFAULT,

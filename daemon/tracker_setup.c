@@ -205,7 +205,8 @@ void mcd_tracker_settings(const mcd_config *cfg, const mc_rig *rig, mc_tracker_s
 		    {"lambda_floor", MC_GIVEN_LAMBDA_FLOOR},
 		    {"lambda_detection", MC_GIVEN_LAMBDA_DETECTION},
 		    {"lambda_prior", MC_GIVEN_LAMBDA_PRIOR},
-		    {"ray_fit", MC_GIVEN_RAY_FIT}};
+		    {"ray_fit", MC_GIVEN_RAY_FIT},
+		    {"detection_trust_max", MC_GIVEN_DETECTION_TRUST}};
 	*s = cfg->tracker.settings;
 	if (rig->kind != MC_RIG_OUTSIDE_IN)
 		return;

@@ -508,6 +508,16 @@ static int open_detector(const options *o, const mc_tracker *t, const mc_clip *c
 }
 
 /* Tracks the opened clip with tracker t and reports. */
+/* How far the views' keypoints agreed at the end, and the keypoint
+ * term's weight that gave (docs/TRACKER.md, "Trusting keypoints that agree"). */
+static void print_keypoint_trust(const options *o, const mc_tracker *t)
+{
+	double spread, trust = mc_tracker_keypoint_trust(t, &spread);
+	if (spread > 0)
+		printf("keypoints: the views' spread %.2f px at 128 wide, the keypoint term's weight x%.2f "
+		       "(--detection-trust-max %g)\n", spread, trust, o->s.detection_trust_max);
+}
+
 static int run_tracker(options *o, mc_tracker *t, const mc_clip *clip, int nframes, bool thesis, mc_err *err)
 {
 	FILE *out;
@@ -537,8 +547,10 @@ static int run_tracker(options *o, mc_tracker *t, const mc_clip *clip, int nfram
 	close_outputs(o, out);
 	if (rc == 0 && o->init_detect)
 		bench_print_init_report(t, clip, &st);
-	if (rc == 0)
+	if (rc == 0) {
+		print_keypoint_trust(o, t);
 		report(o, clip, bd, &st, mc_tracker_device_name(t), thesis, err);
+	}
 	if (bd)
 		bench_detector_close(bd);
 	free(st.ms);

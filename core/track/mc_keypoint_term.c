@@ -97,7 +97,7 @@ double mc_trk_detection_term(mc_tracker *t, const double *pose, const mc_fk *fk,
 	}
 	if (!used)
 		return 0;
-	double scale = t->s.lambda_detection / used;
+	double scale = t->s.lambda_detection * mc_tracker_keypoint_trust(t, NULL) / used;
 	mc_vec3 *J = t->jacobian;
 	mc_model_joint_jacobian(&t->model, pose, fk, J);
 	for (int j = 0; j < t->model.njoints; j++)

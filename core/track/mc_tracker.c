@@ -564,6 +564,7 @@ static int track_frame_set(mc_tracker *t, const mc_frame_view *views, int nviews
 	if (waiting < 0)
 		return -1;
 	if (waiting) {
+		mc_trk_update_trust(t);
 		initialising_skeleton(t, out);
 		out->track_ms = mc_ms_since(start);
 		return 0;
@@ -602,6 +603,7 @@ static int track_frame_set(mc_tracker *t, const mc_frame_view *views, int nviews
 	if (late_step && mc_trk_init_step(t, views, nviews, fkp->rays, fkp->cam, fkp->nrays, err) < 0)
 		return -1;
 	out->energy = E;
+	mc_trk_update_trust(t);
 	fill_skeleton(t, t->pose, out);
 	mc_trk_init_after(t, out);
 	out->track_ms = mc_ms_since(start);

@@ -71,6 +71,13 @@ typedef struct {
 	 * fit").  On by default; outside-in only with 3 cameras or more
 	 * (mc_tracker_outside_in). */
 	bool ray_fit;
+	/* The keypoint term's weight grows up to this factor (1: fixed) while
+	 * the cameras' keypoints of one joint agree closely: lambda_detection
+	 * holds for a detector whose views miss each other by 1.75 px at 128
+	 * wide or more (the shipped head-rig detector), and a detector whose views agree
+	 * within a fraction of that gets the weight its noise warrants, as
+	 * 1 / noise^2 (docs/TRACKER.md, "Trusting keypoints that agree"). */
+	double detection_trust_max;
 	int cl_platform, cl_device; /* -1: first GPU, else first CPU */
 	uint64_t seed;
 } mc_tracker_settings;
@@ -90,6 +97,7 @@ typedef struct {
 	bool assign_sides;                   /* the views can settle left and right */
 	double lambda_prior;                 /* the learned pose prior helps here */
 	int ray_fit_min_cameras;             /* the ray fit with this many cameras or more */
+	double detection_trust_max;          /* 1: the keypoint weight stays as set */
 } mc_tracker_outside_in_defaults;
 extern const mc_tracker_outside_in_defaults mc_tracker_outside_in;
 /* camera_iterations / ncams, within [min_iterations, max_iterations]: 80
@@ -104,6 +112,7 @@ int mc_tracker_outside_in_iterations(int ncams);
 #define MC_GIVEN_ASSIGN_SIDES 16u
 #define MC_GIVEN_LAMBDA_PRIOR 32u
 #define MC_GIVEN_RAY_FIT 64u
+#define MC_GIVEN_DETECTION_TRUST 128u
 /* Sets the outside-in values for a rig of ncams cameras in every setting
  * not in `given` (MC_GIVEN_* flags). */
 void mc_tracker_settings_outside_in(mc_tracker_settings *s, int ncams, unsigned given);
@@ -160,6 +169,10 @@ int mc_tracker_set_budget(mc_tracker *t, int iterations, double pixel_fraction, 
 /* Sets the current pose (and history) to `pose` (model->ndof values). */
 void mc_tracker_set_pose(mc_tracker *t, const double *pose);
 const double *mc_tracker_pose(const mc_tracker *t);
+/* The factor on lambda_detection now, in [1, detection_trust_max], and
+ * the cameras' recent disagreement it comes from (pixels of an image 128
+ * wide; 0 before any frame set had a joint seen by two cameras). */
+double mc_tracker_keypoint_trust(const mc_tracker *t, double *spread_px);
 const mc_model *mc_tracker_model(const mc_tracker *t);
 
 /* Initialises from 3D joint positions (rig frame, metres), e.g. the ground

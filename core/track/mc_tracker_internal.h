@@ -82,6 +82,10 @@ struct mc_tracker {
 	mc_keypoint_poll kp_poll;
 	void *kp_poll_ctx;
 	struct mc_trk_frame_keypoints *fkp;
+	/* running mean of the frame sets' median angle between two cameras'
+	 * rays of one joint (mc_trk_update_trust); 0: none yet */
+	double kp_spread;
+	double kp_trust; /* the factor on lambda_detection, >= 1 */
 	mc_pose_prior *prior; /* NULL: none (mc_tracker_load_pose_prior) */
 };
 
@@ -161,6 +165,10 @@ typedef struct mc_trk_frame_keypoints {
 	int cam[MC_TRK_MAX_KEYPOINTS];
 	int nrays;
 } mc_trk_frame_keypoints;
+
+/* After a frame set: the cameras' agreement on its keypoints joins the
+ * running spread, and the keypoint term's trust follows it. */
+void mc_trk_update_trust(mc_tracker *t);
 
 /* E_detection at a pose (0 when lambda_detection is 0); adds its pose
  * gradient to grad. */

@@ -59,6 +59,8 @@ static void usage(FILE *f)
 		   "  --sim-blind-confidence  confidences uniform in [0.3, 1] for good and wrong keypoints alike\n"
 		   "                        (rates override the preset; docs/man/mocap-bench.1 gives the sources)\n"
 		   "  --lambda-detection L  weight of the keypoint term\n"
+		   "  --detection-trust-max F  the keypoint term's weight grows up to F times while the cameras'\n"
+		   "                        keypoints agree closely (default 3; outside-in 1: fixed)\n"
 		   "  --detector MODEL      the 2D joint detector (ONNX, docs/DETECTOR.md) feeds the tracker, and a\n"
 		   "                        2D report follows; as in mocapd, frame set k + 1 is detected on a\n"
 		   "                        thread of its own while k is tracked, and the speed counts the\n"
@@ -105,7 +107,7 @@ static int parse_number(const char *opt, const char *arg, double lo, double hi, 
 enum { OPT_MODEL = 256, OPT_OUT, OPT_FRAMES, OPT_BACKEND, OPT_WIDTH, OPT_HEIGHT, OPT_ITER, OPT_FRAC, OPT_DROP,
        OPT_STEP, OPT_MOM, OPT_LSMOOTH, OPT_LPOSE, OPT_LLIMIT, OPT_PLAT, OPT_DEV, OPT_SEED, OPT_OCAM, OPT_REF,
        OPT_NOTHESIS, OPT_QUIET, OPT_CLIP, OPT_HELP, OPT_OVERLAY, OPT_OVERLAY_EVERY, OPT_LANCHOR,
-       OPT_SIMDET, OPT_LDET, OPT_DETECTOR, OPT_DET_EVERY, OPT_LCOLOR, OPT_DET_THRESHOLD, OPT_INIT,
+       OPT_SIMDET, OPT_LDET, OPT_TRUST, OPT_DETECTOR, OPT_DET_EVERY, OPT_LCOLOR, OPT_DET_THRESHOLD, OPT_INIT,
        OPT_NORECOVER, OPT_RAY_FIT, OPT_CAMERAS, OPT_LFLOOR, OPT_DET_SERIAL, OPT_KP_AT, OPT_FRAME_STEP, OPT_KP_OUT, OPT_KP_IN, OPT_FPS, OPT_SIM_PRESET, OPT_SIM_COLLAPSE, OPT_SIM_SWAP, OPT_SIM_OUTLIER, OPT_SIM_OCC,
        OPT_SIM_BLIND, OPT_SIDES, OPT_FIT_LIMBS, OPT_PRIOR, OPT_LPRIOR, OPT_DET_HINT, OPT_DET_FLIP, OPT_MODEL_FLOOR, OPT_SIM_PERSIST, OPT_VERSION = 'V' };
 
@@ -192,6 +194,7 @@ static int apply_option(options *o, int c, const char *name, const char *arg, bo
 	case OPT_LFLOOR: s->lambda_floor = v; o->given |= MC_GIVEN_LAMBDA_FLOOR; break;
 	case OPT_LDET: s->lambda_detection = v; o->given |= MC_GIVEN_LAMBDA_DETECTION; break;
 	case OPT_LCOLOR: s->lambda_color = v; break;
+	case OPT_TRUST: s->detection_trust_max = v; o->given |= MC_GIVEN_DETECTION_TRUST; break;
 	case OPT_DET_EVERY: o->detector_every = v >= 1 ? (int)v : 1; break;
 	case OPT_KP_AT: o->keypoints_at_iteration = (int)v; break;
 	case OPT_FRAME_STEP: o->frame_step = v >= 1 ? (int)v : 1; break;
@@ -258,7 +261,7 @@ int bench_parse_options(int argc, char **argv, options *o, bool *thesis)
 		{"lambda-limit", 1, 0, OPT_LLIMIT}, {"lambda-anchor", 1, 0, OPT_LANCHOR},
 		{"pose-prior", 1, 0, OPT_PRIOR}, {"lambda-prior", 1, 0, OPT_LPRIOR},
 		{"detector-hint", 1, 0, OPT_DET_HINT},
-		{"lambda-detection", 1, 0, OPT_LDET}, {"simulated-detector", 1, 0, OPT_SIMDET},
+		{"lambda-detection", 1, 0, OPT_LDET}, {"detection-trust-max", 1, 0, OPT_TRUST}, {"simulated-detector", 1, 0, OPT_SIMDET},
 		{"detector", 1, 0, OPT_DETECTOR}, {"detector-every", 1, 0, OPT_DET_EVERY},
 		{"lambda-color", 1, 0, OPT_LCOLOR}, {"detector-threshold", 1, 0, OPT_DET_THRESHOLD},
 		{"platform", 1, 0, OPT_PLAT}, {"device", 1, 0, OPT_DEV},

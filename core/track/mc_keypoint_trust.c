@@ -1,0 +1,101 @@
+/* How much the keypoint term trusts the detections: the weight
+ * lambda_detection is set for the shipped head-rig detector; a source of
+ * keypoints whose cameras agree closely (a better detector, clean client
+ * keypoints) gets more, as a Gaussian likelihood's 1 / noise^2 would give
+ * it.  The noise is read off the detections alone: two cameras' rays of
+ * one joint miss each other by about the keypoints' angular noise.  The
+ * tracked pose is left out of it on purpose, since a pose that follows
+ * the keypoints would make them look right and the trust feed itself.
+ * docs/TRACKER.md, "Trusting keypoints that agree". */
+#include "track/mc_tracker_internal.h"
+
+#include <math.h>
+#include <stdlib.h>
+
+/* The disagreement (pixels of an image 128 wide) above which
+ * lambda_detection holds as set: just under the shipped head-rig
+ * detector's (1.6-2.1 on walk_131_01, 3-11 on the held-out clips); 2 made
+ * test_tracker_recovery's lost arms come back late (docs/TRACKER.md) */
+#define TRUST_REF_PX 1.75
+#define TRUST_WIDTH_PX 128.0
+/* The running mean's weight of a new frame set: about a second at 30 fps */
+#define TRUST_RATE (1.0 / 30)
+/* Rays that meet behind a camera, or a point a camera cannot see, count
+ * as this far apart */
+#define FAR_PX 50.0
+#define MAX_PAIRS 256
+
+/* Pixels (at 128 wide) between camera c's projections of p and q. */
+static double camera_px(const mc_camera *cam, mc_vec3 p, mc_vec3 q)
+{
+	mc_xform cam_from_rig = mc_xform_inverse(cam->rig_from_cam);
+	double pu, pv, qu, qv;
+	if (!mc_camera_project(cam, mc_xform_apply(cam_from_rig, p), &pu, &pv) ||
+	    !mc_camera_project(cam, mc_xform_apply(cam_from_rig, q), &qu, &qv))
+		return FAR_PX;
+	return hypot(pu - qu, pv - qv) * TRUST_WIDTH_PX / cam->width;
+}
+
+/* How far two cameras' rays of one joint miss each other, as pixels: the
+ * closest point on each ray seen by both cameras, their distance in each
+ * camera's image, the mean of the two. */
+static double ray_gap_px(const mc_tracker *t, const mc_trk_keypoint_ray *a, int ca, const mc_trk_keypoint_ray *b,
+			 int cb)
+{
+	mc_vec3 w = mc_v3_sub(a->origin, b->origin);
+	double k = mc_v3_dot(a->dir, b->dir), d = mc_v3_dot(a->dir, w), e = mc_v3_dot(b->dir, w), den = 1 - k * k;
+	if (den < 1e-12)
+		return 0; /* parallel rays agree */
+	double sa = (k * e - d) / den, sb = (e - k * d) / den;
+	if (sa <= 0 || sb <= 0)
+		return FAR_PX;
+	mc_vec3 pa = mc_v3_axpy(sa, a->dir, a->origin), pb = mc_v3_axpy(sb, b->dir, b->origin);
+	double gap = 0.5 * (camera_px(&t->rig.cams[ca], pa, pb) + camera_px(&t->rig.cams[cb], pa, pb));
+	return fmin(gap, FAR_PX);
+}
+
+static int cmp_double(const void *a, const void *b)
+{
+	double x = *(const double *)a, y = *(const double *)b;
+	return (x > y) - (x < y);
+}
+
+/* The median gap (pixels at 128 wide) over every pair of cameras' rays of one joint in the
+ * frame set (joints fixed to the rig left out: their keypoints say
+ * nothing the rig does not); -1 when no joint was seen twice. */
+static double frame_spread(const mc_tracker *t)
+{
+	const mc_trk_frame_keypoints *k = t->fkp;
+	double gap[MAX_PAIRS];
+	int n = 0;
+	for (int i = 0; i < k->nrays; i++)
+		for (int j = i + 1; j < k->nrays && n < MAX_PAIRS; j++) {
+			const mc_trk_keypoint_ray *a = &k->rays[i], *b = &k->rays[j];
+			if (a->joint != b->joint || k->cam[i] == k->cam[j] || t->fixed_joint[a->joint])
+				continue;
+			gap[n++] = ray_gap_px(t, a, k->cam[i], b, k->cam[j]);
+		}
+	if (!n)
+		return -1;
+	qsort(gap, (size_t)n, sizeof(*gap), cmp_double);
+	return n % 2 ? gap[n / 2] : 0.5 * (gap[n / 2 - 1] + gap[n / 2]);
+}
+
+void mc_trk_update_trust(mc_tracker *t)
+{
+	double s = frame_spread(t);
+	if (s < 0)
+		return;
+	/* from the reference, so that one lucky frame set does not set it */
+	double prev = t->kp_spread > 0 ? t->kp_spread : TRUST_REF_PX;
+	t->kp_spread = prev + TRUST_RATE * (s - prev);
+	double ratio = TRUST_REF_PX / fmax(t->kp_spread, 1e-3);
+	t->kp_trust = fmin(t->s.detection_trust_max, fmax(1.0, ratio * ratio));
+}
+
+double mc_tracker_keypoint_trust(const mc_tracker *t, double *spread_px)
+{
+	if (spread_px)
+		*spread_px = t->kp_spread;
+	return t->kp_trust >= 1 ? t->kp_trust : 1;
+}
