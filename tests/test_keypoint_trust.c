@@ -1,8 +1,8 @@
 /* The keypoint term's trust (core/track/mc_keypoint_trust.c, docs/TRACKER.md
  * "Trusting keypoints that agree"), on the bundled head rig's calibration
  * and the default body model, keypoints projected from its rest pose:
- *   - both cameras' keypoints exact: the weight climbs to
- *     detection_trust_max over the frame sets, not at the first one;
+ *   - both cameras' keypoints exact: the weight is detection_trust_max
+ *     from the 30th frame set on, 1 before;
  *   - the cameras 3 px apart (at 128 wide) on every joint: it stays 1;
  *   - detection_trust_max 1, or keypoints from one camera only: it stays 1;
  *   - the detection term's energy grows by the factor;
@@ -75,8 +75,8 @@ static void test_agreement(void)
 	const double exact[2] = {0, 0}, apart[2] = {3, -3}; /* native 256 wide: 3 px apart at 128 */
 	int n = project_joints(t, pose, 3u, exact, kp);
 	CHECK_MSG(n >= 20, "%d keypoints in view", n);
-	double first = feed(t, kp, n, 1, &spread);
-	CHECK_MSG(first > 1 && first < 1.2, "one frame set set the trust to %.2f", first);
+	double first = feed(t, kp, n, 29, &spread);
+	CHECK_MSG(first == 1 && spread < 0.3, "29 frame sets set the trust to %.2f", first);
 	double trust = feed(t, kp, n, 90, &spread);
 	printf("exact keypoints: spread %.3f px, trust x%.2f\n", spread, trust);
 	CHECK_MSG(trust == 3 && spread < 0.3, "exact keypoints: x%.2f, spread %.3f px", trust, spread);

@@ -22,6 +22,10 @@ typedef struct {
 	int n, torso;
 } mc_trk_triangulation;
 
+/* Frame sets whose keypoints' agreement sets the keypoint term's trust
+ * (mc_keypoint_trust.c): 3 s at 30 fps */
+#define MC_TRK_TRUST_FRAMES 90
+
 /* Initialisation, shape calibration and recovery from detections
  * (mc_init.c). */
 #define MC_TRK_SHAPE_FRAMES 10 /* frame sets whose detections set the actor's size */
@@ -82,8 +86,11 @@ struct mc_tracker {
 	mc_keypoint_poll kp_poll;
 	void *kp_poll_ctx;
 	struct mc_trk_frame_keypoints *fkp;
-	/* running mean of the frame sets' median angle between two cameras'
-	 * rays of one joint (mc_trk_update_trust); 0: none yet */
+	/* the last frame sets' median gap between two cameras' rays of one
+	 * joint (a ring; mc_trk_update_trust), and the median of those; 0:
+	 * none yet */
+	double kp_spreads[MC_TRK_TRUST_FRAMES];
+	int kp_nspreads;
 	double kp_spread;
 	double kp_trust; /* the factor on lambda_detection, >= 1 */
 	mc_pose_prior *prior; /* NULL: none (mc_tracker_load_pose_prior) */
