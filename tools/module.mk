@@ -128,13 +128,17 @@ DETECTOR_FT_LR ?= 3e-4
 # 2 when nothing else runs; 1 beside a render job (two torch threads then
 # crawl)
 DETECTOR_FT_THREADS ?= 2
+# more train.py options, e.g. --aug-look (stop 48: make detector-finetune-v3
+# DETECTOR_FT_ARGS=--aug-look DETECTOR_FT_DIR=build/detector/look
+# DETECTOR_FT_MINUTES=105; docs/DETECTOR_EXPERIMENTS.md)
+DETECTOR_FT_ARGS ?=
 .PHONY: detector-finetune-v3
 detector-finetune-v3:
 	mkdir -p $(DETECTOR_FT_DIR)
 	nice -n 10 $(TRAIN_PYTHON) tools/train/train.py --data $(DETECTOR_V3_DIR)/data --ckpt $(DETECTOR_FT_DIR)/ckpt.pt \
 	  --init config/models/ego_detector.onnx --arch v2 --seed 44 --data-seed $(DETECTOR_V3_SEED) \
 	  --pair-weight $(DETECTOR_V2_PAIR) --epochs 200 --steps-per-epoch 500 --lr $(DETECTOR_FT_LR) --threads $(DETECTOR_FT_THREADS) \
-	  --minutes $(DETECTOR_FT_MINUTES) --resume
+	  --minutes $(DETECTOR_FT_MINUTES) --resume $(DETECTOR_FT_ARGS)
 
 # For a GPU machine (docs/DETECTOR_EXPERIMENTS.md, "v3 network and GPU training"): parts
 # of at most DETECTOR_PACK_MB MB of WebP views, each packed as PART.tar.gz;
