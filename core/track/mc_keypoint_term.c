@@ -22,19 +22,29 @@ static int keypoint_rays(const mc_tracker *t, const mc_keypoint *kp, int nkp, mc
 	return n;
 }
 
+int mc_trk_ray_closest(const mc_trk_keypoint_ray *a, const mc_trk_keypoint_ray *b, mc_vec3 *pa, mc_vec3 *pb)
+{
+	mc_vec3 w = mc_v3_sub(a->origin, b->origin);
+	double k = mc_v3_dot(a->dir, b->dir), d = mc_v3_dot(a->dir, w), e = mc_v3_dot(b->dir, w), den = 1 - k * k;
+	if (den < 1e-9)
+		return 0;
+	double sa = (k * e - d) / den, sb = (e - k * d) / den; /* along each ray */
+	if (sa <= 0 || sb <= 0)
+		return -1;
+	*pa = mc_v3_axpy(sa, a->dir, a->origin);
+	*pb = mc_v3_axpy(sb, b->dir, b->origin);
+	return 1;
+}
+
 /* Two cameras' detections of one joint must see one point: when the
  * closest distance of their rays exceeds STEREO_GATE_M (or they meet
  * behind a camera), at least one is wrong.  Parallel rays agree. */
 #define STEREO_GATE_M 0.10
 static bool rays_disagree(const mc_trk_keypoint_ray *a, const mc_trk_keypoint_ray *b)
 {
-	mc_vec3 w = mc_v3_sub(a->origin, b->origin);
-	double k = mc_v3_dot(a->dir, b->dir), d = mc_v3_dot(a->dir, w), e = mc_v3_dot(b->dir, w), den = 1 - k * k;
-	if (den < 1e-9)
-		return false;
-	double sa = (k * e - d) / den, sb = (e - k * d) / den; /* closest points along each ray */
-	mc_vec3 pa = mc_v3_axpy(sa, a->dir, a->origin), pb = mc_v3_axpy(sb, b->dir, b->origin);
-	return sa <= 0 || sb <= 0 || mc_v3_norm(mc_v3_sub(pa, pb)) > STEREO_GATE_M;
+	mc_vec3 pa, pb;
+	int meet = mc_trk_ray_closest(a, b, &pa, &pb);
+	return meet < 0 || (meet > 0 && mc_v3_norm(mc_v3_sub(pa, pb)) > STEREO_GATE_M);
 }
 
 /* Each detection is checked against the other cameras' detections of its

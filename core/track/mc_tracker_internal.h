@@ -173,6 +173,10 @@ typedef struct mc_trk_frame_keypoints {
 	int nrays;
 } mc_trk_frame_keypoints;
 
+/* The closest points *pa, *pb of two rays: 1, or 0 for parallel rays
+ * (nothing set), -1 when they meet behind either origin. */
+int mc_trk_ray_closest(const mc_trk_keypoint_ray *a, const mc_trk_keypoint_ray *b, mc_vec3 *pa, mc_vec3 *pb);
+
 /* After a frame set: the cameras' agreement on its keypoints joins the
  * running spread, and the keypoint term's trust follows it. */
 void mc_trk_update_trust(mc_tracker *t);
