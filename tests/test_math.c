@@ -1,5 +1,7 @@
-/* Tests of core/base/mc_math: rotations, transforms and the small solvers. */
+/* Tests of core/base/mc_math: rotations, transforms and the small solvers;
+ * and core/base/mc_stats' median. */
 #include "base/mc_math.h"
+#include "base/mc_stats.h"
 #include "test_util.h"
 
 static double mat_diff(mc_mat3 a, mc_mat3 b)
@@ -109,8 +111,18 @@ static void test_fit_rigid(void)
 	CHECK(mc_v3_norm(mc_v3_sub(fit.t, truth.t)) < 1e-9);
 }
 
+static void test_median(void)
+{
+	double odd[5] = {4, -1, 9, 2, 7}, even[4] = {3, 10, 1, 5}, none[1] = {0};
+	CHECK(mc_stats_median(odd, 5) == 4);
+	CHECK(odd[0] == -1 && odd[4] == 9); /* sorted in place */
+	CHECK(mc_stats_median(even, 4) == 4); /* the mean of 3 and 5 */
+	CHECK(mc_stats_median(none, 0) == 0);
+}
+
 int main(void)
 {
+	test_median();
 	test_fit_rigid();
 	test_rotations();
 	test_xforms();

@@ -27,3 +27,11 @@ double mc_stats_percentile(const double *sorted, size_t n, double p)
 		i = (long)n - 1;
 	return sorted[i];
 }
+
+double mc_stats_median(double *v, size_t n)
+{
+	if (n == 0)
+		return 0;
+	mc_stats_sort(v, n);
+	return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}

@@ -9,8 +9,9 @@
  * docs/TRACKER.md, "Trusting keypoints that agree". */
 #include "track/mc_tracker_internal.h"
 
+#include "base/mc_stats.h"
+
 #include <math.h>
-#include <stdlib.h>
 #include <string.h>
 
 /* The disagreement (pixels of an image 128 wide) above which
@@ -56,18 +57,6 @@ static double ray_gap_px(const mc_tracker *t, const mc_trk_keypoint_ray *a, int 
 	return fmin(gap, FAR_PX);
 }
 
-static int cmp_double(const void *a, const void *b)
-{
-	double x = *(const double *)a, y = *(const double *)b;
-	return (x > y) - (x < y);
-}
-
-static double median(double *v, int n)
-{
-	qsort(v, (size_t)n, sizeof(*v), cmp_double);
-	return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
-}
-
 /* The median gap (pixels at 128 wide) over every pair of cameras' rays of one joint in the
  * frame set (joints fixed to the rig left out: their keypoints say
  * nothing the rig does not); -1 when no joint was seen twice. */
@@ -83,7 +72,7 @@ static double frame_spread(const mc_tracker *t)
 				continue;
 			gap[n++] = ray_gap_px(t, a, k->cam[i], b, k->cam[j]);
 		}
-	return n ? median(gap, n) : -1;
+	return n ? mc_stats_median(gap, (size_t)n) : -1;
 }
 
 void mc_trk_update_trust(mc_tracker *t)
@@ -91,17 +80,20 @@ void mc_trk_update_trust(mc_tracker *t)
 	double s = frame_spread(t), recent[MC_TRK_TRUST_FRAMES];
 	if (s < 0)
 		return;
-	t->kp_spreads[t->kp_nspreads++ % MC_TRK_TRUST_FRAMES] = s;
-	int n = t->kp_nspreads < MC_TRK_TRUST_FRAMES ? t->kp_nspreads : MC_TRK_TRUST_FRAMES;
-	memcpy(recent, t->kp_spreads, sizeof(*recent) * (size_t)n);
-	t->kp_spread = median(recent, n);
-	double ratio = TRUST_REF_PX / fmax(t->kp_spread, 1e-3);
-	t->kp_trust = n < TRUST_MIN_FRAMES ? 1 : fmin(t->s.detection_trust_max, fmax(1.0, ratio * ratio));
+	t->kp_spreads[t->kp_next] = s;
+	t->kp_next = (t->kp_next + 1) % MC_TRK_TRUST_FRAMES;
+	if (t->kp_nspreads < MC_TRK_TRUST_FRAMES)
+		t->kp_nspreads++;
+	memcpy(recent, t->kp_spreads, sizeof(*recent) * (size_t)t->kp_nspreads);
+	t->kp_spread = mc_stats_median(recent, (size_t)t->kp_nspreads);
 }
 
 double mc_tracker_keypoint_trust(const mc_tracker *t, double *spread_px)
 {
 	if (spread_px)
 		*spread_px = t->kp_spread;
-	return t->kp_trust >= 1 ? t->kp_trust : 1;
+	if (t->kp_nspreads < TRUST_MIN_FRAMES)
+		return 1;
+	double ratio = TRUST_REF_PX / fmax(t->kp_spread, 1e-3);
+	return fmin(t->s.detection_trust_max, fmax(1.0, ratio * ratio));
 }

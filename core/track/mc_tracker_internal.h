@@ -87,12 +87,11 @@ struct mc_tracker {
 	void *kp_poll_ctx;
 	struct mc_trk_frame_keypoints *fkp;
 	/* the last frame sets' median gap between two cameras' rays of one
-	 * joint (a ring; mc_trk_update_trust), and the median of those; 0:
-	 * none yet */
+	 * joint (a ring: kp_nspreads of them, the next written at kp_next;
+	 * mc_trk_update_trust), and the median of those; 0: none yet */
 	double kp_spreads[MC_TRK_TRUST_FRAMES];
-	int kp_nspreads;
+	int kp_nspreads, kp_next;
 	double kp_spread;
-	double kp_trust; /* the factor on lambda_detection, >= 1 */
 	mc_pose_prior *prior; /* NULL: none (mc_tracker_load_pose_prior) */
 };
 
