@@ -27,6 +27,7 @@
 #define COLLAPSE_RAD 0.01
 #define SIDE_MIN_COST_M 0.10
 #define SIDE_MAX_VIEWS 8 /* views enumerated in step 2 (2^7 combinations) */
+#define SIDE_DECISIVE 0.5  /* step 2's best must meet at most this share of the runner-up's spread */
 
 static double ray_distance(mc_vec3 p, const mc_trk_keypoint_ray *r)
 {
@@ -77,12 +78,15 @@ typedef struct {
 } pair_views;
 
 /* Step 2: the exchanges (bit v: view v exchanged; view 0 never) under which
- * both joints' rays meet best. */
-static unsigned consistent_flips(const pair_views *p)
+ * both joints' rays meet best, into *flips.  False when the views do not
+ * settle it: the runner-up meets within SIDE_DECISIVE of the best (with
+ * two cameras facing each other, the exchanged labels meet too, at a ghost
+ * point between the feet), and then the tracked pose decides per view. */
+static bool consistent_flips(const pair_views *p, unsigned *flips_out)
 {
 	int n = p->n < SIDE_MAX_VIEWS ? p->n : SIDE_MAX_VIEWS;
 	unsigned best = 0;
-	double best_cost = INFINITY;
+	double best_cost = INFINITY, runner_up = INFINITY;
 	for (unsigned flips = 0; flips < (1u << (n - 1)); flips++) {
 		const mc_trk_keypoint_ray *left[MC_MAX_CAMERAS], *right[MC_MAX_CAMERAS];
 		for (int v = 0; v < n; v++) {
@@ -92,15 +96,19 @@ static unsigned consistent_flips(const pair_views *p)
 		}
 		double cost = spread(left, n) + spread(right, n);
 		if (cost < best_cost) {
+			runner_up = best_cost;
 			best_cost = cost;
 			best = flips << 1;
+		} else if (cost < runner_up) {
+			runner_up = cost;
 		}
 	}
 	/* Face the way most views said: exchange every view if most were. */
 	int flipped = __builtin_popcount(best);
 	if (2 * flipped > n)
 		best = ~best & ((1u << n) - 1);
-	return best;
+	*flips_out = best;
+	return best_cost < SIDE_DECISIVE * runner_up;
 }
 
 /* Step 3 over the views of p (all of them as one, or each alone). */
@@ -169,13 +177,14 @@ void mc_trk_assign_sides(const mc_tracker *t, mc_trk_keypoint_ray *r, const int 
 			continue;
 		pair_views p;
 		collect(r, cam, n, left, right, have_pose ? &fk : NULL, &p);
-		bool views_agree = p.n >= 3;
-		if (views_agree) {
-			unsigned flips = consistent_flips(&p);
+		bool views_agree = false;
+		unsigned flips = 0;
+		if (p.n >= 3)
+			views_agree = consistent_flips(&p, &flips) || !have_pose;
+		if (views_agree)
 			for (int v = 0; v < p.n; v++)
 				if ((flips >> v) & 1)
 					exchange(p.a[v], p.b[v]);
-		}
 		if (have_pose && p.n > 0)
 			follow_pose(&fk, &p, views_agree);
 	}
