@@ -6,7 +6,8 @@
  *   - the cameras 3 px apart (at 128 wide) on every joint: it stays 1;
  *   - detection_trust_max 1, or keypoints from one camera only: it stays 1;
  *   - the detection term's energy grows by the factor;
- *   - outside-in rigs get 2 unless the setting was given; out-of-range
+ *   - outside-in rigs get 2 (1 with two cameras) unless the setting was
+ *     given; out-of-range
  *     values are refused by name. */
 #include "test_util.h"
 
@@ -121,6 +122,8 @@ static void test_settings(void)
 	CHECK(s.detection_trust_max == 3); /* given: kept */
 	mc_tracker_settings_outside_in(&s, 4, 0);
 	CHECK(s.detection_trust_max == 2);
+	mc_tracker_settings_outside_in(&s, 2, 0);
+	CHECK(s.detection_trust_max == 1); /* two cameras: fixed */
 	s.detection_trust_max = 0.5;
 	mc_err err = {{0}};
 	mc_tracker *t = mc_tracker_create(&rig, &model, &s, &err);

@@ -97,7 +97,8 @@ typedef struct {
 	bool assign_sides;                   /* the views can settle left and right */
 	double lambda_prior;                 /* the learned pose prior helps here */
 	int ray_fit_min_cameras;             /* the ray fit with this many cameras or more */
-	double detection_trust_max;          /* 1: the keypoint weight stays as set */
+	double detection_trust_max;          /* with trust_min_cameras or more (else 1: fixed) */
+	int trust_min_cameras;
 } mc_tracker_outside_in_defaults;
 extern const mc_tracker_outside_in_defaults mc_tracker_outside_in;
 /* camera_iterations / ncams, within [min_iterations, max_iterations]: 80

@@ -60,7 +60,7 @@ static void usage(FILE *f)
 		   "                        (rates override the preset; docs/man/mocap-bench.1 gives the sources)\n"
 		   "  --lambda-detection L  weight of the keypoint term\n"
 		   "  --detection-trust-max F  the keypoint term's weight grows up to F times while the cameras'\n"
-		   "                        keypoints agree closely (default 3; outside-in 2)\n"
+		   "                        keypoints agree closely (default 3; outside-in 2, 1 with two cameras)\n"
 		   "  --detector MODEL      the 2D joint detector (ONNX, docs/DETECTOR.md) feeds the tracker, and a\n"
 		   "                        2D report follows; as in mocapd, frame set k + 1 is detected on a\n"
 		   "                        thread of its own while k is tracked, and the speed counts the\n"
