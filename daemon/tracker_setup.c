@@ -206,7 +206,8 @@ void mcd_tracker_settings(const mcd_config *cfg, const mc_rig *rig, mc_tracker_s
 		    {"lambda_detection", MC_GIVEN_LAMBDA_DETECTION},
 		    {"lambda_prior", MC_GIVEN_LAMBDA_PRIOR},
 		    {"ray_fit", MC_GIVEN_RAY_FIT},
-		    {"detection_trust_max", MC_GIVEN_DETECTION_TRUST}};
+		    {"detection_trust_max", MC_GIVEN_DETECTION_TRUST},
+		    {"pixel_fraction", MC_GIVEN_PIXEL_FRACTION}};
 	*s = cfg->tracker.settings;
 	if (rig->kind != MC_RIG_OUTSIDE_IN)
 		return;
@@ -224,9 +225,10 @@ int mcd_tracking_setup(const mcd_config *cfg, mcd_tracking *t, mc_err *err)
 		goto fail;
 	mcd_tracker_settings(cfg, &t->rig, &t->settings);
 	if (t->rig.kind == MC_RIG_OUTSIDE_IN)
-		mcd_info("tracker: outside-in rig: iterations %d, lambda_smooth %g, lambda_floor %g, lambda_detection %g",
+		mcd_info("tracker: outside-in rig: iterations %d, lambda_smooth %g, lambda_floor %g, lambda_detection %g, "
+			 "pixel_fraction %g",
 			 t->settings.iterations, t->settings.lambda_smooth, t->settings.lambda_floor,
-			 t->settings.lambda_detection);
+			 t->settings.lambda_detection, t->settings.pixel_fraction);
 	t->tracker = mc_tracker_create(&t->rig, &t->model, &t->settings, err);
 	if (!t->tracker) {
 		mc_err_prefix(err, "%s:%d: [tracker]", cfg->file, cfg->tracker.line);

@@ -153,7 +153,8 @@ static void test_outside_in(void)
 	const char *const args[] = {"--print", "--exit-at-end", NULL};
 	int lines, tracked;
 	char *out = run_clip(&r, args, "cams 4/4", &lines, &tracked);
-	CHECK(mcd_run_wait_log(&r, "tracker: outside-in rig: iterations 80, lambda_smooth 0.01, lambda_floor 0, lambda_detection 0.3", 0));
+	CHECK(mcd_run_wait_log(&r, "tracker: outside-in rig: iterations 80, lambda_smooth 0.01, lambda_floor 0, lambda_detection 0.3, "
+				    "pixel_fraction 0.14", 0));
 	CHECK(mcd_run_wait_log(&r, "rig outside_in (4 cameras)", 0));
 	mc_vec3 neck;
 	CHECK(out && joint_in_line(out, "neck", &neck));

@@ -5,7 +5,8 @@
  * 0's joints (the evaluation protocol's gt0), must recover the pose and
  * follow the moving root from the images alone; started from keypoints
  * alone (perfect projections of the joints), it must find the first pose,
- * the root's place and the actor's size itself. */
+ * the root's place and the actor's size itself.  Also: the outside-in
+ * default settings leave alone what the user gave. */
 #include "body/mc_model.h"
 #include "geom/mc_rig.h"
 #include "image/mc_image.h"
@@ -186,9 +187,25 @@ static walk_result track_walk(mc_tracker *t, const mc_rig *rig, const mc_model *
 	return r;
 }
 
+/* The outside-in defaults fill what the user did not give, and only that. */
+static void test_outside_in_settings(void)
+{
+	mc_tracker_settings s;
+	mc_tracker_settings_default(&s);
+	CHECK(s.pixel_fraction == 0.07);
+	mc_tracker_settings_outside_in(&s, 4, 0);
+	CHECK(s.iterations == 80 && s.pixel_fraction == 0.14 && s.lambda_smooth == 0.01);
+	mc_tracker_settings_default(&s);
+	s.pixel_fraction = 0.05;
+	s.iterations = 30;
+	mc_tracker_settings_outside_in(&s, 2, MC_GIVEN_PIXEL_FRACTION | MC_GIVEN_ITERATIONS);
+	CHECK(s.iterations == 30 && s.pixel_fraction == 0.05 && s.lambda_smooth == 0.01);
+}
+
 int main(int argc, char **argv)
 {
 	(void)argc;
+	test_outside_in_settings();
 	mc_test_find_tool(argv[0], "mocap-render", tool, sizeof(tool));
 	static mc_rig rig;
 	static mc_model model;

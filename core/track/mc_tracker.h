@@ -99,6 +99,7 @@ typedef struct {
 	int ray_fit_min_cameras;             /* the ray fit with this many cameras or more */
 	double detection_trust_max;          /* with trust_min_cameras or more (else 1: fixed) */
 	int trust_min_cameras;
+	double pixel_fraction;               /* the detector, not the pixels, sets the pace here */
 } mc_tracker_outside_in_defaults;
 extern const mc_tracker_outside_in_defaults mc_tracker_outside_in;
 /* camera_iterations / ncams, within [min_iterations, max_iterations]: 80
@@ -114,6 +115,7 @@ int mc_tracker_outside_in_iterations(int ncams);
 #define MC_GIVEN_LAMBDA_PRIOR 32u
 #define MC_GIVEN_RAY_FIT 64u
 #define MC_GIVEN_DETECTION_TRUST 128u
+#define MC_GIVEN_PIXEL_FRACTION 256u
 /* Sets the outside-in values for a rig of ncams cameras in every setting
  * not in `given` (MC_GIVEN_* flags). */
 void mc_tracker_settings_outside_in(mc_tracker_settings *s, int ncams, unsigned given);

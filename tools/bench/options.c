@@ -34,7 +34,7 @@ static void usage(FILE *f)
 		   "  --width W --height H  working resolution per camera (default 128x128)\n"
 		   "  --iterations N        gradient iterations per frame (default 50; outside-in clips 320 shared\n"
 		   "                        among the cameras, within 40..160: 80 with four cameras)\n"
-		   "  --pixel-fraction F    share of candidate pixels per iteration\n"
+		   "  --pixel-fraction F    share of candidate pixels per iteration (default 0.07; outside-in 0.14)\n"
 		   "  --dropout P           per-pixel Gaussian dropout probability\n"
 		   "  --step S --momentum M --lambda-smooth L --lambda-pose L --lambda-limit L\n"
 		   "  --platform N --device N   OpenCL device (default: first GPU, else first CPU)\n"
@@ -182,7 +182,7 @@ static int apply_option(options *o, int c, const char *name, const char *arg, bo
 	case OPT_WIDTH: s->width = (int)v; break;
 	case OPT_HEIGHT: s->height = (int)v; break;
 	case OPT_ITER: s->iterations = (int)v; o->given |= MC_GIVEN_ITERATIONS; break;
-	case OPT_FRAC: s->pixel_fraction = v; break;
+	case OPT_FRAC: s->pixel_fraction = v; o->given |= MC_GIVEN_PIXEL_FRACTION; break;
 	case OPT_DROP: s->dropout = v; break;
 	case OPT_STEP: s->step = v; break;
 	case OPT_MOM: s->momentum = v; break;
