@@ -11,7 +11,8 @@
  *   2. with three cameras or more, the views must agree: each view's
  *      labels are kept or exchanged so that both joints triangulate best
  *      (the first such view fixed, the others enumerated), and the set as a
- *      whole then faces the way most views said;
+ *      whole then faces the way most views said; where the best labelling
+ *      does not clearly beat the runner-up, step 3 decides view by view;
  *   3. the tracked pose (the last frame set's) exchanges the labels of a
  *      pair (in one view, or in every view at once after step 2) when the
  *      exchanged labels fit it clearly better: at most half the cost, and
@@ -79,9 +80,10 @@ typedef struct {
 
 /* Step 2: the exchanges (bit v: view v exchanged; view 0 never) under which
  * both joints' rays meet best, into *flips.  False when the views do not
- * settle it: the runner-up meets within SIDE_DECISIVE of the best (with
- * two cameras facing each other, the exchanged labels meet too, at a ghost
- * point between the feet), and then the tracked pose decides per view. */
+ * settle it, the best spread being more than SIDE_DECISIVE of the
+ * runner-up's (two cameras facing each other meet at ghost points between
+ * the feet when one of them is exchanged): the tracked pose then decides
+ * view by view. */
 static bool consistent_flips(const pair_views *p, unsigned *flips_out)
 {
 	int n = p->n < SIDE_MAX_VIEWS ? p->n : SIDE_MAX_VIEWS;
