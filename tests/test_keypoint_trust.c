@@ -7,8 +7,7 @@
  *   - detection_trust_max 1, or keypoints from one camera only: it stays 1;
  *   - the detection term's energy grows by the factor;
  *   - outside-in rigs get 2 (1 with two cameras) unless the setting was
- *     given; out-of-range
- *     values are refused by name. */
+ *     given; out-of-range values are refused by name. */
 #include "test_util.h"
 
 #include "eval/mc_clip.h"
