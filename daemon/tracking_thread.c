@@ -51,6 +51,7 @@ struct mcd_tracking_thread {
 	uint8_t *raw[MC_MAX_CAMERAS], *rgb[MC_MAX_CAMERAS];
 	size_t raw_cap[MC_MAX_CAMERAS], rgb_cap[MC_MAX_CAMERAS];
 	uint64_t seq;
+	int turns_seen; /* the tracker's turn-arounds already logged */
 	srv_keypoints *kp_batch;
 	srv_keypoints *kp_latest; /* per rig camera */
 	mc_keypoint *kp;          /* the ones used for one frame set */
@@ -413,6 +414,9 @@ static void track(mcd_tracking_thread *t, const mc_frame_view *views, int presen
 	mc_tracker_init_info init;
 	mc_tracker_get_init_info(tr->tracker, &init);
 	uint64_t errors = count_tracked(t, rc, o, init.inits);
+	if (init.turns > t->turns_seen) /* docs/TRACKER.md, "Facing" */
+		mcd_info("tracker: the body faced the wrong way: turned around (%d times so far)", init.turns);
+	t->turns_seen = init.turns; /* a new tracker (a reload) starts again at 0 */
 	if (rc != 0 && mc_throttle_should_log(errors))
 		mcd_warn("tracker: %s (%llu failures so far)", err.msg, (unsigned long long)errors);
 }

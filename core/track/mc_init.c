@@ -232,22 +232,36 @@ static void place_free_root(const mc_model *m, const mc_trk_triangulation *tri, 
 	mc_ik_place_free_root(m, pose, joint, to, w, n);
 }
 
-/* The first pose, from the rest pose with restarts; then the colours from
- * these images.  Returns 1 when tracking can start, 0 to wait, -1. */
-static int first_fit(mc_tracker *t, const mc_frame_view *views, int nviews, const mc_trk_triangulation *tri,
-		     mc_err *err)
+double mc_trk_fit_from_rest(const mc_tracker *t, const mc_trk_triangulation *tri, int iterations, bool restarts,
+			    double *pose)
+{
+	mc_model m = t->model;
+	mc_model_rest_pose(&m, pose);
+	place_free_root(&m, tri, pose);
+	return fit_pose(t, &m, tri, NULL, NULL, iterations, restarts, pose);
+}
+
+/* The first pose (facing the way that fits the rays better), or the body
+ * turned around (turn: the labels exchanged in every view); then the
+ * colours from these images.  The frame set's rays get the labels of the
+ * way chosen.  Returns 1 when tracking can start, 0 to wait, -1. */
+static int fit_body(mc_tracker *t, const mc_frame_view *views, int nviews, const mc_trk_triangulation *tri, bool turn,
+		    mc_trk_keypoint_ray *rays, int nrays, mc_err *err)
 {
 	double pose[MC_MAX_DOF];
-	mc_model_rest_pose(&t->model, pose);
-	place_free_root(&t->model, tri, pose);
-	double rms = fit_pose(t, &t->model, tri, NULL, NULL, 60, true, pose);
+	bool turned = false;
+	double rms = turn ? mc_trk_facing_fit_turned(t, tri, pose)
+			  : mc_trk_facing_fit(t, tri, pose, &turned);
 	if (!(rms >= 0 && rms <= FIT_MAX_RMS_M))
 		return 0; /* not a body: wait for a better frame set */
+	if (turn || turned)
+		mc_trk_exchange_sides(&t->model, rays, nrays);
 	mc_tracker_set_pose(t, pose);
 	if (mc_trk_calibrate(t, views, nviews, !t->init.keep_colours, err) < 0)
 		return -1;
-	t->init.waiting = false;
-	t->init.inits++;
+	mc_trk_facing_reset(&t->init.facing);
+	memset(t->init.disagree, 0, sizeof(t->init.disagree));
+	t->init.turns += turn || turned;
 	return 1;
 }
 
@@ -466,7 +480,7 @@ static int recover(mc_tracker *t, const mc_frame_view *views, int nviews, const 
 
 /* ---- per frame set --------------------------------------------------------- */
 
-int mc_trk_init_step(mc_tracker *t, const mc_frame_view *views, int nviews, const mc_trk_keypoint_ray *rays,
+int mc_trk_init_step(mc_tracker *t, const mc_frame_view *views, int nviews, mc_trk_keypoint_ray *rays,
 		     const int *cam, int nrays, mc_err *err)
 {
 	mc_trk_init *in = &t->init;
@@ -476,13 +490,18 @@ int mc_trk_init_step(mc_tracker *t, const mc_frame_view *views, int nviews, cons
 	if (in->waiting) {
 		if (!enough_for_fit(&tri))
 			return 1;
-		int rc = first_fit(t, views, nviews, &tri, err);
+		int rc = fit_body(t, views, nviews, &tri, false, rays, nrays, err);
 		if (rc <= 0)
 			return rc < 0 ? -1 : 1;
+		in->waiting = false;
+		in->inits++;
 		collect_shape(t, &tri);
 		return 0;
 	}
 	if (recover(t, views, nviews, &tri, err) < 0)
+		return -1;
+	if (enough_for_fit(&tri) && mc_trk_facing_wrong(t, &tri) &&
+	    fit_body(t, views, nviews, &tri, true, rays, nrays, err) < 0)
 		return -1;
 	if (finish_shape(t, views, nviews, &tri, err) < 0)
 		return -1;

@@ -35,12 +35,11 @@ static double ray_distance(mc_vec3 p, const mc_trk_keypoint_ray *r)
 	return mc_v3_norm(mc_v3_reject(mc_v3_sub(p, r->origin), r->dir));
 }
 
-/* The model joint on the other side of the body, or -1. */
-static int other_side(const mc_model *m, int joint)
+int mc_trk_other_side(const mc_model *m, int joint)
 {
-	const char *name = m->joints[joint].name;
 	char want[MC_JOINT_NAME_MAX + 8];
-	if (strncmp(name, "left_", 5) != 0 || mc_joint_other_side_name(name, want, sizeof(want)) != 1)
+	if (joint < 0 || joint >= m->njoints ||
+	    mc_joint_other_side_name(m->joints[joint].name, want, sizeof(want)) != 1)
 		return -1;
 	return mc_model_find_joint(m, want);
 }
@@ -174,8 +173,8 @@ void mc_trk_assign_sides(const mc_tracker *t, mc_trk_keypoint_ray *r, const int 
 	if (have_pose)
 		mc_model_fk(&t->model, t->pose, &fk);
 	for (int left = 0; left < t->model.njoints; left++) {
-		int right = other_side(&t->model, left);
-		if (right < 0)
+		int right = mc_trk_other_side(&t->model, left);
+		if (right < 0 || strncmp(t->model.joints[left].name, "left_", 5) != 0)
 			continue;
 		pair_views p;
 		collect(r, cam, n, left, right, have_pose ? &fk : NULL, &p);

@@ -26,6 +26,14 @@ typedef struct {
  * (mc_keypoint_trust.c): 3 s at 30 fps */
 #define MC_TRK_TRUST_FRAMES 90
 
+/* The facing checks' log(exchanged labels' RMS / kept labels' RMS), the
+ * last MC_TRK_FACING_CHECKS (mc_facing.c). */
+#define MC_TRK_FACING_CHECKS 10
+typedef struct {
+	double log_ratio[MC_TRK_FACING_CHECKS];
+	int n, next;
+} mc_trk_facing;
+
 /* Initialisation, shape calibration and recovery from detections
  * (mc_init.c). */
 #define MC_TRK_SHAPE_FRAMES 10 /* frame sets whose detections set the actor's size */
@@ -42,7 +50,8 @@ typedef struct {
 	int disagree[MC_MAX_JOINTS]; /* frame sets in a row a joint missed its rays */
 	float conf[MC_MAX_JOINTS];   /* last frame set's joint confidence */
 	int lost_run;    /* frame sets in a row in the lost state */
-	int inits, refits;
+	int inits, refits, turns;
+	mc_trk_facing facing;
 	int last_joints;  /* joints triangulated in the last frame set */
 	double scale;     /* the size found (uniform bone scale), 0 before */
 } mc_trk_init;
@@ -154,6 +163,10 @@ typedef struct {
 /* Left/right pairs of a frame set's keypoint rays relabelled by the views'
  * agreement and the tracked pose (mc_sides.c; settings.assign_sides). */
 void mc_trk_assign_sides(const mc_tracker *t, mc_trk_keypoint_ray *r, const int *cam, int n);
+/* The joint on the other side of the body (left_x <-> right_x), or -1. */
+int mc_trk_other_side(const mc_model *m, int joint);
+/* Every left/right label of the rays exchanged (the body turned around). */
+void mc_trk_exchange_sides(const mc_model *m, mc_trk_keypoint_ray *r, int n);
 
 /* The frame's keypoints as rays, once per frame, with each ray's camera
  * (cam): unusable ones left out, and those that disagree with more of the
@@ -191,13 +204,35 @@ int mc_trk_ray_fit(mc_tracker *t, const double *pred, double *pose, mc_err *err)
 
 /* ---- starting and recovering from detections (mc_init.c) ---- */
 
+/* The pose fitted to the triangulated joints' rays from the rest pose
+ * placed on them, into pose; returns the RMS distance from the rays, or
+ * -1.  The first fit and a re-fit of the whole body use
+ * MC_TRK_FULL_FIT_ITERATIONS with restarts. */
+#define MC_TRK_FULL_FIT_ITERATIONS 60
+double mc_trk_fit_from_rest(const mc_tracker *t, const mc_trk_triangulation *tri, int iterations, bool restarts,
+			    double *pose);
+
+/* ---- which way the body faces (mc_facing.c) ---- */
+
+/* The first pose (as mc_trk_fit_from_rest); on an outside-in rig whose
+ * sides the tracker decides, also fitted with every left/right pair
+ * exchanged, the better kept (*turned then true). */
+double mc_trk_facing_fit(const mc_tracker *t, const mc_trk_triangulation *tri, double *pose, bool *turned);
+/* The pose fitted with every left/right pair exchanged (the body turned
+ * around): mc_trk_fit_from_rest's result. */
+double mc_trk_facing_fit_turned(const mc_tracker *t, const mc_trk_triangulation *tri, double *pose);
+/* One frame set's check while tracking: true when the recent frame sets'
+ * rays say that the tracked body faces the wrong way. */
+bool mc_trk_facing_wrong(mc_tracker *t, const mc_trk_triangulation *tri);
+void mc_trk_facing_reset(mc_trk_facing *f);
+
 /* Waits for a first pose from detections (the rest pose until then);
  * flags: MC_INIT_* (mc_tracker.h). */
 int mc_trk_init_start(mc_tracker *t, unsigned flags, mc_err *err);
 /* Before tracking a frame set: the first pose when waiting, a re-fit when
  * lost or stuck, the shape samples.  Returns 1 while still waiting, 0 to
  * track, -1 with err. */
-int mc_trk_init_step(mc_tracker *t, const mc_frame_view *views, int nviews, const mc_trk_keypoint_ray *rays,
+int mc_trk_init_step(mc_tracker *t, const mc_frame_view *views, int nviews, mc_trk_keypoint_ray *rays,
 		     const int *cam, int nrays, mc_err *err);
 /* After tracking: the state and confidence, for recovery, and the pose of
  * a collected frame set. */

@@ -231,9 +231,9 @@ void bench_print_init_report(const mc_tracker *t, const mc_clip *clip, const ben
 	mc_tracker_init_info in;
 	mc_tracker_get_init_info(t, &in);
 	printf("init from detections: first pose at frame set %d (%.2f s), size %s (bone scale %.3f) from %d frame "
-	       "sets, %d re-fits\n",
+	       "sets, %d re-fits, turned around %d times\n",
 	       st->first_tracked, st->first_tracked >= 0 ? st->first_tracked / clip->gt.fps : -1.0,
-	       in.shape_measured ? "measured" : "NOT measured", in.scale, in.shape_frames, in.refits);
+	       in.shape_measured ? "measured" : "NOT measured", in.scale, in.shape_frames, in.refits, in.turns);
 	if (clip->has_gt)
 		print_bones(t, clip, st);
 }
