@@ -424,7 +424,7 @@ static int check_keypoint_line(const char *line, int want_k, const mc_clip *clip
 			double conf = json_number_value(json_array_get(p, 2)), tu = -1e9, tv = -1e9;
 			int g = mc_clip_joint(clip, name);
 			if (g >= 0)
-				mc_camera_project(cam, mc_xform_apply(mc_xform_inverse(cam->rig_from_cam), mc_clip_gt(clip, want_k, g)),
+				mc_camera_project_rig(cam, mc_clip_gt(clip, want_k, g),
 						  &tu, &tv);
 			bool good = json_array_size(p) == 3 && conf >= 0 && conf <= 1 && u > -0.5 && v > -0.5 && u < cam->width &&
 				    v < cam->height;

@@ -605,6 +605,28 @@ static void test_unbounded(void)
 	CHECK(!mc_camera_project_unbounded(&pin, mc_v3(1, 0, -1), &u, &v)); /* behind a pinhole */
 }
 
+/* A rig-frame point projects where the camera sees it, and its pixel's
+ * rig-frame ray passes through it: the camera turned and moved on the rig. */
+static void test_rig_frame(void)
+{
+	mc_camera eq = ego_equidistant();
+	eq.rig_from_cam = (mc_xform){mc_m3_rot_axis(1, 20 * DEG), mc_v3(0.1, -0.05, 0.02)};
+	mc_vec3 p_rig = mc_v3(0.4, 0.3, 1.2);
+	double u, v, uc, vc;
+	CHECK(mc_camera_project_rig(&eq, p_rig, &u, &v));
+	CHECK(mc_camera_project(&eq, mc_xform_apply(mc_xform_inverse(eq.rig_from_cam), p_rig), &uc, &vc));
+	CHECK_NEAR(u, uc, 1e-12);
+	CHECK_NEAR(v, vc, 1e-12);
+	mc_vec3 dir;
+	CHECK(mc_camera_unproject_rig(&eq, u, v, &dir));
+	mc_vec3 to_p = mc_v3_sub(p_rig, eq.rig_from_cam.t);
+	CHECK_NEAR(mc_v3_norm(mc_v3_reject(to_p, dir)), 0, 1e-9);
+	CHECK(mc_v3_dot(to_p, dir) > 0);
+	/* behind the camera: not seen */
+	CHECK(!mc_camera_project_rig(&eq, mc_v3_sub(eq.rig_from_cam.t, mc_m3_apply(eq.rig_from_cam.R, mc_v3(0, 0, 1))),
+				     &u, &v));
+}
+
 /* The field of view fitted to a calibration without one. */
 static void test_fit_max_theta(void)
 {
@@ -618,6 +640,7 @@ static void test_fit_max_theta(void)
 int main(void)
 {
 	test_unbounded();
+	test_rig_frame();
 	test_fit_max_theta();
 	test_roundtrips();
 	test_opencv_references();

@@ -43,8 +43,7 @@ static void run(mcd_run *r, const mc_rig *rig)
 	mocap_keypoint kp[2];
 	double u[2], v[2];
 	for (int cam = 0; cam < 2; cam++) {
-		mc_vec3 p = mc_xform_apply(mc_xform_inverse(rig->cams[cam].rig_from_cam), target);
-		CHECK(mc_camera_project(&rig->cams[cam], p, &u[cam], &v[cam]));
+		CHECK(mc_camera_project_rig(&rig->cams[cam], target, &u[cam], &v[cam]));
 		kp[cam] = (mocap_keypoint){wrist, (float)u[cam], (float)v[cam], 1.0f};
 	}
 	double before = mcd_ray_distance(&rig->cams[0], u[0], v[0], w0);

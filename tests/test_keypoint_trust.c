@@ -28,9 +28,8 @@ static int project_joints(const mc_tracker *t, const double *pose, unsigned cams
 	for (int c = 0; c < rig.ncams; c++)
 		for (int j = 0; j < t->model.njoints && (cams >> c & 1u); j++) {
 			double u, v;
-			mc_xform cam_from_rig = mc_xform_inverse(rig.cams[c].rig_from_cam);
 			if (!t->fixed_joint[j] &&
-			    mc_camera_project(&rig.cams[c], mc_xform_apply(cam_from_rig, fk.rig_from_joint[j].t), &u, &v))
+			    mc_camera_project_rig(&rig.cams[c], fk.rig_from_joint[j].t, &u, &v))
 				kp[n++] = (mc_keypoint){.cam = c, .joint = j, .u = (float)u, .v = (float)(v + dv[c]), .conf = 1};
 		}
 	return n;

@@ -122,8 +122,7 @@ static void test_view_gate(mc_tracker *t, const mc_rig *rig, const mc_model *m, 
 	mc_keypoint kp[MC_MAX_CAMERAS];
 	for (int c = 0; c < rig->ncams; c++) {
 		double u = 0, v = 0;
-		mc_vec3 p = mc_xform_apply(mc_xform_inverse(rig->cams[c].rig_from_cam), neck);
-		CHECK(mc_camera_project(&rig->cams[c], p, &u, &v));
+		CHECK(mc_camera_project_rig(&rig->cams[c], neck, &u, &v));
 		kp[c] = (mc_keypoint){c, j, u, v + (c == 3 ? 40 : 0), 0.9}; /* vertical: off every epipolar line */
 	}
 	mc_trk_keypoint_ray rays[MC_TRK_MAX_KEYPOINTS];
@@ -149,8 +148,7 @@ static int frame_keypoints(const mc_rig *rig, const mc_model *m, int k, mc_keypo
 	for (int c = 0; c < rig->ncams; c++)
 		for (int j = 0; j < m->njoints; j++) {
 			double u, v;
-			mc_vec3 p = mc_xform_apply(mc_xform_inverse(rig->cams[c].rig_from_cam), fk.rig_from_joint[j].t);
-			if (mc_camera_project(&rig->cams[c], p, &u, &v))
+			if (mc_camera_project_rig(&rig->cams[c], fk.rig_from_joint[j].t, &u, &v))
 				kp[n++] = (mc_keypoint){c, j, u, v, 1.0};
 		}
 	return n;

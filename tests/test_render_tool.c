@@ -49,8 +49,7 @@ static bool near_color(const uint8_t *p, int r, int g, int b, int tol)
 static bool project(const mc_camera *cam, mc_vec3 p_rig, int w, int h, int *x, int *y)
 {
 	double u, v;
-	mc_vec3 p = mc_xform_apply(mc_xform_inverse(cam->rig_from_cam), p_rig);
-	if (!mc_camera_project(cam, p, &u, &v))
+	if (!mc_camera_project_rig(cam, p_rig, &u, &v))
 		return false;
 	*x = (int)lround((u + 0.5) * w / cam->width - 0.5);
 	*y = (int)lround((v + 0.5) * h / cam->height - 0.5);

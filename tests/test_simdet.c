@@ -50,7 +50,7 @@ static void simulate(int k, const mc_simdet *sd, uint64_t *rng, frame_kp *f, mc_
 		for (int e = 0; e < NJ; e++) {
 			const mc_camera *cam = &clip.rig.cams[c];
 			mc_vec3 p = mc_clip_gt(&clip, k, mc_clip_joint(&clip, joints[e]));
-			if (!mc_camera_project(cam, mc_xform_apply(mc_xform_inverse(cam->rig_from_cam), p), &f->tu[c][e],
+			if (!mc_camera_project_rig(cam, p, &f->tu[c][e],
 					       &f->tv[c][e]))
 				f->tu[c][e] = f->tv[c][e] = -1e9; /* not in the image */
 		}
@@ -107,9 +107,8 @@ static int legacy(int k, double noise_px, uint64_t *rng, mc_keypoint *kp, int ca
 		int g = mc_clip_joint(&clip, joints[e]), j = mc_model_find_joint(&model, joints[e]);
 		for (int c = 0; c < clip.rig.ncams && g >= 0 && j >= 0 && n < cap; c++) {
 			const mc_camera *cam = &clip.rig.cams[c];
-			mc_vec3 p = mc_xform_apply(mc_xform_inverse(cam->rig_from_cam), mc_clip_gt(&clip, k, g));
 			double u, v;
-			if (!mc_camera_project(cam, p, &u, &v) || mc_rng_uniform(rng) < MC_CLIP_SIMULATED_MISS)
+			if (!mc_camera_project_rig(cam, mc_clip_gt(&clip, k, g), &u, &v) || mc_rng_uniform(rng) < MC_CLIP_SIMULATED_MISS)
 				continue;
 			double du = noise_px * legacy_gauss(rng), dv = noise_px * legacy_gauss(rng);
 			kp[n++] = (mc_keypoint){c, j, u + du, v + dv, 1.0};

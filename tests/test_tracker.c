@@ -482,9 +482,8 @@ static int arm_keypoints(const synth *s, const double *pose, mc_keypoint *kp)
 		for (int i = 0; i < 2; i++) {
 			const mc_camera *cam = &s->rig.cams[c];
 			int j = mc_model_find_joint(&s->model, names[i]);
-			mc_vec3 p = mc_xform_apply(mc_xform_inverse(cam->rig_from_cam), fk.rig_from_joint[j].t);
 			double u, v;
-			if (mc_camera_project(cam, p, &u, &v))
+			if (mc_camera_project_rig(cam, fk.rig_from_joint[j].t, &u, &v))
 				kp[n++] = (mc_keypoint){c, j, u, v, 1.0};
 		}
 	return n;

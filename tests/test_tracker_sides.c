@@ -35,9 +35,8 @@ static int wrists(const double *pose, mc_keypoint *kp)
 	for (int c = 0; c < rig.ncams; c++)
 		for (int s = 0; s < 2; s++) {
 			int j = s ? right_wrist : left_wrist;
-			mc_xform cam_from_rig = mc_xform_inverse(rig.cams[c].rig_from_cam);
 			double u, v;
-			if (mc_camera_project(&rig.cams[c], mc_xform_apply(cam_from_rig, fk.rig_from_joint[j].t), &u, &v))
+			if (mc_camera_project_rig(&rig.cams[c], fk.rig_from_joint[j].t, &u, &v))
 				kp[n++] = (mc_keypoint){.cam = c, .joint = j, .u = (float)u, .v = (float)v, .conf = 0.9f};
 		}
 	return n;

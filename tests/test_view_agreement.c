@@ -11,7 +11,7 @@ static int project_all(const mc_rig *rig, mc_vec3 world, int joint, mc_keypoint 
 	for (int c = 0; c < rig->ncams; c++) {
 		const mc_camera *cam = &rig->cams[c];
 		double u, v;
-		if (mc_camera_project(cam, mc_xform_apply(mc_xform_inverse(cam->rig_from_cam), world), &u, &v))
+		if (mc_camera_project_rig(cam, world, &u, &v))
 			kp[n++] = (mc_keypoint){.cam = c, .joint = joint, .u = (float)u, .v = (float)v, .conf = 0.9f};
 	}
 	return n;

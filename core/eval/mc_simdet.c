@@ -155,8 +155,7 @@ static void simulate_base(const mc_clip *clip, int k, const sim_joint *sj, int n
 		for (int c = 0; c < clip->rig.ncams && sj[e].g >= 0 && sj[e].j >= 0 && n < cap; c++) {
 			const mc_camera *cam = &clip->rig.cams[c];
 			sim_kp *q = &kp[c][e];
-			mc_vec3 p = mc_xform_apply(mc_xform_inverse(cam->rig_from_cam), mc_clip_gt(clip, k, sj[e].g));
-			q->seen = mc_camera_project(cam, p, &q->tu, &q->tv);
+			q->seen = mc_camera_project_rig(cam, mc_clip_gt(clip, k, sj[e].g), &q->tu, &q->tv);
 			if (!q->seen || mc_rng_uniform(rng) < MC_CLIP_SIMULATED_MISS)
 				continue;
 			q->du = noise_px * gaussian_noise(rng);

@@ -382,6 +382,11 @@ bool mc_camera_unproject(const mc_camera *cam, double u, double v, mc_vec3 *ray)
 	return false;
 }
 
+bool mc_camera_project_rig(const mc_camera *cam, mc_vec3 p_rig, double *u, double *v)
+{
+	return mc_camera_project(cam, mc_xform_apply(mc_xform_inverse(cam->rig_from_cam), p_rig), u, v);
+}
+
 bool mc_camera_unproject_rig(const mc_camera *cam, double u, double v, mc_vec3 *dir_rig)
 {
 	mc_vec3 ray;

@@ -79,6 +79,9 @@ typedef struct {
  * lands outside the image. */
 bool mc_camera_project(const mc_camera *cam, mc_vec3 p_cam, double *u, double *v);
 
+/* The same for a point in the rig frame (through cam->rig_from_cam). */
+bool mc_camera_project_rig(const mc_camera *cam, mc_vec3 p_rig, double *u, double *v);
+
 /* The same formula without the field-of-view and image-bounds checks
  * (pinhole: any point in front; equidistant: any direction; ocam as
  * mc_camera_project without the image bounds), for calibration, whose

@@ -35,9 +35,8 @@ void mc_draw_line(mc_canvas *im, double x0, double y0, double x1, double y1, dou
 
 bool mc_draw_project(const mc_camera *cam, const mc_canvas *im, mc_vec3 p_rig, double *x, double *y)
 {
-	mc_vec3 p = mc_xform_apply(mc_xform_inverse(cam->rig_from_cam), p_rig);
 	double u, v;
-	if (!mc_camera_project(cam, p, &u, &v))
+	if (!mc_camera_project_rig(cam, p_rig, &u, &v))
 		return false;
 	*x = (u + 0.5) * im->width / cam->width - 0.5;
 	*y = (v + 0.5) * im->height / cam->height - 0.5;

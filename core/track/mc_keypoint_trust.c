@@ -35,10 +35,8 @@
 /* Pixels (at 128 wide) between camera c's projections of p and q. */
 static double camera_px(const mc_camera *cam, mc_vec3 p, mc_vec3 q)
 {
-	mc_xform cam_from_rig = mc_xform_inverse(cam->rig_from_cam);
 	double pu, pv, qu, qv;
-	if (!mc_camera_project(cam, mc_xform_apply(cam_from_rig, p), &pu, &pv) ||
-	    !mc_camera_project(cam, mc_xform_apply(cam_from_rig, q), &qu, &qv))
+	if (!mc_camera_project_rig(cam, p, &pu, &pv) || !mc_camera_project_rig(cam, q, &qu, &qv))
 		return FAR_PX;
 	return hypot(pu - qu, pv - qv) * TRUST_WIDTH_PX / cam->width;
 }

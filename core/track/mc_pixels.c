@@ -119,7 +119,7 @@ int mc_trk_working_pixel(const mc_tracker *t, int c, mc_vec3 p_rig)
 	const mc_camera *cam = &t->rig.cams[c];
 	const mc_raytable *rt = &t->rays[c];
 	double u, v, wu, wv;
-	if (!mc_camera_project(cam, mc_xform_apply(mc_xform_inverse(cam->rig_from_cam), p_rig), &u, &v))
+	if (!mc_camera_project_rig(cam, p_rig, &u, &v))
 		return -1;
 	to_working(rt, u, v, &wu, &wv);
 	int x = (int)lround(wu), y = (int)lround(wv);

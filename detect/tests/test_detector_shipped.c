@@ -52,7 +52,6 @@ static int measure(mc_detector *d, const mc_clip *clip, const mc_frame_view *vie
 		return 0;
 	bool seen[MC_DETECTOR_MAX_JOINTS] = {false};
 	const mc_camera *c = &clip->rig.cams[cam];
-	mc_xform cam_from_rig = mc_xform_inverse(c->rig_from_cam);
 	for (int i = 0; i < n; i++) {
 		const char *name = mc_detector_joint_name(d, det[i].joint);
 		int g = mc_clip_joint(clip, name);
@@ -60,7 +59,7 @@ static int measure(mc_detector *d, const mc_clip *clip, const mc_frame_view *vie
 			continue;
 		seen[det[i].joint] = true;
 		double u, v;
-		if (!mc_camera_project(c, mc_xform_apply(cam_from_rig, mc_clip_gt(clip, k, g)), &u, &v))
+		if (!mc_camera_project_rig(c, mc_clip_gt(clip, k, g), &u, &v))
 			continue;
 		double e = hypot(det[i].u - u, det[i].v - v);
 		err_px[(*nerr)++] = e;

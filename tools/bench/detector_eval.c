@@ -61,7 +61,6 @@ static void score_view(bench_detector *bd, const mc_clip *clip, int k, int cam, 
 		       double scale)
 {
 	const mc_camera *c = &clip->rig.cams[cam];
-	mc_xform cam_from_rig = mc_xform_inverse(c->rig_from_cam);
 	int nj = mc_detector_njoints(bd->det);
 	const mc_detection *found[MC_DETECTOR_MAX_JOINTS] = {0};
 	for (int i = 0; i < ndet; i++)
@@ -71,7 +70,7 @@ static void score_view(bench_detector *bd, const mc_clip *clip, int k, int cam, 
 		if (g < 0 || bd->gt_map[j] < 0)
 			continue;
 		double u, v;
-		bool inside = mc_camera_project(c, mc_xform_apply(cam_from_rig, mc_clip_gt(clip, k, bd->gt_map[j])), &u, &v) &&
+		bool inside = mc_camera_project_rig(c, mc_clip_gt(clip, k, bd->gt_map[j]), &u, &v) &&
 			      u >= -0.5 && v >= -0.5 && u < c->width - 0.5 && v < c->height - 0.5;
 		bd->in_image += inside;
 		bd->reported += found[j] != NULL;
