@@ -8,8 +8,9 @@
  * next seconds some frame sets are kept; the actor's size is then the bone
  * scale whose fits explain their rays best, and the colours are measured
  * again.  While tracking, a lost state re-fits the whole pose to the
- * detections, and a limb whose confidence stays low while confident
- * detections keep missing it re-fits that limb (the bone lengths kept).
+ * detections, a limb whose confidence stays low while confident
+ * detections keep missing it re-fits that limb (the bone lengths kept),
+ * and a body that faces the wrong way is turned around (mc_facing.c).
  *
  * Everything is fitted to rays, not to triangulated points: a far joint's
  * triangulated depth is uncertain by tens of centimetres on a head-mounted

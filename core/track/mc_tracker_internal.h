@@ -230,8 +230,9 @@ void mc_trk_facing_reset(mc_trk_facing *f);
  * flags: MC_INIT_* (mc_tracker.h). */
 int mc_trk_init_start(mc_tracker *t, unsigned flags, mc_err *err);
 /* Before tracking a frame set: the first pose when waiting, a re-fit when
- * lost or stuck, the shape samples.  Returns 1 while still waiting, 0 to
- * track, -1 with err. */
+ * lost or stuck, the body turned around when it faces the wrong way (the
+ * rays then relabelled), the shape samples.  Returns 1 while still
+ * waiting, 0 to track, -1 with err. */
 int mc_trk_init_step(mc_tracker *t, const mc_frame_view *views, int nviews, mc_trk_keypoint_ray *rays,
 		     const int *cam, int nrays, mc_err *err);
 /* After tracking: the state and confidence, for recovery, and the pose of
