@@ -171,6 +171,7 @@ typedef struct {
 	double mean, last; /* joint error, m */
 	int tracked;       /* frame sets out of the initialising state */
 	int first;         /* the first of them */
+	int lost;          /* frame sets in the lost state */
 } walk_result;
 
 /* Tracks frames[first_frame ..] with t (already started), from the images
@@ -178,7 +179,7 @@ typedef struct {
 static walk_result track_walk(mc_tracker *t, const mc_rig *rig, const mc_model *m,
 			      mc_frame_view frames[][MC_MAX_CAMERAS], int first_frame, int keypoints)
 {
-	walk_result r = {0, 0, 0, -1};
+	walk_result r = {0, 0, 0, -1, 0};
 	double sum = 0;
 	for (int k = first_frame; k < NFRAMES; k++) {
 		mc_skeleton sk;
@@ -195,6 +196,7 @@ static walk_result track_walk(mc_tracker *t, const mc_rig *rig, const mc_model *
 			continue;
 		if (r.first < 0)
 			r.first = k;
+		r.lost += sk.state == MC_TRACK_LOST;
 		r.last = joint_error(m, &sk, k);
 		sum += r.last;
 		r.tracked++;
@@ -238,6 +240,27 @@ static void test_start_facing(const mc_rig *rig, const mc_model *m, const mc_tra
 	mc_tracker_destroy(t);
 }
 
+/* Starts t from frame 0's joints (with every left/right name exchanged:
+ * the body turned around) and learns the colours there. */
+static void start_at_frame0(mc_tracker *t, const mc_rig *rig, const mc_model *m, mc_frame_view frames[][MC_MAX_CAMERAS],
+			    bool turned)
+{
+	double pose0[MC_MAX_DOF];
+	mc_fk fk0;
+	frame_pose(m, 0, pose0);
+	mc_model_fk(m, pose0, &fk0);
+	const char *names[MC_MAX_JOINTS];
+	mc_vec3 joints0[MC_MAX_JOINTS];
+	for (int j = 0; j < m->njoints; j++) {
+		int other = turned ? mc_trk_other_side(m, j) : -1;
+		names[j] = m->joints[other >= 0 ? other : j].name;
+		joints0[j] = fk0.rig_from_joint[j].t;
+	}
+	mc_err err = {0};
+	CHECK_MSG(mc_tracker_init_from_joints(t, names, joints0, m->njoints, &err) == 0, "%s", err.msg);
+	CHECK_MSG(mc_tracker_calibrate_colors(t, frames[0], rig->ncams, &err) == 0, "%s", err.msg);
+}
+
 /* Tracking that faces the wrong way (started from frame 0's joints with
  * every left/right name exchanged, its colours learnt there) while the
  * keypoints are right: the sides follow the tracked pose and would keep
@@ -248,20 +271,7 @@ static void test_turn_around(const mc_rig *rig, const mc_model *m, const mc_trac
 	mc_tracker *t = tracker_deciding_sides(rig, m, s);
 	if (!t)
 		return;
-	double pose0[MC_MAX_DOF];
-	mc_fk fk0;
-	frame_pose(m, 0, pose0);
-	mc_model_fk(m, pose0, &fk0);
-	const char *names[MC_MAX_JOINTS];
-	mc_vec3 joints0[MC_MAX_JOINTS];
-	for (int j = 0; j < m->njoints; j++) {
-		int other = mc_trk_other_side(m, j);
-		names[j] = m->joints[other >= 0 ? other : j].name;
-		joints0[j] = fk0.rig_from_joint[j].t;
-	}
-	mc_err err = {0};
-	CHECK_MSG(mc_tracker_init_from_joints(t, names, joints0, m->njoints, &err) == 0, "%s", err.msg);
-	CHECK_MSG(mc_tracker_calibrate_colors(t, frames[0], rig->ncams, &err) == 0, "%s", err.msg);
+	start_at_frame0(t, rig, m, frames, true);
 	walk_result r = track_walk(t, rig, m, frames, 1, KEYPOINTS);
 	mc_tracker_init_info in;
 	mc_tracker_get_init_info(t, &in);
@@ -269,6 +279,39 @@ static void test_turn_around(const mc_rig *rig, const mc_model *m, const mc_trac
 	       in.turns, 100 * r.last);
 	CHECK(in.turns == 1);
 	CHECK_MSG(r.last < 0.04, "last frame %.2f cm", 100 * r.last);
+	mc_tracker_destroy(t);
+}
+
+/* Views whose colours no longer fit (noise) while every camera's
+ * keypoints still see the walking body: the state reads lost, and the
+ * pose must follow the keypoints, not stand where the colours last fitted
+ * (docs/TRACKER.md, "Lost, with keypoints"). */
+static void test_lost_with_keypoints(const mc_rig *rig, const mc_model *m, const mc_tracker_settings *s,
+				     mc_frame_view frames[][MC_MAX_CAMERAS])
+{
+	static uint8_t noise[MC_MAX_CAMERAS][160 * 120 * 3];
+	static mc_frame_view views[NFRAMES][MC_MAX_CAMERAS];
+	unsigned long long rng = 7;
+	for (int c = 0; c < rig->ncams; c++)
+		for (size_t i = 0; i < sizeof(noise[c]); i++)
+			noise[c][i] = (uint8_t)(mc_test_rand(&rng) * 256);
+	for (int k = 0; k < NFRAMES; k++)
+		for (int c = 0; c < rig->ncams; c++)
+			views[k][c] = (mc_frame_view){160, 120, 3 * 160, noise[c], frames[k][c].timestamp_ns};
+	mc_err err = {0};
+	mc_tracker *t = mc_tracker_create(rig, m, s, &err);
+	CHECK_MSG(t != NULL, "%s", err.msg);
+	if (!t)
+		return;
+	start_at_frame0(t, rig, m, frames, false);
+	walk_result r = track_walk(t, rig, m, views, 1, KEYPOINTS);
+	printf("outside-in synthetic walk, noise views with keypoints: %d of %d frame sets lost, mean joint error %.2f "
+	       "cm, last frame %.2f cm\n",
+	       r.lost, r.tracked, 100 * r.mean, 100 * r.last);
+	CHECK_MSG(r.lost > r.tracked / 2, "only %d of %d frame sets lost: the test proves nothing", r.lost, r.tracked);
+	/* measured: 1.1 cm; 3.9 with the pose kept while lost (the re-fits
+	 * after five lost frame sets catch it up, then it stands again) */
+	CHECK_MSG(r.mean < 0.02, "mean joint error %.2f cm", 100 * r.mean);
 	mc_tracker_destroy(t);
 }
 
@@ -357,6 +400,7 @@ int main(int argc, char **argv)
 	if (ok) {
 		test_start_facing(&rig, &model, &s, frames);
 		test_turn_around(&rig, &model, &s, frames);
+		test_lost_with_keypoints(&rig, &model, &s, frames);
 	}
 	for (int k = 0; k < NFRAMES; k++)
 		free_views(frames[k]);
