@@ -120,9 +120,23 @@ static void test_median(void)
 	CHECK(mc_stats_median(none, 0) == 0);
 }
 
+/* The window keeps the last cap samples and counts up to cap. */
+static void test_window(void)
+{
+	double v[3] = {0};
+	int n = 0, next = 0;
+	mc_stats_window_add(v, 3, &n, &next, 1);
+	mc_stats_window_add(v, 3, &n, &next, 2);
+	CHECK(n == 2 && next == 2 && v[0] == 1 && v[1] == 2);
+	mc_stats_window_add(v, 3, &n, &next, 3);
+	mc_stats_window_add(v, 3, &n, &next, 4); /* drops the 1 */
+	CHECK(n == 3 && next == 1 && v[0] == 4 && v[1] == 2 && v[2] == 3);
+}
+
 int main(void)
 {
 	test_median();
+	test_window();
 	test_fit_rigid();
 	test_rotations();
 	test_xforms();

@@ -241,9 +241,10 @@ static void test_start_facing(const mc_rig *rig, const mc_model *m, const mc_tra
 }
 
 /* Starts t from frame 0's joints (with every left/right name exchanged:
- * the body turned around) and learns the colours there. */
+ * the body turned around) and learns the colours there; at0 (NULL: not
+ * wanted) gets frame 0's joints as a skeleton. */
 static void start_at_frame0(mc_tracker *t, const mc_rig *rig, const mc_model *m, mc_frame_view frames[][MC_MAX_CAMERAS],
-			    bool turned)
+			    bool turned, mc_skeleton *at0)
 {
 	double pose0[MC_MAX_DOF];
 	mc_fk fk0;
@@ -255,6 +256,12 @@ static void start_at_frame0(mc_tracker *t, const mc_rig *rig, const mc_model *m,
 		int other = turned ? mc_trk_other_side(m, j) : -1;
 		names[j] = m->joints[other >= 0 ? other : j].name;
 		joints0[j] = fk0.rig_from_joint[j].t;
+	}
+	if (at0) {
+		memset(at0, 0, sizeof(*at0));
+		at0->njoints = m->njoints;
+		for (int j = 0; j < m->njoints; j++)
+			at0->joints[j].position = joints0[j];
 	}
 	mc_err err = {0};
 	CHECK_MSG(mc_tracker_init_from_joints(t, names, joints0, m->njoints, &err) == 0, "%s", err.msg);
@@ -271,7 +278,7 @@ static void test_turn_around(const mc_rig *rig, const mc_model *m, const mc_trac
 	mc_tracker *t = tracker_deciding_sides(rig, m, s);
 	if (!t)
 		return;
-	start_at_frame0(t, rig, m, frames, true);
+	start_at_frame0(t, rig, m, frames, true, NULL);
 	walk_result r = track_walk(t, rig, m, frames, 1, KEYPOINTS);
 	mc_tracker_init_info in;
 	mc_tracker_get_init_info(t, &in);
@@ -303,7 +310,7 @@ static void test_lost_with_keypoints(const mc_rig *rig, const mc_model *m, const
 	CHECK_MSG(t != NULL, "%s", err.msg);
 	if (!t)
 		return;
-	start_at_frame0(t, rig, m, frames, false);
+	start_at_frame0(t, rig, m, frames, false, NULL);
 	walk_result r = track_walk(t, rig, m, views, 1, KEYPOINTS);
 	printf("outside-in synthetic walk, noise views with keypoints: %d of %d frame sets lost, mean joint error %.2f "
 	       "cm, last frame %.2f cm\n",
@@ -357,22 +364,10 @@ int main(int argc, char **argv)
 	mc_tracker *t = ok ? mc_tracker_create(&rig, &model, &s, &err) : NULL;
 	CHECK_MSG(t != NULL, "%s", err.msg);
 	/* frame 0's joints start the tracker, as gt0 does on the clips */
-	double pose0[MC_MAX_DOF];
-	mc_fk fk0;
-	frame_pose(&model, 0, pose0);
-	mc_model_fk(&model, pose0, &fk0);
-	const char *names[MC_MAX_JOINTS];
-	mc_vec3 joints0[MC_MAX_JOINTS];
-	mc_skeleton at0 = {0};
-	at0.njoints = model.njoints;
-	for (int j = 0; j < model.njoints; j++) {
-		names[j] = model.joints[j].name;
-		at0.joints[j].position = joints0[j] = fk0.rig_from_joint[j].t;
-	}
 	if (t) {
-		CHECK_MSG(mc_tracker_init_from_joints(t, names, joints0, model.njoints, &err) == 0, "%s", err.msg);
-		CHECK_MSG(mc_tracker_calibrate_colors(t, frames[0], rig.ncams, &err) == 0, "%s", err.msg);
-		test_view_gate(t, &rig, &model, joints0[mc_model_find_joint(&model, "neck")]);
+		mc_skeleton at0;
+		start_at_frame0(t, &rig, &model, frames, false, &at0);
+		test_view_gate(t, &rig, &model, at0.joints[mc_model_find_joint(&model, "neck")].position);
 		walk_result r = track_walk(t, &rig, &model, frames, 1, NO_KEYPOINTS);
 		double still = joint_error(&model, &at0, NFRAMES - 1);
 		printf("outside-in synthetic walk from frame 0's joints: mean joint error %.2f cm over %d frames, last "

@@ -35,3 +35,11 @@ double mc_stats_median(double *v, size_t n)
 	mc_stats_sort(v, n);
 	return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
 }
+
+void mc_stats_window_add(double *v, int cap, int *n, int *next, double x)
+{
+	v[*next] = x;
+	*next = (*next + 1) % cap;
+	if (*n < cap)
+		(*n)++;
+}

@@ -16,4 +16,9 @@ double mc_stats_median(double *v, size_t n);
  * method; 0 when n == 0. */
 double mc_stats_percentile(const double *sorted, size_t n, double p);
 
+/* A window over the last cap samples, kept in a ring: v[cap] holds *n of
+ * them (at most cap), the next written at *next.  Adds x, dropping the
+ * oldest once full. */
+void mc_stats_window_add(double *v, int cap, int *n, int *next, double x);
+
 #endif

@@ -20,6 +20,7 @@
  * while the tracked body faced the right way (the whole clip's mean above
  * 0.25); facing the wrong way it fell under -0.12 within the first 10
  * checks (mean -0.16 to -0.25 over the clip). */
+#include "base/mc_stats.h"
 #include "track/mc_tracker_internal.h"
 
 #include <math.h>
@@ -95,10 +96,7 @@ bool mc_trk_facing_wrong(mc_tracker *t, const mc_trk_triangulation *tri)
 	double turned = mc_trk_fit_from_rest(t, &other, FACING_CHECK_ITERATIONS, false, pose);
 	if (!(kept > 0 && turned > 0))
 		return false;
-	f->log_ratio[f->next] = log(turned / kept);
-	f->next = (f->next + 1) % MC_TRK_FACING_CHECKS;
-	if (f->n < MC_TRK_FACING_CHECKS)
-		f->n++;
+	mc_stats_window_add(f->log_ratio, MC_TRK_FACING_CHECKS, &f->n, &f->next, log(turned / kept));
 	if (f->n < MC_TRK_FACING_CHECKS)
 		return false;
 	double sum = 0;

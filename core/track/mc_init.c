@@ -250,19 +250,18 @@ static int fit_body(mc_tracker *t, const mc_frame_view *views, int nviews, const
 		    mc_trk_keypoint_ray *rays, int nrays, mc_err *err)
 {
 	double pose[MC_MAX_DOF];
-	bool turned = false;
-	double rms = turn ? mc_trk_facing_fit_turned(t, tri, pose)
-			  : mc_trk_facing_fit(t, tri, pose, &turned);
+	bool turned = turn;
+	double rms = turn ? mc_trk_facing_fit_turned(t, tri, pose) : mc_trk_facing_fit(t, tri, pose, &turned);
 	if (!(rms >= 0 && rms <= FIT_MAX_RMS_M))
 		return 0; /* not a body: wait for a better frame set */
-	if (turn || turned)
+	if (turned)
 		mc_trk_exchange_sides(&t->model, rays, nrays);
 	mc_tracker_set_pose(t, pose);
 	if (mc_trk_calibrate(t, views, nviews, !t->init.keep_colours, err) < 0)
 		return -1;
 	mc_trk_facing_reset(&t->init.facing);
 	memset(t->init.disagree, 0, sizeof(t->init.disagree));
-	t->init.turns += turn || turned;
+	t->init.turns += turned;
 	return 1;
 }
 

@@ -78,10 +78,7 @@ void mc_trk_update_trust(mc_tracker *t)
 	double s = frame_spread(t), recent[MC_TRK_TRUST_FRAMES];
 	if (s < 0)
 		return;
-	t->kp_spreads[t->kp_next] = s;
-	t->kp_next = (t->kp_next + 1) % MC_TRK_TRUST_FRAMES;
-	if (t->kp_nspreads < MC_TRK_TRUST_FRAMES)
-		t->kp_nspreads++;
+	mc_stats_window_add(t->kp_spreads, MC_TRK_TRUST_FRAMES, &t->kp_nspreads, &t->kp_next, s);
 	memcpy(recent, t->kp_spreads, sizeof(*recent) * (size_t)t->kp_nspreads);
 	t->kp_spread = mc_stats_median(recent, (size_t)t->kp_nspreads);
 }
