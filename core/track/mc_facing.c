@@ -31,11 +31,11 @@
 #define FACING_TURN_LOG (-0.12)
 
 /* The triangulation with every left/right pair's labels exchanged. */
-static void exchanged(const mc_model *m, const mc_trk_triangulation *in, mc_trk_triangulation *out)
+static void exchanged(const mc_tracker *t, const mc_trk_triangulation *in, mc_trk_triangulation *out)
 {
 	*out = *in;
-	for (int j = 0; j < m->njoints; j++) {
-		int k = mc_trk_other_side(m, j);
+	for (int j = 0; j < t->model.njoints; j++) {
+		int k = mc_trk_other_side(t, j);
 		if (k <= j) /* each pair once */
 			continue;
 		out->have[j] = in->have[k];
@@ -59,7 +59,7 @@ static bool facing_applies(const mc_tracker *t)
 double mc_trk_facing_fit_turned(const mc_tracker *t, const mc_trk_triangulation *tri, double *pose)
 {
 	mc_trk_triangulation other;
-	exchanged(&t->model, tri, &other);
+	exchanged(t, tri, &other);
 	return mc_trk_fit_from_rest(t, &other, MC_TRK_FULL_FIT_ITERATIONS, true, pose);
 }
 
@@ -91,7 +91,7 @@ bool mc_trk_facing_wrong(mc_tracker *t, const mc_trk_triangulation *tri)
 		return false;
 	mc_trk_triangulation other;
 	double pose[MC_MAX_DOF];
-	exchanged(&t->model, tri, &other);
+	exchanged(t, tri, &other);
 	double kept = mc_trk_fit_from_rest(t, tri, FACING_CHECK_ITERATIONS, false, pose);
 	double turned = mc_trk_fit_from_rest(t, &other, FACING_CHECK_ITERATIONS, false, pose);
 	if (!(kept > 0 && turned > 0))
@@ -105,10 +105,10 @@ bool mc_trk_facing_wrong(mc_tracker *t, const mc_trk_triangulation *tri)
 	return sum / MC_TRK_FACING_CHECKS < FACING_TURN_LOG;
 }
 
-void mc_trk_exchange_sides(const mc_model *m, mc_trk_keypoint_ray *r, int n)
+void mc_trk_exchange_sides(const mc_tracker *t, mc_trk_keypoint_ray *r, int n)
 {
 	for (int i = 0; i < n; i++) {
-		int k = mc_trk_other_side(m, r[i].joint);
+		int k = mc_trk_other_side(t, r[i].joint);
 		if (k >= 0)
 			r[i].joint = k;
 	}

@@ -255,7 +255,7 @@ static int fit_body(mc_tracker *t, const mc_frame_view *views, int nviews, const
 	if (!(rms >= 0 && rms <= FIT_MAX_RMS_M))
 		return 0; /* not a body: wait for a better frame set */
 	if (turned)
-		mc_trk_exchange_sides(&t->model, rays, nrays);
+		mc_trk_exchange_sides(t, rays, nrays);
 	mc_tracker_set_pose(t, pose);
 	if (mc_trk_calibrate(t, views, nviews, !t->init.keep_colours, err) < 0)
 		return -1;

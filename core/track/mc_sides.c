@@ -35,13 +35,20 @@ static double ray_distance(mc_vec3 p, const mc_trk_keypoint_ray *r)
 	return mc_v3_norm(mc_v3_reject(mc_v3_sub(p, r->origin), r->dir));
 }
 
-int mc_trk_other_side(const mc_model *m, int joint)
+void mc_trk_find_other_sides(mc_tracker *t)
 {
-	char want[MC_JOINT_NAME_MAX + 8];
-	if (joint < 0 || joint >= m->njoints ||
-	    mc_joint_other_side_name(m->joints[joint].name, want, sizeof(want)) != 1)
-		return -1;
-	return mc_model_find_joint(m, want);
+	const mc_model *m = &t->model;
+	for (int j = 0; j < MC_MAX_JOINTS; j++) {
+		char want[MC_JOINT_NAME_MAX + 8];
+		t->other_side[j] = j < m->njoints && mc_joint_other_side_name(m->joints[j].name, want, sizeof(want)) == 1
+					   ? mc_model_find_joint(m, want)
+					   : -1;
+	}
+}
+
+int mc_trk_other_side(const mc_tracker *t, int joint)
+{
+	return joint >= 0 && joint < t->model.njoints ? t->other_side[joint] : -1;
 }
 
 static void exchange(mc_trk_keypoint_ray *a, mc_trk_keypoint_ray *b)
@@ -173,7 +180,7 @@ void mc_trk_assign_sides(const mc_tracker *t, mc_trk_keypoint_ray *r, const int 
 	if (have_pose)
 		mc_model_fk(&t->model, t->pose, &fk);
 	for (int left = 0; left < t->model.njoints; left++) {
-		int right = mc_trk_other_side(&t->model, left);
+		int right = mc_trk_other_side(t, left);
 		if (right < 0 || strncmp(t->model.joints[left].name, "left_", 5) != 0)
 			continue;
 		pair_views p;

@@ -101,6 +101,7 @@ mc_tracker *mc_tracker_create(const mc_rig *rig, const mc_model *model, const mc
 	if (rig->kind == MC_RIG_OUTSIDE_IN && mc_model_make_root_free(&t->model, err) < 0)
 		goto fail;
 	hide_head_gaussians(t);
+	mc_trk_find_other_sides(t);
 	if (alloc_buffers(t, err) < 0)
 		goto fail;
 	if (s->backend == MC_BACKEND_OPENCL) {

@@ -59,6 +59,7 @@ typedef struct {
 struct mc_tracker {
 	mc_rig rig;
 	mc_model model;
+	int other_side[MC_MAX_JOINTS]; /* each joint's left/right partner, -1 for none */
 	mc_tracker_settings s;
 	mc_raytable rays[MC_MAX_CAMERAS];
 	float *rgb[MC_MAX_CAMERAS]; /* working-resolution RGB of the current views */
@@ -164,9 +165,10 @@ typedef struct {
  * agreement and the tracked pose (mc_sides.c; settings.assign_sides). */
 void mc_trk_assign_sides(const mc_tracker *t, mc_trk_keypoint_ray *r, const int *cam, int n);
 /* The joint on the other side of the body (left_x <-> right_x), or -1. */
-int mc_trk_other_side(const mc_model *m, int joint);
+void mc_trk_find_other_sides(mc_tracker *t);
+int mc_trk_other_side(const mc_tracker *t, int joint);
 /* Every left/right label of the rays exchanged (the body turned around). */
-void mc_trk_exchange_sides(const mc_model *m, mc_trk_keypoint_ray *r, int n);
+void mc_trk_exchange_sides(const mc_tracker *t, mc_trk_keypoint_ray *r, int n);
 
 /* The frame's keypoints as rays, once per frame, with each ray's camera
  * (cam): unusable ones left out, and those that disagree with more of the
