@@ -5,7 +5,9 @@
  *     from the 30th frame set on, 1 before;
  *   - the cameras 3 px apart (at 128 wide) on every joint: it stays 1;
  *   - detection_trust_max 1, or keypoints from one camera only: it stays 1;
- *   - the detection term's energy grows by the factor;
+ *   - the detection term pulls joints near their rays trust^2 times as
+ *     hard (its scale shrinks with the trust on a head rig), and joints
+ *     far from them by the factor only; outside-in by the factor alone;
  *   - outside-in rigs get 2 (1 with two cameras) unless the setting was
  *     given; out-of-range values are refused by name. */
 #include "test_util.h"
@@ -13,6 +15,7 @@
 #include "eval/mc_clip.h"
 #include "track/mc_tracker_internal.h"
 
+#include <math.h>
 #include <string.h>
 
 static mc_rig rig;
@@ -20,16 +23,16 @@ static mc_model model;
 
 /* Every joint not fixed to the rig, projected into the cameras of `cams`
  * (bit c: camera c) at pose, camera c's v moved by dv[c] native pixels. */
-static int project_joints(const mc_tracker *t, const double *pose, unsigned cams, const double dv[2], mc_keypoint *kp)
+static int project_joints(const mc_tracker *t, const double *pose, unsigned cams, const double *dv, mc_keypoint *kp)
 {
 	mc_fk fk;
 	mc_model_fk(&t->model, pose, &fk);
 	int n = 0;
-	for (int c = 0; c < rig.ncams; c++)
+	for (int c = 0; c < t->rig.ncams; c++)
 		for (int j = 0; j < t->model.njoints && (cams >> c & 1u); j++) {
 			double u, v;
 			if (!t->fixed_joint[j] &&
-			    mc_camera_project_rig(&rig.cams[c], fk.rig_from_joint[j].t, &u, &v))
+			    mc_camera_project_rig(&t->rig.cams[c], fk.rig_from_joint[j].t, &u, &v))
 				kp[n++] = (mc_keypoint){.cam = c, .joint = j, .u = (float)u, .v = (float)(v + dv[c]), .conf = 1};
 		}
 	return n;
@@ -49,15 +52,46 @@ static double feed(mc_tracker *t, const mc_keypoint *kp, int n, int frames, doub
 	return mc_tracker_keypoint_trust(t, spread);
 }
 
-static mc_tracker *tracker(double trust_max)
+static mc_tracker *rig_tracker(const mc_rig *r, double trust_max)
 {
 	mc_tracker_settings s;
 	mc_tracker_settings_default(&s);
 	s.detection_trust_max = trust_max;
 	mc_err err = {{0}};
-	mc_tracker *t = mc_tracker_create(&rig, &model, &s, &err);
+	mc_tracker *t = mc_tracker_create(r, &model, &s, &err);
 	CHECK_MSG(t, "%s", err.msg);
 	return t;
+}
+
+static mc_tracker *tracker(double trust_max)
+{
+	return rig_tracker(&rig, trust_max);
+}
+
+/* How hard the detection term pulls (its gradient's norm) with t's trust
+ * against fixed's (trust 1), on t's rays at pose with every dof moved by
+ * `off` rad: whether the ratio lies within [lo, hi]. */
+static double grad_norm(mc_tracker *t, const double *pose, const mc_fk *fk, const mc_trk_frame_keypoints *k)
+{
+	double grad[MC_MAX_DOF] = {0}, sq = 0;
+	mc_trk_detection_term(t, pose, fk, k->rays, k->nrays, grad);
+	for (int d = 0; d < t->model.ndof; d++)
+		sq += grad[d] * grad[d];
+	return sqrt(sq);
+}
+
+static bool pull_ratio(mc_tracker *t, mc_tracker *fixed, const double *pose, double off, double lo, double hi)
+{
+	double moved[MC_MAX_DOF];
+	memcpy(moved, pose, sizeof(moved));
+	for (int d = 0; d < t->model.ndof; d++)
+		moved[d] += off;
+	mc_model_clamp_pose(&t->model, moved);
+	mc_fk fk;
+	mc_model_fk(&t->model, moved, &fk);
+	double g3 = grad_norm(t, moved, &fk, t->fkp), g1 = grad_norm(fixed, moved, &fk, t->fkp);
+	printf("every dof %.3f rad off: the term pulls x%.2f with trust 3\n", off, g1 > 0 ? g3 / g1 : 0);
+	return g1 > 0 && g3 / g1 >= lo && g3 / g1 <= hi;
 }
 
 static void test_agreement(void)
@@ -81,18 +115,12 @@ static void test_agreement(void)
 	CHECK_MSG(trust == 3 && spread < 0.3, "exact keypoints: x%.2f, spread %.3f px", trust, spread);
 	CHECK(feed(fixed, kp, n, 90, &spread) == 1);
 
-	/* the term's energy at a pose off the rays, with the factor 3 and 1 */
-	double off[MC_MAX_DOF], grad[MC_MAX_DOF] = {0};
-	memcpy(off, pose, sizeof(off));
-	for (int d = 0; d < t->model.ndof; d++)
-		off[d] += 0.05;
-	mc_model_clamp_pose(&t->model, off);
-	mc_fk fk;
-	mc_model_fk(&t->model, off, &fk);
-	double e3 = mc_trk_detection_term(t, off, &fk, t->fkp->rays, t->fkp->nrays, grad);
-	double e1 = mc_trk_detection_term(fixed, off, &fk, fixed->fkp->rays, fixed->fkp->nrays, grad);
-	CHECK_MSG(e1 > 0 && fabs(e3 / e1 - 3) < 1e-9, "energies %g and %g", e3, e1);
-
+	/* the term near the rays: the weight and the scale both follow the
+	 * trust, so joints a few mm off are held trust^2 = 9 times as stiffly */
+	CHECK(pull_ratio(t, fixed, pose, 0.002, 8.5, 9.1));
+	/* far from them (every joint a metre off its rays, as a wrong
+	 * keypoint is), the pull grows by the factor only */
+	CHECK(pull_ratio(t, fixed, pose, 0.6, 2.8, 3.6));
 	mc_tracker_destroy(t);
 	t = tracker(3);
 	if (t) {
@@ -108,6 +136,31 @@ static void test_agreement(void)
 		CHECK(feed(t, kp, n, 30, &spread) == 1 && spread == 0);
 		mc_tracker_destroy(t);
 	}
+	mc_tracker_destroy(fixed);
+}
+
+/* Outside-in the scale stays (docs/TRACKER.md): the term pulls by the
+ * factor alone, near the rays as far from them. */
+static void test_outside_in_scale(void)
+{
+	mc_err err = {{0}};
+	mc_clip clip;
+	if (mc_clip_open("tests/data/outside_demo", false, &clip, &err) < 0) {
+		CHECK_MSG(false, "tests/data/outside_demo: %s", err.msg);
+		return;
+	}
+	mc_tracker *t = rig_tracker(&clip.rig, 3), *fixed = rig_tracker(&clip.rig, 1);
+	mc_clip_close(&clip);
+	if (t && fixed) {
+		double pose[MC_MAX_DOF], spread;
+		mc_model_rest_pose(&t->model, pose);
+		mc_keypoint kp[MC_MAX_CAMERAS * MC_MAX_JOINTS];
+		const double exact[MC_MAX_CAMERAS] = {0};
+		int n = project_joints(t, pose, 0xfu, exact, kp);
+		CHECK_MSG(n >= 40 && feed(t, kp, n, 90, &spread) == 3, "outside-in: %d keypoints", n);
+		CHECK(pull_ratio(t, fixed, pose, 0.002, 2.95, 3.05));
+	}
+	mc_tracker_destroy(t);
 	mc_tracker_destroy(fixed);
 }
 
@@ -141,6 +194,7 @@ int main(void)
 	mc_clip_close(&clip);
 	CHECK_MSG(mc_model_load("config/models/default.json", &model, &err) == 0, "%s", err.msg);
 	test_agreement();
+	test_outside_in_scale();
 	test_settings();
 	return mc_test_finish("test_keypoint_trust");
 }

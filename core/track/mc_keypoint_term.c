@@ -80,11 +80,26 @@ int mc_trk_prepare_keypoints(const mc_tracker *t, const mc_keypoint *kp, int nkp
 }
 
 /* E_detection, a Cauchy loss of each detected joint's distance from its
- * keypoint's ray: lambda conf 0.5 log(1 + (r / tau)^2) / n, r the joint's
- * distance from the ray, tau = DETECTION_SCALE_M.  Quadratic near the ray;
- * far from it the pull falls off as 1/r, so a wrong detection pulls much
- * less than a right one near the joint (docs/TRACKER.md). */
+ * keypoint's ray: lambda trust conf 0.5 log(1 + (r / tau)^2) / n, r the
+ * joint's distance from the ray, tau = DETECTION_SCALE_M.  Quadratic near
+ * the ray; far from it the pull falls off as 1/r, so a wrong detection
+ * pulls much less than a right one near the joint (docs/TRACKER.md).
+ *
+ * The trust (mc_keypoint_trust.c) is the keypoints' precision against the
+ * shipped detector's.  On a head rig the scale shrinks with it too, tau /
+ * sqrt(trust): keypoints that agree closely hold their joints stiffly
+ * (trust^2 near the ray) while a wrong one far from its joint still pulls
+ * with only trust / r.  That is what a foreshortened limb needs: a forearm
+ * along the cameras' rays, its wrist 37 cm too near, sat 5-9 cm from both
+ * rays, where a 10 cm scale hardly pulls.  Outside-in the scale stays: the
+ * views' agreement overstates the precision there (wide baselines hide
+ * errors along the epipolar lines), and the dev clips got 0.2-0.3 cm worse. */
 #define DETECTION_SCALE_M 0.10
+static double detection_scale(const mc_tracker *t, double trust)
+{
+	return t->rig.kind == MC_RIG_OUTSIDE_IN ? DETECTION_SCALE_M : DETECTION_SCALE_M / sqrt(trust);
+}
+
 double mc_trk_detection_term(mc_tracker *t, const double *pose, const mc_fk *fk, const mc_trk_keypoint_ray *kp, int n,
 			     double *grad)
 {
@@ -93,21 +108,22 @@ double mc_trk_detection_term(mc_tracker *t, const double *pose, const mc_fk *fk,
 	int used = 0;
 	if (t->s.lambda_detection <= 0)
 		return 0;
+	double trust = mc_tracker_keypoint_trust(t, NULL), tau = detection_scale(t, trust);
 	for (int i = 0; i < n; i++) {
 		double w = kp[i].weight;
 		if (w <= 0)
 			continue;
 		mc_vec3 d = mc_v3_sub(fk->rig_from_joint[kp[i].joint].t, kp[i].origin);
 		mc_vec3 r = mc_v3_reject(d, kp[i].dir); /* offset from the ray */
-		double dist = mc_v3_norm(r), x = dist / DETECTION_SCALE_M;
+		double dist = mc_v3_norm(r), x = dist / tau;
 		E += w * 0.5 * log(1 + x * x);
 		used++;
 		/* dE/dp = w x / (1 + x^2) / tau * r / |r| */
-		djoint[kp[i].joint] = mc_v3_axpy(w / ((1 + x * x) * DETECTION_SCALE_M * DETECTION_SCALE_M), r, djoint[kp[i].joint]);
+		djoint[kp[i].joint] = mc_v3_axpy(w / ((1 + x * x) * tau * tau), r, djoint[kp[i].joint]);
 	}
 	if (!used)
 		return 0;
-	double scale = t->s.lambda_detection * mc_tracker_keypoint_trust(t, NULL) / used;
+	double scale = t->s.lambda_detection * trust / used;
 	mc_vec3 *J = t->jacobian;
 	mc_model_joint_jacobian(&t->model, pose, fk, J);
 	for (int j = 0; j < t->model.njoints; j++)
