@@ -68,9 +68,8 @@ static mc_tracker *tracker(double trust_max)
 	return rig_tracker(&rig, trust_max);
 }
 
-/* How hard the detection term pulls (its gradient's norm) with t's trust
- * against fixed's (trust 1), on t's rays at pose with every dof moved by
- * `off` rad: whether the ratio lies within [lo, hi]. */
+/* How hard the detection term of t pulls at pose on the rays k: its
+ * gradient's norm. */
 static double grad_norm(mc_tracker *t, const double *pose, const mc_fk *fk, const mc_trk_frame_keypoints *k)
 {
 	double grad[MC_MAX_DOF] = {0}, sq = 0;
@@ -80,6 +79,9 @@ static double grad_norm(mc_tracker *t, const double *pose, const mc_fk *fk, cons
 	return sqrt(sq);
 }
 
+/* How hard the term pulls with t's trust against fixed's (trust 1), on
+ * t's rays at pose with every dof moved by `off` rad: whether the ratio
+ * lies within [lo, hi]. */
 static bool pull_ratio(mc_tracker *t, mc_tracker *fixed, const double *pose, double off, double lo, double hi)
 {
 	double moved[MC_MAX_DOF];
@@ -118,8 +120,8 @@ static void test_agreement(void)
 	/* the term near the rays: the weight and the scale both follow the
 	 * trust, so joints a few mm off are held trust^2 = 9 times as stiffly */
 	CHECK(pull_ratio(t, fixed, pose, 0.002, 8.5, 9.1));
-	/* far from them (every joint a metre off its rays, as a wrong
-	 * keypoint is), the pull grows by the factor only */
+	/* far from them (every dof 0.6 rad off, the joints tens of cm from
+	 * their rays, as from a wrong keypoint), by the factor only */
 	CHECK(pull_ratio(t, fixed, pose, 0.6, 2.8, 3.6));
 	mc_tracker_destroy(t);
 	t = tracker(3);

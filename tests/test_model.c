@@ -405,6 +405,10 @@ static void test_helpers(void)
 	int pelvis = mc_model_find_joint(&m, "pelvis");
 	CHECK(mc_model_subtree(&m, pelvis, in) == 9); /* pelvis + 2 x (hip, knee, ankle, toe) */
 	CHECK(in[mc_model_find_joint(&m, "right_toe")] && !in[mc_model_find_joint(&m, "spine")]);
+	int lk = mc_model_find_joint(&m, "left_knee"), rk = mc_model_find_joint(&m, "right_knee");
+	CHECK(mc_model_other_side(&m, lk) == rk && mc_model_other_side(&m, rk) == lk);
+	CHECK(mc_model_other_side(&m, pelvis) == -1);
+	CHECK(mc_model_other_side(&m, -1) == -1 && mc_model_other_side(&m, m.njoints) == -1);
 	char name[64];
 	int le = mc_model_find_joint(&m, "left_elbow");
 	CHECK(mc_model_dof_joint(&m, m.joints[le].dof0 + 1) == le);

@@ -154,21 +154,12 @@ static int frame_keypoints(const mc_rig *rig, const mc_model *m, int k, mc_keypo
 	return n;
 }
 
-/* The joint of the other side (left_knee for right_knee), -1 for none. */
-static int other_side(const mc_model *m, int joint)
-{
-	char want[MC_JOINT_NAME_MAX + 8];
-	if (mc_joint_other_side_name(m->joints[joint].name, want, sizeof(want)) != 1)
-		return -1;
-	return mc_model_find_joint(m, want);
-}
-
 /* Every view's left/right labels exchanged, as MoveNet gives them for a
  * faceless body seen from behind that it takes for one facing it. */
 static void exchange_labels(const mc_model *m, mc_keypoint *kp, int n)
 {
 	for (int i = 0; i < n; i++) {
-		int other = other_side(m, kp[i].joint);
+		int other = mc_model_other_side(m, kp[i].joint);
 		if (other >= 0)
 			kp[i].joint = other;
 	}
@@ -262,7 +253,7 @@ static void start_at_frame0(mc_tracker *t, const mc_rig *rig, const mc_model *m,
 	const char *names[MC_MAX_JOINTS];
 	mc_vec3 joints0[MC_MAX_JOINTS];
 	for (int j = 0; j < m->njoints; j++) {
-		int other = turned ? other_side(m, j) : -1;
+		int other = turned ? mc_model_other_side(m, j) : -1;
 		names[j] = m->joints[other >= 0 ? other : j].name;
 		joints0[j] = fk0.rig_from_joint[j].t;
 	}

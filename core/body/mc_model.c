@@ -32,6 +32,15 @@ int mc_joint_other_side_name(const char *name, char *out, size_t cap)
 	return n >= 0 && (size_t)n < cap ? 1 : -1;
 }
 
+int mc_model_other_side(const mc_model *model, int joint)
+{
+	char want[MC_JOINT_NAME_MAX + 8];
+	if (joint < 0 || joint >= model->njoints ||
+	    mc_joint_other_side_name(model->joints[joint].name, want, sizeof(want)) != 1)
+		return -1;
+	return mc_model_find_joint(model, want);
+}
+
 /* ---- kinematics ---- */
 
 static mc_vec3 unit_axis(int axis)

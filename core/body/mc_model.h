@@ -127,6 +127,9 @@ int mc_model_find_joint(const mc_model *model, const char *name);
  * right_X) into out[cap]: 1 when written, 0 for a joint of neither side,
  * -1 when out is too small. */
 int mc_joint_other_side_name(const char *name, char *out, size_t cap);
+/* Index of the same joint on the other side of the body, or -1 (a joint of
+ * neither side, or one whose partner the model lacks). */
+int mc_model_other_side(const mc_model *model, int joint);
 
 /* Smoothness levels m accepted by mc_sphere_to_gaussian. */
 #define MC_SMOOTHNESS_MIN 0.01

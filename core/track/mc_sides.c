@@ -37,13 +37,8 @@ static double ray_distance(mc_vec3 p, const mc_trk_keypoint_ray *r)
 
 void mc_trk_find_other_sides(mc_tracker *t)
 {
-	const mc_model *m = &t->model;
-	for (int j = 0; j < MC_MAX_JOINTS; j++) {
-		char want[MC_JOINT_NAME_MAX + 8];
-		t->other_side[j] = j < m->njoints && mc_joint_other_side_name(m->joints[j].name, want, sizeof(want)) == 1
-					   ? mc_model_find_joint(m, want)
-					   : -1;
-	}
+	for (int j = 0; j < MC_MAX_JOINTS; j++)
+		t->other_side[j] = mc_model_other_side(&t->model, j);
 }
 
 int mc_trk_other_side(const mc_tracker *t, int joint)

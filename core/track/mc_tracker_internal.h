@@ -164,8 +164,9 @@ typedef struct {
 /* Left/right pairs of a frame set's keypoint rays relabelled by the views'
  * agreement and the tracked pose (mc_sides.c; settings.assign_sides). */
 void mc_trk_assign_sides(const mc_tracker *t, mc_trk_keypoint_ray *r, const int *cam, int n);
-/* The joint on the other side of the body (left_x <-> right_x), or -1. */
+/* Fills t->other_side from the model, once, when the tracker is created. */
 void mc_trk_find_other_sides(mc_tracker *t);
+/* The joint on the other side of the body (left_x <-> right_x), or -1. */
 int mc_trk_other_side(const mc_tracker *t, int joint);
 /* Every left/right label of the rays exchanged (the body turned around). */
 void mc_trk_exchange_sides(const mc_tracker *t, mc_trk_keypoint_ray *r, int n);
