@@ -13,8 +13,8 @@
  *   2. A wrong start (arms raised where the actor's hang, the body 15% too
  *      small, the colours learnt before the arms went wrong) is pulled
  *      back: the arms' error falls below a bound with recovery, and stays
- *      far above it without.  (With the colours learnt at the wrong pose
- *      it is not: docs/TRACKER.md, "Known limits".)
+ *      far above it without.  With the arms raised halfway and the
+ *      colours learnt there, the arms come back too (test_arms_learnt_wrong).
  *   3. Covered cameras (black images, no keypoints) for 0.5 s in the middle
  *      of the clip: within 0.5 s of the images coming back the state is
  *      tracked again and the error within a bound.
@@ -193,6 +193,17 @@ static double pose_error_cm(const fixture *f, const mc_tracker *t, int k, const 
 	return 100 * sum / n;
 }
 
+/* The arms raised forward (shoulders at `share` of their forward limit,
+ * elbows straight). */
+static void raise_arms(const mc_model *m, double share, double *pose)
+{
+	for (int j = 0; j < m->njoints; j++) {
+		const mc_joint *jt = &m->joints[j];
+		for (int d = 0; d < jt->ndof && (strstr(jt->name, "shoulder") || strstr(jt->name, "elbow")); d++)
+			pose[jt->dof0 + d] = strstr(jt->name, "shoulder") && d == 0 ? share * jt->upper[0] : 0;
+	}
+}
+
 /* Frame 0's ground truth with the body shrunk by 15% about the neck
  * (another actor's bone lengths), and then the arms raised forward
  * (shoulders at 80% of their forward limit, elbows straight) where the
@@ -220,11 +231,7 @@ static double wrong_start(fixture *f, bool recover)
 	mc_clip_free_frame(v);
 	double pose[MC_MAX_DOF];
 	memcpy(pose, mc_tracker_pose(t), sizeof(double) * f->model.ndof);
-	for (int j = 0; j < f->model.njoints; j++) {
-		const mc_joint *jt = &f->model.joints[j];
-		for (int d = 0; d < jt->ndof && (strstr(jt->name, "shoulder") || strstr(jt->name, "elbow")); d++)
-			pose[jt->dof0 + d] = strstr(jt->name, "shoulder") && d == 0 ? 0.8 * jt->upper[0] : 0;
-	}
+	raise_arms(&f->model, 0.8, pose);
 	mc_tracker_set_pose(t, pose);
 	double before = pose_error_cm(f, t, 0, arm_joints, 4);
 
@@ -256,6 +263,59 @@ static void test_wrong_start(fixture *f)
 	CHECK_MSG(with <= ARMS_AFTER_CM, "arms still %.1f cm off at the end", with);
 	CHECK_MSG(without > 2 * ARMS_AFTER_CM, "without recovery the arms came back too (%.1f cm): the test proves nothing",
 		  without);
+}
+
+/* 2b. The arms raised halfway (shoulders at half their forward limit)
+ * where the actor's hang, with the colours learnt there: a limb lost long
+ * enough for its colours to be learnt at the wrong place.  The colour
+ * energy prefers the wrong arms, so only the cameras' agreement on the
+ * keypoints can bring them back.  Returns the first frame set whose arms
+ * are within ARMS_AFTER_CM; *last gets their mean error over the clip's
+ * last 0.5 s. */
+static int arms_learnt_wrong(fixture *f, double *last)
+{
+	mc_err err;
+	mc_tracker *t = new_tracker(f);
+	CHECK(mc_clip_init_tracker(&f->clip, t, &err) == 0);
+	double pose[MC_MAX_DOF];
+	memcpy(pose, mc_tracker_pose(t), sizeof(double) * f->model.ndof);
+	raise_arms(&f->model, 0.5, pose);
+	mc_tracker_set_pose(t, pose);
+	mc_frame_view v[MC_MAX_CAMERAS];
+	CHECK(mc_clip_load_frame(&f->clip, 0, v, &err) == 0);
+	CHECK(mc_tracker_calibrate_colors(t, v, 2, &err) == 0);
+	mc_clip_free_frame(v);
+	mc_skeleton sk;
+	int back = -1, n = f->clip.gt.nframes, within = 15;
+	*last = 0;
+	for (int k = 0; k < n; k++) {
+		track(f, t, k, false, &sk);
+		double e = error_cm(f, &sk, k, arm_joints, 4);
+		if (back < 0 && e <= ARMS_AFTER_CM)
+			back = k;
+		if (k >= n - within)
+			*last += e / within;
+	}
+	mc_tracker_init_info info;
+	mc_tracker_get_init_info(t, &info);
+	printf("arms raised, colours learnt there: arms within %.0f cm from frame set %d, %.1f cm over the last 0.5 s "
+	       "(%d re-fits)\n",
+	       ARMS_AFTER_CM, back, *last, info.refits);
+	mc_tracker_destroy(t);
+	return back;
+}
+
+/* measured: back at frame set 27 and 5.7 cm over the last 0.5 s; 25.0 cm
+ * there before stop 52, when a limb whose confidence stayed up was
+ * re-fitted only after 30 frame sets and then all the colours learnt
+ * again.  (Raised further, at 80 %, the arms stay about 35 cm off: from
+ * there the rays are out of a local fit's reach, docs/TRACKER.md.) */
+static void test_arms_learnt_wrong(fixture *f)
+{
+	double last;
+	int back = arms_learnt_wrong(f, &last);
+	CHECK_MSG(back >= 0 && back < 40, "the arms came back at frame set %d, not within 1.3 s", back);
+	CHECK_MSG(last <= ARMS_AFTER_CM, "the arms were %.1f cm off over the last 0.5 s", last);
 }
 
 /* Returns the first frame set tracked again within RECOVERED_CM after the
@@ -349,6 +409,7 @@ int main(void)
 	mc_tracker_settings_default(&f.s);
 	test_start_from_detections(&f);
 	test_wrong_start(&f);
+	test_arms_learnt_wrong(&f);
 	test_covered_cameras(&f);
 	test_late_keypoints(&f);
 	mc_clip_close(&f.clip);
