@@ -32,18 +32,23 @@
 /* Largest RMS distance of a fitted body's joints from their rays: about
  * twice the detector's median error at a metre (docs/DETECTOR.md). */
 #define FIT_MAX_RMS_M 0.08
-/* A joint this far from its rays in STUCK_FRAMES of the frame sets that
- * detect it, in a row, is caught in a wrong minimum, and its limb is
- * re-fitted to the rays.  (The distance to the triangulated point
- * instead, 0.30 m, also caught limbs at a wrong depth, which the keypoint
- * term leaves near their rays, but the triangulations' depth noise made
- * the evaluation clips 3-4 cm worse.)  10: 5 let the shipped detector's
- * persistent wrong keypoints re-fit good limbs (held-out scoop 25.9 ->
- * 31.0 cm, salsa 17.9 -> 23.3); 30 (until stop 52, for a limb whose
- * confidence stayed above 0.15) left limbs lost for seconds
- * (docs/TRACKER.md, "Recovery"). */
+/* A joint this far from its rays for DISAGREE_FRAMES frame sets in a row,
+ * with a confidence below STUCK_CONF, is caught in a wrong minimum.  (The
+ * distance to the triangulated point instead, 0.30 m, also caught limbs
+ * at a wrong depth, which the keypoint term leaves near their rays, but
+ * the triangulations' depth noise made the evaluation clips 3-4 cm
+ * worse.) */
 #define DISAGREE_M 0.20
-#define STUCK_FRAMES 10
+#define DISAGREE_FRAMES 10
+#define STUCK_CONF 0.15
+/* After this many frame sets of disagreement the detections win: the
+ * stuck limbs are re-fitted whatever the confidence and the colour energy
+ * say (the colours may have been learnt at the wrong place).  20: 10 let
+ * the shipped detector's wrong keypoints, which persist and agree between
+ * the views, take good limbs (the walk from detections 12.35 -> 12.98 cm);
+ * 30 (until stop 52) left limbs lost longer (docs/TRACKER_EXPERIMENTS.md,
+ * "Recovery of a stuck limb"). */
+#define FORCE_FRAMES 20
 /* Frame sets in a row in the lost state after which the pose is re-fitted
  * to the detections: a frame set or two are lost in ordinary tracking
  * (fast motion, motion blur), and re-fitting then to detections, which
@@ -387,14 +392,17 @@ static int finish_shape(mc_tracker *t, const mc_frame_view *views, int nviews, c
 /* ---- recovery ------------------------------------------------------------ */
 
 /* Counts, per joint, the frame sets in a row it missed its rays by
- * DISAGREE_M (among the frame sets that detect it), and marks as stuck
- * those past STUCK_FRAMES.  Returns whether any is. */
-static bool stuck_joints(mc_tracker *t, const mc_trk_triangulation *tri, bool *stuck)
+ * DISAGREE_M (among the frame sets that detect it); marks as stuck those past DISAGREE_FRAMES with a confidence
+ * below STUCK_CONF, or past FORCE_FRAMES whatever their confidence (the
+ * colours may have been learnt at a wrong pose, and then the confidence,
+ * measured against them, says nothing).  Returns the largest run among
+ * the stuck joints, 0 when none is. */
+static int stuck_joints(mc_tracker *t, const mc_trk_triangulation *tri, bool *stuck)
 {
 	mc_trk_init *in = &t->init;
 	mc_fk fk;
 	mc_model_fk(&t->model, t->pose, &fk);
-	bool any = false;
+	int worst = 0;
 	for (int j = 0; j < t->model.njoints; j++) {
 		double miss = 0;
 		for (int i = 0; tri->have[j] && i < tri->nray[j]; i++)
@@ -402,10 +410,12 @@ static bool stuck_joints(mc_tracker *t, const mc_trk_triangulation *tri, bool *s
 							       tri->ray[j][i].dir)));
 		if (tri->have[j]) /* an undetected frame set neither adds nor clears */
 			in->disagree[j] = miss > DISAGREE_M ? in->disagree[j] + 1 : 0;
-		stuck[j] = in->disagree[j] >= STUCK_FRAMES;
-		any = any || stuck[j];
+		stuck[j] = (in->disagree[j] >= DISAGREE_FRAMES && in->conf[j] < STUCK_CONF) ||
+			   in->disagree[j] >= FORCE_FRAMES;
+		if (stuck[j] && in->disagree[j] > worst)
+			worst = in->disagree[j];
 	}
-	return any;
+	return worst;
 }
 
 /* A stuck joint's limb: the joint, its parent (the bone that swings it)
@@ -423,63 +433,46 @@ static void limb_of(const mc_model *m, const bool *stuck, bool *limb)
 	}
 }
 
-/* Sets the re-fitted pose, the anchor (the calibration pose's prior)
- * left as it was. */
-static void take_refit(mc_tracker *t, const double *pose)
+/* Clears the disagreement runs of the joints in `limb` (NULL: all): after
+ * a limb's re-fit another stuck limb's run goes on. */
+static void clear_runs(mc_tracker *t, const bool *limb)
 {
-	double anchor[MC_MAX_DOF];
-	memcpy(anchor, t->anchor, sizeof(anchor));
-	mc_tracker_set_pose(t, pose);
-	memcpy(t->anchor, anchor, sizeof(anchor));
-	t->init.refits++;
+	for (int j = 0; j < t->model.njoints; j++)
+		if (!limb || limb[j])
+			t->init.disagree[j] = 0;
 }
 
-/* After a loss, the whole pose re-fitted to the rays, kept only where the
- * images agree: its colour energy must be lower than the tracked pose's
- * (the detections are noisier than a pose the images support). */
-static int refit_body(mc_tracker *t, const mc_trk_triangulation *tri, mc_err *err)
+/* Re-fits the whole pose (after a loss) or the stuck limbs to the rays.
+ * Unless forced, the fit is kept only if the images agree: its colour
+ * energy must be lower than the tracked pose's (the detections are
+ * noisier than a pose the images support).  The colours, the size and
+ * the anchor stay, forced or not: learnt again at a forced limb fit's
+ * pose, the colours made the dev walk 11.4 -> 13.1 cm and the jumps 8.1 ->
+ * 9.5 (the limb's alone no better than keeping them). */
+static int refit(mc_tracker *t, const mc_trk_triangulation *tri, const bool *limb, bool forced, mc_err *err)
 {
-	double pose[MC_MAX_DOF], E_now, E_fit;
+	double pose[MC_MAX_DOF], anchor[MC_MAX_DOF], E_now, E_fit;
+	mc_fk keep;
 	memcpy(pose, t->pose, sizeof(pose));
-	double rms = fit_pose(t, &t->model, tri, NULL, NULL, 60, true, pose);
+	mc_model_fk(&t->model, t->pose, &keep);
+	/* A limb is fitted from where it is, without restarts: restarts (always,
+	 * or when that fit fails) made jumps_01_01 1.6 cm worse, through fits
+	 * that the noisy energy check let through. */
+	double rms = fit_pose(t, &t->model, tri, limb, limb ? &keep : NULL, 60, !limb, pose);
 	if (!(rms >= 0 && rms <= FIT_MAX_RMS_M))
 		return 0;
-	if (t->s.lambda_color > 0) {
+	if (!forced && t->s.lambda_color > 0) {
 		if (mc_trk_pose_energy(t, t->pose, &E_now, err) < 0 || mc_trk_pose_energy(t, pose, &E_fit, err) < 0)
 			return -1;
 		if (!(E_fit < E_now))
 			return 0;
 	}
-	take_refit(t, pose);
-	memset(t->init.disagree, 0, sizeof(t->init.disagree));
+	memcpy(anchor, t->anchor, sizeof(anchor));
+	mc_tracker_set_pose(t, pose);
+	memcpy(t->anchor, anchor, sizeof(anchor));
+	clear_runs(t, limb);
+	t->init.refits++;
 	return 0;
-}
-
-/* The stuck limbs re-fitted to the rays from where they are, the rest of
- * the body held where it is, and kept when they fit: the cameras have
- * agreed on those joints for STUCK_FRAMES frame sets, against the pose.
- * The colour energy does not judge it: a limb lost for that long may have
- * had its colours learnt at the wrong place, and the energy then prefers
- * the wrong place (tests/test_tracker_recovery.c).  The colours are kept:
- * learnt again at the re-fitted pose, all of them made the dev walk 11.4
- * -> 13.1 cm and the jumps 8.1 -> 9.5, the limb's alone no better than
- * keeping them.  No restarts: a limb fitted from other starts reached the
- * shipped detector's persistent wrong keypoints (walk 11.4 -> 12.8 cm,
- * held-out scoop 26.0 -> 29.6), though it brought back arms lost far
- * (raised where the actor's hang). */
-static void refit_limbs(mc_tracker *t, const mc_trk_triangulation *tri, const bool *limb)
-{
-	double pose[MC_MAX_DOF];
-	mc_fk keep;
-	memcpy(pose, t->pose, sizeof(pose));
-	mc_model_fk(&t->model, t->pose, &keep);
-	double rms = fit_pose(t, &t->model, tri, limb, &keep, 60, false, pose);
-	if (!(rms >= 0 && rms <= FIT_MAX_RMS_M))
-		return;
-	take_refit(t, pose);
-	for (int j = 0; j < t->model.njoints; j++)
-		if (limb[j]) /* another limb's run goes on */
-			t->init.disagree[j] = 0;
 }
 
 static int recover(mc_tracker *t, const mc_trk_triangulation *tri, mc_err *err)
@@ -487,14 +480,13 @@ static int recover(mc_tracker *t, const mc_trk_triangulation *tri, mc_err *err)
 	if (!t->s.recover || !enough_for_fit(tri))
 		return 0;
 	bool stuck[MC_MAX_JOINTS], limb[MC_MAX_JOINTS];
-	bool any = stuck_joints(t, tri, stuck);
+	int run = stuck_joints(t, tri, stuck);
 	if (t->init.lost_run >= LOST_FRAMES)
-		return refit_body(t, tri, err);
-	if (any) {
-		limb_of(&t->model, stuck, limb);
-		refit_limbs(t, tri, limb);
-	}
-	return 0;
+		return refit(t, tri, NULL, false, err);
+	if (run == 0)
+		return 0;
+	limb_of(&t->model, stuck, limb);
+	return refit(t, tri, limb, run >= FORCE_FRAMES, err);
 }
 
 /* ---- per frame set --------------------------------------------------------- */
@@ -532,6 +524,8 @@ void mc_trk_init_after(mc_tracker *t, const mc_skeleton *out)
 {
 	mc_trk_init *in = &t->init;
 	in->lost_run = out->state == MC_TRACK_LOST ? in->lost_run + 1 : 0;
+	for (int j = 0; j < out->njoints && j < MC_MAX_JOINTS; j++)
+		in->conf[j] = out->joints[j].confidence;
 	if (in->collected && out->state != MC_TRACK_LOST) {
 		memcpy(in->shape_pose[in->nshape], t->pose, sizeof(in->shape_pose[0]));
 		in->nshape++;
