@@ -305,7 +305,7 @@ static int arms_learnt_wrong(fixture *f, double *last)
 	return back;
 }
 
-/* measured: back at frame set 30 and 4.1 cm over the last 0.5 s; 25.0 cm
+/* measured: back at frame set 27 and 5.7 cm over the last 0.5 s; 25.0 cm
  * there before stop 52, when a limb whose confidence stayed up was
  * re-fitted only after 30 frame sets and all the colours then learnt
  * again at that pose.  (Raised further, at 80 %, the arms stay about 35

@@ -43,12 +43,12 @@
 #define STUCK_CONF 0.15
 /* After this many frame sets of disagreement the detections win: the
  * stuck limbs are re-fitted whatever the confidence and the colour energy
- * say (the colours may have been learnt at the wrong place).  20: 10 let
+ * say (the colours may have been learnt at the wrong place).  15: 10 let
  * the shipped detector's wrong keypoints, which persist and agree between
  * the views, take good limbs (the walk from detections 12.35 -> 12.98 cm);
- * 30 (until stop 52) left limbs lost longer (docs/TRACKER_EXPERIMENTS.md,
- * "Recovery of a stuck limb"). */
-#define FORCE_FRAMES 20
+ * 20 and 30 (until stop 52) left limbs lost longer
+ * (docs/TRACKER_EXPERIMENTS.md, "Recovery of a stuck limb"). */
+#define FORCE_FRAMES 15
 /* Frame sets in a row in the lost state after which the pose is re-fitted
  * to the detections: a frame set or two are lost in ordinary tracking
  * (fast motion, motion blur), and re-fitting then to detections, which
