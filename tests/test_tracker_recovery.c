@@ -204,6 +204,36 @@ static void raise_arms(const mc_model *m, double share, double *pose)
 	}
 }
 
+/* The colours learnt from frame 0's views at t's pose. */
+static void learn_colours(fixture *f, mc_tracker *t)
+{
+	mc_err err;
+	mc_frame_view v[MC_MAX_CAMERAS];
+	CHECK(mc_clip_load_frame(&f->clip, 0, v, &err) == 0);
+	CHECK_MSG(mc_tracker_calibrate_colors(t, v, 2, &err) == 0, "%s", err.msg);
+	mc_clip_free_frame(v);
+}
+
+/* Tracks the whole clip with t; returns the arms' mean error (cm) over its
+ * last 0.5 s, and *back the first frame set whose arms are within
+ * ARMS_AFTER_CM (-1: none). */
+static double track_arms(fixture *f, mc_tracker *t, int *back)
+{
+	const int n = f->clip.gt.nframes, within = 15;
+	double last = 0;
+	*back = -1;
+	for (int k = 0; k < n; k++) {
+		mc_skeleton sk;
+		track(f, t, k, false, &sk);
+		double e = error_cm(f, &sk, k, arm_joints, 4);
+		if (*back < 0 && e <= ARMS_AFTER_CM)
+			*back = k;
+		if (k >= n - within)
+			last += e;
+	}
+	return last / within;
+}
+
 /* Frame 0's ground truth with the body shrunk by 15% about the neck
  * (another actor's bone lengths), and then the arms raised forward
  * (shoulders at 80% of their forward limit, elbows straight) where the
@@ -225,28 +255,14 @@ static double wrong_start(fixture *f, bool recover)
 	CHECK(mc_tracker_init_from_joints(t, names, pos, f->clip.gt.njoints, &err) == 0);
 	/* the colours are learnt at the start pose, before the arms go wrong:
 	 * a tracker that lost its arms, not one that never saw them */
-	mc_frame_view v[MC_MAX_CAMERAS];
-	CHECK(mc_clip_load_frame(&f->clip, 0, v, &err) == 0);
-	CHECK(mc_tracker_calibrate_colors(t, v, 2, &err) == 0);
-	mc_clip_free_frame(v);
+	learn_colours(f, t);
 	double pose[MC_MAX_DOF];
 	memcpy(pose, mc_tracker_pose(t), sizeof(double) * f->model.ndof);
 	raise_arms(&f->model, 0.8, pose);
 	mc_tracker_set_pose(t, pose);
 	double before = pose_error_cm(f, t, 0, arm_joints, 4);
-
-	mc_skeleton sk;
-	double after = 0;
-	int n_after = 0;
-	for (int k = 0; k < f->clip.gt.nframes; k++) {
-		track(f, t, k, false, &sk);
-		double e = error_cm(f, &sk, k, arm_joints, 4);
-		if (k >= f->clip.gt.nframes - 15) {
-			after += e;
-			n_after++;
-		}
-	}
-	after /= n_after;
+	int back;
+	double after = track_arms(f, t, &back);
 	mc_tracker_init_info info;
 	mc_tracker_get_init_info(t, &info);
 	printf("wrong start, recovery %s: arms %.1f cm off at the start, %.1f cm over the last 0.5 s (%d re-fits)\n",
@@ -281,21 +297,9 @@ static int arms_learnt_wrong(fixture *f, double *last)
 	memcpy(pose, mc_tracker_pose(t), sizeof(double) * f->model.ndof);
 	raise_arms(&f->model, 0.5, pose);
 	mc_tracker_set_pose(t, pose);
-	mc_frame_view v[MC_MAX_CAMERAS];
-	CHECK(mc_clip_load_frame(&f->clip, 0, v, &err) == 0);
-	CHECK(mc_tracker_calibrate_colors(t, v, 2, &err) == 0);
-	mc_clip_free_frame(v);
-	mc_skeleton sk;
-	int back = -1, n = f->clip.gt.nframes, within = 15;
-	*last = 0;
-	for (int k = 0; k < n; k++) {
-		track(f, t, k, false, &sk);
-		double e = error_cm(f, &sk, k, arm_joints, 4);
-		if (back < 0 && e <= ARMS_AFTER_CM)
-			back = k;
-		if (k >= n - within)
-			*last += e / within;
-	}
+	learn_colours(f, t);
+	int back;
+	*last = track_arms(f, t, &back);
 	mc_tracker_init_info info;
 	mc_tracker_get_init_info(t, &info);
 	printf("arms raised, colours learnt there: arms within %.0f cm from frame set %d, %.1f cm over the last 0.5 s "
