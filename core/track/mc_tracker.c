@@ -13,7 +13,7 @@
 #include "track/mc_tracker.h"
 
 #include "base/mc_time.h"
-#include "body/mc_ik.h"
+#include "body/mc_fit_joints.h"
 #include "track/mc_tracker_internal.h"
 
 #include <float.h>
@@ -218,21 +218,8 @@ void mc_tracker_get_init_info(const mc_tracker *t, mc_tracker_init_info *out)
 int mc_tracker_init_from_joints(mc_tracker *t, const char *const *names, const mc_vec3 *positions, int n,
 				mc_err *err)
 {
-	mc_ik_target targets[MC_MAX_JOINTS];
-	int nt = 0;
-	for (int i = 0; i < n && nt < MC_MAX_JOINTS; i++) {
-		int j = mc_model_find_joint(&t->model, names[i]);
-		if (j < 0)
-			continue;
-		targets[nt++] = (mc_ik_target){j, positions[i], 1.0, {0, 0, 0}};
-	}
-	mc_ik_options o;
-	mc_ik_options_default(&o);
-	o.iterations = 200;
 	double pose[MC_MAX_DOF] = {0};
-	mc_model_rest_pose(&t->model, pose);
-	double rms = mc_ik_solve(&t->model, pose, targets, nt, &o, err);
-	if (rms < 0)
+	if (mc_fit_joints(&t->model, pose, names, positions, n, err) < 0)
 		return -1;
 	mc_tracker_set_pose(t, pose);
 	return 0;

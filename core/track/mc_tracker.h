@@ -181,7 +181,8 @@ const mc_model *mc_tracker_model(const mc_tracker *t);
 /* Initialises from 3D joint positions (rig frame, metres), e.g. the ground
  * truth of frame 0 or a detector's output: a small inverse-kinematics solve
  * for the bone-length scales, the root placement (rig_from_root for fixed
- * roots) and the pose.  names[i] is a model joint name; unknown names are
+ * roots) and the pose, by the limb joints and neck first
+ * (body/mc_fit_joints.h).  names[i] is a model joint name; unknown names are
  * ignored.  Resets the pose history. */
 int mc_tracker_init_from_joints(mc_tracker *t, const char *const *names, const mc_vec3 *positions, int n,
 				mc_err *err);

@@ -1,0 +1,33 @@
+/* mc_fit_joints: the body model fitted to another skeleton's joint positions.
+ *
+ * Frame 0's ground truth, an `init_joints` file or a recorded take give
+ * joints by name.  Their limb joints and neck are anatomical landmarks that
+ * every skeleton places alike; `spine`, `pelvis` and `head_top` are not:
+ * one motion-capture skeleton puts its pelvis at hip height, another a hand
+ * above, its spine anywhere along the back (docs/TRACKER.md, "Starting from
+ * given joints").  So the fit first uses the landmarks alone, and takes the
+ * spine and pelvis in only where they sit within MC_FIT_JOINTS_AGREE_M of
+ * where that fit puts the model's own. */
+#ifndef MC_FIT_JOINTS_H
+#define MC_FIT_JOINTS_H
+
+#include "base/mc_error.h"
+#include "body/mc_model.h"
+
+/* Given spine and pelvis this close to the landmark fit's are the model's
+ * kind of spine and pelvis (the dev clips: 6-8 cm; skeletons with the
+ * pelvis at hip height: 18-22 cm). */
+#define MC_FIT_JOINTS_AGREE_M 0.12
+
+/* Sets model's bone scales, the root placement (rig_from_root for a fixed
+ * root) and pose (model->ndof values, out) from n named joint positions in
+ * the rig frame; names the model lacks are ignored.  Returns the RMS
+ * residual of the fit kept (metres), or a negative value with err set. */
+double mc_fit_joints(mc_model *model, double *pose, const char *const *names, const mc_vec3 *positions, int n,
+		     mc_err *err);
+
+/* Whether a joint of this name is one of the landmarks (not spine, pelvis
+ * or head_top). */
+bool mc_fit_joints_is_landmark(const char *name);
+
+#endif
