@@ -80,11 +80,14 @@ static mc_vec3 off_ray(mc_vec3 p, mc_vec3 origin, mc_vec3 dir)
 /* The point nearest to the rays idx[0..n-1] (least squares over
  * sum_i w_i |(I - d_i d_i^T)(x - o_i)|^2); false when they are near
  * parallel, the point lies behind a camera or a ray misses it by more than
- * TRI_GATE_M. */
-static bool triangulate_joint(const mc_trk_keypoint_ray *r, const int *idx, int n, mc_vec3 *out, double *conf)
+ * TRI_GATE_M.  *worst: the ray that misses the point most (one behind its
+ * camera first), -1 when there is no point. */
+static bool triangulate_joint(const mc_trk_keypoint_ray *r, const int *idx, int n, mc_vec3 *out, double *conf,
+			      int *worst)
 {
-	mc_vec3 o[MC_MAX_CAMERAS], d[MC_MAX_CAMERAS], x;
-	double w[MC_MAX_CAMERAS], wmin = 1;
+	mc_vec3 o[MC_MAX_CAMERAS] = {{0}}, d[MC_MAX_CAMERAS] = {{0}}, x;
+	double w[MC_MAX_CAMERAS] = {0}, wmin = 1, most = -1;
+	bool met = true;
 	for (int i = 0; i < n; i++) {
 		const mc_trk_keypoint_ray *k = &r[idx[i]];
 		o[i] = k->origin;
@@ -92,20 +95,33 @@ static bool triangulate_joint(const mc_trk_keypoint_ray *r, const int *idx, int 
 		w[i] = k->weight;
 		wmin = fmin(wmin, k->weight);
 	}
+	*worst = -1;
 	if (!mc_rays_nearest_point(o, d, w, n, &x))
 		return false;
 	for (int i = 0; i < n; i++) {
 		const mc_trk_keypoint_ray *k = &r[idx[i]];
-		if (mc_v3_dot(mc_v3_sub(x, k->origin), k->dir) <= 0.05 ||
-		    mc_v3_norm(off_ray(x, k->origin, k->dir)) > TRI_GATE_M)
-			return false;
+		double miss = mc_v3_dot(mc_v3_sub(x, k->origin), k->dir) <= 0.05 ? INFINITY
+											: mc_v3_norm(off_ray(x, k->origin, k->dir));
+		met = met && miss <= TRI_GATE_M;
+		if (miss > most) {
+			most = miss;
+			*worst = i;
+		}
 	}
+	if (!met)
+		return false;
 	*out = x;
 	*conf = wmin;
 	return mc_v3_isfinite(x);
 }
 
-/* Per joint, the best-confidence ray of every camera, triangulated. */
+/* Per joint, the best-confidence ray of every camera, triangulated.
+ * Where they do not meet, the ray that misses most goes while three or
+ * more are left: one camera's keypoint on the other limb, the background
+ * or a bystander no longer costs the joint the others' agreement (MoveNet
+ * outside-in from the detections, seeds 1-3: dev walk 4.17 -> 4.02 cm,
+ * jumps 4.58 -> 4.35, held-out swordplay 10.90 -> 9.69, salsa 12.45 ->
+ * 10.70; two cameras, the head rig's, as before). */
 static void triangulate(const mc_tracker *t, const mc_trk_keypoint_ray *r, const int *cam, int nr,
 			mc_trk_triangulation *tri)
 {
@@ -121,7 +137,13 @@ static void triangulate(const mc_tracker *t, const mc_trk_keypoint_ray *r, const
 			if (best[n] >= 0)
 				n++;
 		}
-		if (n < 2 || !triangulate_joint(r, best, n, &tri->pos[j], &tri->conf[j]))
+		int worst = -1;
+		bool met = n >= 2 && triangulate_joint(r, best, n, &tri->pos[j], &tri->conf[j], &worst);
+		while (!met && n > 2 && worst >= 0) {
+			best[worst] = best[--n];
+			met = triangulate_joint(r, best, n, &tri->pos[j], &tri->conf[j], &worst);
+		}
+		if (!met)
 			continue;
 		tri->have[j] = true;
 		for (int i = 0; i < n; i++) {
