@@ -6,8 +6,10 @@
 #include <math.h>
 #include <string.h>
 
-/* Joints whose place differs from skeleton to skeleton. */
+/* Joints whose place differs from skeleton to skeleton; the first
+ * NCHECKED are compared with the model's (spine_pelvis_miss). */
 static const char *const NOT_LANDMARKS[] = {"spine", "pelvis", "head_top"};
+#define NCHECKED 2
 /* The bones from the neck down to the hips, scaled as one. */
 static const char *const TORSO_BONES[] = {"spine", "pelvis", "left_hip", "right_hip"};
 #define NTORSO (int)(sizeof(TORSO_BONES) / sizeof(TORSO_BONES[0]))
@@ -25,11 +27,7 @@ bool mc_fit_joints_is_landmark(const char *name)
 
 static const mc_ik_target *target_of(const mc_model *m, const mc_ik_target *t, int n, const char *name)
 {
-	int j = mc_model_find_joint(m, name);
-	for (int i = 0; j >= 0 && i < n; i++)
-		if (t[i].joint == j)
-			return &t[i];
-	return NULL;
+	return mc_ik_find_target(t, n, mc_model_find_joint(m, name));
 }
 
 /* Where the rest pose puts the neck and the hips' midpoint, with every
@@ -88,7 +86,7 @@ static double spine_pelvis_miss(const mc_model *m, const double *pose, const mc_
 	mc_fk fk;
 	mc_model_fk(m, pose, &fk);
 	double worst = 0;
-	for (int k = 0; k < 2; k++) {
+	for (int k = 0; k < NCHECKED; k++) {
 		const mc_ik_target *g = target_of(m, t, n, NOT_LANDMARKS[k]);
 		if (g)
 			worst = fmax(worst, mc_v3_norm(mc_v3_sub(fk.rig_from_joint[g->joint].t, g->position)));

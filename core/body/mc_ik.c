@@ -27,7 +27,7 @@ static int compare_double(const void *a, const void *b)
 	return (x > y) - (x < y);
 }
 
-static const mc_ik_target *find_target(const mc_ik_target *t, int n, int joint)
+const mc_ik_target *mc_ik_find_target(const mc_ik_target *t, int n, int joint)
 {
 	for (int i = 0; i < n; i++)
 		if (t[i].joint == joint)
@@ -43,8 +43,8 @@ void mc_ik_fit_bone_scale(mc_model *model, const mc_ik_target *targets, int n)
 	for (int j = 0; j < model->njoints; j++) {
 		int parent = model->joints[j].parent;
 		double rest = mc_v3_norm(model->joints[j].offset);
-		const mc_ik_target *a = find_target(targets, n, j);
-		const mc_ik_target *b = parent >= 0 ? find_target(targets, n, parent) : NULL;
+		const mc_ik_target *a = mc_ik_find_target(targets, n, j);
+		const mc_ik_target *b = parent >= 0 ? mc_ik_find_target(targets, n, parent) : NULL;
 		if (!a || !b || rest < 1e-3)
 			continue;
 		model->bone_scale[j] = mc_v3_norm(mc_v3_sub(a->position, b->position)) / rest;

@@ -37,6 +37,9 @@ typedef struct {
 
 void mc_ik_options_default(mc_ik_options *o);
 
+/* The first of the n targets on `joint`, or NULL. */
+const mc_ik_target *mc_ik_find_target(const mc_ik_target *t, int n, int joint);
+
 /* Sets bone_scale[j] from the distances between targets of joint j and of
  * its parent where both are given; other joints get the median scale. */
 void mc_ik_fit_bone_scale(mc_model *model, const mc_ik_target *targets, int n);

@@ -422,11 +422,12 @@ static int finish_shape(mc_tracker *t, const mc_frame_view *views, int nviews, c
 /* ---- recovery ------------------------------------------------------------ */
 
 /* Counts, per joint, the frame sets in a row it missed its rays by
- * DISAGREE_M (among the frame sets that detect it); marks as stuck those past DISAGREE_FRAMES with a confidence
- * below STUCK_CONF, or past FORCE_FRAMES whatever their confidence (the
- * colours may have been learnt at a wrong pose, and then the confidence,
- * measured against them, says nothing).  Returns the largest run among
- * the stuck joints, 0 when none is. */
+ * DISAGREE_M (among the frame sets that detect it); marks as stuck those
+ * past DISAGREE_FRAMES with a confidence below STUCK_CONF, or past
+ * FORCE_FRAMES whatever their confidence (the colours may have been
+ * learnt at a wrong pose, and then the confidence, measured against them,
+ * says nothing).  Returns the largest run among the stuck joints, 0 when
+ * none is. */
 static int stuck_joints(mc_tracker *t, const mc_trk_triangulation *tri, bool *stuck)
 {
 	mc_trk_init *in = &t->init;
