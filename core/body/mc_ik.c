@@ -1,4 +1,5 @@
 #include "body/mc_ik.h"
+#include "geom/mc_ray.h"
 
 #include <stdint.h>
 #include <stdlib.h>
@@ -12,13 +13,25 @@ void mc_ik_options_default(mc_ik_options *o)
 	o->fit_bone_scale = true;
 	o->fit_root = true;
 	o->restarts = true;
+	o->ray_near = 0;
 }
 
-/* v without its component along a ray target's direction (a point target
- * has dir 0 and keeps v whole). */
-static mc_vec3 target_project(const mc_ik_target *t, mc_vec3 v)
+static bool is_ray(const mc_ik_target *t)
 {
-	return mc_v3_reject(v, t->dir);
+	return mc_v3_norm2(t->dir) > 0;
+}
+
+/* The residual of a joint at offset v from a target's position: a ray
+ * target's mc_ray_offset, a point target's v itself (its dir is 0). */
+static mc_vec3 target_residual(const mc_ik_target *t, double near, mc_vec3 v)
+{
+	return is_ray(t) ? mc_ray_offset(v, t->dir, near) : v;
+}
+
+/* The residual's change for the joint's move dv. */
+static mc_vec3 target_residual_move(const mc_ik_target *t, double near, mc_vec3 v, mc_vec3 dv)
+{
+	return is_ray(t) ? mc_ray_offset_move(v, t->dir, near, dv) : dv;
 }
 
 static int compare_double(const void *a, const void *b)
@@ -69,14 +82,16 @@ static double prior_offset(const double *p, const double *p0, int k)
 	return p0 ? p[k] - p0[k] : p[k];
 }
 
-static double ik_cost(const mc_model *m, const double *p, const mc_ik_target *t, int n, double prior, const double *p0,
+static double ik_cost(const mc_model *m, const double *p, const mc_ik_target *t, int n, const mc_ik_options *o,
 		      int first_joint_dof)
 {
+	double prior = o->pose_prior;
+	const double *p0 = o->prior_pose;
 	mc_fk fk;
 	mc_model_fk(m, p, &fk);
 	double c = 0;
 	for (int i = 0; i < n; i++) {
-		mc_vec3 r = target_project(&t[i], mc_v3_sub(fk.rig_from_joint[t[i].joint].t, t[i].position));
+		mc_vec3 r = target_residual(&t[i], o->ray_near, mc_v3_sub(fk.rig_from_joint[t[i].joint].t, t[i].position));
 		c += t[i].weight * mc_v3_norm2(r);
 	}
 	for (int k = first_joint_dof; k < m->ndof; k++)
@@ -85,9 +100,11 @@ static double ik_cost(const mc_model *m, const double *p, const mc_ik_target *t,
 }
 
 /* One Levenberg-Marquardt step: solves (J^T W J + mu D + prior) d = -g. */
-static bool ik_step(const mc_model *m, const double *p, const mc_ik_target *t, int n, double prior, const double *p0,
+static bool ik_step(const mc_model *m, const double *p, const mc_ik_target *t, int n, const mc_ik_options *o,
 		    double mu, int first_joint_dof, int nfrozen, double *step, mc_vec3 *J)
 {
+	double prior = o->pose_prior;
+	const double *p0 = o->prior_pose;
 	int nd = m->ndof;
 	double A[MC_MAX_DOF * MC_MAX_DOF];
 	double *g = step;
@@ -99,9 +116,10 @@ static bool ik_step(const mc_model *m, const double *p, const mc_ik_target *t, i
 	for (int i = 0; i < n; i++) {
 		const mc_vec3 *Jj = &J[t[i].joint * nd];
 		mc_vec3 Ji[MC_MAX_DOF];
-		for (int a = 0; a < nd; a++) /* the projection is idempotent: P J, P r */
-			Ji[a] = target_project(&t[i], Jj[a]);
-		mc_vec3 r = target_project(&t[i], mc_v3_sub(fk.rig_from_joint[t[i].joint].t, t[i].position));
+		mc_vec3 v = mc_v3_sub(fk.rig_from_joint[t[i].joint].t, t[i].position);
+		for (int a = 0; a < nd; a++)
+			Ji[a] = target_residual_move(&t[i], o->ray_near, v, Jj[a]);
+		mc_vec3 r = target_residual(&t[i], o->ray_near, v);
 		for (int a = 0; a < nd; a++) {
 			g[a] += t[i].weight * mc_v3_dot(Ji[a], r);
 			for (int b = a; b < nd; b++)
@@ -129,16 +147,16 @@ static double lm_solve(const mc_model *m, double *p, const mc_ik_target *t, int 
 {
 	mc_vec3 *J = malloc(sizeof(mc_vec3) * MC_MAX_JOINTS * MC_MAX_DOF);
 	double step[MC_MAX_DOF], trial[MC_MAX_DOF];
-	double mu = 1e-3, cost = ik_cost(m, p, t, n, o->pose_prior, o->prior_pose, first_joint_dof);
+	double mu = 1e-3, cost = ik_cost(m, p, t, n, o, first_joint_dof);
 	for (int it = 0; it < o->iterations && J; it++) {
-		if (!ik_step(m, p, t, n, o->pose_prior, o->prior_pose, mu, first_joint_dof, nfrozen, step, J)) {
+		if (!ik_step(m, p, t, n, o, mu, first_joint_dof, nfrozen, step, J)) {
 			mu *= 10;
 			continue;
 		}
 		for (int k = 0; k < m->ndof; k++)
 			trial[k] = p[k] + step[k];
 		mc_model_clamp_pose(m, trial);
-		double c = ik_cost(m, trial, t, n, o->pose_prior, o->prior_pose, first_joint_dof);
+		double c = ik_cost(m, trial, t, n, o, first_joint_dof);
 		if (c < cost) {
 			double gain = cost - c;
 			memcpy(p, trial, sizeof(double) * m->ndof);

@@ -10,9 +10,10 @@
 #include "body/mc_model.h"
 
 /* One target: a model joint and where it should be, in the rig frame.
- * With a non-zero (unit) dir the target is a ray from `position`: only the
- * joint's distance from that line counts (a 2D detection seen from a
- * camera, whose depth is unknown). */
+ * With a non-zero (unit) dir the target is a ray from `position`, a
+ * camera's centre: only the joint's offset from the ray counts (a 2D
+ * detection seen from a camera, whose depth is unknown), measured by
+ * mc_ray_offset (geom/mc_ray.h). */
 typedef struct {
 	int joint;
 	mc_vec3 position;
@@ -33,6 +34,7 @@ typedef struct {
 	bool fit_bone_scale;  /* set bone_scale from target bone lengths first */
 	bool fit_root;        /* also solve for the root placement */
 	bool restarts;        /* try other starts while the fit is poor (default true) */
+	double ray_near;      /* ray targets' offsets by the angle nearer than this (geom/mc_ray.h; default 0) */
 } mc_ik_options;
 
 void mc_ik_options_default(mc_ik_options *o);

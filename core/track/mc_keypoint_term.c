@@ -1,6 +1,7 @@
 /* The keypoint term of the tracker (thesis ch. 6.2.2): 2D detections as
  * rays that pull their joints, with a robust loss and a check across the
  * cameras that keep a detector's mistakes from pulling the pose. */
+#include "geom/mc_ray.h"
 #include "track/mc_tracker_internal.h"
 
 #include <math.h>
@@ -114,12 +115,13 @@ double mc_trk_detection_term(mc_tracker *t, const double *pose, const mc_fk *fk,
 		if (w <= 0)
 			continue;
 		mc_vec3 d = mc_v3_sub(fk->rig_from_joint[kp[i].joint].t, kp[i].origin);
-		mc_vec3 r = mc_v3_reject(d, kp[i].dir); /* offset from the ray */
+		mc_vec3 r = mc_ray_offset(d, kp[i].dir, MC_RAY_NEAR_M);
 		double dist = mc_v3_norm(r), x = dist / tau;
 		E += w * 0.5 * log(1 + x * x);
 		used++;
-		/* dE/dp = w x / (1 + x^2) / tau * r / |r| */
-		djoint[kp[i].joint] = mc_v3_axpy(w / ((1 + x * x) * tau * tau), r, djoint[kp[i].joint]);
+		/* dE/dr = w x / (1 + x^2) / tau * r / |r|, through dr/dp */
+		mc_vec3 pull = mc_ray_offset_pull(d, kp[i].dir, MC_RAY_NEAR_M, r);
+		djoint[kp[i].joint] = mc_v3_axpy(w / ((1 + x * x) * tau * tau), pull, djoint[kp[i].joint]);
 	}
 	if (!used)
 		return 0;

@@ -13,6 +13,7 @@
  * colours, a limb the detector placed on the other leg or the floor is
  * refused. */
 #include "body/mc_ik.h"
+#include "geom/mc_ray.h"
 #include "track/mc_tracker_internal.h"
 
 #include <math.h>
@@ -52,7 +53,7 @@ static int ray_targets(const mc_tracker *t, const double *pose, mc_ik_target *tg
 		const mc_trk_keypoint_ray *r = &kp->rays[i];
 		if (r->weight <= 0 || t->fixed_joint[r->joint])
 			continue;
-		mc_vec3 off = mc_v3_reject(mc_v3_sub(fk.rig_from_joint[r->joint].t, r->origin), r->dir);
+		mc_vec3 off = mc_ray_offset(mc_v3_sub(fk.rig_from_joint[r->joint].t, r->origin), r->dir, MC_RAY_NEAR_M);
 		double x = mc_v3_norm(off) / FIT_TAU_M;
 		tg[n++] = (mc_ik_target){r->joint, r->origin, r->weight / (1 + x * x), r->dir};
 	}
@@ -71,6 +72,7 @@ static bool fit_to_rays(mc_tracker *t, const double *pred, double *fit)
 	o.fit_bone_scale = false;
 	o.fit_root = t->model.root_free; /* a fixed root is the head's place on the rig */
 	o.restarts = false;
+	o.ray_near = MC_RAY_NEAR_M;
 	memcpy(fit, pred, sizeof(double) * (size_t)t->model.ndof);
 	for (int round = 0; round < FIT_ROUNDS; round++) {
 		int n = ray_targets(t, fit, tg);
