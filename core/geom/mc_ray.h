@@ -9,15 +9,18 @@
  * ray is measured by its angle off the ray times MC_RAY_NEAR_M, as if it
  * were that far out, and one nearer than MC_RAY_MIN_DEPTH_M (or behind the
  * camera) from the ray's point at that depth, scaled alike.  Beyond
- * MC_RAY_NEAR_M (every outside-in joint) the offset is the line's. */
+ * MC_RAY_NEAR_M (every outside-in joint) the offset is the line's.  The
+ * starts and re-fits from detections (track/mc_init.c) keep the line's
+ * offset (mc_ik_options.ray_near 0): there the angle weighed the neck and
+ * shoulders, a few tenths of a metre below the cameras, over the limbs. */
 #ifndef MC_RAY_H
 #define MC_RAY_H
 
 #include "base/mc_math.h"
 
 /* Measured on the head rig's held-out clips (docs/TRACKER.md, "Distance
- * from a ray"): 0.5 m cost the shoulders' keypoints' torso and the
- * sword-holding wrists, 0.2 m helped less. */
+ * from a ray"): at 0.5 m the shoulders' keypoints held the torso too
+ * stiffly and the sword-holding wrists got worse; 0.2 m helped less. */
 #define MC_RAY_NEAR_M 0.3
 #define MC_RAY_MIN_DEPTH_M 0.05
 
