@@ -124,12 +124,126 @@ static int compare_part(mc_tracker *t, const double *a, const double *b, const b
 	return 0;
 }
 
+/* ---- a forearm seen end-on ----------------------------------------------- */
+
+/* A forearm along the cameras' line of sight looks the same pointing toward
+ * them or away; the fit, robust and held to the prediction, keeps whichever
+ * the motion brought (the held-out walk's wrist 20-38 cm too near for up to
+ * 0.9 s with good keypoints in both views).  So the other is tried: the
+ * wrist mirrored through the plane across the line of sight at the elbow,
+ * the arm fitted again from there, and kept where the wrist then misses
+ * its rays by at most FLIP_GAIN of the first fit's miss.  Only where:
+ * - the forearm's share along the line of sight is FLIP_MIN_ALONG or more
+ *   (otherwise the mirror is nearly the same arm);
+ * - the wrist has rays from two cameras, and the fit misses one by
+ *   FLIP_MISS_M or more (the second camera is what tells the two apart);
+ * - the keypoints' trust (mc_keypoint_trust.c) is FLIP_MIN_TRUST or more:
+ *   the shipped detector's keypoints (trust 1) flipped good arms onto
+ *   their errors (held-out swordplay 14.3 -> 15.3 cm);
+ * - an arm: flipping the shins too cost the walk's feet, whose depth two
+ *   cameras 0.3 m apart cannot tell (docs/TRACKER_EXPERIMENTS.md, stop 55).
+ * The colour check after decides as for any fit. */
+#define FLIP_MIN_ALONG 0.3
+#define FLIP_MISS_M 0.03
+#define FLIP_GAIN 0.5
+#define FLIP_MIN_TRUST 2.0
+#define FLIP_IK_PRIOR 1e-3
+#define FLIP_IK_ITERATIONS 10
+static const char *const arm_bones[][2] = {{"left_elbow", "left_wrist"}, {"right_elbow", "right_wrist"}};
+#define NARMS ((int)(sizeof(arm_bones) / sizeof(arm_bones[0])))
+
+/* The largest offset of joint j from its usable rays at fk, and through
+ * *ncams whether two cameras or more gave them (0, 1 or 2). */
+static double worst_offset(const mc_tracker *t, const mc_fk *fk, int j, int *ncams)
+{
+	const mc_trk_frame_keypoints *kp = t->fkp;
+	double worst = 0;
+	int first = -1;
+	*ncams = 0;
+	for (int i = 0; i < kp->nrays; i++) {
+		const mc_trk_keypoint_ray *r = &kp->rays[i];
+		if (r->joint != j || r->weight <= 0)
+			continue;
+		mc_vec3 off = mc_ray_offset(mc_v3_sub(fk->rig_from_joint[j].t, r->origin), r->dir, MC_RAY_NEAR_M);
+		worst = fmax(worst, mc_v3_norm(off));
+		if (first < 0)
+			first = kp->cam[i], *ncams = 1;
+		else if (kp->cam[i] != first)
+			*ncams = 2;
+	}
+	return worst;
+}
+
+/* start: fit with the wrist at `wrist`, the shoulder and elbow where they
+ * are (the inverse kinematics toward three points, held to fit). */
+static bool turn_forearm(mc_tracker *t, const double *fit, const mc_fk *fk, int elbow, int wrist, mc_vec3 to,
+			 double *start)
+{
+	int shoulder = t->model.joints[elbow].parent;
+	mc_ik_target tg[3] = {{shoulder, fk->rig_from_joint[shoulder].t, 1, {0, 0, 0}},
+			      {elbow, fk->rig_from_joint[elbow].t, 1, {0, 0, 0}},
+			      {wrist, to, 1, {0, 0, 0}}};
+	mc_ik_options o;
+	mc_ik_options_default(&o);
+	o.iterations = FLIP_IK_ITERATIONS;
+	o.pose_prior = FLIP_IK_PRIOR;
+	o.prior_pose = fit;
+	o.fit_bone_scale = false;
+	o.fit_root = false;
+	o.restarts = false;
+	memcpy(start, fit, sizeof(double) * (size_t)t->model.ndof);
+	mc_err err;
+	return mc_ik_solve(&t->model, start, tg, 3, &o, &err) >= 0;
+}
+
+/* Arm a of fit replaced by its fit from the forearm turned the other way
+ * along the line of sight from eye, where its wrist's rays say so. */
+static void try_flip(mc_tracker *t, int a, mc_vec3 eye, double *fit)
+{
+	int elbow = mc_model_find_joint(&t->model, arm_bones[a][0]), wrist = mc_model_find_joint(&t->model, arm_bones[a][1]);
+	if (elbow < 0 || wrist < 0)
+		return;
+	mc_fk fk;
+	mc_model_fk(&t->model, fit, &fk);
+	int ncams;
+	double miss = worst_offset(t, &fk, wrist, &ncams);
+	mc_vec3 bone = mc_v3_sub(fk.rig_from_joint[wrist].t, fk.rig_from_joint[elbow].t);
+	mc_vec3 sight = mc_v3_normalize(mc_v3_sub(fk.rig_from_joint[elbow].t, eye));
+	double along = mc_v3_dot(bone, sight);
+	if (ncams < 2 || miss < FLIP_MISS_M || fabs(along) < FLIP_MIN_ALONG * mc_v3_norm(bone))
+		return;
+	double start[MC_MAX_DOF], other[MC_MAX_DOF];
+	mc_vec3 mirrored = mc_v3_axpy(-2 * along, sight, fk.rig_from_joint[wrist].t);
+	if (!turn_forearm(t, fit, &fk, elbow, wrist, mirrored, start) || !fit_to_rays(t, start, other))
+		return;
+	mc_model_fk(&t->model, other, &fk);
+	if (!(worst_offset(t, &fk, wrist, &ncams) <= FLIP_GAIN * miss))
+		return;
+	bool joint[MC_MAX_JOINTS];
+	part_joints(&t->model, a, joint); /* limb_roots[a] is arm a's shoulder */
+	for (int j = 0; j < t->model.njoints; j++)
+		for (int d = 0; joint[j] && d < t->model.joints[j].ndof; d++)
+			fit[t->model.joints[j].dof0 + d] = other[t->model.joints[j].dof0 + d];
+}
+
+static void try_flips(mc_tracker *t, double *fit)
+{
+	if (t->model.root_free || t->rig.ncams < 2 || mc_tracker_keypoint_trust(t, NULL) < FLIP_MIN_TRUST)
+		return;
+	mc_vec3 eye = {0, 0, 0};
+	for (int c = 0; c < t->rig.ncams; c++)
+		eye = mc_v3_axpy(1.0 / t->rig.ncams, t->rig.cams[c].rig_from_cam.t, eye);
+	for (int a = 0; a < NARMS; a++)
+		try_flip(t, a, eye, fit);
+}
+
 int mc_trk_ray_fit(mc_tracker *t, const double *pred, double *pose, mc_err *err)
 {
 	double fit[MC_MAX_DOF];
 	/* no colours to check the fit with, or the keypoints ignored */
 	if (!t->s.ray_fit || t->s.lambda_color <= 0 || t->s.lambda_detection <= 0 || !fit_to_rays(t, pred, fit))
 		return 0;
+	try_flips(t, fit);
 	/* The torso first, and only with a free root (outside-in): on the head
 	 * rig, the spine from the fit made both clips worse (walk 11.28 ->
 	 * 11.39, jumps 8.15 -> 8.25 cm). */
