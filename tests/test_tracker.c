@@ -561,11 +561,11 @@ static void test_keypoints(void)
 	synth_close(&s);
 }
 
-
 /* The right wrist's error (m) after one frame set of `iterations` tracked
- * from `from`, the images rendered at pose0, with the given keypoints. */
-static double wrist_after_one(synth *s, bool ray_fit, int iterations, const double *pose0, const double *from,
-			      const mc_keypoint *kp, int nkp)
+ * from `from`, the images rendered at pose0, with the given keypoints;
+ * `trusted` frame sets tracked at pose0 with them before it (0: none). */
+static double wrist_after_one(synth *s, bool ray_fit, int iterations, int trusted, const double *pose0,
+			      const double *from, const mc_keypoint *kp, int nkp)
 {
 	mc_err err = {{0}};
 	mc_tracker *t = make_tracker_fit(s, MC_BACKEND_OPENCL, ray_fit, iterations, &err);
@@ -578,9 +578,12 @@ static double wrist_after_one(synth *s, bool ray_fit, int iterations, const doub
 	views_of(s, v, 0);
 	mc_tracker_set_pose(t, pose0);
 	CHECK_MSG(mc_tracker_calibrate_colors(t, v, 2, &err) == 0, "%s", err.msg);
-	mc_tracker_set_pose(t, from);
-	views_of(s, v, 1);
-	CHECK_MSG(mc_tracker_track(t, v, 2, kp, nkp, &sk, &err) == 0, "%s", err.msg);
+	for (int k = 1; k <= trusted + 1; k++) {
+		if (k == trusted + 1)
+			mc_tracker_set_pose(t, from);
+		views_of(s, v, k);
+		CHECK_MSG(mc_tracker_track(t, v, 2, kp, nkp, &sk, &err) == 0, "%s", err.msg);
+	}
 	mc_fk fk;
 	mc_model_fk(&s->model, pose0, &fk);
 	int wrist = mc_model_find_joint(&s->model, "right_wrist");
@@ -612,9 +615,9 @@ static void test_ray_fit(void)
 	CHECK(nright == 4 && nwrong == 4);
 	double back[2], kept[2], back50[2];
 	for (int fit = 0; fit < 2; fit++) {
-		back[fit] = wrist_after_one(&s, fit, 1, pose0, off, right, nright);
-		kept[fit] = wrist_after_one(&s, fit, 1, pose0, pose0, wrong, nwrong);
-		back50[fit] = wrist_after_one(&s, fit, 0, pose0, off, right, nright);
+		back[fit] = wrist_after_one(&s, fit, 1, 0, pose0, off, right, nright);
+		kept[fit] = wrist_after_one(&s, fit, 1, 0, pose0, pose0, wrong, nwrong);
+		back50[fit] = wrist_after_one(&s, fit, 0, 0, pose0, off, right, nright);
 	}
 	printf("ray fit off / on, one frame set of 1 iteration: arm 0.6 rad off with right keypoints, wrist %.2f / "
 	       "%.2f cm; arm right with wrong keypoints, %.2f / %.2f cm; of 50 iterations, arm off: %.2f / %.2f cm\n",
@@ -661,56 +664,25 @@ static void forearm_flipped(const synth *s, const double *pose, double *flipped)
 	CHECK_MSG(mc_ik_solve(&m, flipped, tg, m.njoints, &o, &err) >= 0, "%s", err.msg);
 }
 
-/* The wrist's error after one frame set of one iteration from `from`, with
- * 30 frame sets of exact keypoints at pose0 before it (the keypoints'
- * trust needs them). */
-static double wrist_after_trusted(synth *s, const double *pose0, const double *from, const mc_keypoint *kp, int nkp)
-{
-	mc_err err = {{0}};
-	mc_tracker *t = make_tracker_fit(s, MC_BACKEND_OPENCL, true, 1, &err);
-	CHECK_MSG(t, "%s", err.msg);
-	if (!t)
-		return INFINITY;
-	mc_frame_view v[2];
-	mc_skeleton sk;
-	render(s, pose0);
-	views_of(s, v, 0);
-	mc_tracker_set_pose(t, pose0);
-	CHECK_MSG(mc_tracker_calibrate_colors(t, v, 2, &err) == 0, "%s", err.msg);
-	for (int k = 1; k <= 30; k++) {
-		views_of(s, v, k);
-		CHECK_MSG(mc_tracker_track(t, v, 2, kp, nkp, &sk, &err) == 0, "%s", err.msg);
-	}
-	mc_tracker_set_pose(t, from);
-	views_of(s, v, 31);
-	CHECK_MSG(mc_tracker_track(t, v, 2, kp, nkp, &sk, &err) == 0, "%s", err.msg);
-	mc_fk fk;
-	mc_model_fk(&s->model, pose0, &fk);
-	int wrist = mc_model_find_joint(&s->model, "right_wrist");
-	mc_tracker_destroy(t);
-	return mc_v3_norm(mc_v3_sub(sk.joints[wrist].position, fk.rig_from_joint[wrist].t));
-}
-
+/* frame sets of keypoints before the keypoint term trusts them
+ * (mc_keypoint_trust.c's TRUST_MIN_FRAMES) */
+#define TRUSTED_FRAME_SETS 30
 static void test_forearm_flip(void)
 {
 	synth s;
-	mc_err err = {{0}};
 	double pose0[MC_MAX_DOF], flipped[MC_MAX_DOF];
-	if (synth_open(&s, pose0, &err) < 0) {
-		fprintf(stderr, "setup: %s\n", err.msg);
-		mc_test_failures++;
+	if (!synth_start(&s, pose0))
 		return;
-	}
 	forearm_flipped(&s, pose0, flipped);
 	mc_keypoint kp[4];
 	int nkp = arm_keypoints(&s, pose0, kp);
-	double before = wrist_after_trusted(&s, pose0, pose0, kp, nkp), start, after;
+	double before = wrist_after_one(&s, true, 1, TRUSTED_FRAME_SETS, pose0, pose0, kp, nkp), start, after;
 	mc_fk f0, f1;
 	mc_model_fk(&s.model, pose0, &f0);
 	mc_model_fk(&s.model, flipped, &f1);
 	int wrist = mc_model_find_joint(&s.model, "right_wrist");
 	start = mc_v3_norm(mc_v3_sub(f0.rig_from_joint[wrist].t, f1.rig_from_joint[wrist].t));
-	after = wrist_after_trusted(&s, pose0, flipped, kp, nkp);
+	after = wrist_after_one(&s, true, 1, TRUSTED_FRAME_SETS, pose0, flipped, kp, nkp);
 	printf("forearm turned toward the cameras: wrist %.1f cm off; after one frame set of one iteration %.1f cm "
 	       "(from the right pose: %.1f cm)\n",
 	       100 * start, 100 * after, 100 * before);

@@ -60,18 +60,27 @@ static int ray_targets(const mc_tracker *t, const double *pose, mc_ik_target *tg
 	return n;
 }
 
+/* The inverse kinematics' options of a local fit: `iterations`, held to
+ * prior_pose with weight `prior`, no restarts, the bones as they are. */
+static mc_ik_options local_fit(int iterations, double prior, const double *prior_pose)
+{
+	mc_ik_options o;
+	mc_ik_options_default(&o);
+	o.iterations = iterations;
+	o.pose_prior = prior;
+	o.prior_pose = prior_pose;
+	o.fit_bone_scale = false;
+	o.fit_root = false;
+	o.restarts = false;
+	return o;
+}
+
 /* fit: pred fitted to the rays; false when too few rays. */
 static bool fit_to_rays(mc_tracker *t, const double *pred, double *fit)
 {
 	mc_ik_target tg[MC_TRK_MAX_KEYPOINTS];
-	mc_ik_options o;
-	mc_ik_options_default(&o);
-	o.iterations = FIT_ITERATIONS;
-	o.pose_prior = FIT_PRIOR;
-	o.prior_pose = pred;
-	o.fit_bone_scale = false;
+	mc_ik_options o = local_fit(FIT_ITERATIONS, FIT_PRIOR, pred);
 	o.fit_root = t->model.root_free; /* a fixed root is the head's place on the rig */
-	o.restarts = false;
 	o.ray_near = MC_RAY_NEAR_M;
 	memcpy(fit, pred, sizeof(double) * (size_t)t->model.ndof);
 	for (int round = 0; round < FIT_ROUNDS; round++) {
@@ -183,14 +192,7 @@ static bool turn_forearm(mc_tracker *t, const double *fit, const mc_fk *fk, int 
 	mc_ik_target tg[3] = {{shoulder, fk->rig_from_joint[shoulder].t, 1, {0, 0, 0}},
 			      {elbow, fk->rig_from_joint[elbow].t, 1, {0, 0, 0}},
 			      {wrist, to, 1, {0, 0, 0}}};
-	mc_ik_options o;
-	mc_ik_options_default(&o);
-	o.iterations = FLIP_IK_ITERATIONS;
-	o.pose_prior = FLIP_IK_PRIOR;
-	o.prior_pose = fit;
-	o.fit_bone_scale = false;
-	o.fit_root = false;
-	o.restarts = false;
+	mc_ik_options o = local_fit(FLIP_IK_ITERATIONS, FLIP_IK_PRIOR, fit);
 	memcpy(start, fit, sizeof(double) * (size_t)t->model.ndof);
 	mc_err err;
 	return mc_ik_solve(&t->model, start, tg, 3, &o, &err) >= 0;
