@@ -633,12 +633,6 @@ static void test_ray_fit(void)
 	synth_close(&s);
 }
 
-/* The ray fit tries a forearm along the line of sight turned the other way
- * (docs/TRACKER.md, "A forearm seen end-on"): the right forearm turned
- * toward the cameras, exact keypoints of the right pose in both views, the
- * keypoints trusted (30 frame sets of them first): one frame set of one
- * gradient iteration brings the wrist back. */
-
 /* pose with the right forearm turned toward the cameras: the wrist
  * mirrored through the plane across their line of sight at the elbow. */
 static void forearm_flipped(const synth *s, const double *pose, double *flipped)
@@ -667,6 +661,12 @@ static void forearm_flipped(const synth *s, const double *pose, double *flipped)
 /* frame sets of keypoints before the keypoint term trusts them
  * (mc_keypoint_trust.c's TRUST_MIN_FRAMES) */
 #define TRUSTED_FRAME_SETS 30
+
+/* The ray fit tries a forearm along the line of sight turned the other way
+ * (docs/TRACKER.md, "A forearm seen end-on"): the right forearm turned
+ * toward the cameras, exact keypoints of the right pose in both views, the
+ * keypoints trusted (30 frame sets of them first): one frame set of one
+ * gradient iteration brings the wrist back. */
 static void test_forearm_flip(void)
 {
 	synth s;

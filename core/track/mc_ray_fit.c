@@ -137,8 +137,9 @@ static int compare_part(mc_tracker *t, const double *a, const double *b, const b
 
 /* A forearm along the cameras' line of sight looks the same pointing toward
  * them or away; the fit, robust and held to the prediction, keeps whichever
- * the motion brought (the held-out walk's wrist 20-38 cm too near for up to
- * 0.9 s with good keypoints in both views).  So the other is tried: the
+ * the motion brought (with the realistic simulated detector the dev walk's
+ * wrist sat 20-38 cm too near for up to 0.9 s, with good keypoints in both
+ * views).  So the other is tried: the
  * wrist mirrored through the plane across the line of sight at the elbow,
  * the arm fitted again from there, and kept where the wrist then misses
  * its rays by at most FLIP_GAIN of the first fit's miss.  Only where:
