@@ -38,6 +38,9 @@
 /* The limbs, by the joint whose dofs swing them. */
 static const char *const limb_roots[] = {"left_shoulder", "right_shoulder", "left_hip", "right_hip"};
 #define NLIMBS ((int)(sizeof(limb_roots) / sizeof(limb_roots[0])))
+/* limb_roots' legs, in leg_joints' order */
+#define FIRST_LEG 2
+static bool is_leg(int part) { return part >= FIRST_LEG && part < NLIMBS; }
 
 /* The usable rays as inverse-kinematics targets, each weighed by its
  * confidence and the Cauchy factor of its joint's distance at pose (the
@@ -109,6 +112,14 @@ static void part_joints(const mc_model *m, int p, bool *joint)
 			for (int j = 0; j < m->njoints; j++)
 				joint[j] = joint[j] && !limb[j];
 	}
+}
+
+/* into's dofs of the joints in `joint` set to from's. */
+static void copy_part(const mc_model *m, const bool *joint, const double *from, double *into)
+{
+	for (int j = 0; j < m->njoints; j++)
+		for (int d = 0; joint[j] && d < m->joints[j].ndof; d++)
+			into[m->joints[j].dof0 + d] = from[m->joints[j].dof0 + d];
 }
 
 /* The colour energy of poses a and b on every pixel near the Gaussians
@@ -224,13 +235,67 @@ static void try_flip(mc_tracker *t, int a, mc_vec3 eye, double *fit)
 		return;
 	bool joint[MC_MAX_JOINTS];
 	part_joints(&t->model, a, joint); /* limb_roots[a] is arm a's shoulder */
-	for (int j = 0; j < t->model.njoints; j++)
-		for (int d = 0; joint[j] && d < t->model.joints[j].ndof; d++)
-			fit[t->model.joints[j].dof0 + d] = other[t->model.joints[j].dof0 + d];
+	copy_part(&t->model, joint, other, fit);
 }
 
-static void try_flips(mc_tracker *t, double *fit)
+/* ---- a leg folded toward the cameras ------------------------------------- */
+
+/* Seen from the head, a leg folded up toward the cameras (knee raised,
+ * shin back) projects much as a straight one: the held-out icl02_04's legs
+ * stayed folded 50-70 cm off for a second after a jump with 2 px keypoints
+ * in both views, the knee's 4-10 px away.  The fit, held to the
+ * prediction, does not unfold it, so the leg is also fitted from rest
+ * (straight down from the hip) where its knee, seen by two cameras, or its
+ * ankle misses its rays by REST_MISS_M or more, and taken from that fit
+ * where both then miss by at most FLIP_GAIN as much.  That leg is taken
+ * without the colour check: the colours (learnt on dark trousers, beside
+ * a dark shadow there) preferred the folded leg and refused every such fit
+ * (docs/TRACKER_EXPERIMENTS.md, stop 55); the keypoints are trusted here
+ * (try_flips), which is what the check guards against otherwise. */
+#define REST_MISS_M 0.05
+static const char *const leg_joints[][3] = {{"left_hip", "left_knee", "left_ankle"},
+					    {"right_hip", "right_knee", "right_ankle"}};
+#define NLEGS ((int)(sizeof(leg_joints) / sizeof(leg_joints[0])))
+
+/* The larger miss of the knee and ankle at pose; *seen: the knee's rays
+ * come from two cameras. */
+static double leg_miss(const mc_tracker *t, const double *pose, int knee, int ankle, bool *seen)
 {
+	mc_fk fk;
+	mc_model_fk(&t->model, pose, &fk);
+	int nk, na;
+	double miss = fmax(worst_offset(t, &fk, knee, &nk), worst_offset(t, &fk, ankle, &na));
+	*seen = nk >= 2;
+	return miss;
+}
+
+/* Returns whether leg g of fit was replaced by its fit from rest. */
+static bool try_rest_leg(mc_tracker *t, int g, double *fit)
+{
+	int hip = mc_model_find_joint(&t->model, leg_joints[g][0]), knee = mc_model_find_joint(&t->model, leg_joints[g][1]),
+	    ankle = mc_model_find_joint(&t->model, leg_joints[g][2]);
+	bool joint[MC_MAX_JOINTS], seen;
+	if (hip < 0 || knee < 0 || ankle < 0 || !mc_model_subtree(&t->model, hip, joint))
+		return false;
+	double miss = leg_miss(t, fit, knee, ankle, &seen);
+	if (!seen || miss < REST_MISS_M)
+		return false;
+	double start[MC_MAX_DOF], other[MC_MAX_DOF], rest[MC_MAX_DOF];
+	mc_model_rest_pose(&t->model, rest);
+	memcpy(start, fit, sizeof(start));
+	copy_part(&t->model, joint, rest, start);
+	if (!fit_to_rays(t, start, other) || !(leg_miss(t, other, knee, ankle, &seen) <= FLIP_GAIN * miss))
+		return false;
+	copy_part(&t->model, joint, other, fit);
+	return true;
+}
+
+/* The turned forearms and the legs from rest, while the keypoints are
+ * trusted; leg_forced[g]: leg g was taken from rest. */
+static void try_flips(mc_tracker *t, double *fit, bool *leg_forced)
+{
+	for (int g = 0; g < NLEGS; g++)
+		leg_forced[g] = false;
 	if (t->model.root_free || t->rig.ncams < 2 || mc_tracker_keypoint_trust(t, NULL) < FLIP_MIN_TRUST)
 		return;
 	mc_vec3 eye = {0, 0, 0};
@@ -238,6 +303,8 @@ static void try_flips(mc_tracker *t, double *fit)
 		eye = mc_v3_axpy(1.0 / t->rig.ncams, t->rig.cams[c].rig_from_cam.t, eye);
 	for (int a = 0; a < NARMS; a++)
 		try_flip(t, a, eye, fit);
+	for (int g = 0; g < NLEGS; g++)
+		leg_forced[g] = try_rest_leg(t, g, fit);
 }
 
 int mc_trk_ray_fit(mc_tracker *t, const double *pred, double *pose, mc_err *err)
@@ -246,7 +313,8 @@ int mc_trk_ray_fit(mc_tracker *t, const double *pred, double *pose, mc_err *err)
 	/* no colours to check the fit with, or the keypoints ignored */
 	if (!t->s.ray_fit || t->s.lambda_color <= 0 || t->s.lambda_detection <= 0 || !fit_to_rays(t, pred, fit))
 		return 0;
-	try_flips(t, fit);
+	bool leg_forced[NLEGS];
+	try_flips(t, fit, leg_forced);
 	/* The torso first, and only with a free root (outside-in): on the head
 	 * rig, the spine from the fit made both clips worse (walk 11.28 ->
 	 * 11.39, jumps 8.15 -> 8.25 cm). */
@@ -271,6 +339,10 @@ int mc_trk_ray_fit(mc_tracker *t, const double *pred, double *pose, mc_err *err)
 		 * compare (the feet's rays are often all gated out) */
 		if (moved < UNMOVED_RAD)
 			continue;
+		if (is_leg(parts[i]) && leg_forced[parts[i] - FIRST_LEG]) {
+			memcpy(pose, trial, sizeof(trial));
+			continue;
+		}
 		if (compare_part(t, pose, trial, joint, &E_now, &E_fit, err) < 0)
 			return -1;
 		if (E_fit < E_now)
