@@ -11,7 +11,8 @@
  * to the prediction, a ray cannot throw a joint along itself (the feet's
  * depth); robust, one wrong keypoint pulls little; and checked against the
  * colours, a limb the detector placed on the other leg or the floor is
- * refused. */
+ * refused.  While the keypoints are trusted, limbs seen end-on are also
+ * fitted from a second start (docs/TRACKER.md, "Limbs seen end-on"). */
 #include "body/mc_ik.h"
 #include "geom/mc_ray.h"
 #include "track/mc_tracker_internal.h"
