@@ -39,9 +39,10 @@
 /* The limbs, by the joint whose dofs swing them. */
 static const char *const limb_roots[] = {"left_shoulder", "right_shoulder", "left_hip", "right_hip"};
 #define NLIMBS ((int)(sizeof(limb_roots) / sizeof(limb_roots[0])))
-/* limb_roots' legs, in leg_joints' order */
-#define FIRST_LEG 2
-static bool is_leg(int part) { return part >= FIRST_LEG && part < NLIMBS; }
+/* Each limb's middle and end joint, in limb_roots' order; the arms first. */
+static const char *const limb_ends[NLIMBS][2] = {
+	{"left_elbow", "left_wrist"}, {"right_elbow", "right_wrist"}, {"left_knee", "left_ankle"}, {"right_knee", "right_ankle"}};
+#define NARMS 2
 
 /* The usable rays as inverse-kinematics targets, each weighed by its
  * confidence and the Cauchy factor of its joint's distance at pose (the
@@ -171,8 +172,6 @@ static int compare_part(mc_tracker *t, const double *a, const double *b, const b
 #define FLIP_MIN_TRUST 2.0
 #define FLIP_IK_PRIOR 1e-3
 #define FLIP_IK_ITERATIONS 10
-static const char *const arm_bones[][2] = {{"left_elbow", "left_wrist"}, {"right_elbow", "right_wrist"}};
-#define NARMS ((int)(sizeof(arm_bones) / sizeof(arm_bones[0])))
 
 /* The largest offset of joint j from its usable rays at fk, and through
  * *ncams whether two cameras or more gave them (0, 1 or 2). */
@@ -215,7 +214,7 @@ static bool turn_forearm(mc_tracker *t, const double *fit, const mc_fk *fk, int 
  * along the line of sight from eye, where its wrist's rays say so. */
 static void try_flip(mc_tracker *t, int a, mc_vec3 eye, double *fit)
 {
-	int elbow = mc_model_find_joint(&t->model, arm_bones[a][0]), wrist = mc_model_find_joint(&t->model, arm_bones[a][1]);
+	int elbow = mc_model_find_joint(&t->model, limb_ends[a][0]), wrist = mc_model_find_joint(&t->model, limb_ends[a][1]);
 	if (elbow < 0 || wrist < 0)
 		return;
 	mc_fk fk;
@@ -235,7 +234,7 @@ static void try_flip(mc_tracker *t, int a, mc_vec3 eye, double *fit)
 	if (!(worst_offset(t, &fk, wrist, &ncams) <= FLIP_GAIN * miss))
 		return;
 	bool joint[MC_MAX_JOINTS];
-	part_joints(&t->model, a, joint); /* limb_roots[a] is arm a's shoulder */
+	part_joints(&t->model, a, joint);
 	copy_part(&t->model, joint, other, fit);
 }
 
@@ -254,9 +253,6 @@ static void try_flip(mc_tracker *t, int a, mc_vec3 eye, double *fit)
  * (docs/TRACKER_EXPERIMENTS.md, stop 55); the keypoints are trusted here
  * (try_flips), which is what the check guards against otherwise. */
 #define REST_MISS_M 0.05
-static const char *const leg_joints[][3] = {{"left_hip", "left_knee", "left_ankle"},
-					    {"right_hip", "right_knee", "right_ankle"}};
-#define NLEGS ((int)(sizeof(leg_joints) / sizeof(leg_joints[0])))
 
 /* The larger miss of the knee and ankle at pose; *seen: the knee's rays
  * come from two cameras. */
@@ -270,14 +266,15 @@ static double leg_miss(const mc_tracker *t, const double *pose, int knee, int an
 	return miss;
 }
 
-/* Returns whether leg g of fit was replaced by its fit from rest. */
-static bool try_rest_leg(mc_tracker *t, int g, double *fit)
+/* Returns whether leg l (a limb_roots index) of fit was replaced by its
+ * fit from rest. */
+static bool try_rest_leg(mc_tracker *t, int l, double *fit)
 {
-	int hip = mc_model_find_joint(&t->model, leg_joints[g][0]), knee = mc_model_find_joint(&t->model, leg_joints[g][1]),
-	    ankle = mc_model_find_joint(&t->model, leg_joints[g][2]);
+	int knee = mc_model_find_joint(&t->model, limb_ends[l][0]), ankle = mc_model_find_joint(&t->model, limb_ends[l][1]);
 	bool joint[MC_MAX_JOINTS], seen;
-	if (hip < 0 || knee < 0 || ankle < 0 || !mc_model_subtree(&t->model, hip, joint))
+	if (knee < 0 || ankle < 0)
 		return false;
+	part_joints(&t->model, l, joint);
 	double miss = leg_miss(t, fit, knee, ankle, &seen);
 	if (!seen || miss < REST_MISS_M)
 		return false;
@@ -292,11 +289,11 @@ static bool try_rest_leg(mc_tracker *t, int g, double *fit)
 }
 
 /* The turned forearms and the legs from rest, while the keypoints are
- * trusted; leg_forced[g]: leg g was taken from rest. */
-static void try_flips(mc_tracker *t, double *fit, bool *leg_forced)
+ * trusted; forced[l]: limb l (a leg) was taken from rest. */
+static void try_flips(mc_tracker *t, double *fit, bool *forced)
 {
-	for (int g = 0; g < NLEGS; g++)
-		leg_forced[g] = false;
+	for (int l = 0; l < NLIMBS; l++)
+		forced[l] = false;
 	if (t->model.root_free || t->rig.ncams < 2 || mc_tracker_keypoint_trust(t, NULL) < FLIP_MIN_TRUST)
 		return;
 	mc_vec3 eye = {0, 0, 0};
@@ -304,8 +301,8 @@ static void try_flips(mc_tracker *t, double *fit, bool *leg_forced)
 		eye = mc_v3_axpy(1.0 / t->rig.ncams, t->rig.cams[c].rig_from_cam.t, eye);
 	for (int a = 0; a < NARMS; a++)
 		try_flip(t, a, eye, fit);
-	for (int g = 0; g < NLEGS; g++)
-		leg_forced[g] = try_rest_leg(t, g, fit);
+	for (int l = NARMS; l < NLIMBS; l++)
+		forced[l] = try_rest_leg(t, l, fit);
 }
 
 int mc_trk_ray_fit(mc_tracker *t, const double *pred, double *pose, mc_err *err)
@@ -314,8 +311,8 @@ int mc_trk_ray_fit(mc_tracker *t, const double *pred, double *pose, mc_err *err)
 	/* no colours to check the fit with, or the keypoints ignored */
 	if (!t->s.ray_fit || t->s.lambda_color <= 0 || t->s.lambda_detection <= 0 || !fit_to_rays(t, pred, fit))
 		return 0;
-	bool leg_forced[NLEGS];
-	try_flips(t, fit, leg_forced);
+	bool forced[NLIMBS];
+	try_flips(t, fit, forced);
 	/* The torso first, and only with a free root (outside-in): on the head
 	 * rig, the spine from the fit made both clips worse (walk 11.28 ->
 	 * 11.39, jumps 8.15 -> 8.25 cm). */
@@ -340,7 +337,7 @@ int mc_trk_ray_fit(mc_tracker *t, const double *pred, double *pose, mc_err *err)
 		 * compare (the feet's rays are often all gated out) */
 		if (moved < UNMOVED_RAD)
 			continue;
-		if (is_leg(parts[i]) && leg_forced[parts[i] - FIRST_LEG]) {
+		if (parts[i] < NLIMBS && forced[parts[i]]) {
 			memcpy(pose, trial, sizeof(trial));
 			continue;
 		}
