@@ -95,6 +95,8 @@ static const mcd_config_key keys[] = {
 	 TRACKER_DEFAULT, false},
 	{MCD_SEC_TRACKER, "detection_trust_max", MCD_KEY_REAL, T(settings.detection_trust_max), 1, 100, NULL,
 	 TRACKER_DEFAULT, false},
+	{MCD_SEC_TRACKER, "color_sight_cut", MCD_KEY_REAL, T(settings.color_sight_cut), 0, 1, NULL, TRACKER_DEFAULT,
+	 false},
 	{MCD_SEC_TRACKER, "lambda_smooth", MCD_KEY_REAL, T(settings.lambda_smooth), 0, 1000, NULL, TRACKER_DEFAULT,
 	 false},
 	{MCD_SEC_TRACKER, "lambda_floor", MCD_KEY_REAL, T(settings.lambda_floor), 0, 1000, NULL, TRACKER_DEFAULT,

@@ -207,7 +207,8 @@ void mcd_tracker_settings(const mcd_config *cfg, const mc_rig *rig, mc_tracker_s
 		    {"lambda_prior", MC_GIVEN_LAMBDA_PRIOR},
 		    {"ray_fit", MC_GIVEN_RAY_FIT},
 		    {"detection_trust_max", MC_GIVEN_DETECTION_TRUST},
-		    {"pixel_fraction", MC_GIVEN_PIXEL_FRACTION}};
+		    {"pixel_fraction", MC_GIVEN_PIXEL_FRACTION},
+		    {"color_sight_cut", MC_GIVEN_COLOR_SIGHT_CUT}};
 	*s = cfg->tracker.settings;
 	if (rig->kind != MC_RIG_OUTSIDE_IN)
 		return;

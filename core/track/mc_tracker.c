@@ -227,12 +227,15 @@ int mc_tracker_init_from_joints(mc_tracker *t, const char *const *names, const m
 
 /* ---- energy ------------------------------------------------------------ */
 
-static double reference_data_term(mc_tracker *t, const mc_scene *scene, double dropout, mc_vec3 *dmu,
+/* The reference backend's E_color of camera `cam` (-1: every camera). */
+static double reference_data_term(mc_tracker *t, const mc_scene *scene, int cam, double dropout, mc_vec3 *dmu,
 				  double *dsigma)
 {
 	double E = 0, w[MC_MAX_GAUSSIANS];
 	unsigned char active[MC_MAX_GAUSSIANS];
 	for (int c = 0; c < t->rig.ncams; c++) {
+		if (cam >= 0 && c != cam)
+			continue;
 		const mc_raytable *rt = &t->rays[c];
 		for (int i = 0; i < t->nsamples[c]; i++) {
 			int p = t->samples[c][i];
@@ -248,26 +251,74 @@ static double reference_data_term(mc_tracker *t, const mc_scene *scene, double d
 	return E;
 }
 
+/* E_color of camera `cam`'s samples (-1: every camera's), added into *E and
+ * dmu.  The dropout draw depends on the seed, camera and pixel only, so
+ * one camera at a time draws as all at once. */
+static int camera_data_term(mc_tracker *t, const mc_scene *scene, int cam, double dropout, uint32_t seed, double *E,
+			    mc_vec3 *dmu, mc_err *err)
+{
+	double dsigma[MC_MAX_GAUSSIANS] = {0}, e = 0;
+	if (!t->cl) {
+		*E += reference_data_term(t, scene, cam, dropout, dmu, dsigma);
+		return 0;
+	}
+	const int *pix[MC_MAX_CAMERAS];
+	int count[MC_MAX_CAMERAS];
+	for (int c = 0; c < t->rig.ncams; c++) {
+		pix[c] = t->samples[c];
+		count[c] = cam < 0 || c == cam ? t->nsamples[c] : 0;
+	}
+	if (mc_cl_energy_eval(t->cl, scene, pix, count, dropout, seed, &e, dmu, dsigma, err) < 0)
+		return -1;
+	*E += e;
+	return 0;
+}
+
+/* Takes the share `cut` out of each Gaussian's gradient g (camera `cam`'s
+ * colour term) where it would move the Gaussian nearer that camera along
+ * its line of sight.  One image says where a Gaussian lies across the
+ * view; along the view its colour term mostly says that a nearer Gaussian
+ * covers more pixels, which pays wherever the scene's colours resemble
+ * its own.  The pull away from the camera stays: it is what brings back a
+ * limb lost in front of the cameras (docs/TRACKER.md, "Colours along the
+ * line of sight"). */
+static void cut_along_sight(const mc_tracker *t, const mc_scene *scene, int cam, double cut, mc_vec3 *g)
+{
+	mc_vec3 o = t->rig.cams[cam].rig_from_cam.t;
+	for (int q = 0; q < scene->n; q++) {
+		mc_vec3 sight = mc_v3_sub(scene->mu[q], o);
+		double len = mc_v3_norm(sight);
+		/* the descent step -g moves the Gaussian nearer where g.sight > 0 */
+		double along = len > 1e-9 ? mc_v3_dot(g[q], sight) / (len * len) : 0;
+		if (along > 0)
+			g[q] = mc_v3_axpy(-cut * along, sight, g[q]);
+	}
+}
+
 /* E_color over this iteration's samples, as a mean per sampled pixel, and
  * its gradient with respect to the Gaussian centres. */
 int mc_trk_data_term(mc_tracker *t, const mc_scene *scene, int nsampled, double dropout, double *E, mc_vec3 *dmu,
 		     mc_err *err)
 {
-	double dsigma[MC_MAX_GAUSSIANS];
 	memset(dmu, 0, sizeof(mc_vec3) * scene->n);
-	memset(dsigma, 0, sizeof(double) * scene->n);
 	*E = 0;
 	if (nsampled == 0)
 		return 0;
-	if (t->cl) {
-		const int *pix[MC_MAX_CAMERAS];
-		for (int c = 0; c < t->rig.ncams; c++)
-			pix[c] = t->samples[c];
-		uint32_t seed = (uint32_t)mc_rng_next(&t->rng);
-		if (mc_cl_energy_eval(t->cl, scene, pix, t->nsamples, dropout, seed, E, dmu, dsigma, err) < 0)
+	uint32_t seed = t->cl ? (uint32_t)mc_rng_next(&t->rng) : 0;
+	double cut = t->s.color_sight_cut;
+	if (!(cut > 0)) {
+		if (camera_data_term(t, scene, -1, dropout, seed, E, dmu, err) < 0)
 			return -1;
 	} else {
-		*E = reference_data_term(t, scene, dropout, dmu, dsigma);
+		for (int c = 0; c < t->rig.ncams; c++) {
+			mc_vec3 g[MC_MAX_GAUSSIANS];
+			memset(g, 0, sizeof(mc_vec3) * scene->n);
+			if (camera_data_term(t, scene, c, dropout, seed, E, g, err) < 0)
+				return -1;
+			cut_along_sight(t, scene, c, cut, g);
+			for (int q = 0; q < scene->n; q++)
+				dmu[q] = mc_v3_add(dmu[q], g[q]);
+		}
 	}
 	double inv = 1.0 / nsampled;
 	*E *= inv;

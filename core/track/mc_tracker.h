@@ -78,6 +78,14 @@ typedef struct {
 	 * within a fraction of that gets the weight its noise warrants, as
 	 * 1 / noise^2 (docs/TRACKER.md, "Trusting keypoints that agree"). */
 	double detection_trust_max;
+	/* The share (0..1) of each camera's colour gradient that would move a
+	 * Gaussian nearer that camera along its line of sight, dropped: one
+	 * image places a Gaussian across its view, and along it the colour
+	 * term mostly rewards a nearer Gaussian for covering more pixels that
+	 * resemble its colour (docs/TRACKER.md, "Colours along the line of
+	 * sight").  0.5 on a head rig; 0 (the thesis' gradient) on outside-in
+	 * rigs. */
+	double color_sight_cut;
 	int cl_platform, cl_device; /* -1: first GPU, else first CPU */
 	uint64_t seed;
 } mc_tracker_settings;
@@ -100,6 +108,7 @@ typedef struct {
 	double detection_trust_max;          /* with trust_min_cameras or more (else 1: fixed) */
 	int trust_min_cameras;
 	double pixel_fraction;               /* the detector, not the pixels, sets the pace here */
+	double color_sight_cut;              /* not measured there: the thesis' gradient */
 } mc_tracker_outside_in_defaults;
 extern const mc_tracker_outside_in_defaults mc_tracker_outside_in;
 /* camera_iterations / ncams, within [min_iterations, max_iterations]: 80
@@ -116,6 +125,7 @@ int mc_tracker_outside_in_iterations(int ncams);
 #define MC_GIVEN_RAY_FIT 64u
 #define MC_GIVEN_DETECTION_TRUST 128u
 #define MC_GIVEN_PIXEL_FRACTION 256u
+#define MC_GIVEN_COLOR_SIGHT_CUT 512u
 /* Sets the outside-in values for a rig of ncams cameras in every setting
  * not in `given` (MC_GIVEN_* flags). */
 void mc_tracker_settings_outside_in(mc_tracker_settings *s, int ncams, unsigned given);

@@ -31,6 +31,7 @@ void mc_tracker_settings_default(mc_tracker_settings *s)
 	s->fit_limbs = false; /* measured: no gain yet (docs/TRACKER.md) */
 	s->ray_fit = true;    /* docs/TRACKER.md, "The ray fit" */
 	s->detection_trust_max = 3; /* docs/TRACKER.md, "Trusting keypoints that agree" */
+	s->color_sight_cut = 0.5;   /* docs/TRACKER.md, "Colours along the line of sight" */
 	s->cl_platform = -1;
 	s->cl_device = -1;
 	s->seed = 1;
@@ -96,6 +97,9 @@ const mc_tracker_outside_in_defaults mc_tracker_outside_in = {
 	 * MoveNet on four views takes about 260 ms a frame set on one core;
 	 * 0.25 gave about the same at 30 fps. */
 	.pixel_fraction = 0.14,
+	/* Measured on head rigs only (docs/TRACKER.md, "Colours along the
+	 * line of sight"), whose cameras are within a metre of the limbs. */
+	.color_sight_cut = 0,
 };
 
 int mc_tracker_outside_in_iterations(int ncams)
@@ -126,6 +130,8 @@ void mc_tracker_settings_outside_in(mc_tracker_settings *s, int ncams, unsigned 
 		s->detection_trust_max = ncams >= d->trust_min_cameras ? d->detection_trust_max : 1;
 	if (!(given & MC_GIVEN_PIXEL_FRACTION))
 		s->pixel_fraction = d->pixel_fraction;
+	if (!(given & MC_GIVEN_COLOR_SIGHT_CUT))
+		s->color_sight_cut = d->color_sight_cut;
 }
 
 int mc_trk_validate_settings(const mc_tracker_settings *s, mc_err *err)
@@ -150,6 +156,8 @@ int mc_trk_validate_settings(const mc_tracker_settings *s, mc_err *err)
 		return mc_err_set(err, "tracker: lambda_anchor must be in [0, 1e6), got %g", s->lambda_anchor);
 	if (!(s->detection_trust_max >= 1 && s->detection_trust_max <= 100))
 		return mc_err_set(err, "tracker: detection_trust_max must be in [1, 100], got %g", s->detection_trust_max);
+	if (!(s->color_sight_cut >= 0 && s->color_sight_cut <= 1))
+		return mc_err_set(err, "tracker: color_sight_cut must be in [0, 1], got %g", s->color_sight_cut);
 	if (!(s->lambda_prior >= 0 && s->lambda_prior < 1e6))
 		return mc_err_set(err, "tracker: lambda_prior must be in [0, 1e6), got %g", s->lambda_prior);
 	return 0;

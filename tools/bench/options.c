@@ -61,6 +61,9 @@ static void usage(FILE *f)
 		   "  --lambda-detection L  weight of the keypoint term\n"
 		   "  --detection-trust-max F  the keypoint term's weight grows up to F times while the cameras'\n"
 		   "                        keypoints agree closely (default 3; outside-in 2, 1 with two cameras)\n"
+		   "  --color-sight-cut F   the share of each camera's colour gradient toward that camera along\n"
+		   "                        its line of sight that is dropped (default 0.5; outside-in 0; 0: the\n"
+		   "                        thesis' gradient; docs/TRACKER.md)\n"
 		   "  --detector MODEL      the 2D joint detector (ONNX, docs/DETECTOR.md) feeds the tracker, and a\n"
 		   "                        2D report follows; as in mocapd, frame set k + 1 is detected on a\n"
 		   "                        thread of its own while k is tracked, and the speed counts the\n"
@@ -109,7 +112,8 @@ enum { OPT_MODEL = 256, OPT_OUT, OPT_FRAMES, OPT_BACKEND, OPT_WIDTH, OPT_HEIGHT,
        OPT_NOTHESIS, OPT_QUIET, OPT_CLIP, OPT_HELP, OPT_OVERLAY, OPT_OVERLAY_EVERY, OPT_LANCHOR,
        OPT_SIMDET, OPT_LDET, OPT_TRUST, OPT_DETECTOR, OPT_DET_EVERY, OPT_LCOLOR, OPT_DET_THRESHOLD, OPT_INIT,
        OPT_NORECOVER, OPT_RAY_FIT, OPT_CAMERAS, OPT_LFLOOR, OPT_DET_SERIAL, OPT_KP_AT, OPT_FRAME_STEP, OPT_KP_OUT, OPT_KP_IN, OPT_FPS, OPT_SIM_PRESET, OPT_SIM_COLLAPSE, OPT_SIM_SWAP, OPT_SIM_OUTLIER, OPT_SIM_OCC,
-       OPT_SIM_BLIND, OPT_SIDES, OPT_FIT_LIMBS, OPT_PRIOR, OPT_LPRIOR, OPT_DET_HINT, OPT_DET_FLIP, OPT_MODEL_FLOOR, OPT_SIM_PERSIST, OPT_VERSION = 'V' };
+       OPT_SIM_BLIND, OPT_SIDES, OPT_FIT_LIMBS, OPT_PRIOR, OPT_LPRIOR, OPT_DET_HINT, OPT_DET_FLIP, OPT_MODEL_FLOOR, OPT_SIM_PERSIST, OPT_SIGHT_CUT,
+       OPT_VERSION = 'V' };
 
 static int apply_option(options *o, int c, const char *name, const char *arg, bool *thesis)
 {
@@ -195,6 +199,7 @@ static int apply_option(options *o, int c, const char *name, const char *arg, bo
 	case OPT_LDET: s->lambda_detection = v; o->given |= MC_GIVEN_LAMBDA_DETECTION; break;
 	case OPT_LCOLOR: s->lambda_color = v; break;
 	case OPT_TRUST: s->detection_trust_max = v; o->given |= MC_GIVEN_DETECTION_TRUST; break;
+	case OPT_SIGHT_CUT: s->color_sight_cut = v; o->given |= MC_GIVEN_COLOR_SIGHT_CUT; break;
 	case OPT_DET_EVERY: o->detector_every = v >= 1 ? (int)v : 1; break;
 	case OPT_KP_AT: o->keypoints_at_iteration = (int)v; break;
 	case OPT_FRAME_STEP: o->frame_step = v >= 1 ? (int)v : 1; break;
@@ -264,6 +269,7 @@ int bench_parse_options(int argc, char **argv, options *o, bool *thesis)
 		{"lambda-detection", 1, 0, OPT_LDET}, {"detection-trust-max", 1, 0, OPT_TRUST}, {"simulated-detector", 1, 0, OPT_SIMDET},
 		{"detector", 1, 0, OPT_DETECTOR}, {"detector-every", 1, 0, OPT_DET_EVERY},
 		{"lambda-color", 1, 0, OPT_LCOLOR}, {"detector-threshold", 1, 0, OPT_DET_THRESHOLD},
+		{"color-sight-cut", 1, 0, OPT_SIGHT_CUT},
 		{"platform", 1, 0, OPT_PLAT}, {"device", 1, 0, OPT_DEV},
 		{"seed", 1, 0, OPT_SEED}, {"ocam", 0, 0, OPT_OCAM}, {"reference-frames", 1, 0, OPT_REF},
 		{"no-thesis", 0, 0, OPT_NOTHESIS}, {"overlay-dir", 1, 0, OPT_OVERLAY},
