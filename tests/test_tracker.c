@@ -7,6 +7,7 @@
 #include "body/mc_ik.h"
 #include "track/mc_tracker.h"
 #include "test_util.h"
+#include "demo_pose_fixture.h"
 
 #include <stdlib.h>
 #include <string.h>
@@ -137,26 +138,7 @@ static void pose_at(const mc_model *m, const double *pose0, const double *delta,
 static int synth_open(synth *s, double *pose0, mc_err *err)
 {
 	memset(s, 0, sizeof(*s));
-	mc_clip clip;
-	if (mc_clip_open("tests/data/ego_demo", false, &clip, err) < 0)
-		return -1;
-	s->rig = clip.rig;
-	mc_ik_target targets[MC_CLIP_MAX_JOINTS];
-	int n = 0;
-	if (mc_model_load("config/models/default.json", &s->model, err) < 0) {
-		mc_clip_close(&clip);
-		return -1;
-	}
-	for (int j = 0; j < clip.gt.njoints; j++) {
-		int mj = mc_model_find_joint(&s->model, clip.gt.joint_names[j]);
-		if (mj >= 0)
-			targets[n++] = (mc_ik_target){mj, mc_clip_gt(&clip, 0, j), 1.0, {0, 0, 0}};
-	}
-	mc_clip_close(&clip);
-	mc_ik_options o;
-	mc_ik_options_default(&o);
-	mc_model_rest_pose(&s->model, pose0);
-	if (mc_ik_solve(&s->model, pose0, targets, n, &o, err) < 0)
+	if (demo_first_pose(&s->rig, &s->model, pose0, err) < 0)
 		return -1;
 	for (int c = 0; c < 2; c++) {
 		if (mc_raytable_build(&s->rig.cams[c], W, H, &s->rays[c], err) < 0)

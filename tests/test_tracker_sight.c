@@ -5,11 +5,10 @@
  * cameras, where it covers more floor of its colour, and it drifts toward
  * them; with half of each camera's gradient along its line of sight
  * dropped (the head rig's default) it stays. */
-#include "body/mc_ik.h"
 #include "energy/mc_energy.h"
-#include "eval/mc_clip.h"
 #include "track/mc_tracker.h"
 #include "test_util.h"
+#include "demo_pose_fixture.h"
 
 #include <stdlib.h>
 #include <string.h>
@@ -31,23 +30,7 @@ typedef struct {
 static int scene_open(scene *s, mc_err *err)
 {
 	memset(s, 0, sizeof(*s));
-	mc_clip clip;
-	if (mc_clip_open("tests/data/ego_demo", false, &clip, err) < 0)
-		return -1;
-	s->rig = clip.rig;
-	int rc = mc_model_load("config/models/default.json", &s->model, err);
-	mc_ik_target targets[MC_CLIP_MAX_JOINTS];
-	int n = 0;
-	for (int j = 0; rc == 0 && j < clip.gt.njoints; j++) {
-		int mj = mc_model_find_joint(&s->model, clip.gt.joint_names[j]);
-		if (mj >= 0)
-			targets[n++] = (mc_ik_target){mj, mc_clip_gt(&clip, 0, j), 1.0, {0, 0, 0}};
-	}
-	mc_clip_close(&clip);
-	mc_ik_options o;
-	mc_ik_options_default(&o);
-	mc_model_rest_pose(&s->model, s->pose);
-	if (rc < 0 || mc_ik_solve(&s->model, s->pose, targets, n, &o, err) < 0)
+	if (demo_first_pose(&s->rig, &s->model, s->pose, err) < 0)
 		return -1;
 	for (int c = 0; c < 2; c++) {
 		if (mc_raytable_build(&s->rig.cams[c], SIZE, SIZE, &s->rays[c], err) < 0)
