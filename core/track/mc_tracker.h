@@ -108,7 +108,7 @@ typedef struct {
 	double detection_trust_max;          /* with trust_min_cameras or more (else 1: fixed) */
 	int trust_min_cameras;
 	double pixel_fraction;               /* the detector, not the pixels, sets the pace here */
-	double color_sight_cut;              /* not measured there: the thesis' gradient */
+	double color_sight_cut;              /* 0: the thesis' gradient (0.5 measured mixed) */
 } mc_tracker_outside_in_defaults;
 extern const mc_tracker_outside_in_defaults mc_tracker_outside_in;
 /* camera_iterations / ncams, within [min_iterations, max_iterations]: 80
