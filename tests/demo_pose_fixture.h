@@ -1,11 +1,15 @@
 /* The default model at the bundled demo clip's first pose (its frame 0's
- * ground truth, fitted by inverse kinematics) and the clip's head rig:
- * the synthetic scenes of test_tracker.c and test_tracker_sight.c. */
+ * ground truth, fitted by inverse kinematics) and the clip's head rig,
+ * with each camera's rays and an RGB image at a working size: the
+ * synthetic scenes of test_tracker.c and test_tracker_sight.c. */
 #ifndef MC_DEMO_POSE_FIXTURE_H
 #define MC_DEMO_POSE_FIXTURE_H
 
 #include "body/mc_ik.h"
 #include "eval/mc_clip.h"
+
+#include <stdint.h>
+#include <stdlib.h>
 
 static inline int demo_first_pose(mc_rig *rig, mc_model *model, double *pose, mc_err *err)
 {
@@ -29,6 +33,25 @@ static inline int demo_first_pose(mc_rig *rig, mc_model *model, double *pose, mc
 	mc_ik_options_default(&o);
 	mc_model_rest_pose(model, pose);
 	return mc_ik_solve(model, pose, targets, n, &o, err) < 0 ? -1 : 0;
+}
+
+/* Each of the rig's two cameras' rays at w x h, and a black RGB image. */
+static inline int demo_views_open(const mc_rig *rig, int w, int h, mc_raytable rays[2], uint8_t *img[2], mc_err *err)
+{
+	for (int c = 0; c < 2; c++) {
+		if (mc_raytable_build(&rig->cams[c], w, h, &rays[c], err) < 0)
+			return -1;
+		img[c] = calloc((size_t)w * h * 3, 1);
+	}
+	return 0;
+}
+
+static inline void demo_views_close(mc_raytable rays[2], uint8_t *img[2])
+{
+	for (int c = 0; c < 2; c++) {
+		mc_raytable_free(&rays[c]);
+		free(img[c]);
+	}
 }
 
 #endif

@@ -140,12 +140,7 @@ static int synth_open(synth *s, double *pose0, mc_err *err)
 	memset(s, 0, sizeof(*s));
 	if (demo_first_pose(&s->rig, &s->model, pose0, err) < 0)
 		return -1;
-	for (int c = 0; c < 2; c++) {
-		if (mc_raytable_build(&s->rig.cams[c], W, H, &s->rays[c], err) < 0)
-			return -1;
-		s->img[c] = calloc(W * H * 3, 1);
-	}
-	return 0;
+	return demo_views_open(&s->rig, W, H, s->rays, s->img, err);
 }
 
 /* synth_open for a test: a failure is counted and printed. */
@@ -172,10 +167,7 @@ static void calibrate_at(synth *s, mc_tracker *t, const double *pose0, mc_frame_
 
 static void synth_close(synth *s)
 {
-	for (int c = 0; c < 2; c++) {
-		mc_raytable_free(&s->rays[c]);
-		free(s->img[c]);
-	}
+	demo_views_close(s->rays, s->img);
 }
 
 static mc_tracker *make_tracker_fit(synth *s, mc_backend backend, bool ray_fit, int iterations, mc_err *err)

@@ -33,12 +33,7 @@ static int scene_open(scene *s, mc_err *err)
 	memset(s, 0, sizeof(*s));
 	if (demo_first_pose(&s->rig, &s->model, s->pose, err) < 0)
 		return -1;
-	for (int c = 0; c < 2; c++) {
-		if (mc_raytable_build(&s->rig.cams[c], SIZE, SIZE, &s->rays[c], err) < 0)
-			return -1;
-		s->img[c] = calloc(SIZE * SIZE * 3, 1);
-	}
-	return 0;
+	return demo_views_open(&s->rig, SIZE, SIZE, s->rays, s->img, err);
 }
 
 /* The right forearm and hand get the arm colour; the image is the model
@@ -70,10 +65,7 @@ static void render_scene(scene *s)
 
 static void scene_close(scene *s)
 {
-	for (int c = 0; c < 2; c++) {
-		mc_raytable_free(&s->rays[c]);
-		free(s->img[c]);
-	}
+	demo_views_close(s->rays, s->img);
 }
 
 /* Tracks the still scene without keypoints; returns how far the right

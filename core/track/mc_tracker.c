@@ -228,8 +228,7 @@ int mc_tracker_init_from_joints(mc_tracker *t, const char *const *names, const m
 /* ---- energy ------------------------------------------------------------ */
 
 /* The reference backend's E_color of camera `cam` (-1: every camera). */
-static double reference_data_term(mc_tracker *t, const mc_scene *scene, int cam, double dropout, mc_vec3 *dmu,
-				  double *dsigma)
+static double reference_data_term(mc_tracker *t, const mc_scene *scene, int cam, double dropout, mc_vec3 *dmu)
 {
 	double E = 0, w[MC_MAX_GAUSSIANS];
 	unsigned char active[MC_MAX_GAUSSIANS];
@@ -245,21 +244,21 @@ static double reference_data_term(mc_tracker *t, const mc_scene *scene, int cam,
 				active[q] = dropout <= 0 || mc_rng_uniform(&t->rng) >= dropout;
 			}
 			double w_bg = scene->background ? mc_hsv_dissimilarity(scene->background_hsv, pix) : 0;
-			E += mc_ray_weighted_visibility_bg(scene, rt->origin, rt->dir[p], w, w_bg, active, dmu, dsigma);
+			E += mc_ray_weighted_visibility_bg(scene, rt->origin, rt->dir[p], w, w_bg, active, dmu, NULL);
 		}
 	}
 	return E;
 }
 
 /* E_color of camera `cam`'s samples (-1: every camera's), added into *E and
- * dmu.  The dropout draw depends on the seed, camera and pixel only, so
+ * dmu (the sigmas' gradient is not wanted).  The dropout draw depends on the seed, camera and pixel only, so
  * one camera at a time draws as all at once. */
 static int camera_data_term(mc_tracker *t, const mc_scene *scene, int cam, double dropout, uint32_t seed, double *E,
 			    mc_vec3 *dmu, mc_err *err)
 {
-	double dsigma[MC_MAX_GAUSSIANS] = {0}, e = 0;
+	double e = 0;
 	if (!t->cl) {
-		*E += reference_data_term(t, scene, cam, dropout, dmu, dsigma);
+		*E += reference_data_term(t, scene, cam, dropout, dmu);
 		return 0;
 	}
 	const int *pix[MC_MAX_CAMERAS];
@@ -268,7 +267,7 @@ static int camera_data_term(mc_tracker *t, const mc_scene *scene, int cam, doubl
 		pix[c] = t->samples[c];
 		count[c] = cam < 0 || c == cam ? t->nsamples[c] : 0;
 	}
-	if (mc_cl_energy_eval(t->cl, scene, pix, count, dropout, seed, &e, dmu, dsigma, err) < 0)
+	if (mc_cl_energy_eval(t->cl, scene, pix, count, dropout, seed, &e, dmu, NULL, err) < 0)
 		return -1;
 	*E += e;
 	return 0;
