@@ -1,8 +1,8 @@
 /* Tests of core/energy/mc_cl: the OpenCL colour energy and its gradient against the
  * double-precision reference of core/energy/mc_energy.c on random scenes and on a
  * person seen by a head-mounted fisheye pair, over every pixel, pixel
- * subsets and with dropout; missing cameras, device selection and argument
- * errors.
+ * subsets and with dropout; each camera's gradient apart from one launch;
+ * missing cameras, device selection and argument errors.
  * Skips (77) when no OpenCL platform is present. */
 #include "cl_scene.h"
 #include "energy/mc_cl.h"
@@ -371,6 +371,58 @@ static void test_launch_settings(void)
 	views_free(p.v, 2);
 }
 
+/* mc_cl_energy_eval_cameras: each camera's gradient is the reference's
+ * over that camera's pixels alone, and the energy is over both, also
+ * when the launch may have a single work-group (each camera still gets
+ * one of its own). */
+static void test_per_camera(void)
+{
+	static ego_person p;
+	ego_person_init(&p, 8, 40, 0.4);
+	int npix[2] = {900, 300}, *pix[2];
+	for (int c = 0; c < 2; c++) {
+		pix[c] = malloc(sizeof(int) * (size_t)npix[c]);
+		for (int i = 0; i < npix[c]; i++)
+			pix[c][i] = (int)(mc_test_rand(&p.rng) * p.t[c].width * p.t[c].height);
+	}
+	static result both, ref[2], cl[2];
+	eval_ref(&p.sc, p.v, 2, pix, npix, 0.3, 17, &both);
+	for (int c = 0; c < 2; c++) {
+		int only[2] = {c == 0 ? npix[0] : 0, c == 1 ? npix[1] : 0};
+		eval_ref(&p.sc, p.v, 2, pix, only, 0.3, 17, &ref[c]);
+	}
+	static const mc_cl_options settings[] = {{0, 0, 0, false}, {16, 8, 1, false}, {8, 3, 5, true}};
+	for (size_t i = 0; i < sizeof(settings) / sizeof(settings[0]); i++) {
+		mc_err err = {{0}};
+		mc_cl_energy *e = mc_cl_energy_create_opts(-1, -1, p.t, 2, &settings[i], &err);
+		CHECK_MSG(e != NULL, "%s", err.msg);
+		if (!e)
+			continue;
+		for (int c = 0; c < 2; c++)
+			CHECK(mc_cl_energy_set_image(e, c, p.v[c].hsv, &err) == 0);
+		static mc_vec3 dmu[2 * MC_MAX_GAUSSIANS];
+		memset(dmu, 0, sizeof(dmu));
+		double E = 0;
+		CHECK_MSG(mc_cl_energy_eval_cameras(e, &p.sc, (const int *const *)pix, npix, 0.3, 17, &E, dmu, &err) ==
+				  0,
+			  "%s", err.msg);
+		CHECK_MSG(fabs(E - both.E) <= 1e-3 * both.absE, "energy %.9g vs reference %.9g", E, both.E);
+		for (int c = 0; c < 2; c++) {
+			memset(&cl[c], 0, sizeof(cl[c]));
+			cl[c].E = ref[c].E; /* the energy is checked over both cameras above */
+			memcpy(cl[c].dmu, dmu + c * p.sc.n, sizeof(mc_vec3) * (size_t)p.sc.n);
+			memcpy(cl[c].dsigma, ref[c].dsigma, sizeof(double) * (size_t)p.sc.n);
+			char what[64];
+			snprintf(what, sizeof(what), "camera %d's gradient, groups <= %d", c, settings[i].max_groups);
+			check_agree(what, &cl[c], &ref[c], p.sc.n, 1e-3);
+		}
+		mc_cl_energy_destroy(e);
+	}
+	for (int c = 0; c < 2; c++)
+		free(pix[c]);
+	views_free(p.v, 2);
+}
+
 static void test_dropout(void)
 {
 	static ego_person p;
@@ -478,6 +530,7 @@ int main(void)
 	test_culling_edge();
 	test_human();
 	test_launch_settings();
+	test_per_camera();
 	test_dropout();
 	test_errors();
 	return mc_test_finish("test_cl_energy");

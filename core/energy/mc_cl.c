@@ -160,18 +160,19 @@ static int create_buffers(mc_cl_energy *e, mc_err *err)
 	if (rc != CL_SUCCESS)
 		return mc_cl_fail(err, "clCreateBuffer(image)", rc);
 	if (!e->shared) {
-		e->partial = clCreateBuffer(e->ctx, CL_MEM_WRITE_ONLY, sizeof(float) * ROW_MAX * e->max_groups, NULL,
+		e->partial = clCreateBuffer(e->ctx, CL_MEM_WRITE_ONLY, sizeof(float) * ROW_MAX * MC_CL_ROWS(e), NULL,
 					    &rc);
 		if (rc != CL_SUCCESS)
 			return mc_cl_fail(err, "clCreateBuffer(partial)", rc);
 	}
-	e->partial_host = host_alloc(e, sizeof(float) * ROW_MAX * e->max_groups);
+	e->partial_host = host_alloc(e, sizeof(float) * ROW_MAX * MC_CL_ROWS(e));
+	e->group_cam = malloc(sizeof(int) * MC_CL_ROWS(e));
 	int maxpix = 0;
 	for (int c = 0; c < e->ncams; c++)
 		if (e->cam_npix[c] > maxpix)
 			maxpix = e->cam_npix[c];
 	e->image_host = malloc(sizeof(cl_float4) * (size_t)maxpix);
-	if (!e->partial_host || !e->image_host)
+	if (!e->partial_host || !e->image_host || !e->group_cam)
 		return mc_err_set(err, "out of memory");
 	return 0;
 }
@@ -193,11 +194,10 @@ static int set_fixed_args(mc_cl_energy *e, mc_err *err)
 	return 0;
 }
 
-/* Makes room for `need` pixels in the upload buffer and its host copy. */
 int mc_cl_grow_input(mc_cl_energy *e, size_t need, mc_err *err)
 {
 	size_t cap = need + need / 2 + 256;
-	size_t bytes = sizeof(cl_float4) * GAUSS_FLOAT4S + sizeof(cl_uint) * cap;
+	size_t bytes = sizeof(cl_float4) * GAUSS_FLOAT4S + sizeof(cl_uint) * (cap + MC_CL_ROWS(e) + 1);
 	cl_float4 *host = host_alloc(e, bytes);
 	if (!host)
 		return mc_err_set(err, "mc_cl_energy_eval: out of memory");
@@ -311,9 +311,8 @@ mc_cl_energy *mc_cl_energy_create_opts(int platform, int device, const mc_raytab
 		goto fail;
 	/* An empty launch, so that the device compiles the kernel for its
 	 * work-group size now rather than during the first frame. */
-	size_t groups;
 	memset(e->input_host, 0, sizeof(cl_float4) * GAUSS_FLOAT4S);
-	if (mc_cl_launch(e, 0, 0, 0, 0, &groups, err) != 0)
+	if (mc_cl_launch(e, 0, 0, mc_cl_plan_groups(e, NULL, 0), 0, 0, err) != 0)
 		goto fail;
 	return e;
 fail:
@@ -356,5 +355,6 @@ void mc_cl_energy_destroy(mc_cl_energy *e)
 	for (int c = 0; c < MC_MAX_CAMERAS; c++)
 		free(e->valid[c]);
 	free(e->image_host);
+	free(e->group_cam);
 	free(e);
 }

@@ -40,8 +40,10 @@ typedef struct {
 	int work_group_size; /* work-items per group (CPUs 8, GPUs 64, or less
 	                      * where local memory is short) */
 	int max_groups;      /* work-groups per launch at most (CPUs 4, GPUs 16
-	                      * per compute unit); each work-item loops over
-	                      * its share of the pixels */
+	                      * per compute unit), shared out among the
+	                      * cameras (each camera's pixels get at least a
+	                      * group of their own); each work-item loops over
+	                      * its share of its group's pixels */
 	bool copy_buffers;   /* true: upload and read back through buffers even
 	                      * where the device shares host memory (OpenCL 2.0
 	                      * fine-grained SVM, used when there; for tests) */
@@ -76,6 +78,13 @@ int mc_cl_energy_set_image(mc_cl_energy *e, int cam, const float *hsv, mc_err *e
 int mc_cl_energy_eval(mc_cl_energy *e, const mc_scene *scene, const int *const *pixels,
 		      const int *npixels, double dropout, uint32_t seed, double *energy, mc_vec3 *dmu,
 		      double *dsigma, mc_err *err);
+
+/* As mc_cl_energy_eval() in one launch, keeping each camera's gradient
+ * apart: ADDS camera c's into dmu_cam[c * scene->n + q] (ncams *
+ * scene->n long).  *energy is over every camera. */
+int mc_cl_energy_eval_cameras(mc_cl_energy *e, const mc_scene *scene, const int *const *pixels,
+			      const int *npixels, double dropout, uint32_t seed, double *energy, mc_vec3 *dmu_cam,
+			      mc_err *err);
 
 void mc_cl_energy_destroy(mc_cl_energy *e);
 

@@ -112,31 +112,32 @@ static int pack_scene(mc_cl_energy *e, const mc_scene *scene, mc_err *err)
 	return 0;
 }
 
-/* Concatenates the ray indices of the pixels to evaluate. */
-static int gather_pixels(mc_cl_energy *e, const int *const *pixels, const int *npixels, size_t *count, mc_err *err)
+/* Concatenates the ray indices of the pixels to evaluate, camera by
+ * camera; cam_count[c] = camera c's share. */
+static int gather_pixels(mc_cl_energy *e, const int *const *pixels, const int *npixels, size_t *count,
+			 size_t cam_count[MC_MAX_CAMERAS], mc_err *err)
 {
 	size_t need = 0;
 	for (int c = 0; c < e->ncams; c++) {
+		cam_count[c] = 0;
 		if (!e->has_image[c])
 			continue;
 		bool all = !pixels || !pixels[c];
 		int n = all ? e->nvalid[c] : (npixels ? npixels[c] : -1);
 		if (n < 0)
 			return mc_err_set(err, "mc_cl_energy_eval: camera %d: npixels missing or negative", c);
+		cam_count[c] = (size_t)n;
 		need += (size_t)n;
 	}
 	if (need > e->pixel_cap && mc_cl_grow_input(e, need, err) != 0)
 		return -1;
 	size_t k = 0;
 	for (int c = 0; c < e->ncams; c++) {
-		if (!e->has_image[c])
-			continue;
 		bool all = !pixels || !pixels[c];
 		const int *list = all ? e->valid[c] : pixels[c];
-		int n = all ? e->nvalid[c] : npixels[c];
-		for (int i = 0; i < n; i++) {
+		for (size_t i = 0; i < cam_count[c]; i++) {
 			if (list[i] < 0 || list[i] >= e->cam_npix[c])
-				return mc_err_set(err, "mc_cl_energy_eval: camera %d: pixels[%d] = %d out of range 0..%d", c,
+				return mc_err_set(err, "mc_cl_energy_eval: camera %d: pixels[%zu] = %d out of range 0..%d", c,
 						  i, list[i], e->cam_npix[c] - 1);
 			e->pixel_host[k++] = (cl_uint)(e->cam_first[c] + list[i]);
 		}
@@ -145,17 +146,42 @@ static int gather_pixels(mc_cl_energy *e, const int *const *pixels, const int *n
 	return 0;
 }
 
+/* About max_groups work-groups in all, shared out in proportion to the
+ * cameras' pixels; a group never mixes cameras, so that its row holds one
+ * camera's gradient (mc_cl_energy_eval_cameras). */
+size_t mc_cl_plan_groups(mc_cl_energy *e, const size_t *cam_count, size_t npix)
+{
+	cl_uint *first = e->pixel_host + npix;
+	size_t total = (npix + e->wg - 1) / e->wg, groups = 0, start = 0;
+	if (total > e->max_groups)
+		total = e->max_groups;
+	for (int c = 0; npix > 0 && c < e->ncams; c++) {
+		size_t n = cam_count[c];
+		if (n == 0)
+			continue;
+		size_t share = (size_t)((double)total * (double)n / (double)npix + 0.5);
+		if (share < 1)
+			share = 1;
+		for (size_t j = 0; j < share; j++) {
+			first[groups] = (cl_uint)(start + n * j / share);
+			e->group_cam[groups++] = c;
+		}
+		start += n;
+	}
+	if (groups == 0) { /* nothing to evaluate: one empty group */
+		first[0] = 0;
+		e->group_cam[groups++] = 0;
+	}
+	first[groups] = (cl_uint)npix;
+	return groups;
+}
+
 /* One evaluation on the device: upload, run, read back the work-group
  * rows.  Three commands, one wait; with shared memory only the run. */
-int mc_cl_launch(mc_cl_energy *e, int ngauss, size_t npix, uint32_t seed, uint32_t thr24, size_t *ngroups,
-		  mc_err *err)
+int mc_cl_launch(mc_cl_energy *e, int ngauss, size_t npix, size_t groups, uint32_t seed, uint32_t thr24,
+		 mc_err *err)
 {
-	size_t groups = (npix + e->wg - 1) / e->wg;
-	if (groups > e->max_groups)
-		groups = e->max_groups;
-	if (groups == 0)
-		groups = 1;
-	size_t bytes = sizeof(cl_float4) * GAUSS_FLOAT4S + sizeof(cl_uint) * npix;
+	size_t bytes = sizeof(cl_float4) * GAUSS_FLOAT4S + sizeof(cl_uint) * (npix + groups + 1);
 	cl_int rc = e->shared ? CL_SUCCESS
 			      : clEnqueueWriteBuffer(e->queue, e->input, CL_FALSE, 0, bytes, e->input_host, 0, NULL, NULL);
 	if (rc != CL_SUCCESS)
@@ -184,42 +210,83 @@ int mc_cl_launch(mc_cl_energy *e, int ngauss, size_t npix, uint32_t seed, uint32
 		rc = clEnqueueReadBuffer(e->queue, e->partial, CL_TRUE, 0, row * groups, e->partial_host, 0, NULL, NULL);
 	if (rc != CL_SUCCESS)
 		return mc_cl_fail(err, e->shared ? "clFinish" : "clEnqueueReadBuffer(partial)", rc);
-	*ngroups = groups;
 	return 0;
+}
+
+/* Packs and runs one evaluation; *groups = the rows in partial_host (0
+ * when there was nothing to evaluate). */
+static int evaluate(mc_cl_energy *e, const mc_scene *scene, const int *const *pixels, const int *npixels,
+		    double dropout, uint32_t seed, size_t *groups, mc_err *err)
+{
+	*groups = 0;
+	if (!(dropout >= 0 && dropout <= 1))
+		return mc_err_set(err, "mc_cl_energy_eval: dropout = %g, not in [0, 1]", dropout);
+	if (pack_scene(e, scene, err) != 0)
+		return -1;
+	size_t npix = 0, cam_count[MC_MAX_CAMERAS];
+	if (gather_pixels(e, pixels, npixels, &npix, cam_count, err) != 0)
+		return -1;
+	if (npix == 0 || (scene->n == 0 && !scene->background))
+		return 0;
+	size_t n = mc_cl_plan_groups(e, cam_count, npix);
+	if (mc_cl_launch(e, scene->n, npix, n, seed, mc_cl_dropout_threshold(dropout), err) != 0)
+		return -1;
+	*groups = n;
+	return 0;
+}
+
+/* Adds the rows of the groups of camera `cam` (-1: every group) in
+ * double: the energy, and column k of Gaussian q into out[q].s[k]. */
+static double sum_rows(const mc_cl_energy *e, size_t groups, int ngauss, int cam, double (*out)[4])
+{
+	size_t stride = 4 * (size_t)ngauss + 1;
+	double energy = 0;
+	for (size_t g = 0; g < groups; g++) {
+		if (cam >= 0 && e->group_cam[g] != cam)
+			continue;
+		const float *row = e->partial_host + g * stride;
+		energy += row[4 * (size_t)ngauss];
+		for (int q = 0; q < ngauss; q++)
+			for (int k = 0; k < 4; k++)
+				out[q][k] += row[4 * q + k];
+	}
+	return energy;
 }
 
 int mc_cl_energy_eval(mc_cl_energy *e, const mc_scene *scene, const int *const *pixels, const int *npixels,
 		      double dropout, uint32_t seed, double *energy, mc_vec3 *dmu, double *dsigma, mc_err *err)
 {
 	*energy = 0;
-	if (!(dropout >= 0 && dropout <= 1))
-		return mc_err_set(err, "mc_cl_energy_eval: dropout = %g, not in [0, 1]", dropout);
-	if (pack_scene(e, scene, err) != 0)
+	size_t groups;
+	if (evaluate(e, scene, pixels, npixels, dropout, seed, &groups, err) != 0)
 		return -1;
-	size_t npix = 0;
-	if (gather_pixels(e, pixels, npixels, &npix, err) != 0)
-		return -1;
-	if (npix == 0 || (scene->n == 0 && !scene->background))
+	if (groups == 0)
 		return 0;
-	size_t groups = 0;
-	if (mc_cl_launch(e, scene->n, npix, seed, mc_cl_dropout_threshold(dropout), &groups, err) != 0)
-		return -1;
-
-	/* Add the work-group rows in double. */
-	size_t stride = 4 * (size_t)scene->n + 1;
-	double sum = 0;
-	for (size_t g = 0; g < groups; g++)
-		sum += e->partial_host[g * stride + 4 * (size_t)scene->n];
-	*energy = sum;
+	double d[MC_MAX_GAUSSIANS][4] = {{0}};
+	*energy = sum_rows(e, groups, scene->n, -1, d);
 	for (int q = 0; q < scene->n; q++) {
-		double d[4] = {0, 0, 0, 0};
-		for (size_t g = 0; g < groups; g++)
-			for (int k = 0; k < 4; k++)
-				d[k] += e->partial_host[g * stride + 4 * (size_t)q + k];
 		if (dmu)
-			dmu[q] = mc_v3_add(dmu[q], mc_v3(d[0], d[1], d[2]));
+			dmu[q] = mc_v3_add(dmu[q], mc_v3(d[q][0], d[q][1], d[q][2]));
 		if (dsigma)
-			dsigma[q] += d[3];
+			dsigma[q] += d[q][3];
+	}
+	return 0;
+}
+
+int mc_cl_energy_eval_cameras(mc_cl_energy *e, const mc_scene *scene, const int *const *pixels,
+			      const int *npixels, double dropout, uint32_t seed, double *energy, mc_vec3 *dmu_cam,
+			      mc_err *err)
+{
+	*energy = 0;
+	size_t groups;
+	if (evaluate(e, scene, pixels, npixels, dropout, seed, &groups, err) != 0)
+		return -1;
+	for (int c = 0; groups > 0 && c < e->ncams; c++) {
+		double d[MC_MAX_GAUSSIANS][4] = {{0}};
+		*energy += sum_rows(e, groups, scene->n, c, d);
+		mc_vec3 *g = dmu_cam + (size_t)c * (size_t)scene->n;
+		for (int q = 0; q < scene->n; q++)
+			g[q] = mc_v3_add(g[q], mc_v3(d[q][0], d[q][1], d[q][2]));
 	}
 	return 0;
 }

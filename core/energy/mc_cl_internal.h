@@ -16,6 +16,9 @@
 /* Gaussian buffer: 4 float4 per Gaussian, then mu.x, mu.y, mu.z and r2_max
  * of every Gaussian as four float arrays (for the SIMD culling test). */
 #define GAUSS_FLOAT4S (5 * MC_MAX_GAUSSIANS)
+/* Work-group rows a launch may have: max_groups, and one more per camera
+ * as each camera's pixels get whole work-groups of their own. */
+#define MC_CL_ROWS(e) ((e)->max_groups + MC_MAX_CAMERAS)
 
 struct mc_cl_energy {
 	char name[256];
@@ -44,7 +47,10 @@ struct mc_cl_energy {
 	cl_mem input;         /* unused with shared memory */
 	size_t pixel_cap;     /* room for pixels in `input` and input_host */
 	cl_float4 *input_host; /* GAUSS_FLOAT4S records, then pixel_cap indices */
-	cl_uint *pixel_host;  /* = (cl_uint *)(input_host + GAUSS_FLOAT4S) */
+	cl_uint *pixel_host;  /* = (cl_uint *)(input_host + GAUSS_FLOAT4S); after
+			       * the pixels, each work-group's first pixel and
+			       * the end (the group table) */
+	int *group_cam;       /* the camera of each work-group's pixels */
 	cl_float4 *image_host; /* one camera */
 	float *partial_host;
 	/* the scene's background colour model, as an albedo record; w = 1
@@ -69,14 +75,22 @@ int mc_cl_vector_width(cl_device_id dev);
 
 /* ---- mc_cl.c: set-up ---- */
 
-/* Makes room for `need` pixels in the upload buffer and its host copy. */
+/* Makes room for `need` pixels, and the group table after them, in the
+ * upload buffer and its host copy. */
 int mc_cl_grow_input(mc_cl_energy *e, size_t need, mc_err *err);
 
 /* ---- mc_cl_eval.c: per evaluation ---- */
 
-/* One evaluation on the device over the packed Gaussians and pixels;
- * *ngroups = the work-group rows in partial_host. */
-int mc_cl_launch(mc_cl_energy *e, int ngauss, size_t npix, uint32_t seed, uint32_t thr24, size_t *ngroups,
+/* Splits the npix packed pixels into work-groups, each camera's into
+ * groups of their own (cam_count[c] pixels of camera c, in camera order;
+ * NULL when npix is 0): writes the group table after the pixels and
+ * group_cam.  Returns the number of groups (at least 1). */
+size_t mc_cl_plan_groups(mc_cl_energy *e, const size_t *cam_count, size_t npix);
+
+/* One evaluation on the device over the packed Gaussians, pixels and
+ * group table (mc_cl_plan_groups); leaves a row per group in
+ * partial_host. */
+int mc_cl_launch(mc_cl_energy *e, int ngauss, size_t npix, size_t ngroups, uint32_t seed, uint32_t thr24,
 		 mc_err *err);
 
 #endif

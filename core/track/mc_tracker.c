@@ -250,24 +250,27 @@ static double reference_data_term(mc_tracker *t, const mc_scene *scene, int cam,
 	return E;
 }
 
-/* E_color of camera `cam`'s samples (-1: every camera's), added into *E and
- * dmu (the sigmas' gradient is not wanted).  The dropout draw depends on the seed, camera and pixel only, so
- * one camera at a time draws as all at once. */
-static int camera_data_term(mc_tracker *t, const mc_scene *scene, int cam, double dropout, uint32_t seed, double *E,
-			    mc_vec3 *dmu, mc_err *err)
+/* E_color of every camera's samples, added into *E, and its gradient with
+ * respect to the Gaussian centres (the sigmas' is not wanted): added into
+ * dmu[q], or with per_camera camera c's into dmu[c * scene->n + q].  The
+ * dropout draw depends on the seed, camera and pixel only. */
+static int color_data_term(mc_tracker *t, const mc_scene *scene, double dropout, uint32_t seed, bool per_camera,
+			   double *E, mc_vec3 *dmu, mc_err *err)
 {
-	double e = 0;
 	if (!t->cl) {
-		*E += reference_data_term(t, scene, cam, dropout, dmu);
+		if (!per_camera)
+			*E += reference_data_term(t, scene, -1, dropout, dmu);
+		for (int c = 0; per_camera && c < t->rig.ncams; c++)
+			*E += reference_data_term(t, scene, c, dropout, dmu + (size_t)c * (size_t)scene->n);
 		return 0;
 	}
 	const int *pix[MC_MAX_CAMERAS];
-	int count[MC_MAX_CAMERAS];
-	for (int c = 0; c < t->rig.ncams; c++) {
+	for (int c = 0; c < t->rig.ncams; c++)
 		pix[c] = t->samples[c];
-		count[c] = cam < 0 || c == cam ? t->nsamples[c] : 0;
-	}
-	if (mc_cl_energy_eval(t->cl, scene, pix, count, dropout, seed, &e, dmu, NULL, err) < 0)
+	double e = 0;
+	int rc = per_camera ? mc_cl_energy_eval_cameras(t->cl, scene, pix, t->nsamples, dropout, seed, &e, dmu, err)
+			    : mc_cl_energy_eval(t->cl, scene, pix, t->nsamples, dropout, seed, &e, dmu, NULL, err);
+	if (rc < 0)
 		return -1;
 	*E += e;
 	return 0;
@@ -306,17 +309,18 @@ int mc_trk_data_term(mc_tracker *t, const mc_scene *scene, int nsampled, double 
 	uint32_t seed = t->cl ? (uint32_t)mc_rng_next(&t->rng) : 0;
 	double cut = t->s.color_sight_cut;
 	if (!(cut > 0)) {
-		if (camera_data_term(t, scene, -1, dropout, seed, E, dmu, err) < 0)
+		if (color_data_term(t, scene, dropout, seed, false, E, dmu, err) < 0)
 			return -1;
 	} else {
+		mc_vec3 g[MC_MAX_CAMERAS * MC_MAX_GAUSSIANS];
+		memset(g, 0, sizeof(mc_vec3) * (size_t)t->rig.ncams * (size_t)scene->n);
+		if (color_data_term(t, scene, dropout, seed, true, E, g, err) < 0)
+			return -1;
 		for (int c = 0; c < t->rig.ncams; c++) {
-			mc_vec3 g[MC_MAX_GAUSSIANS];
-			memset(g, 0, sizeof(mc_vec3) * scene->n);
-			if (camera_data_term(t, scene, c, dropout, seed, E, g, err) < 0)
-				return -1;
-			cut_along_sight(t, scene, c, cut, g);
+			mc_vec3 *gc = g + (size_t)c * (size_t)scene->n;
+			cut_along_sight(t, scene, c, cut, gc);
 			for (int q = 0; q < scene->n; q++)
-				dmu[q] = mc_v3_add(dmu[q], g[q]);
+				dmu[q] = mc_v3_add(dmu[q], gc[q]);
 		}
 	}
 	double inv = 1.0 / nsampled;

@@ -479,7 +479,9 @@ float mc_pixel(global const float4 *gauss, int ngauss, float3 o, float3 n, float
  * image: HSV of every such pixel (w unused);
  * cam_origin / cam_first: per camera, centre (rig frame) and first ray index;
  * input: the Gaussian records (5 MAXG float4, layout above), then the
- *        npixels ray indices of the sampled pixels;
+ *        npixels ray indices of the sampled pixels, then the group table:
+ *        work-group g takes the pixels from its entry to the next one's
+ *        (mc_cl_plan_groups; a group holds one camera's pixels);
  * thr24: a Gaussian is dropped when its 24-bit hash < thr24 (0: never);
  * bg_albedo, bg_weights: the background colour model, as a Gaussian's
  *     albedo record (h, s, v, w_s) and (w_d, w_g, enabled, unused);
@@ -502,7 +504,9 @@ kernel void color_energy(global const float4 *rays, global const float4 *image,
 	global const uint *pixels = (global const uint *)(input + 5 * MAXG);
 	const uint seed_mix = mc_lowbias32(seed);
 	float energy = 0.0f;
-	for (int i = get_global_id(0); i < npixels; i += get_global_size(0)) {
+	global const uint *group_first = pixels + npixels;
+	const uint end = group_first[get_group_id(0) + 1];
+	for (uint i = group_first[get_group_id(0)] + lid; i < end; i += lsize) {
 		uint r = pixels[i];
 		float4 ray = rays[r];
 		if (ray.w < 0.0f)
