@@ -714,11 +714,36 @@ static void test_leg_unfold(void)
 	synth_close(&s);
 }
 
+/* The speed shares (early_pixel_share, check_pixel_share) are checked
+ * like the other settings: out of (0, 1], creation fails naming them. */
+static void test_settings_checked(void)
+{
+	synth s;
+	double pose0[MC_MAX_DOF];
+	if (!synth_start(&s, pose0))
+		return;
+	static const double bad[][2] = {{0, 0.15}, {0.5, 1.5}, {-1, 0.15}};
+	for (size_t i = 0; i < sizeof(bad) / sizeof(bad[0]); i++) {
+		mc_tracker_settings set;
+		mc_tracker_settings_default(&set);
+		set.backend = MC_BACKEND_REFERENCE;
+		set.early_pixel_share = bad[i][0];
+		set.check_pixel_share = bad[i][1];
+		mc_err err = {{0}};
+		mc_tracker *t = mc_tracker_create(&s.rig, &s.model, &set, &err);
+		CHECK(t == NULL);
+		CHECK_MSG(strstr(err.msg, "early_pixel_share and check_pixel_share"), "%s", err.msg);
+		mc_tracker_destroy(t);
+	}
+	synth_close(&s);
+}
+
 int main(int argc, char **argv)
 {
 	bool reference = argc > 1 && !strcmp(argv[1], "--reference");
 	test_synthetic(reference ? MC_BACKEND_REFERENCE : MC_BACKEND_OPENCL);
 	if (!reference) {
+		test_settings_checked();
 		test_backends_agree();
 		test_keypoints();
 		test_ray_fit();

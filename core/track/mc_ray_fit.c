@@ -30,10 +30,6 @@
 #define FIT_TAU_M 0.05
 #define FIT_ROUNDS 2
 #define FIT_ITERATIONS 2
-/* The share of the pixels near a part (at either pose) its colour check
- * evaluates: 0.3 gave the same figures as all of them at a third of the
- * cost (walk 11.18 against 11.34 cm, seed 1). */
-#define CHECK_PIXELS 0.3
 /* A part whose dofs the fit moved less than this is left alone. */
 #define UNMOVED_RAD 1e-6
 /* The limbs, by the joint whose dofs swing them. */
@@ -124,9 +120,10 @@ static void copy_part(const mc_model *m, const bool *joint, const double *from, 
 			into[m->joints[j].dof0 + d] = from[m->joints[j].dof0 + d];
 }
 
-/* The colour energy of poses a and b on every pixel near the Gaussians
- * that differ between them (those of the part's joints): the other
- * pixels add the same to both, only noise to the comparison. */
+/* The colour energy of poses a and b on a share (check_pixel_share) of
+ * the pixels near the Gaussians that differ between them (those of the
+ * part's joints): the other pixels add the same to both, only noise to
+ * the comparison. */
 static int compare_part(mc_tracker *t, const double *a, const double *b, const bool *joint, double *Ea, double *Eb,
 			mc_err *err)
 {
@@ -138,7 +135,7 @@ static int compare_part(mc_tracker *t, const double *a, const double *b, const b
 	mc_vec3 dmu[MC_MAX_GAUSSIANS];
 	mc_model_fk(&t->model, a, &fa);
 	mc_model_fk(&t->model, b, &fb);
-	int n = mc_trk_sample_near(t, &fa, &fb, gauss, CHECK_PIXELS);
+	int n = mc_trk_sample_near(t, &fa, &fb, gauss, t->s.check_pixel_share);
 	mc_trk_make_scene(t, &fa, &sa);
 	mc_trk_make_scene(t, &fb, &sb);
 	if (mc_trk_data_term(t, &sa, n, 0.0, Ea, dmu, err) < 0 || mc_trk_data_term(t, &sb, n, 0.0, Eb, dmu, err) < 0)

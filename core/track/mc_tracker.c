@@ -389,16 +389,20 @@ static void predict(const mc_tracker *t, double *pred)
 	mc_model_clamp_pose(&t->model, pred);
 }
 
-/* The colour term of one iteration, weighted by lambda_color (skipped,
- * with its pixel sampling, when that is 0). */
-static int color_term(mc_tracker *t, const mc_scene *scene, double *E, mc_vec3 *dmu, mc_err *err)
+/* The colour term of iteration `it` of `iters`, weighted by lambda_color
+ * (skipped, with its pixel sampling, when that is 0).  The first half,
+ * whose steps are the larger, may sample fewer pixels
+ * (early_pixel_share). */
+static int color_term(mc_tracker *t, const mc_scene *scene, int it, int iters, double *E, mc_vec3 *dmu,
+		      mc_err *err)
 {
 	if (t->s.lambda_color <= 0) {
 		*E = 0;
 		memset(dmu, 0, sizeof(mc_vec3) * scene->n);
 		return 0;
 	}
-	int ns = mc_trk_sample_pixels(t, t->s.pixel_fraction);
+	double share = it < iters / 2 ? t->s.early_pixel_share : 1.0;
+	int ns = mc_trk_sample_pixels(t, t->s.pixel_fraction * share);
 	if (mc_trk_data_term(t, scene, ns, t->s.dropout, E, dmu, err) < 0)
 		return -1;
 	for (int q = 0; q < scene->n; q++)
@@ -485,7 +489,7 @@ static int optimise(mc_tracker *t, double *pose, const double *pred, double *fin
 		}
 		mc_model_fk(&t->model, pose, &fk);
 		mc_trk_make_scene(t, &fk, &scene);
-		if (color_term(t, &scene, &E, dmu, err) < 0)
+		if (color_term(t, &scene, it, iters, &E, dmu, err) < 0)
 			return -1;
 		floor_term(t, &scene, dmu);
 		mc_model_backprop(&t->model, pose, &fk, dmu, grad);

@@ -86,6 +86,13 @@ typedef struct {
 	 * sight").  0.5 on a head rig; 0 (the thesis' gradient) on outside-in
 	 * rigs. */
 	double color_sight_cut;
+	/* Where the tracking, not the detector, sets the pace (the head rig):
+	 * the share (0..1] of pixel_fraction that the first half of a frame
+	 * set's iterations sample, and of the pixels near a part that the ray
+	 * fit's colour check evaluates.  0.5 and 0.15 on a head rig; 1 and
+	 * 0.3 on outside-in rigs (docs/TRACKER_MEASUREMENTS.md, "Speed (stop
+	 * 57)"). */
+	double early_pixel_share, check_pixel_share;
 	int cl_platform, cl_device; /* -1: first GPU, else first CPU */
 	uint64_t seed;
 } mc_tracker_settings;
@@ -109,6 +116,7 @@ typedef struct {
 	int trust_min_cameras;
 	double pixel_fraction;               /* the detector, not the pixels, sets the pace here */
 	double color_sight_cut;              /* 0: the thesis' gradient (0.5 measured mixed) */
+	double early_pixel_share, check_pixel_share; /* the head rig's cost more here */
 } mc_tracker_outside_in_defaults;
 extern const mc_tracker_outside_in_defaults mc_tracker_outside_in;
 /* camera_iterations / ncams, within [min_iterations, max_iterations]: 80

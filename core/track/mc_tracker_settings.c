@@ -32,6 +32,8 @@ void mc_tracker_settings_default(mc_tracker_settings *s)
 	s->ray_fit = true;    /* docs/TRACKER.md, "The ray fit" */
 	s->detection_trust_max = 3; /* docs/TRACKER.md, "Trusting keypoints that agree" */
 	s->color_sight_cut = 0.5;   /* docs/TRACKER.md, "Colours along the line of sight" */
+	s->early_pixel_share = 0.5; /* docs/TRACKER_MEASUREMENTS.md, "Speed (stop 57)" */
+	s->check_pixel_share = 0.15;
 	s->cl_platform = -1;
 	s->cl_device = -1;
 	s->seed = 1;
@@ -103,6 +105,13 @@ const mc_tracker_outside_in_defaults mc_tracker_outside_in = {
 	 * 6.08 -> 6.63 (from detections 8.99 -> 8.27): mixed, so the
 	 * thesis' gradient stays. */
 	.color_sight_cut = 0,
+	/* docs/TRACKER_MEASUREMENTS.md, "Speed (stop 57)": the head rig's
+	 * 0.5 and 0.15 here, replayed MoveNet keypoints, seeds 1-3: held-out
+	 * sword_val 6.68 -> 6.93, salsa_train 5.67 -> 6.64 cm (4-5 of 6 runs
+	 * worse), the dev clips within 0.03; here the detector, not the
+	 * tracking, sets the pace. */
+	.early_pixel_share = 1,
+	.check_pixel_share = 0.3,
 };
 
 int mc_tracker_outside_in_iterations(int ncams)
@@ -135,6 +144,8 @@ void mc_tracker_settings_outside_in(mc_tracker_settings *s, int ncams, unsigned 
 		s->pixel_fraction = d->pixel_fraction;
 	if (!(given & MC_GIVEN_COLOR_SIGHT_CUT))
 		s->color_sight_cut = d->color_sight_cut;
+	s->early_pixel_share = d->early_pixel_share;
+	s->check_pixel_share = d->check_pixel_share;
 }
 
 int mc_trk_validate_settings(const mc_tracker_settings *s, mc_err *err)
@@ -159,6 +170,10 @@ int mc_trk_validate_settings(const mc_tracker_settings *s, mc_err *err)
 		return mc_err_set(err, "tracker: lambda_anchor must be in [0, 1e6), got %g", s->lambda_anchor);
 	if (!(s->detection_trust_max >= 1 && s->detection_trust_max <= 100))
 		return mc_err_set(err, "tracker: detection_trust_max must be in [1, 100], got %g", s->detection_trust_max);
+	if (!(s->early_pixel_share > 0 && s->early_pixel_share <= 1) ||
+	    !(s->check_pixel_share > 0 && s->check_pixel_share <= 1))
+		return mc_err_set(err, "tracker: early_pixel_share and check_pixel_share must be in (0, 1], got %g and %g",
+				  s->early_pixel_share, s->check_pixel_share);
 	if (!(s->color_sight_cut >= 0 && s->color_sight_cut <= 1))
 		return mc_err_set(err, "tracker: color_sight_cut must be in [0, 1], got %g", s->color_sight_cut);
 	if (!(s->lambda_prior >= 0 && s->lambda_prior < 1e6))
