@@ -184,6 +184,18 @@ static void ego_person_init(ego_person *p, unsigned long long seed, int w, doubl
 	scene_human(&p->sc, pose, &p->rng);
 }
 
+/* A backend for p's views with the given launch settings, the images
+ * set; NULL (counted as a failure) when it cannot be made. */
+static mc_cl_energy *open_with(const ego_person *p, const mc_cl_options *o)
+{
+	mc_err err = {{0}};
+	mc_cl_energy *e = mc_cl_energy_create_opts(-1, -1, p->t, 2, o, &err);
+	CHECK_MSG(e != NULL, "%s", err.msg);
+	for (int c = 0; e && c < 2; c++)
+		CHECK(mc_cl_energy_set_image(e, c, p->v[c].hsv, &err) == 0);
+	return e;
+}
+
 /* ---- the tests ---- */
 
 static void test_random_scenes(void)
@@ -342,9 +354,7 @@ static void test_launch_settings(void)
 		{1, 0, 0, false}, {4, 3, 5, false}, {8, 1, 1, true}, {16, 8, 0, false}, {16, 8, 0, true}, {16, 2, 64, false},
 	};
 	for (size_t i = 0; i < sizeof(settings) / sizeof(settings[0]); i++) {
-		mc_err err = {{0}};
-		mc_cl_energy *e = mc_cl_energy_create_opts(-1, -1, p.t, 2, &settings[i], &err);
-		CHECK_MSG(e != NULL, "%s", err.msg);
+		mc_cl_energy *e = open_with(&p, &settings[i]);
 		if (!e)
 			continue;
 		mc_cl_options got;
@@ -352,8 +362,6 @@ static void test_launch_settings(void)
 		CHECK(got.vector_width == settings[i].vector_width);
 		CHECK(!settings[i].work_group_size || got.work_group_size == settings[i].work_group_size);
 		CHECK(!settings[i].copy_buffers || got.copy_buffers);
-		for (int c = 0; c < 2; c++)
-			CHECK(mc_cl_energy_set_image(e, c, p.v[c].hsv, &err) == 0);
 		eval_cl(e, &p.sc, NULL, NULL, 0, 0, &cl);
 		char what[96];
 		snprintf(what, sizeof(what), "VW %d, work-group %d, groups <= %d, %s", got.vector_width,
@@ -393,13 +401,10 @@ static void test_per_camera(void)
 	}
 	static const mc_cl_options settings[] = {{0, 0, 0, false}, {16, 8, 1, false}, {8, 3, 5, true}};
 	for (size_t i = 0; i < sizeof(settings) / sizeof(settings[0]); i++) {
-		mc_err err = {{0}};
-		mc_cl_energy *e = mc_cl_energy_create_opts(-1, -1, p.t, 2, &settings[i], &err);
-		CHECK_MSG(e != NULL, "%s", err.msg);
+		mc_cl_energy *e = open_with(&p, &settings[i]);
 		if (!e)
 			continue;
-		for (int c = 0; c < 2; c++)
-			CHECK(mc_cl_energy_set_image(e, c, p.v[c].hsv, &err) == 0);
+		mc_err err = {{0}};
 		static mc_vec3 dmu[2 * MC_MAX_GAUSSIANS];
 		memset(dmu, 0, sizeof(dmu));
 		double E = 0;
