@@ -236,7 +236,8 @@ static int evaluate(mc_cl_energy *e, const mc_scene *scene, const int *const *pi
 }
 
 /* Adds the rows of the groups of camera `cam` (-1: every group) in
- * double: the energy, and column k of Gaussian q into out[q].s[k]. */
+ * double: the energy (returned), and column k of Gaussian q into
+ * out[q][k]. */
 static double sum_rows(const mc_cl_energy *e, size_t groups, int ngauss, int cam, double (*out)[4])
 {
 	size_t stride = 4 * (size_t)ngauss + 1;
