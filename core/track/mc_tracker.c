@@ -390,8 +390,8 @@ static void predict(const mc_tracker *t, double *pred)
 }
 
 /* The colour term of iteration `it` of `iters`, weighted by lambda_color
- * (skipped, with its pixel sampling, when that is 0).  The first half,
- * whose steps are the larger, may sample fewer pixels
+ * (skipped, with its pixel sampling, when that is 0).  The first three
+ * quarters, whose steps are the larger, may sample fewer pixels
  * (early_pixel_share). */
 static int color_term(mc_tracker *t, const mc_scene *scene, int it, int iters, double *E, mc_vec3 *dmu,
 		      mc_err *err)
@@ -401,7 +401,7 @@ static int color_term(mc_tracker *t, const mc_scene *scene, int it, int iters, d
 		memset(dmu, 0, sizeof(mc_vec3) * scene->n);
 		return 0;
 	}
-	double share = it < iters / 2 ? t->s.early_pixel_share : 1.0;
+	double share = it < iters * 3 / 4 ? t->s.early_pixel_share : 1.0;
 	int ns = mc_trk_sample_pixels(t, t->s.pixel_fraction * share);
 	if (mc_trk_data_term(t, scene, ns, t->s.dropout, E, dmu, err) < 0)
 		return -1;

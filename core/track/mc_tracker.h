@@ -87,11 +87,11 @@ typedef struct {
 	 * rigs. */
 	double color_sight_cut;
 	/* Where the tracking, not the detector, sets the pace (the head rig):
-	 * the share (0..1] of pixel_fraction that the first half of a frame
-	 * set's iterations sample, and of the pixels near a part that the ray
-	 * fit's colour check evaluates.  0.5 and 0.15 on a head rig; 1 and
-	 * 0.3 on outside-in rigs (docs/TRACKER_MEASUREMENTS.md, "Speed (stop
-	 * 57)"). */
+	 * the share (0..1] of pixel_fraction that the first three quarters
+	 * of a frame set's iterations sample, and of the pixels near a part
+	 * that the ray fit's colour check evaluates.  0.5 and 0.15 on a head
+	 * rig; 1 and 0.3 on outside-in rigs (docs/TRACKER_MEASUREMENTS.md,
+	 * "Speed (stop 57)"). */
 	double early_pixel_share, check_pixel_share;
 	int cl_platform, cl_device; /* -1: first GPU, else first CPU */
 	uint64_t seed;

@@ -106,10 +106,10 @@ const mc_tracker_outside_in_defaults mc_tracker_outside_in = {
 	 * thesis' gradient stays. */
 	.color_sight_cut = 0,
 	/* docs/TRACKER_MEASUREMENTS.md, "Speed (stop 57)": the head rig's
-	 * 0.5 and 0.15 here, replayed MoveNet keypoints, seeds 1-3: held-out
-	 * sword_val 6.68 -> 6.93, salsa_train 5.67 -> 6.64 cm (4-5 of 6 runs
-	 * worse), the dev clips within 0.03; here the detector, not the
-	 * tracking, sets the pace. */
+	 * 0.5 (over the first half) and 0.15 here, replayed MoveNet
+	 * keypoints, seeds 1-3: held-out sword_val 6.68 -> 6.93, salsa_train
+	 * 5.67 -> 6.64 cm (4-5 of 6 runs worse), the dev clips within 0.03;
+	 * here the detector, not the tracking, sets the pace. */
 	.early_pixel_share = 1,
 	.check_pixel_share = 0.3,
 };
