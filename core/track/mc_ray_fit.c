@@ -149,17 +149,22 @@ static int compare_part(mc_tracker *t, const double *a, const double *b, const b
  * them or away; the fit, robust and held to the prediction, keeps whichever
  * the motion brought (with the realistic simulated detector the dev walk's
  * wrist sat 20-38 cm too near for up to 0.9 s, with good keypoints in both
- * views).  So the other is tried: the
- * wrist mirrored through the plane across the line of sight at the elbow,
- * the arm fitted again from there, and kept where the wrist then misses
- * its rays by at most FLIP_GAIN of the first fit's miss.  Only where:
- * - the forearm's share along the line of sight is FLIP_MIN_ALONG or more
- *   (otherwise the mirror is nearly the same arm);
+ * views).  So the arm is fitted again from other starts: the wrist
+ * mirrored through the plane across the line of sight at the elbow (where
+ * the forearm's share along it is FLIP_MIN_ALONG or more; otherwise the
+ * mirror is nearly the same arm), and each place where one of the wrist's
+ * rays crosses the sphere of the forearm's length about the elbow (a
+ * forearm stuck mostly across the line of sight, whose truth points at the
+ * cameras, has a mirror near itself: the dev jumps' wrists with 2 px
+ * keypoints; CANDIDATE_APART_M keeps starts that differ).  The fit whose
+ * wrist misses its rays least is kept if that is at most FLIP_GAIN of the
+ * first fit's miss.  Only where:
  * - the wrist has rays from two cameras, and the fit misses one by
  *   FLIP_MISS_M or more (the second camera is what tells the two apart);
  * - the keypoints' trust (mc_keypoint_trust.c) is FLIP_MIN_TRUST or more:
  *   the shipped detector's keypoints (trust 1) flipped good arms onto
- *   their errors (held-out swordplay 14.3 -> 15.3 cm);
+ *   their errors (held-out swordplay 14.3 -> 15.3 cm; at stop 58, with the
+ *   crossings too, the four first held-out clips 20.56 -> 21.00);
  * - an arm: flipping the shins too cost the walk's feet, whose depth two
  *   cameras 0.3 m apart cannot tell (docs/TRACKER_EXPERIMENTS.md, stop 55).
  * The colour check after decides as for any fit. */
@@ -169,6 +174,7 @@ static int compare_part(mc_tracker *t, const double *a, const double *b, const b
 #define FLIP_MIN_TRUST 2.0
 #define FLIP_IK_PRIOR 1e-3
 #define FLIP_IK_ITERATIONS 10
+#define CANDIDATE_APART_M 0.05
 
 /* The largest offset of joint j from its usable rays at fk, and through
  * *ncams whether two cameras or more gave them (0, 1 or 2). */
@@ -207,8 +213,39 @@ static bool turn_forearm(mc_tracker *t, const double *fit, const mc_fk *fk, int 
 	return mc_ik_solve(&t->model, start, tg, 3, &o, &err) >= 0;
 }
 
-/* Arm a of fit replaced by its fit from the forearm turned the other way
- * along the line of sight from eye, where its wrist's rays say so. */
+/* Where the wrist's rays cross the sphere of the forearm's length about
+ * the elbow (each ray's near and far crossing, or the sphere's point
+ * nearest a ray that misses it), those at least CANDIDATE_APART_M from the
+ * fit's wrist; at most max of them.  Returns their number. */
+static int wrist_crossings(const mc_tracker *t, const mc_fk *fk, int elbow, int wrist, mc_vec3 *cand, int max)
+{
+	const mc_trk_frame_keypoints *kp = t->fkp;
+	mc_vec3 e = fk->rig_from_joint[elbow].t, w = fk->rig_from_joint[wrist].t;
+	double len = mc_v3_norm(mc_v3_sub(w, e));
+	int n = 0;
+	for (int i = 0; i < kp->nrays && n < max; i++) {
+		const mc_trk_keypoint_ray *r = &kp->rays[i];
+		if (r->joint != wrist || r->weight <= 0)
+			continue;
+		mc_vec3 oe = mc_v3_sub(r->origin, e);
+		double b = mc_v3_dot(r->dir, oe), disc = b * b - (mc_v3_dot(oe, oe) - len * len);
+		double at[2] = {-b - sqrt(fmax(disc, 0)), -b + sqrt(fmax(disc, 0))};
+		for (int k = 0; k < (disc > 0 ? 2 : 1) && n < max; k++) {
+			if (at[k] <= 0)
+				continue;
+			mc_vec3 p = mc_v3_sub(mc_v3_axpy(at[k], r->dir, r->origin), e);
+			p = mc_v3_axpy(len, mc_v3_normalize(p), e);
+			if (mc_v3_norm(mc_v3_sub(p, w)) >= CANDIDATE_APART_M)
+				cand[n++] = p;
+		}
+	}
+	return n;
+}
+
+/* Arm a of fit replaced by its fit from the forearm turned another way
+ * where its wrist's rays say so: from the wrist mirrored along the line of
+ * sight from eye, and from each place where a wrist ray crosses the
+ * forearm's sphere; the fit whose wrist misses its rays least is kept. */
 static void try_flip(mc_tracker *t, int a, mc_vec3 eye, double *fit)
 {
 	int elbow = mc_model_find_joint(&t->model, limb_ends[a][0]), wrist = mc_model_find_joint(&t->model, limb_ends[a][1]);
@@ -218,21 +255,33 @@ static void try_flip(mc_tracker *t, int a, mc_vec3 eye, double *fit)
 	mc_model_fk(&t->model, fit, &fk);
 	int ncams;
 	double miss = worst_offset(t, &fk, wrist, &ncams);
+	if (ncams < 2 || miss < FLIP_MISS_M)
+		return;
 	mc_vec3 bone = mc_v3_sub(fk.rig_from_joint[wrist].t, fk.rig_from_joint[elbow].t);
 	mc_vec3 sight = mc_v3_normalize(mc_v3_sub(fk.rig_from_joint[elbow].t, eye));
 	double along = mc_v3_dot(bone, sight);
-	if (ncams < 2 || miss < FLIP_MISS_M || fabs(along) < FLIP_MIN_ALONG * mc_v3_norm(bone))
-		return;
-	double start[MC_MAX_DOF], other[MC_MAX_DOF];
-	mc_vec3 mirrored = mc_v3_axpy(-2 * along, sight, fk.rig_from_joint[wrist].t);
-	if (!turn_forearm(t, fit, &fk, elbow, wrist, mirrored, start) || !fit_to_rays(t, start, other))
-		return;
-	mc_model_fk(&t->model, other, &fk);
-	if (!(worst_offset(t, &fk, wrist, &ncams) <= FLIP_GAIN * miss))
+	mc_vec3 starts[1 + 2 * MC_MAX_CAMERAS];
+	int nstarts = 0;
+	if (fabs(along) >= FLIP_MIN_ALONG * mc_v3_norm(bone))
+		starts[nstarts++] = mc_v3_axpy(-2 * along, sight, fk.rig_from_joint[wrist].t);
+	nstarts += wrist_crossings(t, &fk, elbow, wrist, starts + nstarts, 2 * MC_MAX_CAMERAS);
+	double best_miss = FLIP_GAIN * miss, best[MC_MAX_DOF];
+	bool found = false;
+	for (int i = 0; i < nstarts; i++) {
+		double start[MC_MAX_DOF], other[MC_MAX_DOF];
+		if (!turn_forearm(t, fit, &fk, elbow, wrist, starts[i], start) || !fit_to_rays(t, start, other))
+			continue;
+		mc_fk ofk;
+		mc_model_fk(&t->model, other, &ofk);
+		double m = worst_offset(t, &ofk, wrist, &ncams);
+		if (m <= best_miss)
+			best_miss = m, found = true, memcpy(best, other, sizeof(best));
+	}
+	if (!found)
 		return;
 	bool joint[MC_MAX_JOINTS];
 	part_joints(&t->model, a, joint);
-	copy_part(&t->model, joint, other, fit);
+	copy_part(&t->model, joint, best, fit);
 }
 
 /* ---- a leg folded toward the cameras ------------------------------------- */
