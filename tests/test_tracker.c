@@ -660,6 +660,16 @@ static mc_vec3 across_wrist(mc_vec3 elbow, mc_vec3 wrist, mc_vec3 sight)
 	return mc_v3_axpy(mc_v3_norm(bone), mc_v3_axpy(0.2, sight, mc_v3_scale(across, sqrt(1 - 0.2 * 0.2))), elbow);
 }
 
+/* How far joint `name` is apart between poses a and b. */
+static double joint_apart(const synth *s, const char *name, const double *a, const double *b)
+{
+	mc_fk fa, fb;
+	mc_model_fk(&s->model, a, &fa);
+	mc_model_fk(&s->model, b, &fb);
+	int j = mc_model_find_joint(&s->model, name);
+	return mc_v3_norm(mc_v3_sub(fa.rig_from_joint[j].t, fb.rig_from_joint[j].t));
+}
+
 /* frame sets of keypoints before the keypoint term trusts them
  * (mc_keypoint_trust.c's TRUST_MIN_FRAMES) */
 #define TRUSTED_FRAME_SETS 30
@@ -679,11 +689,7 @@ static void test_forearm_flip(void)
 	mc_keypoint kp[4];
 	int nkp = arm_keypoints(&s, pose0, kp);
 	double before = wrist_after_one(&s, true, 1, TRUSTED_FRAME_SETS, pose0, pose0, kp, nkp), start, after;
-	mc_fk f0, f1;
-	mc_model_fk(&s.model, pose0, &f0);
-	mc_model_fk(&s.model, flipped, &f1);
-	int wrist = mc_model_find_joint(&s.model, "right_wrist");
-	start = mc_v3_norm(mc_v3_sub(f0.rig_from_joint[wrist].t, f1.rig_from_joint[wrist].t));
+	start = joint_apart(&s, "right_wrist", pose0, flipped);
 	after = wrist_after_one(&s, true, 1, TRUSTED_FRAME_SETS, pose0, flipped, kp, nkp);
 	printf("forearm turned toward the cameras: wrist %.1f cm off; after one frame set of one iteration %.1f cm "
 	       "(from the right pose: %.1f cm)\n",
@@ -708,11 +714,7 @@ static void test_forearm_crossing(void)
 	forearm_turned(&s, truth, across_wrist, across);
 	mc_keypoint kp[4];
 	int nkp = arm_keypoints(&s, truth, kp);
-	mc_fk f0, f1;
-	mc_model_fk(&s.model, truth, &f0);
-	mc_model_fk(&s.model, across, &f1);
-	int wrist = mc_model_find_joint(&s.model, "right_wrist");
-	double start = mc_v3_norm(mc_v3_sub(f0.rig_from_joint[wrist].t, f1.rig_from_joint[wrist].t));
+	double start = joint_apart(&s, "right_wrist", truth, across);
 	double after = wrist_after_one(&s, true, 1, TRUSTED_FRAME_SETS, truth, across, kp, nkp);
 	printf("forearm toward the cameras tracked from across their line of sight: wrist %.1f cm off; after one "
 	       "frame set of one iteration %.1f cm\n", 100 * start, 100 * after);
@@ -742,11 +744,7 @@ static void test_leg_unfold(void)
 	static const char *const leg[2] = {"right_knee", "right_ankle"};
 	mc_keypoint kp[4];
 	int nkp = limb_keypoints(&s, pose0, leg, kp);
-	mc_fk f0, f1;
-	mc_model_fk(&s.model, pose0, &f0);
-	mc_model_fk(&s.model, folded, &f1);
-	int knee = mc_model_find_joint(&s.model, "right_knee");
-	double start = mc_v3_norm(mc_v3_sub(f0.rig_from_joint[knee].t, f1.rig_from_joint[knee].t));
+	double start = joint_apart(&s, "right_knee", pose0, folded);
 	double after = joint_after_one(&s, "right_knee", true, 0, TRUSTED_FRAME_SETS, pose0, folded, kp, nkp);
 	printf("leg folded toward the cameras: knee %.1f cm off; after one frame set %.1f cm\n", 100 * start,
 	       100 * after);
