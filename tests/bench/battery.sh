@@ -70,16 +70,17 @@ case $what in dev | held | px2 | all) ;; *) echo "battery: unknown set '$what'" 
 mkdir -p "$kp_dir" "$(dirname "$out")"
 : >"$out"
 
-# run GROUP CLIP_DIR SEED OPTIONS...: one line of results
+# run GROUP CLIP_DIR OPTIONS...: one line of results, at the loop's $seed
+# (sh has no locals: the function sets only names the loops do not use)
 run() {
-	group=$1 clip_dir=$2 seed=$3
-	shift 3
-	r=$("$bench" --clip "$clip_dir" --seed "$seed" --reference-frames 0 --no-thesis --quiet "$@" 2>&1 |
+	run_group=$1 run_clip=$2
+	shift 2
+	r=$("$bench" --clip "$run_clip" --seed "$seed" --reference-frames 0 --no-thesis --quiet "$@" 2>&1 |
 		grep -E '^(RESULT|LIMBS|JITTER)' || true)
 	m=$(echo "$r" | sed -n 's/^RESULT.*mpjpe_cm=\([0-9.]*\).*/\1/p')
 	w=$(echo "$r" | sed -n 's/^LIMBS.*worst_s=\([0-9.]*\).*/\1/p')
 	a=$(echo "$r" | sed -n 's/^JITTER.*accel_ratio=\([0-9.]*\).*/\1/p')
-	echo "$group $(basename "$clip_dir") $seed ${m:-FAIL} ${w:--} ${a:--}" >>"$out"
+	echo "$run_group $(basename "$run_clip") $seed ${m:-FAIL} ${w:--} ${a:--}" >>"$out"
 }
 
 # keypoints CLIP_DIR: the shipped detector's keypoints of the clip, once
@@ -98,11 +99,11 @@ for seed in $seeds; do
 			[ -f "$d/gt.json" ] || { echo "battery: $d not found" >&2; exit 1; }
 			if [ "$what" != px2 ]; then
 				kp=$(keypoints "$d")
-				run det "$d" "$seed" --keypoints-in "$kp"
-				run idet "$d" "$seed" --keypoints-in "$kp" --init detect
-				run ego "$d" "$seed" --simulated-detector 4 --sim-preset ego
+				run det "$d" --keypoints-in "$kp"
+				run idet "$d" --keypoints-in "$kp" --init detect
+				run ego "$d" --simulated-detector 4 --sim-preset ego
 			fi
-			run 2px "$d" "$seed" --simulated-detector 2
+			run 2px "$d" --simulated-detector 2
 		done
 	fi
 	[ "$what" = dev ] && continue
@@ -110,8 +111,8 @@ for seed in $seeds; do
 		for d in "$dir"/*/; do
 			d=${d%/}
 			[ -f "$d/gt.json" ] || continue
-			[ "$what" = px2 ] || run hdet "$d" "$seed" --keypoints-in "$(keypoints "$d")"
-			run h2px "$d" "$seed" --simulated-detector 2
+			[ "$what" = px2 ] || run hdet "$d" --keypoints-in "$(keypoints "$d")"
+			run h2px "$d" --simulated-detector 2
 		done
 	done
 done
