@@ -48,6 +48,7 @@ typedef struct {
 	double shape_pose[MC_TRK_SHAPE_FRAMES][MC_MAX_DOF]; /* tracked pose of each */
 	bool collected;  /* this frame set was collected (its pose is stored after tracking) */
 	int disagree[MC_MAX_JOINTS]; /* frame sets in a row a joint missed its rays */
+	int caught[MC_MAX_JOINTS];   /* frame sets in a row a joint sat caught at the cameras */
 	float conf[MC_MAX_JOINTS];   /* last frame set's joint confidence */
 	int lost_run;    /* frame sets in a row in the lost state */
 	int inits, refits, turns;
