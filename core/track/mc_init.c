@@ -575,7 +575,7 @@ static bool fit_to_detections(mc_tracker *t, const mc_trk_triangulation *tri, co
 			      double *pose)
 {
 	mc_fk keep;
-	memcpy(pose, t->pose, sizeof(double) * (size_t)t->model.ndof);
+	memcpy(pose, t->pose, sizeof(double) * MC_MAX_DOF);
 	mc_model_fk(&t->model, t->pose, &keep);
 	if (!limb || !from_rest) {
 		double rms = fit_pose(t, &t->model, tri, limb, limb ? &keep : NULL, 60, !limb, pose);
@@ -624,6 +624,7 @@ static int recover(mc_tracker *t, const mc_trk_triangulation *tri, mc_err *err)
 	int run = stuck_joints(t, tri, stuck), caught_run = caught_joints(t, tri, caught);
 	if (t->init.lost_run >= LOST_FRAMES)
 		return refit(t, tri, NULL, false, false, err);
+	/* one re-fit a frame set: a caught limb first, a stuck one's run goes on */
 	if (caught_run > 0) {
 		limb_of(&t->model, caught, limb);
 		return refit(t, tri, limb, caught_run >= FORCE_FRAMES, true, err);
