@@ -161,6 +161,13 @@ void mc_model_rest_pose(const mc_model *model, double *pose)
 	mc_model_clamp_pose(model, pose);
 }
 
+void mc_model_copy_dofs(const mc_model *model, const bool *joints, const double *from, double *into)
+{
+	for (int j = 0; j < model->njoints; j++)
+		for (int d = 0; joints[j] && d < model->joints[j].ndof; d++)
+			into[model->joints[j].dof0 + d] = from[model->joints[j].dof0 + d];
+}
+
 /* d x / d p_k for a point x that moves rigidly with dof k. */
 static mc_vec3 point_derivative(const mc_model *model, const mc_fk *fk, int k, mc_vec3 x)
 {

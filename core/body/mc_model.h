@@ -150,6 +150,9 @@ int mc_model_update_gaussians(mc_model *model, mc_err *err);
 /* The rest pose: every joint dof 0 (or its nearest limit if 0 is outside
  * them); a free root at the rig origin with the identity rotation. */
 void mc_model_rest_pose(const mc_model *model, double *pose);
+/* into's dofs of the joints marked in `joints` (njoints entries) set to
+ * from's; the others left as they are. */
+void mc_model_copy_dofs(const mc_model *model, const bool *joints, const double *from, double *into);
 void mc_model_fk(const mc_model *model, const double *pose, mc_fk *fk);
 
 /* d mu_q / d p_k for every Gaussian q and dof k: J[q * ndof + k]. */

@@ -554,16 +554,6 @@ static void below_root(const mc_model *m, const bool *limb, bool *moved)
 	}
 }
 
-/* pose's dofs of the joints in `limb` set to the rest pose's. */
-static void limb_from_rest(const mc_model *m, const bool *limb, double *pose)
-{
-	double rest[MC_MAX_DOF];
-	mc_model_rest_pose(m, rest);
-	for (int j = 0; j < m->njoints; j++)
-		for (int d = 0; limb[j] && d < m->joints[j].ndof; d++)
-			pose[m->joints[j].dof0 + d] = rest[m->joints[j].dof0 + d];
-}
-
 /* pose: t's pose fitted to the rays, the whole of it or `limb` from where
  * it is (a stuck limb: without restarts, which, always or when that fit
  * failed, made jumps_01_01 1.6 cm worse through fits that the noisy energy
@@ -582,7 +572,9 @@ static bool fit_to_detections(mc_tracker *t, const mc_trk_triangulation *tri, co
 		return rms >= 0 && rms <= FIT_MAX_RMS_M;
 	}
 	bool moved[MC_MAX_JOINTS];
-	limb_from_rest(&t->model, limb, pose);
+	double rest[MC_MAX_DOF];
+	mc_model_rest_pose(&t->model, rest);
+	mc_model_copy_dofs(&t->model, limb, rest, pose);
 	below_root(&t->model, limb, moved);
 	return fit_pose(t, &t->model, tri, moved, &keep, 60, false, pose) >= 0 &&
 	       sight_rms(t, tri, moved, pose) < CAUGHT_GAIN * sight_rms(t, tri, moved, t->pose);

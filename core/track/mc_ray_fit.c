@@ -112,14 +112,6 @@ static void part_joints(const mc_model *m, int p, bool *joint)
 	}
 }
 
-/* into's dofs of the joints in `joint` set to from's. */
-static void copy_part(const mc_model *m, const bool *joint, const double *from, double *into)
-{
-	for (int j = 0; j < m->njoints; j++)
-		for (int d = 0; joint[j] && d < m->joints[j].ndof; d++)
-			into[m->joints[j].dof0 + d] = from[m->joints[j].dof0 + d];
-}
-
 /* The colour energy of poses a and b on a share (check_pixel_share) of
  * the pixels near the Gaussians that differ between them (those of the
  * part's joints): the other pixels add the same to both, only noise to
@@ -281,7 +273,7 @@ static void try_flip(mc_tracker *t, int a, mc_vec3 eye, double *fit)
 		return;
 	bool joint[MC_MAX_JOINTS];
 	part_joints(&t->model, a, joint);
-	copy_part(&t->model, joint, best, fit);
+	mc_model_copy_dofs(&t->model, joint, best, fit);
 }
 
 /* ---- a leg folded toward the cameras ------------------------------------- */
@@ -327,10 +319,10 @@ static bool try_rest_leg(mc_tracker *t, int l, double *fit)
 	double start[MC_MAX_DOF], other[MC_MAX_DOF], rest[MC_MAX_DOF];
 	mc_model_rest_pose(&t->model, rest);
 	memcpy(start, fit, sizeof(start));
-	copy_part(&t->model, joint, rest, start);
+	mc_model_copy_dofs(&t->model, joint, rest, start);
 	if (!fit_to_rays(t, start, other) || !(leg_miss(t, other, knee, ankle, &seen) <= FLIP_GAIN * miss))
 		return false;
-	copy_part(&t->model, joint, other, fit);
+	mc_model_copy_dofs(&t->model, joint, other, fit);
 	return true;
 }
 
