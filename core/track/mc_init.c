@@ -440,16 +440,14 @@ static int finish_shape(mc_tracker *t, const mc_frame_view *views, int nviews, c
  * learnt at a wrong pose, and then the confidence, measured against them,
  * says nothing).  Returns the largest run among the stuck joints, 0 when
  * none is. */
-static int stuck_joints(mc_tracker *t, const mc_trk_triangulation *tri, bool *stuck)
+static int stuck_joints(mc_tracker *t, const mc_trk_triangulation *tri, const mc_fk *fk, bool *stuck)
 {
 	mc_trk_init *in = &t->init;
-	mc_fk fk;
-	mc_model_fk(&t->model, t->pose, &fk);
 	int worst = 0;
 	for (int j = 0; j < t->model.njoints; j++) {
 		double miss = 0;
 		for (int i = 0; tri->have[j] && i < tri->nray[j]; i++)
-			miss = fmax(miss, mc_v3_norm(off_ray(fk.rig_from_joint[j].t, tri->ray[j][i].origin,
+			miss = fmax(miss, mc_v3_norm(off_ray(fk->rig_from_joint[j].t, tri->ray[j][i].origin,
 							       tri->ray[j][i].dir)));
 		if (tri->have[j]) /* an undetected frame set neither adds nor clears */
 			in->disagree[j] = miss > DISAGREE_M ? in->disagree[j] + 1 : 0;
@@ -494,16 +492,15 @@ static double sight_rms(const mc_tracker *t, const mc_trk_triangulation *tri, co
  * for 3 s, and wrists 40-60 cm off by the lens on four other clips.
  * Marks as caught those past DISAGREE_FRAMES; returns the largest run
  * among them, 0 when none is. */
-static int caught_joints(mc_tracker *t, const mc_trk_triangulation *tri, bool *caught)
+static int caught_joints(mc_tracker *t, const mc_trk_triangulation *tri, const mc_fk *fk, bool *caught)
 {
 	mc_trk_init *in = &t->init;
-	mc_fk fk;
-	mc_model_fk(&t->model, t->pose, &fk);
 	int worst = 0;
 	for (int j = 0; j < t->model.njoints; j++) {
 		bool now = false;
+		mc_vec3 p = fk->rig_from_joint[j].t;
 		for (int i = 0; tri->have[j] && i < tri->nray[j]; i++) {
-			mc_vec3 o = tri->ray[j][i].origin, p = fk.rig_from_joint[j].t;
+			mc_vec3 o = tri->ray[j][i].origin;
 			double far = mc_v3_norm(mc_v3_sub(tri->pos[j], o));
 			now = now || (mc_v3_norm(mc_v3_sub(p, o)) < CAUGHT_SHARE * far &&
 				      sight_offset(tri, j, i, p) > DISAGREE_M);
@@ -613,7 +610,9 @@ static int recover(mc_tracker *t, const mc_trk_triangulation *tri, mc_err *err)
 	if (!t->s.recover || !enough_for_fit(tri))
 		return 0;
 	bool stuck[MC_MAX_JOINTS], caught[MC_MAX_JOINTS], limb[MC_MAX_JOINTS];
-	int run = stuck_joints(t, tri, stuck), caught_run = caught_joints(t, tri, caught);
+	mc_fk fk;
+	mc_model_fk(&t->model, t->pose, &fk);
+	int run = stuck_joints(t, tri, &fk, stuck), caught_run = caught_joints(t, tri, &fk, caught);
 	if (t->init.lost_run >= LOST_FRAMES)
 		return refit(t, tri, NULL, false, false, err);
 	/* one re-fit a frame set: a caught limb first, a stuck one's run goes on */
