@@ -468,16 +468,15 @@ static double sight_offset(const mc_trk_triangulation *tri, int j, int i, mc_vec
 	return angle * mc_v3_norm(mc_v3_sub(tri->pos[j], o));
 }
 
-/* The RMS of sight_offset over the rays of the joints in `use` at pose. */
-static double sight_rms(const mc_tracker *t, const mc_trk_triangulation *tri, const bool *use, const double *pose)
+/* The RMS of sight_offset over the rays of the joints in `use` (njoints
+ * of them) at the pose whose forward kinematics is fk. */
+static double sight_rms(int njoints, const mc_trk_triangulation *tri, const bool *use, const mc_fk *fk)
 {
-	mc_fk fk;
-	mc_model_fk(&t->model, pose, &fk);
 	double sum = 0;
 	int n = 0;
-	for (int j = 0; j < t->model.njoints; j++)
+	for (int j = 0; j < njoints; j++)
 		for (int i = 0; use[j] && tri->have[j] && i < tri->nray[j]; i++, n++)
-			sum += pow(sight_offset(tri, j, i, fk.rig_from_joint[j].t), 2);
+			sum += pow(sight_offset(tri, j, i, fk->rig_from_joint[j].t), 2);
 	return n ? sqrt(sum / n) : 0;
 }
 
@@ -573,8 +572,12 @@ static bool fit_to_detections(mc_tracker *t, const mc_trk_triangulation *tri, co
 	mc_model_rest_pose(&t->model, rest);
 	mc_model_copy_dofs(&t->model, limb, rest, pose);
 	below_root(&t->model, limb, moved);
-	return fit_pose(t, &t->model, tri, moved, &keep, 60, false, pose) >= 0 &&
-	       sight_rms(t, tri, moved, pose) < CAUGHT_GAIN * sight_rms(t, tri, moved, t->pose);
+	if (fit_pose(t, &t->model, tri, moved, &keep, 60, false, pose) < 0)
+		return false;
+	mc_fk fitted;
+	mc_model_fk(&t->model, pose, &fitted);
+	int nj = t->model.njoints;
+	return sight_rms(nj, tri, moved, &fitted) < CAUGHT_GAIN * sight_rms(nj, tri, moved, &keep);
 }
 
 /* Re-fits the whole pose (after a loss) or the stuck or caught limbs to
