@@ -480,6 +480,15 @@ static double sight_rms(int njoints, const mc_trk_triangulation *tri, const bool
 	return n ? sqrt(sum / n) : 0;
 }
 
+/* Whether any joint in `use` (njoints of them) has rays this frame set. */
+static bool any_rays(int njoints, const mc_trk_triangulation *tri, const bool *use)
+{
+	for (int j = 0; j < njoints; j++)
+		if (use[j] && tri->have[j] && tri->nray[j] > 0)
+			return true;
+	return false;
+}
+
 /* Counts, per joint, the frame sets in a row it sat caught at the
  * cameras: nearer one than CAUGHT_SHARE of its triangulated point's
  * distance from it, and off that camera's ray by an angle that, at the
@@ -572,7 +581,9 @@ static bool fit_to_detections(mc_tracker *t, const mc_trk_triangulation *tri, co
 	mc_model_rest_pose(&t->model, rest);
 	mc_model_copy_dofs(&t->model, limb, rest, pose);
 	below_root(&t->model, limb, moved);
-	if (fit_pose(t, &t->model, tri, moved, &keep, 60, false, pose) < 0)
+	/* with none of them seen this frame set the fit cannot be judged (its
+	 * miss and the tracked one are both 0): it would only cost the time */
+	if (!any_rays(t->model.njoints, tri, moved) || fit_pose(t, &t->model, tri, moved, &keep, 60, false, pose) < 0)
 		return false;
 	mc_fk fitted;
 	mc_model_fk(&t->model, pose, &fitted);
