@@ -4,6 +4,7 @@
 #include "body/mc_ik.h"
 
 #include <math.h>
+#include <stdio.h>
 #include <string.h>
 
 /* Joints whose place differs from skeleton to skeleton; the first
@@ -16,6 +17,9 @@ static const char *const TORSO_BONES[] = {"spine", "pelvis", "left_hip", "right_
 /* A torso scale outside this is no human's: the bones keep the limbs'. */
 #define TORSO_SCALE_MIN 0.5
 #define TORSO_SCALE_MAX 2.0
+/* A pair's width outside this share of the model's is no human's. */
+#define PAIR_WIDTH_MIN 0.5
+#define PAIR_WIDTH_MAX 2.0
 
 bool mc_fit_joints_is_landmark(const char *name)
 {
@@ -69,6 +73,47 @@ static void scale_torso(mc_model *m, const mc_ik_target *t, int n)
 		m->bone_scale[bone[i]] = s;
 }
 
+/* The part of joint j's rest offset along unit vector `across` (and of
+ * the Gaussians its bone scales) times w. */
+static void widen(mc_model *m, int j, mc_vec3 across, double w)
+{
+	mc_vec3 *o = &m->joints[j].offset;
+	*o = mc_v3_add(*o, mc_v3_scale(across, (w - 1) * mc_v3_dot(*o, across)));
+	for (int g = 0; g < m->ngauss; g++)
+		if (m->gauss[g].scale_joint == j)
+			m->gauss[g].offset =
+				mc_v3_add(m->gauss[g].offset, mc_v3_scale(across, (w - 1) * mc_v3_dot(m->gauss[g].offset, across)));
+}
+
+/* The width of each left/right pair on one parent (the shoulders on the
+ * neck, the hips on the pelvis) from the given pair's distance.  A bone's
+ * one scale keeps the model's direction from the parent, and skeletons
+ * differ in it: with the scale from the bone's length (or the torso's) the
+ * model's hips were 1.7-5.5 cm wider than the dev and held-out clips'
+ * skeletons, and the shoulders up to 6.6 cm.  Only the pair's spread
+ * changes: its midpoint stays where the scales put it. */
+static void fit_pair_widths(mc_model *m, const mc_ik_target *t, int n)
+{
+	for (int l = 0; l < m->njoints; l++) {
+		char name[MC_JOINT_NAME_MAX + 8];
+		if (strncmp(m->joints[l].name, "left_", 5))
+			continue;
+		snprintf(name, sizeof(name), "right_%s", m->joints[l].name + 5);
+		int r = mc_model_find_joint(m, name);
+		const mc_ik_target *gl = mc_ik_find_target(t, n, l), *gr = r >= 0 ? mc_ik_find_target(t, n, r) : NULL;
+		if (!gl || !gr || m->joints[r].parent != m->joints[l].parent)
+			continue;
+		mc_vec3 across = mc_v3_sub(mc_v3_scale(m->joints[l].offset, m->bone_scale[l]),
+					   mc_v3_scale(m->joints[r].offset, m->bone_scale[r]));
+		double now = mc_v3_norm(across), w = mc_v3_norm(mc_v3_sub(gl->position, gr->position)) / now;
+		if (!(now > 1e-3) || !(w >= PAIR_WIDTH_MIN && w <= PAIR_WIDTH_MAX))
+			continue;
+		across = mc_v3_scale(across, 1 / now);
+		widen(m, l, across, w);
+		widen(m, r, across, w);
+	}
+}
+
 static double solve(mc_model *m, double *pose, const mc_ik_target *t, int n, bool fit_bone_scale, mc_err *err)
 {
 	mc_ik_options o;
@@ -107,6 +152,7 @@ static double fit_landmarks(mc_model *m, double *pose, const mc_ik_target *t, in
 		return -1;
 	mc_ik_fit_bone_scale(m, landmarks, nl);
 	scale_torso(m, landmarks, nl);
+	fit_pair_widths(m, landmarks, nl);
 	return solve(m, pose, t, n, false, err);
 }
 
@@ -130,5 +176,7 @@ double mc_fit_joints(mc_model *model, double *pose, const char *const *names, co
 	*model = before;
 	for (int i = 0; i < nt; i++)
 		t[i].weight = 1.0;
-	return solve(model, pose, t, nt, true, err);
+	mc_ik_fit_bone_scale(model, t, nt);
+	fit_pair_widths(model, t, nt);
+	return solve(model, pose, t, nt, false, err);
 }
