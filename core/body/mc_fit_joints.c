@@ -73,16 +73,20 @@ static void scale_torso(mc_model *m, const mc_ik_target *t, int n)
 		m->bone_scale[bone[i]] = s;
 }
 
-/* The part of joint j's rest offset along unit vector `across` (and of
- * the Gaussians its bone scales) times w. */
+/* v with its part along unit vector `across` times w. */
+static mc_vec3 stretch_across(mc_vec3 v, mc_vec3 across, double w)
+{
+	return mc_v3_add(v, mc_v3_scale(across, (w - 1) * mc_v3_dot(v, across)));
+}
+
+/* Joint j's rest offset, and the Gaussians its bone scales, stretched
+ * across the pair by w. */
 static void widen(mc_model *m, int j, mc_vec3 across, double w)
 {
-	mc_vec3 *o = &m->joints[j].offset;
-	*o = mc_v3_add(*o, mc_v3_scale(across, (w - 1) * mc_v3_dot(*o, across)));
+	m->joints[j].offset = stretch_across(m->joints[j].offset, across, w);
 	for (int g = 0; g < m->ngauss; g++)
 		if (m->gauss[g].scale_joint == j)
-			m->gauss[g].offset =
-				mc_v3_add(m->gauss[g].offset, mc_v3_scale(across, (w - 1) * mc_v3_dot(m->gauss[g].offset, across)));
+			m->gauss[g].offset = stretch_across(m->gauss[g].offset, across, w);
 }
 
 /* The width of each left/right pair on one parent (the shoulders on the
@@ -178,5 +182,8 @@ double mc_fit_joints(mc_model *model, double *pose, const char *const *names, co
 		t[i].weight = 1.0;
 	mc_ik_fit_bone_scale(model, t, nt);
 	fit_pair_widths(model, t, nt);
-	return solve(model, pose, t, nt, false, err);
+	rms = solve(model, pose, t, nt, false, err);
+	if (rms < 0)
+		*model = before; /* targets the solve refused leave the actor as it was */
+	return rms;
 }

@@ -19,10 +19,12 @@
  * pelvis at hip height: 18-22 cm). */
 #define MC_FIT_JOINTS_AGREE_M 0.12
 
-/* Sets model's bone scales, the root placement (rig_from_root for a fixed
- * root) and pose (model->ndof values, out) from n named joint positions in
- * the rig frame; names the model lacks are ignored.  Returns the RMS
- * residual of the fit kept (metres), or a negative value with err set. */
+/* Sets model's bone scales, its left/right pairs' widths (the offsets of
+ * the shoulders and hips across the body), the root placement
+ * (rig_from_root for a fixed root) and pose (model->ndof values, out) from
+ * n named joint positions in the rig frame; names the model lacks are
+ * ignored.  Returns the RMS residual of the fit kept (metres), or a
+ * negative value with err set and model as it was. */
 double mc_fit_joints(mc_model *model, double *pose, const char *const *names, const mc_vec3 *positions, int n,
 		     mc_err *err);
 
