@@ -211,8 +211,8 @@ unsigned mc_tracker_actor_version(const mc_tracker *t)
 void mc_tracker_get_init_info(const mc_tracker *t, mc_tracker_init_info *out)
 {
 	const mc_trk_init *in = &t->init;
-	*out = (mc_tracker_init_info){in->waiting, in->shape_done, in->nshape, in->inits, in->refits, in->turns,
-				      in->last_joints, in->scale};
+	*out = (mc_tracker_init_info){in->waiting, in->shape_done, in->nshape, in->inits, in->refits, in->refit_tries,
+				      in->turns, in->last_joints, in->scale};
 }
 
 int mc_tracker_init_from_joints(mc_tracker *t, const char *const *names, const mc_vec3 *positions, int n,

@@ -229,6 +229,7 @@ typedef struct {
 	bool shape_measured; /* the actor's size set from detections */
 	int shape_frames;    /* frame sets collected for them */
 	int inits, refits;   /* first fits, and re-fits (recoveries) since the start */
+	int refit_tries;     /* re-fits tried since the start, kept or not */
 	int turns;           /* times the body was turned around (docs/TRACKER.md, "Facing") */
 	int joints_triangulated; /* in the last frame set */
 	double scale;        /* the actor's size found, as a bone scale (0 before) */

@@ -51,7 +51,7 @@ typedef struct {
 	int caught[MC_MAX_JOINTS];   /* frame sets in a row a joint sat caught at the cameras */
 	float conf[MC_MAX_JOINTS];   /* last frame set's joint confidence */
 	int lost_run;    /* frame sets in a row in the lost state */
-	int inits, refits, turns;
+	int inits, refits, refit_tries, turns;
 	mc_trk_facing facing;
 	int last_joints;  /* joints triangulated in the last frame set */
 	double scale;     /* the size found (uniform bone scale), 0 before */
