@@ -4,7 +4,6 @@
 #include "body/mc_ik.h"
 
 #include <math.h>
-#include <stdio.h>
 #include <string.h>
 
 /* Joints whose place differs from skeleton to skeleton; the first
@@ -99,13 +98,11 @@ static void widen(mc_model *m, int j, mc_vec3 across, double w)
 static void fit_pair_widths(mc_model *m, const mc_ik_target *t, int n)
 {
 	for (int l = 0; l < m->njoints; l++) {
-		char name[MC_JOINT_NAME_MAX + 8];
-		if (strncmp(m->joints[l].name, "left_", 5))
+		int r = mc_model_other_side(m, l);
+		if (r < 0 || strncmp(m->joints[l].name, "left_", 5) || m->joints[r].parent != m->joints[l].parent)
 			continue;
-		snprintf(name, sizeof(name), "right_%s", m->joints[l].name + 5);
-		int r = mc_model_find_joint(m, name);
-		const mc_ik_target *gl = mc_ik_find_target(t, n, l), *gr = r >= 0 ? mc_ik_find_target(t, n, r) : NULL;
-		if (!gl || !gr || m->joints[r].parent != m->joints[l].parent)
+		const mc_ik_target *gl = mc_ik_find_target(t, n, l), *gr = mc_ik_find_target(t, n, r);
+		if (!gl || !gr)
 			continue;
 		mc_vec3 across = mc_v3_sub(mc_v3_scale(m->joints[l].offset, m->bone_scale[l]),
 					   mc_v3_scale(m->joints[r].offset, m->bone_scale[r]));
