@@ -587,32 +587,24 @@ static void below_root(const mc_model *m, const bool *limb, bool *moved)
 	}
 }
 
-/* pose: t's pose fitted to the rays, the whole of it or `limb` from where
- * it is (a stuck limb: without restarts, which, always or when that fit
- * failed, made jumps_01_01 1.6 cm worse through fits that the noisy energy
- * check let through), or a limb caught at the cameras from rest (from
- * where it is a fit finds the rays' lines at the camera again).  Returns
- * whether the fit meets the rays: an RMS of FIT_MAX_RMS_M or less, or for
- * a caught limb at most CAUGHT_GAIN of its miss as seen from the cameras. */
-static bool fit_to_detections(mc_tracker *t, const mc_trk_triangulation *tri, const bool *limb, bool from_rest,
-			      double *pose)
+/* pose: t's pose with `limb` fitted from rest to the rays of its joints
+ * below the root (from where it is a fit finds the rays' lines at the
+ * camera again); now: t's pose's forward kinematics.  Returns whether
+ * their miss as seen from the cameras is at most CAUGHT_GAIN of now's. */
+static bool fit_from_rest(mc_tracker *t, const mc_trk_triangulation *tri, const bool *limb, const mc_fk *now,
+			  double *pose)
 {
-	mc_fk keep;
-	memcpy(pose, t->pose, sizeof(double) * MC_MAX_DOF);
-	mc_model_fk(&t->model, t->pose, &keep);
-	if (!limb || !from_rest) {
-		double rms = fit_pose(t, &t->model, tri, limb, limb ? &keep : NULL, 60, !limb, pose);
-		return rms >= 0 && rms <= FIT_MAX_RMS_M;
-	}
 	bool moved[MC_MAX_JOINTS];
-	double rest[MC_MAX_DOF];
+	double rest[MC_MAX_DOF], start[MC_MAX_DOF];
 	mc_model_rest_pose(&t->model, rest);
-	mc_model_copy_dofs(&t->model, limb, rest, pose);
+	memcpy(start, t->pose, sizeof(start));
+	mc_model_copy_dofs(&t->model, limb, rest, start);
+	memcpy(pose, start, sizeof(start));
 	below_root(&t->model, limb, moved);
 	/* with none of them seen this frame set the fit cannot be judged (its
 	 * miss and the tracked one are both 0): it would only cost the time */
 	int nj = t->model.njoints;
-	if (!any_rays(nj, tri, moved) || fit_pose(t, &t->model, tri, moved, &keep, 60, false, pose) < 0)
+	if (!any_rays(nj, tri, moved) || fit_pose(t, &t->model, tri, moved, now, 60, false, pose) < 0)
 		return false;
 	mc_fk fitted;
 	mc_model_fk(&t->model, pose, &fitted);
@@ -622,14 +614,30 @@ static bool fit_to_detections(mc_tracker *t, const mc_trk_triangulation *tri, co
 	 * the triangulated points first.  (Always so: held-out icl02_04 1.7
 	 * cm worse over nine seeds.) */
 	if (any_caught(nj, tri, moved, &fitted)) {
-		memcpy(pose, t->pose, sizeof(double) * MC_MAX_DOF);
-		mc_model_copy_dofs(&t->model, limb, rest, pose);
-		if (fit_targets(t, &t->model, tri, moved, &keep, 60, false, true, pose) < 0 ||
-		    fit_pose(t, &t->model, tri, moved, &keep, 60, false, pose) < 0)
+		memcpy(pose, start, sizeof(start));
+		if (fit_targets(t, &t->model, tri, moved, now, 60, false, true, pose) < 0 ||
+		    fit_pose(t, &t->model, tri, moved, now, 60, false, pose) < 0)
 			return false;
 		mc_model_fk(&t->model, pose, &fitted);
 	}
-	return sight_rms(nj, tri, moved, &fitted) < CAUGHT_GAIN * sight_rms(nj, tri, moved, &keep);
+	return sight_rms(nj, tri, moved, &fitted) < CAUGHT_GAIN * sight_rms(nj, tri, moved, now);
+}
+
+/* pose: t's pose fitted to the rays, the whole of it or `limb` from where
+ * it is (a stuck limb: without restarts, which, always or when that fit
+ * failed, made jumps_01_01 1.6 cm worse through fits that the noisy energy
+ * check let through), or a limb caught at the cameras from rest
+ * (fit_from_rest); now: t's pose's forward kinematics.  Returns whether
+ * the fit meets the rays: an RMS of FIT_MAX_RMS_M or less, or for a caught
+ * limb fit_from_rest's test. */
+static bool fit_to_detections(mc_tracker *t, const mc_trk_triangulation *tri, const mc_fk *now, const bool *limb,
+			      bool from_rest, double *pose)
+{
+	if (limb && from_rest)
+		return fit_from_rest(t, tri, limb, now, pose);
+	memcpy(pose, t->pose, sizeof(double) * MC_MAX_DOF);
+	double rms = fit_pose(t, &t->model, tri, limb, limb ? now : NULL, 60, !limb, pose);
+	return rms >= 0 && rms <= FIT_MAX_RMS_M;
 }
 
 /* Re-fits the whole pose (after a loss) or the stuck or caught limbs to
@@ -640,12 +648,12 @@ static bool fit_to_detections(mc_tracker *t, const mc_trk_triangulation *tri, co
  * at a forced limb fit's pose, the colours made the dev walk 11.4 -> 13.1
  * cm and the jumps 8.1 -> 9.5 (the limb's alone no better than keeping
  * them). */
-static int refit(mc_tracker *t, const mc_trk_triangulation *tri, const bool *limb, bool forced, bool from_rest,
-		 mc_err *err)
+static int refit(mc_tracker *t, const mc_trk_triangulation *tri, const mc_fk *now, const bool *limb, bool forced,
+		 bool from_rest, mc_err *err)
 {
 	double pose[MC_MAX_DOF], anchor[MC_MAX_DOF], E_now, E_fit;
 	t->init.refit_tries++;
-	if (!fit_to_detections(t, tri, limb, from_rest, pose))
+	if (!fit_to_detections(t, tri, now, limb, from_rest, pose))
 		return 0;
 	if (!forced && t->s.lambda_color > 0) {
 		if (mc_trk_pose_energy(t, t->pose, &E_now, err) < 0 || mc_trk_pose_energy(t, pose, &E_fit, err) < 0)
@@ -670,16 +678,16 @@ static int recover(mc_tracker *t, const mc_trk_triangulation *tri, mc_err *err)
 	mc_model_fk(&t->model, t->pose, &fk);
 	int run = stuck_joints(t, tri, &fk, stuck), caught_run = caught_joints(t, tri, &fk, caught);
 	if (t->init.lost_run >= LOST_FRAMES)
-		return refit(t, tri, NULL, false, false, err);
+		return refit(t, tri, &fk, NULL, false, false, err);
 	/* one re-fit a frame set: a caught limb first, a stuck one's run goes on */
 	if (caught_run > 0) {
 		limb_of(&t->model, caught, limb);
-		return refit(t, tri, limb, caught_run >= FORCE_FRAMES, true, err);
+		return refit(t, tri, &fk, limb, caught_run >= FORCE_FRAMES, true, err);
 	}
 	if (run == 0)
 		return 0;
 	limb_of(&t->model, stuck, limb);
-	return refit(t, tri, limb, run >= FORCE_FRAMES, false, err);
+	return refit(t, tri, &fk, limb, run >= FORCE_FRAMES, false, err);
 }
 
 /* ---- per frame set --------------------------------------------------------- */
