@@ -151,9 +151,12 @@ static int frame_keypoints(const options *o, bench_detector *bd, mc_tracker *t, 
 		return bench_detector_run(bd, clip, k, views, clip->rig.ncams, o->detector_hint ? hints : NULL, kp, cap,
 					  err);
 	}
-	if (o->simulated_detector_px >= 0)
-		return mc_simdet_keypoints(clip, mc_tracker_model(t), bench_eval_joints, BENCH_NEVAL, k, &o->sim, rng, kp,
-					   cap, sim_stats);
+	if (o->simulated_detector_px >= 0) {
+		const char *joints[BENCH_MAX_SIM_JOINTS];
+		int njoints = bench_sim_joints(clip, joints);
+		return mc_simdet_keypoints(clip, mc_tracker_model(t), joints, njoints, k, &o->sim, rng, kp, cap,
+					   sim_stats);
+	}
 	if (o->keypoints_in_path)
 		return bench_keypoints_frame(&o->keypoints_in, k, kp, cap);
 	return 0;

@@ -2,6 +2,7 @@
 
 #include "base/mc_stats.h"
 #include "bench/joint_groups.h"
+#include "mc_detector.h"
 
 #include <math.h>
 #include <stdio.h>
@@ -13,6 +14,22 @@ const char *const bench_eval_joints[BENCH_NEVAL] = {
 	"left_ankle", "left_toe",     "right_shoulder", "right_elbow", "right_wrist", "right_hip",
 	"right_knee", "right_ankle",  "right_toe",
 };
+
+int bench_sim_joints(const mc_clip *clip, const char *names[BENCH_MAX_SIM_JOINTS])
+{
+	static const char *const movenet[] = {
+		"left_shoulder", "right_shoulder", "left_elbow", "right_elbow", "left_wrist", "right_wrist",
+		"left_hip",      "right_hip",      "left_knee",  "right_knee",  "left_ankle", "right_ankle",
+	};
+	int n = 0;
+	if (clip->layout == MC_CLIP_OUTSIDE)
+		for (; n < (int)(sizeof(movenet) / sizeof(movenet[0])); n++)
+			names[n] = movenet[n];
+	else
+		for (; n < BENCH_MAX_SIM_JOINTS && mc_detector_default_joint_name(n); n++)
+			names[n] = mc_detector_default_joint_name(n);
+	return n;
+}
 
 const char *const bench_limb_ends[BENCH_NLIMBS] = {"left_wrist", "right_wrist", "left_ankle", "right_ankle"};
 

@@ -12,6 +12,15 @@
 
 #define BENCH_NEVAL 15
 extern const char *const bench_eval_joints[BENCH_NEVAL];
+/* The joints the simulated detector gives (--simulated-detector): those
+ * of the shipped detector of the clip's rig, so that the tracker gets what
+ * it gets from that detector.  Head-mounted: the runtime's 18
+ * (mc_detector_default_joint_name: head_top, spine and pelvis besides the
+ * evaluated ones); outside-in: MoveNet's, whose 17 COCO joints name 12 of
+ * ours (config/models/outside_detector.json: no neck, no toes).  Until
+ * stop 61 both rigs got the 15 evaluated joints.  Returns their number. */
+#define BENCH_MAX_SIM_JOINTS 18
+int bench_sim_joints(const mc_clip *clip, const char *names[BENCH_MAX_SIM_JOINTS]);
 /* The limbs' ends, for how long a limb stays lost (the LIMBS line). */
 #define BENCH_NLIMBS 4
 #define BENCH_LIMB_LOST_M 0.20
