@@ -9,7 +9,9 @@
  *     hard (its scale shrinks with the trust on a head rig), and joints
  *     far from them by the factor only; outside-in by the factor alone;
  *   - outside-in rigs get 2 (1 with two cameras) unless the setting was
- *     given; out-of-range values are refused by name. */
+ *     given; out-of-range values are refused by name;
+ *   - the spine's and the pelvis' keypoints do not pull (skeletons do not
+ *     agree on where those joints are), a hip's do. */
 #include "test_util.h"
 
 #include "eval/mc_clip.h"
@@ -166,6 +168,44 @@ static void test_outside_in_scale(void)
 	mc_tracker_destroy(fixed);
 }
 
+/* How hard both cameras' keypoints of joint j alone, 15 cm below where
+ * the rest pose has it, pull the rest pose. */
+static double pull_of_joint(mc_tracker *t, int j)
+{
+	double pose[MC_MAX_DOF];
+	mc_model_rest_pose(&t->model, pose);
+	mc_fk fk;
+	mc_model_fk(&t->model, pose, &fk);
+	mc_vec3 below = mc_v3_add(fk.rig_from_joint[j].t, mc_v3(0, 0.15, 0)); /* rig y: down */
+	mc_keypoint kp[MC_MAX_CAMERAS];
+	int n = 0;
+	for (int c = 0; c < t->rig.ncams; c++) {
+		double u, v;
+		if (mc_camera_project_rig(&t->rig.cams[c], below, &u, &v))
+			kp[n++] = (mc_keypoint){.cam = c, .joint = j, .u = (float)u, .v = (float)v, .conf = 1};
+	}
+	mc_trk_frame_keypoints *k = t->fkp;
+	k->ngiven = n;
+	memcpy(k->given, kp, sizeof(*kp) * (size_t)n);
+	k->nrays = mc_trk_prepare_keypoints(t, k->given, n, k->rays, k->cam);
+	CHECK_MSG(k->nrays == 2, "%s: %d rays", t->model.joints[j].name, k->nrays);
+	return grad_norm(t, pose, &fk, k);
+}
+
+static void test_unpulled(void)
+{
+	mc_tracker *t = tracker(1);
+	if (!t)
+		return;
+	const char *joints[] = {"spine", "pelvis", "left_hip"};
+	for (int i = 0; i < 3; i++) {
+		double pull = pull_of_joint(t, mc_model_find_joint(&t->model, joints[i]));
+		printf("%s's keypoints 15 cm off: the term pulls %.3g\n", joints[i], pull);
+		CHECK_MSG(i < 2 ? pull == 0 : pull > 1e-3, "%s: pull %g", joints[i], pull);
+	}
+	mc_tracker_destroy(t);
+}
+
 static void test_settings(void)
 {
 	mc_tracker_settings s;
@@ -197,6 +237,7 @@ int main(void)
 	CHECK_MSG(mc_model_load("config/models/default.json", &model, &err) == 0, "%s", err.msg);
 	test_agreement();
 	test_outside_in_scale();
+	test_unpulled();
 	test_settings();
 	return mc_test_finish("test_keypoint_trust");
 }

@@ -52,7 +52,7 @@ static int ray_targets(const mc_tracker *t, const double *pose, mc_ik_target *tg
 	int n = 0;
 	for (int i = 0; i < kp->nrays; i++) {
 		const mc_trk_keypoint_ray *r = &kp->rays[i];
-		if (r->weight <= 0 || t->fixed_joint[r->joint])
+		if (r->weight <= 0 || t->fixed_joint[r->joint] || t->unpulled[r->joint])
 			continue;
 		mc_vec3 off = mc_ray_offset(mc_v3_sub(fk.rig_from_joint[r->joint].t, r->origin), r->dir, MC_RAY_NEAR_M);
 		double x = mc_v3_norm(off) / FIT_TAU_M;

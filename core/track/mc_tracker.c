@@ -102,6 +102,7 @@ mc_tracker *mc_tracker_create(const mc_rig *rig, const mc_model *model, const mc
 		goto fail;
 	hide_head_gaussians(t);
 	mc_trk_find_other_sides(t);
+	mc_trk_find_unpulled(t);
 	if (alloc_buffers(t, err) < 0)
 		goto fail;
 	if (s->backend == MC_BACKEND_OPENCL) {

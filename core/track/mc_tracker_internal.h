@@ -76,6 +76,8 @@ struct mc_tracker {
 	/* joints rigidly attached to a root fixed to the rig (the head on an
 	 * egocentric rig): their position is known without any image */
 	bool fixed_joint[MC_MAX_JOINTS];
+	/* joints whose keypoints do not pull them (mc_trk_find_unpulled) */
+	bool unpulled[MC_MAX_JOINTS];
 	mc_cl_energy *cl;
 	char device[160];
 
@@ -171,6 +173,11 @@ void mc_trk_find_other_sides(mc_tracker *t);
 int mc_trk_other_side(const mc_tracker *t, int joint);
 /* Every left/right label of the rays exchanged (the body turned around). */
 void mc_trk_exchange_sides(const mc_tracker *t, mc_trk_keypoint_ray *r, int n);
+
+/* Fills t->unpulled from the model, once, when the tracker is created:
+ * the joints whose keypoints pull neither in the keypoint term nor in the
+ * ray fit (they still count in the triangulation, mc_init.c). */
+void mc_trk_find_unpulled(mc_tracker *t);
 
 /* The frame's keypoints as rays, once per frame, with each ray's camera
  * (cam): unusable ones left out, and those that disagree with more of the
