@@ -18,8 +18,10 @@
  * still count where only an agreement of the views is asked: the
  * triangulation that starts and re-fits the pose (mc_init.c; left out
  * there too, `--init detect` on the dev walk got 0.6 cm worse).  The
- * shipped detector's keypoints replayed, seeds 1-3: held-out 20.09 ->
- * 19.30 cm, dev walk 11.70 -> 11.30 (docs/BENCHMARKS.md, stop 61). */
+ * shipped detector's keypoints replayed: held-out 20.09 -> 19.30 cm
+ * (seeds 1-3), 20.36 -> 19.61 (4-6); the dev clips, whose skeletons agree
+ * with the model there, within the seeds' spread (docs/BENCHMARKS.md,
+ * stop 61). */
 static const char *const unpulled_joints[] = {"spine", "pelvis"};
 
 void mc_trk_find_unpulled(mc_tracker *t)
