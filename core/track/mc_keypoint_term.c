@@ -1,36 +1,34 @@
 /* The keypoint term of the tracker (thesis ch. 6.2.2): 2D detections as
  * rays that pull their joints, with a robust loss and a check across the
  * cameras that keep a detector's mistakes from pulling the pose. */
+#include "body/mc_fit_joints.h"
 #include "geom/mc_ray.h"
 #include "track/mc_tracker_internal.h"
 
 #include <math.h>
 #include <stdbool.h>
-#include <string.h>
 
-/* The model's spine and pelvis are points on its torso's chain, not
- * landmarks that skeletons agree on: fitted to frame 0's ground truth of
- * the held-out clips' skeletons (DAZ, iClone, MotionBuilder retargets of
- * CMU), the model's spine still sat 19-21 cm and its pelvis 16 cm from the
- * joints of those names, where the hips and shoulders sat within 1.5 cm.
- * The shipped detector, trained on renders of such skeletons, puts its
- * keypoints at theirs, and they bent the model's torso.  Their keypoints
- * still count where only an agreement of the views is asked: the
- * triangulation that starts and re-fits the pose (mc_init.c; left out
- * there too, `--init detect` on the dev walk got 0.6 cm worse).  The
- * shipped detector's keypoints replayed: held-out 20.09 -> 19.30 cm
- * (seeds 1-3), 20.36 -> 19.61 (4-6); the dev clips, whose skeletons agree
- * with the model there, within the seeds' spread (docs/BENCHMARKS.md,
- * stop 61). */
-static const char *const unpulled_joints[] = {"spine", "pelvis"};
-
+/* Keypoints of joints that are no landmarks (mc_fit_joints_is_landmark:
+ * the spine, the pelvis, head_top) pull neither in the keypoint term nor
+ * in the ray fit.  They are points on the model's chain that skeletons
+ * place differently: fitted to frame 0's ground truth of the held-out
+ * clips' skeletons (DAZ and iClone retargets of CMU), the model's spine
+ * still sat 19-21 cm and its pelvis 16 cm from the joints of those names,
+ * its hips and shoulders within 1.5 cm.  The shipped detector, trained on
+ * renders of such skeletons, puts its keypoints at theirs, and they bent
+ * the model's torso.  They still count where only an agreement of the
+ * views is asked: the triangulation that starts and re-fits the pose
+ * (mc_init.c; left out there too, `--init detect` on the dev walk got 0.6
+ * cm worse).  A joint fixed to a head rig (head_top there) stays as it
+ * was: no pose moves it, and its keypoints keep their share of the term's
+ * mean.  The shipped detector's keypoints replayed: held-out 20.09 ->
+ * 19.30 cm (seeds 1-3), 20.36 -> 19.61 (4-6); the dev clips, whose
+ * skeletons agree with the model there, within the seeds' spread
+ * (docs/BENCHMARKS.md, stop 61). */
 void mc_trk_find_unpulled(mc_tracker *t)
 {
-	for (int j = 0; j < t->model.njoints; j++) {
-		t->unpulled[j] = false;
-		for (size_t i = 0; i < sizeof(unpulled_joints) / sizeof(unpulled_joints[0]); i++)
-			t->unpulled[j] = t->unpulled[j] || !strcmp(t->model.joints[j].name, unpulled_joints[i]);
-	}
+	for (int j = 0; j < t->model.njoints; j++)
+		t->unpulled[j] = !t->fixed_joint[j] && !mc_fit_joints_is_landmark(t->model.joints[j].name);
 }
 
 /* Rays of the usable keypoints; returns the count. */

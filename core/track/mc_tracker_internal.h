@@ -174,9 +174,10 @@ int mc_trk_other_side(const mc_tracker *t, int joint);
 /* Every left/right label of the rays exchanged (the body turned around). */
 void mc_trk_exchange_sides(const mc_tracker *t, mc_trk_keypoint_ray *r, int n);
 
-/* Fills t->unpulled from the model, once, when the tracker is created:
- * the joints whose keypoints pull neither in the keypoint term nor in the
- * ray fit (they still count in the triangulation, mc_init.c). */
+/* Fills t->unpulled from the model and t->fixed_joint, once, when the
+ * tracker is created: the joints whose keypoints pull neither in the
+ * keypoint term nor in the ray fit (they still count in the triangulation,
+ * mc_init.c). */
 void mc_trk_find_unpulled(mc_tracker *t);
 
 /* The frame's keypoints as rays, once per frame, with each ray's camera
