@@ -15,6 +15,8 @@ const char *const bench_eval_joints[BENCH_NEVAL] = {
 	"right_knee", "right_ankle",  "right_toe",
 };
 
+_Static_assert(MC_DETECTOR_DEFAULT_NJOINTS <= BENCH_MAX_SIM_JOINTS, "the runtime's joints fit the simulated ones");
+
 int bench_sim_joints(const mc_clip *clip, const char *names[BENCH_MAX_SIM_JOINTS])
 {
 	static const char *const movenet[] = {
