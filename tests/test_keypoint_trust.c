@@ -184,12 +184,9 @@ static double pull_of_joint(mc_tracker *t, int j)
 		if (mc_camera_project_rig(&t->rig.cams[c], below, &u, &v))
 			kp[n++] = (mc_keypoint){.cam = c, .joint = j, .u = (float)u, .v = (float)v, .conf = 1};
 	}
-	mc_trk_frame_keypoints *k = t->fkp;
-	k->ngiven = n;
-	memcpy(k->given, kp, sizeof(*kp) * (size_t)n);
-	k->nrays = mc_trk_prepare_keypoints(t, k->given, n, k->rays, k->cam);
-	CHECK_MSG(k->nrays == 2, "%s: %d rays", t->model.joints[j].name, k->nrays);
-	return grad_norm(t, pose, &fk, k);
+	feed(t, kp, n, 1, NULL);
+	CHECK_MSG(t->fkp->nrays == 2, "%s: %d rays", t->model.joints[j].name, t->fkp->nrays);
+	return grad_norm(t, pose, &fk, t->fkp);
 }
 
 static void test_unpulled(void)
