@@ -88,6 +88,22 @@ static void widen(mc_model *m, int j, mc_vec3 across, double w)
 			m->gauss[g].offset = stretch_across(m->gauss[g].offset, across, w);
 }
 
+int mc_fit_joints_set_pair_width(mc_model *m, int left, double width)
+{
+	int r = left >= 0 && left < m->njoints ? mc_model_other_side(m, left) : -1;
+	if (r < 0 || strncmp(m->joints[left].name, "left_", 5) || m->joints[r].parent != m->joints[left].parent)
+		return -1;
+	mc_vec3 across = mc_v3_sub(mc_v3_scale(m->joints[left].offset, m->bone_scale[left]),
+				   mc_v3_scale(m->joints[r].offset, m->bone_scale[r]));
+	double now = mc_v3_norm(across), w = width / now;
+	if (!(now > 1e-3) || !(w >= PAIR_WIDTH_MIN && w <= PAIR_WIDTH_MAX))
+		return -1;
+	across = mc_v3_scale(across, 1 / now);
+	widen(m, left, across, w);
+	widen(m, r, across, w);
+	return 0;
+}
+
 /* The width of each left/right pair on one parent (the shoulders on the
  * neck, the hips on the pelvis) from the given pair's distance.  A bone's
  * one scale keeps the model's direction from the parent, and skeletons
@@ -99,19 +115,9 @@ static void fit_pair_widths(mc_model *m, const mc_ik_target *t, int n)
 {
 	for (int l = 0; l < m->njoints; l++) {
 		int r = mc_model_other_side(m, l);
-		if (r < 0 || strncmp(m->joints[l].name, "left_", 5) || m->joints[r].parent != m->joints[l].parent)
-			continue;
-		const mc_ik_target *gl = mc_ik_find_target(t, n, l), *gr = mc_ik_find_target(t, n, r);
-		if (!gl || !gr)
-			continue;
-		mc_vec3 across = mc_v3_sub(mc_v3_scale(m->joints[l].offset, m->bone_scale[l]),
-					   mc_v3_scale(m->joints[r].offset, m->bone_scale[r]));
-		double now = mc_v3_norm(across), w = mc_v3_norm(mc_v3_sub(gl->position, gr->position)) / now;
-		if (!(now > 1e-3) || !(w >= PAIR_WIDTH_MIN && w <= PAIR_WIDTH_MAX))
-			continue;
-		across = mc_v3_scale(across, 1 / now);
-		widen(m, l, across, w);
-		widen(m, r, across, w);
+		const mc_ik_target *gl = mc_ik_find_target(t, n, l), *gr = r >= 0 ? mc_ik_find_target(t, n, r) : NULL;
+		if (gl && gr)
+			mc_fit_joints_set_pair_width(m, l, mc_v3_norm(mc_v3_sub(gl->position, gr->position)));
 	}
 }
 

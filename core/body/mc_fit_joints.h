@@ -28,6 +28,14 @@
 double mc_fit_joints(mc_model *model, double *pose, const char *const *names, const mc_vec3 *positions, int n,
 		     mc_err *err);
 
+/* Sets the distance between joint `left` (a "left_" joint) and its other
+ * side, both on one parent (the shoulders, the hips), to width metres:
+ * the part of each offset across the pair is stretched, with the
+ * Gaussians those bones scale, and the pair's midpoint stays.  Returns -1
+ * (model unchanged) for no such pair or a width outside 0.5-2 times the
+ * present one. */
+int mc_fit_joints_set_pair_width(mc_model *model, int left, double width);
+
 /* Whether a joint of this name is one of the landmarks (not spine, pelvis
  * or head_top). */
 bool mc_fit_joints_is_landmark(const char *name);

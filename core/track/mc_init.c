@@ -266,6 +266,8 @@ int mc_trk_init_start(mc_tracker *t, unsigned flags, mc_err *err)
 	 * ray: the detections hardly see it (the search found 0.80-0.90 where
 	 * the truth is 1.0 +- 0.07), so the model's size is kept there. */
 	t->init.fit_shape = fit_shape && t->model.root_free;
+	/* what two cameras on the head do see: the shoulders' width */
+	mc_trk_widths_start(t, fit_shape && !t->model.root_free);
 	double pose[MC_MAX_DOF];
 	mc_model_rest_pose(&t->model, pose);
 	mc_tracker_set_pose(t, pose);
@@ -721,6 +723,7 @@ int mc_trk_init_step(mc_tracker *t, const mc_frame_view *views, int nviews, mc_t
 		in->waiting = false;
 		in->inits++;
 		collect_shape(t, &tri);
+		mc_trk_widths_collect(t, &tri);
 		return 0;
 	}
 	if (recover(t, &tri, err) < 0)
@@ -728,9 +731,10 @@ int mc_trk_init_step(mc_tracker *t, const mc_frame_view *views, int nviews, mc_t
 	if (enough_for_fit(&tri) && mc_trk_facing_wrong(t, &tri) &&
 	    fit_body(t, views, nviews, &tri, true, rays, nrays, err) < 0)
 		return -1;
-	if (finish_shape(t, views, nviews, &tri, err) < 0)
+	if (finish_shape(t, views, nviews, &tri, err) < 0 || mc_trk_widths_finish(t, views, nviews, err) < 0)
 		return -1;
 	collect_shape(t, &tri);
+	mc_trk_widths_collect(t, &tri);
 	return 0;
 }
 

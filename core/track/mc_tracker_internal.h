@@ -34,6 +34,20 @@ typedef struct {
 	int n, next;
 } mc_trk_facing;
 
+/* Left/right pairs' widths (the shoulders') measured from the detections
+ * on a head rig (mc_widths.c): each pair's triangulated distance across
+ * the line of sight in the first MC_TRK_WIDTH_FRAMES frame sets with
+ * keypoints after the first pose. */
+#define MC_TRK_WIDTH_FRAMES 30 /* 1 s at 30 fps */
+#define MC_TRK_WIDTH_PAIRS 2
+typedef struct {
+	bool measure;  /* measuring: started from detections, no actor file */
+	int frames;    /* frame sets seen since the first pose */
+	int npairs, left[MC_TRK_WIDTH_PAIRS];
+	int n[MC_TRK_WIDTH_PAIRS];
+	double sample[MC_TRK_WIDTH_PAIRS][MC_TRK_WIDTH_FRAMES];
+} mc_trk_widths;
+
 /* Initialisation, shape calibration and recovery from detections
  * (mc_init.c). */
 #define MC_TRK_SHAPE_FRAMES 10 /* frame sets whose detections set the actor's size */
@@ -55,6 +69,7 @@ typedef struct {
 	mc_trk_facing facing;
 	int last_joints;  /* joints triangulated in the last frame set */
 	double scale;     /* the size found (uniform bone scale), 0 before */
+	mc_trk_widths widths;
 } mc_trk_init;
 
 struct mc_tracker {
@@ -251,5 +266,13 @@ int mc_trk_init_step(mc_tracker *t, const mc_frame_view *views, int nviews, mc_t
  * a collected frame set. */
 void mc_trk_init_after(mc_tracker *t, const mc_skeleton *out);
 void mc_trk_init_free(mc_tracker *t);
+
+/* mc_widths.c: starts measuring the pairs' widths (measure: on a rig whose
+ * root is fixed to the head, started from detections without an actor
+ * file); adds a frame set's triangulated pairs; once MC_TRK_WIDTH_FRAMES
+ * frame sets are seen, sets the widths and learns the colours again. */
+void mc_trk_widths_start(mc_tracker *t, bool measure);
+void mc_trk_widths_collect(mc_tracker *t, const mc_trk_triangulation *tri);
+int mc_trk_widths_finish(mc_tracker *t, const mc_frame_view *views, int nviews, mc_err *err);
 
 #endif
