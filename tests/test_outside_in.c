@@ -406,9 +406,9 @@ static void test_arm_back_from_few_joints(const mc_rig *rig, const mc_model *m, 
 	mc_tracker_settings s2 = *s;
 	mc_tracker_settings_outside_in(&s2, 2, MC_GIVEN_ITERATIONS | MC_GIVEN_LAMBDA_SMOOTH);
 	/* a tenth of the outside-in weight: the keypoints alone then cannot
-	 * pull the arm away from where its colours were learnt (with the
-	 * default they do within 6 frame sets here, as the clips' overlapping
-	 * legs do not let them) */
+	 * pull the arm away from where its colours were learnt.  With the
+	 * default they pull it back within 6 frame sets here; on the clips
+	 * they do not, where the legs overlap in both views. */
 	s2.lambda_detection = 0.03;
 	mc_err err = {0};
 	mc_tracker *t = mc_tracker_create(&two, m, &s2, &err);

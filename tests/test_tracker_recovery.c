@@ -9,7 +9,8 @@
  * --detector --init detect measure.
  *   1. Without keypoints the state is "initialising", with confidence 0;
  *      from detections alone tracking starts within 0.5 s and stays within
- *      a bound of the ground-truth start (gt0).
+ *      a bound of the ground-truth start (gt0), and a model whose
+ *      shoulders are too wide gets the clip's width from the keypoints.
  *   2. A wrong start (arms raised where the actor's hang, the body 15% too
  *      small, the colours learnt before the arms went wrong) is pulled
  *      back: the arms' error falls below a bound, with recovery and (since
