@@ -88,19 +88,31 @@ static void widen(mc_model *m, int j, mc_vec3 across, double w)
 			m->gauss[g].offset = stretch_across(m->gauss[g].offset, across, w);
 }
 
-int mc_fit_joints_set_pair_width(mc_model *m, int left, double width)
+/* The vector from joint left's other side to it, both on one parent (0
+ * for no such pair). */
+static mc_vec3 pair_across(const mc_model *m, int left)
 {
 	int r = left >= 0 && left < m->njoints ? mc_model_other_side(m, left) : -1;
 	if (r < 0 || strncmp(m->joints[left].name, "left_", 5) || m->joints[r].parent != m->joints[left].parent)
-		return -1;
-	mc_vec3 across = mc_v3_sub(mc_v3_scale(m->joints[left].offset, m->bone_scale[left]),
-				   mc_v3_scale(m->joints[r].offset, m->bone_scale[r]));
+		return mc_v3(0, 0, 0);
+	return mc_v3_sub(mc_v3_scale(m->joints[left].offset, m->bone_scale[left]),
+			 mc_v3_scale(m->joints[r].offset, m->bone_scale[r]));
+}
+
+double mc_fit_joints_pair_width(const mc_model *m, int left)
+{
+	return mc_v3_norm(pair_across(m, left));
+}
+
+int mc_fit_joints_set_pair_width(mc_model *m, int left, double width)
+{
+	mc_vec3 across = pair_across(m, left);
 	double now = mc_v3_norm(across), w = width / now;
 	if (!(now > 1e-3) || !(w >= PAIR_WIDTH_MIN && w <= PAIR_WIDTH_MAX))
 		return -1;
 	across = mc_v3_scale(across, 1 / now);
 	widen(m, left, across, w);
-	widen(m, r, across, w);
+	widen(m, mc_model_other_side(m, left), across, w);
 	return 0;
 }
 

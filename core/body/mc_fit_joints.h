@@ -36,6 +36,9 @@ double mc_fit_joints(mc_model *model, double *pose, const char *const *names, co
  * present one. */
 int mc_fit_joints_set_pair_width(mc_model *model, int left, double width);
 
+/* That pair's distance now (metres; 0 for no such pair). */
+double mc_fit_joints_pair_width(const mc_model *model, int left);
+
 /* Whether a joint of this name is one of the landmarks (not spine, pelvis
  * or head_top). */
 bool mc_fit_joints_is_landmark(const char *name);
