@@ -104,16 +104,25 @@ static void free_views(mc_frame_view *views)
 		free((void *)views[c].rgb);
 }
 
-/* Mean joint distance (m) between the skeleton and the truth of frame k. */
-static double joint_error(const mc_model *m, const mc_skeleton *sk, int k)
+/* Mean distance (m) between the skeleton's joints `names` (NULL: every
+ * joint, n of them) and the truth of frame k. */
+static double joints_error(const mc_model *m, const mc_skeleton *sk, int k, const char *const *names, int n)
 {
 	double pose[MC_MAX_DOF], sum = 0;
 	mc_fk fk;
 	frame_pose(m, k, pose);
 	mc_model_fk(m, pose, &fk);
-	for (int j = 0; j < m->njoints; j++)
+	for (int e = 0; e < n; e++) {
+		int j = names ? mc_model_find_joint(m, names[e]) : e;
 		sum += mc_v3_norm(mc_v3_sub(sk->joints[j].position, fk.rig_from_joint[j].t));
-	return sum / m->njoints;
+	}
+	return sum / n;
+}
+
+/* Mean joint distance (m) between the skeleton and the truth of frame k. */
+static double joint_error(const mc_model *m, const mc_skeleton *sk, int k)
+{
+	return joints_error(m, sk, k, NULL, m->njoints);
 }
 
 /* The check across cameras: one camera's detection of a joint 40 px too low
@@ -372,19 +381,6 @@ static int keypoints_of_few(const mc_rig *rig, const mc_model *m, int k, mc_keyp
 	return kept;
 }
 
-/* The left arm's mean joint distance (m) from the truth of frame k. */
-static double left_arm_error(const mc_model *m, const mc_skeleton *sk, int k)
-{
-	double pose[MC_MAX_DOF];
-	mc_fk fk;
-	frame_pose(m, k, pose);
-	mc_model_fk(m, pose, &fk);
-	int elbow = mc_model_find_joint(m, "left_elbow"), wrist = mc_model_find_joint(m, "left_wrist");
-	return (mc_v3_norm(mc_v3_sub(sk->joints[elbow].position, fk.rig_from_joint[elbow].t)) +
-		mc_v3_norm(mc_v3_sub(sk->joints[wrist].position, fk.rig_from_joint[wrist].t))) /
-	       2;
-}
-
 /* A left arm raised where the actor's hangs, its colours learnt there (a
  * limb lost long enough for that), seen by two facing cameras (0 and 2,
  * with the outside-in settings for two: no ray fit) that give the
@@ -396,6 +392,7 @@ static double left_arm_error(const mc_model *m, const mc_skeleton *sk, int k)
 static void test_arm_back_from_few_joints(const mc_rig *rig, const mc_model *m, const mc_tracker_settings *s,
 					  mc_frame_view frames[][MC_MAX_CAMERAS])
 {
+	static const char *const left_arm[] = {"left_elbow", "left_wrist"};
 	static mc_rig two;
 	static mc_frame_view views[NFRAMES][MC_MAX_CAMERAS];
 	two = *rig;
@@ -428,7 +425,7 @@ static void test_arm_back_from_few_joints(const mc_rig *rig, const mc_model *m, 
 		mc_skeleton sk;
 		int nkp = keypoints_of_few(&two, m, k, kp);
 		CHECK_MSG(mc_tracker_track(t, views[k], two.ncams, kp, nkp, &sk, &err) == 0, "%s", err.msg);
-		last = left_arm_error(m, &sk, k);
+		last = joints_error(m, &sk, k, left_arm, 2);
 		first = first < 0 ? last : first;
 	}
 	mc_tracker_init_info in;
