@@ -42,8 +42,8 @@ void mc_trk_widths_start(mc_tracker *t, bool measure)
 	w->measure = measure;
 	const mc_model *m = &t->model;
 	for (int i = 0; measure && i < NMEASURED && w->npairs < MC_TRK_WIDTH_PAIRS; i++) {
-		int l = mc_model_find_joint(m, MEASURED[i]), r = l >= 0 ? t->other_side[l] : -1;
-		if (r >= 0 && m->joints[r].parent == m->joints[l].parent)
+		int l = mc_model_find_joint(m, MEASURED[i]);
+		if (mc_fit_joints_pair_width(m, l) > 0) /* a pair on one parent */
 			w->left[w->npairs++] = l;
 	}
 }
