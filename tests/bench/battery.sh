@@ -15,6 +15,7 @@
 #       (default "build/clips/ego build/clips2/ego")
 #   -o  results file (default build/battery/results.txt), one line a run:
 #       GROUP CLIP SEED MPJPE_CM LONGEST_LOST_LIMB_S ACCEL_RATIO
+#       LONGEST_LOST_IN_VIEW_S
 #   dev: the dev clips only; held: the held-out ones only; px2: the 2 px
 #   runs only; all (default): everything.
 # Then `battery.sh -c OLD NEW` prints each group's and clip's means side by
@@ -80,7 +81,8 @@ run() {
 	m=$(echo "$r" | sed -n 's/^RESULT.*mpjpe_cm=\([0-9.]*\).*/\1/p')
 	w=$(echo "$r" | sed -n 's/^LIMBS.*worst_s=\([0-9.]*\).*/\1/p')
 	a=$(echo "$r" | sed -n 's/^JITTER.*accel_ratio=\([0-9.]*\).*/\1/p')
-	echo "$run_group $(basename "$run_clip") $seed ${m:-FAIL} ${w:--} ${a:--}" >>"$out"
+	v=$(echo "$r" | sed -n 's/^LIMBS.*worst_in_view_s=\([0-9.]*\).*/\1/p')
+	echo "$run_group $(basename "$run_clip") $seed ${m:-FAIL} ${w:--} ${a:--} ${v:--}" >>"$out"
 }
 
 # keypoints CLIP_DIR: the shipped detector's keypoints of the clip, once

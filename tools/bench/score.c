@@ -85,17 +85,37 @@ void bench_score_begin(const mc_clip *clip, int frame_step, bench_stats *st)
 	st->frame_dt = frame_step / clip->gt.fps;
 }
 
-/* Runs of frame sets with a limb's end more than BENCH_LIMB_LOST_M off. */
+/* Whether the truth's point p (rig frame) projects into some camera's image. */
+static bool in_some_view(const mc_clip *clip, mc_vec3 p)
+{
+	double u, v;
+	for (int c = 0; c < clip->rig.ncams; c++)
+		if (mc_camera_project_rig(&clip->rig.cams[c], p, &u, &v))
+			return true;
+	return false;
+}
+
+/* One more frame set of a run: lost lengthens it, found ends it. */
+static void count_run(bool lost, int *run, int *longest)
+{
+	*run = lost ? *run + 1 : 0;
+	if (*run > *longest)
+		*longest = *run;
+}
+
+/* Runs of frame sets with a limb's end more than BENCH_LIMB_LOST_M off:
+ * every frame set, and those where the end is in view. */
 static void score_limbs(const mc_clip *clip, int k, const mc_skeleton *sk, bench_stats *st)
 {
 	for (int l = 0; l < BENCH_NLIMBS; l++) {
 		int g = mc_clip_joint(clip, bench_limb_ends[l]), j = skeleton_joint(sk, bench_limb_ends[l]);
 		if (g < 0)
 			continue;
-		bool lost = j < 0 || mc_v3_norm(mc_v3_sub(sk->joints[j].position, mc_clip_gt(clip, k, g))) > BENCH_LIMB_LOST_M;
-		st->limb_run[l] = lost ? st->limb_run[l] + 1 : 0;
-		if (st->limb_run[l] > st->limb_longest[l])
-			st->limb_longest[l] = st->limb_run[l];
+		mc_vec3 truth = mc_clip_gt(clip, k, g);
+		bool lost = j < 0 || mc_v3_norm(mc_v3_sub(sk->joints[j].position, truth)) > BENCH_LIMB_LOST_M;
+		count_run(lost, &st->limb_run[l], &st->limb_longest[l]);
+		if (in_some_view(clip, truth))
+			count_run(lost, &st->view_run[l], &st->view_longest[l]);
 	}
 }
 
@@ -194,14 +214,16 @@ void bench_print_jitter(const mc_clip *clip, const bench_stats *st)
 
 void bench_print_limbs(const mc_clip *clip, const bench_stats *st)
 {
-	int worst = 0;
+	int worst = 0, worst_in_view = 0;
 	printf("LIMBS clip=%s", clip->name);
 	for (int l = 0; l < BENCH_NLIMBS; l++) {
 		printf(" %s=%.2f", bench_limb_ends[l], st->limb_longest[l] * st->frame_dt);
 		if (st->limb_longest[l] > worst)
 			worst = st->limb_longest[l];
+		if (st->view_longest[l] > worst_in_view)
+			worst_in_view = st->view_longest[l];
 	}
-	printf(" worst_s=%.2f\n", worst * st->frame_dt);
+	printf(" worst_s=%.2f worst_in_view_s=%.2f\n", worst * st->frame_dt, worst_in_view * st->frame_dt);
 }
 
 /* The bone length of model joint j (to its parent) in the ground truth:

@@ -45,6 +45,11 @@ typedef struct {
 	/* per limb end (bench_limb_ends): frame sets in a row, now and at
 	 * most, with the joint more than BENCH_LIMB_LOST_M off */
 	int limb_run[BENCH_NLIMBS], limb_longest[BENCH_NLIMBS];
+	/* the same counting only frame sets where the truth's joint projects
+	 * into some camera's image; those where it does not neither count
+	 * nor end a run (issue 35: "a limb in view is never lost for more
+	 * than 0.5 s") */
+	int view_run[BENCH_NLIMBS], view_longest[BENCH_NLIMBS];
 	double frame_dt; /* seconds between scored frame sets */
 } bench_stats;
 
