@@ -32,15 +32,6 @@ static void count(bool lost, int *run, int *longest)
 		*longest = *run;
 }
 
-static bool in_some_view(const mc_clip *clip, mc_vec3 p)
-{
-	double u, v;
-	for (int c = 0; c < clip->rig.ncams; c++)
-		if (mc_camera_project_rig(&clip->rig.cams[c], p, &u, &v))
-			return true;
-	return false;
-}
-
 /* Reads the --out file line by line into each limb's runs; returns the
  * lines read. */
 static int runs_from_estimates(const char *path, const mc_clip *clip, limb_runs *runs)
@@ -66,7 +57,7 @@ static int runs_from_estimates(const char *path, const mc_clip *clip, limb_runs 
 			mc_vec3 truth = mc_clip_gt(clip, k, g);
 			bool lost = mc_v3_norm(mc_v3_sub(est, truth)) > LOST_M;
 			count(lost, &runs[l].run, &runs[l].longest);
-			if (in_some_view(clip, truth))
+			if (mc_rig_sees(&clip->rig, truth))
 				count(lost, &runs[l].view_run, &runs[l].view_longest);
 			else
 				runs[l].out_of_view++;

@@ -197,6 +197,9 @@ static void test_shipped_rigs(void)
 		/* the right camera sits 0.30 m to the right of the left one */
 		CHECK_NEAR(rig.cams[1].rig_from_cam.t.x, 0.30, 1e-6);
 		CHECK(mc_v3_norm(rig.cams[0].rig_from_cam.t) == 0);
+		/* both look along +z over a half-sphere: ahead seen, behind not */
+		CHECK(mc_rig_sees(&rig, mc_v3(0.1, 0.5, 1)) && mc_rig_sees(&rig, mc_v3(-2, 0, 0.05)));
+		CHECK(!mc_rig_sees(&rig, mc_v3(0.1, 0.5, -1)) && !mc_rig_sees(&rig, mc_v3(-2, 0, -0.05)));
 	}
 }
 

@@ -22,6 +22,15 @@ int mc_rig_find(const mc_rig *rig, const char *name)
 	return -1;
 }
 
+bool mc_rig_sees(const mc_rig *rig, mc_vec3 p)
+{
+	double u, v;
+	for (int c = 0; c < rig->ncams; c++)
+		if (mc_camera_project_rig(&rig->cams[c], p, &u, &v))
+			return true;
+	return false;
+}
+
 /* Re-labels a camera-level error ("fx: must be positive") with its place in
  * the file ("rig.json: cameras[0].fx: must be positive"). */
 int mc_rig_check_camera_name(const char *name, const char *where, mc_err *err)

@@ -56,6 +56,8 @@ int mc_rig_import_ocamcalib(const char *path, double max_theta, mc_camera *cam, 
 
 /* Index of the camera called `name`, or -1. */
 int mc_rig_find(const mc_rig *rig, const char *name);
+/* Whether the point p (rig frame) projects into some camera's image. */
+bool mc_rig_sees(const mc_rig *rig, mc_vec3 p);
 /* The rule every rig reader applies to a camera's name (not empty); the
  * error names `where`.name.  0 or -1. */
 int mc_rig_check_camera_name(const char *name, const char *where, mc_err *err);

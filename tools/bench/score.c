@@ -85,16 +85,6 @@ void bench_score_begin(const mc_clip *clip, int frame_step, bench_stats *st)
 	st->frame_dt = frame_step / clip->gt.fps;
 }
 
-/* Whether the truth's point p (rig frame) projects into some camera's image. */
-static bool in_some_view(const mc_clip *clip, mc_vec3 p)
-{
-	double u, v;
-	for (int c = 0; c < clip->rig.ncams; c++)
-		if (mc_camera_project_rig(&clip->rig.cams[c], p, &u, &v))
-			return true;
-	return false;
-}
-
 /* One more frame set of a run: lost lengthens it, found ends it. */
 static void count_run(bool lost, int *run, int *longest)
 {
@@ -114,7 +104,7 @@ static void score_limbs(const mc_clip *clip, int k, const mc_skeleton *sk, bench
 		mc_vec3 truth = mc_clip_gt(clip, k, g);
 		bool lost = j < 0 || mc_v3_norm(mc_v3_sub(sk->joints[j].position, truth)) > BENCH_LIMB_LOST_M;
 		count_run(lost, &st->limb_run[l], &st->limb_longest[l]);
-		if (in_some_view(clip, truth))
+		if (mc_rig_sees(&clip->rig, truth))
 			count_run(lost, &st->view_run[l], &st->view_longest[l]);
 	}
 }
