@@ -70,33 +70,13 @@ static int runs_from_estimates(const char *path, const mc_clip *clip, limb_runs 
 	return lines;
 }
 
-/* Tracks `clip_dir` held still and checks the printed LIMBS line against
+/* Checks the printed LIMBS line (its first character at `line`) against
  * the runs computed here; returns the number of limbs lost at some time
- * and the printed worst_s and worst_in_view_s (where not NULL). */
-static int check_limbs_line(const char *clip_dir, const char *extra, double *worst_out, double *view_out)
+ * and the printed worst_s and worst_in_view_s. */
+static int check_printed(const char *line, const limb_runs *runs, double dt, double *worst_s, double *view_s)
 {
-	static char out[1 << 16];
-	char cmd[8192], path[128], tmpdir[64];
-	mc_err err = {{0}};
-	mc_clip clip;
-	snprintf(tmpdir, sizeof(tmpdir), "/tmp/mocap-bench-limbs-XXXXXX");
-	CHECK(mkdtemp(tmpdir) != NULL);
-	snprintf(path, sizeof(path), "%s/estimates.jsonl", tmpdir);
-	snprintf(cmd, sizeof(cmd), "%s --clip %s --reference-frames 0 --no-thesis --quiet --lambda-color 0 %s --out %s 2>&1",
-		 tool, clip_dir, extra, path);
-	int rc = mc_test_run(cmd, out, sizeof(out));
-	if (rc == 1 && strstr(out, "OpenCL"))
-		TEST_SKIP("no usable OpenCL device: %s", out);
-	CHECK_MSG(rc == 0, "exit %d:\n%s", rc, out);
-	CHECK_MSG(mc_clip_open(clip_dir, false, &clip, &err) == 0, "%s", err.msg);
-	limb_runs runs[NLIMBS] = {{0}};
-	int lines = runs_from_estimates(path, &clip, runs), lost = 0;
-	double dt = 1.0 / clip.gt.fps;
-	const char *line = strstr(out, "\nLIMBS clip=");
-	CHECK_MSG(line, "no LIMBS line:\n%s", out);
-	printf("%s: %d frame sets; %.*s\n", clip_dir, lines, line ? (int)strcspn(line + 1, "\n") : 0, line ? line + 1 : "");
-	int worst = 0, worst_view = 0;
-	for (int l = 0; l < NLIMBS && line; l++) {
+	int worst = 0, worst_view = 0, lost = 0;
+	for (int l = 0; l < NLIMBS; l++) {
 		char key[64];
 		double s = -1;
 		snprintf(key, sizeof(key), " %s=", limb_ends[l]);
@@ -109,15 +89,47 @@ static int check_limbs_line(const char *clip_dir, const char *extra, double *wor
 		worst_view = runs[l].view_longest > worst_view ? runs[l].view_longest : worst_view;
 		lost += runs[l].longest > 0;
 	}
-	double worst_s = -1, view_s = -1;
-	const char *w = line ? strstr(line, " worst_s=") : NULL;
-	CHECK_MSG(w && sscanf(w, " worst_s=%lf worst_in_view_s=%lf", &worst_s, &view_s) == 2, "worst_s, worst_in_view_s");
-	CHECK_MSG(fabs(worst_s - worst * dt) < 0.006, "worst_s %.2f, from --out %.2f", worst_s, worst * dt);
-	CHECK_MSG(fabs(view_s - worst_view * dt) < 0.006, "worst_in_view_s %.2f, from --out %.2f", view_s, worst_view * dt);
-	CHECK(view_s <= worst_s);
-	if (worst_out)
-		*worst_out = worst_s, *view_out = view_s;
-	mc_clip_close(&clip);
+	const char *w = strstr(line, " worst_s=");
+	CHECK_MSG(w && sscanf(w, " worst_s=%lf worst_in_view_s=%lf", worst_s, view_s) == 2, "worst_s, worst_in_view_s");
+	CHECK_MSG(fabs(*worst_s - worst * dt) < 0.006, "worst_s %.2f, from --out %.2f", *worst_s, worst * dt);
+	CHECK_MSG(fabs(*view_s - worst_view * dt) < 0.006, "worst_in_view_s %.2f, from --out %.2f", *view_s,
+		  worst_view * dt);
+	CHECK(*view_s <= *worst_s);
+	return lost;
+}
+
+/* Tracks `clip_dir` held still and checks its LIMBS line; returns the
+ * number of limbs lost at some time (-1 when the run failed) and the
+ * printed worst_s and worst_in_view_s (where not NULL). */
+static int check_limbs_line(const char *clip_dir, const char *extra, double *worst_out, double *view_out)
+{
+	static char out[1 << 16];
+	char cmd[8192], path[128], tmpdir[64];
+	mc_err err = {{0}};
+	mc_clip clip;
+	snprintf(tmpdir, sizeof(tmpdir), "/tmp/mocap-bench-limbs-XXXXXX");
+	CHECK_MSG(mkdtemp(tmpdir) != NULL, "mkdtemp");
+	snprintf(path, sizeof(path), "%s/estimates.jsonl", tmpdir);
+	snprintf(cmd, sizeof(cmd), "%s --clip %s --reference-frames 0 --no-thesis --quiet --lambda-color 0 %s --out %s 2>&1",
+		 tool, clip_dir, extra, path);
+	int rc = mc_test_run(cmd, out, sizeof(out)), lost = -1;
+	if (rc == 1 && strstr(out, "OpenCL"))
+		TEST_SKIP("no usable OpenCL device: %s", out);
+	CHECK_MSG(rc == 0, "exit %d:\n%s", rc, out);
+	const char *line = strstr(out, "\nLIMBS clip=");
+	CHECK_MSG(line, "no LIMBS line:\n%s", out);
+	bool opened = rc == 0 && line && mc_clip_open(clip_dir, false, &clip, &err) == 0;
+	CHECK_MSG(opened || rc != 0 || !line, "%s: %s", clip_dir, err.msg);
+	if (opened) {
+		limb_runs runs[NLIMBS] = {{0}};
+		int lines = runs_from_estimates(path, &clip, runs);
+		printf("%s: %d frame sets; %.*s\n", clip_dir, lines, (int)strcspn(line + 1, "\n"), line + 1);
+		double worst_s = -1, view_s = -1;
+		lost = check_printed(line + 1, runs, 1.0 / clip.gt.fps, &worst_s, &view_s);
+		if (worst_out)
+			*worst_out = worst_s, *view_out = view_s;
+		mc_clip_close(&clip);
+	}
 	unlink(path);
 	rmdir(tmpdir);
 	return lost;
@@ -166,7 +178,7 @@ int main(int argc, char **argv)
 	/* the bundled clips' limbs move up to a metre: held still, they are lost */
 	CHECK(check_limbs_line("tests/data/ego_demo", "", NULL, NULL) >= 3);
 	CHECK(check_limbs_line("tests/data/outside_demo", "--cameras 0", NULL, NULL) >= 1);
-	double worst_s, view_s;
+	double worst_s = -1, view_s = -1;
 	char shifted[64];
 	snprintf(shifted, sizeof(shifted), "/tmp/mocap-bench-shifted-XXXXXX");
 	CHECK(mkdtemp(shifted) != NULL);
