@@ -1,8 +1,10 @@
 # The output filter ([output] filter = one_euro, docs/CONFIG.md) on the
-# tracker's real poses: mocap-bench tracks each evaluation clip and writes
-# its estimates, bench_filter filters them as mocapd would and prints the
-# raw and filtered MPJPE, velocity error, acceleration against the truth's
-# and the error of a prediction 40 ms ahead (BENCHES).
+# tracker's real poses: mocap-bench tracks each evaluation clip as mocapd
+# would, with the shipped detector of the clip's rig (the head rig's or
+# the outside-in one), and writes its estimates; bench_filter filters them
+# as mocapd would and prints the raw and filtered MPJPE, velocity error,
+# acceleration against the truth's and the error of a prediction 40 ms
+# ahead (BENCHES).
 BENCH_FILTER := $(BUILD)/tests/bench_filter
 
 BENCHES += bench-filter
@@ -10,8 +12,9 @@ BENCHES += bench-filter
 bench-filter: $(BUILD)/bin/mocap-bench $(BENCH_FILTER)
 	@clips="$$(ls -d $(DATA_DIR)/ego/*/ $(DATA_DIR)/outside/*/ 2>/dev/null)"; \
 	if [ -z "$$clips" ]; then echo "bench-filter: no clips in $(DATA_DIR)/ego or $(DATA_DIR)/outside, skipped"; exit 0; fi; \
-	for c in $$clips; do n=$$(basename $$c); \
-		$(BUILD)/bin/mocap-bench --clip $$c --quiet --no-thesis --reference-frames 0 \
+	for c in $$clips; do n=$$(basename $$(dirname $$c))-$$(basename $$c); \
+		case $$c in */outside/*) det=config/models/outside_detector.onnx;; *) det=config/models/ego_detector.onnx;; esac; \
+		$(BUILD)/bin/mocap-bench --clip $$c --quiet --no-thesis --reference-frames 0 --detector $$det \
 			--out $(BUILD)/bench-filter-$$n.jsonl | grep '^RESULT' || exit 1; \
 		$(BENCH_FILTER) $$c $(BUILD)/bench-filter-$$n.jsonl || exit 1; \
 	done
