@@ -1,10 +1,11 @@
 # The output filter ([output] filter = one_euro, docs/CONFIG.md) on the
-# tracker's real poses: mocap-bench tracks each evaluation clip as mocapd
-# would, with the shipped detector of the clip's rig (the head rig's or
-# the outside-in one), and writes its estimates; bench_filter filters them
-# as mocapd would and prints the raw and filtered MPJPE, velocity error,
-# acceleration against the truth's and the error of a prediction 40 ms
-# ahead (BENCHES).
+# tracker's real poses: mocap-bench tracks each evaluation clip with the
+# shipped detector of the clip's rig (the head rig's or the outside-in
+# one), as mocapd runs, and writes its estimates (named by rig: the two
+# folders hold clips of the same names); bench_filter filters them as
+# mocapd's publishing thread does and prints the raw and filtered MPJPE,
+# velocity error, acceleration against the truth's and the error of a
+# prediction 40 ms ahead (BENCHES).
 BENCH_FILTER := $(BUILD)/tests/bench_filter
 
 BENCHES += bench-filter
