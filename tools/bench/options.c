@@ -25,7 +25,7 @@ static void usage(FILE *f)
 		   "  --lambda-floor L      outside-in: weight of the floor prior (default: mocapd's outside-in value)\n"
 		   "  --pose-prior FILE     the learned pose prior (default config/models/pose_prior.json when\n"
 		   "                        there; 'none': without one)\n"
-		   "  --lambda-prior L      weight of the pose prior (default 3e-3 head-mounted, 1e-3 outside-in)\n"
+		   "  --lambda-prior L      weight of the pose prior (default 6e-3 head-mounted, 1e-3 outside-in)\n"
 		   "  --frames N            track only the first N frames\n"
 		   "  --fps F               the clip's frame rate (default: gt.json's, else 30)\n"
 		   "  --frame-step N        track every Nth frame set only, as cameras at 1/N of the clip's rate\n"
